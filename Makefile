@@ -1,0 +1,32 @@
+# e2esim: every target creates (or reuses) a local virtual environment in .venv with what it needs.
+PYTHON ?= python3
+VENV ?= .venv
+BIN := $(VENV)/bin
+STAMP := $(VENV)/.e2esim-installed
+
+.PHONY: demo test test-slow reference benchmark clean
+
+$(STAMP): pyproject.toml
+	@$(PYTHON) -c 'import sys; sys.exit(0 if sys.version_info >= (3, 10) else "e2esim needs Python 3.10 or newer (set PYTHON=python3.x)")'
+	$(PYTHON) -m venv $(VENV)
+	$(BIN)/python -m pip install --quiet --upgrade pip
+	$(BIN)/python -m pip install --quiet -e ".[test]"
+	@touch $(STAMP)
+
+demo: $(STAMP)  ## install and run the default BIOMASS scenario
+	$(BIN)/e2esim run scenarios/biomass_default.yaml --force
+
+test: $(STAMP)  ## install and run the test suite (slow tests excluded)
+	$(BIN)/python -m pytest
+
+test-slow: $(STAMP)  ## the slow statistical and end-to-end tests only
+	$(BIN)/python -m pytest -m slow
+
+reference: $(STAMP)  ## regenerate the generated documentation
+	$(BIN)/python -m e2esim.docs_reference docs/scenario-reference.md
+
+benchmark: $(STAMP)  ## speed measurements (ratios against the reference implementations)
+	$(BIN)/python benchmarks/bench_crosspol.py
+
+clean:
+	rm -rf $(VENV) runs .pytest_cache src/*.egg-info

@@ -1,0 +1,156 @@
+"""The ``e2esim`` command line: run, validate, modules, reproduce.
+
+User errors (bad scenario, bad argument) print one clear message and exit with status 2, without a
+traceback; ``--debug`` shows the traceback.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+
+import e2esim
+from e2esim.errors import UserError
+
+EXAMPLES = """examples:
+  e2esim run scenarios/biomass_default.yaml
+  e2esim run scenarios/biomass_default.yaml -o runs/test --force --set instrument.crosstalk.level_db=-28
+  e2esim validate scenarios/men2021_table2.yaml
+  e2esim modules instrument
+  e2esim reproduce men2021 --json
+"""
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="e2esim",
+        description="End-to-end mission performance simulator for spaceborne polarimetric SAR biomass missions.",
+        epilog=EXAMPLES,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    parser.add_argument("--version", action="version", version=f"e2esim {e2esim.__version__}")
+    parser.add_argument("--debug", action="store_true", help="show tracebacks for user errors too")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+
+    run = sub.add_parser("run", help="run a scenario and write its outputs",
+                         description="Run every case of a scenario through its chain of modules and write "
+                                     "results.h5, summary.json, report.md and PNG plots into the output folder.")
+    run.add_argument("scenario", help="scenario YAML file")
+    run.add_argument("-o", "--output", metavar="DIR", help="output folder (default: output.folder, else runs/<name>)")
+    run.add_argument("--force", action="store_true", help="overwrite an existing output folder")
+    run.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
+                     help="override a scenario value by dotted key, e.g. instrument.nesz_db=-30 (repeatable)")
+    run.add_argument("--json", action="store_true", help="also print summary.json to stdout")
+    run.add_argument("--no-progress", action="store_true", help="no progress bar")
+
+    val = sub.add_parser("validate", help="check a scenario completely without running it",
+                         description="Read and check a scenario: every section, key, value, module type and sweep "
+                                     "case. Exit status 0 if valid, 2 with a message naming the problem if not.")
+    val.add_argument("scenario", help="scenario YAML file")
+    val.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
+                     help="override a scenario value by dotted key (repeatable)")
+
+    mods = sub.add_parser("modules", help="list registered modules and their parameters",
+                          description="List the modules registered through the entry-point group e2esim.modules "
+                                      "(built-in and third-party), with their parameters.")
+    mods.add_argument("kind", nargs="?", help="only this kind (orbit, ionosphere, scene, instrument, ...)")
+    mods.add_argument("--json", action="store_true", help="machine-readable output")
+
+    rep = sub.add_parser("reproduce", help="check e2esim against published results",
+                         description="Recompute published numbers from the seed papers and compare. Each record "
+                                     "has id, quantity, published, computed, tolerance, status (reproduced, "
+                                     "discrepancy, failed), citation and note.")
+    rep.add_argument("sources", nargs="*", metavar="SOURCE", help="only these sources or ids (e.g. men2021)")
+    rep.add_argument("--json", action="store_true", help="print the records as a JSON list")
+    rep.add_argument("--report", metavar="FILE", help="write a markdown verification report to FILE")
+    return parser
+
+
+def main(argv=None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    if args.command is None:
+        parser.print_help()
+        return 2
+    try:
+        return COMMANDS[args.command](args)
+    except UserError as exc:
+        if args.debug:
+            raise
+        print(f"e2esim: error: {exc}", file=sys.stderr)
+        return exc.exit_status
+    except KeyboardInterrupt:
+        print("e2esim: interrupted; no partial output files were left", file=sys.stderr)
+        return 130
+
+
+def cmd_run(args) -> int:
+    from e2esim.report.markdown import verdict_lines
+    from e2esim.io.summary import summary_json
+    from e2esim.runner.outputs import output_folder, prepare_folder, write_outputs
+    from e2esim.runner.run import run_scenario
+    from e2esim.runner.scenario import Scenario
+
+    resolved = Scenario.load(args.scenario, args.overrides).resolve()
+    folder = output_folder(resolved, args.output)
+    prepare_folder(folder, args.force)
+    result = run_scenario(resolved, progress=not args.no_progress, command=" ".join(["e2esim"] + sys.argv[1:]))
+    write_outputs(result, folder)
+    out = sys.stderr if args.json else sys.stdout
+    print(f"{resolved.name}: {len(result.cases)} case(s); outputs in {folder}/", file=out)
+    for line in verdict_lines(result) or ["(no requirements stated)"]:
+        print("  " + line, file=out)
+    if args.json:
+        print(summary_json(result))
+    return 0
+
+
+def cmd_validate(args) -> int:
+    from e2esim.runner.scenario import Scenario
+
+    resolved = Scenario.load(args.scenario, args.overrides).resolve()
+    modules = ", ".join(f"{m.kind}={m.type_name}" for m in resolved.cases[0].chain)
+    print(f"{args.scenario}: valid; {len(resolved.cases)} case(s); chain: {modules}")
+    return 0
+
+
+def cmd_modules(args) -> int:
+    from e2esim import registry
+    from e2esim.docs_reference import module_records
+    from e2esim.module import KINDS
+
+    if args.kind is not None and args.kind not in KINDS:
+        raise UserError(f"unknown module kind {args.kind!r}; kinds: {', '.join(KINDS)}")
+    records = module_records(registry.available(args.kind))
+    if args.json:
+        print(json.dumps(records, indent=2, default=str))
+        return 0
+    for rec in records:
+        print(f"{rec['kind']}.{rec['type']}  ({rec['distribution']})  {rec['summary']}")
+        for p in rec["parameters"]:
+            default = "" if p["required"] else f" = {p['default']!r}"
+            unit = f" [{p['unit']}]" if p["unit"] else ""
+            print(f"    {p['name']}{unit}{default}: {p['doc']}; {p['allowed']}")
+    return 0
+
+
+def cmd_reproduce(args) -> int:
+    from e2esim.verification.reproduce import render_report, run_checks
+
+    records = run_checks(args.sources)
+    if args.report:
+        from e2esim.io.atomic import write_text_atomic
+
+        write_text_atomic(args.report, render_report(records))
+    if args.json:
+        print(json.dumps([r.as_dict() for r in records], indent=2))
+    else:
+        width = max((len(r.id) for r in records), default=10)
+        for r in records:
+            print(f"{r.status:12s} {r.id:{width}s} published {r.published:<10g} computed {r.computed:<12.5g} "
+                  f"tol {r.tolerance:g}")
+    return 0 if all(r.status != "failed" for r in records) else 1
+
+
+COMMANDS = {"run": cmd_run, "validate": cmd_validate, "modules": cmd_modules, "reproduce": cmd_reproduce}

@@ -1,0 +1,78 @@
+"""Propagation module (kind ``propagation``): the error of sigma_hv, analytic and Monte Carlo."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from e2esim.chain import BackscatterError
+from e2esim.crosspol.analytic import FORMS, REFERENCES, hv_error_moments
+from e2esim.crosspol.montecarlo import METHODS, gaussianity, simulate
+from e2esim.errors import ConfigError
+from e2esim.module import Module
+from e2esim.params import Param
+
+
+class HVBackscatterErrorPropagation(Module):
+    """Error of sigma_hv under crosstalk, channel imbalance, Faraday rotation and noise.
+
+    Men et al. (2021): analytic mean and variance (eqs. 11-12, completed to second order) and/or the
+    Monte Carlo of the full system model (eq. 1, Section IV), as the simulation mode asks.
+    """
+
+    kind = "propagation"
+    type_name = "hv_backscatter_error"
+    summary = "sigma_hv error from system distortions, Faraday rotation and noise (Men et al. 2021)"
+    params = (
+        Param("variance_form", "str",
+              "analytic variance: 'complete' (second order, exact average over Faraday rotation) or "
+              "'paper' (eqs. 11-12 as published)", default="complete", choices=FORMS),
+        Param("reference", "str",
+              "'scene': one scene, error against its own sigma_hv (eq. 17, the paper's simulation); "
+              "'population': a new scene per realisation, error against the covariance (speckle included)",
+              default="scene", choices=REFERENCES),
+        Param("mc_method", "str", "Monte Carlo: 'fast' (exact, O(M N)) or 'brute_force' (pixel by pixel)",
+              default="fast", choices=METHODS),
+        Param("gaussianity", "bool", "test the simulated errors for Gaussianity (Fig. 2)", default=True),
+    )
+    requires = ("scene", "system", "faraday")
+    provides = ("backscatter",)
+
+    def forward(self, state):
+        c, s = self.config, state.settings
+        analytic = mc = gauss = None
+        if s.analytic:
+            if not state.scene.is_reflection_symmetric():
+                raise ConfigError(
+                    self.location,
+                    "the analytic error model assumes a reflection-symmetric scene (Men et al. 2021, Section III) "
+                    f"but case {state.index} has HH-HV or HV-VV correlation",
+                    "use simulation.mode: montecarlo for this scene",
+                )
+            looks = s.looks if c["variance_form"] == "complete" else None
+            analytic = hv_error_moments(
+                state.scene, state.system, state.faraday, c["variance_form"], looks, c["reference"]
+            )
+        if s.montecarlo:
+            mc = simulate(
+                state.scene,
+                state.system,
+                state.faraday,
+                state.rng,
+                looks=s.looks,
+                realisations=s.realisations,
+                noise_realisations=s.noise_realisations,
+                reference=c["reference"],
+                method=c["mc_method"],
+            )
+            if c["gaussianity"] and np.ravel(mc.hv).size >= 20:
+                gauss = gaussianity(mc.hv)
+        result = BackscatterError(
+            sigma_hv=state.scene.sigma_hv,
+            analytic=analytic,
+            montecarlo=mc,
+            gaussianity=gauss,
+            form=c["variance_form"],
+            looks=s.looks if c["variance_form"] == "complete" else None,
+            reference=c["reference"],
+        )
+        return state.with_(backscatter=result)

@@ -1,0 +1,101 @@
+"""One exception hierarchy for everything e2esim reports to a user.
+
+``UserError`` and its subclasses are problems the user can fix (a bad scenario, a bad argument, a
+physically impossible input); the command line prints their message and exits with status 2, without
+a traceback. Anything else is a bug in e2esim and keeps its traceback.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+
+class E2ESimError(Exception):
+    """Base class of all e2esim exceptions."""
+
+
+class UserError(E2ESimError):
+    """A problem the user can act on: shown as a message, exit status 2."""
+
+    exit_status = 2
+
+
+@dataclass(frozen=True)
+class Location:
+    """Where a configuration value comes from: a file (or a Python caller) and a key path.
+
+    ``key_path`` is a tuple of mapping keys and list indices, e.g. ``("instrument", "crosstalk",
+    "level_db")`` or ``("requirements", 0, "bound_percent")``. ``lines`` maps key paths to the line
+    in the file where they start, when the file was read by ``e2esim.runner.yaml_loader``.
+    """
+
+    source: str = "<python>"
+    key_path: tuple = ()
+    lines: dict = field(default_factory=dict, compare=False, repr=False, hash=False)
+
+    def child(self, key: Any) -> "Location":
+        return Location(self.source, self.key_path + (key,), self.lines)
+
+    @property
+    def dotted(self) -> str:
+        return format_key_path(self.key_path)
+
+    def line(self) -> int | None:
+        path = self.key_path
+        while path:
+            if path in self.lines:
+                return self.lines[path]
+            path = path[:-1]
+        return None
+
+    def describe(self) -> str:
+        line = self.line()
+        where = f"{self.source}:{line}" if line is not None else self.source
+        return f"{where}: {self.dotted}" if self.key_path else where
+
+
+def format_key_path(key_path: tuple) -> str:
+    """``("requirements", 0, "bound_percent")`` -> ``requirements[0].bound_percent``."""
+    text = ""
+    for key in key_path:
+        if isinstance(key, int):
+            text += f"[{key}]"
+        else:
+            text += ("." if text else "") + str(key)
+    return text
+
+
+class ConfigError(UserError):
+    """A scenario or module configuration value is wrong.
+
+    The message names the file, the key path, the bad value and what is allowed, e.g.
+    ``scenario.yaml:12: instrument.crosstalk.level_db: 5.0 is out of range; expected a value <= 0 dB``.
+    """
+
+    def __init__(self, location: Location, problem: str, allowed: str | None = None):
+        self.location = location
+        self.problem = problem
+        self.allowed = allowed
+        message = f"{location.describe()}: {problem}"
+        if allowed:
+            message += f"; {allowed}"
+        super().__init__(message)
+
+
+class ScenarioFileError(UserError):
+    """The scenario file is missing, unreadable, empty or not valid YAML."""
+
+
+class OutputExistsError(UserError):
+    """The output folder exists and ``--force`` was not given."""
+
+
+class PhysicsInputError(UserError, ValueError):
+    """A physically impossible input given through the Python API (e.g. a covariance that is not
+    Hermitian positive semi-definite). Inside a scenario it is re-raised as a ``ConfigError`` that
+    names the key path."""
+
+
+class ModuleLookupError(UserError, LookupError):
+    """A module type name that no registered module has."""

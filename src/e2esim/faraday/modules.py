@@ -1,0 +1,86 @@
+"""Ionosphere modules that give the Faraday-rotation distribution directly (kind ``ionosphere``).
+
+The climatology modules of the orbit/ionosphere issue produce an ``EmpiricalFaraday`` the same way.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from e2esim.faraday.distribution import ConstantFaraday, EmpiricalFaraday, GaussianFaraday
+from e2esim.module import Module
+from e2esim.params import Param
+from e2esim.errors import PhysicsInputError
+
+
+class GaussianFaradayModule(Module):
+    """Omega ~ N(mean, SD^2), Men et al. (2021), Section III item 4 and eq. (10)."""
+
+    kind = "ionosphere"
+    type_name = "gaussian_faraday"
+    summary = "Gaussian one-way Faraday rotation with given mean and SD (Men et al. 2021, eq. 10)"
+    params = (
+        Param("mean_deg", "float", "mean one-way Faraday rotation", default=0.0, unit="deg",
+              minimum=-180.0, maximum=180.0),
+        Param("sd_deg", "float", "standard deviation of the one-way Faraday rotation", default=0.0,
+              unit="deg", minimum=0.0, maximum=180.0),
+    )
+    provides = ("faraday",)
+
+    def setup(self):
+        self.distribution = GaussianFaraday(np.radians(self.config["mean_deg"]), np.radians(self.config["sd_deg"]))
+
+    def forward(self, state):
+        return state.with_(faraday=self.distribution)
+
+
+class ConstantFaradayModule(Module):
+    """A fixed one-way Faraday rotation angle."""
+
+    kind = "ionosphere"
+    type_name = "constant_faraday"
+    summary = "fixed one-way Faraday rotation angle"
+    params = (
+        Param("value_deg", "float", "one-way Faraday rotation", default=0.0, unit="deg",
+              minimum=-180.0, maximum=180.0),
+    )
+    provides = ("faraday",)
+
+    def setup(self):
+        self.distribution = ConstantFaraday(np.radians(self.config["value_deg"]))
+
+    def forward(self, state):
+        return state.with_(faraday=self.distribution)
+
+
+class FaradaySamplesModule(Module):
+    """Omega given by samples: a list in the scenario, or a text/.npy file of values in degrees."""
+
+    kind = "ionosphere"
+    type_name = "faraday_samples"
+    summary = "empirical one-way Faraday rotation distribution from samples (list or file, degrees)"
+    params = (
+        Param("samples_deg", "float", "one-way Faraday rotation samples", default=None, unit="deg",
+              variable_length=True, nullable=True),
+        Param("samples_file", "str", "text or .npy file of samples in degrees, relative to the scenario file",
+              default=None, nullable=True),
+    )
+    provides = ("faraday",)
+
+    def setup(self):
+        values, path = self.config["samples_deg"], self.config["samples_file"]
+        if (values is None) == (path is None):
+            raise PhysicsInputError("give exactly one of samples_deg and samples_file")
+        if path is not None:
+            base = Path(self.location.source).parent if Path(self.location.source).exists() else Path(".")
+            file = (base / path) if not Path(path).is_absolute() else Path(path)
+            try:
+                values = np.load(file) if file.suffix == ".npy" else np.loadtxt(file, ndmin=1)
+            except (OSError, ValueError) as exc:
+                raise PhysicsInputError(f"cannot read Faraday-rotation samples from {file}: {exc}") from exc
+        self.distribution = EmpiricalFaraday(np.radians(np.asarray(values, dtype=float)), label="samples")
+
+    def forward(self, state):
+        return state.with_(faraday=self.distribution)

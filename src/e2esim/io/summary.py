@@ -1,0 +1,74 @@
+"""summary.json: the machine-readable result of a run, per case and per requirement.
+
+Non-finite numbers (NaN, +-inf) are written as null, so the file is strict JSON.
+Layout in docs/output-format.md.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+
+from e2esim.io.atomic import write_text_atomic
+
+
+def requirement_overview(result) -> list:
+    """Per requirement: how many cases pass, the worst margin and where it occurs."""
+    rows = []
+    for j, name in enumerate(result.requirement_names):
+        verdicts = [(c.index, c.label, c.state.verdicts[j]) for c in result.cases]
+        worst = min(verdicts, key=lambda t: t[2].margin if math.isfinite(t[2].margin) else math.inf)
+        rows.append({
+            "name": name,
+            "passed_cases": sum(v.passed for _, _, v in verdicts),
+            "failed_cases": sum(not v.passed for _, _, v in verdicts),
+            "all_passed": all(v.passed for _, _, v in verdicts),
+            "worst_margin": worst[2].margin,
+            "unit": worst[2].unit,
+            "worst_case": worst[0],
+            "worst_case_label": worst[1],
+        })
+    return rows
+
+
+def summary_dict(result) -> dict:
+    cases = []
+    for c in result.cases:
+        cases.append({
+            "index": c.index,
+            "label": c.label,
+            "inputs": c.inputs,
+            "results": c.scalars,
+            "requirements": [
+                {"name": v.name, "passed": v.passed, "value": v.value, "limit": v.limit, "margin": v.margin,
+                 "unit": v.unit, "basis": v.basis, "details": v.details}
+                for v in c.state.verdicts
+            ],
+        })
+    return _clean({
+        "scenario": result.scenario.name,
+        **result.provenance,
+        "n_cases": len(result.cases),
+        "requirements": requirement_overview(result),
+        "cases": cases,
+    })
+
+
+def summary_json(result) -> str:
+    return json.dumps(summary_dict(result), indent=2, allow_nan=False)
+
+
+def write_summary(result, path) -> None:
+    write_text_atomic(path, summary_json(result) + "\n")
+
+
+def _clean(value):
+    if isinstance(value, dict):
+        return {str(k): _clean(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_clean(v) for v in value]
+    if isinstance(value, float):
+        return value if math.isfinite(value) else None
+    if hasattr(value, "item"):  # numpy scalar
+        return _clean(value.item())
+    return value

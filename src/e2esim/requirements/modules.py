@@ -1,0 +1,191 @@
+"""Requirement modules (kind ``requirement``): verdicts on the relative AGB error.
+
+``agb_error_bound``: the relative AGB error stays within +-bound with a one-sided confidence (Men et al.
+2021, eq. 19 and Section V-B: 20 % at 99.865 %, i.e. z = 3). ``agb_rmse``: the root-mean-square relative
+AGB error stays below a limit.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from e2esim.chain import RequirementVerdict
+from e2esim.crosspol.tradeoff import AGBRequirement, first_failing_level, requirement_violation, tradeoff_curve
+from e2esim.errors import ConfigError
+from e2esim.module import Module
+from e2esim.params import Param
+from e2esim.units import level_db_from_variance, variance_from_level_db
+
+BASES = ("auto", "analytic", "montecarlo")
+_PERCENT = 100.0
+
+
+def _basis(module: Module, state) -> str:
+    basis = module.config["basis"]
+    if basis == "auto":
+        return "analytic" if state.agb.has("analytic") else "montecarlo"
+    if not state.agb.has(basis):
+        raise ConfigError(
+            module.location.child("basis"),
+            f"{basis!r} results are not computed in simulation mode {state.settings.mode!r}",
+            "use basis: auto, or a simulation mode that computes them",
+        )
+    return basis
+
+
+class AGBErrorBound(Module):
+    """P(AGB overestimated by more than bound) and/or P(underestimated by more than bound) <= 1 - confidence."""
+
+    kind = "requirement"
+    type_name = "agb_error_bound"
+    summary = "relative AGB error within +-bound with one-sided confidence (Men et al. 2021, eq. 19)"
+    params = (
+        Param("name", "str", "label in reports (null: generated)", default=None, nullable=True),
+        Param("bound_percent", "float", "largest allowed relative AGB error", default=20.0, unit="%",
+              exclusive_minimum=0.0, exclusive_maximum=100.0),
+        Param("confidence_percent", "float", "one-sided confidence that the bound holds", default=99.865,
+              unit="%", exclusive_minimum=50.0, exclusive_maximum=100.0),
+        Param("side", "str", "bound overestimation, underestimation or both", default="both",
+              choices=("over", "under", "both")),
+        Param("basis", "str", "analytic Gaussian model or Monte Carlo samples (auto: analytic when computed)",
+              default="auto", choices=BASES),
+        Param("level_margins", "bool",
+              "find by root finding how far crosstalk, channel imbalance and NESZ may degrade before the "
+              "verdict flips (analytic model)", default=False),
+        Param("tradeoff_curve", "bool", "trace the crosstalk/channel-imbalance trade-off curve (eq. 19)",
+              default=False),
+        Param("curve_crosstalk_db", "float", "crosstalk range of the trade-off curve, in the instrument's "
+              "level convention", default=(-50.0, -10.0), unit="dB", length=2, minimum=-200.0, maximum=0.0),
+        Param("curve_points", "int", "points on the trade-off curve", default=121, minimum=2, maximum=100000),
+    )
+    requires = ("agb",)
+
+    @property
+    def label(self) -> str:
+        c = self.config
+        if c["name"]:
+            return c["name"]
+        sign = {"over": "+", "under": "-", "both": "+-"}[c["side"]]
+        return f"AGB error within {sign}{c['bound_percent']:g} % at {c['confidence_percent']:g} %"
+
+    def sides(self) -> tuple:
+        return ("over", "under") if self.config["side"] == "both" else (self.config["side"],)
+
+    def forward(self, state):
+        c = self.config
+        basis = _basis(self, state)
+        agb = state.agb
+        conf = c["confidence_percent"] / _PERCENT
+        bound = c["bound_percent"] / _PERCENT
+        values, details = [], {}
+        for side in self.sides():
+            prob = conf if side == "over" else 1 - conf
+            for b in ("analytic", "montecarlo"):
+                if agb.has(b):
+                    details[f"{side}.{b}.quantile_percent"] = float(agb.quantile(prob, b)) * _PERCENT
+                    details[f"{side}.{b}.exceedance_probability"] = agb.exceedance(bound, side, b)
+            q = float(agb.quantile(prob, basis)) * _PERCENT
+            values.append(q if side == "over" else -q)
+        value = max(values)
+        verdict_curves = {}
+        if (c["level_margins"] or c["tradeoff_curve"]) and state.backscatter.analytic is not None:
+            reqs = [AGBRequirement(bound, conf, side, agb.exponent) for side in self.sides()]
+            if c["level_margins"]:
+                details.update(_level_margins(reqs, state))
+            if c["tradeoff_curve"]:
+                verdict_curves = _tradeoff_curves(reqs, state, c["curve_crosstalk_db"], c["curve_points"])
+        return state.with_(
+            verdicts=state.verdicts
+            + (
+                RequirementVerdict(
+                    name=self.label,
+                    passed=bool(value <= c["bound_percent"]),
+                    value=value,
+                    limit=c["bound_percent"],
+                    margin=c["bound_percent"] - value,
+                    unit="%",
+                    basis=basis,
+                    details=details,
+                    curves=verdict_curves,
+                ),
+            )
+        )
+
+
+def _analytic_args(state) -> dict:
+    bs = state.backscatter
+    return dict(scene=state.scene, system=state.system, faraday=state.faraday, form=bs.form, looks=bs.looks,
+                reference=bs.reference)
+
+
+def _level_margins(reqs, state) -> dict:
+    """Levels (dB) at which the verdict flips, each error source varied alone, and their margins.
+
+    ``<source>.limit_db``: the level where the first of the requirement's sides starts to fail (NaN if it
+    fails at any level, +inf if it never fails); ``<source>.margin_db = limit_db - current level``.
+    """
+    args = _analytic_args(state)
+    sysm, inst = state.system, state.instrument
+    conv = inst.convention if inst is not None and inst.convention != "mixed" else "variance"
+    sources = {
+        "crosstalk": ("crosstalk_level", sysm.crosstalk_level, conv),
+        "channel_imbalance": ("imbalance_level", sysm.imbalance_level, conv),
+        "nesz": ("noise_power", sysm.noise_power, "variance"),
+    }
+    out = {}
+    for source, (keyword, current, convention) in sources.items():
+        limits = []
+        for req in reqs:
+            def violation(levels, req=req, keyword=keyword):
+                return requirement_violation(req, **args, **{keyword: levels})
+            limits.append(float(first_failing_level(violation)))
+        limit = min(limits) if not any(np.isnan(limits)) else float("nan")
+        limit_db = float(level_db_from_variance(limit, convention)) if np.isfinite(limit) else limit
+        current_db = float(level_db_from_variance(current, convention)) if current > 0 else float("-inf")
+        out[f"{source}.limit_db"] = limit_db
+        out[f"{source}.margin_db"] = limit_db - current_db if np.isfinite(current_db) else float("inf")
+    return out
+
+
+def _tradeoff_curves(reqs, state, crosstalk_db_range, points) -> dict:
+    inst = state.instrument
+    conv = inst.convention if inst is not None and inst.convention != "mixed" else "variance"
+    x_db = np.linspace(*crosstalk_db_range, points)
+    x = variance_from_level_db(x_db, conv)
+    curves = {"crosstalk_db": x_db}
+    for req in reqs:
+        v_eps = tradeoff_curve(req, state.scene, state.system, state.faraday, x, **{
+            k: v for k, v in _analytic_args(state).items() if k in ("form", "looks", "reference")})
+        with np.errstate(divide="ignore", invalid="ignore"):
+            curves[f"{req.side}.imbalance_db"] = level_db_from_variance(v_eps, conv)
+    return curves
+
+
+class AGBRelativeRMSE(Module):
+    """sqrt(E[q^2]) <= limit, q the relative AGB error (bias and spread together)."""
+
+    kind = "requirement"
+    type_name = "agb_rmse"
+    summary = "root-mean-square relative AGB error below a limit"
+    params = (
+        Param("name", "str", "label in reports (null: generated)", default=None, nullable=True),
+        Param("max_percent", "float", "largest allowed RMS relative AGB error", default=20.0, unit="%",
+              exclusive_minimum=0.0),
+        Param("basis", "str", "analytic Gaussian model or Monte Carlo samples (auto: analytic when computed)",
+              default="auto", choices=BASES),
+    )
+    requires = ("agb",)
+
+    @property
+    def label(self) -> str:
+        return self.config["name"] or f"AGB RMSE <= {self.config['max_percent']:g} %"
+
+    def forward(self, state):
+        basis = _basis(self, state)
+        details = {f"{b}.rmse_percent": state.agb.rmse(b) * _PERCENT for b in ("analytic", "montecarlo")
+                   if state.agb.has(b)}
+        value = state.agb.rmse(basis) * _PERCENT
+        limit = self.config["max_percent"]
+        verdict = RequirementVerdict(self.label, bool(value <= limit), value, limit, limit - value, "%", basis,
+                                     details)
+        return state.with_(verdicts=state.verdicts + (verdict,))

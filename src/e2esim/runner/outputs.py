@@ -1,0 +1,42 @@
+"""Write the outputs of a run into its folder: results.h5, summary.json, report.md and PNG plots."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from e2esim.errors import OutputExistsError
+from e2esim.io.results_h5 import write_results
+from e2esim.io.summary import write_summary
+from e2esim.report.markdown import write_report
+from e2esim.report.plots import make_plots
+
+OUTPUT_FILES = ("results.h5", "summary.json", "report.md")
+
+
+def output_folder(resolved, override: str | None) -> Path:
+    """The run's folder: ``-o`` from the command line, else ``output.folder``, else runs/<name>."""
+    if override:
+        return Path(override)
+    if resolved.output["folder"]:
+        return Path(resolved.output["folder"])
+    return Path("runs") / Path(resolved.source).stem
+
+
+def prepare_folder(folder: Path, force: bool) -> None:
+    """Refuse to write into an existing non-empty folder unless ``force``; create it otherwise."""
+    if folder.exists() and not folder.is_dir():
+        raise OutputExistsError(f"{folder}: exists and is not a folder")
+    if folder.exists() and any(folder.iterdir()) and not force:
+        raise OutputExistsError(
+            f"{folder}: output folder exists and is not empty; use --force to overwrite it, or -o to choose another"
+        )
+    folder.mkdir(parents=True, exist_ok=True)
+
+
+def write_outputs(result, folder: Path) -> dict:
+    """Write every output file; return their paths."""
+    plots = make_plots(result, folder)
+    write_results(result, folder / "results.h5")
+    write_summary(result, folder / "summary.json")
+    write_report(result, folder / "report.md", plots)
+    return {"folder": folder, "plots": [folder / name for name, _ in plots]}

@@ -1,0 +1,433 @@
+"""Scenario files: reading, command-line overrides, complete validation, sweep expansion.
+
+A scenario has one section per module kind (``scene``, ``instrument``, ...; each with ``type:`` and
+the module's parameters), a ``requirements`` list, and the ``simulation``, ``sweep`` and ``output``
+sections declared below. ``Scenario.resolve()`` checks everything a run needs, for every sweep case,
+without running anything: that is ``e2esim validate``.
+"""
+
+from __future__ import annotations
+
+import copy
+import itertools
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from e2esim import registry
+from e2esim.chain import MODES, SimulationSettings
+from e2esim.errors import ConfigError, Location, ModuleLookupError, ScenarioFileError
+from e2esim.module import KINDS, Module
+from e2esim.params import Param, find_param, unknown_key_error, validate_section
+from e2esim.runner.yaml_loader import load_yaml, parse_scalar
+
+MODULE_SECTIONS = ("orbit", "ionosphere", "scene", "instrument", "calibration", "propagation", "retrieval")
+"""Sections that hold one module each, in chain order (the ``requirement`` kind has a list)."""
+
+DEFAULT_MODULES = {
+    "ionosphere": {"type": "constant_faraday"},
+    "propagation": {"type": "hv_backscatter_error"},
+    "retrieval": {"type": "power_law"},
+}
+"""Module used when a section is absent (orbit and calibration are simply left out)."""
+
+REQUIRED_SECTIONS = ("scene", "instrument")
+
+PLOT_TYPES = (
+    "auto",
+    "verdicts",
+    "backscatter_vs_sweep",
+    "error_histograms",
+    "tradeoff",
+    "contributions",
+    "agb_error_vs_sweep",
+)
+
+SIMULATION_PARAMS = (
+    Param("mode", "str", "what to compute: analytic moments, Monte Carlo, or both", default="both",
+          choices=MODES),
+    Param("seed", "int", "root seed of all random draws (case i uses SeedSequence(seed, spawn_key=(i,)))",
+          default=0, minimum=0),
+    Param("looks", "int", "L: independent pixels averaged into one sigma estimate (Men et al. 2021, eq. 17)",
+          default=100_000, minimum=1),
+    Param("realisations", "int", "M: system-error and Faraday-rotation realisations", default=10_000,
+          minimum=2),
+    Param("noise_realisations", "int", "N: noise realisations per system-error realisation", default=1,
+          minimum=1),
+    Param("keep_samples", "bool", "store the Monte Carlo error samples in results.h5", default=True),
+)
+
+OUTPUT_PARAMS = (
+    Param("folder", "str", "output folder, relative to the working directory (null: runs/<scenario name>)",
+          default=None, nullable=True),
+    Param("title", "str", "report title (null: the scenario name)", default=None, nullable=True),
+    Param("plots", "str", "plots in the report", default=("auto",), variable_length=True, choices=PLOT_TYPES),
+    Param("plot_x", "str", "sweep key on the x axis of sweep plots (null: the first numeric sweep key)",
+          default=None, nullable=True),
+    Param("plot_group_by", "str", "sweep key that makes the series of sweep plots (null: all other keys)",
+          default=None, nullable=True),
+    Param("histogram_cases", "int", "at most this many cases get an error histogram", default=12, minimum=1),
+)
+
+SWEEP_PARAMS = (
+    Param("mode", "str", "grid: every combination of the parameter lists; zip: the lists side by side",
+          default="grid", choices=("grid", "zip")),
+)
+SWEEP_KEYS = ("mode", "parameters", "cases")
+"""``sweep.parameters``: mapping of dotted key -> list of values, or ``{linspace: [start, stop, num]}``
+or ``{logspace: [start_exp, stop_exp, num]}``; a key "a.b, c.d" with a list of [a, c] pairs varies
+two keys together; ``sweep.cases``: list of mappings dotted key -> value."""
+
+TOP_LEVEL = ("name", "description") + MODULE_SECTIONS + ("requirements", "simulation", "sweep", "output")
+NOT_SWEEPABLE = ("name", "description", "sweep", "output")
+
+
+@dataclass
+class CaseSpec:
+    """One sweep case, ready to run: its inputs, label, settings and chain of modules."""
+
+    index: int
+    inputs: dict
+    label: str
+    settings: SimulationSettings
+    chain: list
+
+
+@dataclass
+class ResolvedScenario:
+    """A completely validated scenario: everything ``e2esim run`` needs."""
+
+    name: str
+    description: str
+    source: str
+    raw: dict
+    resolved: dict
+    output: dict
+    cases: list = field(default_factory=list)
+    sweep_keys: tuple = ()
+
+    @property
+    def requirement_names(self) -> list:
+        return [m.label for m in self.cases[0].chain if m.kind == "requirement"] if self.cases else []
+
+
+class Scenario:
+    """A scenario as read from YAML (or given as a dict), with command-line overrides applied."""
+
+    def __init__(self, data: Any, source: str = "<scenario>", lines: dict | None = None):
+        self.source = source
+        self.lines = dict(lines or {})
+        if data is None:
+            raise ScenarioFileError(f"{source}: the scenario is empty; it needs at least 'scene' and 'instrument'")
+        if not isinstance(data, dict):
+            raise ConfigError(Location(source, (), self.lines), "the scenario must be a mapping of sections",
+                              "expected e.g. 'scene: {type: table1_forest}'")
+        self.raw = data
+
+    @classmethod
+    def load(cls, path: str | Path, overrides=()) -> "Scenario":
+        path = Path(path)
+        source = str(path)
+        if not path.exists():
+            raise ScenarioFileError(f"{source}: no such scenario file")
+        if path.is_dir():
+            raise ScenarioFileError(f"{source}: is a folder, not a scenario file")
+        try:
+            text = path.read_text(encoding="utf-8")
+        except (OSError, UnicodeDecodeError) as exc:
+            raise ScenarioFileError(f"{source}: cannot read the scenario file: {exc}") from exc
+        if not text.strip():
+            raise ScenarioFileError(f"{source}: the scenario file is empty")
+        data, lines = load_yaml(text, source)
+        scenario = cls(data, source, lines)
+        for item in overrides:
+            scenario.override(item)
+        return scenario
+
+    def override(self, assignment: str) -> None:
+        """Apply one ``--set dotted.key=value`` (value parsed as YAML)."""
+        key, sep, text = assignment.partition("=")
+        key = key.strip()
+        if not sep or not key:
+            raise ConfigError(Location(self.source, (), self.lines), f"--set {assignment!r} is not key=value",
+                              "expected e.g. --set instrument.crosstalk.level_db=-28")
+        path = _dotted_to_path(key)
+        if path[0] not in TOP_LEVEL:
+            raise unknown_key_error(Location(f"{self.source} (--set)", path[:1]), path[0], TOP_LEVEL)
+        _set_path(self.raw, path, parse_scalar(text), Location(self.source, path, self.lines))
+        self.lines[path] = f"--set {key}"
+
+    # ------------------------------------------------------------------------------------------
+    def resolve(self) -> ResolvedScenario:
+        """Validate every section and every sweep case; build the modules. Raises ConfigError."""
+        root = Location(self.source, (), self.lines)
+        for key in self.raw:
+            if key not in TOP_LEVEL:
+                raise unknown_key_error(root.child(key), key, TOP_LEVEL)
+        for key in REQUIRED_SECTIONS:
+            if key not in self.raw:
+                kinds = ", ".join(r.type_name for r in registry.available(key))
+                raise ConfigError(root.child(key), "section is missing", f"add a '{key}:' section with a type ({kinds})")
+        name = self.raw.get("name", Path(self.source).stem)
+        for key in ("name", "description"):
+            if key in self.raw and not isinstance(self.raw[key], str):
+                raise ConfigError(root.child(key), f"{self.raw[key]!r} is not text", "expected a string")
+        output = validate_section(OUTPUT_PARAMS, self.raw.get("output"), root.child("output"))
+        case_inputs, sweep_keys = expand_sweep(self.raw.get("sweep"), root.child("sweep"))
+        cache: dict = {}
+        cases = []
+        for index, inputs in enumerate(case_inputs):
+            cases.append(self._build_case(index, inputs, cache))
+        return ResolvedScenario(
+            name=str(name),
+            description=str(self.raw.get("description", "")),
+            source=self.source,
+            raw=copy.deepcopy(self.raw),
+            resolved=_resolved_config(self.raw, cases[0], output),
+            output=output,
+            cases=cases,
+            sweep_keys=sweep_keys,
+        )
+
+    def _build_case(self, index: int, inputs: dict, cache: dict) -> CaseSpec:
+        config = copy.deepcopy(self.raw)
+        lines = dict(self.lines)
+        for key, value in inputs.items():
+            path = _dotted_to_path(key)
+            where = Location(self.source, path, lines)
+            if path[0] in NOT_SWEEPABLE or path[0] not in TOP_LEVEL:
+                raise ConfigError(Location(self.source, ("sweep", key), lines), f"cannot sweep over {key!r}",
+                                  "sweep keys start with a module section, requirements or simulation")
+            _set_path(config, path, value, where)
+            lines[path] = f"sweep case {index}: {key}={value!r}"
+        case_root = Location(self.source, (), lines)
+        settings = SimulationSettings(
+            **validate_section(SIMULATION_PARAMS, config.get("simulation"), case_root.child("simulation"))
+        )
+        chain = []
+        for section in MODULE_SECTIONS:
+            raw = config.get(section, DEFAULT_MODULES.get(section))
+            if raw is None:
+                continue
+            chain.append(_build_module(section, raw, case_root.child(section), cache))
+        reqs = config.get("requirements", [])
+        if not isinstance(reqs, list):
+            raise ConfigError(case_root.child("requirements"), "is not a list",
+                              "expected a list of requirement sections, each with a type")
+        for i, raw in enumerate(reqs):
+            chain.append(_build_module("requirement", raw, case_root.child("requirements").child(i), cache))
+        _check_chain(chain)
+        for key in inputs:
+            _check_sweep_key(key, config, chain, Location(self.source, ("sweep", "parameters", key), lines))
+        return CaseSpec(index, dict(inputs), case_label(inputs), settings, chain)
+
+
+def _build_module(kind_or_section: str, raw: Any, where: Location, cache: dict) -> Module:
+    kind = "requirement" if kind_or_section == "requirement" else kind_or_section
+    if not isinstance(raw, dict):
+        raise ConfigError(where, f"{raw!r} is not a mapping", f"expected a '{kind}' section with a 'type' key")
+    type_name = raw.get("type")
+    if type_name is None:
+        names = ", ".join(r.type_name for r in registry.available(kind))
+        raise ConfigError(where.child("type"), "is required but missing", f"registered {kind} types: {names}")
+    if not isinstance(type_name, str):
+        raise ConfigError(where.child("type"), f"{type_name!r} is not a module name", "expected a string")
+    try:
+        cls = registry.lookup(kind, type_name)
+    except ModuleLookupError as exc:
+        raise ConfigError(where.child("type"), str(exc)) from exc
+    key = (kind, cls, json.dumps(raw, sort_keys=True, default=str))
+    if key not in cache:
+        cache[key] = cls.from_config(raw, where)
+    return cache[key]
+
+
+def _check_chain(chain: list) -> None:
+    available = {"settings", "rng", "inputs"}
+    for module in chain:
+        for need in module.requires:
+            if need not in available:
+                raise ConfigError(
+                    module.location,
+                    f"{module.kind} type {module.type_name!r} needs '{need}', which no earlier module provides",
+                    "add the module kind that provides it",
+                )
+        available.update(module.provides)
+
+
+def _check_sweep_key(key: str, config: dict, chain: list, where: Location) -> None:
+    path = _dotted_to_path(key)
+    head = path[0]
+    if head == "simulation":
+        params = SIMULATION_PARAMS
+        rest = path[1:]
+    elif head == "requirements":
+        if len(path) < 3 or not isinstance(path[1], int):
+            raise ConfigError(where, f"{key!r} does not name a requirement parameter",
+                              "expected requirements.<index>.<parameter>")
+        params = [m for m in chain if m.kind == "requirement"][path[1]].params
+        rest = path[2:]
+    else:
+        module = next(m for m in chain if m.kind == head)
+        params = module.params
+        rest = path[1:]
+    if rest == ("type",) and head in MODULE_SECTIONS:
+        return
+    dotted = ".".join(str(p) for p in rest)
+    if not rest or find_param(params, dotted) is None:
+        names = sorted(_leaf_names(params))
+        raise ConfigError(where, f"no parameter {dotted or head!r} to sweep over in section {head!r}",
+                          "parameters here: " + ", ".join(names))
+
+
+def _leaf_names(params) -> list:
+    from e2esim.params import iter_params
+
+    return [name for name, _ in iter_params(params)]
+
+
+def expand_sweep(sweep: Any, where: Location) -> tuple[list, tuple]:
+    """Sweep section -> (list of case input dicts, sweep keys). No sweep gives one case with no inputs."""
+    if sweep is None:
+        return [{}], ()
+    if not isinstance(sweep, dict):
+        raise ConfigError(where, f"{sweep!r} is not a mapping", "expected 'parameters:' and/or 'mode:', or 'cases:'")
+    for key in sweep:
+        if key not in SWEEP_KEYS:
+            raise unknown_key_error(where.child(key), key, SWEEP_KEYS)
+    mode = validate_section(SWEEP_PARAMS, {k: v for k, v in sweep.items() if k == "mode"}, where)["mode"]
+    params, cases = sweep.get("parameters"), sweep.get("cases")
+    if params is not None and cases is not None:
+        raise ConfigError(where, "has both 'parameters' and 'cases'", "give one of them")
+    if cases is not None:
+        if not isinstance(cases, list) or not cases:
+            raise ConfigError(where.child("cases"), "is not a non-empty list", "expected a list of mappings")
+        out = []
+        for i, case in enumerate(cases):
+            if not isinstance(case, dict):
+                raise ConfigError(where.child("cases").child(i), f"{case!r} is not a mapping",
+                                  "expected dotted.key: value pairs")
+            out.append({str(k): _plain(v) for k, v in case.items()})
+        keys = tuple(dict.fromkeys(k for c in out for k in c))
+        return out, keys
+    if not isinstance(params, dict) or not params:
+        raise ConfigError(where.child("parameters"), "is missing or empty", "expected dotted.key: [values]")
+    values = {}
+    for key, spec in params.items():
+        here = where.child("parameters").child(key)
+        subkeys = tuple(k.strip() for k in str(key).split(","))
+        items = _sweep_values(spec, here)
+        if len(subkeys) > 1:  # "a.b, c.d": [[a1, c1], [a2, c2]] varies the keys together
+            for i, item in enumerate(items):
+                if not isinstance(item, list) or len(item) != len(subkeys):
+                    raise ConfigError(here.child(i), f"{item!r} is not a list of {len(subkeys)} values",
+                                      f"each item gives one value for each of {', '.join(subkeys)}")
+        values[subkeys] = [tuple(item) if len(subkeys) > 1 else (item,) for item in items]
+    keys = tuple(k for sub in values for k in sub)
+    if mode == "zip":
+        lengths = {", ".join(k): len(v) for k, v in values.items()}
+        if len(set(lengths.values())) != 1:
+            raise ConfigError(where.child("parameters"), f"lists of unequal length {lengths} in zip mode",
+                              "give lists of the same length, or use mode: grid")
+        combos = zip(*values.values())
+    else:
+        combos = itertools.product(*values.values())
+    return [dict(zip(keys, (v for group in combo for v in group))) for combo in combos], keys
+
+
+def _sweep_values(spec: Any, where: Location) -> list:
+    if isinstance(spec, list):
+        if not spec:
+            raise ConfigError(where, "is an empty list", "expected at least one value")
+        return [_plain(v) for v in spec]
+    if isinstance(spec, dict) and len(spec) == 1:
+        (kind, args), = spec.items()
+        if kind in ("linspace", "logspace"):
+            ok = isinstance(args, list) and len(args) == 3 and all(
+                isinstance(a, (int, float)) and not isinstance(a, bool) for a in args
+            )
+            if not ok or int(args[2]) != args[2] or args[2] < 1:
+                raise ConfigError(where.child(kind), f"{args!r} is not [start, stop, number]",
+                                  "expected two numbers and a positive integer")
+            fn = np.linspace if kind == "linspace" else np.logspace
+            return [float(x) for x in fn(args[0], args[1], int(args[2]))]
+    raise ConfigError(where, f"{spec!r} is not a list of values",
+                      "expected a list, {linspace: [start, stop, n]} or {logspace: [start, stop, n]}")
+
+
+def case_label(inputs: dict) -> str:
+    """Short human label: ``forest=boreal_200, crosstalk.level_db=-30``."""
+    parts = []
+    for key, value in inputs.items():
+        short = ".".join(key.split(".")[-2:]) if key.count(".") >= 2 else key.split(".")[-1]
+        parts.append(f"{short}={value:g}" if isinstance(value, float) else f"{short}={value}")
+    return ", ".join(parts) or "base case"
+
+
+def _dotted_to_path(key: str) -> tuple:
+    return tuple(int(p) if p.isdigit() else p for p in key.split("."))
+
+
+def _set_path(data: dict, path: tuple, value: Any, where: Location) -> None:
+    node = data
+    for i, key in enumerate(path[:-1]):
+        if isinstance(node, list):
+            if not isinstance(key, int) or key >= len(node):
+                raise ConfigError(Location(where.source, path[: i + 1], where.lines), "no such list item",
+                                  f"the list has {len(node)} items")
+            node = node[key]
+            continue
+        if not isinstance(node, dict):
+            raise ConfigError(Location(where.source, path[:i], where.lines), "is not a mapping",
+                              "cannot set a key inside it")
+        if key not in node or node[key] is None:
+            node[key] = {}
+        node = node[key]
+    last = path[-1]
+    if isinstance(node, list):
+        if not isinstance(last, int) or last >= len(node):
+            raise ConfigError(where, "no such list item", f"the list has {len(node)} items")
+        node[last] = value
+    elif isinstance(node, dict):
+        node[last] = value
+    else:
+        raise ConfigError(Location(where.source, path[:-1], where.lines), "is not a mapping",
+                          "cannot set a key inside it")
+
+
+def _plain(value: Any) -> Any:
+    if isinstance(value, np.generic):
+        return value.item()
+    return value
+
+
+def _resolved_config(raw: dict, case: CaseSpec, output: dict) -> dict:
+    """The scenario with every module's defaults filled in (first case), for provenance."""
+    resolved = {k: copy.deepcopy(v) for k, v in raw.items() if k in ("name", "description", "sweep")}
+    reqs = []
+    for module in case.chain:
+        entry = {"type": module.type_name, **_jsonable(module.config)}
+        if module.kind == "requirement":
+            reqs.append(entry)
+        else:
+            resolved[module.kind] = entry
+    resolved["requirements"] = reqs
+    resolved["simulation"] = {
+        f.name: getattr(case.settings, f.name) for f in SimulationSettings.__dataclass_fields__.values()
+    }
+    resolved["output"] = _jsonable(output)
+    return resolved
+
+
+def _jsonable(value: Any) -> Any:
+    if isinstance(value, dict):
+        return {k: _jsonable(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_jsonable(v) for v in value]
+    return value
+
+
+__all__ = ["Scenario", "ResolvedScenario", "CaseSpec", "KINDS"]
