@@ -120,6 +120,7 @@ class CaseState:
     scene : scattering covariance (scene module).
     system : system-error model after the instrument (and calibration) modules.
     raw_system : the instrument's system-error model before calibration.
+    calibration : what the calibration module(s) did (their own result object), or None.
     instrument : how the instrument states its specification (for reports).
     backscatter : sigma_hv error (propagation module).
     agb : relative AGB error (retrieval module).
@@ -135,6 +136,7 @@ class CaseState:
     scene: ScatteringCovariance | None = None
     system: SystemErrorModel | None = None
     raw_system: SystemErrorModel | None = None
+    calibration: Any = None
     instrument: InstrumentDescription | None = None
     backscatter: BackscatterError | None = None
     agb: AGBError | None = None

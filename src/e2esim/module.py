@@ -16,15 +16,16 @@ from e2esim.params import validate_section
 
 KINDS = (
     "orbit",
-    "ionosphere",
     "scene",
     "instrument",
+    "ionosphere",
     "calibration",
     "propagation",
     "retrieval",
     "requirement",
 )
-"""Module kinds in the order the runner chains them (design.md, "What flows through the house")."""
+"""Module kinds in the order the runner chains them. The instrument comes before the ionosphere (unlike
+the sketch in design.md) because Faraday rotation scales as 1/f^2 with the radar frequency."""
 
 KIND_DOCS = {
     "orbit": "acquisition geometry: where and when the mission looks (AcquisitionGeometry)",

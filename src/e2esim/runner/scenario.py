@@ -24,7 +24,7 @@ from e2esim.module import KINDS, Module
 from e2esim.params import Param, find_param, unknown_key_error, validate_section
 from e2esim.runner.yaml_loader import load_yaml, parse_scalar
 
-MODULE_SECTIONS = ("orbit", "ionosphere", "scene", "instrument", "calibration", "propagation", "retrieval")
+MODULE_SECTIONS = ("orbit", "scene", "instrument", "ionosphere", "calibration", "propagation", "retrieval")
 """Sections that hold one module each, in chain order (the ``requirement`` kind has a list)."""
 
 DEFAULT_MODULES = {

@@ -88,7 +88,7 @@ def fig6_crosstalk_limit(record):
 @functools.lru_cache(maxsize=None)
 def table2_case(row: int, seed: int = TABLE2_SEED, form: str = "paper") -> dict:
     """Monte Carlo vs analytic relative differences for Table II row ``row`` (1-based), in percent."""
-    from e2esim.verification.published import TABLE2_ROWS
+    from e2esim.verification.men2021_values import TABLE2_ROWS
 
     xt, ci, forest_name, fr_deg, _, _ = TABLE2_ROWS[row - 1]
     scene = forest(forest_name)
