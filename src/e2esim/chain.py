@@ -77,6 +77,8 @@ class BackscatterError:
     gaussianity : skewness, excess kurtosis, normality p-value and KS distance of the simulated errors.
     form, looks, reference : settings of the analytic model, so later modules (requirement margins,
         trade-off curves) can re-evaluate it at other error levels.
+    budget : random-error budget of the backscattering coefficient added by a later propagation module
+        (speckle, noise, temporal variability, calibration; Ahmed et al. 2014), or None.
     """
 
     sigma_hv: float
@@ -86,6 +88,7 @@ class BackscatterError:
     form: str = "complete"
     looks: int | None = None
     reference: str = "scene"
+    budget: Any = None
 
 
 @dataclass(frozen=True)

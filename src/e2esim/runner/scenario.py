@@ -36,6 +36,10 @@ DEFAULT_MODULES = {
 
 REQUIRED_SECTIONS = ("scene", "instrument")
 
+STACKABLE_SECTIONS = ("calibration", "propagation")
+"""Sections that may hold a list of modules, applied in order (e.g. Faraday-rotation correction, then
+crosstalk calibration; the polarimetric error, then the backscatter error budget)."""
+
 PLOT_TYPES = (
     "auto",
     "verdicts",
@@ -212,7 +216,11 @@ class Scenario:
             raw = config.get(section, DEFAULT_MODULES.get(section))
             if raw is None:
                 continue
-            chain.append(_build_module(section, raw, case_root.child(section), cache))
+            if isinstance(raw, list) and section in STACKABLE_SECTIONS:
+                for i, item in enumerate(raw):
+                    chain.append(_build_module(section, item, case_root.child(section).child(i), cache))
+            else:
+                chain.append(_build_module(section, raw, case_root.child(section), cache))
         reqs = config.get("requirements", [])
         if not isinstance(reqs, list):
             raise ConfigError(case_root.child("requirements"), "is not a list",
@@ -269,6 +277,12 @@ def _check_sweep_key(key: str, config: dict, chain: list, where: Location) -> No
             raise ConfigError(where, f"{key!r} does not name a requirement parameter",
                               "expected requirements.<index>.<parameter>")
         params = [m for m in chain if m.kind == "requirement"][path[1]].params
+        rest = path[2:]
+    elif isinstance(config.get(head), list):
+        if len(path) < 3 or not isinstance(path[1], int):
+            raise ConfigError(where, f"{key!r} does not name a parameter of a module in the list {head!r}",
+                              f"expected {head}.<index>.<parameter>")
+        params = [m for m in chain if m.kind == head][path[1]].params
         rest = path[2:]
     else:
         module = next(m for m in chain if m.kind == head)
@@ -412,6 +426,8 @@ def _resolved_config(raw: dict, case: CaseSpec, output: dict) -> dict:
         entry = {"type": module.type_name, **_jsonable(module.config)}
         if module.kind == "requirement":
             reqs.append(entry)
+        elif isinstance(raw.get(module.kind), list):
+            resolved.setdefault(module.kind, []).append(entry)
         else:
             resolved[module.kind] = entry
     resolved["requirements"] = reqs
