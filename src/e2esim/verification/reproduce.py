@@ -7,7 +7,7 @@ import math
 from dataclasses import asdict, dataclass
 
 from e2esim.errors import UserError
-from e2esim.verification.published import PUBLISHED, Published
+from e2esim.verification.published import Published, all_published
 
 STATUSES = ("reproduced", "discrepancy", "failed")
 
@@ -53,11 +53,12 @@ def check(entry: Published) -> CheckRecord:
 
 
 def select(sources=()) -> list:
+    published = all_published()
     if not sources:
-        return list(PUBLISHED)
-    chosen = [p for p in PUBLISHED if any(p.id == s or p.id.startswith(s.rstrip(".") + ".") for s in sources)]
+        return published
+    chosen = [p for p in published if any(p.id == s or p.id.startswith(s.rstrip(".") + ".") for s in sources)]
     if not chosen:
-        known = sorted({p.id.split(".")[0] for p in PUBLISHED})
+        known = sorted({p.id.split(".")[0] for p in published})
         raise UserError(f"no published checks match {', '.join(sources)}; sources: {', '.join(known)}")
     return chosen
 

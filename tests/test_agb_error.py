@@ -1,0 +1,61 @@
+"""Power law and relative AGB error (Men et al. 2021, eqs. 15-16 and Section V-B)."""
+
+import numpy as np
+import pytest
+from conftest import Z_ACCEPT
+
+from e2esim.errors import PhysicsInputError
+from e2esim.retrieval.agb_error import AGBError, binomial_interval, standard_normal_quantile
+from e2esim.retrieval.power_law import PowerLaw, agb_relative_error, sigma_relative_error
+
+
+def test_eq16_and_its_inverse():
+    q = np.array([-0.2, -0.1, 0.1, 0.2])
+    for p in (2.2, 1.9):
+        np.testing.assert_allclose(agb_relative_error(sigma_relative_error(q, p), p), q, rtol=1e-12)
+    law = PowerLaw(coefficient=5000.0, exponent=2.2)
+    sigma = law.sigma(200.0)
+    assert law.agb(sigma * (1 + sigma_relative_error(0.2, 2.2))) == pytest.approx(240.0)  # eq. (15)-(16)
+
+
+def test_standard_normal_quantiles_of_table3():
+    # Men et al. (2021), Section V-B / Table III: 95 %, 99 %, 99.865 % -> 1.65, 2.33, 3.00.
+    for p, z in [(0.95, 1.645), (0.99, 2.326), (0.99865, 3.000)]:
+        assert standard_normal_quantile(p) == pytest.approx(z, abs=5e-4)
+
+
+def test_non_positive_sigma_estimates_map_to_zero_agb():
+    assert agb_relative_error(-1.5, 2.2) == -1.0
+    with pytest.raises(PhysicsInputError, match="> -1"):
+        sigma_relative_error(-1.0, 2.2)
+
+
+def test_analytic_and_sampled_agb_error_agree_for_gaussian_errors(rng):
+    sigma_hv, mean, sd, p = 0.07, 1e-3, 2e-3, 2.2
+    e = mean + sd * rng.standard_normal(400_000)
+    agb = AGBError.from_sigma_errors(p, sigma_hv, mean, sd, e / sigma_hv)
+    n = e.size
+    for prob in (0.00135, 0.5, 0.99865):
+        q_an, q_mc = agb.quantile(prob, "analytic"), agb.quantile(prob, "montecarlo")
+        # quantile standard error: sqrt(P(1-P)/n) / density; density of q at q_an from the mapping
+        dens = np.exp(-0.5 * standard_normal_quantile(prob) ** 2) / np.sqrt(2 * np.pi) / (
+            sd / sigma_hv * p * (1 + (mean + standard_normal_quantile(prob) * sd) / sigma_hv) ** (p - 1))
+        assert abs(q_mc - q_an) < Z_ACCEPT * np.sqrt(prob * (1 - prob) / n) / dens
+    for bound, side in [(0.1, "over"), (0.05, "under")]:
+        pa, pm = agb.exceedance(bound, side, "analytic"), agb.exceedance(bound, side, "montecarlo")
+        assert abs(pm - pa) < Z_ACCEPT * np.sqrt(pa * (1 - pa) / n)
+    q = agb.samples
+    assert abs(agb.rmse("montecarlo") ** 2 - agb.rmse("analytic") ** 2) < Z_ACCEPT * np.std(q**2) / np.sqrt(n)
+    assert abs(agb.mean("montecarlo") - agb.mean("analytic")) < Z_ACCEPT * q.std() / np.sqrt(n)
+
+
+def test_exceedance_at_the_quantile_is_one_minus_confidence():
+    agb = AGBError.from_sigma_errors(1.9, 0.05, 5e-4, 1e-3)
+    q = agb.quantile(0.99, "analytic")
+    assert agb.exceedance(float(q), "over", "analytic") == pytest.approx(0.01, rel=1e-9)
+
+
+def test_binomial_interval_covers_the_proportion():
+    lo, hi = binomial_interval(13, 1000)
+    assert lo < 0.013 < hi and 0.006 < lo and hi < 0.023
+    assert binomial_interval(0, 100)[0] == 0.0

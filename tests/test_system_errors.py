@@ -1,0 +1,65 @@
+"""Sampling of the system errors (Men et al. 2021, Section III assumptions 1-2) and their validation."""
+
+import numpy as np
+import pytest
+from conftest import Z_ACCEPT
+
+from e2esim.errors import PhysicsInputError
+from e2esim.instrument.system_errors import SystemErrorModel
+
+
+def _check_cov(x, y, expected, n):
+    prod = x * np.conj(y)
+    assert abs(prod.mean() - expected) < Z_ACCEPT * np.sqrt(np.mean(np.abs(prod) ** 2) / n)
+
+
+def test_sampled_covariances_match_unequal_variances_and_complex_correlations(rng):
+    model = SystemErrorModel(
+        crosstalk_level=2e-3, crosstalk_relative=(1.0, 0.5, 2.0, 0.8),
+        crosstalk_rho13=0.7 * np.exp(1j), crosstalk_rho24=-0.4j,
+        imbalance_level=1e-3, imbalance_relative=(1.0, 3.0), imbalance_rho=0.6 * np.exp(-2j),
+    )
+    n = 200_000
+    s = model.sample(rng, n)
+    d, e = s.delta, s.f - 1
+    v = model.crosstalk_variance
+    for i in range(4):
+        _check_cov(d[:, i], d[:, i], v[i], n)
+    _check_cov(d[:, 0], d[:, 2], model.crosstalk_cov13, n)
+    _check_cov(d[:, 1], d[:, 3], model.crosstalk_cov24, n)
+    _check_cov(e[:, 0], e[:, 1], model.imbalance_cov12, n)
+    for i, j in [(0, 1), (0, 3), (1, 2), (2, 3)]:  # uncorrelated pairs (assumption 2)
+        _check_cov(d[:, i], d[:, j], 0.0, n)
+    _check_cov(d[:, 0], e[:, 0], 0.0, n)
+    # circular: pseudo-covariance E[d^2] = 0
+    _check_cov(d[:, 0], np.conj(d[:, 0]), 0.0, n)
+    np.testing.assert_array_equal(s.gain, 1.0)
+
+
+def test_gain_error_is_lognormal_in_power(rng):
+    model = SystemErrorModel(gain_offset_db=0.3, gain_sd_db=0.5)
+    g2 = model.sample(rng, 200_000).gain ** 2
+    m1, m2 = model.gain_power_moments
+    assert abs(g2.mean() - m1) < Z_ACCEPT * g2.std() / np.sqrt(g2.size)
+    assert abs(np.mean(g2**2) - m2) < Z_ACCEPT * np.std(g2**2) / np.sqrt(g2.size)
+
+
+@pytest.mark.parametrize(
+    "kwargs, message",
+    [
+        (dict(crosstalk_rho13=1.2), "crosstalk_rho13: correlation coefficient magnitude 1.2 is above 1"),
+        (dict(crosstalk_level=-1.0), "must be finite and >= 0"),
+        (dict(imbalance_relative=(1.0,)), "2 relative channel-imbalance variances"),
+        (dict(gain_sd_db=-0.1), "must be finite and >= 0"),
+    ],
+)
+def test_invalid_statistics_are_rejected(kwargs, message):
+    with pytest.raises(PhysicsInputError, match=message):
+        SystemErrorModel(**kwargs)
+
+
+def test_with_levels_keeps_structure():
+    model = SystemErrorModel(crosstalk_level=1e-3, crosstalk_rho13=0.5j, imbalance_level=2e-4)
+    scaled = model.with_levels(crosstalk=4e-3)
+    assert scaled.crosstalk_cov13 == pytest.approx(4 * model.crosstalk_cov13)
+    assert scaled.imbalance_level == model.imbalance_level

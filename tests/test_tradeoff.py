@@ -1,0 +1,103 @@
+"""Trade-off curves (Men et al. 2021, eq. 19 and Appendix B): root finding against the closed-form conic."""
+
+import numpy as np
+import pytest
+
+from e2esim.crosspol.analytic import hv_error_moments
+from e2esim.crosspol.tradeoff import AGBRequirement, ConicTradeoff, axis_limits, first_failing_level, tradeoff_curve
+from e2esim.errors import PhysicsInputError
+from e2esim.faraday.distribution import ConstantFaraday, GaussianFaraday
+from e2esim.retrieval.power_law import BIOME_EXPONENTS
+from e2esim.units import variance_from_level_db
+from helpers import forest, system
+
+FORESTS = ["boreal_50", "boreal_200", "boreal_350", "tropical_338", "tropical_341"]
+
+
+def _setup(name):
+    scene = forest(name)
+    return scene, ConstantFaraday(np.pi / 3 if scene.biome == "boreal" else 0.0), BIOME_EXPONENTS[scene.biome]
+
+
+@pytest.mark.parametrize("name", FORESTS)
+@pytest.mark.parametrize("side", ["over", "under"])
+@pytest.mark.parametrize("confidence", [0.95, 0.99865])
+def test_conic_and_root_finding_agree(name, side, confidence):
+    scene, fr, p = _setup(name)
+    req = AGBRequirement(0.2, confidence, side, p)
+    x = variance_from_level_db(np.linspace(-50, -12, 60), "three_sigma_amplitude")
+    by_roots = tradeoff_curve(req, scene, system(), fr, x, form="paper")
+    conic = ConicTradeoff.from_moments(req, scene, system(), fr)
+    closed = conic.imbalance_for_crosstalk(x)
+    finite = np.isfinite(by_roots)
+    assert finite.sum() > 10
+    np.testing.assert_array_equal(finite, np.isfinite(closed))
+    np.testing.assert_allclose(by_roots[finite], closed[finite], rtol=1e-8)
+    # points of the curve satisfy the standard form (B7) with the corrected B1, B2 (errata E8)
+    np.testing.assert_allclose(conic.standard_form_residual(closed[finite], x[finite]), 0.0, atol=1e-8)
+    # and on the curve the requirement holds with equality (eq. 19)
+    m = hv_error_moments(scene, system(), fr, "paper", crosstalk_level=x[finite], imbalance_level=closed[finite])
+    np.testing.assert_allclose(req.violation(m.mean, m.sd, scene.sigma_hv) / scene.sigma_hv, 0.0, atol=1e-9)
+
+
+def test_the_conic_is_an_ellipse_at_high_confidence_and_can_be_a_hyperbola():
+    # docs/errata.md E8: Appendix B says "hyperbola"; the type depends on the case.
+    kinds = {}
+    for name in FORESTS:
+        scene, fr, p = _setup(name)
+        for conf in (0.95, 0.99, 0.99865):
+            conic = ConicTradeoff.from_moments(AGBRequirement(0.2, conf, "over", p), scene, system(), fr)
+            kinds[(name, conf)] = conic.standard_form["kind"]
+    assert all(kinds[(n, c)] == "ellipse" for n in FORESTS for c in (0.99, 0.99865))
+    assert kinds[("tropical_338", 0.95)] == "hyperbola"
+
+
+def test_overestimation_curve_decreases_with_crosstalk():
+    scene, fr, p = _setup("boreal_200")
+    x = variance_from_level_db(np.linspace(-45, -21, 40), "three_sigma_amplitude")
+    y = tradeoff_curve(AGBRequirement(0.2, 0.99865, "over", p), scene, system(), fr, x, form="complete")
+    assert np.all(np.diff(y[np.isfinite(y)]) < 0)
+
+
+def test_tighter_requirements_need_smaller_errors():
+    # Section V-B point 2: tighter confidence, smaller permissible errors; point 3: channel imbalance must be
+    # much smaller than crosstalk.
+    scene, fr, p = _setup("boreal_200")
+    limits = [axis_limits(AGBRequirement(b, c, "over", p), scene, system(), fr, "paper")
+              for b, c in [(0.2, 0.95), (0.2, 0.99865), (0.1, 0.99865)]]
+    assert limits[0]["imbalance_limit"] > limits[1]["imbalance_limit"] > limits[2]["imbalance_limit"]
+    assert limits[0]["crosstalk_limit"] > limits[1]["crosstalk_limit"] > limits[2]["crosstalk_limit"]
+    assert all(lim["crosstalk_limit"] > 3 * lim["imbalance_limit"] for lim in limits)  # 6 to 13 dB apart
+
+
+def test_underestimation_is_less_demanding_than_overestimation():
+    # Section III-D and V-B: constraining overestimation also bounds underestimation.
+    for name in FORESTS:
+        scene, fr, p = _setup(name)
+        over = axis_limits(AGBRequirement(0.2, 0.99865, "over", p), scene, system(), fr, "paper")
+        under = axis_limits(AGBRequirement(0.2, 0.99865, "under", p), scene, system(), fr, "paper")
+        assert under["imbalance_limit"] > over["imbalance_limit"]
+
+
+def test_first_failing_level_edge_cases():
+    assert first_failing_level(lambda v: v - 1e-4) == pytest.approx(1e-4, rel=1e-9)
+    assert np.isnan(first_failing_level(lambda v: np.ones_like(v)))  # fails at any level
+    assert first_failing_level(lambda v: -np.ones_like(v)) == np.inf  # never fails
+
+
+def test_conic_refuses_gain_errors_and_requirement_validates():
+    scene, fr, p = _setup("boreal_200")
+    with pytest.raises(PhysicsInputError, match="no gain error"):
+        ConicTradeoff.from_moments(AGBRequirement(0.2, 0.99, "over", p), scene, system(gain_sd_db=0.1), fr)
+    with pytest.raises(PhysicsInputError, match="side must be one of"):
+        AGBRequirement(0.2, 0.99, "sideways", p)
+    with pytest.raises(PhysicsInputError, match="confidence must be between"):
+        AGBRequirement(0.2, 1.2, "over", p)
+
+
+def test_random_faraday_rotation_tightens_the_crosstalk_limit():
+    scene, _, p = _setup("boreal_350")
+    req = AGBRequirement(0.2, 0.99865, "over", p)
+    fixed = axis_limits(req, scene, system(), ConstantFaraday(np.pi / 3), "complete")["crosstalk_limit"]
+    spread = axis_limits(req, scene, system(), GaussianFaraday(np.pi / 3, np.radians(20)), "complete")["crosstalk_limit"]
+    assert spread < fixed
