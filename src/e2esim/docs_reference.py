@@ -111,6 +111,7 @@ def render() -> str:
         "    - {scene.forest: tropical_338, ionosphere.mean_deg: 0}",
         "```",
         "",
+        "A key written as `\"a.b, c.d\": [[a1, c1], [a2, c2]]` varies two keys together (one grid axis). "
         "A key that names no parameter of the module in use is an error.",
         "",
         *_table(SWEEP_PARAMS),

@@ -51,7 +51,12 @@ class Location:
 
     def describe(self) -> str:
         line = self.line()
-        where = f"{self.source}:{line}" if line is not None else self.source
+        if isinstance(line, int):
+            where = f"{self.source}:{line}"
+        elif line is not None:  # a value that came from the command line or a sweep case
+            where = f"{self.source} ({line})"
+        else:
+            where = self.source
         return f"{where}: {self.dotted}" if self.key_path else where
 
 

@@ -25,7 +25,7 @@ _DPI = 110
 def _save(fig, folder: Path, name: str) -> str:
     path = folder / f"{name}.png"
     with atomic_path(path) as tmp:
-        fig.savefig(tmp, dpi=_DPI, bbox_inches="tight", format="png")
+        fig.savefig(tmp, dpi=_DPI, format="png")  # layout done by tight_layout
     plt.close(fig)
     return path.name
 
@@ -34,7 +34,8 @@ def numeric_sweep_keys(result) -> list:
     keys = []
     for key in result.scenario.sweep_keys:
         values = [c.inputs.get(key) for c in result.cases]
-        if all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in values) and len(set(values)) > 1:
+        numeric = all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in values)
+        if numeric and len(set(values)) >= 3:  # a line against x needs at least three x values
             keys.append(key)
     return keys
 

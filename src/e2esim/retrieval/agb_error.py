@@ -22,7 +22,7 @@ _HERMITE_WEIGHTS = _HERMITE_WEIGHTS / np.sqrt(2 * np.pi)  # probabilists' Hermit
 
 def standard_normal_quantile(probability):
     """z with P(Z <= z) = probability (e.g. 0.99865 -> 3.00, Men et al. 2021, Table III)."""
-    return stats.norm.ppf(probability)
+    return special.ndtri(probability)
 
 
 @dataclass(frozen=True)

@@ -181,6 +181,10 @@ class Scenario:
                 raise ConfigError(root.child(key), f"{self.raw[key]!r} is not text", "expected a string")
         output = validate_section(OUTPUT_PARAMS, self.raw.get("output"), root.child("output"))
         case_inputs, sweep_keys = expand_sweep(self.raw.get("sweep"), root.child("sweep"))
+        for key in ("plot_x", "plot_group_by"):
+            if output[key] is not None and output[key] not in sweep_keys:
+                raise ConfigError(root.child("output").child(key), f"{output[key]!r} is not a sweep key",
+                                  "sweep keys: " + (", ".join(sweep_keys) or "none (no sweep)"))
         cache: dict = {}
         cases = []
         for index, inputs in enumerate(case_inputs):

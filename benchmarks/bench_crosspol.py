@@ -1,0 +1,90 @@
+"""Speed of the cross-polarised error computations (issue "Cross-polarised backscatter error").
+
+Prints, in one run:
+1. the fast exact Monte Carlo at the paper's sizes (L = 100000, M = 10000, N = 1) for each Table II case,
+   and the brute-force pixel-level reference timed on a subset and scaled to the same sizes, with the ratio;
+2. the whole ``e2esim reproduce men2021``;
+3. one trade-off curve of 200 points: closed-form conic (Appendix B) and vectorised root finding.
+Targets (one core): < 0.1 s per Monte Carlo case, < 10 s for reproduce, < 10 ms per curve.
+Run with ``make benchmark`` or ``python benchmarks/bench_crosspol.py`` (add ``--quick`` for a smoke run).
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+import time
+
+os.environ.setdefault("OMP_NUM_THREADS", "1")  # one core, as the targets say
+
+import numpy as np  # noqa: E402
+
+from e2esim.crosspol.montecarlo import simulate  # noqa: E402
+from e2esim.crosspol.tradeoff import AGBRequirement, ConicTradeoff, tradeoff_curve  # noqa: E402
+from e2esim.faraday.distribution import ConstantFaraday, GaussianFaraday  # noqa: E402
+from e2esim.units import variance_from_level_db  # noqa: E402
+from e2esim.verification.men2021 import FIG1_FR, forest, system  # noqa: E402
+from e2esim.verification.men2021_values import TABLE2_ROWS  # noqa: E402
+from e2esim.verification.reproduce import run_checks  # noqa: E402
+
+PAPER = dict(looks=100_000, realisations=10_000, noise_realisations=1)
+
+
+def best_of(fn, repeats=3):
+    times = []
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        fn()
+        times.append(time.perf_counter() - t0)
+    return min(times)
+
+
+def main(quick: bool = False) -> None:
+    rng = np.random.default_rng(0)
+    print("1. Monte Carlo at the paper's sizes, L = 1e5, M = 1e4, N = 1 (Table II cases)")
+    brute_sizes = dict(looks=2_000 if quick else 10_000, realisations=50 if quick else 200, noise_realisations=1)
+    brute_units = brute_sizes["looks"] * brute_sizes["realisations"]
+    paper_units = PAPER["looks"] * PAPER["realisations"] * PAPER["noise_realisations"]
+    fast_times, brute_times = [], []
+    rows = TABLE2_ROWS[:2] if quick else TABLE2_ROWS
+    for i, (xt, ci, name, fr_deg, _, _) in enumerate(rows, start=1):
+        scene, sys_model = forest(name), system(xt, ci)
+        fr = GaussianFaraday(np.radians(fr_deg), FIG1_FR.sd)
+        t_fast = best_of(lambda: simulate(scene, sys_model, fr, rng, **PAPER))
+        t_sub = best_of(lambda: simulate(scene, sys_model, fr, rng, method="brute_force", **brute_sizes), repeats=1)
+        t_brute = t_sub * paper_units / brute_units
+        fast_times.append(t_fast)
+        brute_times.append(t_brute)
+        print(f"   row {i:2d} {name:13s}: fast {t_fast * 1e3:7.1f} ms   brute force {t_brute:7.1f} s "
+              f"(timed at L={brute_sizes['looks']}, M={brute_sizes['realisations']}, scaled)   "
+              f"ratio {t_brute / t_fast:8.0f}x")
+    print(f"   fast: mean {np.mean(fast_times) * 1e3:.1f} ms per case (target < 100 ms); "
+          f"brute force: mean {np.mean(brute_times) / 60:.1f} min per case; "
+          f"speed-up {np.mean(brute_times) / np.mean(fast_times):.0f}x")
+
+    print("2. e2esim reproduce men2021")
+    t0 = time.perf_counter()
+    records = run_checks(["men2021"])
+    t_rep = time.perf_counter() - t0
+    print(f"   {len(records)} checks in {t_rep:.2f} s (target < 10 s)")
+
+    print("3. One trade-off curve of 200 points (boreal 200 t/ha, 99.865 %, +20 % AGB)")
+    scene = forest("boreal_200")
+    req = AGBRequirement(0.2, 0.99865, "over", 2.2)
+    fr = ConstantFaraday(np.pi / 3)
+    x = variance_from_level_db(np.linspace(-50, -15, 200), "three_sigma_amplitude")
+
+    def conic():
+        ConicTradeoff.from_moments(req, scene, system(-30, -34), fr).imbalance_for_crosstalk(x)
+
+    t_conic = best_of(conic, 5)
+    t_root = best_of(lambda: tradeoff_curve(req, scene, system(-30, -34), fr, x, form="paper"), 3)
+    t_root_c = best_of(lambda: tradeoff_curve(req, scene, system(-30, -34), GaussianFaraday(np.pi / 3, 0.1), x,
+                                              form="complete"), 1)
+    print(f"   closed-form conic (paper form): {t_conic * 1e3:.2f} ms (target < 10 ms)")
+    print(f"   root finding, paper form: {t_root * 1e3:.1f} ms ({t_root / t_conic:.0f}x the conic); "
+          f"complete form with Faraday-rotation spread: {t_root_c * 1e3:.1f} ms")
+
+
+if __name__ == "__main__":
+    main(quick="--quick" in sys.argv)

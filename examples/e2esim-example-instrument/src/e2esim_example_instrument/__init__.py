@@ -1,0 +1,1 @@
+"""Example e2esim plug-in: an L-band SAR instrument."""

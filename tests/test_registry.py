@@ -1,0 +1,31 @@
+"""The module registry: entry points, direct class paths, errors that list the valid names."""
+
+import pytest
+
+from e2esim import registry
+from e2esim.errors import ModuleLookupError
+from e2esim.module import KINDS
+
+
+def test_builtins_register_through_the_entry_point_group():
+    regs = registry.available()
+    assert {r.kind for r in regs} >= {"scene", "instrument", "ionosphere", "propagation", "retrieval", "requirement"}
+    assert all(r.distribution.lower() == "e2esim" for r in regs if r.cls.__module__.startswith("e2esim."))
+    assert registry.lookup("instrument", "biomass").__name__ == "BiomassInstrument"
+    assert [r.kind for r in regs] == sorted((r.kind for r in regs), key=KINDS.index)
+
+
+def test_unknown_type_lists_the_valid_names():
+    with pytest.raises(ModuleLookupError, match="unknown scene type 'forest'; registered scene types: covariance"):
+        registry.lookup("scene", "forest")
+
+
+def test_package_module_class_syntax():
+    cls = registry.lookup("scene", "e2esim.scene.modules:Table1ForestScene")
+    assert cls.type_name == "table1_forest"
+    with pytest.raises(ModuleLookupError, match="is a scene module, not a instrument module"):
+        registry.lookup("instrument", "e2esim.scene.modules:Table1ForestScene")
+    with pytest.raises(ModuleLookupError, match="cannot import"):
+        registry.lookup("scene", "e2esim.nowhere:Thing")
+    with pytest.raises(ModuleLookupError, match="not an e2esim Module subclass"):
+        registry.lookup("scene", "e2esim.scene.covariance:ScatteringCovariance")

@@ -1,0 +1,59 @@
+"""``e2esim reproduce``: every published id is present with the expected status."""
+
+import json
+
+import pytest
+
+from e2esim.cli import main
+from e2esim.verification.published import all_published
+from e2esim.verification.reproduce import STATUSES, check
+
+MEN2021_IDS = (
+    [f"men2021.eq16.f_{s}_{b}pct_{f}" for b in (20, 10) for f in ("boreal", "tropical") for s in ("over", "under")]
+    + ["men2021.fig1.system_bias_lower", "men2021.fig1.system_bias_upper",
+       "men2021.fig5.channel_imbalance_limit_db", "men2021.fig6.crosstalk_limit_db"]
+    + [f"men2021.table2.row{i:02d}.{w}_rel_diff" for i in range(1, 11) for w in ("bias", "var")]
+)
+KNOWN_DISCREPANCIES = {"men2021.fig1.system_bias_lower", "men2021.fig5.channel_imbalance_limit_db"}
+
+
+@pytest.fixture(scope="module")
+def records(tmp_path_factory):
+    return {p.id: check(p) for p in all_published()}
+
+
+def test_every_required_id_is_present(records):
+    assert set(MEN2021_IDS) <= set(records)
+
+
+@pytest.mark.parametrize("id_", MEN2021_IDS)
+def test_status_is_reproduced_or_an_explained_discrepancy(records, id_):
+    r = records[id_]
+    assert r.status in STATUSES
+    if id_ in KNOWN_DISCREPANCIES:
+        assert r.status == "discrepancy" and "errata" in r.note
+    else:
+        assert r.status == "reproduced", r.note
+
+
+def test_discrepancies_are_in_the_errata(records):
+    from pathlib import Path
+
+    errata = (Path(__file__).resolve().parents[1] / "docs" / "errata.md").read_text()
+    for r in records.values():
+        if r.status == "discrepancy":
+            assert "docs/errata.md" in r.note or "errata" in r.note
+    assert "1.431" in errata and "−30.02" in errata
+
+
+def test_reproduce_json_records_have_the_required_fields(capsys):
+    assert main(["reproduce", "men2021", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert {r["id"] for r in out} >= set(MEN2021_IDS)
+    for r in out:
+        assert set(r) == {"id", "quantity", "published", "computed", "tolerance", "status", "citation", "note"}
+
+
+def test_unknown_source_is_a_user_error(capsys):
+    assert main(["reproduce", "smith1999"]) == 2
+    assert "no published checks match smith1999" in capsys.readouterr().err
