@@ -63,7 +63,7 @@ def plot_verdicts(result, folder: Path, options: dict) -> list:
     if not names:
         return []
     n = len(result.cases)
-    fig, axes = plt.subplots(len(names), 1, figsize=(8, 1.2 + 0.22 * min(n, 60) * len(names) + 0.6), squeeze=False)
+    fig, axes = plt.subplots(len(names), 1, figsize=(8, len(names) * (1.1 + 0.22 * min(n, 60))), squeeze=False)
     for j, (ax, name) in enumerate(zip(axes[:, 0], names)):
         margins = np.array([c.state.verdicts[j].margin for c in result.cases])
         passed = np.array([c.state.verdicts[j].passed for c in result.cases])

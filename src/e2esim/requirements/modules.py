@@ -10,7 +10,13 @@ from __future__ import annotations
 import numpy as np
 
 from e2esim.chain import RequirementVerdict
-from e2esim.crosspol.tradeoff import AGBRequirement, first_failing_level, requirement_violation, tradeoff_curve
+from e2esim.crosspol.tradeoff import (
+    AGBRequirement,
+    axis_limits,
+    first_failing_level,
+    requirement_violation,
+    tradeoff_curve,
+)
 from e2esim.errors import ConfigError
 from e2esim.module import Module
 from e2esim.params import Param
@@ -52,8 +58,8 @@ class AGBErrorBound(Module):
         Param("level_margins", "bool",
               "find by root finding how far crosstalk, channel imbalance and NESZ may degrade before the "
               "verdict flips (analytic model)", default=False),
-        Param("tradeoff_curve", "bool", "trace the crosstalk/channel-imbalance trade-off curve (eq. 19)",
-              default=False),
+        Param("tradeoff_curve", "bool", "trace the crosstalk/channel-imbalance trade-off curve (eq. 19) and "
+              "report where it meets the axes", default=False),
         Param("curve_crosstalk_db", "float", "crosstalk range of the trade-off curve, in the instrument's "
               "level convention", default=(-50.0, -10.0), unit="dB", length=2, minimum=-200.0, maximum=0.0),
         Param("curve_points", "int", "points on the trade-off curve", default=121, minimum=2, maximum=100000),
@@ -94,6 +100,7 @@ class AGBErrorBound(Module):
                 details.update(_level_margins(reqs, state))
             if c["tradeoff_curve"]:
                 verdict_curves = _tradeoff_curves(reqs, state, c["curve_crosstalk_db"], c["curve_points"])
+                details.update(_axis_crossings(reqs, state))
         return state.with_(
             verdicts=state.verdicts
             + (
@@ -125,8 +132,7 @@ def _level_margins(reqs, state) -> dict:
     fails at any level, +inf if it never fails); ``<source>.margin_db = limit_db - current level``.
     """
     args = _analytic_args(state)
-    sysm, inst = state.system, state.instrument
-    conv = inst.convention if inst is not None and inst.convention != "mixed" else "variance"
+    sysm, conv = state.system, _convention(state)
     sources = {
         "crosstalk": ("crosstalk_level", sysm.crosstalk_level, conv),
         "channel_imbalance": ("imbalance_level", sysm.imbalance_level, conv),
@@ -147,9 +153,27 @@ def _level_margins(reqs, state) -> dict:
     return out
 
 
-def _tradeoff_curves(reqs, state, crosstalk_db_range, points) -> dict:
+def _axis_crossings(reqs, state) -> dict:
+    """Where each trade-off curve meets the axes (Men et al. 2021, Section V-B points 3 and 6), in dB:
+    the largest channel imbalance with no crosstalk and the largest crosstalk with no channel imbalance."""
+    conv = _convention(state)
+    args = {k: v for k, v in _analytic_args(state).items() if k in ("form", "looks", "reference")}
+    out = {}
+    for req in reqs:
+        limits = axis_limits(req, state.scene, state.system, state.faraday, **args)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            out[f"{req.side}.imbalance_axis_db"] = float(level_db_from_variance(limits["imbalance_limit"], conv))
+            out[f"{req.side}.crosstalk_axis_db"] = float(level_db_from_variance(limits["crosstalk_limit"], conv))
+    return out
+
+
+def _convention(state) -> str:
     inst = state.instrument
-    conv = inst.convention if inst is not None and inst.convention != "mixed" else "variance"
+    return inst.convention if inst is not None and inst.convention != "mixed" else "variance"
+
+
+def _tradeoff_curves(reqs, state, crosstalk_db_range, points) -> dict:
+    conv = _convention(state)
     x_db = np.linspace(*crosstalk_db_range, points)
     x = variance_from_level_db(x_db, conv)
     curves = {"crosstalk_db": x_db}
