@@ -7,7 +7,8 @@ a copy with its field filled (``dataclasses.replace``), like hcipy's ``Wavefront
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field, replace
+import copy
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -146,4 +147,13 @@ class CaseState:
     verdicts: tuple = ()
 
     def with_(self, **changes) -> "CaseState":
-        return replace(self, **changes)
+        """A copy with some fields changed (cheaper than dataclasses.replace: no re-validation to do)."""
+        new = copy.copy(self)
+        for name, value in changes.items():
+            if name not in _CASE_STATE_FIELDS:
+                raise TypeError(f"CaseState has no field {name!r}")
+            object.__setattr__(new, name, value)
+        return new
+
+
+_CASE_STATE_FIELDS = frozenset(CaseState.__dataclass_fields__)

@@ -43,6 +43,12 @@ def build_parser() -> argparse.ArgumentParser:
                      help="override a scenario value by dotted key, e.g. instrument.nesz_db=-30 (repeatable)")
     run.add_argument("--json", action="store_true", help="also print summary.json to stdout")
     run.add_argument("--no-progress", action="store_true", help="no progress bar")
+    run.add_argument("--workers", type=int, default=1, metavar="N",
+                     help="run sweep cases on N local processes (same numbers as a serial run)")
+    run.add_argument("--scheduler", metavar="ADDRESS",
+                     help="run sweep cases on the dask.distributed cluster at ADDRESS (e.g. tcp://host:8786)")
+    run.add_argument("--resume", action="store_true",
+                     help="continue an interrupted run in the output folder without recomputing finished cases")
 
     val = sub.add_parser("validate", help="check a scenario completely without running it",
                          description="Read and check a scenario: every section, key, value, module type and sweep "
@@ -89,14 +95,27 @@ def cmd_run(args) -> int:
     from e2esim.report.markdown import verdict_lines
     from e2esim.io.summary import summary_json
     from e2esim.runner.outputs import output_folder, prepare_folder, write_outputs
+    from e2esim.runner.journal import Journal
     from e2esim.runner.run import run_scenario
     from e2esim.runner.scenario import Scenario
 
+    if args.workers < 1:
+        raise UserError(f"--workers {args.workers}: expected a number of processes >= 1")
     resolved = Scenario.load(args.scenario, args.overrides).resolve()
     folder = output_folder(resolved, args.output)
-    prepare_folder(folder, args.force)
-    result = run_scenario(resolved, progress=not args.no_progress, command=" ".join(["e2esim"] + sys.argv[1:]))
+    prepare_folder(folder, args.force, args.resume)
+    journal = Journal(folder, resolved)
+    finished = journal.start(resume=args.resume)
+    try:
+        result = run_scenario(resolved, progress=not args.no_progress, command=" ".join(["e2esim"] + sys.argv[1:]),
+                              workers=args.workers, scheduler=args.scheduler, journal=journal, finished=finished)
+    except KeyboardInterrupt:
+        done = len(list(journal.path.glob("case*.pkl")))
+        print(f"e2esim: interrupted; {done} of {len(resolved.cases)} cases are saved in {journal.path}; "
+              "run the same command with --resume to finish", file=sys.stderr)
+        return 130
     write_outputs(result, folder)
+    journal.remove()
     out = sys.stderr if args.json else sys.stdout
     print(f"{resolved.name}: {len(result.cases)} case(s); outputs in {folder}/", file=out)
     for line in verdict_lines(result) or ["(no requirements stated)"]:

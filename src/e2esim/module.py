@@ -99,8 +99,16 @@ class Module(ABC):
         return f"{type(self).__name__}({args})"
 
     def __reduce__(self):
-        return (_rebuild, (type(self), self.config))
+        # Pickle the built module as it is (configuration, location and the physics objects ``setup``
+        # made), so a worker process or a dask worker gets exactly this module without re-reading files.
+        state = dict(self.__dict__)
+        if "location" in state:  # the line-number table can be large and is only for messages
+            loc = state["location"]
+            state["location"] = Location(loc.source, loc.key_path)
+        return (_restore, (type(self), state))
 
 
-def _rebuild(cls, config):
-    return cls(**config)
+def _restore(cls, state):
+    obj = cls.__new__(cls)
+    obj.__dict__.update(state)
+    return obj

@@ -116,19 +116,17 @@ def hv_error_moments(
         np.asarray(system.imbalance_level if imbalance_level is None else imbalance_level, float),
         np.asarray(system.noise_power if noise_power is None else noise_power, float),
     )
-    unit = system.with_levels(crosstalk=1.0, imbalance=1.0)  # the structure; levels come from xs, es
-    v = np.asarray(unit.crosstalk_variance)
-    ve = np.asarray(unit.imbalance_variance)
+    v, c13, c24, ve, ce12 = system.unit_structure  # the correlation structure; levels come from xs, es
 
     if form == "paper":
         trig = faraday.trig_moments()
-        args = _scaled_errors(unit, v, ve, xs, es)
+        args = _scaled_errors(v, c13, c24, ve, ce12, xs, es)
         parts = _conditional_parts(terms, trig, *args, complete=False)
         spread = np.zeros(xs.shape)
     else:
         nodes, weights = faraday.quadrature()
         trig = trig_at(nodes)  # arrays over the node axis, which is last
-        args = _scaled_errors(unit, v, ve, xs[..., None], es[..., None])
+        args = _scaled_errors(v, c13, c24, ve, ce12, xs[..., None], es[..., None])
         node_parts = _conditional_parts(terms, trig, *args, complete=True)
         parts = {k: np.sum(x * weights, axis=-1) for k, x in node_parts.items()}
         mean_at_node = node_parts["bias_imbalance"] + node_parts["bias_crosstalk"] + node_parts["bias_higher_order"]
@@ -183,14 +181,8 @@ def hv_error_moments(
     )
 
 
-def _scaled_errors(system: SystemErrorModel, v, ve, xs, es):
-    return (
-        v * xs[..., None],
-        system.crosstalk_cov13 * xs,
-        system.crosstalk_cov24 * xs,
-        ve * es[..., None],
-        system.imbalance_cov12 * es,
-    )
+def _scaled_errors(v, c13, c24, ve, ce12, xs, es):
+    return v * xs[..., None], c13 * xs, c24 * xs, ve * es[..., None], ce12 * es
 
 
 def _conditional_parts(terms, trig, v, c13, c24, ve, ce12, complete: bool) -> dict:

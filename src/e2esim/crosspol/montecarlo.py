@@ -22,7 +22,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import stats
 
 from e2esim.faraday.distribution import FaradayDistribution
 from e2esim.instrument.system_errors import SystemErrorModel
@@ -188,6 +187,8 @@ def gaussianity(errors: np.ndarray) -> dict:
     Returns the sample skewness and excess kurtosis, the D'Agostino-Pearson K^2 p-value, and the
     Kolmogorov-Smirnov distance to the Gaussian with the sample mean and SD.
     """
+    from scipy import stats  # imported here: scipy.stats costs a second at start-up
+
     x = np.asarray(errors, dtype=float).ravel()
     mu, sd = x.mean(), x.std(ddof=1)
     result = {

@@ -12,6 +12,7 @@ Omega is a circular variable" does not apply to these moments (docs/errata.md).
 
 from __future__ import annotations
 
+import functools
 from abc import ABC, abstractmethod
 from dataclasses import dataclass, field
 
@@ -22,6 +23,14 @@ from e2esim.errors import PhysicsInputError
 QUADRATURE_DEGREE = 8
 """Highest harmonic in Omega of any quantity averaged over Faraday rotation (the second-order variance
 contains products of four of cos^2, sin^2, cos sin, i.e. harmonics up to 8 Omega)."""
+
+
+@functools.lru_cache(maxsize=256)
+def _cached_quadrature(dist: "FaradayDistribution", degree: int):
+    nodes, weights = dist._quadrature(degree)
+    nodes.setflags(write=False)
+    weights.setflags(write=False)
+    return nodes, weights
 
 
 class FaradayDistribution(ABC):
@@ -68,7 +77,12 @@ class FaradayDistribution(ABC):
         with equally spaced nodes ``Omega_g = 2 pi g / G``, ``G = 2 degree + 1``, and weights
         ``w_g = (1/G) sum_{|k| <= degree} phi_k exp(-i k Omega_g)``: the discrete Fourier transform of h
         is exact for G > 2 degree, and ``E[exp(i m Omega)] = phi_m``. Weights can be negative.
+        Cached per distribution (the arrays are read-only).
         """
+        return _cached_quadrature(self, degree)
+
+    def _quadrature(self, degree: int) -> tuple[np.ndarray, np.ndarray]:
+        """Uncached ``quadrature``."""
         n_nodes = 2 * degree + 1
         nodes = 2 * np.pi * np.arange(n_nodes) / n_nodes
         k = np.arange(1, degree + 1)

@@ -9,6 +9,7 @@ Variances and covariances here may take any values (unequal variances, complex c
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -105,6 +106,14 @@ class SystemErrorModel:
     def imbalance_cov12(self) -> complex:
         v = self.imbalance_variance
         return self.imbalance_rho * np.sqrt(v[0] * v[1])
+
+    @functools.cached_property
+    def unit_structure(self) -> tuple:
+        """(V_i, C_13, C_24, V_eps_i, C_eps12) for unit levels V_delta = V_eps = 1: the correlation
+        structure alone, which the analytic kernels scale by any levels."""
+        unit = self.with_levels(crosstalk=1.0, imbalance=1.0)
+        return (np.asarray(unit.crosstalk_variance), unit.crosstalk_cov13, unit.crosstalk_cov24,
+                np.asarray(unit.imbalance_variance), unit.imbalance_cov12)
 
     def with_levels(self, crosstalk=None, imbalance=None, noise_power=None) -> "SystemErrorModel":
         """Same structure with other levels (variances) or noise power."""

@@ -12,16 +12,21 @@ from pathlib import Path
 
 
 @contextlib.contextmanager
-def atomic_path(target: str | Path):
-    """Yield a temporary path in the target's folder; on success rename it to ``target``."""
+def atomic_path(target: str | Path, durable: bool = True):
+    """Yield a temporary path in the target's folder; on success rename it to ``target``.
+
+    durable : flush the file to disk before the rename (fsync), so it also survives a power cut; the rename
+        alone already guarantees that a killed process leaves no partial file.
+    """
     target = Path(target)
     target.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent)
     os.close(fd)
     try:
         yield Path(tmp)
-        with open(tmp, "rb+") as fh:
-            os.fsync(fh.fileno())
+        if durable:
+            with open(tmp, "rb+") as fh:
+                os.fsync(fh.fileno())
         os.chmod(tmp, 0o666 & ~_umask())  # mkstemp makes 0600; give the usual permissions
         os.replace(tmp, target)
     except BaseException:

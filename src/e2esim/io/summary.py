@@ -54,8 +54,12 @@ def summary_dict(result) -> dict:
     })
 
 
+_INDENT_UP_TO_CASES = 500  # larger sweeps are written compact: the indenting encoder is ten times slower
+
+
 def summary_json(result) -> str:
-    return json.dumps(summary_dict(result), indent=2, allow_nan=False)
+    indent = 2 if len(result.cases) <= _INDENT_UP_TO_CASES else None
+    return json.dumps(summary_dict(result), indent=indent, allow_nan=False)
 
 
 def write_summary(result, path) -> None:
@@ -63,6 +67,8 @@ def write_summary(result, path) -> None:
 
 
 def _clean(value):
+    if type(value) is float:  # the common case first
+        return value if math.isfinite(value) else None
     if isinstance(value, dict):
         return {str(k): _clean(v) for k, v in value.items()}
     if isinstance(value, (list, tuple)):

@@ -12,7 +12,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import special, stats
+from scipy import special
 
 from e2esim.retrieval.power_law import agb_relative_error, sigma_relative_error
 
@@ -89,6 +89,8 @@ class AGBError:
 
 def binomial_interval(successes: int, trials: int, confidence: float = 0.95) -> tuple[float, float]:
     """Clopper-Pearson interval for a proportion (exceedance probability from Monte Carlo counts)."""
+    from scipy import stats  # imported here: scipy.stats costs a second at start-up
+
     alpha = 1 - confidence
     lo = stats.beta.ppf(alpha / 2, successes, trials - successes + 1) if successes > 0 else 0.0
     hi = stats.beta.ppf(1 - alpha / 2, successes + 1, trials - successes) if successes < trials else 1.0

@@ -22,11 +22,22 @@ def output_folder(resolved, override: str | None) -> Path:
     return Path("runs") / Path(resolved.source).stem
 
 
-def prepare_folder(folder: Path, force: bool) -> None:
-    """Refuse to write into an existing non-empty folder unless ``force``; create it otherwise."""
+def prepare_folder(folder: Path, force: bool, resume: bool = False) -> None:
+    """Refuse to write into an existing non-empty folder unless ``force`` (or ``resume``, which continues
+    an interrupted run there); create it otherwise. ``force`` discards an interrupted run."""
+    from e2esim.runner.journal import JOURNAL
+
     if folder.exists() and not folder.is_dir():
         raise OutputExistsError(f"{folder}: exists and is not a folder")
-    if folder.exists() and any(folder.iterdir()) and not force:
+    if force and (folder / JOURNAL).exists():
+        import shutil
+
+        shutil.rmtree(folder / JOURNAL)
+    if (folder / JOURNAL).exists() and not (force or resume):
+        done = len(list((folder / JOURNAL).glob("case*.pkl")))
+        raise OutputExistsError(f"{folder}: holds an interrupted run ({done} cases finished); use --resume to "
+                                "continue it or --force to start again")
+    if folder.exists() and any(folder.iterdir()) and not (force or resume):
         raise OutputExistsError(
             f"{folder}: output folder exists and is not empty; use --force to overwrite it, or -o to choose another"
         )

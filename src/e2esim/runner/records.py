@@ -61,8 +61,9 @@ def case_scalars(state) -> dict:
             if agb.has(basis):
                 out[f"agb.{basis}.mean_percent"] = 100 * agb.mean(basis)
                 out[f"agb.{basis}.rmse_percent"] = 100 * agb.rmse(basis)
-                for label, p in _AGB_QUANTILES.items():
-                    out[f"agb.{basis}.{label}_percent"] = 100 * float(agb.quantile(p, basis))
+                quantiles = agb.quantile(np.array(list(_AGB_QUANTILES.values())), basis)
+                for label, q in zip(_AGB_QUANTILES, quantiles):
+                    out[f"agb.{basis}.{label}_percent"] = 100 * float(q)
     for i, v in enumerate(state.verdicts):
         out[f"requirement{i}.passed"] = float(v.passed)
         out[f"requirement{i}.value"] = v.value

@@ -17,6 +17,7 @@ from tqdm.auto import tqdm
 
 import e2esim
 from e2esim.chain import CaseState
+from e2esim.runner.executors import iter_results
 from e2esim.runner.records import case_scalars
 from e2esim.runner.scenario import CaseSpec, ResolvedScenario
 
@@ -61,12 +62,34 @@ def run_case(spec: CaseSpec) -> CaseResult:
     return CaseResult(spec.index, spec.inputs, spec.label, state, case_scalars(state))
 
 
-def run_scenario(resolved: ResolvedScenario, progress: bool = True, command: str | None = None) -> ScenarioResult:
-    """Run all cases in order with a progress bar; return the collected results and their provenance."""
-    results = []
-    bar = tqdm(resolved.cases, desc=resolved.name, unit="case", disable=not progress, leave=False)
-    for spec in bar:
-        results.append(run_case(spec))
+def run_scenario(
+    resolved: ResolvedScenario,
+    progress: bool = True,
+    command: str | None = None,
+    workers: int = 1,
+    scheduler: str | None = None,
+    journal=None,
+    finished: dict | None = None,
+) -> ScenarioResult:
+    """Run every case (serially, on ``workers`` local processes or on the dask cluster at ``scheduler``)
+    with a progress bar; return the results in case order with their provenance.
+
+    journal : a ``Journal`` that records each case as it finishes; finished : cases already done
+        ({index: CaseResult}, from an interrupted run) that are not run again.
+    """
+    done = dict(finished or {})
+    todo = [spec for spec in resolved.cases if spec.index not in done]
+    bar = tqdm(total=len(resolved.cases), initial=len(done), desc=resolved.name, unit="case",
+               disable=not progress, leave=False)
+    try:
+        for result in iter_results(todo, workers, scheduler):
+            done[result.index] = result
+            if journal is not None:
+                journal.record(result)
+            bar.update(1)
+    finally:
+        bar.close()
+    results = [done[spec.index] for spec in resolved.cases]
     seeds = sorted({c.settings.seed for c in resolved.cases})
     provenance = {
         "e2esim_version": e2esim.__version__,
@@ -77,4 +100,8 @@ def run_scenario(resolved: ResolvedScenario, progress: bool = True, command: str
         "python": platform.python_version(),
         "numpy": np.__version__,
     }
+    if workers > 1 or scheduler:
+        provenance["executor"] = f"dask {scheduler}" if scheduler else f"{workers} local processes"
+    if finished:
+        provenance["resumed_cases"] = len(finished)
     return ScenarioResult(resolved, results, provenance)

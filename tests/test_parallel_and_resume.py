@@ -1,0 +1,120 @@
+"""Sweeps on local processes and on a dask.distributed cluster give the serial numbers; an interrupted
+sweep resumes without recomputing finished cases and leaves no corrupt file."""
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from e2esim.runner.run import run_scenario
+from e2esim.runner.scenario import Scenario
+
+SWEEP = """
+name: sweep
+scene: {type: forest_agb_model, biome: boreal}
+instrument: {type: biomass}
+ionosphere: {type: gaussian_faraday, mean_deg: 60, sd_deg: 5}
+propagation: {type: hv_backscatter_error, mc_method: MC_METHOD}
+requirements: [{type: agb_error_bound}]
+simulation: {mode: both, seed: 11, looks: LOOKS, realisations: REALISATIONS}
+sweep:
+  parameters:
+    scene.agb_t_ha: [50, 100, 150, 200, 250, 300]
+    instrument.crosstalk.level_db: [-32, -28]
+output: {plots: [verdicts]}
+"""
+
+
+def _scenario(tmp_path, method="fast", looks=20000, realisations=3000):
+    path = tmp_path / "sweep.yaml"
+    path.write_text(SWEEP.replace("MC_METHOD", method).replace("LOOKS", str(looks))
+                    .replace("REALISATIONS", str(realisations)))
+    return path
+
+
+def _numbers(result):
+    return [(c.index, c.inputs, c.scalars) for c in result.cases]
+
+
+def test_local_processes_give_the_serial_numbers(tmp_path):
+    resolved = Scenario.load(_scenario(tmp_path)).resolve()
+    serial = run_scenario(resolved, progress=False)
+    parallel = run_scenario(resolved, progress=False, workers=2)
+    assert _numbers(parallel) == _numbers(serial)
+    assert parallel.provenance["executor"] == "2 local processes"
+
+
+def test_dask_local_cluster_gives_the_serial_numbers(tmp_path):
+    distributed = pytest.importorskip("distributed")
+    resolved = Scenario.load(_scenario(tmp_path)).resolve()
+    serial = run_scenario(resolved, progress=False)
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
+        on_dask = run_scenario(resolved, progress=False, scheduler=cluster.scheduler_address)
+    assert _numbers(on_dask) == _numbers(serial)
+    assert on_dask.provenance["executor"].startswith("dask tcp://")
+
+
+def _cli(*args, **kw):
+    return subprocess.Popen([sys.executable, "-m", "e2esim", *args], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True, **kw)
+
+
+def _wait_for_cases(journal: Path, n: int, proc, timeout=120):
+    start = time.time()
+    while time.time() - start < timeout:
+        if len(list(journal.glob("case*.pkl"))) >= n:
+            return
+        if proc.poll() is not None:
+            pytest.fail(f"run ended before {n} cases were saved: {proc.stderr.read()}")
+        time.sleep(0.05)
+    pytest.fail("timed out waiting for the journal")
+
+
+@pytest.mark.parametrize("how", ["kill", "interrupt"])
+def test_interrupted_sweep_resumes_without_recomputing(tmp_path, how):
+    scenario = _scenario(tmp_path, method="brute_force", looks=1000, realisations=150)
+    out = tmp_path / "out"
+    journal = out / ".e2esim-partial"
+    proc = _cli("run", str(scenario), "-o", str(out), "--no-progress")
+    _wait_for_cases(journal, 3, proc)
+    proc.send_signal(signal.SIGKILL if how == "kill" else signal.SIGINT)
+    stderr = proc.communicate(timeout=60)[1]
+    if how == "interrupt":
+        assert proc.returncode == 130 and "run the same command with --resume" in stderr
+        assert "Traceback" not in stderr
+    assert not (out / "summary.json").exists() and not (out / "results.h5").exists()
+    saved = len(list(journal.glob("case*.pkl")))
+    assert 3 <= saved < 12
+
+    # without --resume the folder is protected
+    again = _cli("run", str(scenario), "-o", str(out), "--no-progress")
+    assert again.wait(60) == 2 and "use --resume" in again.stderr.read()
+
+    resumed = _cli("run", str(scenario), "-o", str(out), "--no-progress", "--resume")
+    assert resumed.wait(300) == 0, resumed.stderr.read()
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["resumed_cases"] == saved
+    assert not journal.exists()
+
+    reference = run_scenario(Scenario.load(scenario).resolve(), progress=False)
+    assert [c["results"] for c in summary["cases"]] == [_json_clean(c.scalars) for c in reference.cases]
+
+
+def _json_clean(scalars):
+    return json.loads(json.dumps({k: (v if v == v and abs(v) != float("inf") else None) for k, v in scalars.items()}))
+
+
+def test_resume_refuses_a_different_scenario(tmp_path):
+    scenario = _scenario(tmp_path)
+    out = tmp_path / "out"
+    resolved = Scenario.load(scenario).resolve()
+    from e2esim.runner.journal import Journal
+
+    Journal(out, resolved).start(resume=False)
+    proc = _cli("run", str(scenario), "-o", str(out), "--no-progress", "--resume", "--set", "simulation.seed=12")
+    assert proc.wait(60) == 2 and "different scenario, seed or e2esim version" in proc.stderr.read()
