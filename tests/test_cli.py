@@ -41,7 +41,7 @@ def default_runs(tmp_path_factory):
 
 def test_default_scenario_writes_every_output(default_runs):
     out = default_runs["a"]
-    for name in ("results.h5", "summary.json", "report.md"):
+    for name in ("results.h5", "summary.json", "report.md", "report.html"):
         assert (out / name).is_file()
     pngs = list(out.glob("*.png"))
     assert pngs
@@ -50,6 +50,9 @@ def test_default_scenario_writes_every_output(default_runs):
     for png in pngs:
         assert f"]({png.name})" in report
     assert not list(out.glob(".*.tmp"))  # no temporary files left behind
+    page = (out / "report.html").read_text()
+    assert page.startswith("<!DOCTYPE html>") and page.count("data:image/png;base64,") == len(pngs)
+    assert "<table>" in page and "src=\"" not in page.replace('src="data:', "")  # nothing linked from outside
 
 
 def test_same_seed_gives_identical_numbers(default_runs):

@@ -92,7 +92,7 @@ def main(argv=None) -> int:
 
 
 def cmd_run(args) -> int:
-    from e2esim.report.markdown import verdict_lines
+    from e2esim.report.document import verdict_lines
     from e2esim.io.summary import summary_json
     from e2esim.runner.outputs import output_folder, prepare_folder, write_outputs
     from e2esim.runner.journal import Journal

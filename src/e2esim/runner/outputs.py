@@ -1,4 +1,4 @@
-"""Write the outputs of a run into its folder: results.h5, summary.json, report.md and PNG plots."""
+"""Write the outputs of a run into its folder: results.h5, summary.json, report.md, report.html, PNG plots."""
 
 from __future__ import annotations
 
@@ -7,10 +7,10 @@ from pathlib import Path
 from e2esim.errors import OutputExistsError
 from e2esim.io.results_h5 import write_results
 from e2esim.io.summary import write_summary
-from e2esim.report.markdown import write_report
+from e2esim.report.render import write_report
 from e2esim.report.plots import make_plots
 
-OUTPUT_FILES = ("results.h5", "summary.json", "report.md")
+OUTPUT_FILES = ("results.h5", "summary.json", "report.md", "report.html")
 
 
 def output_folder(resolved, override: str | None) -> Path:
@@ -49,5 +49,5 @@ def write_outputs(result, folder: Path) -> dict:
     plots = make_plots(result, folder)
     write_results(result, folder / "results.h5")
     write_summary(result, folder / "summary.json")
-    write_report(result, folder / "report.md", plots)
+    write_report(result, folder, plots)
     return {"folder": folder, "plots": [folder / name for name, _ in plots]}
