@@ -100,6 +100,7 @@ class RequirementVerdict:
     margin : how far inside the bound (positive passes), all in ``unit``. basis : "analytic" or
     "montecarlo". details : further numbers (exceedance probabilities, cross-checks, level margins in dB).
     curves : trade-off curves and other arrays (name -> ndarray), possibly empty.
+    dominant : the error source whose removal would reduce ``value`` most ("" if not attributed).
     """
 
     name: str
@@ -111,6 +112,7 @@ class RequirementVerdict:
     basis: str
     details: dict = field(default_factory=dict)
     curves: dict = field(default_factory=dict)
+    dominant: str = ""
 
 
 @dataclass(frozen=True)

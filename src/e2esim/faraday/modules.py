@@ -12,7 +12,25 @@ import numpy as np
 from e2esim.faraday.distribution import ConstantFaraday, EmpiricalFaraday, GaussianFaraday
 from e2esim.module import Module
 from e2esim.params import Param
-from e2esim.errors import PhysicsInputError
+from e2esim.errors import ConfigError, PhysicsInputError
+
+
+_AT_FREQUENCY = Param(
+    "at_frequency_mhz", "float",
+    "radar frequency at which the angles are given; they are scaled by (f_given / f_radar)^2 to the "
+    "instrument's centre frequency (Faraday rotation goes as 1/f^2, Quegan et al. 2018 eq. 3). "
+    "null: given at the instrument's frequency", default=None, unit="MHz", exclusive_minimum=0.0, nullable=True)
+
+
+def _frequency_scale(module, state) -> float:
+    """(f_given / f_radar)^2, or 1 when the angles are given at the radar frequency."""
+    given = module.config["at_frequency_mhz"]
+    if given is None:
+        return 1.0
+    if state.instrument is None:
+        raise ConfigError(module.location.child("at_frequency_mhz"), "needs an instrument with a centre frequency",
+                          "add an instrument section, or set at_frequency_mhz: null")
+    return (given * 1e6 / state.instrument.centre_frequency_hz) ** 2
 
 
 class GaussianFaradayModule(Module):
@@ -26,14 +44,14 @@ class GaussianFaradayModule(Module):
               minimum=-180.0, maximum=180.0),
         Param("sd_deg", "float", "standard deviation of the one-way Faraday rotation", default=0.0,
               unit="deg", minimum=0.0, maximum=180.0),
+        _AT_FREQUENCY,
     )
     provides = ("faraday",)
 
-    def setup(self):
-        self.distribution = GaussianFaraday(np.radians(self.config["mean_deg"]), np.radians(self.config["sd_deg"]))
-
     def forward(self, state):
-        return state.with_(faraday=self.distribution)
+        k = _frequency_scale(self, state)
+        fr = GaussianFaraday(k * np.radians(self.config["mean_deg"]), k * np.radians(self.config["sd_deg"]))
+        return state.with_(faraday=fr)
 
 
 class ConstantFaradayModule(Module):
@@ -45,14 +63,13 @@ class ConstantFaradayModule(Module):
     params = (
         Param("value_deg", "float", "one-way Faraday rotation", default=0.0, unit="deg",
               minimum=-180.0, maximum=180.0),
+        _AT_FREQUENCY,
     )
     provides = ("faraday",)
 
-    def setup(self):
-        self.distribution = ConstantFaraday(np.radians(self.config["value_deg"]))
-
     def forward(self, state):
-        return state.with_(faraday=self.distribution)
+        k = _frequency_scale(self, state)
+        return state.with_(faraday=ConstantFaraday(k * np.radians(self.config["value_deg"])))
 
 
 class FaradaySamplesModule(Module):

@@ -148,3 +148,31 @@ class BiomassInstrument(GaussianErrorsInstrument):
             "bandwidth_mhz": 6.0,
         },
     )
+
+
+class NisarInstrument(GaussianErrorsInstrument):
+    """NASA-ISRO NISAR L-band SAR, a second instrument preset.
+
+    1.257 GHz centre frequency (NISAR handbook via public sensor tables), NESZ -25 dB (NISAR science users'
+    handbook, 2019), 20 MHz of the selectable 5-80 MHz (NISAR Cal/Val plan), all from
+    ../shared/reference/mission-facts.md. NISAR's polarimetric distortion specification is not among the
+    published facts e2esim has, so crosstalk and channel imbalance keep the BIOMASS values (-30 dB and -34 dB,
+    3-sigma labels, rho = 0.9): a comparison with BIOMASS then isolates the effect of frequency (Faraday
+    rotation about (1257/435)^2 = 8.4 times smaller) and noise. Override them when the specification is known.
+    """
+
+    type_name = "nisar"
+    summary = "NASA-ISRO NISAR L-band preset: 1257 MHz, 20 MHz, NESZ -25 dB; distortion levels as BIOMASS"
+    params = with_defaults(
+        GaussianErrorsInstrument.params,
+        {
+            "name": "NISAR",
+            "crosstalk.level_db": -30.0,
+            "crosstalk.correlation_magnitude": 0.9,
+            "channel_imbalance.level_db": -34.0,
+            "channel_imbalance.correlation_magnitude": 0.9,
+            "nesz_db": -25.0,
+            "centre_frequency_mhz": 1257.0,
+            "bandwidth_mhz": 20.0,
+        },
+    )

@@ -54,6 +54,7 @@ def write_results(result, path) -> None:
                 req.create_dataset(attr, data=np.array([[getattr(v, attr) for v in row] for row in verdicts]))
             req.create_dataset("unit", data=[v.unit for v in verdicts[0]], dtype=_STR)
             req.create_dataset("basis", data=[[v.basis for v in row] for row in verdicts], dtype=_STR)
+            req.create_dataset("dominant", data=[[v.dominant for v in row] for row in verdicts], dtype=_STR)
             det = req.create_group("details")
             keys = sorted({(j, k) for row in verdicts for j, v in enumerate(row) for k in v.details})
             for j, k in keys:

@@ -41,7 +41,7 @@ def summary_dict(result) -> dict:
             "results": c.scalars,
             "requirements": [
                 {"name": v.name, "passed": v.passed, "value": v.value, "limit": v.limit, "margin": v.margin,
-                 "unit": v.unit, "basis": v.basis, "details": v.details}
+                 "unit": v.unit, "basis": v.basis, "dominant": v.dominant, "details": v.details}
                 for v in c.state.verdicts
             ],
         })

@@ -75,7 +75,8 @@ def build_report(result, plots: list) -> list:
         blocks.append(Paragraph("The scenario states no requirements."))
     blocks += [Heading(2, "Cases"), _case_table(result), Paragraph(
         "σ and bias in m²/m² (linear), SD of the σ_hv error in m²/m²; AGB errors are relative, in percent, at the "
-        "given one-sided quantile." + _truncation_note(result))]
+        "given one-sided quantile. Each verdict names its dominant contributor: the error source whose removal "
+        "would reduce the checked value most (analytic model)." + _truncation_note(result))]
     comparison = _comparison_table(result)
     if comparison is not None:
         blocks += [Heading(2, "Analytic model against Monte Carlo"), Paragraph(
@@ -112,7 +113,8 @@ def _case_table(result) -> Table:
     rows = []
     for case in result.cases[:_MAX_TABLE_ROWS]:
         cells = [str(case.index), case.label] + [fmt(case.scalars.get(k), d) for _, k, d in present]
-        cells += [("pass" if v.passed else "**FAIL**") + f" ({fmt(v.value, 3)} {v.unit})" for v in case.state.verdicts]
+        cells += [("pass" if v.passed else "**FAIL**") + f" ({fmt(v.value, 3)} {v.unit}"
+                  + (f"; {v.dominant.replace('_', ' ')}" if v.dominant else "") + ")" for v in case.state.verdicts]
         rows.append(tuple(cells))
     return Table(header, tuple(rows))
 

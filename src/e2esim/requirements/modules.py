@@ -7,9 +7,14 @@ AGB error stays below a limit.
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 
 from e2esim.chain import RequirementVerdict
+from e2esim.crosspol.analytic import hv_error_moments
+from e2esim.faraday.distribution import ConstantFaraday
+from e2esim.retrieval.agb_error import AGBError
 from e2esim.crosspol.tradeoff import (
     AGBRequirement,
     axis_limits,
@@ -24,6 +29,46 @@ from e2esim.units import level_db_from_variance, variance_from_level_db
 
 BASES = ("auto", "analytic", "montecarlo")
 _PERCENT = 100.0
+
+SOURCES = ("crosstalk", "channel_imbalance", "noise", "faraday_rotation", "gain")
+"""Error sources a verdict is attributed to (``dominant`` and ``contribution.<source>_percent``)."""
+
+
+def attribution(state, value_of) -> dict:
+    """How much each error source adds to a requirement's checked value, and which adds most.
+
+    For each source the analytic model is re-evaluated with that source removed (crosstalk or channel
+    imbalance at zero level, no noise, no Faraday rotation, no gain error); its contribution is the
+    checked value minus the value without it, in the requirement's unit. The parts need not add up to the
+    total (the sources interact), but the largest is the one whose improvement helps most.
+    ``value_of`` maps an ``AGBError`` to the checked value.
+    """
+    bs, agb = state.backscatter, state.agb
+    if bs is None or bs.analytic is None:
+        return {}
+    base = value_of(_analytic_agb(state, state.system, state.faraday))
+    sysm = state.system
+    variants = {
+        "crosstalk": (sysm.with_levels(crosstalk=0.0), state.faraday),
+        "channel_imbalance": (sysm.with_levels(imbalance=0.0), state.faraday),
+        "noise": (sysm.with_levels(noise_power=0.0), state.faraday),
+        "faraday_rotation": (sysm, ConstantFaraday(0.0)),
+        "gain": (dataclasses.replace(sysm, gain_offset_db=0.0, gain_sd_db=0.0), state.faraday),
+    }
+    out = {f"contribution.{name}_percent": base - value_of(_analytic_agb(state, s, f))
+           for name, (s, f) in variants.items()}
+    return out
+
+
+def _analytic_agb(state, system, faraday) -> AGBError:
+    bs = state.backscatter
+    m = hv_error_moments(state.scene, system, faraday, bs.form, bs.looks, bs.reference)
+    return AGBError(state.agb.exponent, bs.sigma_hv, float(m.mean), float(m.sd))
+
+
+def _dominant(details: dict) -> str:
+    parts = {k[len("contribution."):-len("_percent")]: v for k, v in details.items() if k.startswith("contribution.")}
+    return max(parts, key=parts.get) if parts else ""
 
 
 def _basis(module: Module, state) -> str:
@@ -101,22 +146,26 @@ class AGBErrorBound(Module):
             if c["tradeoff_curve"]:
                 verdict_curves = _tradeoff_curves(reqs, state, c["curve_crosstalk_db"], c["curve_points"])
                 details.update(_axis_crossings(reqs, state))
-        return state.with_(
-            verdicts=state.verdicts
-            + (
-                RequirementVerdict(
-                    name=self.label,
-                    passed=bool(value <= c["bound_percent"]),
-                    value=value,
-                    limit=c["bound_percent"],
-                    margin=c["bound_percent"] - value,
-                    unit="%",
-                    basis=basis,
-                    details=details,
-                    curves=verdict_curves,
-                ),
-            )
+        sides = self.sides()
+
+        def checked_value(agb_error) -> float:
+            qs = [float(agb_error.quantile(conf if side == "over" else 1 - conf)) * _PERCENT for side in sides]
+            return max(q if side == "over" else -q for q, side in zip(qs, sides))
+
+        details.update(attribution(state, checked_value))
+        verdict = RequirementVerdict(
+            name=self.label,
+            passed=bool(value <= c["bound_percent"]),
+            value=value,
+            limit=c["bound_percent"],
+            margin=c["bound_percent"] - value,
+            unit="%",
+            basis=basis,
+            details=details,
+            curves=verdict_curves,
+            dominant=_dominant(details),
         )
+        return state.with_(verdicts=state.verdicts + (verdict,))
 
 
 def _analytic_args(state) -> dict:
@@ -210,6 +259,7 @@ class AGBRelativeRMSE(Module):
                    if state.agb.has(b)}
         value = state.agb.rmse(basis) * _PERCENT
         limit = self.config["max_percent"]
+        details.update(attribution(state, lambda agb_error: agb_error.rmse() * _PERCENT))
         verdict = RequirementVerdict(self.label, bool(value <= limit), value, limit, limit - value, "%", basis,
-                                     details)
+                                     details, dominant=_dominant(details))
         return state.with_(verdicts=state.verdicts + (verdict,))
