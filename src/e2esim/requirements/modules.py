@@ -43,27 +43,46 @@ def attribution(state, value_of) -> dict:
     total (the sources interact), but the largest is the one whose improvement helps most.
     ``value_of`` maps an ``AGBError`` to the checked value.
     """
-    bs, agb = state.backscatter, state.agb
+    bs = state.backscatter
     if bs is None or bs.analytic is None:
         return {}
-    base = value_of(_analytic_agb(state, state.system, state.faraday))
-    sysm = state.system
-    variants = {
-        "crosstalk": (sysm.with_levels(crosstalk=0.0), state.faraday),
-        "channel_imbalance": (sysm.with_levels(imbalance=0.0), state.faraday),
-        "noise": (sysm.with_levels(noise_power=0.0), state.faraday),
-        "faraday_rotation": (sysm, ConstantFaraday(0.0)),
-        "gain": (dataclasses.replace(sysm, gain_offset_db=0.0, gain_sd_db=0.0), state.faraday),
-    }
-    out = {f"contribution.{name}_percent": base - value_of(_analytic_agb(state, s, f))
-           for name, (s, f) in variants.items()}
+    moments = _variant_moments(state)
+    base = value_of(_agb(state, *moments["base"]))
+    return {f"contribution.{name}_percent": (base - value_of(_agb(state, *moments[name])) if name in moments else 0.0)
+            for name in SOURCES}
+
+
+_VARIANT_CACHE: list = []  # [(key objects, moments)]: requirements of one case share the evaluation
+
+
+def _variant_moments(state) -> dict:
+    """(mean, sd) of the sigma_hv error for the base case and with each source removed."""
+    key = (state.backscatter, state.system, state.faraday, state.scene)
+    for cached_key, value in _VARIANT_CACHE:
+        if all(a is b for a, b in zip(cached_key, key)):
+            return value
+    bs, sysm, fr = state.backscatter, state.system, state.faraday
+    # base and the three level variants in one vectorised evaluation: [base, no crosstalk, no CI, no noise]
+    levels = dict(
+        crosstalk_level=np.array([sysm.crosstalk_level, 0.0, sysm.crosstalk_level, sysm.crosstalk_level]),
+        imbalance_level=np.array([sysm.imbalance_level, sysm.imbalance_level, 0.0, sysm.imbalance_level]),
+        noise_power=np.array([sysm.noise_power, sysm.noise_power, sysm.noise_power, 0.0]),
+    )
+    m = hv_error_moments(state.scene, sysm, fr, bs.form, bs.looks, bs.reference, **levels)
+    out = {name: (m.mean[i], m.sd[i]) for i, name in enumerate(("base", "crosstalk", "channel_imbalance", "noise"))}
+    if fr.mean_rad != 0.0 or fr.sd_rad != 0.0:
+        v = hv_error_moments(state.scene, sysm, ConstantFaraday(0.0), bs.form, bs.looks, bs.reference)
+        out["faraday_rotation"] = (v.mean, v.sd)
+    if sysm.has_gain_error:
+        no_gain = dataclasses.replace(sysm, gain_offset_db=0.0, gain_sd_db=0.0)
+        v = hv_error_moments(state.scene, no_gain, fr, bs.form, bs.looks, bs.reference)
+        out["gain"] = (v.mean, v.sd)
+    _VARIANT_CACHE[:] = [(key, out)]
     return out
 
 
-def _analytic_agb(state, system, faraday) -> AGBError:
-    bs = state.backscatter
-    m = hv_error_moments(state.scene, system, faraday, bs.form, bs.looks, bs.reference)
-    return AGBError(state.agb.exponent, bs.sigma_hv, float(m.mean), float(m.sd))
+def _agb(state, mean, sd) -> AGBError:
+    return AGBError(state.agb.exponent, state.backscatter.sigma_hv, float(mean), float(sd))
 
 
 def _dominant(details: dict) -> str:
