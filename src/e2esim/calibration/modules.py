@@ -188,7 +188,9 @@ class TransponderCalibration(CalibrationModule):
               minimum=0.0, maximum=90.0),
         Param("correct_faraday", "bool", "also rotate the scene by the Omega found (calibrators in the scene)",
               default=False),
-        Param("absolute_gain", "bool", "also set the absolute gain from the calibrators", default=False),
+        Param("absolute_gain", "bool", "the calibrators are also the absolute radiometric reference (their RCS "
+              "known): the HV gain is then measured directly by the HV response (false: keep the instrument's "
+              "absolute gain, correct only relative to HH)", default=True),
     )
 
     def setup(self):

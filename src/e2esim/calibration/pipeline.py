@@ -187,7 +187,7 @@ class TransponderStep:
     site_faraday: object = None
     prior_sd_rad: float = 0.0
     correct_faraday: bool = False
-    absolute_gain: bool = False
+    absolute_gain: bool = True
     kind = "polarimetric"
 
     def apply(self, ctx: PipelineContext) -> dict:
