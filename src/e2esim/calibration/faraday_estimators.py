@@ -92,12 +92,19 @@ class FaradayRotationEstimator(ABC):
     def estimate(self, image: QuadPolImage, window: tuple | None = None) -> FaradayRotationEstimate:
         """Per-window estimates from an image; window = (azimuth, range) pixels, None for the whole image."""
         window = _check_window(window, image.shape)
-        hh, hv, vh, vv = image.hh, image.hv, image.vh, image.vv
+        channels = (image.hh, image.hv, image.vh, image.vv)
+        combos: dict = {}  # each linear combination of the channels formed once
+
+        def combo(w):
+            if id(w) not in combos:
+                combos[id(w)] = sum(c * x for c, x in zip(w, channels) if c != 0)
+            return combos[id(w)]
+
         moments = {}
         for key, (u, v) in self.statistics.items():
-            zu = u[0] * hh + u[1] * hv + u[2] * vh + u[3] * vv
-            zv = zu if v is u else v[0] * hh + v[1] * hv + v[2] * vh + v[3] * vv
-            moments[key] = block_mean(zu * np.conj(zv), window)
+            zu, zv = combo(u), combo(v)
+            prod = zu.real**2 + zu.imag**2 if v is u else zu * np.conj(zv)
+            moments[key] = block_mean(prod, window)
         looks = int(np.prod(image.shape)) if window is None else window[0] * window[1]
         return self.finish(moments, looks)
 
