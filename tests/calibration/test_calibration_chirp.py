@@ -6,8 +6,10 @@ import numpy as np
 import pytest
 
 from cal_helpers import Z_ACCEPT, biomass_system, forest, z_mean, z_variance
-from e2esim.calibration.chirp import ChirpSlopeEstimator, chirp_omega0_sd, fit_slope, sample_subband_covariances
-from e2esim.calibration.faraday_theory import bickel_bates_bias, bickel_bates_snr
+from e2esim.calibration.chirp import (
+    ChirpSlopeEstimator, chirp_omega0_sd, fit_slope, locate_zero_crossing, sample_subband_covariances,
+)
+from e2esim.calibration.faraday_theory import bickel_bates_bias, bickel_bates_limit, bickel_bates_snr
 from e2esim.calibration.simulate import (
     SystemState, faraday_at_frequency, measured_covariance, simulate_chirp_scene,
 )
@@ -124,3 +126,36 @@ def test_bad_inputs_are_named():
     img = simulate_chirp_scene(np.random.default_rng(0), SCENE, (4, 8), SystemState.ideal(), F0, BW)
     with pytest.raises(PhysicsInputError, match="cannot be split into 8 sub-bands"):
         est.estimate(img)
+
+
+def test_locating_the_zero_faraday_rotation_line(rng):
+    """Sect. 5.2: along a track across the magnetic equator (Omega0 = g (lat - lat0)) the chirp-slope
+    estimates give a zero crossing centred on lat0 with the predicted standard error, while the
+    Bickel-Bates estimates, biased by crosstalk, put it at lat0 - bias / g."""
+    est = ChirpSlopeEstimator(F0, BW, 4)
+    lat = np.linspace(-3, 3, 31)
+    lat0, g = 0.4, np.radians(0.8)
+    d = biomass_system().sample(np.random.default_rng(8), 1)
+    n = lat.size
+    state = SystemState(np.repeat(d.delta, n, 0), np.repeat(d.f, n, 0), g * (lat - lat0), np.ones(n))
+    looks = 2_000_000
+    sd = chirp_omega0_sd(bickel_bates_snr(SCENE, NOISE), looks, est)
+    x0, se = [], []
+    for _ in range(150):
+        covs, per = sample_subband_covariances(rng, SCENE, state, NOISE, looks, est)
+        x, s = locate_zero_crossing(lat, est.from_subband_covariances(covs, per).omega0, sd)
+        x0.append(x)
+        se.append(s)
+    assert abs(z_mean(x0, lat0)) < Z_ACCEPT
+    assert abs(z_variance(x0, np.mean(se) ** 2)) < Z_ACCEPT
+    bias0 = float(bickel_bates_bias(SCENE, SystemState(d.delta[0], d.f[0], 0.0, 1.0), NOISE))
+    bb = bickel_bates_limit(SCENE, state, NOISE)
+    assert locate_zero_crossing(lat, bb)[0] == pytest.approx(lat0 - bias0 / g, abs=0.02)
+    assert abs(bias0 / g) > 3 * np.mean(se)  # the crosstalk shift is resolved
+
+
+def test_zero_crossing_bad_input():
+    with pytest.raises(PhysicsInputError, match="at least three"):
+        locate_zero_crossing([0.0, 1.0], [0.1, 0.2])
+    with pytest.raises(PhysicsInputError, match="zero slope"):
+        locate_zero_crossing([0.0, 1.0, 2.0], [0.1, 0.1, 0.1], 0.01)

@@ -152,3 +152,32 @@ def chirp_omega0_sd(snr: float, looks: int, estimator: ChirpSlopeEstimator, form
     v = bickel_bates_variance(snr, per_band, form)
     x = estimator.frequencies - estimator.frequencies.mean()
     return 0.5 * estimator.centre_hz * float(np.sqrt(v / np.sum(x**2)))
+
+
+def locate_zero_crossing(position, omega, sd=None) -> tuple[float, float]:
+    """Where a straight line through ``omega`` (rad) against ``position`` (e.g. latitude) crosses zero, and
+    its standard error: locating the zero-Faraday-rotation line from estimates along a track (Quegan et al.
+    2018, Sect. 5.2).
+
+    Weighted least squares ``omega = a + b x`` (weights 1/sd^2; equal weights and the residual scatter when
+    sd is None); ``x0 = -a/b`` with the delta-method variance
+    ``(var a + x0^2 var b + 2 x0 cov(a, b)) / b^2``.
+    """
+    x = np.asarray(position, dtype=float)
+    y = np.asarray(omega, dtype=float)
+    if x.shape != y.shape or x.size < 3:
+        raise PhysicsInputError("need at least three (position, omega) pairs of the same shape")
+    w = np.ones_like(x) if sd is None else 1 / np.broadcast_to(np.asarray(sd, dtype=float), x.shape) ** 2
+    design = np.stack([np.ones_like(x), x], -1)
+    normal = design.T @ (w[:, None] * design)
+    coef = np.linalg.solve(normal, design.T @ (w * y))
+    cov = np.linalg.inv(normal)
+    if sd is None:
+        resid = y - design @ coef
+        cov = cov * np.sum(resid**2) / (x.size - 2)
+    a, b = coef
+    if b == 0:
+        raise PhysicsInputError("the fitted line has zero slope: no crossing")
+    x0 = -a / b
+    var = (cov[0, 0] + x0**2 * cov[1, 1] + 2 * x0 * cov[0, 1]) / b**2
+    return float(x0), float(np.sqrt(var))

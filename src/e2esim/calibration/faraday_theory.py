@@ -127,7 +127,7 @@ def _first_order_distortion(delta, f) -> np.ndarray:
     d1, d2, d3, d4 = (np.asarray(delta)[..., i] for i in range(4))
     e1, e2 = np.asarray(f)[..., 0] - 1, np.asarray(f)[..., 1] - 1
     z = np.zeros_like(d1 * e1)
-    rows = [[z, d2 + z, d4 + z, z], [d1 + z, e1 + z, z, d4 + z], [d3 + z, z, e2 + z, d2 + z], [z, d3 + z, d1 + z, e1 + e2]]
+    rows = [[z, d2 + z, d4 + z, z], [d1 + z, e1 + z, z, d4 + z], [d3 + z, z, e2 + z, d2 + z], [z, d3 + z, d1 + z, e1 + e2 + z]]
     return np.stack([np.stack(r, -1) for r in rows], -2)
 
 

@@ -120,10 +120,11 @@ class FaradayCorrection(CalibrationModule):
 class DistributedTargetCalibration(CalibrationModule):
     """Crosstalk and f1/f2 from the scene by Quegan (1994), and optionally f1 f2 from trihedrals.
 
-    Needs reflection symmetry, a signal well above the noise and negligible Faraday rotation (Quegan et al.
-    2018, Sect. 5.2): put ``faraday_correction`` before it away from the magnetic equator. Its estimates are
-    biased by about sigma_hv/sigma_co times the crosstalk (P-band forest: 0.1-0.4); ``iterations > 1``
-    re-estimates on the corrected data and removes most of it. A distributed target cannot give the
+    Needs reflection symmetry, a signal well above the noise and small Faraday rotation (Quegan et al.
+    2018, Sect. 5.2; one pass absorbs up to about 12 deg, five passes up to 40 deg): put
+    ``faraday_correction`` before it away from the magnetic equator. Its estimates are biased by about
+    sigma_hv/sigma_co times the crosstalk (P-band forest: 0.1-0.4); ``iterations > 1`` re-estimates on the
+    corrected data and removes most of it (it converges for the Table I forests). A distributed target cannot give the
     co-polarised imbalance f1 f2 (the term that dominates the sigma_hv variance): ``trihedral: true`` takes
     it from trihedrals in the scene at the given signal-to-clutter ratio.
     """

@@ -29,8 +29,8 @@ Known limits, shown by simulation in docs/theory/calibration.md:
   ``delta2 + Omega`` (and ``T``: ``delta3 + Omega``, ``delta4 - Omega``) to first order, the ambiguity of
   Quegan et al. (2018), Sect. 5.2. So the crosstalk itself can be estimated (e.g. to verify a -30 dB
   specification) only where |Omega| is well below it, on the zero-FR line. As a *correction* the algorithm
-  absorbs the rotation while the first-order solution holds: one pass up to about 10 deg, iterated up to
-  about 30 deg; beyond, it fails (near 45 deg the rotation swaps the channels), so Faraday rotation must be
+  absorbs the rotation while the first-order solution holds: one pass up to about 12 deg, five passes up to
+  about 40 deg; beyond, it fails (near 45 deg the rotation swaps the channels), so Faraday rotation must be
   corrected first away from the magnetic equator.
 """
 

@@ -66,8 +66,9 @@ def ahmed_range_gain_error(dtheta, beamwidth, k: float = UNIFORM_ARRAY_BEAM_SHAP
 def ahmed_azimuth_gain_error(dtheta, k: float = UNIFORM_ARRAY_BEAM_SHAPING) -> np.ndarray:
     """Ahmed et al. (2014), eq. (34) as printed: ``(2 k dtheta / pi) ln[sinc(pi/2k)] / int_0^{pi/2k} sinc^2``.
 
-    As printed dtheta is not divided by a beamwidth, so it only makes sense with dtheta in units of the
-    azimuth beamwidth (docs/errata.md); it is kept for reference, not used by the modules.
+    As printed it has no azimuth beamwidth, unlike eq. (33), and its derivation is in Ahmed et al.'s
+    reference [21], not in the paper; it is kept as printed for reference and not used by the modules, which
+    use the exact pattern (``pattern_gain_error``, ``swath_pointing_gain_sd_db``).
     """
     u = np.pi / (2 * k)
     area = integrate.quad(lambda x: np.sinc(x / np.pi) ** 2, 0, u)[0]
@@ -80,7 +81,7 @@ def dem_pointing_error(dem_height_error, slant_range) -> np.ndarray:
 
 
 def swath_pointing_gain_sd_db(pointing_sd, beamwidth, k: float = UNIFORM_ARRAY_BEAM_SHAPING,
-                              swath_fraction: float = 1.0, nodes: int = 64) -> float:
+                              swath_fraction: float = 1.0, nodes: int = 32) -> float:
     """RMS two-way gain error (dB) over targets spread uniformly across ``swath_fraction`` of the
     half-power beam and a Gaussian elevation pointing error of SD ``pointing_sd`` (rad), exact pattern.
 
@@ -96,7 +97,7 @@ def swath_pointing_gain_sd_db(pointing_sd, beamwidth, k: float = UNIFORM_ARRAY_B
     theta = 0.5 * swath_fraction * beamwidth * x
     wx = wx / wx.sum()
     err = pattern_gain_error(theta[:, None], pointing_sd * z[None, :], beamwidth, k)
-    db = DB_PER_NEPER_POWER * np.log1p(err)
+    db = DB_PER_NEPER_POWER * np.log(np.clip(1 + err, 1e-30, None))  # far-tail nodes may reach a pattern null
     return float(np.sqrt(np.sum(wx[:, None] * wz[None, :] * db**2)))
 
 
