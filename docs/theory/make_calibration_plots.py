@@ -22,9 +22,8 @@ from e2esim.calibration.faraday_theory import (  # noqa: E402
     bickel_bates_bias, bickel_bates_bias_first_order, bickel_bates_snr, bickel_bates_variance,
 )
 from e2esim.calibration.modules import CLUTTER_SHAPES  # noqa: E402
-from e2esim.calibration.pipeline import (  # noqa: E402
-    FaradayStep, QueganStep, ResidualSampler, TransponderStep, TrihedralStep, fit_residual_model,
-)
+from e2esim.calibration.pipeline import ResidualSampler, fit_residual_model  # noqa: E402
+from e2esim.calibration.steps import FaradayStep, QueganStep, TransponderStep, TrihedralStep  # noqa: E402
 from e2esim.calibration.quegan1994 import quegan_calibrate  # noqa: E402
 from e2esim.calibration.radiometric import ahmed_range_gain_error, swath_pointing_gain_sd_db  # noqa: E402
 from e2esim.calibration.simulate import SystemState, measured_covariance, sample_measured_covariance  # noqa: E402

@@ -105,6 +105,8 @@ def test_none_module_and_determinism():
      "2 calibrators cannot determine the system errors"),
     ([{"type": "transponder_calibration", "calibrators": ["trihedral", "dihedral_7"]}], "calibration[0].calibrators[1]",
      "'dihedral_7' is not allowed"),
+    ([{"type": "transponder_calibration", "calibrators": ["trihedral", "trihedral", "dihedral_0"]}], "calibration[0]",
+     "span only 2 independent scattering matrices"),
     ([{"type": "faraday_correction", "looks": 0}], "calibration[0].looks", "0 is out of range"),
 ])
 def test_bad_input_names_the_key(calibration, key, message):

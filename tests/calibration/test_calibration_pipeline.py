@@ -8,9 +8,9 @@ import pytest
 from cal_helpers import Z_ACCEPT, biomass_system, forest, z_mean
 from e2esim.calibration.modules import CLUTTER_SHAPES
 from e2esim.calibration.pipeline import (
-    FaradayStep, GainStep, PipelineContext, QueganStep, ResidualSampler, ResidualSystemErrorModel, TransponderStep,
-    TrihedralStep, fit_residual_model, residual,
+    PipelineContext, ResidualSampler, ResidualSystemErrorModel, fit_residual_model, residual,
 )
+from e2esim.calibration.steps import FaradayStep, GainStep, QueganStep, TransponderStep, TrihedralStep
 from e2esim.calibration.simulate import SystemState
 from e2esim.calibration.targets import Calibrators
 from e2esim.crosspol.analytic import hv_error_moments

@@ -12,17 +12,18 @@ from __future__ import annotations
 import numpy as np
 
 from e2esim.calibration.chirp import ChirpSlopeEstimator
-from e2esim.calibration.pipeline import FaradayStep, GainStep, QueganStep, TransponderStep, TrihedralStep
+from e2esim.calibration.steps import FaradayStep, GainStep, QueganStep, TransponderStep, TrihedralStep
 from e2esim.calibration.radiometric import (
     UNIFORM_ARRAY_BEAM_SHAPING, absolute_gain_error_db, swath_pointing_gain_sd_db,
 )
 from e2esim.calibration.record import CalibrationRecord
-from e2esim.calibration.targets import TARGET_NAMES, Calibrators
+from e2esim.calibration.targets import TARGET_NAMES, Calibrators, target_matrix
 from e2esim.calibration.transponder import GAUGES
 from e2esim.errors import ConfigError, PhysicsInputError
 from e2esim.faraday.distribution import GaussianFaraday
 from e2esim.module import Module
 from e2esim.params import Param
+from e2esim.polarimetry.system_model import to_vector
 
 CLUTTER_SHAPES = {
     # Reflection-symmetric clutter around a calibrator (hh, hv, vv): equal co-polarised powers, HV 10 dB
@@ -199,6 +200,11 @@ class TransponderCalibration(CalibrationModule):
         if len(names) < 3:
             raise PhysicsInputError(f"{len(names)} calibrators cannot determine the system errors; give at least "
                                     "three independent ones (four or more over-determine it)")
+        rank = np.linalg.matrix_rank(np.stack([to_vector(target_matrix(n)) for n in names]))
+        if rank < 3:
+            raise PhysicsInputError(
+                f"calibrators {', '.join(names)} span only {rank} independent scattering matrices; the system errors "
+                "need at least 3 (e.g. trihedral, dihedral_0 and dihedral_45, or four transponders)")
 
     def steps(self, state, record):
         c = self.config

@@ -41,7 +41,7 @@ import numpy as np
 from e2esim.calibration.simulate import SystemState
 from e2esim.calibration.targets import Calibrators, response_covariance
 from e2esim.errors import PhysicsInputError
-from e2esim.polarimetry.system_model import _kron, distortion_rows, faraday_matrix, to_vector
+from e2esim.polarimetry.system_model import _kron, faraday_matrix, to_vector
 
 GAUGES = ("min_crosstalk", "reciprocal", "faraday_prior")
 _START_ANGLES = np.pi * np.arange(-8, 8) / 16  # coarse Omega grid over one period (F(pi) = -I leaves M unchanged)
