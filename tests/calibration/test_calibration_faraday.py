@@ -11,7 +11,7 @@ from e2esim.calibration.faraday_estimators import (
 )
 from e2esim.calibration.faraday_theory import (
     ambiguity_error_probability, bickel_bates_bias, bickel_bates_bias_first_order, bickel_bates_limit,
-    bickel_bates_snr, bickel_bates_variance, phase_pdf, phase_variance,
+    bickel_bates_snr, bickel_bates_variance, freeman_variance, phase_pdf, phase_variance,
 )
 from e2esim.calibration.quegan1994 import block_covariances
 from e2esim.calibration.simulate import SystemState, measured_covariance, sample_measured_covariance, simulate_scene
@@ -189,3 +189,17 @@ def test_bad_inputs_are_named():
         BickelBates().estimate(img, window=(0, 2))
     with pytest.raises(PhysicsInputError, match="larger than the image"):
         BickelBates().estimate(img, window=(8, 2))
+
+
+@pytest.mark.parametrize("snr_db, omega_deg", [(10.0, 10.0), (20.0, 25.0), (10.0, 38.0)])
+def test_freeman_variance_matches_simulation(rng, snr_db, omega_deg):
+    """Validity: L = 1000 (delta-method regime), Omega away from 0 and 45 deg, noise subtracted. Freeman's
+    SD is never below Bickel-Bates' (the better estimator, Rogers & Quegan 2014); they meet near 22.5 deg."""
+    n, looks = 12_000, 1000
+    sigma_n = _noise_for_snr(SCENE, snr_db)
+    omega = np.radians(omega_deg)
+    cov = sample_measured_covariance(rng, SCENE, SystemState.ideal(np.full(n, omega)), sigma_n, looks)
+    err = FreemanSecondMoment(sigma_n).from_covariance(cov, looks).omega - omega
+    predicted = freeman_variance(SCENE, sigma_n, omega, looks)
+    assert abs(z_variance(err, predicted)) < Z_ACCEPT
+    assert predicted >= 0.99 * bickel_bates_variance(bickel_bates_snr(SCENE, sigma_n), looks, "asymptotic")

@@ -156,3 +156,24 @@ def ambiguity_error_probability(prior_sd_rad, estimate_sd_rad=0.0, period: float
     sd = np.hypot(prior_sd_rad, estimate_sd_rad)
     with np.errstate(divide="ignore"):
         return 2 * stats.norm.sf(period / 2 / np.asarray(sd, dtype=float))
+
+
+def freeman_variance(scene, noise_power: float, omega: float, looks: int, noise_subtraction: bool = True) -> float:
+    """Large-L variance (rad^2) of Freeman's second-moment estimate, by the delta method.
+
+    ``d = M_vh - M_hv = x sin 2W + n_d`` and ``c = M_hh + M_vv = x cos 2W + n_c`` with ``x = S_hh + S_vv`` (power P)
+    and independent noises of power 2 sigma_n, all circular Gaussian: the sample powers X = <|d|^2>,
+    Y = <|c|^2> have ``Var X = E[X]^2 / L``, ``Var Y = E[Y]^2 / L``, ``Cov = (P sin 2W cos 2W)^2 / L``, and
+    ``W_hat = (1/2) arctan sqrt(X' / Y')`` (X', Y' noise-subtracted or not). Valid away from W = 0 and
+    W = pi/4, where the square root and the sign make the estimate non-linear.
+    """
+    c = scene.matrix
+    p = float(np.real(c[0, 0] + c[2, 2] + 2 * c[0, 2]))
+    s2, c2 = np.sin(2 * omega) ** 2, np.cos(2 * omega) ** 2
+    ex, ey = p * s2 + 2 * noise_power, p * c2 + 2 * noise_power  # E|d|^2, E|c|^2
+    x, y = (p * s2, p * c2) if noise_subtraction else (ex, ey)
+    t = np.sqrt(x / y)
+    gx = 0.5 / (1 + t**2) / (2 * t * y)
+    gy = -0.5 / (1 + t**2) * t / (2 * y)
+    var_x, var_y, cov = ex**2 / looks, ey**2 / looks, (p**2 * s2 * c2) / looks
+    return float(gx**2 * var_x + gy**2 * var_y + 2 * gx * gy * cov)

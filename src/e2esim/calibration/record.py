@@ -152,7 +152,9 @@ def faraday_theory_values(step, record: CalibrationRecord) -> dict:
     """Predicted noise SD of the Faraday-rotation estimate (no crosstalk) and the probability that the
     climatology prior resolves the pi/2 ambiguity wrongly."""
     from e2esim.calibration.chirp import chirp_omega0_sd
-    from e2esim.calibration.faraday_theory import ambiguity_error_probability, bickel_bates_snr, bickel_bates_variance
+    from e2esim.calibration.faraday_theory import (
+        ambiguity_error_probability, bickel_bates_snr, bickel_bates_variance, freeman_variance,
+    )
 
     snr = bickel_bates_snr(record.scene, record.raw_system.noise_power)
     out = {}
@@ -160,6 +162,10 @@ def faraday_theory_values(step, record: CalibrationRecord) -> dict:
         out["predicted_noise_sd_deg"] = float(np.degrees(chirp_omega0_sd(snr, step.looks, step.chirp)))
     elif step.method == "bickel_bates":
         out["predicted_noise_sd_deg"] = float(np.degrees(np.sqrt(bickel_bates_variance(snr, step.looks))))
+    else:  # Freeman, at the mean Faraday rotation (delta method: not near 0 or 45 deg)
+        var = freeman_variance(record.scene, record.raw_system.noise_power, record.raw_faraday.mean_rad, step.looks,
+                               step.noise_subtraction)
+        out["predicted_noise_sd_deg"] = float(np.degrees(np.sqrt(var)))
     if step.method != "chirp_slope":
         prior_sd = record.raw_faraday.sd_rad if step.prior == "climatology" else step.prior_sd_rad
         out["ambiguity_error_probability"] = float(ambiguity_error_probability(prior_sd, 0.0, AMBIGUITY_PERIOD))
