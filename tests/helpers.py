@@ -2,12 +2,24 @@
 
 from __future__ import annotations
 
+import os
+import secrets
+
 import numpy as np
 
 from e2esim.instrument.system_errors import SystemErrorModel
 from e2esim.scene.covariance import ScatteringCovariance
 from e2esim.scene.table1 import TABLE1_FORESTS
 from e2esim.units import THREE_SIGMA_AMPLITUDE, db_to_linear, variance_from_level_db
+
+
+_env = os.environ.get("E2ESIM_TEST_SEED", "20210406")
+TEST_SEED = secrets.randbelow(2**31) if _env == "random" else int(_env)
+"""Root seed of the statistical tests (E2ESIM_TEST_SEED: an integer, or ``random``)."""
+
+Z_ACCEPT = 4.5
+"""Acceptance for single statistical comparisons: two-sided false-failure probability 7e-6 per
+comparison, so a suite of a few hundred comparisons fails by chance about once in 500 runs."""
 
 
 def forest(name: str = "boreal_200") -> ScatteringCovariance:

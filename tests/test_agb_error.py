@@ -2,7 +2,7 @@
 
 import numpy as np
 import pytest
-from conftest import Z_ACCEPT
+from helpers import Z_ACCEPT
 
 from e2esim.errors import PhysicsInputError
 from e2esim.retrieval.agb_error import AGBError, binomial_interval, standard_normal_quantile

@@ -7,7 +7,7 @@ made at a precision far beyond the paper's (docs/errata.md, E3-E4).
 
 import numpy as np
 import pytest
-from conftest import Z_ACCEPT
+from helpers import Z_ACCEPT
 
 from e2esim.crosspol.analytic import hv_error_moments
 from e2esim.crosspol.first_order import (

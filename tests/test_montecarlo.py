@@ -2,7 +2,7 @@
 
 import numpy as np
 import pytest
-from conftest import Z_ACCEPT
+from helpers import Z_ACCEPT
 from scipy import stats
 
 from e2esim.crosspol.montecarlo import gaussianity, simulate

@@ -3,7 +3,7 @@ sizes (L = 100000, M = 10000, N = 1), for any seed; also for complex correlation
 
 import numpy as np
 import pytest
-from conftest import TEST_SEED, Z_ACCEPT
+from helpers import TEST_SEED, Z_ACCEPT
 
 from e2esim.crosspol.analytic import hv_error_moments
 from e2esim.crosspol.montecarlo import simulate

@@ -36,6 +36,8 @@ def case_scalars(state) -> dict:
         out.update({"system.crosstalk_variance": state.system.crosstalk_level,
                     "system.imbalance_variance": state.system.imbalance_level,
                     "system.noise_power": state.system.noise_power})
+    if hasattr(state.calibration, "scalars"):  # calibration modules report what they did and leave
+        out.update(state.calibration.scalars())
     bs = state.backscatter
     if bs is not None:
         if bs.analytic is not None:

@@ -1,0 +1,258 @@
+"""Calibration modules (kind ``calibration``): a calibration strategy and the residual errors it leaves.
+
+A scenario's ``calibration`` section is one module or a list applied in order. Each module adds its
+step to ``state.calibration`` (``CalibrationRecord``), simulates the whole strategy on calibration data
+drawn through the full system model (distributed-target windows, calibrators in clutter), and hands the
+propagation the residual errors: what the estimators' errors leave, not the raw instrument errors
+(``e2esim.calibration.record`` explains the representation).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from e2esim.calibration.chirp import ChirpSlopeEstimator
+from e2esim.calibration.steps import FaradayStep, GainStep, QueganStep, TransponderStep, TrihedralStep
+from e2esim.calibration.radiometric import (
+    UNIFORM_ARRAY_BEAM_SHAPING, absolute_gain_error_db, swath_pointing_gain_sd_db,
+)
+from e2esim.calibration.record import CalibrationRecord
+from e2esim.calibration.targets import TARGET_NAMES, Calibrators, target_matrix
+from e2esim.calibration.transponder import GAUGES
+from e2esim.errors import ConfigError, PhysicsInputError
+from e2esim.faraday.distribution import GaussianFaraday
+from e2esim.module import Module
+from e2esim.params import Param
+from e2esim.polarimetry.system_model import to_vector
+
+CLUTTER_SHAPES = {
+    # Reflection-symmetric clutter around a calibrator (hh, hv, vv): equal co-polarised powers, HV 10 dB
+    # below, HH-VV correlation 0.6. Illustrative of low vegetation; only the ratios matter, the SCR sets
+    # the level.
+    "low_vegetation": np.array([[1.0, 0.0, 0.6], [0.0, 0.1, 0.0], [0.6, 0.0, 1.0]], dtype=complex),
+}
+CLUTTER_CHOICES = tuple(CLUTTER_SHAPES) + ("scene",)
+FARADAY_METHODS = ("bickel_bates", "freeman", "chirp_slope")
+PRIORS = ("climatology", "tec_map")
+
+
+class CalibrationModule(Module):
+    """Base class: a module contributes one or more pipeline steps (``steps``)."""
+
+    kind = "calibration"
+    requires = ("scene", "system", "faraday")
+    provides = ("system", "faraday", "calibration")
+
+    def steps(self, state, record: CalibrationRecord) -> list:
+        """``[(name, step), ...]`` this module adds (override)."""
+        return []
+
+    def forward(self, state):
+        record = CalibrationRecord.start(state)
+        for name, step in self.steps(state, record):
+            record = record.extended(name, step)
+        return record.apply(state)
+
+    def _clutter(self, state) -> np.ndarray:
+        name = self.config["clutter"]
+        return state.scene.matrix if name == "scene" else CLUTTER_SHAPES[name]
+
+
+class NoCalibration(CalibrationModule):
+    """No calibration: the propagation sees the instrument's errors and the full Faraday rotation."""
+
+    type_name = "none"
+    summary = "no calibration: raw crosstalk, channel imbalance, gain and Faraday rotation"
+    provides = ("calibration",)
+
+    def forward(self, state):
+        if isinstance(state.calibration, CalibrationRecord):
+            return state  # after other calibration modules: adds nothing
+        return state.with_(calibration=CalibrationRecord.start(state))
+
+
+class FaradayCorrection(CalibrationModule):
+    """Estimate Omega on the scene and rotate it away, ``S = F^-1 M F^-1`` (Quegan et al. 2018, eq. 4).
+
+    Bickel-Bates (circular basis; variance eqs. 5-6, corrected in docs/errata.md), Freeman's second-moment
+    estimator, or the chirp slope (eq. 12). The pi/2 ambiguity is resolved with a prior: the ionosphere
+    module's mean (``climatology``) or a TEC-map prediction with an error SD (``tec_map``). On its own
+    this leaves the sigma_hv error unchanged (the estimator (M_hv + M_vh)/2 is rotation invariant); the
+    residual Faraday rotation is reported and matters to the steps that follow.
+    """
+
+    type_name = "faraday_correction"
+    summary = "Faraday-rotation correction by Bickel-Bates, Freeman or chirp-slope estimates over N looks"
+    params = (
+        Param("estimator", "str", "Faraday-rotation estimator", default="bickel_bates", choices=FARADAY_METHODS),
+        Param("looks", "int", "independent samples in the estimation window (10^4: 2 km x 2 km for BIOMASS, "
+              "Quegan et al. 2018, Sect. 6)", default=10_000, minimum=1, maximum=10**9),
+        Param("prior", "str", "prior that resolves the pi/2 ambiguity: the ionosphere module's mean, or a "
+              "TEC-map prediction with error prior_sd_deg", default="climatology", choices=PRIORS),
+        Param("prior_sd_deg", "float", "SD of the TEC-map prediction of Omega (prior: tec_map)", default=10.0,
+              unit="deg", minimum=0.0, maximum=180.0),
+        Param("subbands", "int", "sub-bands of the chirp (estimator: chirp_slope)", default=4, minimum=2,
+              maximum=1024),
+        Param("noise_subtraction", "bool", "Freeman: subtract the known noise power", default=True),
+    )
+
+    def setup(self):
+        c = self.config
+        if c["estimator"] == "chirp_slope" and c["looks"] < c["subbands"]:
+            raise PhysicsInputError(f"looks = {c['looks']} cannot be shared among subbands = {c['subbands']}; "
+                                    "give at least one look per sub-band")
+
+    def steps(self, state, record):
+        c = self.config
+        chirp = None
+        if c["estimator"] == "chirp_slope":
+            inst = state.instrument
+            if inst is None or not (inst.centre_frequency_hz > 0 and inst.bandwidth_hz > 0):
+                raise ConfigError(self.location.child("estimator"),
+                                  "chirp_slope needs the instrument's centre frequency and bandwidth",
+                                  "use an instrument module that gives centre_frequency_mhz and bandwidth_mhz")
+            chirp = ChirpSlopeEstimator(inst.centre_frequency_hz, inst.bandwidth_hz, c["subbands"])
+        step = FaradayStep(method=c["estimator"], looks=c["looks"], prior=c["prior"],
+                           prior_sd_rad=float(np.radians(c["prior_sd_deg"])), chirp=chirp,
+                           noise_subtraction=c["noise_subtraction"])
+        return [(self.type_name, step)]
+
+
+class DistributedTargetCalibration(CalibrationModule):
+    """Crosstalk and f1/f2 from the scene by Quegan (1994), and optionally f1 f2 from trihedrals.
+
+    Needs reflection symmetry, a signal well above the noise and small Faraday rotation (Quegan et al.
+    2018, Sect. 5.2; one pass absorbs up to about 12 deg, five passes up to 40 deg): put
+    ``faraday_correction`` before it away from the magnetic equator. Its estimates are biased by about
+    sigma_hv/sigma_co times the crosstalk (P-band forest: 0.1-0.4); ``iterations > 1`` re-estimates on the
+    corrected data and removes most of it (it converges for the Table I forests). A distributed target cannot give the
+    co-polarised imbalance f1 f2 (the term that dominates the sigma_hv variance): ``trihedral: true`` takes
+    it from trihedrals in the scene at the given signal-to-clutter ratio.
+    """
+
+    type_name = "distributed_target_calibration"
+    summary = "crosstalk and channel imbalance from distributed targets (Quegan 1994) plus optional trihedrals"
+    params = (
+        Param("looks", "int", "independent samples of the distributed target used", default=100_000, minimum=1,
+              maximum=10**9),
+        Param("iterations", "int", "passes of the algorithm on its own corrected data (1: Quegan 1994)", default=1,
+              minimum=1, maximum=50),
+        Param("subtract_noise", "bool", "subtract the known noise power from the co-polarised powers", default=True),
+        Param("trihedral", "bool", "measure the co-polarised imbalance f1 f2 on trihedrals in the scene",
+              default=False),
+        Param("trihedral_scr_db", "float", "signal-to-clutter ratio of each trihedral", default=30.0, unit="dB",
+              minimum=-20.0, maximum=100.0),
+        Param("trihedral_count", "int", "independent trihedrals (or passes) averaged", default=1, minimum=1,
+              maximum=10_000),
+        Param("absolute_gain", "bool", "also set the absolute gain from the trihedrals (else keep the "
+              "instrument's gain statistics)", default=False),
+        Param("snr_db", "float", "calibrator peak power over the noise per channel", default=50.0, unit="dB",
+              minimum=-20.0, maximum=200.0),
+        Param("clutter", "str", "clutter shape around the calibrators", default="low_vegetation",
+              choices=CLUTTER_CHOICES),
+    )
+
+    def steps(self, state, record):
+        c = self.config
+        out = [(self.type_name, QueganStep(c["looks"], c["iterations"], c["subtract_noise"]))]
+        if c["trihedral"]:
+            cal = Calibrators.named(["trihedral"] * c["trihedral_count"], c["trihedral_scr_db"], self._clutter(state),
+                                    -c["snr_db"])
+            out.append((self.type_name + ".trihedral", TrihedralStep(cal, c["absolute_gain"])))
+        return out
+
+
+class TransponderCalibration(CalibrationModule):
+    """delta1..4, f1, f2, Omega and the gain from four or more calibrators by non-linear least squares
+    (Quegan et al. 2018, Sect. 5.1), at any Faraday rotation; the crosstalk/Faraday-rotation ambiguity is
+    fixed by ``gauge`` (``e2esim.calibration.transponder``). The system errors are stable, so the estimates
+    correct the scene; its own Faraday rotation needs a ``faraday_correction`` step, unless the calibrators
+    are in the scene (``site_faraday_mean_deg: null``) and ``correct_faraday`` is set."""
+
+    type_name = "transponder_calibration"
+    summary = "all system errors from >= 4 polarimetric calibrators by non-linear least squares"
+    params = (
+        Param("calibrators", "str", "calibrators seen", variable_length=True, choices=TARGET_NAMES,
+              default=("transponder_hh", "transponder_hv", "transponder_vh", "transponder_vv")),
+        Param("scr_db", "float", "signal-to-clutter ratio of each calibrator", default=30.0, unit="dB",
+              minimum=-20.0, maximum=100.0),
+        Param("snr_db", "float", "calibrator peak power over the noise per channel", default=50.0, unit="dB",
+              minimum=-20.0, maximum=200.0),
+        Param("clutter", "str", "clutter shape around the calibrators", default="low_vegetation",
+              choices=CLUTTER_CHOICES),
+        Param("gauge", "str", "condition that separates Faraday rotation from crosstalk", default="min_crosstalk",
+              choices=GAUGES),
+        Param("faraday_prior_sd_deg", "float", "SD of the independent Omega estimate (gauge: faraday_prior)",
+              default=0.5, unit="deg", minimum=0.0, maximum=90.0),
+        Param("site_faraday_mean_deg", "float", "mean Omega at the calibration site (null: calibrators in the scene)",
+              default=None, unit="deg", minimum=-180.0, maximum=180.0, nullable=True),
+        Param("site_faraday_sd_deg", "float", "SD of Omega at the calibration site", default=0.0, unit="deg",
+              minimum=0.0, maximum=90.0),
+        Param("correct_faraday", "bool", "also rotate the scene by the Omega found (calibrators in the scene)",
+              default=False),
+        Param("absolute_gain", "bool", "the calibrators are also the absolute radiometric reference (their RCS "
+              "known): the HV gain is then measured directly by the HV response (false: keep the instrument's "
+              "absolute gain, correct only relative to HH)", default=True),
+    )
+
+    def setup(self):
+        names = self.config["calibrators"]
+        if len(names) < 3:
+            raise PhysicsInputError(f"{len(names)} calibrators cannot determine the system errors; give at least "
+                                    "three independent ones (four or more over-determine it)")
+        rank = np.linalg.matrix_rank(np.stack([to_vector(target_matrix(n)) for n in names]))
+        if rank < 3:
+            raise PhysicsInputError(
+                f"calibrators {', '.join(names)} span only {rank} independent scattering matrices; the system errors "
+                "need at least 3 (e.g. trihedral, dihedral_0 and dihedral_45, or four transponders)")
+
+    def steps(self, state, record):
+        c = self.config
+        cal = Calibrators.named(c["calibrators"], c["scr_db"], self._clutter(state), -c["snr_db"])
+        site = None
+        if c["site_faraday_mean_deg"] is not None:
+            site = GaussianFaraday(float(np.radians(c["site_faraday_mean_deg"])), float(np.radians(c["site_faraday_sd_deg"])))
+        try:
+            step = TransponderStep(cal, c["gauge"], site, float(np.radians(c["faraday_prior_sd_deg"])),
+                                   c["correct_faraday"], c["absolute_gain"])
+        except PhysicsInputError as exc:
+            raise ConfigError(self.location.child("calibrators"), str(exc)) from exc
+        return [(self.type_name, step)]
+
+
+class RadiometricCalibration(CalibrationModule):
+    """Absolute gain from point targets of known RCS, with antenna-pattern/pointing and stability terms
+    (Quegan et al. 2018, Sect. 4; Ahmed et al. 2014, eqs. 30-35): sets the residual gain error."""
+
+    type_name = "radiometric_calibration"
+    summary = "absolute gain from point targets (SCR, count), antenna pattern and pointing, stability"
+    params = (
+        Param("scr_db", "float", "signal-to-clutter ratio of each reference target", default=30.0, unit="dB",
+              minimum=-20.0, maximum=100.0),
+        Param("targets", "int", "independent reference targets (or passes) averaged", default=1, minimum=1,
+              maximum=100_000),
+        Param("background_subtraction", "bool", "subtract the clutter power measured around the target",
+              default=True),
+        Param("pointing_sd_deg", "float", "SD of the residual elevation pointing error", default=0.0, unit="deg",
+              minimum=0.0, maximum=10.0),
+        Param("elevation_beamwidth_deg", "float", "elevation half-power beamwidth", default=5.0, unit="deg",
+              exclusive_minimum=0.0, maximum=90.0),
+        Param("beam_shaping", "float", "beam-shaping factor k of the sinc pattern (1.136: uniform array, "
+              "Ahmed et al. 2014)", default=UNIFORM_ARRAY_BEAM_SHAPING, exclusive_minimum=0.5, maximum=3.0),
+        Param("swath_fraction", "float", "part of the half-power beam the swath spans", default=1.0,
+              exclusive_minimum=0.0, maximum=1.0),
+        Param("drift_sd_db", "float", "gain stability between calibrations (SD)", default=0.0, unit="dB",
+              minimum=0.0, maximum=10.0),
+    )
+
+    def gain_error_db(self) -> tuple[float, float]:
+        """(mean, SD) of the error of the estimated |A|^2, dB."""
+        c = self.config
+        pointing = swath_pointing_gain_sd_db(np.radians(c["pointing_sd_deg"]), np.radians(c["elevation_beamwidth_deg"]),
+                                             c["beam_shaping"], c["swath_fraction"])
+        return absolute_gain_error_db(10 ** (c["scr_db"] / 10), c["targets"], c["background_subtraction"], pointing,
+                                      c["drift_sd_db"])
+
+    def steps(self, state, record):
+        mean, sd = self.gain_error_db()
+        return [(self.type_name, GainStep(sd_db=sd, offset_db=mean))]

@@ -1,0 +1,253 @@
+"""All system errors from polarimetric calibrators by non-linear least squares (Quegan et al. 2018, Sect. 5.1).
+
+Each calibrator k of known scattering matrix S_k gives ``vec(M_k) = A (T^T kron R)(F^T kron F) vec(S_k) +
+clutter + noise`` (eq. 11): 8 real numbers per response for the 15 real unknowns delta1..4, f1, f2 (12),
+Omega (1) and the complex gain A (2). Four or more independent responses over-determine the system.
+
+Identifiability. The responses fix the receive and transmit matrices ``X = A R F(Omega)`` and
+``Y = F(Omega) T`` only up to ``X -> X F(eps)``, ``Y -> F(-eps) Y`` (``A R F(Omega) = A R F(eps) F(Omega - eps)``):
+one real direction, along which, to first order, ``(delta1, delta2, delta3, delta4, Omega) ->
+(delta1 - eps, delta2 + eps, delta3 + eps, delta4 - eps, Omega - eps)``. This is the ambiguity between
+Faraday rotation and crosstalk of Quegan et al. (2018), Section 5.2, and it holds for any set of
+calibrators. Omega and the crosstalk are therefore separated only by a gauge condition (``GAUGES``):
+
+* ``"min_crosstalk"``: the member with the least total crosstalk power ``sum |delta_i|^2``; its Omega error is
+  ``Re(delta2 + delta3 - delta1 - delta4) / 4`` (SD ``sqrt(V_delta (1 - Re rho) / 8)`` for Men et al. 2021's
+  crosstalk statistics, 0.1 deg at the BIOMASS specification);
+* ``"reciprocal"``: the member closest to a reciprocal antenna (``T = R^T``: delta3 = delta1, delta4 = delta2,
+  f2 = f1), exact for a reciprocal system;
+* ``"faraday_prior"``: Omega from an independent estimate (e.g. the chirp slope, or a TEC map) with its SD,
+  traded against the crosstalk power.
+
+Whatever the gauge, the corrected data ``X^-1 M Y^-1`` are the same up to a rotation, which a
+Faraday-rotation estimate on the corrected scene removes; quantities the sigma_hv error depends on
+(``delta1 + delta3``, ``delta2 + delta4``, f1, f2) do not move along the gauge to first order.
+
+Solution: Gauss-Newton on the 14 parameters other than Omega, with Omega held at a coarse start value
+(any value fits, by the gauge), then the gauge fixed by a one-dimensional minimisation. The residuals are
+whitened by the clutter-plus-noise covariance of each response (recomputed at the current estimate), so
+the estimate is maximum likelihood for Gaussian clutter. The model is holomorphic in the 7 complex
+parameters, so the real Gauss-Newton step is the complex one, ``(G^H G) dz = G^H r``, and ``(G^H G)^-1``
+is the Cramer-Rao covariance of the complex parameters at known Omega. Vectorised over any number of
+realisations.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from e2esim.calibration.simulate import SystemState
+from e2esim.calibration.targets import Calibrators, response_covariance
+from e2esim.errors import PhysicsInputError
+from e2esim.polarimetry.system_model import _kron, faraday_matrix, to_vector
+
+GAUGES = ("min_crosstalk", "reciprocal", "faraday_prior")
+_START_ANGLES = np.pi * np.arange(-8, 8) / 16  # coarse Omega grid over one period (F(pi) = -I leaves M unchanged)
+_GN_ITERATIONS = 5
+_REWEIGHT_AT = (0, 1, 2, 3)  # Gauss-Newton iterations at which the whitening is recomputed
+_GAUGE_ITERATIONS = 5
+_LOADING = 1e-6  # relative diagonal loading of the response covariance used for whitening
+
+
+@dataclass(frozen=True)
+class TransponderSolution:
+    """System errors estimated from calibrator responses, shape (...) per realisation.
+
+    delta : (..., 4) crosstalk. f : (..., 2) channel imbalance. omega : Faraday rotation at the site (rad),
+    fixed by the gauge. gain : complex gain A. covariance : (..., 7, 7) complex Cramer-Rao covariance
+    ``E[dz dz^H]`` of z = (delta1..4, f1, f2, A) at known Omega (real and imaginary parts each have half
+    the diagonal as variance). chi2 : whitened residual sum of squares over the 8K real residuals,
+    chi-square with 8K - 14 degrees of freedom for a correct model. gauge : the condition.
+    """
+
+    delta: np.ndarray
+    f: np.ndarray
+    omega: np.ndarray
+    gain: np.ndarray
+    covariance: np.ndarray
+    chi2: np.ndarray
+    gauge: str
+
+    def state(self) -> SystemState:
+        return SystemState(self.delta, self.f, self.omega, self.gain)
+
+    def receive_matrix(self) -> np.ndarray:
+        """Estimated ``A R`` (the inner receive correction is its inverse), (..., 2, 2)."""
+        d, f = self.delta, self.f
+        one = np.ones_like(f[..., 0])
+        r = np.stack([np.stack([one, d[..., 1]], -1), np.stack([d[..., 0], f[..., 0]], -1)], -2)
+        return self.gain[..., None, None] * r
+
+    def transmit_matrix(self) -> np.ndarray:
+        d, f = self.delta, self.f
+        one = np.ones_like(f[..., 0])
+        return np.stack([np.stack([one, d[..., 2]], -1), np.stack([d[..., 3], f[..., 1]], -1)], -2)
+
+
+def _faraday_part(omega, svec) -> np.ndarray:
+    """``u_k = (F^T kron F) vec(S_k)``, (..., K, 4): constant while Omega is held."""
+    rot = faraday_matrix(omega)
+    k0 = _kron(np.swapaxes(rot, -1, -2), rot)
+    return np.einsum("...ij,kj->...ki", k0, svec)
+
+
+def _model_and_derivatives(z, u):
+    """``vec(M_k) = A D(delta, f) u_k`` and its derivatives in the 7 complex parameters
+    z = (delta1..4, f1, f2, A), shapes (..., K, 4) and (..., K, 4, 7).
+
+    D = T^T kron R has rows [1, d2, d4, d2 d4], [d1, f1, d1 d4, f1 d4], [d3, d2 d3, f2, f2 d2],
+    [d1 d3, f1 d3, f2 d1, f1 f2] (Men et al. 2021, eq. 1): multilinear, so the derivatives are exact.
+    """
+    d1, d2, d3, d4, f1, f2, a = (z[..., i, None] for i in range(7))
+    u0, u1, u2, u3 = (u[..., i] for i in range(4))
+    du = np.stack([
+        u0 + d2 * u1 + d4 * u2 + d2 * d4 * u3,
+        d1 * u0 + f1 * u1 + d1 * d4 * u2 + f1 * d4 * u3,
+        d3 * u0 + d2 * d3 * u1 + f2 * u2 + f2 * d2 * u3,
+        d1 * d3 * u0 + f1 * d3 * u1 + f2 * d1 * u2 + f1 * f2 * u3,
+    ], -1)
+    zero = np.zeros_like(u0 * d1)
+    grads = [
+        (zero, u0 + d4 * u2, zero, d3 * u0 + f2 * u2),  # delta1
+        (u1 + d4 * u3, zero, d3 * u1 + f2 * u3, zero),  # delta2
+        (zero, zero, u0 + d2 * u1, d1 * u0 + f1 * u1),  # delta3
+        (u2 + d2 * u3, d1 * u2 + f1 * u3, zero, zero),  # delta4
+        (zero, u1 + d4 * u3, zero, d3 * u1 + f2 * u3),  # f1
+        (zero, zero, u2 + d2 * u3, d1 * u2 + f1 * u3),  # f2
+    ]
+    jac = np.stack([a[..., None] * np.stack(g, -1) for g in grads] + [du], -1)
+    return a[..., None] * du, jac
+
+
+def _whiten(x, chol_inv) -> np.ndarray:
+    """Apply L^-1 (..., K, 4, 4) to (..., K, 4[, p]) and flatten the K responses: (..., 4K[, p])."""
+    if x.ndim == chol_inv.ndim - 1:
+        w = np.einsum("...kij,...kj->...ki", chol_inv, x)
+        return w.reshape(w.shape[:-2] + (-1,))
+    w = np.einsum("...kij,...kjp->...kip", chol_inv, x)
+    return w.reshape(w.shape[:-3] + (-1, w.shape[-1]))
+
+
+def _whitener(z, omega, calibrators) -> np.ndarray:
+    """L^-1 of the clutter-plus-noise covariance of each response at the current estimate."""
+    cov = response_covariance(calibrators, SystemState(z[..., 0:4], z[..., 4:6], omega, z[..., 6]))
+    loading = _LOADING * np.real(np.trace(cov, axis1=-2, axis2=-1))[..., None, None] / 4
+    cov = cov + loading * np.eye(4)  # reciprocal clutter without noise is singular in the HV - VH direction
+    return np.linalg.inv(np.linalg.cholesky(cov))
+
+
+def _gain_ls(y, u) -> np.ndarray:
+    """Least-squares complex gain with no crosstalk and unit imbalance: the start value of A."""
+    return np.sum(np.conj(u) * y, axis=(-2, -1)) / np.sum(np.abs(u) ** 2, axis=(-2, -1))
+
+
+def solve_transponder(
+    responses: np.ndarray,
+    calibrators: Calibrators,
+    gauge: str = "min_crosstalk",
+    faraday_prior: tuple | None = None,
+    crosstalk_variance: float = 1e-3,
+) -> TransponderSolution:
+    """Estimate (delta, f, Omega, A) from calibrator responses (..., K, 2, 2).
+
+    gauge : one of ``GAUGES``. faraday_prior : (mean_rad, sd_rad) for ``"faraday_prior"`` (sd 0: Omega
+    known). crosstalk_variance : prior crosstalk power per term, trading it against the Faraday prior.
+    """
+    if gauge not in GAUGES:
+        raise PhysicsInputError(f"gauge must be one of {GAUGES}, got {gauge!r}")
+    if gauge == "faraday_prior" and faraday_prior is None:
+        raise PhysicsInputError("gauge 'faraday_prior' needs faraday_prior = (mean_rad, sd_rad)")
+    responses = np.asarray(responses, dtype=complex)
+    if responses.shape[-3:] != (calibrators.count, 2, 2):
+        raise PhysicsInputError(f"responses must have shape (..., {calibrators.count}, 2, 2), got {responses.shape}")
+    svec = to_vector(calibrators.matrices)  # (K, 4)
+    if np.linalg.matrix_rank(svec) < 3:
+        raise PhysicsInputError(
+            f"calibrators {', '.join(calibrators.names)} span fewer than 3 independent scattering matrices; "
+            "the system errors are not determined (use e.g. trihedral, dihedral_0 and dihedral_45, or four transponders)"
+        )
+    batch = responses.shape[:-3]
+    y = to_vector(responses)  # (..., K, 4)
+    omega0 = _start_angle(y, svec, batch)
+    u = _faraday_part(omega0, svec)
+    z = np.zeros(batch + (7,), complex)
+    z[..., 4:6] = 1.0
+    z[..., 6] = _gain_ls(y, u)
+    for i in range(_GN_ITERATIONS):
+        if i in _REWEIGHT_AT:  # iteratively re-weighted: the clutter maps through the current estimate
+            chol_inv = _whitener(z, omega0, calibrators)
+        model, jac = _model_and_derivatives(z, u)
+        r, g = _whiten(y - model, chol_inv), _whiten(jac, chol_inv)
+        gh = np.conj(np.swapaxes(g, -1, -2))
+        # holomorphic model: the real Gauss-Newton step is the complex one, (G^H G) dz = G^H r
+        z = z + np.linalg.solve(gh @ g, gh @ r[..., None])[..., 0]
+    chol_inv = _whitener(z, omega0, calibrators)
+    model, jac = _model_and_derivatives(z, u)
+    r, g = _whiten(y - model, chol_inv), _whiten(jac, chol_inv)
+    chi2 = 2 * np.sum(np.abs(r) ** 2, -1)  # whitened: E|w|^2 = 1, i.e. variance 1/2 per real component
+    covariance = np.linalg.inv(np.conj(np.swapaxes(g, -1, -2)) @ g)
+    delta, f, omega, gain = fix_gauge(z[..., 0:4], z[..., 4:6], omega0, z[..., 6], gauge, faraday_prior,
+                                      crosstalk_variance)
+    return TransponderSolution(delta, f, omega, gain, covariance, chi2, gauge)
+
+
+def _start_angle(y, svec, batch) -> np.ndarray:
+    """Coarse Omega start: the grid angle whose crosstalk-free model fits best (any angle is an exact
+    fit with suitable crosstalk, so this only keeps the Gauss-Newton in its linear regime)."""
+    best = np.full(batch, np.inf)
+    omega0 = np.zeros(batch)
+    for angle in _START_ANGLES:
+        u = _faraday_part(np.full(batch, angle), svec)
+        cost = np.sum(np.abs(y - _gain_ls(y, u)[..., None, None] * u) ** 2, axis=(-2, -1))
+        better = cost < best
+        best = np.where(better, cost, best)
+        omega0 = np.where(better, angle, omega0)
+    return omega0
+
+
+def gauge_transform(delta, f, omega, gain, eps):
+    """The equivalent parameters ``R F(eps)``, ``Omega - eps``, ``F(eps) T`` (renormalised), exact."""
+    one = np.ones_like(gain)
+    r = np.stack([np.stack([one, delta[..., 1]], -1), np.stack([delta[..., 0], f[..., 0]], -1)], -2)
+    t = np.stack([np.stack([one, delta[..., 2]], -1), np.stack([delta[..., 3], f[..., 1]], -1)], -2)
+    rot = faraday_matrix(eps)
+    r2, t2 = r @ rot, rot @ t
+    gr, gt = r2[..., 0, 0], t2[..., 0, 0]
+    r2, t2 = r2 / gr[..., None, None], t2 / gt[..., None, None]
+    delta2 = np.stack([r2[..., 1, 0], r2[..., 0, 1], t2[..., 0, 1], t2[..., 1, 0]], -1)
+    f2 = np.stack([r2[..., 1, 1], t2[..., 1, 1]], -1)
+    return delta2, f2, np.asarray(omega) - eps, gain * gr * gt
+
+
+def _gauge_cost(delta, f, omega, gauge, prior, crosstalk_variance):
+    if gauge == "min_crosstalk":
+        return np.sum(np.abs(delta) ** 2, -1)
+    if gauge == "reciprocal":
+        return np.abs(delta[..., 2] - delta[..., 0]) ** 2 + np.abs(delta[..., 3] - delta[..., 1]) ** 2 + np.abs(
+            f[..., 1] - f[..., 0]) ** 2
+    mean, sd = prior
+    xt = np.sum(np.abs(delta) ** 2, -1) / (4 * crosstalk_variance)
+    return (omega - mean) ** 2 / max(sd, 1e-12) ** 2 + xt
+
+
+def fix_gauge(delta, f, omega, gain, gauge, prior=None, crosstalk_variance=1e-3):
+    """Move along the unobservable direction to the member that satisfies ``gauge`` (Newton in eps)."""
+    if gauge == "faraday_prior" and prior[1] == 0:
+        return gauge_transform(delta, f, omega, gain, np.asarray(omega) - prior[0])
+    eps = np.real(delta[..., 0] - delta[..., 1] - delta[..., 2] + delta[..., 3]) / 4  # first-order min-norm
+    h = 1e-5
+    for _ in range(_GAUGE_ITERATIONS):
+        c0 = _gauge_cost(*_tf(delta, f, omega, gain, eps), gauge, prior, crosstalk_variance)
+        cp = _gauge_cost(*_tf(delta, f, omega, gain, eps + h), gauge, prior, crosstalk_variance)
+        cm = _gauge_cost(*_tf(delta, f, omega, gain, eps - h), gauge, prior, crosstalk_variance)
+        d2 = (cp - 2 * c0 + cm) / h**2
+        step = -(cp - cm) / (2 * h) / np.where(d2 > 0, d2, np.inf)
+        eps = eps + np.clip(step, -0.2, 0.2)
+    return gauge_transform(delta, f, omega, gain, eps)
+
+
+def _tf(delta, f, omega, gain, eps):
+    d, ff, om, _ = gauge_transform(delta, f, omega, gain, eps)
+    return d, ff, om

@@ -1,0 +1,147 @@
+"""Calibration modules in the runner: what the propagation sees after each strategy, and bad input."""
+
+from __future__ import annotations
+
+import copy
+import pickle
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from e2esim.calibration.modules import FaradayCorrection, TransponderCalibration
+from e2esim.calibration.pipeline import ResidualSystemErrorModel
+from e2esim.calibration.record import CalibrationRecord
+from e2esim.errors import ConfigError
+from e2esim.faraday.distribution import ConstantFaraday
+from e2esim.runner.run import run_case, run_scenario
+from e2esim.runner.scenario import Scenario
+
+ROOT = Path(__file__).resolve().parents[2]
+
+BASE = {
+    "scene": {"type": "table1_forest", "forest": "boreal_200"},
+    "instrument": {"type": "biomass"},
+    "ionosphere": {"type": "gaussian_faraday", "mean_deg": 60.0, "sd_deg": 5.0},
+    "propagation": {"type": "hv_backscatter_error"},
+    "retrieval": {"type": "power_law"},
+    "simulation": {"mode": "both", "seed": 7, "looks": 10_000, "realisations": 2000},
+}
+
+
+def _run(calibration, **changes):
+    data = copy.deepcopy(BASE)
+    if calibration is not None:
+        data["calibration"] = calibration
+    data.update(changes)
+    resolved = Scenario(data, "<test>").resolve()
+    return [run_case(spec) for spec in resolved.cases]
+
+
+def test_faraday_correction_alone_leaves_the_sigma_hv_error_exactly_unchanged():
+    raw = _run(None)[0].state
+    fr = _run([{"type": "faraday_correction"}])[0]
+    assert fr.state.system == raw.system and fr.state.faraday == raw.faraday
+    assert float(fr.state.backscatter.analytic.mean) == float(raw.backscatter.analytic.mean)
+    assert float(fr.state.backscatter.analytic.variance) == float(raw.backscatter.analytic.variance)
+    rec = fr.state.calibration
+    assert isinstance(rec, CalibrationRecord) and rec.representation == "rotation_invariant"
+    assert fr.scalars["calibration.0.faraday_correction.omega_error_rms_deg"] < 1.0
+    assert fr.scalars["calibration.0.faraday_correction.ambiguity_error_fraction"] == 0.0
+
+
+def test_full_calibration_leaves_smaller_errors_than_the_raw_instrument():
+    """Transponders then Faraday-rotation correction: residual crosstalk and imbalance below the raw ones,
+    no Faraday rotation left, and a smaller sigma_hv error SD (analytic and Monte Carlo)."""
+    raw = _run(None)[0]
+    cal = _run([{"type": "transponder_calibration", "scr_db": 40.0}, {"type": "faraday_correction"}])[0]
+    s = cal.state
+    assert isinstance(s.system, ResidualSystemErrorModel) and isinstance(s.faraday, ConstantFaraday)
+    assert s.raw_system == raw.state.system
+    assert s.system.crosstalk_level < 0.2 * raw.state.system.crosstalk_level
+    assert s.system.imbalance_level < 0.5 * raw.state.system.imbalance_level
+    assert cal.scalars["analytic.sd"] < 0.7 * raw.scalars["analytic.sd"]
+    assert cal.scalars["montecarlo.sd"] < 0.7 * raw.scalars["montecarlo.sd"]
+    assert cal.scalars["calibration.residual.crosstalk_level_db"] < -40
+    assert "calibration.0.transponder_calibration.chi2_mean" in cal.scalars
+
+
+def test_distributed_target_calibration_needs_faraday_correction_far_from_the_equator():
+    """At 60 deg of Faraday rotation Quegan (1994) alone fails; after Faraday-rotation correction it works."""
+    alone = _run([{"type": "distributed_target_calibration"}])[0].state.system
+    after = _run([{"type": "faraday_correction"}, {"type": "distributed_target_calibration"}])[0].state.system
+    raw = _run(None)[0].state.system
+    assert alone.crosstalk_level > 10 * raw.crosstalk_level
+    assert after.crosstalk_level < 0.3 * raw.crosstalk_level
+
+
+def test_chirp_slope_and_radiometric_modules_run():
+    """Near the magnetic equator the slope estimate's scatter is the predicted noise term: its crosstalk
+    error is a fraction of Omega0 (at 60 deg it adds about 0.17 deg at the BIOMASS specification)."""
+    equator = {"type": "gaussian_faraday", "mean_deg": 0.0, "sd_deg": 2.0}
+    chirp = _run([{"type": "faraday_correction", "estimator": "chirp_slope", "looks": 400_000, "subbands": 4},
+                  {"type": "radiometric_calibration", "scr_db": 35.0, "targets": 3, "pointing_sd_deg": 0.05}],
+                 ionosphere=equator)[0]
+    sd = chirp.scalars["calibration.0.faraday_correction.omega_error_sd_deg"]
+    predicted = chirp.scalars["calibration.0.faraday_correction.predicted_noise_sd_deg"]
+    assert sd == pytest.approx(predicted, rel=0.1)
+    assert chirp.state.system.gain_sd_db > 0
+    assert chirp.scalars["calibration.residual.gain_sd_db"] == pytest.approx(chirp.state.system.gain_sd_db)
+
+
+def test_none_module_and_determinism():
+    a = _run([{"type": "none"}, {"type": "faraday_correction"}])[0]
+    b = _run([{"type": "none"}, {"type": "faraday_correction"}])[0]
+    assert a.scalars == b.scalars
+    module = TransponderCalibration(scr_db=35.0)
+    assert pickle.loads(pickle.dumps(module)) == module
+
+
+@pytest.mark.parametrize("calibration, key, message", [
+    ([{"type": "faraday_corection"}], "calibration[0].type", "did you mean|unknown calibration type"),
+    ([{"type": "faraday_correction", "estimator": "chirp_slope", "looks": 2, "subbands": 4}], "calibration[0]",
+     "cannot be shared among subbands = 4"),
+    ([{"type": "transponder_calibration", "calibrators": ["trihedral", "dihedral_0"]}], "calibration[0]",
+     "2 calibrators cannot determine the system errors"),
+    ([{"type": "transponder_calibration", "calibrators": ["trihedral", "dihedral_7"]}], "calibration[0].calibrators[1]",
+     "'dihedral_7' is not allowed"),
+    ([{"type": "transponder_calibration", "calibrators": ["trihedral", "trihedral", "dihedral_0"]}], "calibration[0]",
+     "span only 2 independent scattering matrices"),
+    ([{"type": "faraday_correction", "looks": 0}], "calibration[0].looks", "0 is out of range"),
+])
+def test_bad_input_names_the_key(calibration, key, message):
+    with pytest.raises(ConfigError, match=message) as info:
+        _run(calibration)
+    assert key in str(info.value)
+
+
+def test_python_api_rejects_bad_values():
+    with pytest.raises(ConfigError, match="estimator: 'bb' is not allowed"):
+        FaradayCorrection(estimator="bb")
+
+
+def test_calibration_scenario_file_runs_fast_variant():
+    """scenarios/biomass_calibration.yaml with small Monte Carlo sizes: every case runs and full
+    calibration lowers the 99.865 % AGB error quantile below the raw one for both forests."""
+    sc = Scenario.load(ROOT / "scenarios" / "biomass_calibration.yaml",
+                       ["simulation.realisations=600", "simulation.looks=20000"])
+    result = run_scenario(sc.resolve(), progress=False)
+    assert len(result.cases) == 8
+    by = {(c.inputs["scene.forest"], c.inputs["calibration.0.type"], c.inputs["calibration.1.type"]): c.scalars
+          for c in result.cases}
+    for forest in ("boreal_200", "tropical_338"):
+        raw = by[(forest, "none", "none")]["agb.analytic.q99865_percent"]
+        fr = by[(forest, "faraday_correction", "none")]["agb.analytic.q99865_percent"]
+        full = by[(forest, "transponder_calibration", "faraday_correction")]["agb.analytic.q99865_percent"]
+        assert fr == raw
+        assert full < 0.8 * raw
+
+
+@pytest.mark.slow
+def test_calibration_scenario_file_full_size(tmp_path):
+    sc = Scenario.load(ROOT / "scenarios" / "biomass_calibration.yaml")
+    result = run_scenario(sc.resolve(), progress=False)
+    for c in result.cases:
+        if c.inputs["calibration.0.type"] == "transponder_calibration":
+            assert abs(c.scalars["comparison.var_rel_diff"]) < 0.15  # analytic residual model vs exact draws
+    assert np.isfinite([c.scalars["agb.montecarlo.rmse_percent"] for c in result.cases]).all()
