@@ -1,0 +1,510 @@
+"""The interface every backscatter-AGB retrieval model implements, and what its methods return.
+
+A retrieval model is a forward model ``sigma = f(AGB; beta)`` (backscattering coefficient in m^2/m^2 as a
+function of above-ground biomass in t/ha, parameters ``beta``) with
+
+* ``sigma(agb)`` and ``derivative(agb)`` (d sigma / d AGB) for its own parameters, and the vectorised
+  ``evaluate(agb, params)``, ``param_jacobian(agb, params)`` (d sigma / d beta, eq. 5 of Ahmed et al.
+  2014) and ``agb_derivative(agb, params)`` for any parameter array, which the regression, SIMEX and
+  bootstrap code use;
+* ``invert(sigma)`` -> ``Inversion``: the AGB estimate with a status per value. A model that saturates
+  (Ahmed et al. 2014, eq. 1) has no inverse above the largest backscatter it reaches on its increasing
+  branch; such values are reported as *saturated* (AGB +inf, or the cap ``agb_max``), values at or below
+  the model's lowest backscatter as *below range* (AGB 0). Nothing is returned as a silent NaN;
+* ``fit(agb, sigma)`` -> ``FitResult`` with the covariance of the coefficients, and ``fit_batch`` for
+  many data sets at once (the engine of SIMEX and the bootstrap).
+
+Fits in the linear space (additive error in sigma, Ahmed et al. 2014, eq. 2) use a batched
+Levenberg-Marquardt solver (``levenberg_marquardt``) that fits thousands of small data sets in one set of
+numpy operations and reports, per data set, whether it converged. Fits in the log space (multiplicative
+error; power law and log-linear model) are ordinary least squares in ln sigma.
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from dataclasses import dataclass, field
+from typing import ClassVar
+
+import numpy as np
+
+from e2esim.errors import PhysicsInputError
+
+# Inversion status codes ------------------------------------------------------------------------
+INVERTED = 0
+"""Status: sigma lies on the model's increasing branch; the AGB estimate is finite."""
+BELOW_RANGE = 1
+"""Status: sigma at or below the smallest backscatter of the model (e.g. sigma <= 0): AGB = lowest AGB (0)."""
+SATURATED = 2
+"""Status: sigma at or above the largest backscatter the model reaches below ``agb_max``: AGB unbounded."""
+INVALID = 3
+"""Status: sigma is not a finite number."""
+STATUS_NAMES = {INVERTED: "inverted", BELOW_RANGE: "below_range", SATURATED: "saturated", INVALID: "invalid"}
+
+# Fit status codes ------------------------------------------------------------------------------
+CONVERGED = 0
+MAX_ITERATIONS = 1
+"""Fit status: the iteration limit was reached before convergence."""
+NON_FINITE = 2
+"""Fit status: the model, its Jacobian or the residuals became non-finite."""
+STALLED = 3
+"""Fit status: no step reduced the residuals any more (damping exhausted) away from a stationary point."""
+BAD_DATA = 4
+"""Fit status: the data set cannot be fitted (non-finite values, sigma <= 0 or AGB <= 0 for a log fit,
+fewer points than parameters)."""
+OUT_OF_DOMAIN = 5
+"""Fit status: the least-squares coefficients lie outside the model's domain (e.g. a power-law exponent <= 0)."""
+FIT_STATUS_NAMES = {CONVERGED: "converged", MAX_ITERATIONS: "max_iterations", NON_FINITE: "non_finite",
+                    STALLED: "stalled", BAD_DATA: "bad_data", OUT_OF_DOMAIN: "out_of_domain"}
+
+FIT_SPACES = ("linear", "log")
+_STALL_GTOL = 1e-6  # scaled gradient below which a fit whose damping is exhausted counts as converged
+
+
+@dataclass(frozen=True)
+class Inversion:
+    """AGB estimates from backscatter, with a status per value.
+
+    agb : AGB estimate (t/ha), shape of the input sigma (without a channel axis). +inf where saturated
+        without a cap, ``agb_max`` where saturated with one; the lowest AGB of the model where below range.
+    status : ``INVERTED``, ``BELOW_RANGE``, ``SATURATED`` or ``INVALID`` per value (int8).
+    sigma_max : largest backscatter (m^2/m^2) the model reaches on its increasing branch below the cap.
+    agb_max : the cap used (t/ha), +inf if none.
+    """
+
+    agb: np.ndarray
+    status: np.ndarray
+    sigma_max: float
+    agb_max: float
+
+    @property
+    def saturated(self) -> np.ndarray:
+        return self.status == SATURATED
+
+    def count(self, status: int) -> int:
+        return int(np.count_nonzero(self.status == status))
+
+    @property
+    def saturated_fraction(self) -> float:
+        return self.count(SATURATED) / max(self.status.size, 1)
+
+    def counts(self) -> dict:
+        """Number of values per status name."""
+        return {name: self.count(code) for code, name in STATUS_NAMES.items()}
+
+
+@dataclass(frozen=True)
+class BatchFit:
+    """Fits of many data sets at once.
+
+    params : (B, p) fitted coefficients (the starting values where a fit failed).
+    status : (B,) fit status codes (``CONVERGED``, ``MAX_ITERATIONS``, ...).
+    ssr : (B,) residual sum of squares in the fit space. iterations : (B,) iterations used.
+    """
+
+    params: np.ndarray
+    status: np.ndarray
+    ssr: np.ndarray
+    iterations: np.ndarray
+
+    @property
+    def converged(self) -> np.ndarray:
+        return self.status == CONVERGED
+
+    @property
+    def n_failed(self) -> int:
+        return int(np.count_nonzero(self.status != CONVERGED))
+
+    def failure_counts(self) -> dict:
+        return {name: int(np.count_nonzero(self.status == code)) for code, name in FIT_STATUS_NAMES.items()
+                if code != CONVERGED}
+
+
+@dataclass(frozen=True)
+class FitResult:
+    """A fitted retrieval model with the uncertainty of its coefficients.
+
+    model : the model with the fitted coefficients. covariance : (p, p) covariance of the coefficients,
+    ``sigma_hat^2 (J^T J)^-1`` (Ahmed et al. 2014, eq. 6, with the residual variance that the printed
+    equation omits; Draper & Smith 1998, Section 24.3; docs/errata.md). residual_variance : sigma_hat^2,
+    SSR / (n - p), in the fit space ((m^2/m^2)^2 for "linear", dimensionless for "log").
+    n : number of points. dof : n - p. space : "linear" or "log". status : fit status code.
+    iterations : solver iterations. residuals : (n, ...) data minus fit, in the fit space.
+    """
+
+    model: "RetrievalModel"
+    covariance: np.ndarray
+    residual_variance: float
+    n: int
+    dof: int
+    space: str
+    status: int
+    iterations: int
+    residuals: np.ndarray
+
+    @property
+    def converged(self) -> bool:
+        return self.status == CONVERGED
+
+    @property
+    def params(self) -> np.ndarray:
+        return self.model.params
+
+    @property
+    def standard_errors(self) -> np.ndarray:
+        return np.sqrt(np.clip(np.diag(self.covariance), 0.0, None))
+
+
+class RetrievalModel(ABC):
+    """Base class of the backscatter-AGB models (module docstring).
+
+    Subclasses are frozen dataclasses whose fields are the coefficients (and fixed hyper-parameters such as
+    the exponent alpha of the saturating model). Class attributes:
+
+    param_names : names of the fitted coefficients, in the order of ``params``.
+    channels : polarisations of the output ("hv" for single-channel models).
+    default_fit_space : "linear" (additive error in sigma) or "log" (multiplicative error).
+    """
+
+    param_names: ClassVar[tuple] = ()
+    channels: ClassVar[tuple] = ("hv",)
+    default_fit_space: ClassVar[str] = "linear"
+    params_per_output: ClassVar[int | None] = None  # coefficients per output channel, if fewer than all
+
+    # Coefficients ---------------------------------------------------------------------------------
+    @property
+    @abstractmethod
+    def params(self) -> np.ndarray:
+        """The coefficients as a float array of shape (p,)."""
+
+    @abstractmethod
+    def with_params(self, params) -> "RetrievalModel":
+        """A copy with other coefficients (same fixed hyper-parameters)."""
+
+    def params_valid(self, params) -> np.ndarray:
+        """Whether coefficient vectors (..., p) lie in the model's domain (default: all finite)."""
+        return np.all(np.isfinite(params), axis=-1)
+
+    def _params(self, params):
+        return self.params if params is None else np.asarray(params, dtype=float)
+
+    # Vectorised forward model ----------------------------------------------------------------------
+    @abstractmethod
+    def evaluate(self, agb, params=None, **covariates) -> np.ndarray:
+        """sigma (m^2/m^2) at ``agb`` (t/ha). ``params`` (..., p) broadcasts against ``agb`` (..., n)
+        as ``params[..., None, :]``; None uses the model's own coefficients."""
+
+    @abstractmethod
+    def param_jacobian(self, agb, params=None, **covariates) -> np.ndarray:
+        """d sigma / d beta, shape (..., n, p) (Ahmed et al. 2014, eq. 5)."""
+
+    @abstractmethod
+    def agb_derivative(self, agb, params=None, **covariates) -> np.ndarray:
+        """d sigma / d AGB ((m^2/m^2) per t/ha), shape of ``evaluate``."""
+
+    def initial_guess(self, agb, sigma, **covariates) -> np.ndarray:
+        """Starting coefficients for a fit of data (..., n): by default the model's own, broadcast."""
+        shape = np.shape(agb)[:-1]
+        return np.broadcast_to(self.params, shape + self.params.shape).copy()
+
+    # Convenience for the model's own coefficients ------------------------------------------------------
+    def sigma(self, agb, **covariates) -> np.ndarray:
+        """sigma (m^2/m^2) at ``agb`` (t/ha), any shape."""
+        agb = np.asarray(agb, dtype=float)
+        return self.evaluate(agb[..., None], **covariates)[..., 0] if agb.ndim == 0 else self.evaluate(
+            agb, **covariates)
+
+    def derivative(self, agb, **covariates) -> np.ndarray:
+        """d sigma / d AGB at ``agb`` (t/ha)."""
+        agb = np.asarray(agb, dtype=float)
+        if agb.ndim == 0:
+            return self.agb_derivative(agb[..., None], **covariates)[..., 0]
+        return self.agb_derivative(agb, **covariates)
+
+    def sensitivity(self, agb, **covariates) -> np.ndarray:
+        """d ln sigma / d ln AGB: the relative backscatter change per relative AGB change.
+
+        Its reciprocal is the local power-law exponent p: a small relative sigma error x gives a relative
+        AGB error of about x / sensitivity (Men et al. 2021, eq. 16 linearised).
+        """
+        agb = np.asarray(agb, dtype=float)
+        return agb * self.derivative(agb, **covariates) / self.sigma(agb, **covariates)
+
+    # Inversion ------------------------------------------------------------------------------------------
+    @abstractmethod
+    def invert(self, sigma, agb_max: float | None = None, **covariates) -> Inversion:
+        """AGB from sigma, saturation explicit (``Inversion``). ``agb_max`` (t/ha) caps the estimate:
+        backscatter the model reaches only above it counts as saturated and is given AGB = agb_max."""
+
+    def relative_agb_error(self, agb, sigma_relative_error, agb_max: float | None = None, **covariates):
+        """Relative AGB error ``q = AGB_hat / AGB - 1`` for a relative sigma error x at true ``agb``.
+
+        ``sigma_hat = sigma(agb) (1 + x)`` is inverted with ``invert``; returns ``(q, Inversion)``. q is
+        +inf where the estimate saturates without a cap (an unbounded overestimate), and
+        ``agb_max / agb - 1`` where it saturates with one.
+        """
+        agb = float(agb)
+        if not agb > 0:
+            raise PhysicsInputError(f"relative AGB errors need a true AGB > 0 t/ha, got {agb}")
+        x = np.asarray(sigma_relative_error, dtype=float)
+        inv = self.invert(self.sigma(agb, **covariates) * (1.0 + x), agb_max=agb_max, **covariates)
+        return inv.agb / agb - 1.0, inv
+
+    # Fitting --------------------------------------------------------------------------------------------
+    def fit(self, agb, sigma, p0=None, space: str | None = None, weights=None, **covariates) -> FitResult:
+        """Least-squares fit to field data; the model's own coefficients are the default start.
+
+        agb : (n,) field AGB (t/ha). sigma : (n,) or (n, channels) backscatter (m^2/m^2).
+        space : "linear" (additive error, Ahmed et al. 2014 eq. 2) or "log"; None: ``default_fit_space``.
+        weights : optional (n,) weights of the squared residuals (e.g. 1 / error variance).
+        Raises ``PhysicsInputError`` for unusable data; a fit that does not converge is returned with its
+        status (``FitResult.converged`` False), never silently.
+        """
+        space = self._space(space)
+        agb = np.asarray(agb, dtype=float)
+        sigma = np.asarray(sigma, dtype=float)
+        self._check_data(agb, sigma, space)
+        batch = self.fit_batch(agb[None], sigma[None], None if p0 is None else np.asarray(p0, float)[None],
+                               space, None if weights is None else np.asarray(weights, float)[None],
+                               **{k: None if v is None else np.asarray(v)[None] for k, v in covariates.items()})
+        params = batch.params[0]
+        model = self.with_params(params)
+        n, p = agb.shape[0], params.shape[0]
+        resid = self._residuals(model, agb, sigma, space, **covariates)
+        cov, s2 = self._covariance(model, agb, resid, space, weights, **covariates)
+        return FitResult(model, cov, s2, n, n - p, space, int(batch.status[0]), int(batch.iterations[0]), resid)
+
+    def fit_batch(self, agb, sigma, p0=None, space: str | None = None, weights=None, **covariates) -> BatchFit:
+        """Fit B data sets at once: agb (B, n), sigma (B, n[, channels]); p0 (B, p) or None.
+
+        The default implementation runs the batched Levenberg-Marquardt solver in the linear space;
+        models with a closed-form log-space fit override it for ``space="log"``.
+        """
+        space = self._space(space)
+        if space != "linear":
+            raise PhysicsInputError(f"{type(self).__name__} fits only in the linear space, not {space!r}")
+        agb = np.asarray(agb, dtype=float)
+        sigma = np.asarray(sigma, dtype=float)
+        if p0 is None:
+            p0 = self.initial_guess(agb, sigma, **covariates)
+        return levenberg_marquardt(
+            lambda p, idx: self.evaluate(agb[idx], p, **_take(covariates, idx)),
+            lambda p, idx: self.param_jacobian(agb[idx], p, **_take(covariates, idx)),
+            sigma,
+            np.asarray(p0, dtype=float),
+            valid=self.params_valid,
+            weights=weights,
+            bad=~np.all(np.isfinite(agb), axis=-1) | ~np.all(np.isfinite(sigma.reshape(sigma.shape[0], -1)), axis=-1),
+        )
+
+    # helpers --------------------------------------------------------------------------------------------
+    def _space(self, space):
+        space = self.default_fit_space if space is None else space
+        if space not in FIT_SPACES:
+            raise PhysicsInputError(f"fit space must be one of {FIT_SPACES}, got {space!r}")
+        return space
+
+    def _check_data(self, agb, sigma, space):
+        if agb.ndim != 1 or sigma.shape[0] != agb.shape[0]:
+            raise PhysicsInputError(
+                f"field data must be agb (n,) and sigma (n,) or (n, channels); got {agb.shape} and {sigma.shape}")
+        p = self.params_per_output or self.params.shape[0]
+        if agb.shape[0] <= p:
+            raise PhysicsInputError(f"{type(self).__name__} has {p} coefficients and needs more than {p} plots, "
+                                    f"got {agb.shape[0]}")
+        if not (np.all(np.isfinite(agb)) and np.all(np.isfinite(sigma))):
+            raise PhysicsInputError("field data contain NaN or infinite values")
+        if np.any(agb < 0):
+            raise PhysicsInputError(f"field AGB must be >= 0 t/ha; smallest value {agb.min():g}")
+        if space == "log" and (np.any(agb <= 0) or np.any(sigma <= 0)):
+            raise PhysicsInputError("a log-space fit needs AGB > 0 and sigma > 0 for every plot")
+
+    def _residuals(self, model, agb, sigma, space, **covariates):
+        fit = model.evaluate(agb, **covariates)
+        return np.log(sigma) - np.log(fit) if space == "log" else sigma - fit
+
+    def _covariance(self, model, agb, resid, space, weights=None, **covariates):
+        """sigma_hat^2 (J^T W J)^-1 in the model's coefficients (Ahmed et al. 2014, eq. 6 with sigma_hat^2)."""
+        jac = model.param_jacobian(agb, **covariates)  # (n, p)
+        if space == "log":
+            jac = jac / model.evaluate(agb, **covariates)[..., None]  # d ln sigma / d beta
+        w = np.ones(agb.shape[0]) if weights is None else np.asarray(weights, dtype=float)
+        n, p = jac.shape[0], jac.shape[-1]
+        s2 = float(np.sum(w * resid**2) / (n - p))
+        info = jac.T @ (w[:, None] * jac)
+        return s2 * _safe_inverse(info), s2
+
+
+def _take(covariates: dict, idx) -> dict:
+    return {k: (None if v is None else np.asarray(v)[idx]) for k, v in covariates.items()}
+
+
+def _safe_inverse(matrix: np.ndarray) -> np.ndarray:
+    """Inverse of a symmetric positive (semi-)definite matrix; +inf variances where it is singular."""
+    try:
+        inv = np.linalg.inv(matrix)
+    except np.linalg.LinAlgError:
+        return np.full(matrix.shape, np.inf)
+    return 0.5 * (inv + np.swapaxes(inv, -1, -2))
+
+
+def levenberg_marquardt(fun, jac, y, p0, valid=None, weights=None, bad=None, max_iter: int = 200,
+                        ftol: float = 1e-12, xtol: float = 1e-10, gtol: float = 1e-10) -> BatchFit:
+    """Levenberg-Marquardt least squares for B independent data sets at once.
+
+    fun(p, idx) -> (b, n) model values and jac(p, idx) -> (b, n, p) Jacobian for the data sets ``idx``
+    (an index array into the batch) with coefficients p (b, p). y : (B, n) data. p0 : (B, p) start.
+    valid(p) -> (b,) bool: a step leaving the domain is rejected like one that increases the residuals.
+    weights : optional (B, n) weights. bad : optional (B,) data sets not to fit (status ``BAD_DATA``).
+
+    Marquardt's scaled damping ``(J^T J + lambda diag(J^T J)) step = J^T r``; lambda shrinks by 10 after
+    an accepted step and grows by 10 after a rejected one. Converged (MINPACK-like tests): the relative
+    reduction of the residual sum of squares below ``ftol``, the relative step below ``xtol``, or the
+    scaled gradient below ``gtol``. Failure modes are reported per data set, never dropped.
+    Only the data sets still iterating are evaluated in each pass.
+    """
+    y = np.asarray(y, dtype=float)
+    nb = y.shape[0]
+    y2 = y.reshape(nb, -1)
+    w = np.ones_like(y2) if weights is None else np.broadcast_to(np.asarray(weights, float).reshape(nb, -1),
+                                                                  y2.shape)
+    p = np.array(p0, dtype=float, copy=True)
+    npar = p.shape[1]
+    status = np.full(nb, MAX_ITERATIONS, dtype=np.int8)
+    iterations = np.zeros(nb, dtype=np.int32)
+    ssr = np.full(nb, np.inf)
+    bad = np.zeros(nb, bool) if bad is None else np.asarray(bad, bool).copy()
+    bad |= y2.shape[1] <= npar
+    status[bad] = BAD_DATA
+    all_idx = np.arange(nb)
+    start = all_idx[~bad]
+    if start.size:
+        ok_start = np.ones(start.size, bool) if valid is None else np.asarray(valid(p[start]), bool)
+        f0 = fun(p[start], start).reshape(start.size, -1)
+        r0 = y2[start] - f0
+        s0 = np.sum(w[start] * r0**2, axis=1)
+        fine = ok_start & np.isfinite(s0)
+        status[start[~fine]] = NON_FINITE
+        ssr[start] = s0
+        active = start[fine]
+    else:
+        active = start
+    lam = np.full(nb, 1e-3)
+    eye = np.eye(npar)
+    for it in range(1, max_iter + 1):
+        if active.size == 0:
+            break
+        iterations[active] = it
+        pa = p[active]
+        ja = jac(pa, active).reshape(active.size, -1, npar)
+        ra = y2[active] - fun(pa, active).reshape(active.size, -1)
+        wa = w[active]
+        jtw = np.swapaxes(ja, 1, 2) * wa[:, None, :]
+        a = jtw @ ja  # (b, p, p)
+        g = np.einsum("bpn,bn->bp", jtw, ra)
+        finite = np.all(np.isfinite(a), axis=(1, 2)) & np.all(np.isfinite(g), axis=1)
+        diag = np.einsum("bii->bi", a)
+        scale = np.where(diag > 0, diag, 1.0)
+        gnorm = np.max(np.abs(g) / np.sqrt(scale), axis=1) / np.sqrt(np.maximum(ssr[active], np.finfo(float).tiny))
+        at_stationary = finite & (gnorm <= gtol)
+        damped = a + lam[active, None, None] * scale[:, :, None] * eye
+        try:
+            step = np.linalg.solve(damped[finite], g[finite][..., None])[..., 0]
+        except np.linalg.LinAlgError:
+            step = np.stack([_solve_or_nan(m, v) for m, v in zip(damped[finite], g[finite])])
+        full_step = np.full((active.size, npar), np.nan)
+        full_step[finite] = step
+        pn = pa + full_step
+        ok = np.all(np.isfinite(pn), axis=1)
+        if valid is not None:
+            ok &= np.asarray(valid(np.where(ok[:, None], pn, pa)), bool)
+        sn = np.full(active.size, np.inf)
+        if np.any(ok):
+            idx_ok = active[ok]
+            fn = fun(pn[ok], idx_ok).reshape(idx_ok.size, -1)
+            sn[ok] = np.sum(w[idx_ok] * (y2[idx_ok] - fn) ** 2, axis=1)
+        accept = ok & np.isfinite(sn) & (sn <= ssr[active])
+        old = ssr[active]
+        rel_red = np.where(accept, (old - sn) / np.maximum(old, np.finfo(float).tiny), np.inf)
+        rel_step = np.where(accept, np.linalg.norm(np.nan_to_num(full_step), axis=1)
+                            / (np.linalg.norm(pa, axis=1) + xtol), np.inf)
+        acc_idx = active[accept]
+        p[acc_idx] = pn[accept]
+        ssr[acc_idx] = sn[accept]
+        lam[acc_idx] = np.maximum(lam[acc_idx] / 10.0, 1e-12)
+        lam[active[~accept]] *= 10.0
+        done = at_stationary | (accept & ((rel_red <= ftol) | (rel_step <= xtol)))
+        status[active[done]] = CONVERGED
+        nonfinite = ~finite & ~done
+        status[active[nonfinite]] = NON_FINITE
+        stalled = ~done & ~nonfinite & (lam[active] > 1e16)
+        # Damping exhausted: converged if the point is stationary to working precision, else stalled.
+        status[active[stalled]] = np.where(gnorm[stalled] <= _STALL_GTOL, CONVERGED, STALLED)
+        active = active[~(done | nonfinite | stalled)]
+    return BatchFit(p, status, ssr, iterations)
+
+
+def _solve_or_nan(matrix, vector):
+    try:
+        return np.linalg.solve(matrix, vector)
+    except np.linalg.LinAlgError:
+        return np.full(vector.shape, np.nan)
+
+
+def ols_batch(design: np.ndarray, y: np.ndarray):
+    """Ordinary least squares for B data sets: design (B, n, k), y (B, n[, c]).
+
+    Returns ``(coef (B, k[, c]), ssr (B[, c]), ok (B,))``; ok is False where the design is rank-deficient
+    or the data are not finite (those coefficients are NaN, to be counted by the caller).
+    """
+    design = np.asarray(design, dtype=float)
+    y = np.asarray(y, dtype=float)
+    squeeze = y.ndim == 2
+    y3 = y[..., None] if squeeze else y
+    xtx = np.swapaxes(design, 1, 2) @ design
+    xty = np.swapaxes(design, 1, 2) @ y3
+    finite = np.all(np.isfinite(xtx), axis=(1, 2)) & np.all(np.isfinite(xty), axis=(1, 2))
+    cond = np.full(design.shape[0], np.inf)
+    if np.any(finite):
+        cond[finite] = np.linalg.cond(xtx[finite])
+    ok = finite & (cond < 1e12)
+    coef = np.full((design.shape[0], design.shape[2], y3.shape[2]), np.nan)
+    if np.any(ok):
+        coef[ok] = np.linalg.solve(xtx[ok], xty[ok])
+    resid = y3 - design @ np.nan_to_num(coef)
+    ssr = np.sum(resid**2, axis=1)
+    if squeeze:
+        return coef[..., 0], ssr[..., 0], ok
+    return coef, ssr, ok
+
+
+@dataclass(frozen=True)
+class Branch:
+    """The increasing branch of a model used for inversion: AGB in [agb_low, agb_high], sigma in
+    [sigma_low, sigma_high]. ``agb_high`` is +inf for a model increasing without bound."""
+
+    agb_low: float
+    agb_high: float
+    sigma_low: float
+    sigma_high: float
+    notes: tuple = field(default_factory=tuple)
+
+
+def bisect_increasing(func, target, lo, hi, iterations: int = 80, rtol: float = 1e-13):
+    """Solve ``func(x) = target`` elementwise for an increasing ``func`` on [lo, hi] (bracketed).
+
+    Vectorised bisection followed by safeguarded secant polishing; lo, hi, target broadcast together.
+    """
+    target, lo, hi = np.broadcast_arrays(np.asarray(target, float), np.asarray(lo, float), np.asarray(hi, float))
+    lo, hi = lo.copy(), hi.copy()
+    for _ in range(iterations):
+        mid = 0.5 * (lo + hi)
+        above = func(mid) >= target
+        hi = np.where(above, mid, hi)
+        lo = np.where(above, lo, mid)
+        if np.all(hi - lo <= rtol * np.maximum(np.abs(hi), 1.0)):
+            break
+    flo, fhi = func(lo), func(hi)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        x = np.where(fhi > flo, lo + (target - flo) * (hi - lo) / (fhi - flo), 0.5 * (lo + hi))
+    return np.clip(x, lo, hi)
