@@ -152,7 +152,10 @@ class BackscatterBudget:
     dem_pointing_error_rad : eq. (35). slope_error_rad : eq. (38). area_error : Delta A_c / A_c (eq. 37).
     dem_factor : sqrt(A_dem / A_pix) / sqrt(N). relative_sd : dict TERMS -> Delta sigma / sigma (>= 0).
     combination : how groups and calibration terms combine. channels : names of a trailing channel axis
-    (e.g. ("hh", "hv", "vv")) or None.
+    (e.g. ("hh", "hv", "vv")) or None. observations, diverse_observations : N_ot, N_os. groups : the terms
+    of eq. (20) included in the total (default all four). speckle_distribution : how a Monte Carlo draws the
+    speckle-and-noise term: "gamma" (the exact law of an intensity averaged over 1/v independent looks,
+    v its relative variance) or "gaussian".
     """
 
     sigma: np.ndarray
@@ -176,6 +179,12 @@ class BackscatterBudget:
     channels: tuple | None = None
     observations: np.ndarray = field(default=None)
     diverse_observations: np.ndarray = field(default=None)
+    groups: tuple = tuple(GROUPS)
+    speckle_distribution: str = "gamma"
+
+    def with_(self, **changes) -> "BackscatterBudget":
+        """Copy with fields replaced (e.g. ``channels``, ``groups``)."""
+        return replace(self, **changes)
 
     # variances --------------------------------------------------------------------------------------
     @property
@@ -192,13 +201,16 @@ class BackscatterBudget:
 
     @property
     def group_variances(self) -> dict:
-        return {g: self.group_sd(g) ** 2 for g in GROUPS}
+        """Relative variance of each included term of eq. (20)."""
+        return {g: self.group_sd(g) ** 2 for g in self.groups}
 
     @property
     def total_variance(self) -> np.ndarray:
-        """Relative variance of the total error of eq. (20)."""
+        """Relative variance of the total error of eq. (20) over the included groups."""
+        if not self.groups:
+            return np.zeros(np.shape(self.sigma))
         if self.combination == "linear":
-            return sum(self.group_sd(g) for g in GROUPS) ** 2
+            return sum(self.group_sd(g) for g in self.groups) ** 2
         return sum(self.group_variances.values())
 
     @property

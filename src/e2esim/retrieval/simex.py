@@ -45,8 +45,9 @@ class SimexResult:
     the naive fit); NaN where no fit at that lambda converged. sd_by_lambda : (L + 1, p) spread of the
     S fits per lambda. attempts : (L,) fits tried per lambda (S). failures : (L,) fits that did not
     converge. failure_modes : counts by failure mode over all lambdas. extrapolant : "quadratic" or
-    "linear"; coefficients : (p, degree + 1) of the polynomial in lambda (highest power first).
-    n_clipped : simulated field AGB values set to 0. max_failure_fraction : threshold for ``reliable``.
+    "linear" (the one used); coefficients : (p, degree + 1) of the polynomial in lambda (highest power
+    first). fallback : True when the quadratic extrapolant left the model's domain and the linear one was
+    used instead (reported, never silent). n_clipped : simulated field AGB values set to 0. max_failure_fraction : threshold for ``reliable``.
     """
 
     naive: FitResult
@@ -62,6 +63,7 @@ class SimexResult:
     coefficients: np.ndarray
     n_clipped: int
     max_failure_fraction: float
+    fallback: bool = False
 
     @property
     def failure_fraction(self) -> float:
@@ -84,7 +86,8 @@ class SimexResult:
         return np.stack([np.polyval(c, lam) for c in self.coefficients], axis=-1)
 
     def summary(self) -> dict:
-        return {"failure_fraction": self.failure_fraction, "reliable": self.reliable,
+        return {"failure_fraction": self.failure_fraction, "reliable": self.reliable, "extrapolant": self.extrapolant,
+                "fallback": self.fallback,
                 "failures_by_lambda": dict(zip(map(float, self.lambdas[1:]), map(int, self.failures))),
                 "failure_modes": dict(self.failure_modes), "n_clipped": self.n_clipped}
 
@@ -167,15 +170,24 @@ def simex(
         raise PhysicsInputError(
             f"SIMEX failed: only {int(usable.sum()) - 1} of {lam.size} lambdas have converged fits "
             f"(failures per lambda {failures.tolist()}, modes {modes}); a {extrapolant} extrapolant needs {degree}")
-    coef = np.stack([np.polyfit(lam_all[usable], by_lam[usable, j], degree) for j in range(p)])
-    corrected = np.array([np.polyval(c, -1.0) for c in coef])
-    if not model.params_valid(corrected):
-        raise PhysicsInputError(
-            f"SIMEX extrapolation left the model's domain: {dict(zip(model.param_names, corrected))}; "
-            "the measurement errors may be too large for this data set (try the linear extrapolant)")
-    return SimexResult(naive, model.with_params(corrected), corrected, lam_all, by_lam, sd_lam,
-                       np.full(lam.size, n_sim), failures, modes, extrapolant, coef, clipped,
-                       float(max_failure_fraction))
+    tried = []
+    for name in _extrapolant_chain(extrapolant):
+        deg = EXTRAPOLANTS[name]
+        coef = np.stack([np.polyfit(lam_all[usable], by_lam[usable, j], deg) for j in range(p)])
+        corrected = np.array([np.polyval(c, -1.0) for c in coef])
+        tried.append(f"{name}: {dict(zip(model.param_names, np.round(corrected, 6)))}")
+        if model.params_valid(corrected):
+            return SimexResult(naive, model.with_params(corrected), corrected, lam_all, by_lam, sd_lam,
+                               np.full(lam.size, n_sim), failures, modes, name, coef, clipped,
+                               float(max_failure_fraction), fallback=name != extrapolant)
+    raise PhysicsInputError(
+        "SIMEX extrapolation left the model's domain (" + "; ".join(tried) + "); the measurement errors may "
+        "be too large for this data set")
+
+
+def _extrapolant_chain(extrapolant: str) -> tuple:
+    """The requested extrapolant, then the linear one if the quadratic leaves the model's domain."""
+    return (extrapolant,) if extrapolant == "linear" else (extrapolant, "linear")
 
 
 def _error_sd(value, shape, name):

@@ -73,6 +73,7 @@ def synthetic_field_plots(
     backscatter_error_percent: float = 5.0,
     model_error_sd: float = 0.0,
     incidence_range_deg: tuple | None = None,
+    model_error_percent: float | None = None,
 ) -> FieldPlots:
     """Draw field plots from ``model`` (module docstring). ``n_datasets`` adds a leading axis.
 
@@ -81,6 +82,8 @@ def synthetic_field_plots(
     (m^2/m^2 for single-channel models; for the log-linear model the ln residuals are drawn from its
     ``residual_covariance`` scaled so that the HV SD is model_error_sd, or not at all if 0).
     incidence_range_deg : (low, high) local incidence angles drawn uniformly, or None (theta = 0).
+    model_error_percent : instead of model_error_sd, the error in equation as a percentage of f(x)
+    (single-channel) or the SD of ln sigma in percent (log-linear HV channel).
     """
     if n_plots < 2:
         raise PhysicsInputError(f"need at least 2 plots, got {n_plots}")
@@ -109,13 +112,20 @@ def synthetic_field_plots(
     w = np.clip(w, 0.0, None)
     cov = {} if theta is None else {"incidence_rad": theta}
     f = model.evaluate(x, **cov)
+    if model_error_percent is not None:
+        if not model_error_percent >= 0:
+            raise PhysicsInputError(f"model_error_percent must be >= 0, got {model_error_percent}")
     if f.ndim == x.ndim + 1:  # multi-channel: multiplicative error in equation
+        if model_error_percent is not None:
+            model_error_sd = model_error_percent / 100.0
         if model_error_sd > 0:
             rc = np.asarray(model.residual_covariance)
             chol = np.linalg.cholesky(rc * model_error_sd**2 / rc[1, 1])
             y = f * np.exp(rng.standard_normal(f.shape) @ chol.T)
         else:
             y = f
+    elif model_error_percent is not None:
+        y = f * (1.0 + model_error_percent / 100.0 * rng.standard_normal(shape))
     else:
         y = f + model_error_sd * rng.standard_normal(shape)
     sq = backscatter_error_percent / 100.0 * np.abs(y)
