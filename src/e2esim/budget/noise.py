@@ -12,7 +12,7 @@ def islr_db(eta):
     """Integrated sidelobe ratio (dB) of a window with pedestal eta, eq. (29) (a polynomial fit).
 
     ``e2esim.budget.window.window_islr_db`` integrates the impulse response exactly: eq. (29) matches it
-    within 0.5 dB for eta in [0.5, 1] when the main lobe is taken as +-2 resolution widths (uniform
+    within 0.6 dB for eta in [0.5, 1] when the main lobe is taken as +-2 resolution widths (uniform
     weighting: -12.3 dB from eq. 29, -12.6 dB exactly), and is 4-5 dB more optimistic near Hamming/Hann.
     """
     eta = np.asarray(eta, dtype=float)

@@ -113,6 +113,23 @@ class BootstrapResult:
         centre = self.model.params
         return self.estimate - (hi_q - centre), self.estimate - (lo_q - centre)
 
+    def curve_spread(self, agb, robust: bool = True, **covariates) -> np.ndarray:
+        """Spread of the bootstrap curves f(beta_b, M) relative to f(beta_c, M) at AGB values ``agb``.
+
+        robust : half the 16-84 % range (the SD for a Gaussian spread), insensitive to the few degenerate
+        refits that can dominate the sample covariance of a poorly identified model; otherwise the SD.
+        """
+        agb = np.atleast_1d(np.asarray(agb, dtype=float))
+        curves = self.model.evaluate(agb, self.converged_samples, **covariates)
+        centre = self.model.evaluate(agb, **covariates)
+        if curves.ndim == 3:
+            curves, centre = curves[..., 1], centre[..., 1]
+        rel = curves / centre
+        if robust:
+            lo, hi = np.quantile(rel, [0.15865525393145707, 0.8413447460685429], axis=0)
+            return (hi - lo) / 2.0
+        return rel.std(axis=0, ddof=1)
+
     def band(self, agb, level: float = 0.95, method: str = "delta", critical: str = "normal",
              **covariates) -> Band:
         """Measurement-error-corrected confidence and prediction bands (Fig. 17 of the paper).

@@ -7,7 +7,9 @@ fits it -- naively with the covariance of eq. (6) (``method="delta"``), or with 
 bootstrap (eqs. 11-19, ``method="bootstrap"``) -- and returns the uncertainty of the AGB estimate at the
 case's AGB as the equivalent relative sigma_hv error:
 
-* ``mode="confidence"``: the coefficient uncertainty alone, ``S_y^2 / f^2`` at the case's AGB (eq. 4);
+* ``mode="confidence"``: the coefficient uncertainty alone, ``S_y^2 / f^2`` at the case's AGB (eq. 4;
+  for the bootstrap the robust 16-84 % spread of the bootstrap curves there, see
+  ``BootstrapResult.curve_spread``);
 * ``mode="prediction"``: plus the error in equation (eq. 7): the scatter of real stands around the curve.
 
 For a multi-channel model the coefficient uncertainty is carried through the joint inversion
@@ -81,21 +83,25 @@ def regression_contribution(model, agb: float, campaign: CalibrationCampaign, rn
     if campaign.method == "delta":
         fitted, coef_cov = fit.model, fit.covariance
         resid_var = fit.residual_variance
+        if multi:
+            var, pred = _multichannel_variance(fitted, coef_cov, agb, cov)
+        else:
+            f = float(fitted.sigma(agb, **cov))
+            jac = fitted.param_jacobian(np.array([agb]), **cov)[0]
+            if fit.space == "log":
+                jac = jac / f
+            var = float(jac @ coef_cov @ jac) / (f**2 if fit.space == "linear" else 1.0)  # eq. (4)
+            pred = float(resid_var) / (f**2 if fit.space == "linear" else 1.0)
     else:
         sx = simex(model, plots.agb, plots.sigma, plots.agb_error_sd, plots.sigma_error_sd, rng,
                    n_sim=campaign.simex_samples, naive=fit)
         boot = parametric_bootstrap(sx.model, plots.agb, plots.sigma, plots.agb_error_sd, plots.sigma_error_sd, rng,
                                     n_boot=campaign.bootstrap_samples)
-        fitted, coef_cov = sx.model, boot.covariance
-        resid_var = boot.model_error.variance if fit.space == "linear" else fit.residual_variance
-    if multi:
-        var, pred = _multichannel_variance(fitted, coef_cov, agb, cov)
-    else:
-        f = float(fitted.sigma(agb, **cov))
-        jac = fitted.param_jacobian(np.array([agb]), **cov)[0]
-        s2 = float(jac @ coef_cov @ jac)  # eq. (4)
-        var = s2 / f**2
-        pred = float(resid_var) / (f**2 if fit.space == "linear" else 1.0)
+        # The 16-84 % spread of the bootstrap curves at the case's AGB: the sample covariance of the
+        # coefficients of a poorly identified model is dominated by a few degenerate refits.
+        var = float(boot.curve_spread(agb)[0]) ** 2
+        f = float(sx.model.sigma(agb))
+        pred = (boot.model_error.variance / f**2) if fit.space == "linear" else float(fit.residual_variance)
     total = var + (pred if campaign.mode == "prediction" else 0.0)
     what = "coefficients" + (" and error in equation" if campaign.mode == "prediction" else "")
     return AGBContribution("regression", "regression", 0.0, float(total),

@@ -87,7 +87,10 @@ class LogLinearModel(RetrievalModel):
         cov = cov.copy()
         cov.setflags(write=False)
         object.__setattr__(self, "residual_covariance", cov)
-        if self.channel_weights()[1] <= 0:
+
+    def check_hv_weight(self) -> None:
+        """Raise unless the joint inversion gives HV a positive weight (needed to map an HV error)."""
+        if not self.channel_weights()[1] > 0:
             raise PhysicsInputError("log-linear model: the joint inversion gives HV no positive weight "
                                     f"(channel weights {self.channel_weights()}); check a_pq and the covariance")
 
@@ -227,14 +230,17 @@ class LogLinearModel(RetrievalModel):
 
     def relative_agb_error(self, agb, sigma_relative_error, agb_max: float | None = None, channel: str = "hv",
                            incidence_rad=None, **covariates):
-        """Relative AGB error for relative sigma errors x: shape (...) applied to ``channel`` alone, or
-        (..., 3) for all channels. Returns (q, Inversion)."""
+        """Relative AGB error for relative sigma errors x applied to ``channel`` alone (any shape), or with
+        ``channel=None`` to all channels (x of shape (..., 3) in hh, hv, vv). Returns (q, Inversion)."""
         agb = float(agb)
         if not agb > 0:
             raise PhysicsInputError(f"relative AGB errors need a true AGB > 0 t/ha, got {agb}")
         x = np.asarray(sigma_relative_error, dtype=float)
         truth = self.sigma(agb, incidence_rad=incidence_rad)
-        if x.shape[-1:] != (_N_CH,) or channel is None:
+        if channel is None:
+            if x.shape[-1:] != (_N_CH,):
+                raise PhysicsInputError(f"errors of all channels need shape (..., 3), got {x.shape}")
+        else:
             if channel not in CHANNELS:
                 raise PhysicsInputError(f"unknown channel {channel!r}; expected one of {CHANNELS}")
             full = np.zeros(x.shape + (_N_CH,))

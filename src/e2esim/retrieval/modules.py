@@ -206,6 +206,7 @@ class LogLinearRetrieval(_Retrieval):
         try:
             self.model = LogLinearModel(tuple(np.log(10.0) / 10.0 * np.asarray(c["l_db"])), tuple(c["a"]),
                                         tuple(c["n"]), corr * np.outer(sd, sd))
+            self.model.check_hv_weight()
         except PhysicsInputError as exc:
             raise ConfigError(self.location, str(exc)) from exc
         self.covariates = {"incidence_rad": float(np.radians(c["incidence_deg"]))}
