@@ -185,6 +185,16 @@ class RetrievalModel(ABC):
         """Whether coefficient vectors (..., p) lie in the model's domain (default: all finite)."""
         return np.all(np.isfinite(params), axis=-1)
 
+    def to_working(self, params) -> np.ndarray:
+        """Coefficients (..., p) in the parameterisation SIMEX averages and extrapolates (default: the
+        coefficients themselves); a model whose coefficients are strongly non-linear functions of the
+        regression's natural ones (the power law's A = exp(-c0/c1)) overrides it."""
+        return np.asarray(params, dtype=float)
+
+    def from_working(self, working) -> np.ndarray:
+        """Inverse of ``to_working``."""
+        return np.asarray(working, dtype=float)
+
     def _params(self, params):
         return self.params if params is None else np.asarray(params, dtype=float)
 

@@ -87,6 +87,17 @@ class PowerLaw(RetrievalModel):
         params = np.asarray(params, dtype=float)
         return np.all(np.isfinite(params), axis=-1) & (params[..., 0] > 0) & (params[..., 1] > 0)
 
+    def to_working(self, params) -> np.ndarray:
+        """(intercept c0 = -ln(A)/p, slope c1 = 1/p) of the log-log line ln sigma = c0 + c1 ln AGB."""
+        params = np.asarray(params, dtype=float)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            return np.stack([-np.log(params[..., 0]) / params[..., 1], 1.0 / params[..., 1]], axis=-1)
+
+    def from_working(self, working) -> np.ndarray:
+        w = np.asarray(working, dtype=float)
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+            return np.stack([np.exp(-w[..., 0] / w[..., 1]), 1.0 / w[..., 1]], axis=-1)
+
     @classmethod
     def through(cls, agb, sigma, exponent) -> "PowerLaw":
         """The power law of exponent p through the point (agb t/ha, sigma m^2/m^2): A = agb / sigma^p."""

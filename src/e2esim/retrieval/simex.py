@@ -42,7 +42,9 @@ class SimexResult:
     naive : the fit to the data as measured (lambda = 0). model : the model with corrected coefficients.
     params : (p,) corrected coefficients (extrapolation to lambda = -1).
     lambdas : (L + 1,) 0 and the lambdas used. params_by_lambda : (L + 1, p) eq. (19) per lambda (row 0
-    the naive fit); NaN where no fit at that lambda converged. sd_by_lambda : (L + 1, p) spread of the
+    the naive fit) in the model's working parameterisation (``RetrievalModel.to_working``: the
+    coefficients, or the intercept and slope of the log-log line for the power law); NaN where no fit at
+    that lambda converged. sd_by_lambda : (L + 1, p) spread of the
     S fits per lambda. attempts : (L,) fits tried per lambda (S). failures : (L,) fits that did not
     converge. failure_modes : counts by failure mode over all lambdas. extrapolant : "quadratic" or
     "linear" (the one used); coefficients : (p, degree + 1) of the polynomial in lambda (highest power
@@ -81,7 +83,8 @@ class SimexResult:
         return self.naive.params - self.params
 
     def extrapolate(self, lam) -> np.ndarray:
-        """The extrapolant at lambda (any shape): (..., p) coefficients (Fig. 16 of the paper)."""
+        """The extrapolant at lambda (any shape): (..., p) coefficients in the working parameterisation of
+        the model (the coefficients themselves except for the power law; Fig. 16 of the paper)."""
         lam = np.asarray(lam, dtype=float)
         return np.stack([np.polyval(c, lam) for c in self.coefficients], axis=-1)
 
@@ -144,7 +147,7 @@ def simex(
     p = start.shape[0]
     by_lam = np.full((lam.size + 1, p), np.nan)
     sd_lam = np.full((lam.size + 1, p), np.nan)
-    by_lam[0], sd_lam[0] = start, 0.0
+    by_lam[0], sd_lam[0] = model.to_working(start), 0.0
     failures = np.zeros(lam.size, dtype=int)
     modes: dict = {}
     clipped = 0
@@ -162,8 +165,9 @@ def simex(
         for name, count in batch.failure_counts().items():
             modes[name] = modes.get(name, 0) + count
         if ok.any():
-            by_lam[i + 1] = batch.params[ok].mean(axis=0)  # eq. (19)
-            sd_lam[i + 1] = batch.params[ok].std(axis=0, ddof=1) if ok.sum() > 1 else 0.0
+            work = model.to_working(batch.params[ok])
+            by_lam[i + 1] = work.mean(axis=0)  # eq. (19), in the working parameterisation
+            sd_lam[i + 1] = work.std(axis=0, ddof=1) if ok.sum() > 1 else 0.0
     lam_all = np.concatenate([[0.0], lam])
     usable = np.all(np.isfinite(by_lam), axis=1)
     if usable.sum() < degree + 1:
@@ -174,7 +178,7 @@ def simex(
     for name in _extrapolant_chain(extrapolant):
         deg = EXTRAPOLANTS[name]
         coef = np.stack([np.polyfit(lam_all[usable], by_lam[usable, j], deg) for j in range(p)])
-        corrected = np.array([np.polyval(c, -1.0) for c in coef])
+        corrected = model.from_working(np.array([np.polyval(c, -1.0) for c in coef]))
         tried.append(f"{name}: {dict(zip(model.param_names, np.round(corrected, 6)))}")
         if model.params_valid(corrected):
             return SimexResult(naive, model.with_params(corrected), corrected, lam_all, by_lam, sd_lam,
@@ -255,7 +259,7 @@ def simex_batch(model: RetrievalModel, agb, sigma, agb_error_sd, sigma_error_sd,
     naive = model.fit_batch(agb, sigma, p0=p0, space=space, **covariates)
     p = naive.params.shape[1]
     by_lam = np.full((nb, lam.size + 1, p), np.nan)
-    by_lam[:, 0] = naive.params
+    by_lam[:, 0] = model.to_working(naive.params)
     failed = np.zeros(nb)
     clipped = 0
     rep = {k: None if v is None else np.repeat(np.asarray(v), n_sim, axis=0) for k, v in covariates.items()}
@@ -268,7 +272,8 @@ def simex_batch(model: RetrievalModel, agb, sigma, agb_error_sd, sigma_error_sd,
         w = np.clip(w, 0.0, None).reshape((nb * n_sim,) + agb.shape[1:])
         batch = model.fit_batch(w, d.reshape((nb * n_sim,) + sigma.shape[1:]), p0=start, space=space, **rep)
         ok = batch.converged.reshape(nb, n_sim)
-        params = batch.params.reshape(nb, n_sim, p)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            params = np.nan_to_num(model.to_working(batch.params)).reshape(nb, n_sim, p)
         count = ok.sum(axis=1)
         failed += n_sim - count
         with np.errstate(invalid="ignore"):
@@ -284,7 +289,7 @@ def simex_batch(model: RetrievalModel, agb, sigma, agb_error_sd, sigma_error_sd,
     coef = np.full((nb, degree + 1, p), np.nan)
     if np.any(enough):
         coef[enough] = np.linalg.solve(vtv[enough], vty[enough])
-    at_minus_one = np.einsum("j,bjp->bp", np.vander([-1.0], degree + 1)[0], coef)
+    at_minus_one = model.from_working(np.einsum("j,bjp->bp", np.vander([-1.0], degree + 1)[0], coef))
     status = np.full(nb, SIMEX_OK, dtype=np.int8)
     status[~enough] = TOO_FEW_LAMBDAS
     status[enough & ~model.params_valid(np.nan_to_num(at_minus_one))] = EXTRAPOLATION_OUT_OF_DOMAIN
