@@ -8,6 +8,7 @@ import sys
 
 import pytest
 
+import e2esim.verification.published  # noqa: F401  (first: the *_values modules import it back)
 from e2esim.verification.ahmed2014_values import PUBLISHED
 from e2esim.verification.reproduce import check
 
