@@ -297,9 +297,10 @@ class RetrievalModel(ABC):
         sigma = np.asarray(sigma, dtype=float)
         if p0 is None:
             p0 = self.initial_guess(agb, sigma, **covariates)
+        fun, jac = self._batch_functions(agb, covariates)
         return levenberg_marquardt(
-            lambda p, idx: self.evaluate(agb[idx], p, **_take(covariates, idx)),
-            lambda p, idx: self.param_jacobian(agb[idx], p, **_take(covariates, idx)),
+            fun,
+            jac,
             sigma,
             np.asarray(p0, dtype=float),
             valid=self.params_valid,
@@ -308,6 +309,12 @@ class RetrievalModel(ABC):
         )
 
     # helpers --------------------------------------------------------------------------------------------
+    def _batch_functions(self, agb, covariates):
+        """(fun(p, idx), jac(p, idx)) of the batched solver for data sets ``idx`` of ``agb`` (B, n). Models
+        may override it to cache what depends on the AGB alone."""
+        return (lambda p, idx: self.evaluate(agb[idx], p, **_take(covariates, idx)),
+                lambda p, idx: self.param_jacobian(agb[idx], p, **_take(covariates, idx)))
+
     def _space(self, space):
         space = self.default_fit_space if space is None else space
         if space not in FIT_SPACES:
@@ -401,13 +408,16 @@ def levenberg_marquardt(fun, jac, y, p0, valid=None, weights=None, bad=None, max
         active = start
     lam = np.full(nb, 1e-3)
     eye = np.eye(npar)
+    resid = np.zeros_like(y2)
+    if start.size:
+        resid[start] = r0
     for it in range(1, max_iter + 1):
         if active.size == 0:
             break
         iterations[active] = it
         pa = p[active]
         ja = jac(pa, active).reshape(active.size, -1, npar)
-        ra = y2[active] - fun(pa, active).reshape(active.size, -1)
+        ra = resid[active]  # residuals at the current coefficients, kept from the last accepted step
         wa = w[active]
         jtw = np.swapaxes(ja, 1, 2) * wa[:, None, :]
         a = jtw @ ja  # (b, p, p)
@@ -429,10 +439,11 @@ def levenberg_marquardt(fun, jac, y, p0, valid=None, weights=None, bad=None, max
         if valid is not None:
             ok &= np.asarray(valid(np.where(ok[:, None], pn, pa)), bool)
         sn = np.full(active.size, np.inf)
+        rn = np.zeros((active.size, y2.shape[1]))
         if np.any(ok):
             idx_ok = active[ok]
-            fn = fun(pn[ok], idx_ok).reshape(idx_ok.size, -1)
-            sn[ok] = np.sum(w[idx_ok] * (y2[idx_ok] - fn) ** 2, axis=1)
+            rn[ok] = y2[idx_ok] - fun(pn[ok], idx_ok).reshape(idx_ok.size, -1)
+            sn[ok] = np.sum(w[idx_ok] * rn[ok] ** 2, axis=1)
         accept = ok & np.isfinite(sn) & (sn <= ssr[active])
         old = ssr[active]
         rel_red = np.where(accept, (old - sn) / np.maximum(old, np.finfo(float).tiny), np.inf)
@@ -441,6 +452,7 @@ def levenberg_marquardt(fun, jac, y, p0, valid=None, weights=None, bad=None, max
         acc_idx = active[accept]
         p[acc_idx] = pn[accept]
         ssr[acc_idx] = sn[accept]
+        resid[acc_idx] = rn[accept]
         lam[acc_idx] = np.maximum(lam[acc_idx] / 10.0, 1e-12)
         lam[active[~accept]] *= 10.0
         done = at_stationary | (accept & ((rel_red <= ftol) | (rel_step <= xtol)))

@@ -112,6 +112,27 @@ class SaturatingModel(RetrievalModel):
         low = np.where(m > 0, low, at_zero)
         return e * (b0 * b1 + low)
 
+    def _batch_functions(self, agb, covariates):
+        """Cached M and M^alpha for the batched solver (the power is the costly part of eq. 1)."""
+        m = np.clip(np.asarray(agb, dtype=float), 0.0, None)
+        ma = m**self.alpha
+
+        def fun(p, idx):
+            mi = m[idx]
+            e = np.exp(-p[:, 1:2] * mi)
+            return p[:, 0:1] * (1.0 - e) + p[:, 2:3] * ma[idx] * e
+
+        def jac(p, idx):
+            mi, mai = m[idx], ma[idx]
+            e = np.exp(-p[:, 1:2] * mi)
+            out = np.empty(mi.shape + (3,))
+            out[..., 0] = 1.0 - e
+            out[..., 1] = mi * e * (p[:, 0:1] - p[:, 2:3] * mai)
+            out[..., 2] = mai * e
+            return out
+
+        return fun, jac
+
     # branch and inversion --------------------------------------------------------------------------------
     def peak_agb(self) -> float:
         """M* where sigma peaks (t/ha): the root of h(M) (module docstring); +inf if sigma never peaks."""
