@@ -37,7 +37,7 @@ def _coverage(n_sets, design, agb=50.0, n_sim=50, n_boot=200, refit="naive"):
 
 def test_bootstrap_confidence_band_covers_truth_at_nominal_rate():
     """SIMEX centre, conditional bootstrap, eqs. (3)-(4) with the bootstrap covariance: 95 % band at
-    50 t/ha over 200 data sets, binomial test (simulation of 800 data sets: 94.8 %)."""
+    50 t/ha over 200 data sets, binomial test (simulation of 800 data sets: 95.0 %)."""
     hits = _coverage(200, "conditional")
     assert stats.binomtest(hits, 200, 0.95).pvalue > P_MIN, hits
 

@@ -2,7 +2,6 @@
 the retrieval modules that combine systematic, random and regression errors into the reported AGB error
 with named contributions, and the two scenarios of issue 6."""
 
-import dataclasses
 from pathlib import Path
 
 import numpy as np

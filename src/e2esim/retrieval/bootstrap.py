@@ -46,7 +46,7 @@ from e2esim.retrieval.regression import (
     delta_method_band,
     model_error_variance,
 )
-from e2esim.retrieval.simex import DEFAULT_LAMBDAS, SIMEX_OK, simex_batch
+from e2esim.retrieval.simex import DEFAULT_LAMBDAS, simex_batch
 
 DESIGNS = ("conditional", "paper")
 REFITS = ("naive", "simex")
