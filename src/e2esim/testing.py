@@ -36,12 +36,14 @@ _DEFAULT_CHAIN = {
 """Built-in modules that produce the state a module of a later kind expects."""
 
 
-def reference_state(before_kind: str, settings: SimulationSettings = _SMALL, seed: int = 0) -> CaseState:
-    """A case state as the built-in default chain leaves it just before a module of ``before_kind``."""
+def reference_state(before_kind: str, settings: SimulationSettings = _SMALL, seed: int = 0,
+                    including: bool = False) -> CaseState:
+    """A case state as the built-in default chain leaves it just before a module of ``before_kind`` (or just
+    after the default module of that kind, with ``including``: for modules stacked after it)."""
     from e2esim import registry
 
     state = CaseState(index=0, inputs={}, settings=settings, rng=np.random.default_rng(seed))
-    for kind in KINDS[: KINDS.index(before_kind)]:
+    for kind in KINDS[: KINDS.index(before_kind) + int(including)]:
         if kind in _DEFAULT_CHAIN:
             type_name, config = _DEFAULT_CHAIN[kind]
             state = registry.lookup(kind, type_name)(**config).forward(state)
@@ -74,6 +76,8 @@ def check_module(cls, config: dict | None = None, state: CaseState | None = None
 
     if state is None:
         state = reference_state(cls.kind)
+        if any(getattr(state, f, None) is None for f in cls.requires):  # stacked after the default module
+            state = reference_state(cls.kind, including=True)
     missing = [f for f in cls.requires if getattr(state, f, None) is None]
     assert not missing, f"{cls.__name__} requires {missing}, which the reference state lacks"
     before = dataclasses.replace(state, rng=None)

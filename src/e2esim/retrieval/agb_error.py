@@ -5,6 +5,12 @@ probabilities follow from its mean b and SD sigma_e (eq. 19); through the power 
 relative AGB error ``q = (1 + e / sigma_hv)^p - 1`` is a monotone function of e, so its quantiles are
 the images of the quantiles of e. Monte Carlo samples of e give the same quantities without the
 Gaussian approximation.
+
+Any other retrieval model (``e2esim.retrieval.models``) gives the same structure through a
+``RelativeErrorMap``: q is the monotone (non-decreasing) image of the relative sigma error x = e / sigma
+at the case's AGB, saturation included (an estimate that saturates is capped at ``agb_max``). When the
+error has several named sources (system distortions, Faraday rotation, speckle and noise, ...), each is
+kept as an ``AGBContribution`` so that reports can show which one dominates.
 """
 
 from __future__ import annotations
@@ -14,10 +20,12 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import special
 
+from e2esim.errors import PhysicsInputError
 from e2esim.retrieval.power_law import agb_relative_error, sigma_relative_error
 
 _HERMITE_NODES, _HERMITE_WEIGHTS = np.polynomial.hermite_e.hermegauss(64)
 _HERMITE_WEIGHTS = _HERMITE_WEIGHTS / np.sqrt(2 * np.pi)  # probabilists' Hermite: weights sum to 1
+_X_SEARCH = (-1.0 + 1e-12, 1e6)  # relative sigma errors searched when inverting a map numerically
 
 
 def standard_normal_quantile(probability):
@@ -26,12 +34,95 @@ def standard_normal_quantile(probability):
 
 
 @dataclass(frozen=True)
+class RelativeErrorMap:
+    """x (relative sigma_hv error) -> q (relative AGB error) through a retrieval model at one AGB.
+
+    model : a ``RetrievalModel``. agb_t_ha : the true AGB (t/ha). agb_max_t_ha : cap of the estimates
+    (saturation), None for none. covariates : keyword arguments of the model (e.g. incidence_rad).
+    For a multi-channel model the error is applied to the HV channel.
+    """
+
+    model: object
+    agb_t_ha: float
+    agb_max_t_ha: float | None = None
+    covariates: tuple = ()
+
+    def __call__(self, x):
+        q, _ = self.model.relative_agb_error(self.agb_t_ha, x, self.agb_max_t_ha, **dict(self.covariates))
+        return q
+
+    def inversion(self, x):
+        """The ``Inversion`` (statuses: saturated, below range) of sigma (1 + x)."""
+        return self.model.relative_agb_error(self.agb_t_ha, x, self.agb_max_t_ha, **dict(self.covariates))[1]
+
+    def saturation_threshold(self) -> float:
+        """Smallest relative sigma error x whose estimate saturates (+inf if the model never saturates)."""
+        s_max = self.inversion(np.array([0.0])).sigma_max
+        if not np.isfinite(s_max):
+            return np.inf
+        truth = np.atleast_1d(self.model.sigma(self.agb_t_ha, **dict(self.covariates)))
+        return float(s_max / truth[1 if truth.size == 3 else 0] - 1.0)
+
+    def threshold(self, level: float) -> float:
+        """x at which q reaches ``level`` (> -1): +inf if q never exceeds it (cap), -1 if q never falls to it."""
+        return self._threshold_numeric(level)
+
+    def _threshold_numeric(self, level):
+        if not np.isfinite(level):
+            return np.inf
+        lo, hi = _X_SEARCH
+        if self(np.array([hi]))[0] < level:
+            return np.inf
+        if self(np.array([lo]))[0] >= level:
+            return -1.0
+        for _ in range(200):  # bisection: q is non-decreasing in x
+            mid = 0.5 * (lo + hi) if hi - lo > 1.0 else np.sqrt((1 + lo) * (1 + hi)) - 1.0
+            if self(np.array([mid]))[0] >= level:
+                hi = mid
+            else:
+                lo = mid
+            if hi - lo <= 1e-13 * max(1.0, abs(hi)):
+                break
+        return hi
+
+    def local_exponent(self) -> float:
+        """The power-law exponent the map acts with near x = 0: 1 / (d ln sigma / d ln AGB) at the case's
+        AGB; for the multi-channel log-linear model the HV channel weight c_hv."""
+        if hasattr(self.model, "channel_weights"):
+            return float(self.model.channel_weights()[1])
+        return float(1.0 / self.model.sensitivity(self.agb_t_ha, **dict(self.covariates)))
+
+
+@dataclass(frozen=True)
+class AGBContribution:
+    """One source of the backscatter error and the relative AGB error it causes on its own.
+
+    name : e.g. "system_distortions", "faraday_rotation", "speckle_noise", "calibration", "regression".
+    group : "systematic" (system distortions and FR, seed 000), "random" (error budget, seed 004) or
+    "regression" (retrieval-model uncertainty). relative_mean, relative_variance : mean and variance of
+    the relative sigma_hv error x = e / sigma_hv it contributes (the variance may be negative for an
+    increment such as the Faraday-rotation share of the systematic error). description : one line.
+    """
+
+    name: str
+    group: str
+    relative_mean: float
+    relative_variance: float
+    description: str = ""
+
+
+@dataclass(frozen=True)
 class AGBError:
     """Relative AGB error ``q = AGB_hat / AGB - 1`` implied by the sigma_hv error.
 
-    exponent : power-law exponent p. sigma_hv : true sigma_hv (m^2/m^2).
-    error_mean, error_sd : mean and SD of the sigma_hv error e (m^2/m^2) from the analytic model, or
+    exponent : power-law exponent p (for other models the local exponent 1 / (d ln sigma / d ln AGB),
+        used by the trade-off curves). sigma_hv : true sigma_hv (m^2/m^2).
+    error_mean, error_sd : mean and SD of the total sigma_hv error e (m^2/m^2) from the analytic model, or
         None. samples : Monte Carlo relative AGB errors (flat array), or None.
+    mapping : ``RelativeErrorMap`` of a retrieval model, or None for the power law of ``exponent``.
+    contributions : ``AGBContribution`` records of the named error sources (empty when the error has a
+        single source, the system distortions and FR of the propagation module).
+    saturated_fraction : basis -> fraction of estimates that saturate (probability for "analytic").
     """
 
     exponent: float
@@ -39,17 +130,34 @@ class AGBError:
     error_mean: float | None = None
     error_sd: float | None = None
     samples: np.ndarray | None = None
+    mapping: RelativeErrorMap | None = None
+    contributions: tuple = ()
+    saturated_fraction: tuple = ()
 
     @classmethod
-    def from_sigma_errors(cls, exponent, sigma_hv, error_mean=None, error_sd=None, relative_samples=None):
+    def from_sigma_errors(cls, exponent, sigma_hv, error_mean=None, error_sd=None, relative_samples=None,
+                          mapping=None, contributions=(), saturated_fraction=()):
         """From the analytic mean/SD of e (m^2/m^2) and/or Monte Carlo relative errors e / sigma_hv."""
         samples = None
         if relative_samples is not None:
-            samples = agb_relative_error(np.ravel(relative_samples), exponent)
-        return cls(exponent, sigma_hv, error_mean, error_sd, samples)
+            x = np.ravel(relative_samples)
+            samples = agb_relative_error(x, exponent) if mapping is None else mapping(x)
+        return cls(exponent, sigma_hv, error_mean, error_sd, samples, mapping, tuple(contributions),
+                   tuple(saturated_fraction))
 
     def has(self, basis: str) -> bool:
         return (self.error_mean is not None) if basis == "analytic" else (self.samples is not None)
+
+    def relative_agb(self, sigma_relative):
+        """q for relative sigma errors x (the power law or the retrieval model's map)."""
+        if self.mapping is None:
+            return agb_relative_error(sigma_relative, self.exponent)
+        return self.mapping(np.asarray(sigma_relative, dtype=float))
+
+    def _threshold(self, level):
+        if self.mapping is None:
+            return float(sigma_relative_error(level, self.exponent))
+        return self.mapping.threshold(level)
 
     # Quantiles, exceedance, RMSE ----------------------------------------------------------
     def quantile(self, probability, basis: str = "analytic"):
@@ -57,14 +165,16 @@ class AGBError:
         probability = np.asarray(probability, dtype=float)
         if basis == "analytic":
             e = self.error_mean + standard_normal_quantile(probability) * self.error_sd
-            return agb_relative_error(e / self.sigma_hv, self.exponent)
+            return self.relative_agb(e / self.sigma_hv)
         return np.quantile(self.samples, probability)
 
     def exceedance(self, bound, side: str = "over", basis: str = "analytic"):
         """P(q > bound) for side "over" (bound > 0), P(q < -bound) for side "under" (bound > 0)."""
         level = bound if side == "over" else -bound
         if basis == "analytic":
-            threshold = sigma_relative_error(level, self.exponent) * self.sigma_hv  # f sigma_hv, eq. (19)
+            threshold = self._threshold(level) * self.sigma_hv  # f sigma_hv, eq. (19)
+            if not np.isfinite(threshold):
+                return 0.0 if side == "over" else 1.0
             z = (threshold - self.error_mean) / self.error_sd if self.error_sd > 0 else np.inf * np.sign(
                 threshold - self.error_mean
             )
@@ -75,7 +185,7 @@ class AGBError:
         """Root-mean-square relative AGB error sqrt(E[q^2]) (bias and spread together)."""
         if basis == "analytic":
             e = self.error_mean + self.error_sd * _HERMITE_NODES
-            q = agb_relative_error(e / self.sigma_hv, self.exponent)
+            q = self.relative_agb(e / self.sigma_hv)
             return float(np.sqrt(np.dot(_HERMITE_WEIGHTS, q**2)))
         return float(np.sqrt(np.mean(self.samples**2)))
 
@@ -83,8 +193,40 @@ class AGBError:
         """Mean relative AGB error E[q]."""
         if basis == "analytic":
             e = self.error_mean + self.error_sd * _HERMITE_NODES
-            return float(np.dot(_HERMITE_WEIGHTS, agb_relative_error(e / self.sigma_hv, self.exponent)))
+            return float(np.dot(_HERMITE_WEIGHTS, self.relative_agb(e / self.sigma_hv)))
         return float(np.mean(self.samples))
+
+    # Contributions ---------------------------------------------------------------------------
+    def contribution(self, name: str) -> AGBContribution:
+        for c in self.contributions:
+            if c.name == name:
+                return c
+        raise KeyError(f"no contribution {name!r}; contributions: {', '.join(c.name for c in self.contributions)}")
+
+    def contribution_stats(self, name: str) -> dict:
+        """The relative AGB error a contribution causes on its own (Gaussian x, through the map):
+        mean, SD and RMSE of q (fractions), and its share of the total sigma error variance."""
+        c = self.contribution(name)
+        stats_ = _gaussian_q_stats(self.relative_agb, c.relative_mean, max(c.relative_variance, 0.0))
+        total = sum(max(k.relative_variance, 0.0) for k in self.contributions)
+        stats_["variance_share"] = max(c.relative_variance, 0.0) / total if total > 0 else 0.0
+        stats_["sigma_mean_percent"] = 100 * c.relative_mean
+        stats_["sigma_sd_percent"] = 100 * float(np.sign(c.relative_variance) * np.sqrt(abs(c.relative_variance)))
+        return stats_
+
+    def dominant_contribution(self) -> str | None:
+        """Name of the contribution with the largest mean square relative sigma error (bias^2 + variance)."""
+        if not self.contributions:
+            return None
+        return max(self.contributions, key=lambda c: c.relative_mean**2 + max(c.relative_variance, 0.0)).name
+
+
+def _gaussian_q_stats(mapping, mean, variance) -> dict:
+    x = mean + np.sqrt(variance) * _HERMITE_NODES
+    q = mapping(x)
+    m = float(np.dot(_HERMITE_WEIGHTS, q))
+    ms = float(np.dot(_HERMITE_WEIGHTS, q**2))
+    return {"mean": m, "sd": float(np.sqrt(max(ms - m**2, 0.0))), "rmse": float(np.sqrt(ms))}
 
 
 def binomial_interval(successes: int, trials: int, confidence: float = 0.95) -> tuple[float, float]:
@@ -95,3 +237,9 @@ def binomial_interval(successes: int, trials: int, confidence: float = 0.95) -> 
     lo = stats.beta.ppf(alpha / 2, successes, trials - successes + 1) if successes > 0 else 0.0
     hi = stats.beta.ppf(1 - alpha / 2, successes + 1, trials - successes) if successes < trials else 1.0
     return float(lo), float(hi)
+
+
+def check_relative_variance(name: str, value: float) -> float:
+    if not np.isfinite(value):
+        raise PhysicsInputError(f"contribution {name!r} has a non-finite variance {value}")
+    return float(value)

@@ -1,28 +1,97 @@
-"""Retrieval modules (kind ``retrieval``): from the sigma_hv error to the relative AGB error."""
+"""Retrieval modules (kind ``retrieval``): from the sigma_hv error to the relative AGB error.
+
+Three backscatter-AGB models: the power law of Men et al. (2021), eq. (15); the saturating model of
+Ahmed et al. (2014), eq. (1); the multi-channel log-linear model of the BIOMASS level-2 prototype.
+Each maps the case's relative sigma_hv error to a relative AGB error at the case's AGB, and combines
+(``e2esim.retrieval.combine``) the systematic error of the propagation module with the random error
+budget (``backscatter_error_budget``, when the scenario has one) and, optionally, the regression
+uncertainty of the model's calibration (the ``regression`` section), each reported as a contribution.
+Without a budget and without regression the power law gives exactly the results of the plain chain.
+"""
 
 from __future__ import annotations
 
 import numpy as np
 
-from e2esim.errors import ConfigError
+from e2esim.errors import ConfigError, PhysicsInputError
 from e2esim.module import Module
-from e2esim.params import Param
-from e2esim.retrieval.agb_error import AGBError
-from e2esim.retrieval.power_law import BIOME_EXPONENTS
+from e2esim.params import Param, ParamGroup
+from e2esim.retrieval.agb_error import AGBError, RelativeErrorMap
+from e2esim.retrieval.calibration_plots import REGRESSION_METHODS, REGRESSION_MODES, CalibrationCampaign, \
+    regression_contribution
+from e2esim.retrieval.combine import combined_agb_error
+from e2esim.retrieval.loglinear import LogLinearModel
+from e2esim.retrieval.power_law import BIOME_EXPONENTS, PowerLaw
+from e2esim.retrieval.saturating import ALPHA_DEFAULT, SaturatingModel
+
+_REGRESSION = ParamGroup("regression", "uncertainty of the model's calibration on field plots (Ahmed et al. 2014, "
+                         "eqs. 2-19), simulated from the model itself", (
+    Param("mode", "str", "none; confidence: coefficient uncertainty (eq. 3); prediction: plus the error in "
+          "equation (eq. 7)", default="none", choices=REGRESSION_MODES),
+    Param("method", "str", "delta: naive fit and eq. (6); bootstrap: SIMEX and parametric bootstrap (eqs. 11-19)",
+          default="delta", choices=REGRESSION_METHODS),
+    Param("plots", "int", "number of calibration plots", default=40, minimum=5, maximum=100000),
+    Param("agb_range_t_ha", "float", "AGB range of the calibration plots", default=(20.0, 400.0), unit="t/ha",
+          length=2, minimum=0.0),
+    Param("allometric_error_percent", "float", "field AGB error (1 sigma)", default=10.0, unit="%", minimum=0.0),
+    Param("backscatter_error_percent", "float", "backscatter measurement error of the plots (1 sigma)", default=5.0,
+          unit="%", minimum=0.0),
+    Param("model_error_percent", "float", "error in equation: scatter of stands around the model (1 sigma)",
+          default=10.0, unit="%", minimum=0.0),
+    Param("bootstrap_samples", "int", "B for method bootstrap", default=200, minimum=10, maximum=100000),
+    Param("simex_samples", "int", "S per lambda for method bootstrap", default=50, minimum=2, maximum=10000),
+))
+
+_AGB = Param("agb_t_ha", "float", "AGB the case's backscatter error is applied at (null: the scene's AGB)",
+             default=None, unit="t/ha", exclusive_minimum=0.0, nullable=True)
+_CAP = Param("agb_max_t_ha", "float", "largest AGB the model returns: estimates beyond it count as saturated",
+             default=1000.0, unit="t/ha", exclusive_minimum=0.0)
 
 
-class PowerLawRetrieval(Module):
-    """AGB = A sigma_hv^p (Men et al. 2021, eq. 15); relative errors through eq. (16)."""
+class _Retrieval(Module):
+    """Shared parts: the case's AGB, the calibration campaign, the combination of the error sources."""
 
     kind = "retrieval"
+    requires = ("scene", "backscatter")
+    provides = ("agb",)
+
+    def setup(self):
+        r = self.config["regression"]
+        lo, hi = r["agb_range_t_ha"]
+        if not lo < hi:
+            raise ConfigError(self.location.child("regression").child("agb_range_t_ha"),
+                              f"[{lo:g}, {hi:g}] is not an increasing range", "expected [low, high] with low < high")
+        self.campaign = CalibrationCampaign(**{k: (tuple(v) if isinstance(v, (list, tuple)) else v)
+                                               for k, v in r.items()})
+
+    def case_agb(self, state) -> float:
+        agb = self.config.get("agb_t_ha") or state.scene.agb_t_ha
+        if agb is None:
+            raise ConfigError(self.location.child("agb_t_ha"),
+                              f"case {state.index}: the scene states no AGB and agb_t_ha is null",
+                              "give agb_t_ha, or a scene with an AGB")
+        return float(agb)
+
+    def regression(self, state, model, agb, covariates=None):
+        try:
+            return regression_contribution(model, agb, self.campaign, state.rng, covariates)
+        except PhysicsInputError as exc:
+            raise ConfigError(self.location.child("regression"), f"case {state.index}: {exc}") from exc
+
+    def combine(self, state, exponent, mapping=None, regression=None, channel_weights=None):
+        return state.with_(agb=combined_agb_error(state, exponent, mapping, regression, channel_weights))
+
+
+class PowerLawRetrieval(_Retrieval):
+    """AGB = A sigma_hv^p (Men et al. 2021, eq. 15); relative errors through eq. (16)."""
+
     type_name = "power_law"
     summary = "power law AGB = A sigma_hv^p (Men et al. 2021, eq. 15); p = 2.2 boreal, 1.9 tropical"
     params = (
         Param("exponent", "float", "power-law exponent p (null: from the scene's biome, 2.2 boreal, 1.9 tropical)",
               default=None, exclusive_minimum=0.0, maximum=10.0, nullable=True),
+        _REGRESSION,
     )
-    requires = ("scene", "backscatter")
-    provides = ("agb",)
 
     def exponent_for(self, scene) -> float:
         if self.config["exponent"] is not None:
@@ -38,16 +107,115 @@ class PowerLawRetrieval(Module):
     def forward(self, state):
         bs = state.backscatter
         p = self.exponent_for(state.scene)
+        if bs.budget is None and self.campaign.mode == "none":
+            return state.with_(agb=self._plain(bs, p))
+        regression = None
+        if self.campaign.mode != "none":
+            agb = self.case_agb(state)
+            regression = self.regression(state, PowerLaw.through(agb, bs.sigma_hv, p), agb)
+        return self.combine(state, p, None, regression)
+
+    @staticmethod
+    def _plain(bs, p) -> AGBError:
+        """The systematic error alone (the chain without a budget), exactly as before the budget existed."""
         relative = None
         if bs.montecarlo is not None:
             ref = np.asarray(bs.montecarlo.reference["hv"])
-            errors = bs.montecarlo.hv
-            relative = errors / (ref[:, None] if ref.ndim else ref)
-        agb = AGBError.from_sigma_errors(
+            relative = bs.montecarlo.hv / (ref[:, None] if ref.ndim else ref)
+        return AGBError.from_sigma_errors(
             p,
             bs.sigma_hv,
             None if bs.analytic is None else float(bs.analytic.mean),
             None if bs.analytic is None else float(bs.analytic.sd),
             relative,
         )
-        return state.with_(agb=agb)
+
+
+class SaturatingRetrieval(_Retrieval):
+    """The saturating model of Ahmed et al. (2014), eq. (1), inverted numerically with explicit saturation.
+
+    The case's relative sigma_hv error is applied to the model's backscatter at the case's AGB; estimates
+    beyond ``agb_max_t_ha`` (or beyond the model's peak) are saturated: set to the cap and counted.
+    """
+
+    type_name = "saturating"
+    summary = "saturating model beta0 (1 - e^{-beta1 M}) + beta2 M^alpha e^{-beta1 M} (Ahmed et al. 2014, eq. 1)"
+    params = (
+        Param("beta0", "float", "saturation level", default=0.055, unit="m2/m2", exclusive_minimum=0.0, maximum=10.0),
+        Param("beta1", "float", "saturation rate", default=0.015, unit="1/(t/ha)", exclusive_minimum=0.0, maximum=1.0),
+        Param("beta2", "float", "low-AGB scale", default=0.008, unit="m2/m2"),
+        Param("alpha", "float", "fixed exponent alpha (0.2 in the paper)", default=ALPHA_DEFAULT, exclusive_minimum=0.0,
+              maximum=1.0),
+        _AGB,
+        _CAP,
+        _REGRESSION,
+    )
+
+    def setup(self):
+        super().setup()
+        c = self.config
+        try:
+            self.model = SaturatingModel(c["beta0"], c["beta1"], c["beta2"], c["alpha"])
+            self.model.branch(c["agb_max_t_ha"])
+        except PhysicsInputError as exc:
+            raise ConfigError(self.location, str(exc)) from exc
+
+    def forward(self, state):
+        agb = self.case_agb(state)
+        cap = self.config["agb_max_t_ha"]
+        if agb >= cap:
+            raise ConfigError(self.location.child("agb_max_t_ha"),
+                              f"case {state.index}: the case's AGB {agb:g} t/ha is not below the cap {cap:g} t/ha",
+                              "raise agb_max_t_ha")
+        mapping = RelativeErrorMap(self.model, agb, cap)
+        regression = self.regression(state, self.model, agb) if self.campaign.mode != "none" else None
+        return self.combine(state, mapping.local_exponent(), mapping, regression)
+
+
+class LogLinearRetrieval(_Retrieval):
+    """sigma0_pq = l_pq AGB^a_pq cos^n_pq(theta) for HH, HV, VV, inverted jointly (BIOMASS L2 prototype form).
+
+    Defaults: l_pq and a_pq fitted (log-log least squares) to the three boreal forests of Men et al. (2021),
+    Table I (P-band; residuals below 0.6 %), n_pq = 0 (Table I has no incidence dependence), residual SD
+    0.1 in ln sigma with correlation 0.5 between channels (assumed).
+    """
+
+    type_name = "log_linear"
+    summary = "multi-channel log-linear model l_pq AGB^a_pq cos^n_pq(theta), joint HH/HV/VV inversion"
+    params = (
+        Param("l_db", "float", "l_pq for (hh, hv, vv)", default=(-20.374, -21.113, -7.054), unit="dB", length=3),
+        Param("a", "float", "AGB exponents a_pq for (hh, hv, vv)", default=(0.8039, 0.4224, 0.0612), length=3),
+        Param("n", "float", "cosine powers n_pq for (hh, hv, vv)", default=(0.0, 0.0, 0.0), length=3),
+        Param("residual_sd", "float", "SD of the ln-sigma residuals of (hh, hv, vv) around the model",
+              default=(0.1, 0.1, 0.1), length=3, exclusive_minimum=0.0),
+        Param("residual_correlation", "float", "correlation of the residuals between channels", default=0.5,
+              minimum=-0.49, maximum=0.99),
+        Param("incidence_deg", "float", "local incidence angle theta", default=30.0, unit="deg", minimum=0.0,
+              exclusive_maximum=90.0),
+        _AGB,
+        _CAP,
+        _REGRESSION,
+    )
+
+    def setup(self):
+        super().setup()
+        c = self.config
+        sd = np.asarray(c["residual_sd"])
+        corr = np.full((3, 3), c["residual_correlation"])
+        np.fill_diagonal(corr, 1.0)
+        try:
+            self.model = LogLinearModel(tuple(np.log(10.0) / 10.0 * np.asarray(c["l_db"])), tuple(c["a"]),
+                                        tuple(c["n"]), corr * np.outer(sd, sd))
+            self.model.check_hv_weight()
+        except PhysicsInputError as exc:
+            raise ConfigError(self.location, str(exc)) from exc
+        self.covariates = {"incidence_rad": float(np.radians(c["incidence_deg"]))}
+
+    def forward(self, state):
+        agb = self.case_agb(state)
+        cap = self.config["agb_max_t_ha"]
+        mapping = RelativeErrorMap(self.model, agb, cap, tuple(self.covariates.items()))
+        regression = (self.regression(state, self.model, agb, self.covariates)
+                      if self.campaign.mode != "none" else None)
+        weights = self.model.channel_weights()
+        return self.combine(state, float(weights[1]), mapping, regression, weights)

@@ -1,7 +1,10 @@
 """Flatten the typed results of one case into named scalars for summary.json, results.h5 and reports.
 
 Names are dotted, units in the name or stated in docs/output-format.md (sigma errors in m^2/m^2, AGB
-errors in percent, levels in dB, angles in degrees).
+errors in percent, levels in dB, angles in degrees). With a backscatter error budget or a regression
+uncertainty, ``agb.contribution.<name>.*`` give the relative AGB error each source causes on its own
+(mean, SD, RMSE in percent, its share of the sigma error variance, and its relative sigma error) and
+``budget.*`` the budget of the HV channel.
 """
 
 from __future__ import annotations
@@ -56,6 +59,8 @@ def case_scalars(state) -> dict:
                                         bs.montecarlo.looks, fixed_scene=bs.reference == "scene")
             for name, value in cmp.items():
                 out[f"comparison.{name}"] = value
+    if bs is not None and bs.budget is not None:
+        out.update(_budget_scalars(bs.budget))
     if state.agb is not None:
         agb = state.agb
         out["agb.exponent"] = agb.exponent
@@ -66,11 +71,28 @@ def case_scalars(state) -> dict:
                 quantiles = agb.quantile(np.array(list(_AGB_QUANTILES.values())), basis)
                 for label, q in zip(_AGB_QUANTILES, quantiles):
                     out[f"agb.{basis}.{label}_percent"] = 100 * float(q)
+        for basis, fraction in agb.saturated_fraction:
+            out[f"agb.{basis}.saturated_fraction"] = fraction
+        for c in agb.contributions:
+            stats = agb.contribution_stats(c.name)
+            key = f"agb.contribution.{c.name}"
+            out[f"{key}.mean_percent"] = 100 * stats["mean"]
+            out[f"{key}.sd_percent"] = 100 * stats["sd"]
+            out[f"{key}.rmse_percent"] = 100 * stats["rmse"]
+            out[f"{key}.variance_share"] = stats["variance_share"]
+            out[f"{key}.sigma_mean_percent"] = stats["sigma_mean_percent"]
+            out[f"{key}.sigma_sd_percent"] = stats["sigma_sd_percent"]
     for i, v in enumerate(state.verdicts):
         out[f"requirement{i}.passed"] = float(v.passed)
         out[f"requirement{i}.value"] = v.value
         out[f"requirement{i}.margin"] = v.margin
     return {k: _float(v) for k, v in out.items()}
+
+
+def _budget_scalars(budget) -> dict:
+    """Budget of the HV channel (relative SDs in percent, looks, SNR and MNR in dB) as ``budget.*``."""
+    hv = budget.channel("hv") if budget.channels else budget
+    return {f"budget.{k}": v for k, v in hv.as_dict().items()}
 
 
 def _float(value) -> float:

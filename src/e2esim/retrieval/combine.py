@@ -1,0 +1,207 @@
+"""Combine the error sources of sigma_hv into the relative AGB error the runner reports.
+
+Three groups of sources, each kept as named ``AGBContribution`` records (relative sigma_hv errors
+x = e / sigma_hv, mean and variance):
+
+* systematic (``hv_backscatter_error``; Men et al. 2021): the error from crosstalk, channel imbalance,
+  gain and noise, split by a counterfactual into ``system_distortions`` (the same system with no Faraday
+  rotation), ``faraday_rotation`` (what the actual Faraday rotation adds to it; FR alone leaves the
+  symmetrised HV unchanged, so it acts only through the distortions) and ``noise_bias`` (the sigma_n/2
+  bias of the noise in the HV estimate and its spread over the simulated looks). The three add up to the
+  analytic mean and variance of the propagation module exactly;
+* random (``backscatter_error_budget``; Ahmed et al. 2014): ``speckle_noise``, ``temporal``,
+  ``calibration``, ``area_projection`` at the product's scale, zero mean;
+* regression: the uncertainty of the retrieval model's calibration (confidence or prediction band at the
+  case's AGB), zero mean.
+
+The sources are independent, so the analytic total has the sum of the means and of the variances (for a
+budget with ``combination: linear``, the budget's own total); its Monte Carlo adds to every systematic
+sample one draw of the random and regression errors from the case's generator (the speckle-and-noise term
+from a gamma law when the budget asks for it). For the multi-channel log-linear model the budget enters
+as an HV-equivalent error: the joint inversion weights channel errors by c_pq, speckle is correlated
+between channels as |rho_pq|^2 (the intensity correlation of Gaussian scattering), and temporal,
+calibration and area-projection errors are common to all channels.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from e2esim.retrieval.agb_error import AGBContribution, AGBError, RelativeErrorMap
+
+SYSTEMATIC_DESCRIPTIONS = {
+    "system_distortions": "crosstalk, channel imbalance and gain errors without Faraday rotation (Men et al. 2021)",
+    "faraday_rotation": "what the case's Faraday rotation adds to the system-distortion error",
+    "noise_bias": "thermal-noise bias sigma_n/2 of the HV estimate and its spread over the simulated looks",
+}
+BUDGET_DESCRIPTIONS = {
+    "speckle_noise": "speckle, thermal and multiplicative noise at the product's looks (Ahmed et al. 2014, eq. 21)",
+    "temporal": "temporal variability unrelated to AGB (Ahmed et al. 2014, Section II-D-2)",
+    "calibration": "random, pointing and DEM calibration errors (Ahmed et al. 2014, eq. 30)",
+    "area_projection": "area-projection error from the DEM (Ahmed et al. 2014, eq. 36)",
+}
+_COMMON_MODE = ("temporal", "calibration", "area_projection")  # the same relative error in every channel
+
+
+def systematic_contributions(state) -> tuple:
+    """The systematic error of the propagation module split into system distortions, FR and noise bias.
+
+    Needs the analytic moments (``state.backscatter.analytic``); returns () without them.
+    """
+    from e2esim.crosspol.analytic import hv_error_moments
+    from e2esim.faraday.distribution import ConstantFaraday
+
+    bs = state.backscatter
+    m = bs.analytic
+    if m is None:
+        return ()
+    s = bs.sigma_hv
+    m0 = hv_error_moments(state.scene, state.system, ConstantFaraday(0.0), form=bs.form, looks=bs.looks,
+                          reference=bs.reference)
+    sd_mean = float(m0.mean - m0.bias_noise)
+    sd_var = float(m0.variance - m0.var_finite_looks)
+    fr_mean = float(m.mean - m.bias_noise) - sd_mean
+    fr_var = float(m.variance - m.var_finite_looks) - sd_var
+    values = {
+        "system_distortions": (sd_mean, sd_var),
+        "faraday_rotation": (fr_mean, fr_var),
+        "noise_bias": (float(m.bias_noise), float(m.var_finite_looks)),
+    }
+    return tuple(AGBContribution(name, "systematic", mean / s, var / s**2, SYSTEMATIC_DESCRIPTIONS[name])
+                 for name, (mean, var) in values.items())
+
+
+def budget_contributions(budget, channel_weights=None, scene=None) -> tuple:
+    """The budget's terms of eq. (20) as relative HV errors (HV-equivalent for a multi-channel model)."""
+    if budget is None:
+        return ()
+    out = []
+    for g in budget.groups:
+        if channel_weights is None:
+            var = float(np.squeeze(budget.channel("hv").group_sd(g) ** 2 if budget.channels else budget.group_sd(g) ** 2))
+        else:
+            var = float(_channel_covariance(budget, g, scene).dot(channel_weights).dot(channel_weights)
+                        / channel_weights[1] ** 2)
+        out.append(AGBContribution(g, "random", 0.0, var, BUDGET_DESCRIPTIONS[g]))
+    return tuple(out)
+
+
+def _channel_covariance(budget, group, scene):
+    """3x3 covariance of the relative errors of (hh, hv, vv) for one term of eq. (20)."""
+    sd = np.array([float(np.squeeze(budget.channel(ch).group_sd(group))) for ch in ("hh", "hv", "vv")])
+    if group in _COMMON_MODE:
+        return np.outer(sd, sd)
+    c = np.asarray(scene.matrix)
+    d = np.sqrt(np.real(np.diag(c)))
+    gamma = np.abs(c) ** 2 / np.outer(d, d) ** 2  # intensity correlation |rho_ij|^2
+    return gamma * np.outer(sd, sd)
+
+
+def random_total_variance(budget, contributions) -> float:
+    """Relative variance of the budget's total (the budget's combination rule for a single channel)."""
+    if budget is None:
+        return 0.0
+    if budget.combination == "linear" and budget.channels:
+        return float(np.sum([np.sqrt(max(c.relative_variance, 0.0)) for c in contributions]) ** 2)
+    return float(sum(c.relative_variance for c in contributions))
+
+
+def draw_random_errors(rng: np.random.Generator, shape, budget, contributions, regression_variance: float = 0.0,
+                       channel_weights=None, scene=None) -> np.ndarray:
+    """Monte Carlo draws of the random (budget) and regression relative HV errors, ``shape`` of them.
+
+    Single channel, independent terms: the speckle-and-noise term from ``Gamma(k, 1/k) - 1`` with
+    k = 1 / variance (gamma law) or Gaussian, the others Gaussian. Linear combination: one Gaussian with
+    the budget's total variance (the terms move together). Multi-channel: correlated Gaussian channel
+    errors converted to the HV-equivalent error of the joint inversion (exact map, module docstring);
+    returns (HV error, product of the other channels' factors) then.
+    """
+    reg = (np.sqrt(regression_variance) * rng.standard_normal(shape) if regression_variance > 0
+           else np.zeros(shape))
+    if channel_weights is not None:
+        if budget is None or not contributions:
+            return reg, np.ones(shape)
+        r_hv, others = _draw_multichannel(rng, shape, budget, channel_weights, scene)
+        return r_hv + reg, others
+    x = np.zeros(shape)
+    if budget is not None and contributions:
+        if budget.combination == "linear":
+            x = np.sqrt(random_total_variance(budget, contributions)) * rng.standard_normal(shape)
+        else:
+            for c in contributions:
+                v = max(c.relative_variance, 0.0)
+                if v == 0:
+                    continue
+                if c.name == "speckle_noise" and budget.speckle_distribution == "gamma":
+                    k = 1.0 / v
+                    x = x + rng.gamma(k, 1.0 / k, shape) - 1.0
+                else:
+                    x = x + np.sqrt(v) * rng.standard_normal(shape)
+    return x + reg
+
+
+def _draw_multichannel(rng, shape, budget, weights, scene):
+    cov = sum(_channel_covariance(budget, g, scene) for g in budget.groups)
+    w, v = np.linalg.eigh(cov)
+    root = v * np.sqrt(np.clip(w, 0.0, None))
+    r = rng.standard_normal(tuple(shape) + (3,)) @ root.T  # relative errors of hh, hv, vv
+    others = np.ones(shape)
+    for i in (0, 2):
+        others = others * np.clip(1.0 + r[..., i], 1e-12, None) ** (weights[i] / weights[1])
+    return r[..., 1], others
+
+
+def combined_agb_error(state, exponent: float, mapping: RelativeErrorMap | None = None,
+                       regression: AGBContribution | None = None, channel_weights=None) -> AGBError:
+    """The relative AGB error of a case from all its sources (module docstring).
+
+    exponent : power-law exponent (or local exponent of another model). mapping : the model's map from
+    relative sigma errors to relative AGB errors (None: the power law). regression : the regression
+    contribution, or None. channel_weights : (3,) joint-inversion weights of a multi-channel model.
+    """
+    bs = state.backscatter
+    s = bs.sigma_hv
+    systematic = systematic_contributions(state)
+    budget = bs.budget
+    random_ = budget_contributions(budget, channel_weights, state.scene)
+    reg = (regression,) if regression is not None else ()
+    contributions = systematic + random_ + reg
+    reg_var = regression.relative_variance if regression is not None else 0.0
+    rand_var = random_total_variance(budget, random_)
+    mean = sd = None
+    if bs.analytic is not None:
+        mean = float(bs.analytic.mean)
+        var = float(bs.analytic.variance) + s**2 * (rand_var + reg_var)
+        sd = float(np.sqrt(max(var, 0.0)))
+    relative = None
+    if bs.montecarlo is not None:
+        ref = np.asarray(bs.montecarlo.reference["hv"])
+        sys_rel = bs.montecarlo.hv / (ref[:, None] if ref.ndim else ref)
+        drawn = draw_random_errors(state.rng, sys_rel.shape, budget, random_, reg_var, channel_weights, state.scene)
+        if channel_weights is not None:
+            r_hv, others = drawn
+            relative = (1.0 + sys_rel + r_hv) * others - 1.0
+        else:
+            relative = sys_rel + drawn
+    saturated = ()
+    if mapping is not None:
+        saturated = _saturation(mapping, mean, sd, s, relative)
+    return AGBError.from_sigma_errors(exponent, s, mean, sd, relative, mapping, contributions, saturated)
+
+
+def _saturation(mapping, mean, sd, sigma, relative) -> tuple:
+    from scipy import special
+
+    out = []
+    threshold = mapping.saturation_threshold()
+    if mean is not None:
+        if not np.isfinite(threshold):
+            p = 0.0
+        elif sd > 0:
+            p = float(special.ndtr(-(threshold * sigma - mean) / sd))
+        else:
+            p = float(mean >= threshold * sigma)
+        out.append(("analytic", p))
+    if relative is not None:
+        out.append(("montecarlo", float(np.mean(np.ravel(relative) >= threshold)) if np.isfinite(threshold) else 0.0))
+    return tuple(out)

@@ -1,0 +1,171 @@
+"""Chain integration: the ``backscatter_error_budget`` propagation module after ``hv_backscatter_error``,
+the retrieval modules that combine systematic, random and regression errors into the reported AGB error
+with named contributions, and the two scenarios of issue 6."""
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from e2esim.errors import ConfigError
+from e2esim.retrieval.agb_error import AGBContribution
+from e2esim.retrieval.combine import draw_random_errors
+from e2esim.runner.run import run_scenario
+from e2esim.runner.scenario import Scenario
+
+ROOT = Path(__file__).resolve().parents[1]
+
+BASE = {
+    "scene": {"type": "table1_forest", "forest": "boreal_200"},
+    "instrument": {"type": "biomass"},
+    "ionosphere": {"type": "gaussian_faraday", "mean_deg": 60.0, "sd_deg": 5.0},
+    "propagation": [{"type": "hv_backscatter_error"},
+                    {"type": "backscatter_error_budget", "temporal": {"sd_percent": 5.0}}],
+    "retrieval": {"type": "power_law"},
+    "simulation": {"mode": "both", "seed": 3, "looks": 100_000, "realisations": 4000},
+}
+
+
+def _run(data, **changes):
+    data = {**data, **changes}
+    resolved = Scenario(data, source="<test>").resolve()
+    return run_scenario(resolved, progress=False).cases
+
+
+def test_budget_module_attaches_a_per_channel_budget():
+    case = _run(BASE)[0]
+    budget = case.state.backscatter.budget
+    assert budget.channels == ("hh", "hv", "vv")
+    assert float(budget.channel("hv").sigma) == pytest.approx(0.0726)
+    assert case.scalars["budget.looks"] == pytest.approx(float(budget.channel("hv").looks))
+    assert case.scalars["budget.temporal.relative_sd_percent"] == pytest.approx(5.0)
+
+
+def test_contributions_add_up_to_the_reported_error():
+    case = _run(BASE)[0]
+    agb, bs = case.state.agb, case.state.backscatter
+    names = [c.name for c in agb.contributions]
+    assert names == ["system_distortions", "faraday_rotation", "noise_bias", "speckle_noise", "temporal",
+                     "calibration", "area_projection"]
+    s = bs.sigma_hv
+    systematic = [c for c in agb.contributions if c.group == "systematic"]
+    # the three systematic parts add up to the propagation module's analytic moments exactly
+    assert sum(c.relative_mean for c in systematic) * s == pytest.approx(float(bs.analytic.mean), rel=1e-10)
+    assert sum(c.relative_variance for c in systematic) * s**2 == pytest.approx(float(bs.analytic.variance), rel=1e-10)
+    # the total is systematic + budget (independent sources)
+    budget_var = float(bs.budget.channel("hv").total_variance)
+    assert agb.error_sd**2 == pytest.approx(float(bs.analytic.variance) + s**2 * budget_var, rel=1e-10)
+    assert agb.error_mean == pytest.approx(float(bs.analytic.mean))
+    shares = [case.scalars[f"agb.contribution.{n}.variance_share"] for n in names]
+    assert sum(shares) == pytest.approx(1.0)
+    assert agb.dominant_contribution() == "speckle_noise"  # about 92 looks at 4 ha
+
+
+def test_monte_carlo_agrees_with_analytic_with_the_budget():
+    """The Monte Carlo AGB error (systematic samples plus random draws from the case generator) has the
+    mean of the analytic model: z test on the sample mean of q against the analytic E[q] (the gamma law of
+    the speckle term and the Gaussian model differ in skewness, not in the first two moments of x)."""
+    case = _run(BASE, simulation={**BASE["simulation"], "realisations": 20_000})[0]
+    agb = case.state.agb
+    q = agb.samples
+    x_analytic_sd = agb.error_sd / agb.sigma_hv
+    # compare relative sigma errors: invert q = (1 + x)^p - 1
+    x = (1 + q) ** (1 / agb.exponent) - 1
+    z_mean = (x.mean() - agb.error_mean / agb.sigma_hv) / (x.std(ddof=1) / np.sqrt(x.size))
+    assert abs(z_mean) < 5
+    z_var = (x.var(ddof=1) - x_analytic_sd**2) / (x_analytic_sd**2 * np.sqrt(2 / (x.size - 1) + 0.2 / x.size))
+    assert abs(z_var) < 5
+
+
+def test_without_budget_results_are_unchanged():
+    plain = dict(BASE, propagation={"type": "hv_backscatter_error"})
+    a = _run(plain)[0]
+    assert a.state.agb.contributions == ()
+    assert not any(k.startswith(("agb.contribution", "budget.")) for k in a.scalars)
+    # the power law without a budget is exactly the old computation
+    from e2esim.retrieval.agb_error import AGBError
+
+    bs = a.state.backscatter
+    ref = np.asarray(bs.montecarlo.reference["hv"])
+    old = AGBError.from_sigma_errors(2.2, bs.sigma_hv, float(bs.analytic.mean), float(bs.analytic.sd),
+                                     bs.montecarlo.hv / ref)
+    np.testing.assert_array_equal(a.state.agb.samples, old.samples)
+    assert a.state.agb.rmse() == old.rmse()
+
+
+def test_budget_reproducible_per_case():
+    a, b = _run(BASE)[0], _run(BASE)[0]
+    np.testing.assert_array_equal(a.state.agb.samples, b.state.agb.samples)
+
+
+def test_regression_contribution_and_saturating_model():
+    data = dict(BASE, retrieval={"type": "saturating", "agb_max_t_ha": 600.0,
+                                 "regression": {"mode": "prediction", "plots": 40}})
+    case = _run(data)[0]
+    agb = case.state.agb
+    reg = agb.contribution("regression")
+    assert reg.group == "regression" and reg.relative_variance > 0
+    assert 0 <= case.scalars["agb.analytic.saturated_fraction"] <= 1
+    assert case.scalars["agb.montecarlo.saturated_fraction"] > 0  # 200 t/ha is on the flat part
+    assert np.nanmax(agb.samples) == pytest.approx(600 / 200 - 1)  # saturated estimates sit at the cap
+
+
+def test_log_linear_retrieval_runs_and_uses_the_hv_weight():
+    data = dict(BASE, retrieval={"type": "log_linear"})
+    case = _run(data)[0]
+    agb = case.state.agb
+    assert 0 < agb.exponent < 1  # c_hv of the Table I boreal fit: HH carries most of the weight
+    assert {c.name for c in agb.contributions} >= {"speckle_noise", "calibration"}
+    assert np.all(np.isfinite(agb.samples))
+
+
+def test_population_reference_with_speckle_is_refused():
+    data = dict(BASE, propagation=[{"type": "hv_backscatter_error", "reference": "population"},
+                                   {"type": "backscatter_error_budget"}])
+    with pytest.raises(ConfigError, match="speckle would be counted twice"):
+        _run(data)
+
+
+def test_budget_module_bad_input_names_the_key():
+    data = dict(BASE, propagation=[{"type": "hv_backscatter_error"},
+                                   {"type": "backscatter_error_budget", "observation": {"area_m2": 1e4,
+                                                                                        "product_resolution_m": 100}}])
+    with pytest.raises(ConfigError, match=r"propagation\[1\]\.observation: gives both area_m2 and product_resolution_m"):
+        _run(data)
+    data = dict(BASE, propagation=[{"type": "hv_backscatter_error"},
+                                   {"type": "backscatter_error_budget",
+                                    "observation": {"speckle_diverse_observations": 5}}])
+    with pytest.raises(ConfigError, match="cannot exceed observations"):
+        _run(data)
+    data = dict(BASE, retrieval={"type": "saturating", "agb_max_t_ha": 100.0})
+    with pytest.raises(ConfigError, match="is not below the cap"):
+        _run(data)
+
+
+def test_draw_random_errors_moments():
+    """Independent Gaussian and gamma draws: mean 0 and the summed variance (z tests)."""
+    from e2esim.budget.presets import preset
+    from e2esim.budget.result import backscatter_budget
+
+    budget = backscatter_budget(preset("biomass_200m", temporal_relative_sd=0.05), np.array([0.5, 0.07, 0.3]))
+    budget = budget.with_(channels=("hh", "hv", "vv"))
+    hv = budget.channel("hv")
+    contribs = tuple(AGBContribution(g, "random", 0.0, float(hv.group_sd(g) ** 2)) for g in budget.groups)
+    x = draw_random_errors(np.random.default_rng(), (200_000,), budget, contribs, regression_variance=1e-4)
+    v = sum(c.relative_variance for c in contribs) + 1e-4
+    assert abs(x.mean()) < 5 * np.sqrt(v / x.size)
+    assert abs(x.var() - v) < 5 * v * np.sqrt(2.5 / x.size)
+
+
+@pytest.mark.parametrize("name", ["biomass_error_budget", "uavsar_ahmed2014"])
+def test_issue6_scenarios_run(name):
+    scenario = Scenario.load(ROOT / "scenarios" / f"{name}.yaml",
+                             overrides=["simulation.realisations=500", "retrieval.regression.bootstrap_samples=30",
+                                        "retrieval.regression.simex_samples=5"])
+    cases = run_scenario(scenario.resolve(), progress=False).cases
+    assert len(cases) == 5
+    for c in cases:
+        for contribution in ("system_distortions", "faraday_rotation", "speckle_noise", "temporal", "calibration",
+                             "area_projection", "regression"):
+            assert f"agb.contribution.{contribution}.sd_percent" in c.scalars
+        assert np.isfinite(c.scalars["agb.analytic.rmse_percent"])
