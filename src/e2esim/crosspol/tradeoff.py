@@ -38,12 +38,20 @@ _LOG_TOLERANCE = 4e-10  # bracket width in log10(V): relative precision ~1e-9 in
 @dataclass(frozen=True)
 class AGBRequirement:
     """One-sided bound on the relative AGB error: P(q > bound) <= 1 - confidence ("over") or
-    P(q < -bound) <= 1 - confidence ("under"). bound and confidence are fractions (0.2, 0.99865)."""
+    P(q < -bound) <= 1 - confidence ("under"). bound and confidence are fractions (0.2, 0.99865).
+
+    exponent : power-law exponent p (eq. 16). relative_threshold : the relative sigma_hv error at the bound
+        when the retrieval model is not a power law (from its ``RelativeErrorMap``); None: eq. (16).
+    extra_variance : variance (m^2/m^2)^2 added to the systematic error's, from the random-error budget and
+        the regression uncertainty (they do not depend on the system-error levels).
+    """
 
     bound: float
     confidence: float
     side: str
     exponent: float
+    relative_threshold: float | None = None
+    extra_variance: float = 0.0
 
     def __post_init__(self):
         if self.side not in SIDES:
@@ -61,11 +69,15 @@ class AGBRequirement:
     @property
     def f(self) -> float:
         """f_max (> 0) or f_min (< 0): relative sigma_hv error at the AGB bound, eq. (16)."""
+        if self.relative_threshold is not None:
+            return float(self.relative_threshold)
         level = self.bound if self.side == "over" else -self.bound
         return float(sigma_relative_error(level, self.exponent))
 
     def violation(self, mean, sd, sigma_hv):
         """Signed distance from the limit of eq. (19) (m^2/m^2): <= 0 passes, > 0 fails."""
+        if self.extra_variance:
+            sd = np.sqrt(np.asarray(sd) ** 2 + self.extra_variance)
         if self.side == "over":
             return mean + self.z * sd - self.f * sigma_hv
         return self.f * sigma_hv - (mean - self.z * sd)

@@ -14,7 +14,6 @@ import numpy as np
 from e2esim.chain import RequirementVerdict
 from e2esim.crosspol.analytic import hv_error_moments
 from e2esim.faraday.distribution import ConstantFaraday
-from e2esim.retrieval.agb_error import AGBError
 from e2esim.crosspol.tradeoff import (
     AGBRequirement,
     axis_limits,
@@ -31,45 +30,60 @@ BASES = ("auto", "analytic", "montecarlo")
 _PERCENT = 100.0
 
 SOURCES = ("crosstalk", "channel_imbalance", "noise", "faraday_rotation", "gain")
-"""Error sources a verdict is attributed to (``dominant`` and ``contribution.<source>_percent``)."""
+"""System error sources a verdict is attributed to; the random-error budget's terms and the regression
+uncertainty (when the scenario has them) are attributed by their own names."""
 
 
 def attribution(state, value_of) -> dict:
     """How much each error source adds to a requirement's checked value, and which adds most.
 
-    For each source the analytic model is re-evaluated with that source removed (crosstalk or channel
-    imbalance at zero level, no noise, no Faraday rotation, no gain error); its contribution is the
-    checked value minus the value without it, in the requirement's unit. The parts need not add up to the
-    total (the sources interact), but the largest is the one whose improvement helps most.
-    ``value_of`` maps an ``AGBError`` to the checked value.
+    For each source the value is recomputed with that source removed, everything else kept: the system
+    sources by re-evaluating the analytic model (crosstalk or channel imbalance at zero level, no noise, no
+    Faraday rotation, no gain error); the budget terms (speckle and noise, temporal, calibration, area
+    projection) and the regression uncertainty by taking their variance out of the total. A source's
+    contribution is the checked value minus the value without it, in the requirement's unit. The parts
+    need not add up (the sources interact, and quantiles are not additive), but the largest is the one
+    whose improvement helps most. ``value_of`` maps an analytic ``AGBError`` to the checked value.
     """
-    bs = state.backscatter
-    if bs is None or bs.analytic is None:
+    bs, agb = state.backscatter, state.agb
+    if bs is None or bs.analytic is None or agb is None or agb.error_mean is None:
         return {}
     moments = _variant_moments(state)
-    base = value_of(_agb(state, *moments["base"]))
-    return {f"contribution.{name}_percent": (base - value_of(_agb(state, *moments[name])) if name in moments else 0.0)
-            for name in SOURCES}
+    # what the budget and regression add to the systematic variance (m^2/m^2)^2
+    extra = max(agb.error_sd**2 - float(bs.analytic.variance), 0.0)
+    base = value_of(agb)
+
+    def with_systematic(mean, sd):
+        return dataclasses.replace(agb, error_mean=float(mean), error_sd=float(np.sqrt(sd**2 + extra)))
+
+    out = {f"contribution.{name}_percent": (base - value_of(with_systematic(*moments[name])) if name in moments
+                                            else 0.0) for name in SOURCES}
+    for c in agb.contributions:
+        if c.group in ("random", "regression"):
+            var = max(agb.error_sd**2 - bs.sigma_hv**2 * max(c.relative_variance, 0.0), 0.0)
+            out[f"contribution.{c.name}_percent"] = base - value_of(
+                dataclasses.replace(agb, error_sd=float(np.sqrt(var))))
+    return out
 
 
 _VARIANT_CACHE: list = []  # [(key objects, moments)]: requirements of one case share the evaluation
 
 
 def _variant_moments(state) -> dict:
-    """(mean, sd) of the sigma_hv error for the base case and with each source removed."""
+    """(mean, sd) of the systematic sigma_hv error with each system source removed."""
     key = (state.backscatter, state.system, state.faraday, state.scene)
     for cached_key, value in _VARIANT_CACHE:
         if all(a is b for a, b in zip(cached_key, key)):
             return value
     bs, sysm, fr = state.backscatter, state.system, state.faraday
-    # base and the three level variants in one vectorised evaluation: [base, no crosstalk, no CI, no noise]
+    # the three level variants in one vectorised evaluation: [no crosstalk, no CI, no noise]
     levels = dict(
-        crosstalk_level=np.array([sysm.crosstalk_level, 0.0, sysm.crosstalk_level, sysm.crosstalk_level]),
-        imbalance_level=np.array([sysm.imbalance_level, sysm.imbalance_level, 0.0, sysm.imbalance_level]),
-        noise_power=np.array([sysm.noise_power, sysm.noise_power, sysm.noise_power, 0.0]),
+        crosstalk_level=np.array([0.0, sysm.crosstalk_level, sysm.crosstalk_level]),
+        imbalance_level=np.array([sysm.imbalance_level, 0.0, sysm.imbalance_level]),
+        noise_power=np.array([sysm.noise_power, sysm.noise_power, 0.0]),
     )
     m = hv_error_moments(state.scene, sysm, fr, bs.form, bs.looks, bs.reference, **levels)
-    out = {name: (m.mean[i], m.sd[i]) for i, name in enumerate(("base", "crosstalk", "channel_imbalance", "noise"))}
+    out = {name: (m.mean[i], m.sd[i]) for i, name in enumerate(("crosstalk", "channel_imbalance", "noise"))}
     if fr.mean_rad != 0.0 or fr.sd_rad != 0.0:
         v = hv_error_moments(state.scene, sysm, ConstantFaraday(0.0), bs.form, bs.looks, bs.reference)
         out["faraday_rotation"] = (v.mean, v.sd)
@@ -79,10 +93,6 @@ def _variant_moments(state) -> dict:
         out["gain"] = (v.mean, v.sd)
     _VARIANT_CACHE[:] = [(key, out)]
     return out
-
-
-def _agb(state, mean, sd) -> AGBError:
-    return AGBError(state.agb.exponent, state.backscatter.sigma_hv, float(mean), float(sd))
 
 
 def _dominant(details: dict) -> str:
@@ -159,7 +169,12 @@ class AGBErrorBound(Module):
         value = max(values)
         verdict_curves = {}
         if (c["level_margins"] or c["tradeoff_curve"]) and state.backscatter.analytic is not None:
-            reqs = [AGBRequirement(bound, conf, side, agb.exponent) for side in self.sides()]
+            extra = max(agb.error_sd**2 - float(state.backscatter.analytic.variance), 0.0)
+            reqs = [AGBRequirement(bound, conf, side, agb.exponent,
+                                   relative_threshold=None if agb.mapping is None else agb.sigma_threshold(
+                                       bound if side == "over" else -bound),
+                                   extra_variance=extra)
+                    for side in self.sides()]
             if c["level_margins"]:
                 details.update(_level_margins(reqs, state))
             if c["tradeoff_curve"]:
@@ -278,7 +293,7 @@ class AGBRelativeRMSE(Module):
                    if state.agb.has(b)}
         value = state.agb.rmse(basis) * _PERCENT
         limit = self.config["max_percent"]
-        details.update(attribution(state, lambda agb_error: agb_error.rmse() * _PERCENT))
+        details.update(attribution(state, lambda agb_error: agb_error.rmse("analytic") * _PERCENT))
         verdict = RequirementVerdict(self.label, bool(value <= limit), value, limit, limit - value, "%", basis,
                                      details, dominant=_dominant(details))
         return state.with_(verdicts=state.verdicts + (verdict,))

@@ -154,7 +154,8 @@ class AGBError:
             return agb_relative_error(sigma_relative, self.exponent)
         return self.mapping(np.asarray(sigma_relative, dtype=float))
 
-    def _threshold(self, level):
+    def sigma_threshold(self, level) -> float:
+        """Relative sigma_hv error x at which the relative AGB error reaches ``level`` (eq. 16 or the map)."""
         if self.mapping is None:
             return float(sigma_relative_error(level, self.exponent))
         return self.mapping.threshold(level)
@@ -172,7 +173,7 @@ class AGBError:
         """P(q > bound) for side "over" (bound > 0), P(q < -bound) for side "under" (bound > 0)."""
         level = bound if side == "over" else -bound
         if basis == "analytic":
-            threshold = self._threshold(level) * self.sigma_hv  # f sigma_hv, eq. (19)
+            threshold = self.sigma_threshold(level) * self.sigma_hv  # f sigma_hv, eq. (19)
             if not np.isfinite(threshold):
                 return 0.0 if side == "over" else 1.0
             z = (threshold - self.error_mean) / self.error_sd if self.error_sd > 0 else np.inf * np.sign(
