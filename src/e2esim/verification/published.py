@@ -32,9 +32,9 @@ class Published:
 
 
 def _all() -> list:
-    from e2esim.verification import men2021_values
+    from e2esim.verification import men2021_values, quegan2018_values
 
-    return [*men2021_values.PUBLISHED]
+    return [*men2021_values.PUBLISHED, *quegan2018_values.PUBLISHED]
 
 
 PUBLISHED: list = _all()
