@@ -3,8 +3,8 @@
 ``igrf_reference`` calls ``ppigrf.igrf_gc`` itself (the reference implementation, about 40 us per
 point). ``igrf_geocentric`` evaluates the same spherical-harmonic expansion with the same Schmidt
 semi-normalised Legendre recursion (Wertz 1978, as in ppigrf), but without forming the dense design
-matrices, in cache-sized chunks, about 8 times faster; tests/test_geomag.py checks it against ``ppigrf.igrf_gc`` to 1e-9 and
-benchmarks/bench_climatology.py prints the ratio. Coefficients are interpolated linearly in time between
+matrices and in cache-sized chunks, about 8 times faster; tests/test_geomag.py checks it against
+``ppigrf.igrf_gc`` to 1e-9 and benchmarks/bench_climatology.py prints the ratio. Coefficients are interpolated linearly in time between
 the IGRF epochs of the file, like ppigrf (Alken et al. 2021, IGRF-13; IGRF-14, 2024).
 
 Coordinates: geocentric radius r (m), colatitude theta (rad), east longitude phi (rad); field components
@@ -32,18 +32,17 @@ def _coefficient_table(model: str):
 
     path = {"IGRF14": pp.shc_fn_igrf14, "IGRF13": pp.shc_fn_igrf13}[model]
     g, h = pp.read_shc(path)
-    years = np.array([_decimal_year(t.to_pydatetime()) for t in g.index])
+    seconds = np.array([_seconds(t.to_pydatetime()) for t in g.index])
     keys = list(g.columns)
-    return years, keys, g.values.astype(float), h.values.astype(float)
+    return seconds, keys, g.values.astype(float), h.values.astype(float)
 
 
 IGRF_MODELS = ("IGRF14", "IGRF13")
 
 
-def _decimal_year(when: dt.datetime) -> float:
-    start = dt.datetime(when.year, 1, 1)
-    end = dt.datetime(when.year + 1, 1, 1)
-    return when.year + (when - start).total_seconds() / (end - start).total_seconds()
+def _seconds(when: dt.datetime) -> float:
+    """Seconds since 1900-01-01: coefficients are linear in time between epochs, as in ppigrf."""
+    return (when - dt.datetime(1900, 1, 1)).total_seconds()
 
 
 def to_datetime(when) -> dt.datetime:
@@ -67,14 +66,14 @@ def gauss_coefficients(when, model: str = "IGRF14") -> dict:
 
     Raises PhysicsInputError outside the epochs the file covers (IGRF-14: 1900-2030).
     """
-    years, keys, g, h = _coefficient_table(model)
-    year = _decimal_year(to_datetime(when))
-    if not years[0] <= year <= years[-1]:
-        raise PhysicsInputError(
-            f"date {to_datetime(when).date()} is outside {model} ({years[0]:.0f} to {years[-1]:.0f})"
-        )
-    gi = np.array([np.interp(year, years, g[:, j]) for j in range(len(keys))]) * _NT
-    hi = np.array([np.interp(year, years, h[:, j]) for j in range(len(keys))]) * _NT
+    epochs, keys, g, h = _coefficient_table(model)
+    t = _seconds(to_datetime(when))
+    if not epochs[0] <= t <= epochs[-1]:
+        first = dt.datetime(1900, 1, 1) + dt.timedelta(seconds=float(epochs[0]))
+        last = dt.datetime(1900, 1, 1) + dt.timedelta(seconds=float(epochs[-1]))
+        raise PhysicsInputError(f"date {to_datetime(when).date()} is outside {model} ({first.year} to {last.year})")
+    gi = np.array([np.interp(t, epochs, g[:, j]) for j in range(len(keys))]) * _NT
+    hi = np.array([np.interp(t, epochs, h[:, j]) for j in range(len(keys))]) * _NT
     return {key: (gi[j], hi[j]) for j, key in enumerate(keys)}
 
 
