@@ -35,7 +35,8 @@ def plot_global_maps(clim, frequency_hz: float, path, variability: float = 0.25,
     stats = clim.statistics(frequency_hz, variability)
     data = stats[quantity]
     n_pass, n_sol = data.shape[:2]
-    fig, axes = plt.subplots(n_pass, n_sol, figsize=(5.2 * n_sol, 2.9 * n_pass), squeeze=False)
+    fig, axes = plt.subplots(n_pass, n_sol, figsize=(5.2 * n_sol, 3.1 * n_pass), squeeze=False,
+                             constrained_layout=True)
     finite = data[np.isfinite(data)]
     signed = quantity == "mean_deg"
     vmax = float(np.nanpercentile(np.abs(finite), 99)) if finite.size else 1.0
@@ -55,6 +56,10 @@ def plot_global_maps(clim, frequency_hz: float, path, variability: float = 0.25,
             ax.grid(alpha=0.3)
     label = {"mean_abs_deg": "mean |Ω| (deg)", "sd_deg": "SD of Ω (deg)", "mean_deg": "mean Ω (deg)"}[quantity]
     fig.colorbar(mesh, ax=axes.ravel().tolist(), shrink=0.85, label=label)
+    for ax in axes[-1]:
+        ax.set_xlabel("longitude (deg)", fontsize=8)
+    for ax in axes[:, 0]:
+        ax.set_ylabel("latitude (deg)", fontsize=8)
     fig.suptitle(title or f"One-way Faraday rotation at {frequency_hz / 1e6:g} MHz: {label}", fontsize=10)
     return _save(fig, path)
 
