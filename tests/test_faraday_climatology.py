@@ -154,3 +154,16 @@ def test_global_climatology_table_and_cache(tmp_path):
     again = global_climatology(orbit, **kw)
     assert np.array_equal(again.faraday, c.faraday, equal_nan=True)
     assert len(os.listdir(tmp_path)) == 1
+
+
+def test_latitude_band_and_missing_orbit(tmp_path):
+    orbit = SunSynchronousOrbit(666e3)
+    band = global_climatology(orbit, 10.0, months=(6,), f107=(100.0,), incidence_deg=(28.0,),
+                              settings=SlantSettings("thin_shell"), lat_range=(40.0, 70.0), cache_dir=None)
+    assert band.lat_deg.tolist() == [45.0, 55.0, 65.0] and band.faraday.shape[-2:] == (3, 36)
+    from e2esim.runner.scenario import Scenario
+
+    sc = Scenario({"scene": {"type": "table1_forest"}, "instrument": {"type": "biomass"},
+                   "ionosphere": {"type": "iri_climatology", "cache_dir": str(tmp_path)}})
+    with pytest.raises(ConfigError, match="needs 'geometry', which no earlier module provides"):
+        sc.resolve()

@@ -39,6 +39,13 @@ def range_delay_error(sigma_omega, b_dot_k) -> np.ndarray:
     return np.asarray(sigma_omega) / (CHARGE_TO_MASS_OVER_C * np.abs(np.asarray(b_dot_k)))
 
 
+def delay_error_from_estimator(snr_db, looks, b_dot_k, form: str = "corrected") -> np.ndarray:
+    """SD (m) of the slant range delay estimated from the Bickel-Bates Omega_hat (eqs. 5, 6, 8) for SNR
+    (dB, eq. 6), L looks and B.k (T), any broadcastable shapes."""
+    sigma = np.sqrt(bickel_bates_variance(10 ** (np.asarray(snr_db, float) / 10), looks, form))
+    return range_delay_error(sigma, b_dot_k)
+
+
 @dataclass(frozen=True)
 class GeolocationAssumptions:
     """Everything behind a Table 1 zone.

@@ -19,6 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
+from e2esim.errors import PhysicsInputError
 from e2esim.ionosphere import cache as cache_mod
 from e2esim.ionosphere.climatology import _settings_description
 from e2esim.ionosphere.propagation import faraday_rotation_integral
@@ -95,10 +96,13 @@ class _quiet:
         self._w.__exit__(*exc)
 
 
-def grid_axes(step_deg: float) -> tuple:
-    """Cell-centre latitudes and longitudes (deg) of a global grid with square cells of ``step_deg``."""
-    lat = np.arange(-90 + step_deg / 2, 90, step_deg)
-    lon = np.arange(-180 + step_deg / 2, 180, step_deg)
+def grid_axes(step_deg: float, lat_range=(-90.0, 90.0), lon_range=(-180.0, 180.0)) -> tuple:
+    """Cell-centre latitudes and longitudes (deg) of a grid of square cells of ``step_deg`` covering
+    ``lat_range`` x ``lon_range`` (deg; the whole globe by default, a latitude band or a region otherwise)."""
+    if not (-90 <= lat_range[0] < lat_range[1] <= 90 and -180 <= lon_range[0] < lon_range[1] <= 360):
+        raise PhysicsInputError(f"bad grid ranges: latitude {lat_range}, longitude {lon_range}")
+    lat = np.arange(lat_range[0] + step_deg / 2, lat_range[1], step_deg)
+    lon = np.arange(lon_range[0] + step_deg / 2, lon_range[1], step_deg)
     return lat, lon
 
 
@@ -134,14 +138,15 @@ def _month_task(args):
 def compute_global_climatology(orbit: SunSynchronousOrbit, step_deg: float = 2.0, months=range(1, 13),
                                passes=("ascending", "descending"), f107=(70.0, 180.0), incidence_deg=None,
                                settings: SlantSettings | None = None, year: int = 2026, workers: int = 1,
-                               progress: bool = False) -> GlobalClimatology:
-    """Compute the global table (no cache; see ``global_climatology``). ``workers`` processes share the
-    months."""
+                               progress: bool = False, lat_range=(-90.0, 90.0),
+                               lon_range=(-180.0, 180.0)) -> GlobalClimatology:
+    """Compute the table (no cache; see ``global_climatology``). ``workers`` processes share the months;
+    ``lat_range``, ``lon_range`` (deg) restrict it to a latitude band or region."""
     settings = settings or SlantSettings()
     if incidence_deg is None:
         incidence_deg = (25.0, 28.4, 31.7)
     inc = np.radians(np.asarray(incidence_deg, float))
-    lat, lon = grid_axes(step_deg)
+    lat, lon = grid_axes(step_deg, lat_range, lon_range)
     t, s, ut, ok = _grid_rays(orbit, lat, lon, inc, passes)
     months = tuple(int(m) for m in months)
     tasks = [(year, m, t, s, ut, ok, tuple(f107), settings) for m in months]
@@ -175,14 +180,17 @@ def compute_global_climatology(orbit: SunSynchronousOrbit, step_deg: float = 2.0
 def global_climatology(orbit: SunSynchronousOrbit, step_deg: float = 2.0, months=range(1, 13),
                        passes=("ascending", "descending"), f107=(70.0, 180.0), incidence_deg=None,
                        settings: SlantSettings | None = None, year: int = 2026, workers: int = 1,
-                       cache_dir: Path | None = None, progress: bool = False) -> GlobalClimatology:
-    """The global table, read from the HDF5 cache in ``cache_dir`` if present, else computed and stored."""
+                       cache_dir: Path | None = None, progress: bool = False, lat_range=(-90.0, 90.0),
+                       lon_range=(-180.0, 180.0)) -> GlobalClimatology:
+    """The table (global, or a latitude band / region with ``lat_range``, ``lon_range`` in deg), read from
+    the HDF5 cache in ``cache_dir`` if present, else computed and stored."""
     settings = settings or SlantSettings()
     if incidence_deg is None:
         incidence_deg = (25.0, 28.4, 31.7)
     desc = {"orbit": [orbit.altitude_m, orbit.ltan_h, orbit.look_side, orbit.earth_rotation, orbit.inclination_rad],
             "step_deg": step_deg, "months": list(months), "passes": list(passes), "f107": [float(f) for f in f107],
             "incidence_deg": [float(i) for i in incidence_deg], "year": year,
+            "lat_range": [float(x) for x in lat_range], "lon_range": [float(x) for x in lon_range],
             "settings": _settings_description(settings)}
     path = None
     if cache_dir is not None:
@@ -196,7 +204,7 @@ def global_climatology(orbit: SunSynchronousOrbit, step_deg: float = 2.0, months
                                      stored["stec"], stored["vtec"], int(a["year"]), desc["settings"],
                                      float(a.get("compute_s", np.nan)))
     clim = compute_global_climatology(orbit, step_deg, months, passes, f107, incidence_deg, settings, year, workers,
-                                      progress)
+                                      progress, lat_range, lon_range)
     if path is not None:
         cache_mod.write(path, {"lat_deg": clim.lat_deg, "lon_deg": clim.lon_deg, "months": np.array(clim.months),
                                "f107": np.array(clim.f107), "incidence_deg": clim.incidence_deg,
