@@ -81,8 +81,9 @@ def bench_climatology(step: float, workers: int, cache: Path, maps: Path | None)
     print(f"global climatology {step:g} x {step:g} deg, 12 months, dawn + dusk, F10.7 {clim.f107}, "
           f"{clim.incidence_deg.size} swath positions: {n_rays} rays x 2 solar levels, {t1 - t0:.1f} s on "
           f"{workers} worker(s) (target < 300 s: {'met' if t1 - t0 < 300 else 'NOT met'})")
+    size_mb = sum(a.nbytes for a in (clim.faraday, clim.stec, clim.vtec)) / 1e6
     print(f"cache read-back {t2 - t1:.3f} s (target < 1 s: {'met' if t2 - t1 < 1 else 'NOT met'}); "
-          f"statistics at 435 MHz {t3 - t2:.3f} s; table {sum(a.nbytes for a in (clim.faraday, clim.stec, clim.vtec)) / 1e6:.0f} MB")
+          f"statistics at 435 MHz {t3 - t2:.3f} s; table {size_mb:.0f} MB")
     with np.errstate(invalid="ignore"):
         for i, lab in enumerate(clim.pass_labels):
             for j, f in enumerate(clim.f107):

@@ -28,7 +28,8 @@ def test_noise_free_distributed_target_gives_exactly_omega():
 
 def test_coherence_eq6():
     assert coherence_from_snr(10.0) == pytest.approx(10 / 11)
-    assert bickel_bates_variance(10.0, 100, "printed") == pytest.approx((1 - (10 / 11) ** 2) / (16 * 2 * (10 / 11) * 100))
+    g = 10 / 11
+    assert bickel_bates_variance(10.0, 100, "printed") == pytest.approx((1 - g**2) / (16 * 2 * g * 100))
     with pytest.raises(PhysicsInputError, match="variance form"):
         bickel_bates_variance(10.0, 100, "exact")
 

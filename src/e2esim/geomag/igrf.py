@@ -4,8 +4,9 @@
 point). ``igrf_geocentric`` evaluates the same spherical-harmonic expansion with the same Schmidt
 semi-normalised Legendre recursion (Wertz 1978, as in ppigrf), but without forming the dense design
 matrices and in cache-sized chunks, about 8 times faster; tests/test_geomag.py checks it against
-``ppigrf.igrf_gc`` to 1e-9 and benchmarks/bench_climatology.py prints the ratio. Coefficients are interpolated linearly in time between
-the IGRF epochs of the file, like ppigrf (Alken et al. 2021, IGRF-13; IGRF-14, 2024).
+``ppigrf.igrf_gc`` to 1e-9 and benchmarks/bench_climatology.py prints the ratio. Coefficients are
+interpolated linearly in time between the IGRF epochs of the file, like ppigrf (Alken et al. 2021,
+IGRF-13; IGRF-14, 2024).
 
 Coordinates: geocentric radius r (m), colatitude theta (rad), east longitude phi (rad); field components
 (T) radial (up), theta (south) and phi (east).

@@ -14,6 +14,7 @@ from __future__ import annotations
 import concurrent.futures as cf
 import datetime as dt
 import time
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -25,7 +26,7 @@ from e2esim.ionosphere.climatology import _settings_description
 from e2esim.ionosphere.propagation import faraday_rotation_integral
 from e2esim.ionosphere.slant import SlantSettings, path_integrals
 from e2esim.ionosphere.variability import lognormal_nodes
-from e2esim.orbit.geometry import _rotation_z, view_geometry
+from e2esim.orbit.geometry import rotation_z, view_geometry
 from e2esim.orbit.sunsync import SunSynchronousOrbit
 
 
@@ -80,20 +81,9 @@ class GlobalClimatology:
     def latitude_profiles(self, frequency_hz: float, variability: float = 0.25, nodes: int = 15) -> dict:
         """Zonal means over longitude of mean |Omega| and SD (deg), arrays (pass, solar, lat)."""
         s = self.statistics(frequency_hz, variability, nodes)
-        with np.errstate(invalid="ignore"), _quiet():
+        with warnings.catch_warnings():  # rows beyond the orbit's reach are all NaN
+            warnings.simplefilter("ignore", RuntimeWarning)
             return {k: np.nanmean(v, axis=-1) for k, v in s.items()}
-
-
-class _quiet:
-    def __enter__(self):
-        import warnings
-
-        self._w = warnings.catch_warnings()
-        self._w.__enter__()
-        warnings.simplefilter("ignore", RuntimeWarning)
-
-    def __exit__(self, *exc):
-        self._w.__exit__(*exc)
 
 
 def grid_axes(step_deg: float, lat_range=(-90.0, 90.0), lon_range=(-180.0, 180.0)) -> tuple:
@@ -110,7 +100,7 @@ def _grid_rays(orbit, lat_deg, lon_deg, incidence, passes):
     """Target/satellite positions (pass, swath, lat, lon, 3), UT (h) and validity of every cell."""
     out_t, out_s, out_ut, out_ok = [], [], [], []
     lon = np.radians(lon_deg)
-    rot = _rotation_z(lon)  # (n_lon, 3, 3)
+    rot = rotation_z(lon)  # (n_lon, 3, 3)
     for p in passes:
         g = view_geometry(orbit, np.radians(lat_deg)[None, :], 0.0, incidence[:, None], p)  # (swath, lat)
         t = np.einsum("oij,slj->sloi", rot, g.target_ecef)

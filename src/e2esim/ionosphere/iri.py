@@ -159,7 +159,7 @@ def _probability_f1(solzen, mag_dip_lat, foe):
     arg = np.broadcast_to(np.cos(z), foe.shape)
     fof1 = np.zeros(foe.shape)
     day = arg > 0
-    fof1[day] = (fs * np.ones_like(arg))[day] * arg[day] ** (n * np.ones_like(arg))[day]
+    fof1[day] = np.broadcast_to(fs, foe.shape)[day] * arg[day] ** np.broadcast_to(n, foe.shape)[day]
     mult = np.minimum(-10.0 + 30.0 * arg, _F1_MULTIPLIER_MAX) / _F1_MULTIPLIER_MAX
     mult = np.where(mult < 0, np.nan, mult)
     fof1 = mult * fof1 + np.abs(mult - 1.0) * foe

@@ -35,7 +35,8 @@ def swath_incidences(orbit: SunSynchronousOrbit, near: float, far: float, sample
     """Incidence angles (rad) at the centres of ``samples`` equal ground-range intervals between the
     near and far incidence (rad): a target is equally likely anywhere across the swath."""
     if not 0 < near < far < np.pi / 2:
-        raise PhysicsInputError(f"need 0 < near < far < 90 deg incidence, got {np.degrees(near):g}, {np.degrees(far):g}")
+        raise PhysicsInputError(
+            f"need 0 < near < far < 90 deg incidence, got {np.degrees(near):g}, {np.degrees(far):g}")
     r_s, r_e = orbit.radius_m, EARTH_MEAN_RADIUS
     g0, g1 = side_looking_angles(np.array([near, far]), r_s)[1]
     gamma = g0 + (np.arange(samples) + 0.5) / samples * (g1 - g0)
@@ -161,7 +162,8 @@ def acquisitions(orbit: SunSynchronousOrbit, site: Site, dates, passes, incidenc
     n = arr["incidence"].size
     return AcquisitionGeometry(
         site=site, orbit=orbit, time_utc=time_utc, date_index=arr["date_index"], dates=dates,
-        pass_name=arr["pass_name"].astype(str), pass_label=arr["pass_label"].astype(str), phase=arr["phase"].astype(str),
+        pass_name=arr["pass_name"].astype(str), pass_label=arr["pass_label"].astype(str),
+        phase=arr["phase"].astype(str),
         local_time_h=arr["local_time_h"], ut_h=ut, incidence=arr["incidence"], heading=arr["heading"],
         look_azimuth=arr["look_azimuth"], k_enu=arr["k_enu"], target_ecef=arr["target_ecef"],
         satellite_ecef=arr["satellite_ecef"], pierce_height_m=float(pierce_height_m), pierce_lat=ray.lat[:, 0],

@@ -124,7 +124,7 @@ def view_geometry(orbit: SunSynchronousOrbit, target_lat, target_lon, incidence,
     ok = np.isfinite(f1) & (np.abs(f1) < 1e-9) & (np.abs(f2) < 1e-9) & (side * left > 0)
     ok &= (np.cos(u) >= 0) == want_asc
     # rotate everything from "target at longitude 0" to the target's longitude
-    rot = _rotation_z(lon)
+    rot = rotation_z(lon)
     s, v, t, k = (np.einsum("...ij,...j->...i", rot, a) for a in (s, v, t, k))
     node_lon = node + lon
     nadir_lat, nadir_lon, _ = from_ecef(s)
@@ -140,7 +140,8 @@ def view_geometry(orbit: SunSynchronousOrbit, target_lat, target_lon, incidence,
     )
 
 
-def _rotation_z(angle):
+def rotation_z(angle):
+    """Rotation matrices about the z axis by ``angle`` (rad), shape ``angle.shape + (3, 3)``."""
     c, s = np.cos(angle), np.sin(angle)
     z, o = np.zeros_like(c), np.ones_like(c)
     return np.stack([np.stack([c, -s, z], -1), np.stack([s, c, z], -1), np.stack([z, z, o], -1)], -2)
