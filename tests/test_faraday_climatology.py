@@ -166,3 +166,24 @@ def test_latitude_band_and_missing_orbit(tmp_path):
                    "ionosphere": {"type": "iri_climatology", "cache_dir": str(tmp_path)}})
     with pytest.raises(ConfigError, match="needs 'geometry', which no earlier module provides"):
         sc.resolve()
+
+
+def test_global_table_cell_equals_a_direct_site_computation():
+    import datetime as dt
+
+    from e2esim.ionosphere.slant import path_integrals
+    from e2esim.orbit.geometry import view_geometry
+
+    orbit = SunSynchronousOrbit(666e3)
+    settings = SlantSettings("thin_shell")
+    band = global_climatology(orbit, 10.0, months=(6,), f107=(100.0,), incidence_deg=(28.0,), settings=settings,
+                              lat_range=(40.0, 50.0))
+    for p, pass_name in enumerate(band.passes):
+        j = 20
+        lon = band.lon_deg[j]
+        g = view_geometry(orbit, np.radians(45.0), np.radians(lon), np.radians(28.0), pass_name)
+        ut = np.mod(g.local_time_h - lon / 15.0, 24.0)
+        direct = path_integrals(g.target_ecef[None], g.satellite_ecef[None], dt.date(band.year, 6, 15), [ut],
+                                (100.0,), settings)
+        assert band.faraday[p, 0, 0, 0, 0, j] == pytest.approx(direct.faraday[0, 0], rel=2e-6)  # float32 table
+        assert band.vtec[p, 0, 0, 0, 0, j] == pytest.approx(direct.vtec[0, 0], rel=2e-6)
