@@ -149,15 +149,19 @@ def compute_global_climatology(orbit: SunSynchronousOrbit, step_deg: float = 2.0
         bar = tqdm(total=len(tasks), desc="FR climatology", unit="month", leave=False)
     if workers > 1:
         with cf.ProcessPoolExecutor(max_workers=workers) as pool:
-            for month, res in pool.map(_month_task, tasks):
+            done = pool.map(_month_task, tasks)
+            for month, res in done:
                 results[month] = res
-                bar and bar.update()
+                if bar is not None:
+                    bar.update()
     else:
         for task in tasks:
             month, res = _month_task(task)
             results[month] = res
-            bar and bar.update()
-    bar and bar.close()
+            if bar is not None:
+                bar.update()
+    if bar is not None:
+        bar.close()
     stack = {k: np.stack([results[m][k] for m in months], axis=2) for k in ("faraday", "stec", "vtec")}
     # (solar, pass, swath, lat, lon) per month -> (pass, solar, month, swath, lat, lon)
     stack = {k: np.moveaxis(v, 1, 0) for k, v in stack.items()}
