@@ -40,8 +40,8 @@ class SlantSettings:
     """How the path integrals are computed.
 
     method : one of ``METHODS``. shell_height_m : thin-shell / pierce-point height (m).
-    bottom_height_m : lowest height integrated (m; the IRI D/E region below about 60 km holds under
-        0.1 % of the TEC). layer_step_m : height step of the integration (m). field_step_m : height step of
+    bottom_height_m : lowest height integrated (m; the IRI profile below 60 km holds under 1e-6 of the TEC).
+        layer_step_m : height step of the integration (m). field_step_m : height step of
         the B.k nodes (m). field : geomagnetic field model. fof2_model : "ursi" or "ccir" foF2 maps.
     monthly_medians : use each date's monthly median IRI (a climatology) instead of PyIRI's interpolation
         between the monthly medians around the day.
