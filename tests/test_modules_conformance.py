@@ -13,6 +13,11 @@ CONFIGS = {
                                         "nesz_db": -27, "centre_frequency_mhz": 435, "bandwidth_mhz": 6},
     ("ionosphere", "faraday_samples"): {"samples_deg": [55.0, 60.0, 65.0]},
     ("requirement", "agb_error_bound"): {"level_margins": True, "tradeoff_curve": True, "curve_points": 9},
+    ("orbit", "sun_synchronous"): {"altitude_km": 747.0, "ltan_hours": 18.0, "incidence_near_deg": 33.0,
+                                   "incidence_far_deg": 47.0, "site": {"lat_deg": -0.2, "lon_deg": 11.6}},
+    ("orbit", "biomass_orbit"): {"site": {"lat_deg": 60.0, "lon_deg": 92.0}, "acquisitions": {"step_days": 90}},
+    ("ionosphere", "user_tec"): {"vtec_tecu": 20.0},
+    ("ionosphere", "iri_climatology"): {"cache_dir": "off", "method": "thin_shell", "variability_nodes": 3},
 }
 
 BUILTIN = [r for r in registry.available() if r.distribution.lower() == "e2esim"]

@@ -27,6 +27,8 @@ _SMALL = SimulationSettings(mode="both", seed=1, looks=500, realisations=400, no
 """Monte Carlo sizes small enough for a quick check."""
 
 _DEFAULT_CHAIN = {
+    "orbit": ("biomass_orbit", {"site": {"name": "boreal", "lat_deg": 60.0, "lon_deg": 92.0}, "swath_samples": 2,
+                                "acquisitions": {"start": "2026-01-01", "end": "2026-12-31", "step_days": 60}}),
     "scene": ("table1_forest", {"forest": "boreal_200"}),
     "instrument": ("biomass", {}),
     "ionosphere": ("gaussian_faraday", {"mean_deg": 60.0, "sd_deg": 5.0}),

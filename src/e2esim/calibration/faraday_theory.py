@@ -106,9 +106,25 @@ def phase_variance(looks: int, coherence: float, form: str = "exact") -> float:
     return float(np.trapezoid(psi**2 * p, psi) / np.trapezoid(p, psi))
 
 
-def bickel_bates_variance(snr, looks: int, form: str = "exact") -> float:
-    """Variance (rad^2) of the Bickel-Bates estimate over ``looks`` samples at the eq. (6) SNR."""
-    return phase_variance(looks, float(bickel_bates_coherence(snr)), form) / 16
+def bickel_bates_variance(snr, looks, form: str = "exact"):
+    """Variance (rad^2) of the Bickel-Bates estimate over ``looks`` samples at the eq. (6) SNR.
+
+    form : "exact" (the L-look phase density), "asymptotic" ``(1/16)(1 - g^2)/(2 L g^2)`` (the corrected
+    eq. 5) or "printed" ``(1/16)(1 - g^2)/(2 g L)`` (eq. 5 as printed, docs/errata.md QC1/I1). The closed
+    forms broadcast over arrays of ``snr`` and ``looks``; the exact form is evaluated element by element.
+    """
+    if form in ("asymptotic", "printed"):
+        g = bickel_bates_coherence(snr)
+        looks = np.asarray(looks, dtype=float)
+        if np.any(looks < 1):
+            raise PhysicsInputError(f"looks must be >= 1, got {looks!r}")
+        denominator = g**2 if form == "asymptotic" else g
+        with np.errstate(divide="ignore", invalid="ignore"):
+            out = np.where(g >= 1, 0.0, (1 - g**2) / (16 * 2 * looks * denominator))
+        return float(out) if out.ndim == 0 else out
+    if np.ndim(snr) == 0 and np.ndim(looks) == 0:
+        return phase_variance(looks, float(bickel_bates_coherence(snr)), form) / 16
+    return np.vectorize(lambda s, n: phase_variance(n, float(bickel_bates_coherence(s)), form) / 16)(snr, looks)
 
 
 def bickel_bates_limit(scene, state: SystemState, noise_power: float = 0.0) -> np.ndarray:

@@ -18,6 +18,7 @@ import numpy as np  # noqa: E402
 from scipy import stats  # noqa: E402
 
 from e2esim.io.atomic import atomic_path  # noqa: E402
+from e2esim.report.faraday_plots import plot_faraday_climatology, plot_faraday_distributions  # noqa: E402
 
 _DPI = 110
 
@@ -241,6 +242,8 @@ PLOTTERS = {
     "tradeoff": plot_tradeoff,
     "contributions": plot_contributions,
     "agb_error_vs_sweep": plot_agb_error_vs_sweep,
+    "faraday_distributions": plot_faraday_distributions,
+    "faraday_climatology": plot_faraday_climatology,
 }
 AUTO_PLOTS = ("verdicts", "backscatter_vs_sweep", "agb_error_vs_sweep", "error_histograms", "tradeoff")
 

@@ -48,6 +48,8 @@ PLOT_TYPES = (
     "tradeoff",
     "contributions",
     "agb_error_vs_sweep",
+    "faraday_distributions",
+    "faraday_climatology",
 )
 
 SIMULATION_PARAMS = (

@@ -32,9 +32,19 @@ class Published:
 
 
 def _all() -> list:
-    from e2esim.verification import ahmed2014_values, men2021_values, quegan2018_calibration_values
+    from e2esim.verification import (
+        ahmed2014_values,
+        men2021_values,
+        quegan2018_calibration_values,
+        quegan2018_values,
+    )
 
-    return [*men2021_values.PUBLISHED, *quegan2018_calibration_values.PUBLISHED, *ahmed2014_values.PUBLISHED]
+    return [
+        *men2021_values.PUBLISHED,
+        *quegan2018_values.PUBLISHED,
+        *quegan2018_calibration_values.PUBLISHED,
+        *ahmed2014_values.PUBLISHED,
+    ]
 
 
 def all_published() -> list:

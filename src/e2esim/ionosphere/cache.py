@@ -1,0 +1,94 @@
+"""HDF5 cache of ionospheric path integrals, keyed by a hash of everything that determines them.
+
+The location is a parameter; by default ``$E2ESIM_CACHE``, else ``$XDG_CACHE_HOME/e2esim``, else
+``~/.cache/e2esim``. Files are written atomically (``e2esim.io.atomic``), so an interrupted run never leaves
+a half-written table. The key includes the cache schema version and the PyIRI version.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+from pathlib import Path
+
+import numpy as np
+
+from e2esim.io.atomic import atomic_path
+
+SCHEMA_VERSION = 1
+"""Bumped whenever what is stored, or how it is computed, changes."""
+
+
+def default_cache_dir() -> Path:
+    """``$E2ESIM_CACHE``, else ``$XDG_CACHE_HOME/e2esim``, else ``~/.cache/e2esim``."""
+    env = os.environ.get("E2ESIM_CACHE")
+    if env:
+        return Path(env)
+    xdg = os.environ.get("XDG_CACHE_HOME")
+    return (Path(xdg) if xdg else Path.home() / ".cache") / "e2esim"
+
+
+def resolve_cache_dir(value) -> Path | None:
+    """A cache folder from a parameter: None -> default folder, "off"/"" -> no cache, else the path."""
+    if value is None:
+        return default_cache_dir()
+    if str(value).strip().lower() in ("", "off", "none", "false"):
+        return None
+    return Path(value).expanduser()
+
+
+def _pyiri_version() -> str:
+    try:
+        from importlib.metadata import version
+
+        return version("PyIRI")
+    except Exception:  # pragma: no cover - PyIRI not installed as a distribution
+        return "unknown"
+
+
+def cache_key(kind: str, description: dict, arrays: dict | None = None) -> str:
+    """Hex digest of the schema version, PyIRI version, a JSON description and the bytes of arrays."""
+    h = hashlib.sha256()
+    head = {"schema": SCHEMA_VERSION, "pyiri": _pyiri_version(), "kind": kind, **description}
+    h.update(json.dumps(head, sort_keys=True, default=str).encode())
+    for name in sorted(arrays or {}):
+        a = np.ascontiguousarray(arrays[name])
+        h.update(name.encode())
+        h.update(str(a.dtype).encode() + str(a.shape).encode())
+        h.update(a.tobytes())
+    return h.hexdigest()[:24]
+
+
+def cache_file(folder: Path, kind: str, key: str) -> Path:
+    return Path(folder) / f"{kind}_{key}.h5"
+
+
+def read(path: Path) -> dict | None:
+    """The arrays and attributes stored in ``path``, or None if it is absent or unreadable."""
+    import h5py
+
+    if not Path(path).exists():
+        return None
+    try:
+        with h5py.File(path, "r") as f:
+            out = {name: f[name][()] for name in f}
+            out["attrs"] = {k: (v.decode() if isinstance(v, bytes) else v) for k, v in f.attrs.items()}
+            return out
+    except (OSError, KeyError):
+        return None
+
+
+def write(path: Path, arrays: dict, attrs: dict) -> None:
+    """Write arrays (compressed) and JSON-able attributes to ``path`` atomically."""
+    import h5py
+
+    with atomic_path(path) as tmp, h5py.File(tmp, "w") as f:
+        for name, value in arrays.items():
+            value = np.asarray(value)
+            if value.size > 1024:
+                f.create_dataset(name, data=value, compression="gzip", compression_opts=1, shuffle=True)
+            else:
+                f.create_dataset(name, data=value)
+        for key, value in attrs.items():
+            f.attrs[key] = value if isinstance(value, (int, float, str)) else json.dumps(value, default=str)

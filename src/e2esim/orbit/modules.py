@@ -1,0 +1,123 @@
+"""Orbit modules (kind ``orbit``): where and when the mission looks at the scenario's site.
+
+The module fills ``CaseState.geometry`` with an ``AcquisitionGeometry``: every (date, pass, swath position)
+at which the site is imaged, with incidence, heading, look vector, local time and ionospheric pierce point.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from e2esim.errors import PhysicsInputError
+from e2esim.module import Module
+from e2esim.orbit.acquisition import Site, acquisitions, swath_incidences
+from e2esim.orbit.sunsync import PASSES, SunSynchronousOrbit
+from e2esim.orbit.timeline import BIOMASS_LAUNCH, PHASES, MissionTimeline, period_dates
+from e2esim.params import Param, ParamGroup, with_defaults
+
+PASS_CHOICES = ("both", "ascending", "descending", "dawn", "dusk")
+
+_KM = 1e3  # m per km
+
+_SITE = ParamGroup("site", "the target imaged", (
+    Param("name", "str", "label of the site", default="site"),
+    Param("lat_deg", "float", "geocentric latitude", unit="deg", minimum=-90.0, maximum=90.0),
+    Param("lon_deg", "float", "east longitude", unit="deg", minimum=-180.0, maximum=360.0),
+))
+
+_ACQ = ParamGroup("acquisitions", "the dates on which the site is imaged", (
+    Param("mode", "str", "period: every step_days from start to end; timeline: the mission phases of Quegan et al. "
+          "(2018), Section 2", default="period", choices=("period", "timeline")),
+    Param("start", "str", "first date of the period (ISO)", default="2026-01-01"),
+    Param("end", "str", "last date of the period (ISO)", default="2026-12-31"),
+    Param("step_days", "float", "days between acquisitions in the period (3: the repeat interval)", default=3.0,
+          unit="day", exclusive_minimum=0.0),
+    Param("phase", "str", "timeline mode: which phase's acquisitions", default="mission", choices=PHASES),
+    Param("mission_start", "str", "timeline mode: first day of the commissioning phase (ISO)", default=BIOMASS_LAUNCH),
+    Param("site_slot", "float", "timeline mode: where in each phase/cycle the site's stack starts (0 first day, "
+          "1 last)", default=0.5, minimum=0.0, maximum=1.0),
+))
+
+
+class SunSynchronousOrbitModule(Module):
+    """A side-looking SAR on a circular sun-synchronous orbit imaging one site.
+
+    Orbit: inclination from the sun-synchronous condition, local time of the ascending node, left or right
+    looking, Earth rotation in the ground velocity (e2esim.orbit.sunsync). Geometry: zero-Doppler
+    line of sight at ``swath_samples`` incidences equally spaced in ground range across the swath
+    (e2esim.orbit.geometry). Dates: a period or the mission timeline (e2esim.orbit.timeline).
+    """
+
+    kind = "orbit"
+    type_name = "sun_synchronous"
+    summary = "circular sun-synchronous orbit, side-looking geometry and acquisition dates of a site"
+    params = (
+        Param("altitude_km", "float", "orbit altitude", unit="km", minimum=150.0, maximum=6000.0),
+        Param("ltan_hours", "float", "local mean solar time of the ascending node", unit="h", minimum=0.0,
+              exclusive_maximum=24.0),
+        Param("look_side", "str", "side the radar looks to", default="left", choices=("left", "right")),
+        Param("incidence_near_deg", "float", "incidence angle at near range", unit="deg", exclusive_minimum=0.0,
+              exclusive_maximum=90.0),
+        Param("incidence_far_deg", "float", "incidence angle at far range", unit="deg", exclusive_minimum=0.0,
+              exclusive_maximum=90.0),
+        Param("swath_samples", "int", "positions across the swath (equal ground-range intervals)", default=5,
+              minimum=1, maximum=101),
+        Param("earth_rotation", "bool", "include the Earth's rotation in heading and zero-Doppler geometry",
+              default=True),
+        Param("passes", "str", "passes that image the site", default="both", choices=PASS_CHOICES),
+        Param("pierce_height_km", "float", "height of the ionospheric pierce points reported in the geometry",
+              default=350.0, unit="km", minimum=50.0, maximum=2000.0),
+        _SITE,
+        _ACQ,
+    )
+    provides = ("geometry",)
+
+    def setup(self):
+        c = self.config
+        self.orbit = SunSynchronousOrbit(c["altitude_km"] * _KM, c["ltan_hours"], c["look_side"], c["earth_rotation"])
+        if c["pierce_height_km"] >= c["altitude_km"]:
+            raise PhysicsInputError(f"pierce_height_km {c['pierce_height_km']:g} must be below the orbit "
+                                    f"({c['altitude_km']:g} km)")
+        if c["incidence_near_deg"] >= c["incidence_far_deg"]:
+            raise PhysicsInputError(f"incidence_near_deg {c['incidence_near_deg']:g} must be below "
+                                    f"incidence_far_deg {c['incidence_far_deg']:g}")
+        passes = self._passes(c["passes"])
+        site = Site(c["site"]["name"], np.radians(c["site"]["lat_deg"]),
+                    np.radians(((c["site"]["lon_deg"] + 180.0) % 360.0) - 180.0))
+        dates, phases = self._dates(c["acquisitions"])
+        inc = swath_incidences(self.orbit, np.radians(c["incidence_near_deg"]), np.radians(c["incidence_far_deg"]),
+                               c["swath_samples"])
+        self.geometry = acquisitions(self.orbit, site, dates, passes, inc, phases, c["pierce_height_km"] * _KM)
+
+    def _passes(self, choice: str) -> tuple:
+        if choice == "both":
+            return PASSES
+        if choice in PASSES:
+            return (choice,)
+        return (self.orbit.pass_for_label(choice),)
+
+    @staticmethod
+    def _dates(acq: dict) -> tuple:
+        if acq["mode"] == "period":
+            dates = period_dates(acq["start"], acq["end"], acq["step_days"])
+            return dates, ("period",) * len(dates)
+        timeline = MissionTimeline(start=acq["mission_start"], site_slot=acq["site_slot"])
+        dates = timeline.acquisition_dates(acq["phase"])
+        return dates, tuple(timeline.phase_of(d) for d in dates)
+
+    def forward(self, state):
+        return state.with_(geometry=self.geometry)
+
+
+class BiomassOrbit(SunSynchronousOrbitModule):
+    """ESA BIOMASS: 666 km dawn-dusk sun-synchronous orbit, ascending node at 06:00, left-looking,
+    incidence 23 deg to 33.75 deg (CEOS EO Handbook; ESA coverage material; Quegan et al. 2018, Section 4.2;
+    ../shared/reference/mission-facts.md)."""
+
+    type_name = "biomass_orbit"
+    summary = "ESA BIOMASS orbit preset: 666 km dawn-dusk (LTAN 06:00), left-looking, incidence 23-33.75 deg"
+    params = with_defaults(
+        SunSynchronousOrbitModule.params,
+        {"altitude_km": 666.0, "ltan_hours": 6.0, "look_side": "left", "incidence_near_deg": 23.0,
+         "incidence_far_deg": 33.75},
+    )
