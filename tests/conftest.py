@@ -7,12 +7,20 @@ scikit-learn's ``global_random_seed``); the seed in use is printed in the test r
 
 from __future__ import annotations
 
+import os
+import tempfile
 import zlib
 
 import numpy as np
 import pytest
 
 from helpers import TEST_SEED
+
+
+def pytest_configure(config):
+    # Keep climatology caches out of the user's home during the tests (subprocesses inherit it).
+    if "E2ESIM_CACHE" not in os.environ:
+        os.environ["E2ESIM_CACHE"] = tempfile.mkdtemp(prefix="e2esim-test-cache-")
 
 
 def pytest_report_header(config):

@@ -80,6 +80,7 @@ class BackscatterError:
         trade-off curves) can re-evaluate it at other error levels.
     budget : random-error budget of the backscattering coefficient added by a later propagation module
         (speckle, noise, temporal variability, calibration; Ahmed et al. 2014), or None.
+    notes : remarks for the report (e.g. why the analytic model was not used).
     """
 
     sigma_hv: float
@@ -90,6 +91,7 @@ class BackscatterError:
     looks: int | None = None
     reference: str = "scene"
     budget: Any = None
+    notes: tuple = ()
 
 
 @dataclass(frozen=True)

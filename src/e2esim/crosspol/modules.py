@@ -12,6 +12,27 @@ from e2esim.module import Module
 from e2esim.params import Param
 
 
+MAX_ANALYTIC_LEVEL = 0.1
+"""Largest crosstalk or channel-imbalance variance (-10 dB) for which the second-order expansion of Men et
+al. (2021) is used; beyond it the errors are not small and only the Monte Carlo is exact."""
+
+
+def analytic_problem(system) -> str | None:
+    """Why the analytic moments cannot describe ``system`` at all, or None."""
+    for name, level in (("crosstalk", system.crosstalk_level), ("channel imbalance", system.imbalance_level)):
+        if level > MAX_ANALYTIC_LEVEL:
+            return (f"the {name} variance {level:.3g} is not small (above {MAX_ANALYTIC_LEVEL:g}, -10 dB), so the "
+                    "second-order expansion of Men et al. (2021) does not hold")
+    return None
+
+
+def analytic_caveat(system) -> str | None:
+    """A remark when the analytic moments describe ``system`` only approximately (e.g. calibration residuals
+    correlated outside the pairs of Men et al. 2021, Section III), or None."""
+    check = getattr(system, "analytic_caveat", None)
+    return check() if callable(check) else None
+
+
 class HVBackscatterErrorPropagation(Module):
     """Error of sigma_hv under crosstalk, channel imbalance, Faraday rotation and noise.
 
@@ -40,7 +61,16 @@ class HVBackscatterErrorPropagation(Module):
     def forward(self, state):
         c, s = self.config, state.settings
         analytic = mc = gauss = None
-        if s.analytic:
+        notes = ()
+        problem = analytic_problem(state.system) if s.analytic else None
+        if problem is not None and not s.montecarlo:
+            raise ConfigError(self.location, f"case {state.index}: the analytic error model does not apply: {problem}",
+                              "use simulation.mode: montecarlo (or both) for this case")
+        if problem is not None:  # mode both: the Monte Carlo alone, and say why
+            notes = (f"analytic model not used: {problem}; results from the Monte Carlo",)
+        elif s.analytic and analytic_caveat(state.system):
+            notes = (analytic_caveat(state.system),)
+        if s.analytic and problem is None:
             if not state.scene.is_reflection_symmetric():
                 raise ConfigError(
                     self.location,
@@ -74,5 +104,6 @@ class HVBackscatterErrorPropagation(Module):
             form=c["variance_form"],
             looks=s.looks if c["variance_form"] == "complete" else None,
             reference=c["reference"],
+            notes=notes,
         )
         return state.with_(backscatter=result)

@@ -38,6 +38,7 @@ def summary_dict(result) -> dict:
             "index": c.index,
             "label": c.label,
             "inputs": c.inputs,
+            "notes": list(c.state.backscatter.notes) if c.state.backscatter is not None else [],
             "results": c.scalars,
             "requirements": [
                 {"name": v.name, "passed": v.passed, "value": v.value, "limit": v.limit, "margin": v.margin,

@@ -85,7 +85,7 @@ class FaradayClimatology(EmpiricalFaraday):
             "b_dot_k_mean_ut": float(np.dot(w, self.b_dot_k)) * 1e6,
             "f107_sfu": self.f107, "frequency_mhz": self.frequency_hz / 1e6, "tec_variability": self.variability,
         }
-        out.update({f"omega_p{p:g}_deg": v for p, v in self.percentiles_deg().items()})
+        out.update({f"omega_p{p:g}_deg".replace(".", "_"): v for p, v in self.percentiles_deg().items()})  # no dots in names
         return out
 
     def describe(self) -> str:

@@ -77,6 +77,10 @@ def build_report(result, plots: list) -> list:
         "σ and bias in m²/m² (linear), SD of the σ_hv error in m²/m²; AGB errors are relative, in percent, at the "
         "given one-sided quantile. Each verdict names its dominant contributor: the error source whose removal "
         "would reduce the checked value most (analytic model)." + _truncation_note(result))]
+    notes = [f"Case {c.index} ({c.label}): {n}" for c in result.cases if c.state.backscatter is not None
+             for n in c.state.backscatter.notes]
+    if notes:
+        blocks += [Heading(2, "Notes")] + [Paragraph(n) for n in notes[:_MAX_TABLE_ROWS]]
     comparison = _comparison_table(result)
     if comparison is not None:
         blocks += [Heading(2, "Analytic model against Monte Carlo"), Paragraph(

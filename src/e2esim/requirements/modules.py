@@ -14,6 +14,7 @@ import numpy as np
 from e2esim.chain import RequirementVerdict
 from e2esim.crosspol.analytic import hv_error_moments
 from e2esim.faraday.distribution import ConstantFaraday
+from e2esim.retrieval.agb_error import AGBError
 from e2esim.crosspol.tradeoff import (
     AGBRequirement,
     axis_limits,
@@ -34,7 +35,7 @@ SOURCES = ("crosstalk", "channel_imbalance", "noise", "faraday_rotation", "gain"
 uncertainty (when the scenario has them) are attributed by their own names."""
 
 
-def attribution(state, value_of) -> dict:
+def attribution(state, value_of, agb=None) -> dict:
     """How much each error source adds to a requirement's checked value, and which adds most.
 
     For each source the value is recomputed with that source removed, everything else kept: the system
@@ -43,9 +44,11 @@ def attribution(state, value_of) -> dict:
     projection) and the regression uncertainty by taking their variance out of the total. A source's
     contribution is the checked value minus the value without it, in the requirement's unit. The parts
     need not add up (the sources interact, and quantiles are not additive), but the largest is the one
-    whose improvement helps most. ``value_of`` maps an analytic ``AGBError`` to the checked value.
+    whose improvement helps most. ``value_of`` maps an analytic ``AGBError`` to the checked value; ``agb``
+    is the error the requirement checks (default: the case's).
     """
-    bs, agb = state.backscatter, state.agb
+    bs = state.backscatter
+    agb = state.agb if agb is None else agb
     if bs is None or bs.analytic is None or agb is None or agb.error_mean is None:
         return {}
     moments = _variant_moments(state)
@@ -100,11 +103,40 @@ def _dominant(details: dict) -> str:
     return max(parts, key=parts.get) if parts else ""
 
 
-def _basis(module: Module, state) -> str:
+SOURCE_CHOICES = ("all", "systematic")
+
+
+def checked_error(module: Module, state):
+    """The AGB error a requirement checks: from every source (``all``), or only from the systematic error of
+    the polarimetric propagation, system distortions, Faraday rotation and noise (``systematic``, the
+    criterion of Men et al. 2021), leaving out the random-error budget and the regression uncertainty."""
+    agb = state.agb
+    if module.config["sources"] == "all" or not agb.contributions:
+        return agb
+    bs = state.backscatter
+    relative = None
+    if bs.montecarlo is not None:
+        ref = np.asarray(bs.montecarlo.reference["hv"])
+        relative = bs.montecarlo.hv / (ref[:, None] if ref.ndim else ref)
+    return AGBError.from_sigma_errors(
+        agb.exponent, bs.sigma_hv,
+        None if bs.analytic is None else float(bs.analytic.mean),
+        None if bs.analytic is None else float(bs.analytic.sd),
+        relative, agb.mapping,
+    )
+
+
+_SOURCES_PARAM = Param(
+    "sources", "str", "error sources checked: all (system, Faraday rotation, noise, error budget, regression) or "
+    "systematic (system distortions, Faraday rotation and noise only: the criterion of Men et al. 2021)",
+    default="all", choices=SOURCE_CHOICES)
+
+
+def _basis(module: Module, state, agb) -> str:
     basis = module.config["basis"]
     if basis == "auto":
-        return "analytic" if state.agb.has("analytic") else "montecarlo"
-    if not state.agb.has(basis):
+        return "analytic" if agb.has("analytic") else "montecarlo"
+    if not agb.has(basis):
         raise ConfigError(
             module.location.child("basis"),
             f"{basis!r} results are not computed in simulation mode {state.settings.mode!r}",
@@ -129,6 +161,7 @@ class AGBErrorBound(Module):
               choices=("over", "under", "both")),
         Param("basis", "str", "analytic Gaussian model or Monte Carlo samples (auto: analytic when computed)",
               default="auto", choices=BASES),
+        _SOURCES_PARAM,
         Param("level_margins", "bool",
               "find by root finding how far crosstalk, channel imbalance and NESZ may degrade before the "
               "verdict flips (analytic model)", default=False),
@@ -146,15 +179,16 @@ class AGBErrorBound(Module):
         if c["name"]:
             return c["name"]
         sign = {"over": "+", "under": "-", "both": "+-"}[c["side"]]
-        return f"AGB error within {sign}{c['bound_percent']:g} % at {c['confidence_percent']:g} %"
+        suffix = " (system errors)" if c["sources"] == "systematic" else ""
+        return f"AGB error within {sign}{c['bound_percent']:g} % at {c['confidence_percent']:g} %{suffix}"
 
     def sides(self) -> tuple:
         return ("over", "under") if self.config["side"] == "both" else (self.config["side"],)
 
     def forward(self, state):
         c = self.config
-        basis = _basis(self, state)
-        agb = state.agb
+        agb = checked_error(self, state)
+        basis = _basis(self, state, agb)
         conf = c["confidence_percent"] / _PERCENT
         bound = c["bound_percent"] / _PERCENT
         values, details = [], {}
@@ -186,7 +220,7 @@ class AGBErrorBound(Module):
             qs = [float(agb_error.quantile(conf if side == "over" else 1 - conf)) * _PERCENT for side in sides]
             return max(q if side == "over" else -q for q, side in zip(qs, sides))
 
-        details.update(attribution(state, checked_value))
+        details.update(attribution(state, checked_value, agb))
         verdict = RequirementVerdict(
             name=self.label,
             passed=bool(value <= c["bound_percent"]),
@@ -280,20 +314,22 @@ class AGBRelativeRMSE(Module):
               exclusive_minimum=0.0),
         Param("basis", "str", "analytic Gaussian model or Monte Carlo samples (auto: analytic when computed)",
               default="auto", choices=BASES),
+        _SOURCES_PARAM,
     )
     requires = ("agb",)
 
     @property
     def label(self) -> str:
-        return self.config["name"] or f"AGB RMSE <= {self.config['max_percent']:g} %"
+        suffix = " (system errors)" if self.config["sources"] == "systematic" else ""
+        return self.config["name"] or f"AGB RMSE <= {self.config['max_percent']:g} %{suffix}"
 
     def forward(self, state):
-        basis = _basis(self, state)
-        details = {f"{b}.rmse_percent": state.agb.rmse(b) * _PERCENT for b in ("analytic", "montecarlo")
-                   if state.agb.has(b)}
-        value = state.agb.rmse(basis) * _PERCENT
+        agb = checked_error(self, state)
+        basis = _basis(self, state, agb)
+        details = {f"{b}.rmse_percent": agb.rmse(b) * _PERCENT for b in ("analytic", "montecarlo") if agb.has(b)}
+        value = agb.rmse(basis) * _PERCENT
         limit = self.config["max_percent"]
-        details.update(attribution(state, lambda agb_error: agb_error.rmse("analytic") * _PERCENT))
+        details.update(attribution(state, lambda agb_error: agb_error.rmse("analytic") * _PERCENT, agb))
         verdict = RequirementVerdict(self.label, bool(value <= limit), value, limit, limit - value, "%", basis,
                                      details, dominant=_dominant(details))
         return state.with_(verdicts=state.verdicts + (verdict,))

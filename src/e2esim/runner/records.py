@@ -28,9 +28,15 @@ def case_scalars(state) -> dict:
             "scene.hhvv_magnitude": sc.hhvv_magnitude, "scene.hhvv_phase_deg": math.degrees(sc.hhvv_phase_rad),
             "scene.agb_t_ha": float("nan") if sc.agb_t_ha is None else sc.agb_t_ha,
         })
-    if state.faraday is not None:
-        out["faraday.mean_deg"] = math.degrees(state.faraday.mean_rad)
-        out["faraday.sd_deg"] = math.degrees(state.faraday.sd_rad)
+    geophysical = getattr(state.calibration, "raw_faraday", None) or state.faraday
+    if geophysical is not None:  # the Faraday rotation of the case (before any correction)
+        out["faraday.mean_deg"] = math.degrees(geophysical.mean_rad)
+        out["faraday.sd_deg"] = math.degrees(geophysical.sd_rad)
+        if hasattr(geophysical, "summary"):  # a climatology: percentiles, TEC, delays
+            out.update({f"faraday.{k}": v for k, v in geophysical.summary().items()})
+    if state.faraday is not None and state.faraday is not geophysical:  # what the propagation sees
+        out["faraday_residual.mean_deg"] = math.degrees(state.faraday.mean_rad)
+        out["faraday_residual.sd_deg"] = math.degrees(state.faraday.sd_rad)
     if state.instrument is not None:
         inst = state.instrument
         out.update({"instrument.crosstalk_db": inst.crosstalk_db, "instrument.channel_imbalance_db": inst.imbalance_db,
