@@ -10,12 +10,15 @@ from e2esim.cli import main
 ROOT = Path(__file__).resolve().parents[1]
 SCENARIOS = sorted((ROOT / "scenarios").glob("*.yaml"))
 QUICK = ["--set", "simulation.realisations=400", "--set", "simulation.looks=2000"]
+EXTRA = {  # the global Faraday-rotation maps (a whole-globe climatology) are slow: drawn by docs/theory/ionosphere_figures.py
+    "biomass_latitude_sweep": ["--set", "output.plots=[verdicts, agb_error_vs_sweep, faraday_distributions]"],
+}
 
 
 @pytest.mark.parametrize("path", SCENARIOS, ids=lambda p: p.stem)
 def test_scenario_runs_and_writes_plots(path, tmp_path):
     out = tmp_path / path.stem
-    assert main(["run", str(path), "-o", str(out), "--no-progress", *QUICK]) == 0
+    assert main(["run", str(path), "-o", str(out), "--no-progress", *QUICK, *EXTRA.get(path.stem, [])]) == 0
     assert (out / "summary.json").is_file() and (out / "results.h5").is_file()
     assert list(out.glob("*.png")), "no plot written"
 

@@ -16,14 +16,16 @@ def requirement_overview(result) -> list:
     """Per requirement: how many cases pass, the worst margin and where it occurs."""
     rows = []
     for j, name in enumerate(result.requirement_names):
-        verdicts = [(c.index, c.label, c.state.verdicts[j]) for c in result.cases]
-        worst = min(verdicts, key=lambda t: t[2].margin if math.isfinite(t[2].margin) else math.inf)
+        every = [(c.index, c.label, c.state.verdicts[j]) for c in result.cases]
+        verdicts = [t for t in every if t[2].details.get("applies", 1.0) != 0.0]  # cases the requirement covers
+        worst = min(verdicts or every, key=lambda t: t[2].margin if math.isfinite(t[2].margin) else math.inf)
         rows.append({
             "name": name,
             "passed_cases": sum(v.passed for _, _, v in verdicts),
             "failed_cases": sum(not v.passed for _, _, v in verdicts),
+            "not_applicable_cases": len(every) - len(verdicts),
             "all_passed": all(v.passed for _, _, v in verdicts),
-            "worst_margin": worst[2].margin,
+            "worst_margin": worst[2].margin if verdicts else float("nan"),
             "unit": worst[2].unit,
             "worst_case": worst[0],
             "worst_case_label": worst[1],

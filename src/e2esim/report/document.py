@@ -117,10 +117,16 @@ def _case_table(result) -> Table:
     rows = []
     for case in result.cases[:_MAX_TABLE_ROWS]:
         cells = [str(case.index), case.label] + [fmt(case.scalars.get(k), d) for _, k, d in present]
-        cells += [("pass" if v.passed else "**FAIL**") + f" ({fmt(v.value, 3)} {v.unit}"
-                  + (f"; {v.dominant.replace('_', ' ')}" if v.dominant else "") + ")" for v in case.state.verdicts]
+        cells += [_verdict_cell(v) for v in case.state.verdicts]
         rows.append(tuple(cells))
     return Table(header, tuple(rows))
+
+
+def _verdict_cell(v) -> str:
+    if v.details.get("applies", 1.0) == 0.0:
+        return f"n/a ({fmt(v.value, 3)} {v.unit}; outside the requirement's AGB range)"
+    dominant = f"; {v.dominant.replace('_', ' ')}" if v.dominant else ""
+    return ("pass" if v.passed else "**FAIL**") + f" ({fmt(v.value, 3)} {v.unit}{dominant})"
 
 
 def _comparison_table(result):

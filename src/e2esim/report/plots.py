@@ -71,7 +71,7 @@ def plot_verdicts(result, folder: Path, options: dict) -> list:
         if n <= 60:
             y = np.arange(n)
             ax.barh(y, margins, color=np.where(passed, "tab:green", "tab:red"))
-            ax.set_yticks(y, [c.label for c in result.cases], fontsize=7)
+            ax.set_yticks(y, [_short(c.label) for c in result.cases], fontsize=7)
             ax.invert_yaxis()
         else:
             ax.scatter(np.arange(n), margins, c=np.where(passed, "tab:green", "tab:red"), s=6)
@@ -131,7 +131,7 @@ def plot_error_histograms(result, folder: Path, options: dict) -> list:
         an = c.state.backscatter.analytic
         if an is not None:
             ax.plot(x, stats.norm.pdf(x, float(an.mean), float(an.sd)), "b--", lw=1, label="analytic")
-        ax.set_title(c.label, fontsize=8)
+        ax.set_title(_short(c.label, 50), fontsize=8)
         ax.set_xlabel("error of $\\sigma_{hv}$ (m$^2$/m$^2$)", fontsize=8)
         ax.tick_params(labelsize=7)
     for ax in axes.ravel()[len(cases):]:
@@ -165,7 +165,7 @@ def plot_tradeoff(result, folder: Path, options: dict) -> list:
         conv = inst.convention if inst is not None else "variance"
         ax.set_xlabel(f"crosstalk (dB, {conv})")
         ax.set_ylabel(f"channel imbalance (dB, {conv})")
-        ax.set_title(c.label, fontsize=9)
+        ax.set_title(_short(c.label, 70), fontsize=9)
         ax.grid(alpha=0.3)
         ax.legend(fontsize=6)
     for ax in axes.ravel()[len(cases):]:
@@ -207,32 +207,51 @@ def plot_contributions(result, folder: Path, options: dict) -> list:
              "interaction (Men et al. 2021, Appendix C, Figs. 9-10).")]
 
 
+def _spread_duplicates(x: np.ndarray, span: float) -> np.ndarray:
+    """Offset cases that share an x value a little, so their markers do not hide each other."""
+    out = x.astype(float).copy()
+    for value in np.unique(x):
+        idx = np.flatnonzero(x == value)
+        if idx.size > 1:
+            out[idx] += (np.arange(idx.size) - (idx.size - 1) / 2) * 0.012 * span
+    return out
+
+
+def _legend(ax, n_series: int) -> None:
+    if n_series > 8:
+        ax.legend(fontsize=6, loc="upper left", bbox_to_anchor=(1.01, 1.0), ncol=1 + n_series // 24)
+    else:
+        ax.legend(fontsize=7)
+
+
 def plot_agb_error_vs_sweep(result, folder: Path, options: dict) -> list:
     x_key, groups = _x_and_groups(result, options.get("plot_x"), options.get("plot_group_by"))
     if x_key is None:
         return []
-    fig, ax = plt.subplots(figsize=(7, 4.5))
+    fig, ax = plt.subplots(figsize=(9 if len(groups) > 8 else 7, 4.8))
+    all_x = np.array([c.inputs[x_key] for c in result.cases], dtype=float)
+    span = float(np.ptp(all_x)) or 1.0
     for (label, cases), color in zip(groups.items(), _colors(len(groups))):
         x = np.array([c.inputs[x_key] for c in cases], dtype=float)
-        for basis, style in (("analytic", "-"), ("montecarlo", "o")):
-            if f"agb.{basis}.q50_percent" not in cases[0].scalars:
-                continue
-            lo = [c.scalars[f"agb.{basis}.q00135_percent"] for c in cases]
-            mid = [c.scalars[f"agb.{basis}.q50_percent"] for c in cases]
-            hi = [c.scalars[f"agb.{basis}.q99865_percent"] for c in cases]
-            ax.plot(x, mid, style, color=color, label=f"median ({basis}), {label}")
-            if basis == "analytic":
-                ax.fill_between(x, lo, hi, color=color, alpha=0.15)
-            else:
-                ax.plot(x, lo, "v", x, hi, "^", color=color, ms=4)
+        unique = len(np.unique(x)) == len(x)
+        basis = "analytic" if f"agb.analytic.q50_percent" in cases[0].scalars else "montecarlo"
+        if f"agb.{basis}.q50_percent" not in cases[0].scalars:
+            continue
+        lo = np.array([c.scalars[f"agb.{basis}.q00135_percent"] for c in cases])
+        mid = np.array([c.scalars[f"agb.{basis}.q50_percent"] for c in cases])
+        hi = np.array([c.scalars[f"agb.{basis}.q99865_percent"] for c in cases])
+        xs = x if unique else _spread_duplicates(x, span)
+        ax.errorbar(xs, mid, yerr=[mid - lo, hi - mid], fmt="o-" if unique else "o", ms=3, capsize=2, lw=1,
+                    color=color, label=f"{label} ({basis})")
     ax.axhline(0, color="k", lw=0.8)
     ax.set_xlabel(x_key)
     ax.set_ylabel("relative AGB error (%)")
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=7)
+    _legend(ax, len(groups))
     fig.tight_layout()
     return [(_save(fig, folder, "agb_error_vs_sweep"),
-             f"Relative AGB error against {x_key}: median and the 0.135 % to 99.865 % interval (3 sigma).")]
+             f"Relative AGB error against {x_key}: median (marker) and the 0.135 % to 99.865 % interval (bar); cases "
+             "that share an x value are drawn side by side.")]
 
 
 PLOTTERS = {
@@ -258,6 +277,10 @@ def make_plots(result, folder: Path) -> list:
     for name in dict.fromkeys(wanted):
         out.extend(PLOTTERS[name](result, folder, options))
     return out
+
+
+def _short(text: str, width: int = 60) -> str:
+    return text if len(text) <= width else text[: width - 1] + "…"
 
 
 def _colors(n: int) -> list:

@@ -35,7 +35,7 @@ SOURCES = ("crosstalk", "channel_imbalance", "noise", "faraday_rotation", "gain"
 uncertainty (when the scenario has them) are attributed by their own names."""
 
 
-def attribution(state, value_of, agb=None) -> dict:
+def attribution(state, value_of, agb=None, unit: str = "percent") -> dict:
     """How much each error source adds to a requirement's checked value, and which adds most.
 
     For each source the value is recomputed with that source removed, everything else kept: the system
@@ -45,7 +45,8 @@ def attribution(state, value_of, agb=None) -> dict:
     contribution is the checked value minus the value without it, in the requirement's unit. The parts
     need not add up (the sources interact, and quantiles are not additive), but the largest is the one
     whose improvement helps most. ``value_of`` maps an analytic ``AGBError`` to the checked value; ``agb``
-    is the error the requirement checks (default: the case's).
+    is the error the requirement checks (default: the case's); ``unit`` ends the keys,
+    ``contribution.<source>_<unit>``.
     """
     bs = state.backscatter
     agb = state.agb if agb is None else agb
@@ -59,12 +60,12 @@ def attribution(state, value_of, agb=None) -> dict:
     def with_systematic(mean, sd):
         return dataclasses.replace(agb, error_mean=float(mean), error_sd=float(np.sqrt(sd**2 + extra)))
 
-    out = {f"contribution.{name}_percent": (base - value_of(with_systematic(*moments[name])) if name in moments
-                                            else 0.0) for name in SOURCES}
+    out = {f"contribution.{name}_{unit}": (base - value_of(with_systematic(*moments[name])) if name in moments
+                                           else 0.0) for name in SOURCES}
     for c in agb.contributions:
         if c.group in ("random", "regression"):
             var = max(agb.error_sd**2 - bs.sigma_hv**2 * max(c.relative_variance, 0.0), 0.0)
-            out[f"contribution.{c.name}_percent"] = base - value_of(
+            out[f"contribution.{c.name}_{unit}"] = base - value_of(
                 dataclasses.replace(agb, error_sd=float(np.sqrt(var))))
     return out
 
@@ -98,8 +99,10 @@ def _variant_moments(state) -> dict:
     return out
 
 
-def _dominant(details: dict) -> str:
-    parts = {k[len("contribution."):-len("_percent")]: v for k, v in details.items() if k.startswith("contribution.")}
+def _dominant(details: dict, unit: str = "percent") -> str:
+    suffix = f"_{unit}"
+    parts = {k[len("contribution."):-len(suffix)]: v for k, v in details.items()
+             if k.startswith("contribution.") and k.endswith(suffix)}
     return max(parts, key=parts.get) if parts else ""
 
 
@@ -332,4 +335,48 @@ class AGBRelativeRMSE(Module):
         details.update(attribution(state, lambda agb_error: agb_error.rmse("analytic") * _PERCENT, agb))
         verdict = RequirementVerdict(self.label, bool(value <= limit), value, limit, limit - value, "%", basis,
                                      details, dominant=_dominant(details))
+        return state.with_(verdicts=state.verdicts + (verdict,))
+
+
+class AGBAbsoluteRMSE(Module):
+    """sqrt(E[(AGB_hat - AGB)^2]) <= limit in t/ha, e.g. NISAR's "20 Mg/ha RMS at 1 ha for AGB < 100 Mg/ha"
+    (NISAR science requirements, ../shared/reference/mission-facts.md); 1 Mg/ha = 1 t/ha."""
+
+    kind = "requirement"
+    type_name = "agb_rmse_absolute"
+    summary = "root-mean-square AGB error below a limit in t/ha (e.g. NISAR: 20 t/ha for AGB < 100 t/ha)"
+    params = (
+        Param("name", "str", "label in reports (null: generated)", default=None, nullable=True),
+        Param("max_t_ha", "float", "largest allowed RMS AGB error", default=20.0, unit="t/ha", exclusive_minimum=0.0),
+        Param("applies_below_t_ha", "float", "the requirement applies to AGB below this (null: to every AGB); "
+              "cases above pass by definition and say so", default=None, unit="t/ha", exclusive_minimum=0.0,
+              nullable=True),
+        Param("basis", "str", "analytic Gaussian model or Monte Carlo samples (auto: analytic when computed)",
+              default="auto", choices=BASES),
+        _SOURCES_PARAM,
+    )
+    requires = ("agb", "scene")
+
+    @property
+    def label(self) -> str:
+        c = self.config
+        scope = f" for AGB < {c['applies_below_t_ha']:g} t/ha" if c["applies_below_t_ha"] else ""
+        return c["name"] or f"AGB RMSE <= {c['max_t_ha']:g} t/ha{scope}"
+
+    def forward(self, state):
+        agb_true = state.scene.agb_t_ha
+        if agb_true is None:
+            raise ConfigError(self.location, "needs a scene with an AGB (agb_t_ha)",
+                              "use a scene type that states its AGB, or give scene.agb_t_ha")
+        agb = checked_error(self, state)
+        basis = _basis(self, state, agb)
+        limit = self.config["max_t_ha"]
+        value = agb.rmse(basis) * agb_true
+        details = {f"{b}.rmse_t_ha": agb.rmse(b) * agb_true for b in ("analytic", "montecarlo") if agb.has(b)}
+        details.update(attribution(state, lambda a: a.rmse("analytic") * agb_true, agb, unit="t_ha"))
+        below = self.config["applies_below_t_ha"]
+        applies = below is None or agb_true < below
+        details["applies"] = float(applies)
+        verdict = RequirementVerdict(self.label, bool(value <= limit or not applies), value, limit, limit - value,
+                                     "t/ha", basis, details, dominant=_dominant(details, "t_ha"))
         return state.with_(verdicts=state.verdicts + (verdict,))

@@ -183,6 +183,7 @@ class Scenario:
                 raise ConfigError(root.child(key), f"{self.raw[key]!r} is not text", "expected a string")
         output = validate_section(OUTPUT_PARAMS, self.raw.get("output"), root.child("output"))
         case_inputs, sweep_keys = expand_sweep(self.raw.get("sweep"), root.child("sweep"))
+        label_keys = _label_keys(self.raw.get("sweep"), sweep_keys)
         for key in ("plot_x", "plot_group_by"):
             if output[key] is not None and output[key] not in sweep_keys:
                 raise ConfigError(root.child("output").child(key), f"{output[key]!r} is not a sweep key",
@@ -190,7 +191,7 @@ class Scenario:
         cache: dict = {}
         cases = []
         for index, inputs in enumerate(case_inputs):
-            cases.append(self._build_case(index, inputs, cache))
+            cases.append(self._build_case(index, inputs, cache, label_keys))
         return ResolvedScenario(
             name=str(name),
             description=str(self.raw.get("description", "")),
@@ -202,7 +203,7 @@ class Scenario:
             sweep_keys=sweep_keys,
         )
 
-    def _build_case(self, index: int, inputs: dict, cache: dict) -> CaseSpec:
+    def _build_case(self, index: int, inputs: dict, cache: dict, label_keys=None) -> CaseSpec:
         config = copy.deepcopy(self.raw)
         lines = dict(self.lines)
         for key, value in inputs.items():
@@ -236,7 +237,8 @@ class Scenario:
         _check_chain(chain)
         for key in inputs:
             _check_sweep_key(key, config, chain, Location(self.source, ("sweep", "parameters", key), lines))
-        return CaseSpec(index, dict(inputs), case_label(inputs), settings, chain)
+        shown = {k: v for k, v in inputs.items() if label_keys is None or k in label_keys}
+        return CaseSpec(index, dict(inputs), case_label(shown), settings, chain)
 
 
 def _build_module(kind_or_section: str, raw: Any, where: Location, cache: dict) -> Module:
@@ -376,6 +378,13 @@ def _sweep_values(spec: Any, where: Location) -> list:
             return [float(x) for x in fn(args[0], args[1], int(args[2]))]
     raise ConfigError(where, f"{spec!r} is not a list of values",
                       "expected a list, {linspace: [start, stop, n]} or {logspace: [start, stop, n]}")
+
+
+def _label_keys(sweep, sweep_keys) -> tuple:
+    """Keys shown in case labels: for a group "a, b, c" varied together only its first key names the case."""
+    if not isinstance(sweep, dict) or not isinstance(sweep.get("parameters"), dict):
+        return tuple(sweep_keys)
+    return tuple(str(key).split(",")[0].strip() for key in sweep["parameters"])
 
 
 def case_label(inputs: dict) -> str:
