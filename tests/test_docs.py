@@ -11,8 +11,9 @@ from e2esim.runner.scenario import Scenario
 
 ROOT = Path(__file__).resolve().parents[1]
 DOCS = ROOT / "docs"
-REQUIRED = ["index.md", "scenario-reference.md", "output-format.md", "writing-a-module.md", "conventions.md",
-            "errata.md", "theory/cross-pol-error.md"]
+REQUIRED = ["index.md", "user-guide.md", "scenario-reference.md", "output-format.md", "writing-a-module.md",
+            "conventions.md", "errata.md", "verification.md", "theory/cross-pol-error.md", "theory/ionosphere.md",
+            "theory/calibration.md", "theory/retrieval.md"]
 
 
 def test_scenario_reference_is_current():
@@ -43,6 +44,22 @@ def test_yaml_examples_in_the_docs_are_valid_scenarios():
     assert blocks
     for block in blocks:
         Scenario(yaml.safe_load(block), "docs/index.md").resolve()
+
+
+def test_readme_links_resolve():
+    text = (ROOT / "README.md").read_text()
+    links = re.findall(r"\]\(([^)#:]+)\)", text)
+    assert "docs/user-guide.md" in links and "docs/verification.md" in links
+    for target in links:
+        assert (ROOT / target).exists(), f"README links to missing {target}"
+
+
+def test_python_example_of_the_user_guide_runs():
+    text = (DOCS / "user-guide.md").read_text()
+    block = re.findall(r"```python\n(.*?)```", text, re.S)[-1]
+    namespace = {}
+    exec(compile(block, "docs/user-guide.md", "exec"), namespace)
+    assert float(namespace["moments"].mean) > 0 and namespace["mc"].hv.shape == (10_000, 1)
 
 
 def test_every_output_scalar_is_documented():
