@@ -27,6 +27,10 @@ reference: $(STAMP)  ## regenerate the generated documentation
 
 benchmark: $(STAMP)  ## speed measurements (ratios against the reference implementations)
 	$(BIN)/python benchmarks/bench_crosspol.py
+	$(BIN)/python benchmarks/bench_calibration.py
+	$(BIN)/python benchmarks/bench_retrieval.py
+	$(BIN)/python benchmarks/bench_climatology.py
+	$(BIN)/python benchmarks/bench_end_to_end.py
 
 clean:
 	rm -rf $(VENV) runs .pytest_cache src/*.egg-info

@@ -64,10 +64,16 @@ def _cli(*args, **kw):
                             stderr=subprocess.PIPE, text=True, **kw)
 
 
+def _saved(journal: Path) -> int:
+    from e2esim.runner.journal import _read_records
+
+    return len(_read_records(journal / "cases.journal")[0])
+
+
 def _wait_for_cases(journal: Path, n: int, proc, timeout=120):
     start = time.time()
     while time.time() - start < timeout:
-        if len(list(journal.glob("case*.pkl"))) >= n:
+        if _saved(journal) >= n:
             return
         if proc.poll() is not None:
             pytest.fail(f"run ended before {n} cases were saved: {proc.stderr.read()}")
@@ -88,7 +94,7 @@ def test_interrupted_sweep_resumes_without_recomputing(tmp_path, how):
         assert proc.returncode == 130 and "run the same command with --resume" in stderr
         assert "Traceback" not in stderr
     assert not (out / "summary.json").exists() and not (out / "results.h5").exists()
-    saved = len(list(journal.glob("case*.pkl")))
+    saved = _saved(journal)
     assert 3 <= saved < 12
 
     # without --resume the folder is protected
@@ -118,3 +124,21 @@ def test_resume_refuses_a_different_scenario(tmp_path):
     Journal(out, resolved).start(resume=False)
     proc = _cli("run", str(scenario), "-o", str(out), "--no-progress", "--resume", "--set", "simulation.seed=12")
     assert proc.wait(60) == 2 and "different scenario, seed or e2esim version" in proc.stderr.read()
+
+
+def test_a_torn_last_record_is_cut_off(tmp_path):
+    from e2esim.runner.journal import Journal
+
+    resolved = Scenario.load(_scenario(tmp_path)).resolve()
+    results = run_scenario(resolved, progress=False).cases
+    journal = Journal(tmp_path / "out", resolved)
+    journal.start(resume=False)
+    for r in results[:3]:
+        journal.record(r)
+    journal.close()
+    path = tmp_path / "out" / ".e2esim-partial" / "cases.journal"
+    with open(path, "ab") as fh:  # half of a fourth record, as a killed process may leave it
+        fh.write(path.read_bytes()[: len(path.read_bytes()) // 5])
+    finished = Journal(tmp_path / "out", resolved).start(resume=True)
+    assert sorted(finished) == [0, 1, 2]
+    assert finished[1].scalars == results[1].scalars

@@ -110,9 +110,9 @@ def cmd_run(args) -> int:
         result = run_scenario(resolved, progress=not args.no_progress, command=" ".join(["e2esim"] + sys.argv[1:]),
                               workers=args.workers, scheduler=args.scheduler, journal=journal, finished=finished)
     except KeyboardInterrupt:
-        done = len(list(journal.path.glob("case*.pkl")))
-        print(f"e2esim: interrupted; {done} of {len(resolved.cases)} cases are saved in {journal.path}; "
-              "run the same command with --resume to finish", file=sys.stderr)
+        journal.close()
+        print(f"e2esim: interrupted; {journal.finished_count()} of {len(resolved.cases)} cases are saved in "
+              f"{journal.path}; run the same command with --resume to finish", file=sys.stderr)
         return 130
     write_outputs(result, folder)
     journal.remove()

@@ -19,6 +19,7 @@ Quegan et al. 2018 eq. 11) is applied to both forms exactly.
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass, fields
 
 import numpy as np
@@ -31,7 +32,7 @@ from e2esim.crosspol.first_order import (
     trig_at,
     variance_terms,
 )
-from e2esim.crosspol.second_order import bias_correction, variance_correction
+from e2esim.crosspol.second_order import bias_correction, product_moments, variance_correction
 from e2esim.faraday.distribution import FaradayDistribution
 from e2esim.instrument.system_errors import SystemErrorModel
 from e2esim.polarimetry.system_model import estimator_noise_factor
@@ -125,12 +126,12 @@ def hv_error_moments(
         spread = np.zeros(xs.shape)
     else:
         nodes, weights = faraday.quadrature()
-        trig = trig_at(nodes)  # arrays over the node axis, which is last
+        trig = _trig_at_nodes(nodes.tobytes())  # arrays over the node axis, which is last
         args = _scaled_errors(v, c13, c24, ve, ce12, xs[..., None], es[..., None])
         node_parts = _conditional_parts(terms, trig, *args, complete=True)
-        parts = {k: np.sum(x * weights, axis=-1) for k, x in node_parts.items()}
+        parts = {k: x @ weights for k, x in node_parts.items()}  # average over the node axis
         mean_at_node = node_parts["bias_imbalance"] + node_parts["bias_crosstalk"] + node_parts["bias_higher_order"]
-        spread = np.sum(weights * mean_at_node**2, axis=-1) - (np.sum(weights * mean_at_node, axis=-1)) ** 2
+        spread = (mean_at_node**2) @ weights - (mean_at_node @ weights) ** 2
         spread = np.clip(spread, 0.0, None)  # exact value >= 0; negative weights leave rounding noise
 
     signal_mean = parts["bias_imbalance"] + parts["bias_crosstalk"] + parts["bias_higher_order"]
@@ -181,6 +182,13 @@ def hv_error_moments(
     )
 
 
+@functools.lru_cache(maxsize=8)
+def _trig_at_nodes(nodes: bytes) -> dict:
+    """``trig_at`` of quadrature nodes (given as bytes, to be hashable): the nodes are the same for every
+    distribution, so this is computed once."""
+    return trig_at(np.frombuffer(nodes, dtype=float))
+
+
 def _scaled_errors(v, c13, c24, ve, ce12, xs, es):
     return v * xs[..., None], c13 * xs, c24 * xs, ve * es[..., None], ce12 * es
 
@@ -191,8 +199,9 @@ def _conditional_parts(terms, trig, v, c13, c24, ve, ce12, complete: bool) -> di
     bias = bias_terms(terms, xt, ci)
     var = variance_terms(terms, xt, ci)
     if complete:
-        bias_ho = bias_correction(terms, v, c13, c24, ve, ce12, trig)
-        var_ho = variance_correction(terms, v, c13, c24, ve, ce12, trig)
+        products = product_moments(v, c13, c24, ve, ce12)
+        bias_ho = bias_correction(terms, products, trig)
+        var_ho = variance_correction(terms, products, trig)
     else:
         bias_ho = var_ho = np.zeros_like(np.real(bias["imbalance"]))
     return {

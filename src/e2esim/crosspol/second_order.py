@@ -29,7 +29,7 @@ import numpy as np
 from e2esim.crosspol.first_order import SceneTerms
 
 
-def _product_moments(v, c13, c24, ve, ce12) -> dict:
+def product_moments(v, c13, c24, ve, ce12) -> dict:
     """Second moments of the quadratic error products U, W, D (Gaussian, circular).
 
     ``E|d1 d4|^2 = V1 V4``, ``E|d2 d3|^2 = V2 V3``, ``E[d1 d4 (d2 d3)*] = C13 C24*`` (Isserlis).
@@ -47,13 +47,13 @@ def _product_moments(v, c13, c24, ve, ce12) -> dict:
     }
 
 
-def bias_correction(scene: SceneTerms, v, c13, c24, ve, ce12, trig) -> np.ndarray:
+def bias_correction(scene: SceneTerms, m: dict, trig) -> np.ndarray:
     """Fourth-order part of the mean, ``sum_ij C_ij E[a2_i a2_j*]`` (m^2/m^2).
 
     ``E|a2_hh|^2 = (c^2 s^2 E|U|^2 + s^4 E|D|^2)/4``, ``E|a2_vv|^2 = (c^4 E|D|^2 + c^2 s^2 E|U|^2)/4``,
-    ``E|a2_hv|^2 = E|W|^2 / 4``, ``E[a2_hh a2_vv*] = c^2 s^2 (E|U|^2 - E|D|^2)/4``.
+    ``E|a2_hv|^2 = E|W|^2 / 4``, ``E[a2_hh a2_vv*] = c^2 s^2 (E|U|^2 - E|D|^2)/4``. ``m`` from
+    ``product_moments``.
     """
-    m = _product_moments(v, c13, c24, ve, ce12)
     hh2 = (trig["c2s2"] * m["u2"] + trig["s4"] * m["d2"]) / 4
     vv2 = (trig["c4"] * m["d2"] + trig["c2s2"] * m["u2"]) / 4
     hv2 = m["w2"] / 4
@@ -66,9 +66,9 @@ def bias_correction(scene: SceneTerms, v, c13, c24, ve, ce12, trig) -> np.ndarra
     )
 
 
-def variance_correction(scene: SceneTerms, v, c13, c24, ve, ce12, trig) -> np.ndarray:
-    """The O(V^2) variance terms missing from eq. (12) (module docstring), conditional on Omega."""
-    m = _product_moments(v, c13, c24, ve, ce12)
+def variance_correction(scene: SceneTerms, m: dict, trig) -> np.ndarray:
+    """The O(V^2) variance terms missing from eq. (12) (module docstring), conditional on Omega; ``m`` from
+    ``product_moments``."""
     bracket = (
         scene.sigma_hh * trig["s4"]
         + scene.sigma_vv * trig["c4"]

@@ -41,10 +41,11 @@ def summary_dict(result) -> dict:
             "label": c.label,
             "inputs": c.inputs,
             "notes": list(c.state.backscatter.notes) if c.state.backscatter is not None else [],
-            "results": c.scalars,
+            "results": _finite(c.scalars),
             "requirements": [
-                {"name": v.name, "passed": v.passed, "value": v.value, "limit": v.limit, "margin": v.margin,
-                 "unit": v.unit, "basis": v.basis, "dominant": v.dominant, "details": v.details}
+                {"name": v.name, "passed": v.passed, "value": _number(v.value), "limit": _number(v.limit),
+                 "margin": _number(v.margin), "unit": v.unit, "basis": v.basis, "dominant": v.dominant,
+                 "details": _finite(v.details)}
                 for v in c.state.verdicts
             ],
         })
@@ -69,9 +70,21 @@ def write_summary(result, path) -> None:
     write_text_atomic(path, summary_json(result) + "\n")
 
 
+def _number(x):
+    x = float(x)
+    return x if math.isfinite(x) else None
+
+
+def _finite(floats: dict) -> dict:
+    """A mapping of names to numbers with non-finite ones as None (the fast path of ``_clean``)."""
+    return {k: _number(v) for k, v in floats.items()}
+
+
 def _clean(value):
     if type(value) is float:  # the common case first
         return value if math.isfinite(value) else None
+    if type(value) is dict and value and all(type(v) is float or v is None for v in value.values()):
+        return value  # already cleaned by _finite
     if isinstance(value, dict):
         return {str(k): _clean(v) for k, v in value.items()}
     if isinstance(value, (list, tuple)):

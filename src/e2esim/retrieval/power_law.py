@@ -53,7 +53,7 @@ def agb_relative_error(sigma_relative, exponent):
     error, never in the simulated power) means an AGB estimate of zero: q = -1.
     """
     x = np.asarray(sigma_relative, dtype=float)
-    return np.clip(1.0 + x, 0.0, None) ** exponent - 1.0
+    return np.maximum(1.0 + x, 0.0) ** exponent - 1.0
 
 
 @dataclass(frozen=True)

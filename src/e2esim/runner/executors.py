@@ -8,6 +8,7 @@ come back as each batch finishes.
 from __future__ import annotations
 
 import math
+import pickle
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 
 from e2esim.errors import UserError
@@ -21,27 +22,37 @@ def run_batch(specs: list) -> list:
     return [run_case(spec) for spec in specs]
 
 
+def run_batch_pickled(specs: list) -> list:
+    """``run_batch`` for another process: each result pickled once, here, so that the main process can
+    journal the bytes as they are and unpickle them once."""
+    return [pickle.dumps(r, protocol=pickle.HIGHEST_PROTOCOL) for r in run_batch(specs)]
+
+
 def _batches(specs: list, workers: int) -> list:
     size = max(1, math.ceil(len(specs) / (workers * _BATCHES_PER_WORKER)))
     return [specs[i:i + size] for i in range(0, len(specs), size)]
 
 
 def iter_results(specs: list, workers: int = 1, scheduler: str | None = None):
-    """Yield CaseResult objects as cases finish (not necessarily in case order)."""
+    """Yield ``(CaseResult, pickled bytes or None)`` as cases finish (not necessarily in case order); the
+    bytes come from other processes and can be journaled as they are."""
     if not specs:
         return
     if scheduler:
-        yield from _dask(specs, scheduler)
+        remote = _dask(specs, scheduler)
     elif workers > 1:
-        yield from _processes(specs, workers)
+        remote = _processes(specs, workers)
     else:
         for spec in specs:
-            yield from run_batch([spec])
+            yield run_batch([spec])[0], None
+        return
+    for data in remote:
+        yield pickle.loads(data), data
 
 
 def _processes(specs: list, workers: int):
     with ProcessPoolExecutor(max_workers=workers) as pool:
-        pending = {pool.submit(run_batch, batch) for batch in _batches(specs, workers)}
+        pending = {pool.submit(run_batch_pickled, batch) for batch in _batches(specs, workers)}
         try:
             while pending:
                 done, pending = wait(pending, return_when=FIRST_COMPLETED)
@@ -64,7 +75,7 @@ def _dask(specs: list, address: str):
         raise UserError(f"cannot connect to the dask scheduler at {address}: {exc}") from exc
     try:
         workers = max(1, len(client.scheduler_info().get("workers", {})))
-        futures = client.map(run_batch, _batches(specs, workers), pure=False)
+        futures = client.map(run_batch_pickled, _batches(specs, workers), pure=False)
         try:
             for future in as_completed(futures):
                 yield from future.result()

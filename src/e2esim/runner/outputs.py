@@ -34,7 +34,9 @@ def prepare_folder(folder: Path, force: bool, resume: bool = False) -> None:
 
         shutil.rmtree(folder / JOURNAL)
     if (folder / JOURNAL).exists() and not (force or resume):
-        done = len(list((folder / JOURNAL).glob("case*.pkl")))
+        from e2esim.runner.journal import _read_records
+
+        done = len(_read_records(folder / JOURNAL / "cases.journal")[0])
         raise OutputExistsError(f"{folder}: holds an interrupted run ({done} cases finished); use --resume to "
                                 "continue it or --force to start again")
     if folder.exists() and any(folder.iterdir()) and not (force or resume):

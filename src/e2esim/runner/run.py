@@ -82,10 +82,10 @@ def run_scenario(
     bar = tqdm(total=len(resolved.cases), initial=len(done), desc=resolved.name, unit="case",
                disable=not progress, leave=False)
     try:
-        for result in iter_results(todo, workers, scheduler):
+        for result, data in iter_results(todo, workers, scheduler):
             done[result.index] = result
             if journal is not None:
-                journal.record(result)
+                journal.record(result, data)
             bar.update(1)
     finally:
         bar.close()

@@ -188,7 +188,7 @@ class Scenario:
             if output[key] is not None and output[key] not in sweep_keys:
                 raise ConfigError(root.child("output").child(key), f"{output[key]!r} is not a sweep key",
                                   "sweep keys: " + (", ".join(sweep_keys) or "none (no sweep)"))
-        cache: dict = {}
+        cache: dict = {_PRISTINE: _object_ids(self.raw)}
         cases = []
         for index, inputs in enumerate(case_inputs):
             cases.append(self._build_case(index, inputs, cache, label_keys))
@@ -204,7 +204,7 @@ class Scenario:
         )
 
     def _build_case(self, index: int, inputs: dict, cache: dict, label_keys=None) -> CaseSpec:
-        config = copy.deepcopy(self.raw)
+        config = dict(self.raw)  # sections a case overrides are copied on the way down (_set_path, copy=True)
         lines = dict(self.lines)
         for key, value in inputs.items():
             path = _dotted_to_path(key)
@@ -212,7 +212,7 @@ class Scenario:
             if path[0] in NOT_SWEEPABLE or path[0] not in TOP_LEVEL:
                 raise ConfigError(Location(self.source, ("sweep", key), lines), f"cannot sweep over {key!r}",
                                   "sweep keys start with a module section, requirements or simulation")
-            _set_path(config, path, value, where)
+            _set_path(config, path, value, where, copy_on_write=True)
             lines[path] = f"sweep case {index}: {key}={value!r}"
         case_root = Location(self.source, (), lines)
         settings = SimulationSettings(
@@ -241,6 +241,19 @@ class Scenario:
         return CaseSpec(index, dict(inputs), case_label(shown), settings, chain)
 
 
+_PRISTINE = "ids of the scenario's own mappings and lists"  # cache entry: sections no case has changed
+
+
+def _object_ids(value) -> set:
+    """ids of every mapping and list inside ``value`` (the scenario as read, which stays alive)."""
+    out = set()
+    if isinstance(value, (dict, list)):
+        out.add(id(value))
+        for item in (value.values() if isinstance(value, dict) else value):
+            out |= _object_ids(item)
+    return out
+
+
 def _build_module(kind_or_section: str, raw: Any, where: Location, cache: dict) -> Module:
     kind = "requirement" if kind_or_section == "requirement" else kind_or_section
     if not isinstance(raw, dict):
@@ -255,7 +268,10 @@ def _build_module(kind_or_section: str, raw: Any, where: Location, cache: dict) 
         cls = registry.lookup(kind, type_name)
     except ModuleLookupError as exc:
         raise ConfigError(where.child("type"), str(exc)) from exc
-    key = (kind, cls, json.dumps(raw, sort_keys=True, default=str))
+    # A section no sweep case changes is the scenario's own object: key it by identity (cheap); a changed
+    # one by its content, so cases with equal sections share one module.
+    pristine = cache.get(_PRISTINE, ())
+    key = (kind, cls, id(raw)) if id(raw) in pristine else (kind, cls, json.dumps(raw, sort_keys=True, default=str))
     if key not in cache:
         cache[key] = cls.from_config(raw, where)
     return cache[key]
@@ -400,9 +416,16 @@ def _dotted_to_path(key: str) -> tuple:
     return tuple(int(p) if p.isdigit() else p for p in key.split("."))
 
 
-def _set_path(data: dict, path: tuple, value: Any, where: Location) -> None:
+def _set_path(data: dict, path: tuple, value: Any, where: Location, copy_on_write: bool = False) -> None:
+    """Set ``data[path] = value``, creating mappings on the way; with ``copy_on_write`` every mapping or
+    list on the path is replaced by a copy first, so the scenario's own objects are never changed."""
     node = data
     for i, key in enumerate(path[:-1]):
+        if copy_on_write and isinstance(node, (dict, list)):
+            child = node[key] if (isinstance(node, dict) and key in node) or (
+                isinstance(node, list) and isinstance(key, int) and key < len(node)) else None
+            if isinstance(child, (dict, list)):
+                node[key] = copy.copy(child)
         if isinstance(node, list):
             if not isinstance(key, int) or key >= len(node):
                 raise ConfigError(Location(where.source, path[: i + 1], where.lines), "no such list item",
