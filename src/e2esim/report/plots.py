@@ -234,7 +234,7 @@ def plot_agb_error_vs_sweep(result, folder: Path, options: dict) -> list:
     for (label, cases), color in zip(groups.items(), _colors(len(groups))):
         x = np.array([c.inputs[x_key] for c in cases], dtype=float)
         unique = len(np.unique(x)) == len(x)
-        basis = "analytic" if f"agb.analytic.q50_percent" in cases[0].scalars else "montecarlo"
+        basis = "analytic" if "agb.analytic.q50_percent" in cases[0].scalars else "montecarlo"
         if f"agb.{basis}.q50_percent" not in cases[0].scalars:
             continue
         lo = np.array([c.scalars[f"agb.{basis}.q00135_percent"] for c in cases])

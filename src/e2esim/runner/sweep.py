@@ -1,0 +1,116 @@
+"""Sweeps: from the ``sweep`` section of a scenario to the list of case inputs, and the case labels.
+
+``sweep.parameters`` maps dotted keys to value lists (or ``{linspace: [start, stop, n]}``,
+``{logspace: [...]}``), combined as a grid or side by side (``mode: zip``); a key "a.b, c.d" varies several
+keys together. ``sweep.cases`` lists the cases explicitly.
+"""
+
+from __future__ import annotations
+
+import itertools
+from typing import Any
+
+import numpy as np
+
+from e2esim.errors import ConfigError, Location
+from e2esim.params import Param, unknown_key_error, validate_section
+
+SWEEP_PARAMS = (
+    Param("mode", "str", "grid: every combination of the parameter lists; zip: the lists side by side",
+          default="grid", choices=("grid", "zip")),
+)
+SWEEP_KEYS = ("mode", "parameters", "cases")
+"""``sweep.parameters``: mapping of dotted key -> list of values, or ``{linspace: [start, stop, num]}``
+or ``{logspace: [start_exp, stop_exp, num]}``; a key "a.b, c.d" with a list of [a, c] pairs varies
+two keys together; ``sweep.cases``: list of mappings dotted key -> value."""
+
+
+def expand_sweep(sweep: Any, where: Location) -> tuple[list, tuple]:
+    """Sweep section -> (list of case input dicts, sweep keys). No sweep gives one case with no inputs."""
+    if sweep is None:
+        return [{}], ()
+    if not isinstance(sweep, dict):
+        raise ConfigError(where, f"{sweep!r} is not a mapping", "expected 'parameters:' and/or 'mode:', or 'cases:'")
+    for key in sweep:
+        if key not in SWEEP_KEYS:
+            raise unknown_key_error(where.child(key), key, SWEEP_KEYS)
+    mode = validate_section(SWEEP_PARAMS, {k: v for k, v in sweep.items() if k == "mode"}, where)["mode"]
+    params, cases = sweep.get("parameters"), sweep.get("cases")
+    if params is not None and cases is not None:
+        raise ConfigError(where, "has both 'parameters' and 'cases'", "give one of them")
+    if cases is not None:
+        if not isinstance(cases, list) or not cases:
+            raise ConfigError(where.child("cases"), "is not a non-empty list", "expected a list of mappings")
+        out = []
+        for i, case in enumerate(cases):
+            if not isinstance(case, dict):
+                raise ConfigError(where.child("cases").child(i), f"{case!r} is not a mapping",
+                                  "expected dotted.key: value pairs")
+            out.append({str(k): _plain(v) for k, v in case.items()})
+        keys = tuple(dict.fromkeys(k for c in out for k in c))
+        return out, keys
+    if not isinstance(params, dict) or not params:
+        raise ConfigError(where.child("parameters"), "is missing or empty", "expected dotted.key: [values]")
+    values = {}
+    for key, spec in params.items():
+        here = where.child("parameters").child(key)
+        subkeys = tuple(k.strip() for k in str(key).split(","))
+        items = _sweep_values(spec, here)
+        if len(subkeys) > 1:  # "a.b, c.d": [[a1, c1], [a2, c2]] varies the keys together
+            for i, item in enumerate(items):
+                if not isinstance(item, list) or len(item) != len(subkeys):
+                    raise ConfigError(here.child(i), f"{item!r} is not a list of {len(subkeys)} values",
+                                      f"each item gives one value for each of {', '.join(subkeys)}")
+        values[subkeys] = [tuple(item) if len(subkeys) > 1 else (item,) for item in items]
+    keys = tuple(k for sub in values for k in sub)
+    if mode == "zip":
+        lengths = {", ".join(k): len(v) for k, v in values.items()}
+        if len(set(lengths.values())) != 1:
+            raise ConfigError(where.child("parameters"), f"lists of unequal length {lengths} in zip mode",
+                              "give lists of the same length, or use mode: grid")
+        combos = zip(*values.values())
+    else:
+        combos = itertools.product(*values.values())
+    return [dict(zip(keys, (v for group in combo for v in group))) for combo in combos], keys
+
+
+def _sweep_values(spec: Any, where: Location) -> list:
+    if isinstance(spec, list):
+        if not spec:
+            raise ConfigError(where, "is an empty list", "expected at least one value")
+        return [_plain(v) for v in spec]
+    if isinstance(spec, dict) and len(spec) == 1:
+        (kind, args), = spec.items()
+        if kind in ("linspace", "logspace"):
+            ok = isinstance(args, list) and len(args) == 3 and all(
+                isinstance(a, (int, float)) and not isinstance(a, bool) for a in args
+            )
+            if not ok or int(args[2]) != args[2] or args[2] < 1:
+                raise ConfigError(where.child(kind), f"{args!r} is not [start, stop, number]",
+                                  "expected two numbers and a positive integer")
+            fn = np.linspace if kind == "linspace" else np.logspace
+            return [float(x) for x in fn(args[0], args[1], int(args[2]))]
+    raise ConfigError(where, f"{spec!r} is not a list of values",
+                      "expected a list, {linspace: [start, stop, n]} or {logspace: [start, stop, n]}")
+
+
+def label_keys(sweep, sweep_keys) -> tuple:
+    """Keys shown in case labels: for a group "a, b, c" varied together only its first key names the case."""
+    if not isinstance(sweep, dict) or not isinstance(sweep.get("parameters"), dict):
+        return tuple(sweep_keys)
+    return tuple(str(key).split(",")[0].strip() for key in sweep["parameters"])
+
+
+def case_label(inputs: dict) -> str:
+    """Short human label: ``forest=boreal_200, crosstalk.level_db=-30``."""
+    parts = []
+    for key, value in inputs.items():
+        short = ".".join(key.split(".")[-2:]) if key.count(".") >= 2 else key.split(".")[-1]
+        parts.append(f"{short}={value:g}" if isinstance(value, float) else f"{short}={value}")
+    return ", ".join(parts) or "base case"
+
+
+def _plain(value: Any) -> Any:
+    if isinstance(value, np.generic):
+        return value.item()
+    return value
