@@ -23,7 +23,7 @@ import numpy as np  # noqa: E402
 from scipy import optimize  # noqa: E402
 
 from e2esim.budget.presets import UAVSAR_AHMED2014  # noqa: E402
-from e2esim.budget.reference import budget_scalar  # noqa: E402
+from e2esim.budget.reference import budget_scalar, random_cases  # noqa: E402
 from e2esim.budget.result import BudgetInputs, backscatter_budget  # noqa: E402
 from e2esim.retrieval.bootstrap import parametric_bootstrap  # noqa: E402
 from e2esim.retrieval.saturating import SaturatingModel  # noqa: E402
@@ -103,16 +103,7 @@ def bench_simex_bootstrap(n_sim=100, n_boot=1000, reference=True):
 
 
 def _cases(n, rng):
-    base = {k: v for k, v in UAVSAR_AHMED2014.items()}
-    arrays = {
-        "bandwidth_hz": rng.uniform(5e6, 100e6, n), "eta_range": rng.uniform(0, 1, n),
-        "eta_azimuth": rng.uniform(0, 1, n), "area_m2": rng.uniform(500, 50_000, n),
-        "incidence_rad": np.radians(rng.uniform(20, 60, n)), "slope_range_rad": np.radians(rng.uniform(-10, 10, n)),
-        "slope_azimuth_rad": np.radians(rng.uniform(-10, 10, n)), "observations": rng.integers(1, 12, n).astype(float),
-        "pointing_error_rad": rng.uniform(0, 2e-3, n), "dem_height_error_m": rng.uniform(0, 10, n),
-    }
-    arrays["diverse_observations"] = np.minimum(rng.integers(1, 4, n), arrays["observations"]).astype(float)
-    return base, arrays, rng.uniform(0.005, 0.2, n)
+    return random_cases(n, rng, UAVSAR_AHMED2014)
 
 
 def bench_budget(n=100_000, n_ref=5_000):

@@ -27,7 +27,7 @@ from e2esim.budget.geometry import (
 )
 from e2esim.budget.noise import inverse_mnr, islr_db, quantisation_noise_ratio_db, speckle_noise_terms
 from e2esim.budget.presets import BIOMASS_200M, UAVSAR_AHMED2014, preset
-from e2esim.budget.reference import budget_scalar
+from e2esim.budget.reference import budget_scalar, random_cases
 from e2esim.budget.result import GROUPS, TERMS, BudgetInputs, backscatter_budget
 from e2esim.budget.window import window_broadening, window_islr_db
 from e2esim.errors import PhysicsInputError
@@ -228,16 +228,7 @@ def test_budget_total_and_combinations():
 def test_budget_vectorised_equals_scalar_reference():
     rng = np.random.default_rng(7)
     n = 200
-    case = dict(UAVSAR_AHMED2014)
-    arrays = {
-        "bandwidth_hz": rng.uniform(5e6, 100e6, n), "eta_range": rng.uniform(0, 1, n),
-        "eta_azimuth": rng.uniform(0, 1, n), "area_m2": rng.uniform(500, 50_000, n),
-        "incidence_rad": np.radians(rng.uniform(20, 60, n)), "slope_range_rad": np.radians(rng.uniform(-10, 10, n)),
-        "slope_azimuth_rad": np.radians(rng.uniform(-10, 10, n)), "observations": rng.integers(1, 12, n).astype(float),
-        "pointing_error_rad": rng.uniform(0, 2e-3, n), "dem_height_error_m": rng.uniform(0, 10, n),
-    }
-    arrays["diverse_observations"] = np.minimum(rng.integers(1, 4, n), arrays["observations"]).astype(float)
-    sigma = rng.uniform(0.005, 0.2, n)
+    case, arrays, sigma = random_cases(n, rng, UAVSAR_AHMED2014)
     b = backscatter_budget(BudgetInputs(**{**case, **arrays}), sigma)
     for i in range(0, n, 17):
         one = {**case, **{k: float(v[i]) for k, v in arrays.items()}}

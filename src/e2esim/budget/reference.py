@@ -9,7 +9,23 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
+
 _C = 299_792_458.0  # m/s
+
+
+def random_cases(n: int, rng: np.random.Generator, base: dict) -> tuple[dict, dict, np.ndarray]:
+    """``n`` random budget cases around ``base`` (a preset), for checking and timing the vectorised budget
+    against ``budget_scalar``: returns (base, arrays of varied inputs, sigma0 values in m^2/m^2)."""
+    arrays = {
+        "bandwidth_hz": rng.uniform(5e6, 100e6, n), "eta_range": rng.uniform(0, 1, n),
+        "eta_azimuth": rng.uniform(0, 1, n), "area_m2": rng.uniform(500, 50_000, n),
+        "incidence_rad": np.radians(rng.uniform(20, 60, n)), "slope_range_rad": np.radians(rng.uniform(-10, 10, n)),
+        "slope_azimuth_rad": np.radians(rng.uniform(-10, 10, n)), "observations": rng.integers(1, 12, n).astype(float),
+        "pointing_error_rad": rng.uniform(0, 2e-3, n), "dem_height_error_m": rng.uniform(0, 10, n),
+    }
+    arrays["diverse_observations"] = np.minimum(rng.integers(1, 4, n), arrays["observations"]).astype(float)
+    return dict(base), arrays, rng.uniform(0.005, 0.2, n)
 
 
 def budget_scalar(case: dict, sigma: float) -> dict:

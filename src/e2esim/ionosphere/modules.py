@@ -13,6 +13,8 @@ All three add the day-to-day variability of the TEC about its median (``e2esim.i
 
 from __future__ import annotations
 
+from abc import abstractmethod
+
 import numpy as np
 
 from e2esim.errors import ConfigError, PhysicsInputError
@@ -67,8 +69,9 @@ class _GeometryIonosphere(Module):
             epoch = str(np.datetime64(int(t.mean()), "s").astype("datetime64[D]"))
         return FieldModel(f["model"], epoch, f["coefficients"])
 
-    def integrals(self, geometry) -> PathIntegrals:  # pragma: no cover - abstract
-        raise NotImplementedError
+    @abstractmethod
+    def integrals(self, geometry) -> PathIntegrals:
+        """Path integrals (TEC, B.k-weighted TEC) of every acquisition's line of sight."""
 
     def forward(self, state):
         geometry = state.geometry
@@ -139,8 +142,9 @@ class IRIClimatologyModule(_GeometryIonosphere):
 class _ThinShellIonosphere(_GeometryIonosphere):
     """Thin-shell Faraday rotation from a vertical TEC at each acquisition's pierce point."""
 
-    def vertical_tec(self, geometry, lat, lon) -> np.ndarray:  # pragma: no cover - abstract
-        raise NotImplementedError
+    @abstractmethod
+    def vertical_tec(self, geometry, lat, lon) -> np.ndarray:
+        """Vertical TEC (electrons/m^2) at pierce points (lat, lon in rad) of ``geometry``'s acquisitions."""
 
     def integrals(self, geometry) -> PathIntegrals:
         from e2esim.orbit.geometry import ray_points
