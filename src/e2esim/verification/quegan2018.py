@@ -33,7 +33,7 @@ def table1_edge(record):
     m = re.match(r"quegan2018\.table1\.snr(\d+)_L(\d+)\.(south|north)", record.id)
     snr, looks, side = int(m.group(1)), int(m.group(2)), m.group(3)
     i = 0 if side == "south" else 1
-    value = _zone(snr, looks, "corrected")[i]
+    value = _zone(snr, looks, "asymptotic")[i]
     printed = _zone(snr, looks, "printed")[i]
     a = TABLE1_ASSUMPTIONS
     note = (f"corrected eq. (5) (gamma^2); eq. (5) as printed gives {printed:.3f}. Assumptions: incidence "
