@@ -27,7 +27,7 @@ def _check(result):
     assert len(result.cases) == 8
     by = {}
     for c in result.cases:
-        fr = c.state.faraday
+        fr = c.get("faraday.geophysical")
         assert isinstance(fr, FaradayClimatology)
         label = c.inputs["orbit.passes"]
         assert set(fr.pass_label) == {label}

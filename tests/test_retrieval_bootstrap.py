@@ -16,7 +16,7 @@ from e2esim.retrieval.synthetic import synthetic_field_plots
 SAT = SaturatingModel(0.055, 0.015, 0.008)
 # 60 plots between 5 and 150 t/ha, 15 % allometric and 2 % backscatter error, small error in equation:
 # measurement error dominates, the naive fit is clearly biased (test_retrieval_simex.py).
-DESIGN = dict(allometric_error_percent=15, backscatter_error_percent=2, model_error_sd=0.0005,
+DESIGN = dict(allometric_error=0.15, backscatter_error=0.02, model_error_sd=0.0005,
               agb_range_t_ha=(5, 150))
 P_MIN = 1e-4  # two-sided binomial p-value below which the coverage is inconsistent with 95 %
 
@@ -89,8 +89,8 @@ def test_bootstrap_with_simex_refits_and_given_model_error():
 def test_bootstrap_counts_failed_refits():
     """Backscatter error comparable to the dynamic range (the paper's subplots): some refits fail; they
     are counted by mode and left out of the covariance."""
-    fp = synthetic_field_plots(SAT, 40, np.random.default_rng(6), allometric_error_percent=10,
-                               backscatter_error_percent=40, model_error_sd=0.005, agb_range_t_ha=(5, 350))
+    fp = synthetic_field_plots(SAT, 40, np.random.default_rng(6), allometric_error=0.1,
+                               backscatter_error=0.4, model_error_sd=0.005, agb_range_t_ha=(5, 350))
     r = parametric_bootstrap(SAT, fp.agb, fp.sigma, fp.agb_error_sd, fp.sigma_error_sd, np.random.default_rng(7),
                              n_boot=300)
     assert r.n_failed > 0

@@ -34,7 +34,7 @@ def test_simex_removes_power_law_attenuation():
     """Classical attenuation: 15 % allometric error flattens the log-log slope (the exponent p comes out
     too large, z ~ 16 over 300 data sets); SIMEX removes the bias of both coefficients."""
     rng = np.random.default_rng()
-    fp = synthetic_field_plots(PL, 40, rng, n_datasets=300, allometric_error_percent=15, backscatter_error_percent=5,
+    fp = synthetic_field_plots(PL, 40, rng, n_datasets=300, allometric_error=0.15, backscatter_error=0.05,
                                agb_distribution="loguniform", agb_range_t_ha=(20, 400))
     sb = simex_batch(PL, fp.agb, fp.sigma, fp.agb_error_sd, fp.sigma_error_sd, rng, n_sim=40)
     assert sb.ok.mean() > 0.95, sb.status_counts()
@@ -45,7 +45,7 @@ def test_simex_reduces_saturating_model_bias_fast():
     """Eq. (1) with 15 % allometric and 2 % backscatter error, 60 plots, 200 data sets: the naive beta0 and
     beta1 are biased (about -3 % and +17 %); SIMEX (quadratic extrapolant) reduces both biases."""
     rng = np.random.default_rng()
-    fp = synthetic_field_plots(SAT, 60, rng, n_datasets=200, allometric_error_percent=15, backscatter_error_percent=2,
+    fp = synthetic_field_plots(SAT, 60, rng, n_datasets=200, allometric_error=0.15, backscatter_error=0.02,
                                model_error_sd=0.0005, agb_range_t_ha=(5, 150))
     sb = simex_batch(SAT, fp.agb, fp.sigma, fp.agb_error_sd, fp.sigma_error_sd, rng, n_sim=50)
     assert sb.ok.mean() > 0.95, sb.status_counts()
@@ -55,7 +55,7 @@ def test_simex_reduces_saturating_model_bias_fast():
 @pytest.mark.slow
 def test_simex_reduces_saturating_model_bias_all_coefficients():
     rng = np.random.default_rng()
-    fp = synthetic_field_plots(SAT, 60, rng, n_datasets=1000, allometric_error_percent=15, backscatter_error_percent=2,
+    fp = synthetic_field_plots(SAT, 60, rng, n_datasets=1000, allometric_error=0.15, backscatter_error=0.02,
                                model_error_sd=0.0005, agb_range_t_ha=(5, 150))
     sb = simex_batch(SAT, fp.agb, fp.sigma, fp.agb_error_sd, fp.sigma_error_sd, rng, n_sim=50)
     assert sb.ok.mean() > 0.95, sb.status_counts()
@@ -63,8 +63,8 @@ def test_simex_reduces_saturating_model_bias_all_coefficients():
 
 
 def test_simex_single_dataset_result_and_reproducibility():
-    fp = synthetic_field_plots(SAT, 40, np.random.default_rng(1), allometric_error_percent=10,
-                               backscatter_error_percent=5, model_error_sd=0.002)
+    fp = synthetic_field_plots(SAT, 40, np.random.default_rng(1), allometric_error=0.1,
+                               backscatter_error=0.05, model_error_sd=0.002)
     run = lambda seed: simex(SAT, fp.agb, fp.sigma, fp.agb_error_sd, fp.sigma_error_sd,  # noqa: E731
                              np.random.default_rng(seed), n_sim=30)
     a, b, c = run(7), run(7), run(8)
@@ -93,7 +93,7 @@ def test_simex_counts_failures_and_flags_unreliable_results():
     """Subplot-like data (measurement error comparable to the dynamic range, Section III-D): many of the
     simulated fits fail; they are counted by mode and the result is flagged, not silently averaged."""
     rng = np.random.default_rng(4)
-    fp = synthetic_field_plots(SAT, 40, rng, allometric_error_percent=10, backscatter_error_percent=30,
+    fp = synthetic_field_plots(SAT, 40, rng, allometric_error=0.1, backscatter_error=0.3,
                                model_error_sd=0.004, agb_range_t_ha=(5, 350))
     try:
         r = simex(SAT, fp.agb, fp.sigma, fp.agb_error_sd, fp.sigma_error_sd, rng, n_sim=50,

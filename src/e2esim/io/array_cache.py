@@ -1,8 +1,11 @@
-"""HDF5 cache of ionospheric path integrals, keyed by a hash of everything that determines them.
+"""A cache of plain arrays in HDF5 files, keyed by a hash of everything that determines them.
 
-The location is a parameter; by default ``$E2ESIM_CACHE``, else ``$XDG_CACHE_HOME/e2esim``, else
-``~/.cache/e2esim``. Files are written atomically (``e2esim.io.atomic``), so an interrupted run never leaves
-a half-written table. The key includes the cache schema version and the PyIRI version.
+Physics kernels (the Faraday-rotation climatologies) never import it: the runner hands them an
+``ArrayCache`` (or None) through the stage, and they call ``get`` and ``put``. The location is a module
+parameter; by default ``$E2ESIM_CACHE``, else ``$XDG_CACHE_HOME/e2esim``, else ``~/.cache/e2esim``. Files are
+written atomically (``e2esim.io.atomic``), so an interrupted run never leaves a half-written table, and hold
+plain numeric arrays only (nothing is unpickled or executed on reading). The key includes the cache schema
+version and the PyIRI version.
 """
 
 from __future__ import annotations
@@ -92,3 +95,27 @@ def write(path: Path, arrays: dict, attrs: dict) -> None:
                 f.create_dataset(name, data=value)
         for key, value in attrs.items():
             f.attrs[key] = value if isinstance(value, (int, float, str)) else json.dumps(value, default=str)
+
+
+class ArrayCache:
+    """Plain-array cache in one folder: ``get`` what ``put`` stored under the same kind, description and
+    input arrays (HDF5, one file per key)."""
+
+    def __init__(self, folder: Path):
+        self.folder = Path(folder)
+
+    def _path(self, kind: str, description: dict, inputs: dict | None) -> Path:
+        return cache_file(self.folder, f"faraday_{kind}", cache_key(kind, description, inputs))
+
+    def get(self, kind: str, description: dict, inputs: dict | None = None) -> dict | None:
+        """The arrays stored for this key (and ``attrs``), or None."""
+        return read(self._path(kind, description, inputs))
+
+    def put(self, kind: str, description: dict, inputs: dict | None, arrays: dict, attrs: dict) -> None:
+        write(self._path(kind, description, inputs), arrays, attrs)
+
+
+def open_cache(setting) -> ArrayCache | None:
+    """The cache for a module's ``cache_dir`` setting (None: the default folder; "off": no cache)."""
+    folder = resolve_cache_dir(setting)
+    return None if folder is None else ArrayCache(folder)
