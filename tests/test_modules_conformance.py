@@ -1,5 +1,7 @@
 """Every registered module passes the conformance check (e2esim.testing)."""
 
+import itertools
+
 import pytest
 
 from e2esim import products as P
@@ -50,6 +52,9 @@ class WrongType(Stage):
         return {"scene.covariance": [[1.0]]}
 
 
+_CALLS = itertools.count()  # a new seed at every call: what a module drawing outside the case's generator does
+
+
 class Random(Stage):
     kind = "scene"
     type_name = "random"
@@ -61,7 +66,7 @@ class Random(Stage):
 
         from e2esim.scene.covariance import ScatteringCovariance
 
-        power = np.random.default_rng().uniform(0.01, 0.1)  # not the case's generator: not reproducible
+        power = np.random.default_rng(next(_CALLS)).uniform(0.01, 0.1)  # not the case's generator: differs per call
         return {"scene.covariance": ScatteringCovariance.from_powers(1.0, power, 0.5, 0.1, 0.0)}
 
 

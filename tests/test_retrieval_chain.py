@@ -147,7 +147,7 @@ def test_budget_module_bad_input_names_the_key():
         _run(data)
 
 
-def test_draw_random_errors_moments():
+def test_draw_random_errors_moments(rng):
     """Independent Gaussian and gamma draws: mean 0 and the summed variance (z tests)."""
     from e2esim.budget.presets import preset
     from e2esim.budget.result import backscatter_budget
@@ -156,18 +156,15 @@ def test_draw_random_errors_moments():
     budget = budget.with_(channels=("hh", "hv", "vv"))
     hv = budget.channel("hv")
     contribs = tuple(AGBContribution(g, "random", 0.0, float(hv.group_sd(g) ** 2)) for g in budget.groups)
-    x = draw_random_errors(np.random.default_rng(), (200_000,), budget, contribs, regression_variance=1e-4)
+    x = draw_random_errors(rng, (200_000,), budget, contribs, regression_variance=1e-4)
     v = sum(c.relative_variance for c in contribs) + 1e-4
     assert abs(x.mean()) < 5 * np.sqrt(v / x.size)
     assert abs(x.var() - v) < 5 * v * np.sqrt(2.5 / x.size)
 
 
 @pytest.mark.parametrize("name", ["biomass_error_budget", "uavsar_ahmed2014"])
-def test_issue6_scenarios_run(name):
-    scenario = Scenario.load(ROOT / "scenarios" / f"{name}.yaml",
-                             overrides=["simulation.realisations=500", "retrieval.regression.bootstrap_samples=30",
-                                        "retrieval.regression.simex_samples=5"])
-    cases = run_scenario(scenario.resolve(), progress=False).cases
+def test_issue6_scenarios_run(name, quick_run):
+    cases = quick_run(name)[0].cases
     assert len(cases) == 5
     for c in cases:
         for contribution in ("system_distortions", "faraday_rotation", "speckle_noise", "temporal", "calibration",

@@ -65,11 +65,10 @@ def test_log_space_band_is_asymmetric_in_sigma():
     assert math.log(band.conf_upper[0] / band.fit[0]) == pytest.approx(1.959964 * band.se_fit[0], rel=1e-6)
 
 
-def test_naive_confidence_band_coverage_and_eq_6_needs_the_residual_variance():
+def test_naive_confidence_band_coverage_and_eq_6_needs_the_residual_variance(rng):
     """Without measurement error, the eq. (3) band at M = 100 t/ha covers the true curve at the nominal
     rate (binomial test over 300 data sets, Student t critical value). The printed eq. (6),
     (J^T J)^-1 without sigma_hat^2, gives a band wider by 1/sigma_hat: it always covers (errata)."""
-    rng = np.random.default_rng()
     hits = printed = 0
     n_sets, m = 300, np.array([100.0])
     truth = SAT.sigma(100.0)
@@ -126,12 +125,11 @@ def test_inverted_intervals_become_unbounded_with_saturation():
     assert pred.width[0] > iv.width[0]
 
 
-def test_model_error_eq_14_is_unbiased():
+def test_model_error_eq_14_is_unbiased(rng):
     """Eq. (14) subtracts the measurement errors from the residual scatter. (a) No predictor error, fitted
     coefficients, denominator n - p: E[sigma_hat^2] = sigma^2; (b) with a 10 % allometric error and the
     true coefficients (n degrees of freedom): the F_X^2 sigma_u^2 term removes the predictor error to first
     order. z tests over 300 data sets; the printed n - k denominator is (n - p)/(n - 1) times smaller."""
-    rng = np.random.default_rng()
     sigma_eps, n = 0.002, 20
     a, b = [], []
     for _ in range(300):

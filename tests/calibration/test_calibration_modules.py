@@ -128,12 +128,10 @@ def test_python_api_rejects_bad_values():
         FaradayCorrection(estimator="bb")
 
 
-def test_calibration_scenario_file_runs_fast_variant():
+def test_calibration_scenario_file_runs_fast_variant(quick_run):
     """scenarios/biomass_calibration.yaml with small Monte Carlo sizes: every case runs and full
     calibration lowers the 99.865 % AGB error quantile below the raw one for both forests."""
-    sc = Scenario.load(ROOT / "scenarios" / "biomass_calibration.yaml",
-                       ["simulation.realisations=600", "simulation.looks=20000"])
-    result = run_scenario(sc.resolve(), progress=False)
+    result = quick_run("biomass_calibration")[0]
     assert len(result.cases) == 8
     by = {(c.inputs["scene.forest"], c.inputs["calibration.0.type"], c.inputs["calibration.1.type"]): c.scalars
           for c in result.cases}
