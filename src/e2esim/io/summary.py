@@ -12,8 +12,8 @@ import math
 from e2esim.io.atomic import write_text_atomic
 from e2esim.io.error_budget import agb_budget, source_groups, verdict_budget
 
-SOURCE_SCOPES = {"all": "all sources: systematic, random-error budget and regression",
-                 "systematic": "systematic errors only: system distortions, Faraday rotation and noise"}
+SOURCE_SCOPES = {"all": "the systematic errors, the product's random-error budget and the regression uncertainty",
+                 "systematic": "system distortions, Faraday rotation and noise (the criterion of Men et al. 2021)"}
 """What a requirement's ``sources`` setting covers, in words."""
 
 

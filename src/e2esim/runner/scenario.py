@@ -62,6 +62,8 @@ PLOT_TYPES = (
     "agb_error_vs_sweep",
     "faraday_distributions",
     "faraday_climatology",
+    "error_budget",
+    "site_map",
 )
 
 SIMULATION_PARAMS = (

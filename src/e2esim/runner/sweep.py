@@ -103,6 +103,18 @@ def case_labels(case_inputs: list) -> list:
     its dotted path that tells it from the other shown keys and is more than a list index or a generic word.
     Cases that would still share a label (a sweep that repeats a case) get their index appended.
     """
+    shown = differing_keys(case_inputs)
+    names = _short_names(shown)
+    labels = [", ".join(f"{names[k]}={_value_text(inputs.get(k))}" for k in shown) or "base case"
+              for inputs in case_inputs]
+    counts: dict = {}
+    for label in labels:
+        counts[label] = counts.get(label, 0) + 1
+    return [f"{label} (#{i})" if counts[label] > 1 else label for i, label in enumerate(labels)]
+
+
+def differing_keys(case_inputs: list) -> list:
+    """The sweep keys that tell cases apart, in order: each varies and is not fixed by the keys before it."""
     keys = list(dict.fromkeys(k for inputs in case_inputs for k in inputs))
     shown: list = []
     for key in keys:
@@ -112,13 +124,7 @@ def case_labels(case_inputs: list) -> list:
             seen.setdefault(context, set()).add(_text(inputs.get(key)))
         if any(len(values) > 1 for values in seen.values()):
             shown.append(key)
-    names = _short_names(shown)
-    labels = [", ".join(f"{names[k]}={_value_text(inputs.get(k))}" for k in shown) or "base case"
-              for inputs in case_inputs]
-    counts: dict = {}
-    for label in labels:
-        counts[label] = counts.get(label, 0) + 1
-    return [f"{label} (#{i})" if counts[label] > 1 else label for i, label in enumerate(labels)]
+    return shown
 
 
 _GENERIC = {"type", "name", "value", "mode", "level_db", "mean_deg", "sd_deg"}
