@@ -49,26 +49,26 @@ def plot_error_budget(result, folder: Path, options: dict) -> list:
     drawn: dict = {}
     for ax, (j, cases, which, rows) in zip(axes[:, 0], panels):
         unit = cases[0].verdicts[j].unit
-        for c, case_rows in zip(cases, rows):
+        for y, (c, case_rows) in enumerate(zip(cases, rows)):
             right = left = 0.0
             for r in case_rows:
                 value = r["contribution"]
                 if not np.isfinite(value) or value == 0.0:
                     continue
                 start = right if value > 0 else left + value
-                bar = ax.barh(c.index, abs(value), left=start, color=colours[r["source"]], edgecolor="white",
+                bar = ax.barh(y, abs(value), left=start, color=colours[r["source"]], edgecolor="white",
                               hatch=GROUP_HATCH.get(r["group"], ""), height=0.7)
                 drawn.setdefault(f"{source_name(r['source'])} ({r['group']})", bar)
                 right, left = (right + value, left) if value > 0 else (right, left + value)
             v = c.verdicts[j]
             rest = v.value - right - left
             if np.isfinite(rest) and rest > 0 and right > 0:
-                bar = ax.barh(c.index, rest, left=right, color="0.85", edgecolor="0.6", height=0.7)
+                bar = ax.barh(y, rest, left=right, color="0.85", edgecolor="0.6", height=0.7)
                 drawn.setdefault("not attributed to one source (interactions)", bar)
-            ax.plot(v.value, c.index, "kd", ms=5)
+            ax.plot(v.value, y, "kd", ms=5)
         ax.axvline(cases[0].verdicts[j].limit, color="tab:red", lw=1.2, ls="--")
         ax.axvline(0, color="k", lw=0.6)
-        case_ticks(ax, cases, axis="y")
+        case_ticks(ax, cases, axis="y", positions=range(len(cases)))
         ax.invert_yaxis()
         ax.set_xlabel(f"{unit}", fontsize=8)
         ax.set_title(f"{names[j]}: {which}", fontsize=9)

@@ -145,11 +145,12 @@ def legend(ax, n_series: int) -> None:
         ax.legend(fontsize=7)
 
 
-def case_ticks(ax, cases, axis: str = "x", max_labels: int = 40) -> None:
-    """Case labels as tick labels (at most ``max_labels``; beyond that, case numbers)."""
-    positions = [c.index for c in cases]
+def case_ticks(ax, cases, axis: str = "x", max_labels: int = 40, positions=None) -> None:
+    """Case labels as tick labels at ``positions`` (default: the case numbers); at most ``max_labels``, beyond
+    that the axis says "case number"."""
+    positions = [c.index for c in cases] if positions is None else list(positions)
     if len(cases) <= max_labels:
-        labels = [_short(c.label) for c in cases]
+        labels = [_short(f"{c.index}: {c.label}", 72 if axis == "y" else 48) for c in cases]
         (ax.set_xticks if axis == "x" else ax.set_yticks)(positions, labels, fontsize=7,
                                                           **({"rotation": 30, "ha": "right"} if axis == "x" else {}))
     else:

@@ -74,24 +74,20 @@ def margin_table(result) -> Table | None:
                                 for k in v.details if k.endswith(".limit_db")))
     if not levels:
         return None
-    header = ["case", "requirement"]
-    for level in levels:
-        name = LEVEL_NAMES.get(level, level.replace("_", " "))
-        header += [f"{name}: limit (dB)", "specification (dB)", "margin to the specification (dB)",
-                   "residual after calibration (dB)", "margin to the residual (dB)"]
+    header = ("case", "requirement", "error level", "limit (dB)", "specification (dB)",
+              "margin to the specification (dB)", "residual after calibration (dB)", "margin to the residual (dB)")
     rows = []
     for c in result.cases:
         for v in c.verdicts:
-            if not any(f"{level}.limit_db" in v.details for level in levels):
-                continue
-            cells = [f"{c.index}: {c.label}", v.name]
+            d = v.details
             for level in levels:
-                d = v.details
-                cells += [fmt(d.get(f"{level}.limit_db"), 4), fmt(d.get(f"{level}.spec_db"), 4),
-                          fmt(d.get(f"{level}.spec_margin_db"), 3), fmt(d.get(f"{level}.residual_db"), 4),
-                          fmt(d.get(f"{level}.margin_db"), 3)]
-            rows.append(tuple(cells))
-    return Table(tuple(header), tuple(rows))
+                if f"{level}.limit_db" not in d:
+                    continue
+                rows.append((f"{c.index}: {c.label}", v.name, LEVEL_NAMES.get(level, level.replace("_", " ")),
+                             fmt(d.get(f"{level}.limit_db"), 4), fmt(d.get(f"{level}.spec_db"), 4),
+                             fmt(d.get(f"{level}.spec_margin_db"), 3), fmt(d.get(f"{level}.residual_db"), 4),
+                             fmt(d.get(f"{level}.margin_db"), 3)))
+    return Table(header, tuple(rows))
 
 
 def case_table(result) -> Table:

@@ -84,10 +84,12 @@ OUTPUT_PARAMS = (
     Param("folder", "str", "output folder, relative to the working directory (null: runs/<scenario name>)",
           default=None, nullable=True),
     Param("title", "str", "report title (null: the scenario name)", default=None, nullable=True),
-    Param("plots", "str", "plots in the report", default=("auto",), variable_length=True, choices=PLOT_TYPES),
+    Param("plots", "str", "plots in the report (the error budget is always drawn when there are requirements, the "
+          "site map when the sweep varies the site)", default=("auto",), variable_length=True, choices=PLOT_TYPES),
     Param("plot_x", "str", "sweep key on the x axis of sweep plots (null: the first numeric sweep key)",
           default=None, nullable=True),
-    Param("plot_group_by", "str", "sweep key that makes the series of sweep plots (null: all other keys)",
+    Param("plot_group_by", "str", "sweep key that makes the series of sweep plots (null: the next key that tells "
+          "cases apart); the other swept keys make the panels",
           default=None, nullable=True),
     Param("histogram_cases", "int", "at most this many cases get an error histogram", default=12, minimum=1),
 )
