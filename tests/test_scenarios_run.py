@@ -21,7 +21,22 @@ def test_scenario_runs_and_writes_plots(path, tmp_path):
     assert main(["run", str(path), "-o", str(out), "--no-progress", *QUICK, *EXTRA.get(path.stem, [])]) == 0
     assert (out / "summary.json").is_file() and (out / "results.h5").is_file()
     assert list(out.glob("*.png")), "no plot written"
+    report = (out / "report.md").read_text()
+    assert "**Warning:**" not in report, "a requested plot was not drawn"  # issue 11: plots that went missing
+    if "requirements" in (path.read_text()):
+        assert "## Error budget" in report and (out / "error_budget.png").is_file()
 
+    if path.stem == "biomass_latitude_sweep":
+        _check_large_sweep_report(out, report)
+
+
+def _check_large_sweep_report(out, report):
+    """The 120-case latitude sweep: plots against latitude, every case's Faraday rotation, tables collapsed."""
+    assert "Requirement margins against site latitude (deg)" in report
+    assert "One-way Faraday rotation before any correction against site latitude (deg), every case" in report
+    assert "<details><summary>Every case (120 rows)</summary>" in report
+    assert report.index("![") < report.index("<details><summary>Every case")
+    assert (out / "site_map.png").is_file() and "against a limit of 20 %" in report
 
 def test_tradeoff_scenario_reports_axis_crossings(tmp_path):
     import json

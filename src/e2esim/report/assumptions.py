@@ -65,7 +65,8 @@ def assumption_rows(resolved, scalars_of_cases) -> tuple[list, list]:
             else:
                 source = f"default of {module.kind} type '{module.type_name}': {param.doc}"
             shown = _value(value, param.unit)
-            if value is None and name in PRESET_FIELDS and module.type_name == "backscatter_error_budget":
+            if (value is None and name in PRESET_FIELDS and module.type_name == "backscatter_error_budget"
+                    and PRESET_FIELDS[name][0] in _preset(module.config["preset"])):
                 field, factor = PRESET_FIELDS[name]
                 preset = module.config["preset"]
                 shown, source = _preset_value(preset, field, factor, param.unit)
@@ -86,6 +87,12 @@ def assumption_rows(resolved, scalars_of_cases) -> tuple[list, list]:
 
 
 _MISSING = object()
+
+
+def _preset(name: str) -> dict:
+    from e2esim.budget import presets
+
+    return presets.PRESETS[name]
 
 
 def _get(mapping, dotted: str, default=None):
