@@ -146,3 +146,101 @@ def test_modules_lists_every_kind_with_parameters(capsys):
     assert main(["modules", "instrument"]) == 0
     assert "crosstalk.convention" in capsys.readouterr().out
     assert main(["modules", "antenna"]) == 2
+
+
+# Issue 11: a report a mission review can use ---------------------------------------------------------------
+def test_report_first_screen_answers_the_question(default_runs):
+    out = default_runs["a"]
+    s = json.loads((out / "summary.json").read_text())
+    report = (out / "report.md").read_text()
+    worst = s["cases"][0]["requirements"][1]  # RMSE of every source, case 0 is the worst
+    assert s["requirements"][1]["sources"] == "all" and s["requirements"][0]["sources"] == "systematic"
+    sentence = next(line for line in report.splitlines() if line.startswith("**FAIL** AGB RMSE"))
+    assert "(all sources) fails in 5 of 5 cases" in sentence
+    assert f"{worst['value']:.3g} % against a limit of 20 %" in sentence
+    speckle = worst["details"]["contribution.speckle_noise_percent"]
+    alone = s["cases"][0]["results"]["agb.contribution.speckle_noise.rmse_percent"]
+    assert f"speckle and noise contributes most (without it the value would be {speckle:.3g} percentage" in sentence
+    assert f"on its own it gives an RMSE of {alone:.3g} of the {worst['value']:.3g} %" in sentence
+    # the conclusions come before the first table, the budget before the plots, long tables are not collapsed
+    assert report.index("## Conclusions") < report.index("## Requirement verdicts") < report.index("## Error budget")
+    assert report.index("## Error budget") < report.index("## Plots") < report.index("## Cases")
+    page = (out / "report.html").read_text()
+    assert page.count('<span class="badge fail">FAIL</span>') >= 6 and '<span class="badge pass">PASS</span>' in page
+    assert "AGB error 99.865 %, all sources" in report and "(systematic only)" in report
+
+
+def test_error_budget_in_summary_is_the_verdicts_attribution(default_runs):
+    s = json.loads((default_runs["a"] / "summary.json").read_text())
+    for case in s["cases"]:
+        for req in case["requirements"]:
+            budget = {r["source"]: r for r in req["budget"]}
+            keys = [k for k in req["details"] if k.startswith("contribution.")]
+            assert len(budget) == len(keys) > 0
+            for k in keys:
+                source = k[len("contribution."):-len("_percent")]
+                assert budget[source]["contribution"] == req["details"][k] and budget[source]["unit"] == "%"
+        groups = {r["source"]: r["group"] for r in case["requirements"][1]["budget"]}
+        assert groups["speckle_noise"] == "random" and groups["crosstalk"] == "systematic"
+        assert set(groups) > {r["source"] for r in case["requirements"][0]["budget"]}  # systematic only
+        agb = {r["source"]: r for r in case["agb_budget"]}
+        assert agb["speckle_noise"]["rmse_percent"] == case["results"]["agb.contribution.speckle_noise.rmse_percent"]
+    assert "![" in (default_runs["a"] / "report.md").read_text().split("## Error budget")[1].split("## ")[0]
+
+
+def test_margins_are_given_to_the_specification_and_to_the_residual(default_runs):
+    s = json.loads((default_runs["a"] / "summary.json").read_text())
+    d = s["cases"][0]["requirements"][0]["details"]
+    # the scenario states crosstalk -30 dB and channel imbalance -34 dB (3-sigma), NESZ -27 dB
+    assert d["crosstalk.spec_db"] == -30.0 and d["channel_imbalance.spec_db"] == -34.0 and d["nesz.spec_db"] == -27.0
+    for level in ("crosstalk", "channel_imbalance", "nesz"):
+        assert d[f"{level}.spec_margin_db"] == pytest.approx(d[f"{level}.limit_db"] - d[f"{level}.spec_db"])
+        assert d[f"{level}.margin_db"] == pytest.approx(d[f"{level}.limit_db"] - d[f"{level}.residual_db"])
+    # the transponder calibration leaves less crosstalk than specified: the two margins differ
+    assert d["crosstalk.residual_db"] < d["crosstalk.spec_db"] - 1.0
+    assert d["crosstalk.margin_db"] > d["crosstalk.spec_margin_db"] + 1.0
+    report = (default_runs["a"] / "report.md").read_text()
+    assert "margin to the specification (dB)" in report and "margin to the residual (dB)" in report
+
+
+def test_assumptions_list_the_preset_values_with_their_sources(default_runs):
+    report = (default_runs["a"] / "report.md").read_text()
+    section = report.split("## Assumptions")[1].split("\n## ")[0]
+    row = next(line for line in section.splitlines() if "observation.speckle_diverse_observations" in line)
+    assert "| 1 |" in row and "speckle identical" in row and "budget preset 'biomass_200m'" in row
+    assert next(line for line in section.splitlines() if "observation.observations`" in line).count("| 3 |") == 1
+    assert "| `propagation.1.temporal.sd_percent` | 5 % | the scenario |" in section
+    s = json.loads((default_runs["a"] / "summary.json").read_text())
+    looks = sorted(c["results"]["budget.looks"] for c in s["cases"])
+    assert f"| looks of the product (speckle) | {looks[0]:.3g} to {looks[-1]:.3g} |" in section or \
+        f"| looks of the product (speckle) | {looks[0]:.3g} |" in section
+    assert "| `instrument.crosstalk.level_db` | -30 dB | default of instrument type 'biomass'" in section
+    assert "| `ionosphere.tec_variability` | 0.25 | the scenario |" in section
+
+
+def test_default_report_draws_every_requested_plot(default_runs):
+    out = default_runs["a"]
+    report = (out / "report.md").read_text()
+    assert "Warning" not in report
+    for name in ("verdicts", "tradeoff", "error_histograms", "faraday_distributions", "error_budget", "site_map"):
+        assert (out / f"{name}.png").is_file(), name
+    assert "residual after calibration" in report  # the trade-off plot marks both points
+
+
+def test_results_h5_stores_acquisitions_and_provenance(default_runs):
+    import shutil
+
+    with h5py.File(default_runs["a"] / "results.h5") as f:
+        acq = f["acquisitions/case000000"]
+        n = acq["omega_deg"].shape[0]
+        assert n > 50 and acq["incidence_deg"].shape == (n,) and acq["time_utc"].shape == (n,)
+        inc = acq["incidence_deg"][()]
+        assert inc.min() >= 23.0 - 1e-9 and inc.max() <= 33.75 + 1e-9  # the BIOMASS swath
+        assert acq["weight"][()].sum() == pytest.approx(1.0)
+        assert {x.decode() for x in acq["pass_label"][()]} == {"dawn", "dusk"}
+        assert acq["omega_deg"].attrs["units"] == "deg"
+        commit = f.attrs.get("source_commit")
+    if shutil.which("git") and (ROOT / ".git").exists():
+        described = subprocess.run(["git", "describe", "--always", "--dirty", "--tags"], cwd=ROOT, capture_output=True,
+                                   text=True).stdout.strip()
+        assert commit is not None and commit.split("-dirty")[0] == described.split("-dirty")[0]

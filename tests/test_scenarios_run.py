@@ -27,12 +27,26 @@ def _check_outputs(folder, cases=None):
             for key, value in case.scalars.items():
                 if np.isfinite(value):
                     assert written["results"][key] == value, key
+    assert "**Warning:**" not in report, "a requested plot was not drawn"  # issue 11: plots that went missing
+    if summary["requirements"]:
+        assert "## Error budget" in report and (folder / "error_budget.png").is_file()
+    if summary["scenario"] == "biomass_latitude_sweep":
+        _check_large_sweep_report(folder, report)
     for case in summary["cases"]:
         r = case["results"]
         if "comparison.var_rel_diff" in r and not case["notes"]:
             assert abs(r["comparison.bias_rel_diff"] / r["comparison.bias_rel_se"]) < Z_MAX, case["label"]
             assert abs(r["comparison.var_rel_diff"] / r["comparison.var_rel_se"]) < Z_MAX, case["label"]
     return summary
+
+
+def _check_large_sweep_report(out, report):
+    """The 120-case latitude sweep: plots against latitude, every case's Faraday rotation, tables collapsed."""
+    assert "Requirement margins against site latitude (deg)" in report
+    assert "One-way Faraday rotation before any correction against site latitude (deg), every case" in report
+    assert "<details><summary>Every case (120 rows)</summary>" in report
+    assert report.index("![") < report.index("<details><summary>Every case")
+    assert (out / "site_map.png").is_file() and "against a limit of 20 %" in report
 
 
 @pytest.mark.parametrize("name", scenario_names())

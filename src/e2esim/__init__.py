@@ -3,6 +3,22 @@
 The physics lives in small, vectorised kernels (``e2esim.polarimetry``, ``e2esim.distortion``, ...);
 modules that a scenario names wrap them (``e2esim.module``); the runner, I/O, report and command
 line sit on top (``e2esim.runner``, ``e2esim.io``, ``e2esim.report``, ``e2esim.cli``).
+
+The Python API (``e2esim.api``): ``e2esim.run(scenario, **overrides)`` returns a ``Results``;
+``e2esim.open_results(path)`` reads a results.h5 back into the same interface.
 """
 
 __version__ = "0.1.0"
+
+_API = {"run": "e2esim.api", "open_results": "e2esim.api", "load_scenario": "e2esim.api", "Results": "e2esim.results"}
+
+
+def __getattr__(name):  # imported on first use: `import e2esim` stays light for the command line
+    if name in _API:
+        import importlib
+
+        return getattr(importlib.import_module(_API[name]), name)
+    raise AttributeError(f"module 'e2esim' has no attribute {name!r}")
+
+
+__all__ = ["run", "open_results", "load_scenario", "Results", "__version__"]

@@ -1,4 +1,4 @@
-"""The ``e2esim`` command line: run, validate, modules, reproduce.
+"""The ``e2esim`` command line: run, validate, modules, reproduce, compare.
 
 User errors (bad scenario, bad argument) print one clear message and exit with status 2, without a
 traceback; ``--debug`` shows the traceback.
@@ -19,6 +19,7 @@ EXAMPLES = """examples:
   e2esim validate scenarios/men2021_table2.yaml
   e2esim modules instrument
   e2esim reproduce men2021 --json
+  e2esim compare runs/biomass_default runs/crosstalk_28
 """
 
 
@@ -70,6 +71,18 @@ def build_parser() -> argparse.ArgumentParser:
     rep.add_argument("sources", nargs="*", metavar="SOURCE", help="only these sources or ids (e.g. men2021)")
     rep.add_argument("--json", action="store_true", help="print the records as a JSON list")
     rep.add_argument("--report", metavar="FILE", help="write a markdown verification report to FILE")
+
+    cmp = sub.add_parser("compare", help="show what differs between two runs",
+                         description="Compare two runs (their folders or results.h5 files): the resolved scenarios, "
+                                     "the verdicts and every output number of the cases they share. Prints the "
+                                     "differences and writes them as a Markdown report. Exit status 0 when the runs "
+                                     "agree, 1 when they differ.")
+    cmp.add_argument("run_a", metavar="RUN_A", help="first run: output folder or results.h5")
+    cmp.add_argument("run_b", metavar="RUN_B", help="second run: output folder or results.h5")
+    cmp.add_argument("--report", metavar="FILE", default="comparison.md",
+                     help="Markdown report to write (default: comparison.md in the working directory)")
+    cmp.add_argument("--rtol", type=float, default=1e-9, metavar="R",
+                     help="relative difference below which two numbers agree (default 1e-9)")
     return parser
 
 
@@ -174,4 +187,20 @@ def cmd_reproduce(args) -> int:
     return 0 if all(r.status != "failed" for r in records) else 1
 
 
-COMMANDS = {"run": cmd_run, "validate": cmd_validate, "modules": cmd_modules, "reproduce": cmd_reproduce}
+def cmd_compare(args) -> int:
+    from e2esim.api import open_results
+    from e2esim.io.atomic import write_text_atomic
+    from e2esim.io.compare import compare_report
+
+    if not args.rtol >= 0:
+        raise UserError(f"--rtol {args.rtol}: expected a relative tolerance >= 0")
+    text, differ = compare_report(open_results(args.run_a), open_results(args.run_b), args.run_a, args.run_b,
+                                  args.rtol)
+    write_text_atomic(args.report, text + "\n")
+    print(text)
+    print(f"(written to {args.report})")
+    return 1 if differ else 0
+
+
+COMMANDS = {"run": cmd_run, "validate": cmd_validate, "modules": cmd_modules, "reproduce": cmd_reproduce,
+            "compare": cmd_compare}

@@ -1,4 +1,8 @@
-"""results.h5: every case's inputs and results with provenance. Layout in docs/output-format.md."""
+"""results.h5: every case's inputs and results with provenance. Layout in docs/output-format.md.
+
+Every dataset carries a ``units`` and a ``description`` attribute (``e2esim.io.scalar_units``), so the file
+reads without the documentation; ``e2esim.open_results`` reads it back.
+"""
 
 from __future__ import annotations
 
@@ -9,8 +13,23 @@ import numpy as np
 import yaml
 
 from e2esim.io.atomic import atomic_path
+from e2esim.io.scalar_units import TEXT, detail_unit, scalar_description, scalar_unit
+from e2esim.io.summary import requirement_sources
 
 _STR = h5py.string_dtype("utf-8")
+FORMAT_VERSION = 2  # 2: units and descriptions on every dataset, acquisitions, requirement sources
+
+
+def put(group, name: str, data, units: str, description: str, dtype=None):
+    """Create dataset ``name`` with its ``units`` and ``description`` attributes."""
+    ds = group.create_dataset(name, data=data, dtype=dtype)
+    ds.attrs["units"] = units
+    ds.attrs["description"] = description
+    return ds
+
+
+def _text(group, name, values, description):
+    return put(group, name, list(values) if not isinstance(values, str) else values, TEXT, description, _STR)
 
 
 def write_results(result, path) -> None:
@@ -19,57 +38,131 @@ def write_results(result, path) -> None:
     n = len(cases)
     with atomic_path(path) as tmp, h5py.File(tmp, "w") as f:
         for key, value in result.provenance.items():
-            f.attrs[key] = json.dumps(value) if isinstance(value, list) else value
+            if value is None:
+                continue  # e.g. no source commit outside a git checkout
+            f.attrs[key] = json.dumps(value) if isinstance(value, (list, dict)) else value
         f.attrs["scenario_name"] = result.scenario.name
         f.attrs["n_cases"] = n
+        f.attrs["format_version"] = FORMAT_VERSION
         prov = f.create_group("provenance")
-        prov.create_dataset("resolved_scenario", data=yaml.safe_dump(result.scenario.resolved, sort_keys=False),
-                            dtype=_STR)
-        prov.create_dataset("scenario_as_given", data=yaml.safe_dump(result.scenario.raw, sort_keys=False),
-                            dtype=_STR)
+        _text(prov, "resolved_scenario", yaml.safe_dump(result.scenario.resolved, sort_keys=False),
+              "the scenario with every module's defaults filled in (first case) and the sweep, YAML")
+        _text(prov, "scenario_as_given", yaml.safe_dump(result.scenario.raw, sort_keys=False),
+              "the scenario as read, after --set overrides, YAML")
 
         g = f.create_group("cases")
-        g.create_dataset("index", data=np.array([c.index for c in cases], dtype=np.int64))
-        g.create_dataset("label", data=[c.label for c in cases], dtype=_STR)
+        put(g, "index", np.array([c.index for c in cases], dtype=np.int64), "1", "case number")
+        _text(g, "label", [c.label for c in cases], "case label: the sweep keys that differ between cases")
         inputs = g.create_group("inputs")
         for key in result.scenario.sweep_keys:
             values = [c.inputs.get(key) for c in cases]
+            about = f"sweep value of {key} in each case"
             if all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in values):
-                inputs.create_dataset(key, data=np.array(values, dtype=float))
+                put(inputs, key, np.array(values, dtype=float), _input_unit(key), about)
             else:
-                inputs.create_dataset(key, data=[json.dumps(v) if not isinstance(v, str) else v for v in values],
-                                      dtype=_STR)
+                _text(inputs, key, [json.dumps(v) if not isinstance(v, str) else v for v in values],
+                      about + " (JSON for values that are not text)")
         res = g.create_group("results")
-        names = sorted({k for c in cases for k in c.scalars})
-        for name in names:
-            res.create_dataset(name, data=np.array([c.scalars.get(name, np.nan) for c in cases], dtype=float))
+        req_units = tuple(v.unit for v in cases[0].verdicts) if cases else ()
+        for name in sorted({k for c in cases for k in c.scalars}):
+            put(res, name, np.array([c.scalars.get(name, np.nan) for c in cases], dtype=float),
+                scalar_unit(name, req_units), scalar_description(name) + "; NaN where a case lacks it")
+        _write_requirements(f.create_group("requirements"), result)
+        _write_arrays(f.create_group("arrays"), result)
+        _write_acquisitions(f.create_group("acquisitions"), cases)
 
-        req = f.create_group("requirements")
-        req_names = result.requirement_names
-        req.create_dataset("names", data=req_names, dtype=_STR)
-        if req_names:
-            verdicts = [[c.verdicts[j] for j in range(len(req_names))] for c in cases]
-            req.create_dataset("passed", data=np.array([[v.passed for v in row] for row in verdicts], dtype=bool))
-            for attr in ("value", "limit", "margin"):
-                req.create_dataset(attr, data=np.array([[getattr(v, attr) for v in row] for row in verdicts]))
-            req.create_dataset("unit", data=[v.unit for v in verdicts[0]], dtype=_STR)
-            req.create_dataset("basis", data=[[v.basis for v in row] for row in verdicts], dtype=_STR)
-            req.create_dataset("dominant", data=[[v.dominant for v in row] for row in verdicts], dtype=_STR)
-            det = req.create_group("details")
-            keys = sorted({(j, k) for row in verdicts for j, v in enumerate(row) for k in v.details})
-            for j, k in keys:
-                det.create_dataset(f"{j}/{k}", data=np.array([row[j].details.get(k, np.nan) for row in verdicts],
-                                                             dtype=float))
 
-        arrays = f.create_group("arrays")
-        for c in cases:
-            cg = None
-            model = c.get("backscatter.error")
-            samples = model.samples() if model is not None else None
-            if samples is not None and result.scenario.cases[c.index].settings.keep_samples:
-                cg = arrays.require_group(f"case{c.index:06d}")
-                cg.create_dataset(f"{model.channel}_errors", data=samples)  # random doubles barely compress: no filter
-            for j, v in enumerate(c.verdicts):
-                for name, values in v.curves.items():
-                    cg = cg or arrays.require_group(f"case{c.index:06d}")
-                    cg.create_dataset(f"requirement{j}/{name}", data=np.asarray(values, dtype=float))
+def _input_unit(key: str) -> str:
+    unit = scalar_unit(key.rpartition(".")[2])
+    return unit if unit != "unknown" else "as the scenario key (docs/scenario-reference.md)"
+
+
+def _write_requirements(req, result) -> None:
+    cases = result.cases
+    names = result.requirement_names
+    _text(req, "names", names, "requirement labels in scenario order")
+    if not names:
+        return
+    verdicts = [[c.verdicts[j] for j in range(len(names))] for c in cases]
+    units = [v.unit for v in verdicts[0]]
+    _text(req, "sources", requirement_sources(result.scenario),
+          "error sources each requirement covers: all, or systematic (system distortions, Faraday rotation, noise)")
+    put(req, "passed", np.array([[v.passed for v in row] for row in verdicts], dtype=bool), "1",
+        "verdict of requirement j (column) in case i (row): true passes")
+    about = {"value": "the checked quantity", "limit": "the requirement's bound", "margin": "limit - value; positive passes"}
+    for attr in ("value", "limit", "margin"):
+        put(req, attr, np.array([[getattr(v, attr) for v in row] for row in verdicts], dtype=float),
+            "see /requirements/unit", f"{about[attr]} (case, requirement), in /requirements/unit")
+    _text(req, "unit", units, "unit of each requirement's value, limit and margin")
+    put(req, "basis", [[v.basis for v in row] for row in verdicts], TEXT, "analytic or montecarlo", _STR)
+    put(req, "dominant", [[v.dominant for v in row] for row in verdicts], TEXT,
+        "the error source whose removal would reduce the checked value most", _STR)
+    det = req.create_group("details")
+    keys = sorted({(j, k) for row in verdicts for j, v in enumerate(row) for k in v.details})
+    for j, k in keys:
+        put(det, f"{j}/{k}", np.array([row[j].details.get(k, np.nan) for row in verdicts], dtype=float),
+            detail_unit(k, units[j]), f"requirement {j}: {k} (docs/output-format.md, summary.json details)")
+
+
+def _write_arrays(arrays, result) -> None:
+    for c in result.cases:
+        cg = None
+        model = c.get("backscatter.error")
+        samples = model.samples() if model is not None else None
+        if samples is not None and result.scenario.cases[c.index].settings.keep_samples:
+            cg = arrays.require_group(f"case{c.index:06d}")
+            put(cg, f"{model.channel}_errors", samples, "m^2/m^2",  # random doubles barely compress: no filter
+                f"Monte Carlo errors of sigma_{model.channel} (realisations, noise realisations)")
+        for j, v in enumerate(c.verdicts):
+            for name, values in v.curves.items():
+                cg = cg or arrays.require_group(f"case{c.index:06d}")
+                what = ("crosstalk level (abscissa of the trade-off curve)" if name == "crosstalk_db" else
+                        "largest channel imbalance meeting the requirement at each crosstalk level (NaN: crosstalk "
+                        "alone breaks it)" if name.endswith("imbalance_db") else name)
+                put(cg, f"requirement{j}/{name}", np.asarray(values, dtype=float),
+                    "dB (instrument convention)" if name.endswith("_db") else "unknown", f"requirement {j}: {what}")
+
+
+_GEOMETRY = (  # (attribute, dataset, scale, units, description)
+    ("incidence", "incidence_deg", np.degrees, "deg", "incidence angle at the target"),
+    ("heading", "heading_deg", np.degrees, "deg", "satellite heading"),
+    ("local_time_h", "local_time_h", None, "h", "local solar time of the acquisition"),
+    ("pierce_lat", "pierce_lat_deg", np.degrees, "deg", "latitude of the ionospheric pierce point"),
+    ("pierce_lon", "pierce_lon_deg", np.degrees, "deg", "longitude of the ionospheric pierce point"),
+    ("weight", "weight", None, "1", "weight of the acquisition in the case's statistics"),
+)
+_FARADAY = (
+    ("acquisition_omega", "omega_deg", np.degrees, "deg", "one-way Faraday rotation at the IRI median (before "
+     "day-to-day variability)"),
+    ("vtec", "vtec_tecu", lambda x: np.asarray(x) / 1e16, "TECU", "vertical TEC at the pierce point"),
+    ("stec", "stec_tecu", lambda x: np.asarray(x) / 1e16, "TECU", "slant TEC along the ray"),
+    ("b_dot_k", "b_dot_k_ut", lambda x: np.asarray(x) * 1e6, "uT", "density-weighted mean B.k along the ray"),
+    ("range_delay_m", "range_delay_m", None, "m", "one-way slant range delay"),
+)
+
+
+def _write_acquisitions(acq, cases) -> None:
+    """Per case and acquisition: the geometry (``geometry``) and the Faraday rotation before any correction
+    (``faraday.geophysical``, when it comes from a climatology of the acquisitions)."""
+    for c in cases:
+        geom, fr = c.get("geometry"), c.get("faraday.geophysical")
+        omega = getattr(fr, "acquisition_omega", None)
+        if geom is None and omega is None:
+            continue
+        cg = acq.create_group(f"case{c.index:06d}")
+        if geom is not None:
+            _text(cg, "time_utc", np.datetime_as_string(geom.time_utc, unit="s"), "time of the acquisition (UTC)")
+            _text(cg, "pass_label", [str(p) for p in geom.pass_label], "pass of the acquisition (e.g. dawn, dusk)")
+            for attr, name, scale, units, about in _GEOMETRY:
+                _put_array(cg, name, getattr(geom, attr), scale, units, about)
+        if omega is not None:
+            if geom is None and fr.pass_label is not None:
+                _text(cg, "pass_label", [str(p) for p in fr.pass_label], "pass of the acquisition")
+            for attr, name, scale, units, about in _FARADAY:
+                _put_array(cg, name, getattr(fr, attr), scale, units, about)
+
+
+def _put_array(group, name, values, scale, units, about) -> None:
+    if values is None:
+        return
+    put(group, name, np.asarray(scale(values) if scale else values, dtype=float), units, about + ", per acquisition")

@@ -10,17 +10,30 @@ import json
 import math
 
 from e2esim.io.atomic import write_text_atomic
+from e2esim.io.error_budget import agb_budget, source_groups, verdict_budget
+
+SOURCE_SCOPES = {"all": "the systematic errors, the product's random-error budget and the regression uncertainty",
+                 "systematic": "system distortions, Faraday rotation and noise (the criterion of Men et al. 2021)"}
+"""What a requirement's ``sources`` setting covers, in words."""
+
+
+def requirement_sources(resolved) -> list:
+    """Per requirement, the error sources its verdict covers ("all" or "systematic"), from its settings."""
+    modules = resolved.cases[0].modules if resolved.cases else []
+    return [m.config.get("sources", "all") for m in modules if m.kind == "requirement"]
 
 
 def requirement_overview(result) -> list:
     """Per requirement: how many cases pass, the worst margin and where it occurs."""
     rows = []
+    sources = requirement_sources(result.scenario)
     for j, name in enumerate(result.requirement_names):
         every = [(c.index, c.label, c.verdicts[j]) for c in result.cases]
         verdicts = [t for t in every if t[2].details.get("applies", 1.0) != 0.0]  # cases the requirement covers
         worst = min(verdicts or every, key=lambda t: t[2].margin if math.isfinite(t[2].margin) else math.inf)
         rows.append({
             "name": name,
+            "sources": sources[j] if j < len(sources) else "all",
             "passed_cases": sum(v.passed for _, _, v in verdicts),
             "failed_cases": sum(not v.passed for _, _, v in verdicts),
             "not_applicable_cases": len(every) - len(verdicts),
@@ -36,16 +49,18 @@ def requirement_overview(result) -> list:
 def summary_dict(result) -> dict:
     cases = []
     for c in result.cases:
+        groups = source_groups(c)
         cases.append({
             "index": c.index,
             "label": c.label,
             "inputs": c.inputs,
             "notes": list(c.notes),
             "results": _finite(c.scalars),
+            "agb_budget": agb_budget(c.scalars, groups),
             "requirements": [
                 {"name": v.name, "passed": v.passed, "value": _number(v.value), "limit": _number(v.limit),
                  "margin": _number(v.margin), "unit": v.unit, "basis": v.basis, "dominant": v.dominant,
-                 "details": _finite(v.details), "notes": list(v.notes)}
+                 "details": _finite(v.details), "budget": verdict_budget(v, groups), "notes": list(v.notes)}
                 for v in c.verdicts
             ],
         })

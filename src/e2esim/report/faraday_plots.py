@@ -17,6 +17,7 @@ import numpy as np  # noqa: E402
 
 from e2esim.faraday.distribution import EmpiricalFaraday  # noqa: E402
 from e2esim.io.atomic import atomic_path  # noqa: E402
+from e2esim.report.plot_base import PlotSkipped  # noqa: E402
 
 _DPI = 110
 
@@ -90,21 +91,25 @@ def plot_latitude_profiles(fr_map, path) -> str:
 
 
 def plot_faraday_distributions(result, folder: Path, options: dict) -> list:
-    """Report plot: histogram of each case's Omega samples with its mean and 95 % interval."""
-    cases = [c for c in result.cases if isinstance(c.get("faraday.geophysical"), EmpiricalFaraday)]
-    cases = cases[: options.get("histogram_cases", 12)]
+    """Report plot: the one-way Faraday rotation before any correction (``faraday.geophysical``) of each case;
+    histograms for up to ``histogram_cases`` cases, for more a summary against the swept variables."""
+    cases = [c for c in result.cases if c.get("faraday.geophysical") is not None]
     if not cases:
-        return []
+        raise PlotSkipped("no case has a Faraday-rotation distribution (no ionosphere stage)")
+    if len(cases) > options.get("histogram_cases", 12):
+        return _faraday_against_sweep(result, folder, options, cases)
     ncol = min(4, len(cases))
     nrow = -(-len(cases) // ncol)
     fig, axes = plt.subplots(nrow, ncol, figsize=(3.6 * ncol, 2.8 * nrow), squeeze=False)
     for ax, c in zip(axes.ravel(), cases):
         fr = c.get("faraday.geophysical")
-        deg = np.degrees(fr.samples)
-        ax.hist(deg, bins=40, weights=fr.probabilities, color="0.6")
+        if isinstance(fr, EmpiricalFaraday):
+            ax.hist(np.degrees(fr.samples), bins=40, weights=fr.probabilities, color="0.6")
+        else:  # a parametric distribution: draw it from its quantiles
+            ax.hist(np.degrees(fr.sample(np.random.default_rng(0), 20_000)), bins=40, density=True, color="0.6")
         ax.axvline(np.degrees(fr.mean_rad), color="r", lw=1.2, label="mean")
-        p = fr.percentiles_deg((2.275, 97.725))
-        ax.axvspan(p[2.275], p[97.725], color="r", alpha=0.1, label="95.45 %")
+        lo, hi = _interval_deg(fr)
+        ax.axvspan(lo, hi, color="r", alpha=0.1, label="95.45 %")
         ax.set_title(c.label, fontsize=7)
         ax.set_xlabel("Ω (deg)", fontsize=8)
         ax.tick_params(labelsize=7)
@@ -113,8 +118,48 @@ def plot_faraday_distributions(result, folder: Path, options: dict) -> list:
     axes.ravel()[0].legend(fontsize=6)
     fig.tight_layout()
     return [(_save(fig, Path(folder) / "faraday_distributions.png"),
-             "Distribution of the one-way Faraday rotation of each case (all acquisitions, swath positions and "
-             "day-to-day TEC variability): mean (red line) and the 2.275-97.725 % interval (shaded).")]
+             "Distribution of the one-way Faraday rotation of each case before any correction (all acquisitions, "
+             "swath positions and day-to-day TEC variability): mean (red line) and the 2.275-97.725 % interval "
+             "(shaded).")]
+
+
+def _interval_deg(fr) -> tuple:
+    if isinstance(fr, EmpiricalFaraday):
+        p = fr.percentiles_deg((2.275, 97.725))
+        return p[2.275], p[97.725]
+    mean, sd = np.degrees(fr.mean_rad), np.degrees(fr.sd_rad)
+    return mean - 2 * sd, mean + 2 * sd
+
+
+def _faraday_against_sweep(result, folder, options, cases) -> list:
+    """Mean and 2.275-97.725 % interval of Omega against the sweep (every case, any number of them)."""
+    from e2esim.report.sweep_layout import facet_axes, legend, series_offsets, style, sweep_layout
+
+    layout = sweep_layout(result, options, cases)
+    if layout.x_key is None:
+        raise PlotSkipped(f"{len(cases)} cases (more than histogram_cases = {options.get('histogram_cases', 12)}) "
+                          "and no numeric sweep variable to draw their Faraday rotation against; set output.plot_x")
+    fig, axes = facet_axes(layout, height=3.6)
+    for facet, (ax,) in zip(layout.facets, axes):
+        for i, (series, dx) in enumerate(zip(facet.series, series_offsets(layout, facet))):
+            frs = [c.get("faraday.geophysical") for c in series.cases]
+            mean = np.array([np.degrees(fr.mean_rad) for fr in frs])
+            lo, hi = np.array([_interval_deg(fr) for fr in frs]).T
+            st = style(i)
+            ax.errorbar(layout.x_values(series.cases) + dx, mean, yerr=[mean - lo, hi - mean], fmt="-",
+                        marker=st["marker"], ms=3.5, capsize=2, lw=1, color=st["color"], label=series.label)
+        ax.axhline(0, color="k", lw=0.6)
+        ax.set_title(facet.title, fontsize=8)
+        ax.set_xlabel(layout.x_label, fontsize=8)
+        ax.set_ylabel("one-way Faraday rotation Ω (deg)", fontsize=8)
+        ax.grid(alpha=0.3)
+        ax.tick_params(labelsize=7)
+    legend(axes[0][0], len(layout.facets[0].series))
+    fig.tight_layout()
+    return [(_save(fig, Path(folder) / "faraday_distributions.png"),
+             f"One-way Faraday rotation before any correction against {layout.x_label}, every case: mean (marker) "
+             "and the 2.275-97.725 % interval (bar) over all acquisitions, swath positions and day-to-day TEC "
+             "variability.")]
 
 
 def plot_faraday_climatology(result, folder: Path, options: dict) -> list:
@@ -122,7 +167,8 @@ def plot_faraday_climatology(result, folder: Path, options: dict) -> list:
     the ionosphere stage (``global_map_step_deg``)."""
     case = next((c for c in result.cases if c.get("faraday.global_map") is not None), None)
     if case is None:
-        return []
+        raise PlotSkipped("no case has a global Faraday-rotation map: set global_map_step_deg in the ionosphere "
+                          "section (iri_climatology)")
     fr_map = case.get("faraday.global_map")
     folder = Path(folder)
     step = float(np.diff(fr_map.lat_deg)[0]) if fr_map.lat_deg.size > 1 else float("nan")

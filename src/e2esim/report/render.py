@@ -1,30 +1,27 @@
 """Render the report blocks (``e2esim.report.document``) as report.md and as a self-contained report.html
-with the plots embedded, so a person can open it in a browser from anywhere."""
+with the plots embedded, so a person can open it in a browser from anywhere.
+
+The HTML comes from a Jinja2 template (``templates/report.html.j2``, autoescaped); the Markdown of paragraphs
+and table cells is rendered by markdown-it-py (CommonMark, raw HTML off), and verdict badges are styled the
+same way everywhere.
+"""
 
 from __future__ import annotations
 
 import base64
-import html
-import re
 from pathlib import Path
 
-from e2esim.io.atomic import write_text_atomic
-from e2esim.report.document import Heading, Image, Paragraph, Table, build_report
+from jinja2 import Environment, PackageLoader, select_autoescape
+from markdown_it import MarkdownIt
+from markupsafe import Markup, escape
 
-_CSS = """
-body { font-family: system-ui, -apple-system, "Segoe UI", sans-serif; margin: 2em auto; max-width: 1200px;
-       padding: 0 1em; color: #222; line-height: 1.45; }
-table { border-collapse: collapse; margin: 1em 0; font-size: 0.9em; }
-th, td { border: 1px solid #ccc; padding: 0.25em 0.6em; text-align: left; }
-th { background: #f2f2f2; }
-tr:nth-child(even) td { background: #fafafa; }
-code { background: #f2f2f2; padding: 0 0.2em; }
-figure { margin: 1.5em 0; }
-figure img { max-width: 100%; border: 1px solid #ddd; }
-figcaption { font-style: italic; color: #555; }
-.fail { color: #b00; font-weight: bold; }
-.pass { color: #070; font-weight: bold; }
-"""
+from e2esim.io.atomic import write_text_atomic
+from e2esim.report.blocks import Badge, Details, Heading, Image, Paragraph, Table, Warning
+from e2esim.report.document import build_report
+
+_MD = MarkdownIt("commonmark", {"html": False})
+_ENV = Environment(loader=PackageLoader("e2esim.report", "templates"), autoescape=select_autoescape(["j2", "html"]),
+                   trim_blocks=True, lstrip_blocks=True)
 
 
 def to_markdown(blocks) -> str:
@@ -35,45 +32,71 @@ def to_markdown(blocks) -> str:
         elif isinstance(b, Paragraph):
             out += [b.text, ""]
         elif isinstance(b, Table):
-            out.append("| " + " | ".join(b.header) + " |")
+            out.append("| " + " | ".join(_md_cell(h) for h in b.header) + " |")
             out.append("|" + "---|" * len(b.header))
-            out += ["| " + " | ".join(str(c).replace("|", "\\|") for c in row) + " |" for row in b.rows]
+            out += ["| " + " | ".join(_md_cell(c) for c in row) + " |" for row in b.rows]
             out.append("")
         elif isinstance(b, Image):
             out += [f"![{b.caption}]({b.file})", "", f"*{b.caption}*", ""]
+        elif isinstance(b, Warning):
+            out += [f"> **Warning:** {b.text}", ""]
+        elif isinstance(b, Details):
+            out += [f"<details><summary>{escape(b.summary)}</summary>", "", to_markdown(b.blocks), "</details>", ""]
     return "\n".join(out)
 
 
-def _inline(text: str) -> str:
-    text = html.escape(text)
-    text = re.sub(r"`([^`]+)`", r"<code>\1</code>", text)
-    text = re.sub(r"\*\*([^*]+)\*\*", r'<span class="fail">\1</span>', text)
-    return re.sub(r"\b(PASS|pass)\b", r'<span class="pass">\1</span>', text)
+def _md_cell(cell) -> str:
+    return str(cell).replace("|", "\\|").replace("\n", " ")
+
+
+def _inline(text: str) -> Markup:
+    return Markup(_MD.renderInline(str(text)))
+
+
+def _cell(cell) -> Markup:
+    if isinstance(cell, Badge):
+        css = {"PASS": "pass", "FAIL": "fail"}.get(cell.status, "na")
+        return Markup(f'<span class="badge {css}">{escape(cell.status)}</span> ') + _inline(cell.text)
+    return _inline(cell)
+
+
+def _paragraph_html(text: str) -> Markup:
+    # a conclusion starts with its badge, written "**PASS**" in Markdown
+    for status, css in (("PASS", "pass"), ("FAIL", "fail"), ("N/A", "na")):
+        if text.startswith(f"**{status}** "):
+            return Markup(f'<span class="badge {css}">{status}</span> ') + _inline(text[len(status) + 5:])
+    return _inline(text)
+
+
+def _view(blocks, folder: Path) -> list:
+    """Plain dicts for the template, with Markdown already turned into safe HTML."""
+    out = []
+    for b in blocks:
+        if isinstance(b, Heading):
+            out.append({"kind": "heading", "level": b.level, "text": b.text})
+        elif isinstance(b, Paragraph):
+            out.append({"kind": "paragraph", "html": _paragraph_html(b.text),
+                        "conclusion": b.text.startswith(("**PASS**", "**FAIL**", "**N/A**"))})
+        elif isinstance(b, Table):
+            out.append({"kind": "table", "header": [_inline(h) for h in b.header],
+                        "rows": [[_cell(c) for c in row] for row in b.rows]})
+        elif isinstance(b, Image):
+            data = base64.b64encode((folder / b.file).read_bytes()).decode("ascii")
+            out.append({"kind": "image", "data": data, "caption": b.caption})
+        elif isinstance(b, Warning):
+            out.append({"kind": "warning", "html": _inline(b.text)})
+        elif isinstance(b, Details):
+            out.append({"kind": "details", "summary": b.summary, "blocks": _view(b.blocks, folder)})
+    return out
 
 
 def to_html(blocks, folder: Path) -> str:
     title = next((b.text for b in blocks if isinstance(b, Heading)), "e2esim report")
-    out = ["<!DOCTYPE html>", '<html lang="en"><head><meta charset="utf-8">', f"<title>{html.escape(title)}</title>",
-           f"<style>{_CSS}</style></head><body>"]
-    for b in blocks:
-        if isinstance(b, Heading):
-            out.append(f"<h{b.level}>{html.escape(b.text)}</h{b.level}>")
-        elif isinstance(b, Paragraph):
-            out.append(f"<p>{_inline(b.text)}</p>")
-        elif isinstance(b, Table):
-            head = "".join(f"<th>{html.escape(h)}</th>" for h in b.header)
-            rows = "".join("<tr>" + "".join(f"<td>{_inline(str(c))}</td>" for c in row) + "</tr>" for row in b.rows)
-            out.append(f"<table><thead><tr>{head}</tr></thead><tbody>{rows}</tbody></table>")
-        elif isinstance(b, Image):
-            data = base64.b64encode((folder / b.file).read_bytes()).decode("ascii")
-            out.append(f'<figure><img src="data:image/png;base64,{data}" alt="{html.escape(b.caption)}">'
-                       f"<figcaption>{html.escape(b.caption)}</figcaption></figure>")
-    out.append("</body></html>")
-    return "\n".join(out)
+    return _ENV.get_template("report.html.j2").render(title=title, blocks=_view(blocks, Path(folder)))
 
 
-def write_report(result, folder: Path, plots: list) -> None:
+def write_report(result, folder: Path, plots: list, warnings: list = ()) -> None:
     """Write report.md and report.html into ``folder``."""
-    blocks = build_report(result, plots)
+    blocks = build_report(result, plots, warnings)
     write_text_atomic(folder / "report.md", to_markdown(blocks))
     write_text_atomic(folder / "report.html", to_html(blocks, folder))

@@ -24,14 +24,30 @@ def level_convention(case) -> str:
     return inst.level_convention if inst is not None else "variance"
 
 
-def level_margins(requirements, model, convention: str) -> dict:
+def stated_levels_db(case) -> dict:
+    """The levels the scenario states for the instrument, before calibration, in dB: crosstalk and channel
+    imbalance in the instrument's convention (omitted when the two use different conventions: no single
+    convention to compare them in), the NESZ (dB)."""
+    inst = case.get("instrument")
+    if inst is None:
+        return {}
+    out = {"nesz": inst.nesz_db}
+    if inst.convention != "mixed":
+        out.update(crosstalk=inst.crosstalk_db, channel_imbalance=inst.imbalance_db)
+    return out
+
+
+def level_margins(requirements, model, convention: str, stated_db: dict | None = None) -> dict:
     """Levels (dB) at which the verdict flips, each level of the error model varied alone, and their margins.
 
     ``<level>.limit_db``: the level where the first of the requirement's sides starts to fail (NaN if it
-    fails at any level, +inf if it never fails); ``<level>.margin_db = limit_db - current level``. The
-    crosstalk and channel-imbalance levels are in the instrument's ``convention``, the others (the noise
-    power, as the NESZ) as 10 log10 of the level.
+    fails at any level, +inf if it never fails); ``<level>.residual_db``: the model's current level, the
+    residual after calibration; ``<level>.margin_db = limit_db - residual_db``. With ``stated_db`` (the
+    specification as the scenario states it, ``stated_levels_db``) also ``<level>.spec_db`` and
+    ``<level>.spec_margin_db = limit_db - spec_db``. The crosstalk and channel-imbalance levels are in the
+    instrument's ``convention``, the others (the noise power, as the NESZ) as 10 log10 of the level.
     """
+    stated_db = stated_db or {}
     out = {}
     for level, current in model.levels.items():
         conv = convention if level in INSTRUMENT_LEVELS else "variance"
@@ -45,6 +61,11 @@ def level_margins(requirements, model, convention: str) -> dict:
         current_db = float(level_db_from_variance(current, conv)) if current > 0 else float("-inf")
         out[f"{level}.limit_db"] = limit_db
         out[f"{level}.margin_db"] = limit_db - current_db if np.isfinite(current_db) else float("inf")
+        out[f"{level}.residual_db"] = current_db
+        if level in stated_db:
+            spec_db = float(stated_db[level])
+            out[f"{level}.spec_db"] = spec_db
+            out[f"{level}.spec_margin_db"] = limit_db - spec_db if np.isfinite(spec_db) else float("inf")
     return out
 
 

@@ -20,6 +20,7 @@ from e2esim.requirements.margins import (
     has_tradeoff_plane,
     level_convention,
     level_margins,
+    stated_levels_db,
     tradeoff_curves,
 )
 from e2esim.requirements.tradeoff import AGBRequirement
@@ -93,7 +94,7 @@ class AGBErrorBound(Requirement):
                     for side in self.sides()]
             convention = level_convention(case)
             if c["level_margins"]:
-                details.update(level_margins(reqs, model, convention))
+                details.update(level_margins(reqs, model, convention, stated_levels_db(case)))
             if c["tradeoff_curve"] and not has_tradeoff_plane(model):
                 notes.append("no trade-off curve: the error model has no crosstalk and channel-imbalance levels "
                              f"(its levels: {', '.join(model.levels) or 'none'})")

@@ -47,9 +47,10 @@ def prepare_folder(folder: Path, force: bool, resume: bool = False) -> None:
 
 
 def write_outputs(result, folder: Path) -> dict:
-    """Write every output file; return their paths."""
-    plots = make_plots(result, folder)
+    """Write every output file; return their paths and the warnings of plots that could not be drawn."""
+    warnings: list = []
+    plots = make_plots(result, folder, warnings)
     write_results(result, folder / "results.h5")
     write_summary(result, folder / "summary.json")
-    write_report(result, folder, plots)
-    return {"folder": folder, "plots": [folder / name for name, _ in plots]}
+    write_report(result, folder, plots, warnings)
+    return {"folder": folder, "plots": [folder / name for name, _ in plots], "warnings": warnings}

@@ -18,6 +18,7 @@ from tqdm.auto import tqdm
 import e2esim
 from e2esim.case import Case, Products, Services
 from e2esim.io.array_cache import open_cache
+from e2esim.io.provenance import dependency_versions, source_commit
 from e2esim.runner.executors import iter_results
 from e2esim.runner.records import case_scalars
 from e2esim.runner.scenario import CaseSpec, ResolvedScenario
@@ -138,6 +139,8 @@ def run_scenario(
         "command": command or " ".join(sys.argv),
         "python": platform.python_version(),
         "numpy": np.__version__,
+        "versions": dependency_versions(),
+        "source_commit": source_commit(),
     }
     if workers > 1 or scheduler:
         provenance["executor"] = f"dask {scheduler}" if scheduler else f"{workers} local processes"

@@ -19,7 +19,7 @@ from e2esim.errors import ConfigError, Location, ModuleLookupError, ScenarioFile
 from e2esim.module import KIND_ORDER, Module, Stage
 from e2esim.params import Param, find_param, unknown_key_error, validate_section
 from e2esim.runner.chain import assemble
-from e2esim.runner.sweep import case_label, expand_sweep, label_keys
+from e2esim.runner.sweep import case_labels, expand_sweep
 from e2esim.runner.yaml_loader import load_yaml, parse_scalar
 from e2esim.settings import MODES, SimulationSettings
 
@@ -62,6 +62,8 @@ PLOT_TYPES = (
     "agb_error_vs_sweep",
     "faraday_distributions",
     "faraday_climatology",
+    "error_budget",
+    "site_map",
 )
 
 SIMULATION_PARAMS = (
@@ -82,10 +84,12 @@ OUTPUT_PARAMS = (
     Param("folder", "str", "output folder, relative to the working directory (null: runs/<scenario name>)",
           default=None, nullable=True),
     Param("title", "str", "report title (null: the scenario name)", default=None, nullable=True),
-    Param("plots", "str", "plots in the report", default=("auto",), variable_length=True, choices=PLOT_TYPES),
+    Param("plots", "str", "plots in the report (the error budget is always drawn when there are requirements, the "
+          "site map when the sweep varies the site)", default=("auto",), variable_length=True, choices=PLOT_TYPES),
     Param("plot_x", "str", "sweep key on the x axis of sweep plots (null: the first numeric sweep key)",
           default=None, nullable=True),
-    Param("plot_group_by", "str", "sweep key that makes the series of sweep plots (null: all other keys)",
+    Param("plot_group_by", "str", "sweep key that makes the series of sweep plots (null: the next key that tells "
+          "cases apart); the other swept keys make the panels",
           default=None, nullable=True),
     Param("histogram_cases", "int", "at most this many cases get an error histogram", default=12, minimum=1),
 )
@@ -189,7 +193,7 @@ class Scenario:
                 raise ConfigError(root.child(key), f"{self.raw[key]!r} is not text", "expected a string")
         output = validate_section(OUTPUT_PARAMS, self.raw.get("output"), root.child("output"))
         case_inputs, sweep_keys = expand_sweep(self.raw.get("sweep"), root.child("sweep"))
-        shown_keys = label_keys(self.raw.get("sweep"), sweep_keys)
+        labels = case_labels(case_inputs)
         for key in ("plot_x", "plot_group_by"):
             if output[key] is not None and output[key] not in sweep_keys:
                 raise ConfigError(root.child("output").child(key), f"{output[key]!r} is not a sweep key",
@@ -197,7 +201,7 @@ class Scenario:
         cache: dict = {_PRISTINE: _object_ids(self.raw)}
         cases = []
         for index, inputs in enumerate(case_inputs):
-            cases.append(self._build_case(index, inputs, cache, shown_keys))
+            cases.append(self._build_case(index, inputs, cache, labels[index]))
         return ResolvedScenario(
             name=str(name),
             description=str(self.raw.get("description", "")),
@@ -209,7 +213,7 @@ class Scenario:
             sweep_keys=sweep_keys,
         )
 
-    def _build_case(self, index: int, inputs: dict, cache: dict, shown_keys=None) -> CaseSpec:
+    def _build_case(self, index: int, inputs: dict, cache: dict, label: str = "") -> CaseSpec:
         config = dict(self.raw)  # sections a case overrides are copied on the way down (_set_path, copy=True)
         lines = dict(self.lines)
         for key, value in inputs.items():
@@ -243,8 +247,7 @@ class Scenario:
         chain = assemble(modules, case_root)
         for key in inputs:
             _check_sweep_key(key, config, modules, Location(self.source, ("sweep", "parameters", key), lines))
-        shown = {k: v for k, v in inputs.items() if shown_keys is None or k in shown_keys}
-        return CaseSpec(index, dict(inputs), case_label(shown), settings, modules, chain)
+        return CaseSpec(index, dict(inputs), label, settings, modules, chain)
 
 
 _PRISTINE = "ids of the scenario's own mappings and lists"  # cache entry: sections no case has changed

@@ -94,20 +94,64 @@ def _sweep_values(spec: Any, where: Location) -> list:
                       "expected a list, {linspace: [start, stop, n]} or {logspace: [start, stop, n]}")
 
 
-def label_keys(sweep, sweep_keys) -> tuple:
-    """Keys shown in case labels: for a group "a, b, c" varied together only its first key names the case."""
-    if not isinstance(sweep, dict) or not isinstance(sweep.get("parameters"), dict):
-        return tuple(sweep_keys)
-    return tuple(str(key).split(",")[0].strip() for key in sweep["parameters"])
+def case_labels(case_inputs: list) -> list:
+    """One short, unique label per case, naming the keys whose values differ between cases:
+    ``forest=boreal_200, calibration.0.type=faraday_correction``.
+
+    A key is shown when it varies and is not already fixed by the keys shown before it (the site's latitude
+    beside its name, the biome beside the latitude it goes with); each key is named by the shortest tail of
+    its dotted path that tells it from the other shown keys and is more than a list index or a generic word.
+    Cases that would still share a label (a sweep that repeats a case) get their index appended.
+    """
+    shown = differing_keys(case_inputs)
+    names = _short_names(shown)
+    labels = [", ".join(f"{names[k]}={_value_text(inputs.get(k))}" for k in shown) or "base case"
+              for inputs in case_inputs]
+    counts: dict = {}
+    for label in labels:
+        counts[label] = counts.get(label, 0) + 1
+    return [f"{label} (#{i})" if counts[label] > 1 else label for i, label in enumerate(labels)]
 
 
-def case_label(inputs: dict) -> str:
-    """Short human label: ``forest=boreal_200, crosstalk.level_db=-30``."""
-    parts = []
-    for key, value in inputs.items():
-        short = ".".join(key.split(".")[-2:]) if key.count(".") >= 2 else key.split(".")[-1]
-        parts.append(f"{short}={value:g}" if isinstance(value, float) else f"{short}={value}")
-    return ", ".join(parts) or "base case"
+def differing_keys(case_inputs: list) -> list:
+    """The sweep keys that tell cases apart, in order: each varies and is not fixed by the keys before it."""
+    keys = list(dict.fromkeys(k for inputs in case_inputs for k in inputs))
+    shown: list = []
+    for key in keys:
+        seen: dict = {}
+        for inputs in case_inputs:
+            context = tuple(_text(inputs.get(k)) for k in shown)
+            seen.setdefault(context, set()).add(_text(inputs.get(key)))
+        if any(len(values) > 1 for values in seen.values()):
+            shown.append(key)
+    return shown
+
+
+_GENERIC = {"type", "name", "value", "mode", "level_db", "mean_deg", "sd_deg"}
+"""Last parts of dotted keys that say too little alone (``calibration.0.type``, ``crosstalk.level_db``)."""
+
+
+def _short_names(keys: list) -> dict:
+    def tail(key, n):
+        return ".".join(key.split(".")[-n:])
+
+    out = {}
+    for key in keys:
+        parts = key.split(".")
+        n = 1
+        while n < len(parts) and (parts[-n] in _GENERIC or parts[-n].isdigit() or parts[-n - 1].isdigit()
+                                  or sum(tail(k, n) == tail(key, n) for k in keys) > 1):
+            n += 1
+        out[key] = tail(key, n)
+    return out
+
+
+def _text(value: Any) -> str:
+    return repr(value)
+
+
+def _value_text(value: Any) -> str:
+    return f"{value:g}" if isinstance(value, float) else str(value)
 
 
 def _plain(value: Any) -> Any:

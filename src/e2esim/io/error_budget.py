@@ -1,0 +1,71 @@
+"""The error budget of each verdict and of each case's AGB error, as rows for summary.json and the report.
+
+Nothing physical is computed here; the rows are read from what the chain wrote:
+
+* per verdict, from its attribution (``contribution.<source>_<unit>`` in the details,
+  ``e2esim.requirements.attribution``): how much the checked value falls when the source is removed, in the
+  requirement's unit. A requirement on the systematic error lists only the error model's sources;
+  one on every source also the random-error budget's terms and the regression uncertainty;
+* per case, from the named contributions of the AGB error (``AGBError.contribution_stats``, written as the
+  ``agb.contribution.<source>.*`` scalars): the relative AGB error each source causes on its own (mean, SD,
+  RMSE in percent) and its share of the variance of the relative sigma error.
+"""
+
+from __future__ import annotations
+
+SYSTEMATIC = "systematic"
+GROUP_ORDER = ("systematic", "random", "regression")
+UNIT_KEYS = {"%": "percent", "t/ha": "t_ha"}
+"""The ending of a contribution key for a requirement unit (``e2esim.requirements.attribution``)."""
+
+SOURCE_NAMES = {
+    "crosstalk": "crosstalk", "channel_imbalance": "channel imbalance", "noise": "noise",
+    "faraday_rotation": "Faraday rotation", "gain": "gain error", "speckle_noise": "speckle and noise",
+    "temporal": "temporal variability", "calibration": "radiometric calibration",
+    "area_projection": "area projection", "regression": "regression (retrieval model)",
+    "system_distortions": "system distortions", "noise_bias": "noise bias",
+}
+"""Words for the source names of the built-in models; another source is shown by its name."""
+
+AGB_STATS = ("mean_percent", "sd_percent", "rmse_percent", "variance_share")
+
+
+def source_name(source: str) -> str:
+    return SOURCE_NAMES.get(source, source.replace("_", " "))
+
+
+def unit_key(unit: str) -> str:
+    return UNIT_KEYS.get(unit, unit.replace("/", "_").replace(" ", "_"))
+
+
+def source_groups(case) -> dict:
+    """{source: group} of the case's AGB contributions; the error model's sources are systematic."""
+    agb = case.get("agb.error")
+    return {c.name: c.group for c in getattr(agb, "contributions", ())}
+
+
+def verdict_budget(verdict, groups: dict) -> list:
+    """[{source, group, contribution, unit}] of one verdict, largest first within each group."""
+    suffix = "_" + unit_key(verdict.unit)
+    rows = []
+    for key, value in verdict.details.items():
+        if key.startswith("contribution.") and key.endswith(suffix):
+            source = key[len("contribution."):-len(suffix)]
+            rows.append({"source": source, "group": groups.get(source, SYSTEMATIC), "contribution": value,
+                         "unit": verdict.unit})
+    return sorted(rows, key=lambda r: (_group_rank(r["group"]), -abs(r["contribution"])))
+
+
+def agb_budget(scalars: dict, groups: dict) -> list:
+    """[{source, group, mean_percent, sd_percent, rmse_percent, variance_share}] of a case's AGB
+    contributions, from its ``agb.contribution.<source>.*`` scalars."""
+    rows = []
+    for source, group in groups.items():
+        prefix = f"agb.contribution.{source}."
+        if prefix + "rmse_percent" in scalars:
+            rows.append({"source": source, "group": group, **{k: scalars.get(prefix + k) for k in AGB_STATS}})
+    return sorted(rows, key=lambda r: (_group_rank(r["group"]), -(r["rmse_percent"] or 0.0)))
+
+
+def _group_rank(group: str) -> int:
+    return GROUP_ORDER.index(group) if group in GROUP_ORDER else len(GROUP_ORDER)

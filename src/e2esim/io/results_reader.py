@@ -1,0 +1,112 @@
+"""Read a results.h5 (``e2esim.io.results_h5``) back into ``e2esim.results.Results``: plain arrays and text,
+nothing unpickled. Files of the first format (no units attributes) read too; their units come from the
+names (``e2esim.io.scalar_units``)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import h5py
+import numpy as np
+import yaml
+
+from e2esim.errors import UserError
+from e2esim.io.scalar_units import scalar_unit
+from e2esim.results import Results
+
+
+def results_path(path) -> Path:
+    """``path`` itself, or the results.h5 inside a run folder."""
+    path = Path(path)
+    if path.is_dir():
+        path = path / "results.h5"
+    if not path.is_file():
+        raise UserError(f"{path}: no such results file (give a run folder or its results.h5)")
+    return path
+
+
+def read_results(path) -> Results:
+    path = results_path(path)
+    try:
+        f = h5py.File(path, "r")
+    except OSError as exc:
+        raise UserError(f"{path}: not a results.h5 file ({exc})") from exc
+    with f:
+        if "cases" not in f or "provenance" not in f:
+            raise UserError(f"{path}: not an e2esim results file (no /cases or /provenance)")
+        provenance = {k: _attr(v) for k, v in f.attrs.items() if k not in ("scenario_name", "n_cases", "format_version")}
+        resolved = yaml.safe_load(_str(f["provenance/resolved_scenario"][()]))
+        cases = f["cases"]
+        labels = [_str(x) for x in cases["label"][()]]
+        sweep_keys = tuple(_sweep_keys(cases["inputs"], resolved))
+        inputs = {k: _input_values(cases["inputs"][k]) for k in sweep_keys if k in cases["inputs"]}
+        req_units_ds = f["requirements"].get("unit")
+        req_units = [_str(x) for x in req_units_ds[()]] if req_units_ds is not None else []
+        scalars, units = {}, {}
+        for name, ds in cases["results"].items():
+            scalars[name] = ds[()].astype(float)
+            units[name] = _str(ds.attrs["units"]) if "units" in ds.attrs else scalar_unit(name, tuple(req_units))
+        req = f["requirements"]
+        names = [_str(x) for x in req["names"][()]]
+        n, r = len(labels), len(names)
+        out = Results(
+            scenario_name=_str(f.attrs.get("scenario_name", path.parent.name)), sweep_keys=sweep_keys, labels=labels,
+            inputs=inputs, scalars=scalars, units=units, requirements=names, requirement_units=req_units,
+            requirement_sources=[_str(x) for x in req["sources"][()]] if "sources" in req else ["all"] * r,
+            provenance=provenance, resolved_scenario=resolved,
+        )
+        if r:
+            out.passed = req["passed"][()].astype(bool)
+            out.value, out.limit, out.margin = (req[k][()].astype(float) for k in ("value", "limit", "margin"))
+            out.dominant = np.array([[_str(x) for x in row] for row in req["dominant"][()]], dtype=object)
+            out.details = [{k: ds[()].astype(float) for k, ds in req["details"][str(j)].items()}
+                           if str(j) in req.get("details", {}) else {} for j in range(r)]
+        else:
+            out.passed = np.zeros((n, 0), bool)
+            out.value = out.limit = out.margin = np.zeros((n, 0))
+            out.dominant = np.zeros((n, 0), dtype=object)
+        return out
+
+
+def _sweep_keys(inputs, resolved) -> list:
+    """The sweep keys in the scenario's order (HDF5 lists a group's members alphabetically)."""
+    from e2esim.runner.sweep import expand_sweep
+    from e2esim.errors import Location
+
+    try:
+        _, keys = expand_sweep(resolved.get("sweep"), Location("<results.h5>", ("sweep",)))
+    except UserError:
+        keys = ()
+    return [k for k in keys if k in inputs] or sorted(inputs)
+
+
+def _input_values(ds) -> list:
+    data = ds[()]
+    if data.dtype.kind == "f":
+        return [float(x) for x in data]
+    values = []
+    for x in data:
+        text = _str(x)
+        try:  # values that are not text were written as JSON (e2esim.io.results_h5)
+            values.append(json.loads(text))
+        except ValueError:
+            values.append(text)
+    return values
+
+
+def _str(x) -> str:
+    return x.decode() if isinstance(x, bytes) else str(x)
+
+
+def _attr(value):
+    if isinstance(value, bytes):
+        value = value.decode()
+    if isinstance(value, str) and value[:1] in "[{":
+        try:
+            return json.loads(value)
+        except ValueError:
+            return value
+    if isinstance(value, np.generic):
+        return value.item()
+    return value

@@ -1,0 +1,83 @@
+"""Report plot ``error_budget``: for every requirement, how much each error source adds to the checked value
+(the verdict's attribution, ``e2esim.io.error_budget``), as stacked horizontal bars per case with the
+checked value and the limit. Sweeps of more than ``MAX_BAR_CASES`` cases show three cases: the worst, the
+median and the best."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import matplotlib.pyplot as plt
+import numpy as np
+
+from e2esim.io.error_budget import source_groups, source_name, verdict_budget
+from e2esim.report.plot_base import PlotSkipped, save
+from e2esim.report.sweep_layout import case_ticks
+
+MAX_BAR_CASES = 30
+GROUP_HATCH = {"systematic": "", "random": "//", "regression": ".."}
+
+
+def budget_cases(result, j: int) -> tuple[list, str]:
+    """The cases whose budget is drawn for requirement j, and a phrase saying which."""
+    cases = [c for c in result.cases if c.verdicts[j].details.get("applies", 1.0) != 0.0] or list(result.cases)
+    if len(cases) <= MAX_BAR_CASES:
+        return cases, "every case"
+    ordered = sorted(cases, key=lambda c: c.verdicts[j].margin)
+    picked = {id(c): c for c in (ordered[0], ordered[len(ordered) // 2], ordered[-1])}
+    return sorted(picked.values(), key=lambda c: c.index), "the worst, the median and the best case"
+
+
+def plot_error_budget(result, folder: Path, options: dict) -> list:
+    names = result.requirement_names
+    if not names:
+        raise PlotSkipped("the scenario states no requirements")
+    panels = []
+    for j in range(len(names)):
+        cases, which = budget_cases(result, j)
+        rows = [verdict_budget(c.verdicts[j], source_groups(c)) for c in cases]
+        if any(rows):
+            panels.append((j, cases, which, rows))
+    if not panels:
+        raise PlotSkipped("no verdict attributes its value to error sources (the error model cannot be evaluated "
+                          "analytically; see the notes)")
+    sources = list(dict.fromkeys(r["source"] for _, _, _, rows in panels for case_rows in rows for r in case_rows))
+    colours = {s: plt.get_cmap("tab20")(i % 20) for i, s in enumerate(sources)}
+    heights = [1.4 + 0.32 * len(cases) for _, cases, _, _ in panels]
+    fig, axes = plt.subplots(len(panels), 1, figsize=(9.5, sum(heights) + 0.6), squeeze=False,
+                             gridspec_kw={"height_ratios": heights})
+    drawn: dict = {}
+    for ax, (j, cases, which, rows) in zip(axes[:, 0], panels):
+        unit = cases[0].verdicts[j].unit
+        for y, (c, case_rows) in enumerate(zip(cases, rows)):
+            right = left = 0.0
+            for r in case_rows:
+                value = r["contribution"]
+                if not np.isfinite(value) or value == 0.0:
+                    continue
+                start = right if value > 0 else left + value
+                bar = ax.barh(y, abs(value), left=start, color=colours[r["source"]], edgecolor="white",
+                              hatch=GROUP_HATCH.get(r["group"], ""), height=0.7)
+                drawn.setdefault(f"{source_name(r['source'])} ({r['group']})", bar)
+                right, left = (right + value, left) if value > 0 else (right, left + value)
+            v = c.verdicts[j]
+            rest = v.value - right - left
+            if np.isfinite(rest) and rest > 0 and right > 0:
+                bar = ax.barh(y, rest, left=right, color="0.85", edgecolor="0.6", height=0.7)
+                drawn.setdefault("not attributed to one source (interactions)", bar)
+            ax.plot(v.value, y, "kd", ms=5)
+        ax.axvline(cases[0].verdicts[j].limit, color="tab:red", lw=1.2, ls="--")
+        ax.axvline(0, color="k", lw=0.6)
+        case_ticks(ax, cases, axis="y", positions=range(len(cases)))
+        ax.invert_yaxis()
+        ax.set_xlabel(f"{unit}", fontsize=8)
+        ax.set_title(f"{names[j]}: {which}", fontsize=9)
+        ax.grid(alpha=0.3, axis="x")
+    fig.legend(list(drawn.values()), list(drawn.keys()), loc="lower center", ncol=3, fontsize=7,
+               bbox_to_anchor=(0.5, -0.01 - 0.025 * (len(drawn) // 3)))
+    fig.tight_layout()
+    return [(save(fig, folder, "error_budget"),
+             "Error budget of each requirement: how much the checked value falls when one error source is removed "
+             "(bars, hatched: random-error budget; dotted: regression), the checked value (black diamond) and the "
+             "limit (red dashed line). The parts need not add up: the sources interact and quantiles are not "
+             "additive; grey is the part no single source accounts for.")]

@@ -1,0 +1,43 @@
+"""One sentence per requirement that answers the review's question: does it pass, in how many cases, how
+far off is the worst case, and which error source contributes most there (from its attribution)."""
+
+from __future__ import annotations
+
+from e2esim.io.error_budget import agb_budget, source_groups, source_name, unit_key
+from e2esim.io.summary import requirement_overview, requirement_sources
+from e2esim.report.blocks import badge, fmt
+from e2esim.report.tables import SCOPE_SHORT
+
+
+def conclusions(result) -> list:
+    """[(Badge, sentence)] in requirement order."""
+    out = []
+    for j, (row, scope) in enumerate(zip(requirement_overview(result), requirement_sources(result.scenario))):
+        total = row["passed_cases"] + row["failed_cases"]
+        if total == 0:
+            out.append((badge(True, applies=False), f"{row['name']}: applies to none of the {len(result.cases)} cases."))
+            continue
+        worst = result.cases[row["worst_case"]]
+        v = worst.verdicts[j]
+        verb = f"passes in all {total} cases" if row["all_passed"] else f"fails in {row['failed_cases']} of {total} cases"
+        outside = (f" ({row['not_applicable_cases']} cases outside its range)" if row["not_applicable_cases"] else "")
+        sentence = (f"{row['name']} ({SCOPE_SHORT.get(scope, scope)}) {verb}{outside}; worst case {worst.index} "
+                    f"({worst.label}): {fmt(v.value, 3)} {v.unit} against a limit of {fmt(v.limit, 3)} {v.unit}")
+        sentence += _dominant_clause(worst, v) + "."
+        out.append((badge(row["all_passed"]), sentence))
+    return out
+
+
+def _dominant_clause(case, v) -> str:
+    if not v.dominant:
+        return ""
+    share = v.details.get(f"contribution.{v.dominant}_{unit_key(v.unit)}")
+    clause = f"; {source_name(v.dominant)} contributes most"
+    if share is not None:
+        points = "percentage points" if v.unit == "%" else v.unit
+        clause += f" (without it the value would be {fmt(share, 3)} {points} lower"
+        alone = {r["source"]: r for r in agb_budget(case.scalars, source_groups(case))}.get(v.dominant)
+        if alone is not None and v.unit == "%" and "analytic.rmse_percent" in v.details:
+            clause += f"; on its own it gives an RMSE of {fmt(alone['rmse_percent'], 3)} of the {fmt(v.value, 3)} %"
+        clause += ")"
+    return clause

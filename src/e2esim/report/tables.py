@@ -1,0 +1,142 @@
+"""The tables of the report: requirement verdicts, error budgets, margins, cases, analytic against Monte
+Carlo. Every column says which error sources it covers; verdicts are badges."""
+
+from __future__ import annotations
+
+from e2esim.io.error_budget import agb_budget, source_groups, source_name, unit_key, verdict_budget
+from e2esim.io.summary import SOURCE_SCOPES, requirement_overview, requirement_sources
+from e2esim.report.blocks import Table, badge, fmt
+
+SCOPE_SHORT = {"all": "all sources", "systematic": "systematic only"}
+LEVEL_NAMES = {"crosstalk": "crosstalk", "channel_imbalance": "channel imbalance", "nesz": "NESZ"}
+
+
+def scopes(result) -> list:
+    return requirement_sources(result.scenario)
+
+
+def verdict_table(result) -> Table:
+    rows = []
+    for row, scope in zip(requirement_overview(result), scopes(result)):
+        total = row["passed_cases"] + row["failed_cases"]
+        rows.append((row["name"], SCOPE_SHORT.get(scope, scope), badge(row["all_passed"], applies=total > 0),
+                     f"{row['passed_cases']}/{total}", f"{fmt(row['worst_margin'], 3)} {row['unit']}",
+                     f"{row['worst_case']}: {row['worst_case_label']}"))
+    return Table(("requirement", "error sources covered", "verdict", "cases passing", "worst margin", "worst case"),
+                 tuple(rows))
+
+
+def budget_table(result, j: int) -> Table | None:
+    """Requirement j: per case, how much each source adds to the checked value (removal attribution)."""
+    cases = result.cases
+    rows = [verdict_budget(c.verdicts[j], source_groups(c)) for c in cases]
+    sources = list(dict.fromkeys((r["source"], r["group"]) for case_rows in rows for r in case_rows))
+    if not sources:
+        return None
+    unit = cases[0].verdicts[j].unit
+    header = ("case", f"checked value ({unit})", "verdict") + tuple(
+        f"{source_name(s)} [{g}] ({unit})" for s, g in sources)
+    body = []
+    for c, case_rows in zip(cases, rows):
+        v = c.verdicts[j]
+        by_source = {r["source"]: r["contribution"] for r in case_rows}
+        applies = v.details.get("applies", 1.0) != 0.0
+        body.append((f"{c.index}: {c.label}", fmt(v.value, 3), badge(v.passed, applies=applies))
+                    + tuple(fmt(by_source.get(s), 3) for s, _ in sources))
+    return Table(header, tuple(body))
+
+
+def agb_budget_table(result) -> Table | None:
+    """Per case, the relative AGB error each named contribution causes on its own (RMSE) and its share of the
+    variance of the relative σ_hv error."""
+    rows = [agb_budget(c.scalars, source_groups(c)) for c in result.cases]
+    sources = list(dict.fromkeys((r["source"], r["group"]) for case_rows in rows for r in case_rows))
+    if not sources:
+        return None
+    header = ("case", "total RMSE, all sources (%)") + tuple(
+        f"{source_name(s)} [{g}]: RMSE alone (%) / variance share" for s, g in sources)
+    body = []
+    for c, case_rows in zip(result.cases, rows):
+        by_source = {r["source"]: r for r in case_rows}
+        cells = []
+        for s, _ in sources:
+            r = by_source.get(s)
+            cells.append("–" if r is None else f"{fmt(r['rmse_percent'], 3)} / {fmt(100 * r['variance_share'], 2)} %")
+        body.append((f"{c.index}: {c.label}", fmt(c.scalars.get("agb.analytic.rmse_percent",
+                                                                 c.scalars.get("agb.montecarlo.rmse_percent")), 3))
+                    + tuple(cells))
+    return Table(header, tuple(body))
+
+
+def margin_table(result) -> Table | None:
+    """Level margins both ways: from the residual after calibration and from the stated specification."""
+    levels = list(dict.fromkeys(k[: -len(".limit_db")] for c in result.cases for v in c.verdicts
+                                for k in v.details if k.endswith(".limit_db")))
+    if not levels:
+        return None
+    header = ("case", "requirement", "error level", "limit (dB)", "specification (dB)",
+              "margin to the specification (dB)", "residual after calibration (dB)", "margin to the residual (dB)")
+    rows = []
+    for c in result.cases:
+        for v in c.verdicts:
+            d = v.details
+            for level in levels:
+                if f"{level}.limit_db" not in d:
+                    continue
+                rows.append((f"{c.index}: {c.label}", v.name, LEVEL_NAMES.get(level, level.replace("_", " ")),
+                             fmt(d.get(f"{level}.limit_db"), 4), fmt(d.get(f"{level}.spec_db"), 4),
+                             fmt(d.get(f"{level}.spec_margin_db"), 3), fmt(d.get(f"{level}.residual_db"), 4),
+                             fmt(d.get(f"{level}.margin_db"), 3)))
+    return Table(header, tuple(rows))
+
+
+def case_table(result) -> Table:
+    scope = scopes(result)
+    cols = [("σ_hv (m²/m²)", "scene.sigma_hv", 4),
+            ("bias, systematic (analytic, m²/m²)", "analytic.mean", 4),
+            ("SD, systematic (analytic, m²/m²)", "analytic.sd", 4),
+            ("bias, systematic (MC, m²/m²)", "montecarlo.mean", 4), ("SD, systematic (MC, m²/m²)", "montecarlo.sd", 4),
+            ("AGB error 0.135 %, all sources (%)", "agb.analytic.q00135_percent", 3),
+            ("AGB error 99.865 %, all sources (%)", "agb.analytic.q99865_percent", 3),
+            ("AGB error 99.865 %, all sources (MC, %)", "agb.montecarlo.q99865_percent", 3)]
+    present = [c for c in cols if any(c[1] in case.scalars for case in result.cases)]
+    header = ("case", "inputs") + tuple(c[0] for c in present) + tuple(
+        f"{name} ({SCOPE_SHORT.get(s, s)})" for name, s in zip(result.requirement_names, scope))
+    rows = []
+    for case in result.cases:
+        cells = [str(case.index), case.label] + [fmt(case.scalars.get(k), d) for _, k, d in present]
+        cells += [verdict_cell(v) for v in case.verdicts]
+        rows.append(tuple(cells))
+    return Table(header, tuple(rows))
+
+
+def verdict_cell(v):
+    applies = v.details.get("applies", 1.0) != 0.0
+    dominant = f"; {source_name(v.dominant)}" if v.dominant else ""
+    note = "" if applies else "; outside the requirement's AGB range"
+    return badge(v.passed, f"({fmt(v.value, 3)} {v.unit}{dominant}{note})", applies=applies)
+
+
+def comparison_table(result) -> Table | None:
+    cases = [c for c in result.cases if "comparison.bias_rel_diff" in c.scalars]
+    if not cases:
+        return None
+    rows = []
+    for c in cases:
+        s = c.scalars
+        zb = s["comparison.bias_rel_diff"] / s["comparison.bias_rel_se"]
+        zv = s["comparison.var_rel_diff"] / s["comparison.var_rel_se"]
+        rows.append((str(c.index), c.label,
+                     f"{100 * s['comparison.bias_rel_diff']:.2f} % ± {100 * s['comparison.bias_rel_se']:.2f} %",
+                     f"{zb:.2f}",
+                     f"{100 * s['comparison.var_rel_diff']:.2f} % ± {100 * s['comparison.var_rel_se']:.2f} %",
+                     f"{zv:.2f}"))
+    return Table(("case", "inputs", "bias rel. diff.", "z", "variance rel. diff.", "z"), tuple(rows))
+
+
+def contribution_key(verdict, source: str) -> str:
+    return f"contribution.{source}_{unit_key(verdict.unit)}"
+
+
+__all__ = ["verdict_table", "budget_table", "agb_budget_table", "margin_table", "case_table", "comparison_table",
+           "SOURCE_SCOPES"]

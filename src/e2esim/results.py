@@ -1,0 +1,178 @@
+"""``Results``: the numbers of a run as plain arrays, the same whether the run was made in this process
+(``e2esim.run``) or read back from its results.h5 (``e2esim.open_results``), with pandas and xarray views.
+
+Sweep keys become columns of the data frame and coordinates of the xarray Dataset; a grid sweep
+(``sweep.parameters`` in grid mode) becomes an N-dimensional array with one dimension per parameter (keys
+varied together share one dimension), any other sweep one dimension ``case``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from e2esim.io.scalar_units import scalar_description, scalar_unit
+
+
+@dataclass
+class Results:
+    """All cases of a run.
+
+    scenario_name, sweep_keys, labels (one per case), inputs ({sweep key: [value per case]}), scalars
+    ({name: (n,) float array}, every output scalar, docs/output-format.md), units ({name: unit}),
+    requirements (names), requirement_units, requirement_sources ("all"/"systematic"), passed, value, limit,
+    margin ((n, R) arrays), dominant ((n, R) strings), details ([{key: (n,) array}] per requirement),
+    provenance, resolved_scenario (dict). ``run``: the ``ScenarioResult`` with every case's products when the
+    run was made in this process (None when read from a file).
+    """
+
+    scenario_name: str
+    sweep_keys: tuple
+    labels: list
+    inputs: dict
+    scalars: dict
+    units: dict
+    requirements: list = field(default_factory=list)
+    requirement_units: list = field(default_factory=list)
+    requirement_sources: list = field(default_factory=list)
+    passed: np.ndarray = None
+    value: np.ndarray = None
+    limit: np.ndarray = None
+    margin: np.ndarray = None
+    dominant: np.ndarray = None
+    details: list = field(default_factory=list)
+    provenance: dict = field(default_factory=dict)
+    resolved_scenario: dict = field(default_factory=dict)
+    run: object = field(default=None, repr=False)
+
+    @property
+    def n_cases(self) -> int:
+        return len(self.labels)
+
+    # Construction -----------------------------------------------------------------------------------
+    @classmethod
+    def from_run(cls, result) -> "Results":
+        """From a ``ScenarioResult`` (``e2esim.runner.run.run_scenario``)."""
+        from e2esim.io.summary import requirement_sources
+
+        cases = result.cases
+        names = sorted({k for c in cases for k in c.scalars})
+        req_units = [v.unit for v in cases[0].verdicts] if cases else []
+        scalars = {k: np.array([c.scalars.get(k, np.nan) for c in cases], dtype=float) for k in names}
+        n_req = len(result.requirement_names)
+        verdicts = [list(c.verdicts) for c in cases]
+
+        def table(attr, dtype=float):
+            return np.array([[getattr(v, attr) for v in row] for row in verdicts], dtype=dtype).reshape(len(cases), n_req)
+
+        details = []
+        for j in range(n_req):
+            keys = list(dict.fromkeys(k for row in verdicts for k in row[j].details))
+            details.append({k: np.array([row[j].details.get(k, np.nan) for row in verdicts], dtype=float) for k in keys})
+        return cls(
+            scenario_name=result.scenario.name, sweep_keys=tuple(result.scenario.sweep_keys),
+            labels=[c.label for c in cases], inputs={k: [c.inputs.get(k) for c in cases] for k in result.scenario.sweep_keys},
+            scalars=scalars, units={k: scalar_unit(k, tuple(req_units)) for k in names},
+            requirements=list(result.requirement_names), requirement_units=req_units,
+            requirement_sources=requirement_sources(result.scenario),
+            passed=table("passed", bool), value=table("value"), limit=table("limit"), margin=table("margin"),
+            dominant=table("dominant", object), details=details, provenance=dict(result.provenance),
+            resolved_scenario=result.scenario.resolved, run=result,
+        )
+
+    # Views ------------------------------------------------------------------------------------------
+    def to_dataframe(self):
+        """pandas DataFrame, one row per case (index ``case``): ``label``, the sweep keys, every output scalar,
+        and per requirement j ``requirement<j>.dominant``. ``df.attrs["units"]`` gives each column's unit."""
+        import pandas as pd
+
+        columns = {"label": self.labels}
+        columns.update({k: self.inputs[k] for k in self.sweep_keys})
+        columns.update(self.scalars)
+        for j in range(len(self.requirements)):
+            columns[f"requirement{j}.dominant"] = list(self.dominant[:, j])
+        df = pd.DataFrame(columns, index=pd.RangeIndex(self.n_cases, name="case"))
+        df.attrs["units"] = dict(self.units)
+        df.attrs["requirements"] = list(self.requirements)
+        return df
+
+    def to_xarray(self):
+        """xarray Dataset: every output scalar as a variable (attributes ``units``, ``description``) over the
+        sweep's dimensions, the sweep keys as coordinates (module docstring)."""
+        import xarray as xr
+
+        dims, shape = self.sweep_dimensions()
+        dim_of = grid_coordinate_keys(self.resolved_scenario.get("sweep")) if dims != ("case",) else {}
+        coords = {}
+        for key in self.sweep_keys:
+            values = np.asarray(self.inputs[key], dtype=object if _is_text(self.inputs[key]) else float)
+            grid = values.reshape(shape)
+            dim = dim_of.get(key)
+            if dim is not None:
+                index = tuple(slice(None) if d == dim else 0 for d in dims)
+                coords[key] = (dim, grid[index])
+            else:
+                coords[key] = (tuple(dims), grid)
+        coords["label"] = (tuple(dims), np.asarray(self.labels, dtype=object).reshape(shape))
+        data = {}
+        for name, values in self.scalars.items():
+            data[name] = xr.Variable(tuple(dims), values.reshape(shape),
+                                     attrs={"units": self.units.get(name, "unknown"),
+                                            "description": scalar_description(name)})
+        ds = xr.Dataset(data, coords=coords)
+        ds.attrs.update(scenario=self.scenario_name, requirements=list(self.requirements))
+        return ds
+
+    def sweep_dimensions(self) -> tuple:
+        """(dimension names, shape): one dimension per parameter group of a grid sweep, else ("case",)."""
+        groups = _grid_groups(self.resolved_scenario.get("sweep"))
+        if groups and int(np.prod([size for _, size in groups])) == self.n_cases:
+            return tuple(keys[0] for keys, _ in groups), tuple(size for _, size in groups)
+        return ("case",), (self.n_cases,)
+
+    def verdict_table(self, j: int = 0):
+        """pandas DataFrame of requirement j per case: passed, value, limit, margin, dominant."""
+        import pandas as pd
+
+        return pd.DataFrame({"label": self.labels, "passed": self.passed[:, j], "value": self.value[:, j],
+                             "limit": self.limit[:, j], "margin": self.margin[:, j], "dominant": self.dominant[:, j]},
+                            index=pd.RangeIndex(self.n_cases, name="case"))
+
+    def write(self, folder) -> dict:
+        """Write results.h5, summary.json, the report and its plots into ``folder`` (a run made here only)."""
+        if self.run is None:
+            raise ValueError("these results were read from a file: their products (for the report and the plots) "
+                             "are not kept; run the scenario again to write a report")
+        from e2esim.runner.outputs import write_outputs
+
+        folder = Path(folder)
+        folder.mkdir(parents=True, exist_ok=True)
+        return write_outputs(self.run, folder)
+
+
+def _is_text(values) -> bool:
+    return not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in values)
+
+
+def _grid_groups(sweep) -> list:
+    """[(keys, number of values)] of a grid sweep's parameter groups, [] for any other sweep."""
+    if not isinstance(sweep, dict) or not isinstance(sweep.get("parameters"), dict) or sweep.get("mode") == "zip":
+        return []
+    from e2esim.errors import Location
+    from e2esim.runner.sweep import _sweep_values
+
+    out = []
+    for key, spec in sweep["parameters"].items():
+        keys = tuple(k.strip() for k in str(key).split(","))
+        out.append((keys, len(_sweep_values(spec, Location("<sweep>", ())))))
+    return out
+
+
+def grid_coordinate_keys(sweep) -> dict:
+    """{key: dimension} of every key of a grid sweep (keys varied together share their first key's dimension)."""
+    return {k: keys[0] for keys, _ in _grid_groups(sweep) for k in keys}
+
+
+__all__ = ["Results", "grid_coordinate_keys"]
