@@ -3,6 +3,7 @@
 
 import json
 import math
+import re
 import os
 import subprocess
 import sys
@@ -91,7 +92,9 @@ def test_a_plugin_adds_an_error_source_with_attribution_margins_and_a_tradeoff_c
                                                                - 10 * math.log10(0.3**2 / 400))
     assert details["over.crosstalk_axis_db"] > -30.0  # the trade-off curve, through the plug-in's model
     report = (out / "report.md").read_text()
-    assert "scintillation limit (dB)" in report and (out / "tradeoff.png").exists()
+    limit = re.search(r"\| scintillation \| (-?[0-9.]+) \|", report)  # the level-margin table's row
+    assert limit and float(limit.group(1)) == pytest.approx(details["scintillation.limit_db"], abs=0.01)
+    assert (out / "tradeoff.png").exists() and "contribution" in report
 
 
 def test_the_plugin_error_model_agrees_with_its_monte_carlo(plugin_path, seed):
