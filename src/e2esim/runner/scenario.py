@@ -19,8 +19,11 @@ from e2esim.chain import MODES, SimulationSettings
 from e2esim.errors import ConfigError, Location, ModuleLookupError, ScenarioFileError
 from e2esim.module import KINDS, Module
 from e2esim.params import Param, find_param, unknown_key_error, validate_section
+from e2esim.runner.limits import check_monte_carlo, check_plain, shorten
+from e2esim.runner.overrides import check_not_swept, parse_value, remove_from_sweep, split_assignment
+from e2esim.runner.plugins import plugin_list
 from e2esim.runner.sweep import case_label, expand_sweep, label_keys
-from e2esim.runner.yaml_loader import load_yaml, parse_scalar
+from e2esim.runner.yaml_loader import load_yaml, read_scenario_text
 
 MODULE_SECTIONS = ("orbit", "scene", "instrument", "ionosphere", "calibration", "propagation", "retrieval")
 """Sections that hold one module each, in chain order (the ``requirement`` kind has a list)."""
@@ -76,8 +79,8 @@ OUTPUT_PARAMS = (
     Param("histogram_cases", "int", "at most this many cases get an error histogram", default=12, minimum=1),
 )
 
-TOP_LEVEL = ("name", "description") + MODULE_SECTIONS + ("requirements", "simulation", "sweep", "output")
-NOT_SWEEPABLE = ("name", "description", "sweep", "output")
+TOP_LEVEL = ("name", "description", "plugins") + MODULE_SECTIONS + ("requirements", "simulation", "sweep", "output")
+NOT_SWEEPABLE = ("name", "description", "plugins", "sweep", "output")
 
 
 @dataclass
@@ -123,42 +126,58 @@ class Scenario:
         self.raw = data
 
     @classmethod
-    def load(cls, path: str | Path, overrides=()) -> "Scenario":
-        path = Path(path)
+    def load(cls, path: str | Path, overrides=(), allow_imports=(), replace_sweep=()) -> "Scenario":
+        """Read a scenario file and apply ``--replace-sweep`` then ``--set`` assignments (``KEY=VALUE``).
+
+        allow_imports : top-level packages that ``type: package.module:Class`` may import besides installed
+            distributions (``--allow-import``; e2esim.registry).
+        """
         source = str(path)
-        if not path.exists():
-            raise ScenarioFileError(f"{source}: no such scenario file")
-        if path.is_dir():
-            raise ScenarioFileError(f"{source}: is a folder, not a scenario file")
-        try:
-            text = path.read_text(encoding="utf-8")
-        except (OSError, UnicodeDecodeError) as exc:
-            raise ScenarioFileError(f"{source}: cannot read the scenario file: {exc}") from exc
+        text = read_scenario_text(path, source)
         if not text.strip():
             raise ScenarioFileError(f"{source}: the scenario file is empty")
         data, lines = load_yaml(text, source)
         scenario = cls(data, source, lines)
-        for item in overrides:
-            scenario.override(item)
+        scenario.allow_imports = tuple(allow_imports)
+        for item in replace_sweep:
+            scenario.replace_sweep(item)
+        set_keys = [scenario.override(item) for item in overrides]
+        check_not_swept(scenario.raw, set_keys, source)
         return scenario
 
-    def override(self, assignment: str) -> None:
-        """Apply one ``--set dotted.key=value`` (value parsed as YAML)."""
-        key, sep, text = assignment.partition("=")
-        key = key.strip()
-        if not sep or not key:
-            raise ConfigError(Location(self.source, (), self.lines), f"--set {assignment!r} is not key=value",
-                              "expected e.g. --set instrument.crosstalk.level_db=-28")
-        path = _dotted_to_path(key)
+    def override(self, assignment: str) -> tuple:
+        """Apply one ``--set dotted.key=value`` (value parsed as YAML); return (key, key path)."""
+        key, text, path = split_assignment(assignment, "--set", Location(self.source, (), self.lines))
         if path[0] not in TOP_LEVEL:
             raise unknown_key_error(Location(f"{self.source} (--set)", path[:1]), path[0], TOP_LEVEL)
-        _set_path(self.raw, path, parse_scalar(text), Location(self.source, path, self.lines))
-        self.lines[path] = f"--set {key}"
+        _set_path(self.raw, path, parse_value(text, "--set", key), Location(self.source, path, self.lines))
+        self.lines[path] = f"--set {shorten(key)}"
+        return key, path
+
+    def replace_sweep(self, assignment: str) -> None:
+        """Apply one ``--replace-sweep dotted.key=value``: the key leaves the sweep and has ``value`` in every
+        case (e2esim.runner.overrides)."""
+        where = Location(self.source, (), self.lines)
+        key, text, path = split_assignment(assignment, "--replace-sweep", where)
+        if path[0] not in TOP_LEVEL or path[0] in NOT_SWEEPABLE:
+            raise unknown_key_error(Location(f"{self.source} (--replace-sweep)", path[:1]), path[0], TOP_LEVEL)
+        remove_from_sweep(self.raw, key, Location(f"{self.source} (--replace-sweep)", ("sweep",)))
+        _set_path(self.raw, path, parse_value(text, "--replace-sweep", key), Location(self.source, path, self.lines))
+        self.lines[path] = f"--replace-sweep {shorten(key)}"
 
     # ------------------------------------------------------------------------------------------
     def resolve(self) -> ResolvedScenario:
-        """Validate every section and every sweep case; build the modules. Raises ConfigError."""
+        """Validate every section and every sweep case; build the modules. Raises ConfigError.
+
+        ``type: package.module:Class`` may import the packages of the scenario's ``plugins:`` list and of
+        ``allow_imports`` besides installed distributions (e2esim.registry, docs/security.md)."""
         root = Location(self.source, (), self.lines)
+        check_plain(self.raw, root)
+        with registry.allowed_imports(plugin_list(self.raw.get("plugins"), root.child("plugins"))
+                                      + tuple(getattr(self, "allow_imports", ()))):
+            return self._resolve(root)
+
+    def _resolve(self, root: Location) -> ResolvedScenario:
         for key in self.raw:
             if key not in TOP_LEVEL:
                 raise unknown_key_error(root.child(key), key, TOP_LEVEL)
