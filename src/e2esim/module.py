@@ -78,7 +78,7 @@ class Module(ABC):
         try:
             self.setup()
         except PhysicsInputError as exc:
-            raise ConfigError(where, str(exc)) from exc
+            raise ConfigError(exc.location(where), str(exc)) from exc
 
     def setup(self) -> None:
         """Derive physics objects from ``self.config`` (override)."""

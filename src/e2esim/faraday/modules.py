@@ -10,6 +10,7 @@ from pathlib import Path
 import numpy as np
 
 from e2esim.faraday.distribution import ConstantFaraday, EmpiricalFaraday, GaussianFaraday
+from e2esim.io.samples import read_samples_file
 from e2esim.module import Module
 from e2esim.params import Param
 from e2esim.errors import ConfigError, PhysicsInputError
@@ -93,10 +94,7 @@ class FaradaySamplesModule(Module):
         if path is not None:
             base = Path(self.location.source).parent if Path(self.location.source).exists() else Path(".")
             file = (base / path) if not Path(path).is_absolute() else Path(path)
-            try:
-                values = np.load(file) if file.suffix == ".npy" else np.loadtxt(file, ndmin=1)
-            except (OSError, ValueError) as exc:
-                raise PhysicsInputError(f"cannot read Faraday-rotation samples from {file}: {exc}") from exc
+            values = read_samples_file(file, key="samples_file")
         self.distribution = EmpiricalFaraday(np.radians(np.asarray(values, dtype=float)), label="samples")
 
     def forward(self, state):

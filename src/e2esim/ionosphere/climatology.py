@@ -127,7 +127,7 @@ def site_path_integrals(geometry, f107_levels, settings: SlantSettings, cache_di
     if cache_dir is not None:
         key = cache_mod.cache_key("site", desc, arrays)
         path = cache_mod.cache_file(cache_dir, "faraday_site", key)
-        stored = cache_mod.read(path)
+        stored = cache_mod.read(path, ("vtec", "stec", "faraday", "b_dot_k_pierce", "pierce_zenith", "f107"))
         if stored is not None:
             return PathIntegrals(stored["vtec"], stored["stec"], stored["faraday"], stored["b_dot_k_pierce"],
                                  stored["pierce_zenith"], tuple(stored["f107"].tolist()), settings.method)

@@ -189,8 +189,9 @@ def global_climatology(orbit: SunSynchronousOrbit, step_deg: float = 2.0, months
     path = None
     if cache_dir is not None:
         path = cache_mod.cache_file(cache_dir, "faraday_global", cache_mod.cache_key("global", desc))
-        stored = cache_mod.read(path)
-        if stored is not None:
+        stored = cache_mod.read(path, ("lat_deg", "lon_deg", "months", "f107", "incidence_deg", "faraday", "stec",
+                                       "vtec"))
+        if stored is not None and "year" in stored["attrs"]:
             a = stored["attrs"]
             return GlobalClimatology(stored["lat_deg"], stored["lon_deg"], tuple(stored["months"].tolist()),
                                      tuple(passes), tuple(orbit.pass_label(p) for p in passes),

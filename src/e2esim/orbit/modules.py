@@ -77,17 +77,23 @@ class SunSynchronousOrbitModule(Module):
         self.orbit = SunSynchronousOrbit(c["altitude_km"] * _KM, c["ltan_hours"], c["look_side"], c["earth_rotation"])
         if c["pierce_height_km"] >= c["altitude_km"]:
             raise PhysicsInputError(f"pierce_height_km {c['pierce_height_km']:g} must be below the orbit "
-                                    f"({c['altitude_km']:g} km)")
+                                    f"({c['altitude_km']:g} km)", key="pierce_height_km")
         if c["incidence_near_deg"] >= c["incidence_far_deg"]:
             raise PhysicsInputError(f"incidence_near_deg {c['incidence_near_deg']:g} must be below "
-                                    f"incidence_far_deg {c['incidence_far_deg']:g}")
+                                    f"incidence_far_deg {c['incidence_far_deg']:g}", key="incidence_near_deg")
         passes = self._passes(c["passes"])
         site = Site(c["site"]["name"], np.radians(c["site"]["lat_deg"]),
                     np.radians(((c["site"]["lon_deg"] + 180.0) % 360.0) - 180.0))
-        dates, phases = self._dates(c["acquisitions"])
+        try:
+            dates, phases = self._dates(c["acquisitions"])
+        except PhysicsInputError as exc:  # name the key below the section: acquisitions.<argument>
+            raise PhysicsInputError(str(exc), key="acquisitions." + (exc.key or "start")) from exc
         inc = swath_incidences(self.orbit, np.radians(c["incidence_near_deg"]), np.radians(c["incidence_far_deg"]),
                                c["swath_samples"])
-        self.geometry = acquisitions(self.orbit, site, dates, passes, inc, phases, c["pierce_height_km"] * _KM)
+        try:
+            self.geometry = acquisitions(self.orbit, site, dates, passes, inc, phases, c["pierce_height_km"] * _KM)
+        except PhysicsInputError as exc:  # out of reach of a pass: the site's latitude
+            raise PhysicsInputError(str(exc), key=exc.key or "site.lat_deg") from exc
 
     def _passes(self, choice: str) -> tuple:
         if choice == "both":
@@ -101,7 +107,10 @@ class SunSynchronousOrbitModule(Module):
         if acq["mode"] == "period":
             dates = period_dates(acq["start"], acq["end"], acq["step_days"])
             return dates, ("period",) * len(dates)
-        timeline = MissionTimeline(start=acq["mission_start"], site_slot=acq["site_slot"])
+        try:
+            timeline = MissionTimeline(start=acq["mission_start"], site_slot=acq["site_slot"])
+        except PhysicsInputError as exc:
+            raise PhysicsInputError(str(exc), key="mission_start" if exc.key == "start" else exc.key) from exc
         dates = timeline.acquisition_dates(acq["phase"])
         return dates, tuple(timeline.phase_of(d) for d in dates)
 

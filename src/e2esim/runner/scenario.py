@@ -226,6 +226,7 @@ class Scenario:
         settings = SimulationSettings(
             **validate_section(SIMULATION_PARAMS, config.get("simulation"), case_root.child("simulation"))
         )
+        check_monte_carlo(settings, case_root.child("simulation").describe())
         chain = []
         for section in MODULE_SECTIONS:
             raw = config.get(section, DEFAULT_MODULES.get(section))
