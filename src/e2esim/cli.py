@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import functools
 import json
 import os
 import sys
@@ -25,7 +26,13 @@ EXAMPLES = """examples:
 """
 
 
+@functools.lru_cache(maxsize=1)
 def build_parser() -> argparse.ArgumentParser:
+    """The command-line parser (built once per process: parsing does not change it)."""
+    return _build_parser()
+
+
+def _build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="e2esim",
         description="End-to-end mission performance simulator for spaceborne polarimetric SAR biomass missions.",

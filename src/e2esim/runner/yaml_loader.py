@@ -43,7 +43,15 @@ _FLOAT = re.compile(
 _Loader.yaml_implicit_resolvers = {k: list(v) for k, v in yaml.SafeLoader.yaml_implicit_resolvers.items()}
 _Loader.add_implicit_resolver("tag:yaml.org,2002:float", _FLOAT, list("-+0123456789."))
 
-_SCAN_LOADER = getattr(yaml, "CSafeLoader", yaml.SafeLoader)  # libyaml's parser when present: 10x faster
+_FAST = getattr(yaml, "CSafeLoader", None)  # libyaml's parser when present: ten times faster
+if _FAST is not None:
+    class _FastLoader(_FAST):
+        pass
+
+    _FastLoader.yaml_implicit_resolvers = _Loader.yaml_implicit_resolvers
+else:  # pragma: no cover - PyYAML without libyaml
+    _FastLoader = None
+_SCAN_LOADER = _FastLoader or _Loader
 _STANDARD = "tag:yaml.org,2002:"
 ALLOWED_TAGS = frozenset(_STANDARD + t for t in ("str", "int", "float", "bool", "null", "seq", "map")) | {"!"}
 """Explicit tags a scenario may use: those of plain data only."""
@@ -92,15 +100,31 @@ def load_yaml(text: str, source: str) -> tuple[object, dict]:
     if len(text) > MAX_DOCUMENT_BYTES:
         raise LimitError(f"{source}: the scenario is larger than the limit of {MAX_DOCUMENT_BYTES:,} characters")
     check_structure(text, source)
-    try:
-        node = yaml.compose(text, Loader=_Loader)
-    except yaml.YAMLError as exc:
-        raise ScenarioFileError(f"{source}: malformed YAML: {_yaml_message(exc)}") from exc
+    node = _compose(text, source)
     if node is None:
         return None, {}
     lines: dict = {}
     data = _construct(node, (), lines, _Loader(""), source)
     return data, lines
+
+
+def _compose(text: str, source: str):
+    """The node tree of ``text``: libyaml's composer, and PyYAML's for the message when the text is malformed
+    (it names the offending character)."""
+    if _FastLoader is not None:
+        try:
+            return yaml.compose(text, Loader=_FastLoader)
+        except yaml.YAMLError:
+            pass
+    try:
+        return yaml.compose(text, Loader=_Loader)
+    except yaml.YAMLError as exc:
+        raise ScenarioFileError(f"{source}: malformed YAML: {_yaml_message(exc)}") from exc
+    except ValueError as exc:  # e.g. an escape "\U..." beyond Unicode
+        problem = "an escape sequence names no Unicode character" if "chr()" in str(exc) else shorten(str(exc))
+        raise ScenarioFileError(f"{source}: malformed YAML: {problem}") from exc
+    except RecursionError as exc:
+        raise LimitError(f"{source}: mappings and lists are nested deeper than the limit of {MAX_DEPTH} levels") from exc
 
 
 def check_structure(text: str, source: str) -> None:
@@ -152,7 +176,7 @@ def check_structure(text: str, source: str) -> None:
                 raise LimitError(f"{source}:{_line(event)}: the scenario holds more than the limit of {MAX_NODES:,} "
                                  "values once its YAML aliases (*name) are expanded; write long value lists as "
                                  "{linspace: [start, stop, n]}, or avoid nesting aliases in aliases")
-    except yaml.YAMLError:
+    except (yaml.YAMLError, ValueError):
         return  # malformed: the composer says where and why
 
 
@@ -229,8 +253,8 @@ def parse_scalar(text: str, source: str = "--set"):
     the same rules and limits as a scenario file; text that is not valid YAML is taken as a string."""
     check_structure(text, source)
     try:
-        node = yaml.compose(text, Loader=_Loader)
-    except yaml.YAMLError:
+        node = _compose(text, source)
+    except ScenarioFileError:
         return text
     if node is None:
         return None
