@@ -3,9 +3,11 @@ ends with status 0, or with status 2 and a message of one line, never with a tra
 
 Scenarios start from small valid ones and get random changes at real and made-up key paths: values of
 every YAML type (NaN, infinities, huge and tiny numbers, text, lists, mappings, null), deleted and added
-keys, random sweeps, and sometimes a raw edit of the YAML text itself. Validation runs in this process
-(``e2esim.cli.main``), so a few hundred examples take seconds. The default suite runs a fixed,
-derandomised budget; ``-m slow`` runs a larger one seeded by E2ESIM_TEST_SEED.
+keys, random sweeps, and sometimes a raw edit of the YAML text itself. Hypothesis draws one seed per example
+and ``make_case`` builds the scenario from it with a seeded ``random.Random``: drawing every change through
+Hypothesis costs four times the validation itself, and a failure prints the scenario and overrides anyway
+(``note``). Validation runs in this process (``e2esim.cli.main``), so 500 examples take a few seconds. The
+default suite runs a fixed, derandomised budget; ``-m slow`` runs a larger one seeded by E2ESIM_TEST_SEED.
 """
 
 from __future__ import annotations
@@ -18,7 +20,7 @@ from pathlib import Path
 
 import pytest
 import yaml
-from hypothesis import HealthCheck, given, seed, settings
+from hypothesis import HealthCheck, given, note, seed, settings
 from hypothesis import strategies as st
 
 from e2esim import registry
@@ -75,36 +77,80 @@ def _leaf_keys() -> list:
                     if isinstance(p, ParamGroup):
                         stack += [(q, prefix + p.name + ".") for q in p.params]
                     else:
-                        out.append(("requirements.0" if kind == "requirement" else kind, prefix + p.name))
+                        key = ("requirements.0" if kind == "requirement" else kind, prefix + p.name)
+                        PARAMS.setdefault(key, p)
+                        out.append(key)
     out += [("simulation", k) for k in ("mode", "seed", "looks", "realisations", "noise_realisations", "keep_samples")]
     out += [("output", k) for k in ("folder", "title", "plots", "plot_x", "plot_group_by", "histogram_cases")]
     return sorted(set(out))
 
 
+PARAMS: dict = {}  # (section, dotted name) -> Param, for values near what is allowed
 LEAVES = _leaf_keys()
 TYPES = [(("requirements.0" if kind == "requirement" else kind), name) for kind, names in CHEAP_TYPES.items()
          for name in names]
 
-scalars = st.one_of(
-    st.none(), st.booleans(),
-    st.integers(min_value=-10**6, max_value=10**6), st.integers(min_value=-10**400, max_value=10**400),
-    st.floats(allow_nan=True, allow_infinity=True),
-    st.sampled_from([0, 1, -1, 1e-300, 1e300, -1e300, 2**63, 0.5, 90, 360, -90, 1e11, 5e-324]),
-    st.text(max_size=12),
-    st.sampled_from(["boreal_200", "biomass", "both", "analytic", "2026-01-01", "nan", "1e5", "a:b", ":", ".x:Y",
-                     "this:x", "e2esim.scene.modules:Table1ForestScene", "/dev/zero", "../../etc/passwd", "", "\n",
-                     "x" * 300, "ünïcödé", "\x00"]),
-)
-values = st.recursive(scalars, lambda inner: st.one_of(
-    st.lists(inner, max_size=4), st.dictionaries(st.one_of(st.text(max_size=8), st.sampled_from(SECTIONS)), inner,
-                                                 max_size=3)), max_leaves=8)
-key_paths = st.one_of(
-    st.sampled_from(LEAVES).map(lambda t: f"{t[0]}.{t[1]}"),
-    st.sampled_from(SECTIONS),
-    st.sampled_from(["sweep.parameters", "sweep.cases", "sweep.mode", "requirements.1", "calibration.0",
-                     "sweep.parameters.scene.agb_t_ha", "sweep.cases.0", "plugins"]),
-    st.lists(st.text(alphabet="abcxyz_.0123:", min_size=1, max_size=6), min_size=1, max_size=4).map(".".join),
-)
+SPECIAL = [None, True, False, 0, 1, -1, 0.5, 90, 360, -90, 1e-300, 1e300, -1e300, 2**63, 10**400, 1e11, 5e-324,
+           float("nan"), float("inf"), float("-inf"), -0.0, "boreal_200", "biomass", "both", "analytic", "2026-01-01",
+           "nan", "1e5", "a:b", ":", ".x:Y", "this:x", "e2esim.scene.modules:Table1ForestScene", "/dev/zero",
+           "../../etc/passwd", "", "\n", "x" * 300, "ünïcödé", "\x00", "!!python/name:os.system", "*a", "&a"]
+RAW_EDITS = ["!!python/name:os.system ", "&a ", "*a", "<<: *a\n", "{", "]", ": ", "\t", "- ", "!!int ", "!!binary ",
+             "!custom ", "\ufeff", "---\n", "%YAML 1.1\n", "? ", "|\n", "\x85", "\\U00110000"]
+OTHER_PATHS = ["sweep.parameters", "sweep.cases", "sweep.mode", "requirements.1", "calibration.0",
+               "sweep.parameters.scene.agb_t_ha", "sweep.cases.0", "plugins"]
+
+
+def _text(rnd) -> str:
+    return "".join(rnd.choice("abcxyz_.:0123456789-+ éü\t[]{},#&*!|>'\"") for _ in range(rnd.randint(0, 12)))
+
+
+def _scalar(rnd):
+    kind = rnd.randint(0, 5)
+    if kind == 0:
+        return rnd.choice(SPECIAL)
+    if kind == 1:
+        return rnd.randint(-10**6, 10**6)
+    if kind == 2:
+        return rnd.uniform(-1e3, 1e3) * 10 ** rnd.randint(-30, 30)
+    if kind == 3:
+        return _text(rnd)
+    return rnd.choice(SPECIAL[:20])
+
+
+def _value(rnd):
+    kind = rnd.randint(0, 7)
+    if kind == 0:
+        return [_scalar(rnd) for _ in range(rnd.randint(0, 3))]
+    if kind == 1:
+        return {rnd.choice([_text(rnd), rnd.choice(SECTIONS)]): _scalar(rnd) for _ in range(rnd.randint(0, 2))}
+    return _scalar(rnd)
+
+
+def _plausible(rnd, param):
+    """A value near what ``param`` allows: one of its choices, or a number around its bounds."""
+    if param.choices:
+        return rnd.choice(list(param.choices))
+    if param.type == "bool":
+        return rnd.random() < 0.5
+    if param.type == "str":
+        return rnd.choice(["2026-03-01", "x", "", "nominal"])
+    lo = next((b for b in (param.minimum, param.exclusive_minimum) if b is not None), -100.0)
+    hi = next((b for b in (param.maximum, param.exclusive_maximum) if b is not None), lo + 200.0)
+    value = rnd.choice([lo, hi, rnd.uniform(lo, hi), rnd.uniform(lo - 1, hi + 1)])
+    value = round(value) if param.type == "int" else value
+    return [value] * (param.length or 1) if param.length or param.variable_length else value
+
+
+def _key_path(rnd) -> str:
+    kind = rnd.randint(0, 5)
+    if kind <= 2:
+        section, name = rnd.choice(LEAVES)
+        return f"{section}.{name}"
+    if kind == 3:
+        return rnd.choice(SECTIONS)
+    if kind == 4:
+        return rnd.choice(OTHER_PATHS)
+    return ".".join(_text(rnd).replace(".", "") or "k" for _ in range(rnd.randint(1, 3)))
 
 
 def _set_in(data: dict, dotted: str, value) -> None:
@@ -127,38 +173,40 @@ def _set_in(data: dict, dotted: str, value) -> None:
         node[int(last)] = value
 
 
-@st.composite
-def scenario_texts(draw):
-    """A scenario's YAML text: a base with random changes, sometimes with a raw edit of the text."""
+def make_case(seed: int) -> tuple[str, list]:
+    """A scenario text and ``--set`` overrides from ``seed``: a base with random changes at real and made-up key
+    paths, sometimes a raw edit of the YAML text."""
     import copy
+    import random
 
-    data = copy.deepcopy(draw(st.sampled_from(BASES)))
-    for _ in range(draw(st.integers(0, 4))):
-        action = draw(st.sampled_from(["set", "set", "set", "type", "delete", "sweep"]))
-        if action == "set":
-            _set_in(data, draw(key_paths), draw(values))
+    rnd = random.Random(seed)
+    data = copy.deepcopy(rnd.choice(BASES))
+    for _ in range(rnd.randint(0, 4)):
+        action = rnd.choice(["set", "set", "set", "type", "delete", "sweep"])
+        if action == "set" and rnd.random() < 0.5:  # a real parameter, a value near what it allows
+            section, name = rnd.choice(LEAVES)
+            if (section, name) in PARAMS:
+                _set_in(data, f"{section}.{name}", _plausible(rnd, PARAMS[section, name]))
+        elif action == "set":
+            _set_in(data, _key_path(rnd), _value(rnd))
         elif action == "type":
-            section, name = draw(st.sampled_from(TYPES))
+            section, name = rnd.choice(TYPES)
             _set_in(data, f"{section}.type", name)
-        elif action == "delete":
-            key = draw(st.sampled_from(list(data))) if data else None
-            data.pop(key, None)
-        else:
-            key = draw(st.sampled_from(LEAVES))
-            data["sweep"] = {"parameters": {f"{key[0]}.{key[1]}": draw(st.lists(values, min_size=1, max_size=3))}}
-    text = yaml.dump(data, Dumper=_DUMPER, sort_keys=False, allow_unicode=draw(st.booleans()))
-    if draw(st.integers(0, 5)) == 0:  # a raw edit: YAML syntax, tags, anchors, odd characters
-        pos = draw(st.integers(0, len(text)))
-        insert = draw(st.one_of(st.text(max_size=6), st.sampled_from(
-            ["!!python/name:os.system ", "&a ", "*a", "<<: *a\n", "{", "]", ": ", "\t", "- ", "!!int ", "!!binary ",
-             "!custom ", "\ufeff", "---\n", "%YAML 1.1\n", "? ", "|\n"])))
-        text = text[:pos] + insert + text[pos:]
-    return text
-
-
-overrides = st.lists(st.builds(lambda k, v: f"{k}={v}", key_paths, st.one_of(
-    values.map(lambda v: yaml.safe_dump(v, default_flow_style=True).strip().removesuffix("...").strip()),
-    st.text(max_size=10))), max_size=2)
+        elif action == "delete" and data:
+            data.pop(rnd.choice(list(data)))
+        elif action == "sweep":
+            section, name = rnd.choice(LEAVES)
+            data["sweep"] = {"parameters": {f"{section}.{name}": [_value(rnd) for _ in range(rnd.randint(1, 3))]}}
+    text = yaml.dump(data, Dumper=_DUMPER, sort_keys=False, allow_unicode=rnd.random() < 0.5)
+    if rnd.random() < 0.2:  # a raw edit: YAML syntax, tags, anchors, odd characters
+        pos = rnd.randint(0, len(text))
+        text = text[:pos] + rnd.choice(RAW_EDITS + [_text(rnd)]) + text[pos:]
+    sets = []
+    for _ in range(rnd.choice([0, 0, 1, 2])):
+        value = _value(rnd)
+        shown = _text(rnd) if rnd.random() < 0.2 else yaml.dump(value, Dumper=_DUMPER, default_flow_style=True)
+        sets.append(f"{_key_path(rnd)}={shown.strip().removesuffix('...').strip()}")
+    return text, sets
 
 
 @contextlib.contextmanager
@@ -193,18 +241,23 @@ def check_validate(text: str, sets: list) -> None:
         assert message == "" and "valid;" in out.getvalue()
 
 
-COMMON = dict(deadline=None, database=None, suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])
+COMMON = dict(deadline=None, database=None, suppress_health_check=[HealthCheck.too_slow])
+SEEDS = st.integers(min_value=0, max_value=2**64 - 1)
 
 
 @settings(max_examples=500, derandomize=True, **COMMON)
-@given(text=scenario_texts(), sets=overrides)
-def test_validate_never_crashes(text, sets):
+@given(case_seed=SEEDS)
+def test_validate_never_crashes(case_seed):
+    text, sets = make_case(case_seed)
+    note(f"scenario:\n{text}\n--set: {sets}")
     check_validate(text, sets)
 
 
 @pytest.mark.slow
 @seed(TEST_SEED)
 @settings(max_examples=5000, **COMMON)
-@given(text=scenario_texts(), sets=overrides)
-def test_validate_never_crashes_large_budget(text, sets):
+@given(case_seed=SEEDS)
+def test_validate_never_crashes_large_budget(case_seed):
+    text, sets = make_case(case_seed)
+    note(f"scenario:\n{text}\n--set: {sets}")
     check_validate(text, sets)

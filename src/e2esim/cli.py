@@ -48,7 +48,9 @@ def _build_parser() -> argparse.ArgumentParser:
                                      "results.h5, summary.json, report.md and PNG plots into the output folder.")
     run.add_argument("scenario", help="scenario YAML file")
     run.add_argument("-o", "--output", metavar="DIR", help="output folder (default: output.folder, else runs/<name>)")
-    run.add_argument("--force", action="store_true", help="overwrite an existing output folder")
+    run.add_argument("--force", action="store_true",
+                     help="use an existing output folder: first remove the outputs and journal of the run that was "
+                          "there (other files stay); a folder where a run is live is still refused")
     _add_scenario_options(run)
     run.add_argument("--json", action="store_true", help="also print summary.json to stdout")
     run.add_argument("--no-progress", action="store_true", help="no progress bar")

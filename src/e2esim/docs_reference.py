@@ -80,7 +80,11 @@ def render() -> str:
         "`type:` and giving its parameters, plus `requirements` (a list of requirement modules), `simulation`, "
         "`sweep` and `output`. Keys carry their unit (`_db`, `_deg`, `_mhz`, `_t_ha`, `_percent`): SI units and "
         "radians are used inside. Any value can be overridden from the command line with "
-        "`--set section.key=value` (dotted keys; list items by index, e.g. `requirements.0.bound_percent=10`).",
+        "`--set section.key=value` (dotted keys; list items by index, e.g. `requirements.0.bound_percent=10`); "
+        "a key that the sweep sets is changed in the sweep instead (`--set sweep.parameters.KEY=[...]`, "
+        "`--set sweep.cases.I.KEY=VALUE` or `--replace-sweep KEY=VALUE`). An optional top-level `plugins:` "
+        "list names packages that `type: package.module:Class` may import although they are not installed "
+        "distributions (security.md).",
         "",
         f"Required sections: {', '.join('`' + s + '`' for s in REQUIRED_SECTIONS)}. Sections left out use: "
         + ", ".join(f"`{k}: {{type: {v['type']}}}`" for k, v in DEFAULT_MODULES.items())

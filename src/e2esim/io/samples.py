@@ -9,6 +9,7 @@ from __future__ import annotations
 import errno
 import os
 import stat
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -38,7 +39,9 @@ def read_samples_file(path: str | Path, key: str | None = None) -> np.ndarray:
         if path.suffix.lower() == ".npy":
             values = _read_npy(path, fail)
         else:
-            values = np.loadtxt(path, ndmin=1, dtype=float, comments="#")
+            with warnings.catch_warnings():  # an empty file: reported below as "holds no samples"
+                warnings.simplefilter("ignore", UserWarning)
+                values = np.loadtxt(path, ndmin=1, dtype=float, comments="#")
     except PhysicsInputError:
         raise
     except OSError as exc:

@@ -120,7 +120,11 @@ def write_outputs(result, folder: Path) -> dict:
     """Write every output file; return their paths. On failure (a full disk, say) the files of this attempt
     are removed again and an ``OutputFolderError`` says why; the journal stays for ``--resume``."""
     folder = Path(folder)
-    before = {p.name for p in folder.iterdir()}
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+        before = {p.name for p in folder.iterdir()}
+    except OSError as exc:
+        raise OutputFolderError(f"{folder}: cannot create the output folder: {_reason(folder, exc)}") from exc
     try:
         plots = make_plots(result, folder)
         write_results(result, folder / "results.h5")
