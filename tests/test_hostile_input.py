@@ -19,22 +19,9 @@ import pytest
 from e2esim.cli import main
 from e2esim.errors import ConfigError, LimitError
 from e2esim.runner.scenario import Scenario
+from test_scenario_errors import GOOD
 
 ROOT = Path(__file__).resolve().parents[1]
-GOOD = textwrap.dedent("""\
-    name: t
-    scene:
-      type: table1_forest
-      forest: boreal_200
-    instrument:
-      type: biomass
-      crosstalk:
-        level_db: -30
-    requirements:
-      - type: agb_error_bound
-    simulation:
-      mode: analytic
-""")
 LIMIT_S = 10.0  # the issue asks for a message within 2 s; generous here because test machines vary
 
 

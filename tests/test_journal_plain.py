@@ -18,18 +18,7 @@ from e2esim.runner import plaindata
 from e2esim.runner.journal import JOURNAL, Journal, count_finished
 from e2esim.runner.run import run_case, run_scenario
 from e2esim.runner.scenario import Scenario
-
-SCENARIO = """
-name: j
-scene: {type: forest_agb_model, biome: boreal}
-instrument: {type: biomass}
-ionosphere: {type: gaussian_faraday, mean_deg: 60, sd_deg: 5}
-requirements: [{type: agb_error_bound}]
-simulation: {mode: both, seed: 3, looks: 500, realisations: 200}
-sweep: {parameters: {scene.agb_t_ha: [50, 150, 250]}}
-output: {plots: [verdicts]}
-"""
-
+from test_parallel_and_resume import _scenario as _sweep
 
 class Payload:
     """Unpickling this writes a marker file: proof that a file's content ran as code."""
@@ -43,9 +32,7 @@ class Payload:
 
 @pytest.fixture
 def scenario(tmp_path):
-    path = tmp_path / "j.yaml"
-    path.write_text(SCENARIO)
-    return path
+    return _sweep(tmp_path, looks=500, realisations=200)
 
 
 def _run(scenario, out, *extra, capsys=None):

@@ -16,6 +16,7 @@ import pytest
 from e2esim.cli import main
 from e2esim.runner.journal import JOURNAL
 from e2esim.runner.lock import LOCK_NAME
+from test_parallel_and_resume import _scenario as _sweep
 
 SMALL = """
 name: small
@@ -27,19 +28,6 @@ simulation: {mode: analytic}
 sweep: {parameters: {scene.agb_t_ha: [50, 150, 250]}}
 output: {plots: [PLOTS]}
 """
-
-SLOW = """
-name: slow
-scene: {type: forest_agb_model, biome: boreal}
-instrument: {type: biomass}
-ionosphere: {type: gaussian_faraday, mean_deg: 60, sd_deg: 5}
-propagation: {type: hv_backscatter_error, mc_method: brute_force}
-requirements: [{type: agb_error_bound}]
-simulation: {mode: montecarlo, seed: 5, looks: 1000, realisations: REALISATIONS, keep_samples: false}
-sweep: {parameters: {scene.agb_t_ha: [50, 100, 150, 200, 250, 300, 350, 400]}}
-output: {plots: [verdicts]}
-"""
-
 
 def _scenario(tmp_path, text=SMALL, name="s.yaml", **replace):
     for key, value in replace.items():
@@ -72,7 +60,7 @@ def _wait_for(predicate, proc, timeout=120):
 def test_two_concurrent_runs_one_result_one_refusal(tmp_path, capsys):
     """The first run is another process; the second is this one (pytest's), started while the first holds
     the folder."""
-    scenario = _scenario(tmp_path, SLOW, REALISATIONS=100)
+    scenario = _sweep(tmp_path, method="brute_force", looks=1000, realisations=100)
     out = tmp_path / "out"
     first = _cli("run", scenario, "-o", out, "--no-progress")
     _wait_for(lambda: (out / LOCK_NAME).exists() and (out / LOCK_NAME).read_text().strip(), first)
@@ -86,7 +74,7 @@ def test_two_concurrent_runs_one_result_one_refusal(tmp_path, capsys):
         first.send_signal(signal.SIGCONT)
     assert first.wait(timeout=300) == 0, first.stderr.read()
     summary = json.loads((out / "summary.json").read_text())
-    assert summary["n_cases"] == 8 and len(summary["cases"]) == 8
+    assert summary["n_cases"] == 12 and len(summary["cases"]) == 12
     assert not (out / LOCK_NAME).exists() and not (out / JOURNAL).exists()
 
 
@@ -246,7 +234,7 @@ def _alive(pid: int) -> bool:
 
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads /proc")
 def test_killing_a_run_under_workers_leaves_no_process(tmp_path):
-    scenario = _scenario(tmp_path, SLOW, REALISATIONS=3000)
+    scenario = _sweep(tmp_path, method="brute_force", looks=1000, realisations=3000)
     out = tmp_path / "out"
     proc = _cli("run", scenario, "-o", out, "--no-progress", "--workers", "2")
     _wait_for(lambda: len(_children(proc.pid)) >= 2, proc)
