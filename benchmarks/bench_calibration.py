@@ -17,11 +17,11 @@ import time  # noqa: E402
 
 import numpy as np  # noqa: E402
 
-from e2esim.calibration.chirp import ChirpSlopeEstimator, sample_subband_covariances  # noqa: E402
-from e2esim.calibration.faraday_estimators import BickelBates, FreemanSecondMoment, wrap_error  # noqa: E402
+from e2esim.faraday.chirp import ChirpSlopeEstimator, sample_subband_covariances  # noqa: E402
+from e2esim.faraday.estimators import BickelBates, FreemanSecondMoment, wrap_error  # noqa: E402
 from e2esim.calibration.modules import CLUTTER_SHAPES  # noqa: E402
 from e2esim.calibration.quegan1994 import block_covariances, quegan_calibrate, quegan_ratios  # noqa: E402
-from e2esim.calibration.simulate import (  # noqa: E402
+from e2esim.polarimetry.simulate import (  # noqa: E402
     SystemState, sample_measured_covariance, simulate_chirp_scene, simulate_scene,
 )
 from e2esim.calibration.targets import Calibrators, calibrator_responses  # noqa: E402

@@ -63,7 +63,7 @@ def bench_iri(n: int = 16_200) -> None:
 
 
 def bench_climatology(step: float, workers: int, cache: Path, maps: Path | None) -> None:
-    from e2esim.ionosphere.global_climatology import global_climatology
+    from e2esim.faraday.global_climatology import global_climatology
     from e2esim.ionosphere.slant import SlantSettings
     from e2esim.orbit.sunsync import SunSynchronousOrbit
 

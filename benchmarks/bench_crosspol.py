@@ -19,8 +19,8 @@ os.environ.setdefault("OMP_NUM_THREADS", "1")  # one core, as the targets say
 
 import numpy as np  # noqa: E402
 
-from e2esim.crosspol.montecarlo import simulate  # noqa: E402
-from e2esim.crosspol.tradeoff import AGBRequirement, ConicTradeoff, tradeoff_curve  # noqa: E402
+from e2esim.distortion.montecarlo import simulate  # noqa: E402
+from e2esim.requirements.tradeoff import AGBRequirement, ConicTradeoff, tradeoff_curve  # noqa: E402
 from e2esim.faraday.distribution import ConstantFaraday, GaussianFaraday  # noqa: E402
 from e2esim.units import variance_from_level_db  # noqa: E402
 from e2esim.verification.men2021 import FIG1_FR, forest, system  # noqa: E402

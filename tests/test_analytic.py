@@ -9,15 +9,15 @@ import numpy as np
 import pytest
 from helpers import Z_ACCEPT
 
-from e2esim.crosspol.analytic import hv_error_moments
-from e2esim.crosspol.first_order import (
+from e2esim.distortion.analytic import hv_error_moments
+from e2esim.distortion.first_order import (
     SceneTerms,
     crosstalk_moments,
     imbalance_moments,
     simplified_moments,
     variance_terms,
 )
-from e2esim.crosspol.montecarlo import simulate
+from e2esim.distortion.montecarlo import simulate
 from e2esim.faraday.distribution import ConstantFaraday, GaussianFaraday
 from e2esim.instrument.system_errors import SystemErrorModel
 from helpers import forest, mean_and_variance_z, system

@@ -10,16 +10,16 @@ from e2esim.chain import CaseState, SimulationSettings
 from e2esim.errors import ConfigError
 from e2esim.faraday.distribution import EmpiricalFaraday
 from e2esim.instrument.modules import BiomassInstrument
-from e2esim.ionosphere import climatology as clim_mod
-from e2esim.ionosphere.cache import default_cache_dir, resolve_cache_dir
-from e2esim.ionosphere.climatology import (
+from e2esim.faraday import climatology as clim_mod
+from e2esim.io.array_cache import default_cache_dir, resolve_cache_dir
+from e2esim.faraday.climatology import (
     FaradayClimatology,
     climatology_from_integrals,
     site_path_integrals,
     weighted_percentiles,
 )
-from e2esim.ionosphere.global_climatology import global_climatology
-from e2esim.ionosphere.modules import IRIClimatologyModule, KlobucharModule, UserTECModule
+from e2esim.faraday.global_climatology import global_climatology
+from e2esim.faraday.climatology_modules import IRIClimatologyModule, KlobucharModule, UserTECModule
 from e2esim.ionosphere.propagation import faraday_rotation
 from e2esim.ionosphere.slant import PathIntegrals, SlantSettings
 from e2esim.ionosphere.variability import lognormal_nodes

@@ -12,7 +12,7 @@ import pytest
 from scipy import constants as sc
 from scipy.linalg import expm
 
-from e2esim.ionosphere.bickel_bates import bickel_bates
+from e2esim.faraday.estimators import BickelBates
 from e2esim.ionosphere.constants import FARADAY_CONSTANT, TECU
 from e2esim.ionosphere.propagation import faraday_rotation
 from e2esim.polarimetry.system_model import faraday_matrix, measured_matrix
@@ -82,9 +82,8 @@ def test_trihedral_through_faraday_gives_sin_two_omega_and_bickel_bates_recovers
     m = measured_matrix(np.eye(2), np.zeros(4), np.ones(2), omega)  # M = F S F, trihedral S = I
     assert np.allclose(m[..., 0, 1], np.sin(2 * omega))  # M_vh (row h receive, column v transmit)
     assert np.allclose(m[..., 1, 0], -np.sin(2 * omega))
-    assert np.allclose(bickel_bates(m[:, None], axis=-1), omega)
+    assert np.allclose(BickelBates().from_matrices(m[:, None], axis=-1).omega, omega)
     # the often-quoted arg(Z12 Z21*)/4 has the opposite sign in this convention
-    from e2esim.ionosphere.bickel_bates import circular_products
-
-    z12, z21 = circular_products(m)
+    hh, vh, hv, vv = m[..., 0, 0], m[..., 0, 1], m[..., 1, 0], m[..., 1, 1]
+    z12, z21 = vh - hv + 1j * (hh + vv), hv - vh + 1j * (hh + vv)  # off-diagonal entries of P M P
     assert np.allclose(np.angle(z12 * np.conj(z21)) / 4, -omega)

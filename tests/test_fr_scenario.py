@@ -6,7 +6,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from e2esim.ionosphere.climatology import FaradayClimatology
+from e2esim.faraday.climatology import FaradayClimatology
 from e2esim.runner.outputs import write_outputs
 from e2esim.runner.run import run_scenario
 from e2esim.runner.scenario import Scenario

@@ -5,7 +5,7 @@ import pytest
 from helpers import Z_ACCEPT
 from scipy import stats
 
-from e2esim.crosspol.montecarlo import gaussianity, simulate
+from e2esim.distortion.montecarlo import gaussianity, simulate
 from e2esim.faraday.distribution import GaussianFaraday
 from helpers import forest, system
 

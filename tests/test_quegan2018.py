@@ -63,10 +63,10 @@ def test_published_list_is_complete():
 
 
 def test_delay_error_from_the_estimator():
-    from e2esim.ionosphere.bickel_bates import bickel_bates_variance
+    from e2esim.faraday.theory import bickel_bates_variance
     from e2esim.ionosphere.geolocation import delay_error_from_estimator
 
     # SNR 20 dB, L = 10000, B.k = 30 uT: sigma_Omega / (586.68 B.k)
-    expected = np.sqrt(bickel_bates_variance(100.0, 10000)) / (586.679 * 30e-6)
+    expected = np.sqrt(bickel_bates_variance(100.0, 10000, "asymptotic")) / (586.679 * 30e-6)
     assert delay_error_from_estimator(20.0, 10000, 30e-6) == pytest.approx(expected, rel=1e-5)
     assert delay_error_from_estimator(20.0, 10000, 30e-6) < 0.1  # centimetres away from the dip equator

@@ -54,7 +54,7 @@ def test_effective_weights_equal_operator_row(rng, channel):
 
 
 def test_exact_expansion_of_the_hv_coefficients(rng):
-    # The exact coefficients behind docs/errata.md E3 and e2esim.crosspol.second_order:
+    # The exact coefficients behind docs/errata.md E3 and e2esim.distortion.second_order:
     # a_hh = X + B + (s/2)(c U - s D), a_hv = 1 + A + W/2, a_vv = Y + B + (c/2)(c D + s U).
     delta, f, om = _random_errors(rng)
     d1, d2, d3, d4 = delta.T

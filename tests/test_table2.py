@@ -5,9 +5,9 @@ import numpy as np
 import pytest
 from helpers import TEST_SEED, Z_ACCEPT
 
-from e2esim.crosspol.analytic import hv_error_moments
-from e2esim.crosspol.montecarlo import simulate
-from e2esim.crosspol.validation import compare_with_analytic
+from e2esim.distortion.analytic import hv_error_moments
+from e2esim.distortion.montecarlo import simulate
+from e2esim.distortion.validation import compare_with_analytic
 from e2esim.faraday.distribution import GaussianFaraday
 from e2esim.instrument.system_errors import SystemErrorModel
 from e2esim.units import db_to_linear, variance_from_level_db

@@ -3,8 +3,8 @@
 import numpy as np
 import pytest
 
-from e2esim.crosspol.analytic import hv_error_moments
-from e2esim.crosspol.tradeoff import AGBRequirement, ConicTradeoff, axis_limits, first_failing_level, tradeoff_curve
+from e2esim.distortion.analytic import hv_error_moments
+from e2esim.requirements.tradeoff import AGBRequirement, ConicTradeoff, axis_limits, first_failing_level, tradeoff_curve
 from e2esim.errors import PhysicsInputError
 from e2esim.faraday.distribution import ConstantFaraday, GaussianFaraday
 from e2esim.retrieval.power_law import BIOME_EXPONENTS

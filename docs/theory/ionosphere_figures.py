@@ -20,7 +20,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from e2esim.ionosphere.geolocation import TABLE1_ASSUMPTIONS, b_dot_k_profile, delay_error_threshold  # noqa: E402
-from e2esim.ionosphere.global_climatology import global_climatology  # noqa: E402
+from e2esim.faraday.global_climatology import global_climatology  # noqa: E402
 from e2esim.ionosphere.propagation import faraday_rotation_integral  # noqa: E402
 from e2esim.ionosphere.slant import SlantSettings, path_integrals  # noqa: E402
 from e2esim.orbit.geometry import view_geometry  # noqa: E402

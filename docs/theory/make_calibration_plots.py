@@ -14,11 +14,11 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from e2esim.calibration.chirp import (  # noqa: E402
+from e2esim.faraday.chirp import (  # noqa: E402
     ChirpSlopeEstimator, chirp_omega0_sd, locate_zero_crossing, sample_subband_covariances,
 )
-from e2esim.calibration.faraday_estimators import BickelBates, wrap_error  # noqa: E402
-from e2esim.calibration.faraday_theory import (  # noqa: E402
+from e2esim.faraday.estimators import BickelBates, wrap_error  # noqa: E402
+from e2esim.faraday.theory import (  # noqa: E402
     bickel_bates_bias, bickel_bates_bias_first_order, bickel_bates_snr, bickel_bates_variance,
 )
 from e2esim.calibration.modules import CLUTTER_SHAPES  # noqa: E402
@@ -26,10 +26,10 @@ from e2esim.calibration.pipeline import ResidualSampler, fit_residual_model  # n
 from e2esim.calibration.steps import FaradayStep, QueganStep, TransponderStep, TrihedralStep  # noqa: E402
 from e2esim.calibration.quegan1994 import quegan_calibrate  # noqa: E402
 from e2esim.calibration.radiometric import ahmed_range_gain_error, swath_pointing_gain_sd_db  # noqa: E402
-from e2esim.calibration.simulate import SystemState, measured_covariance, sample_measured_covariance  # noqa: E402
+from e2esim.polarimetry.simulate import SystemState, measured_covariance, sample_measured_covariance  # noqa: E402
 from e2esim.calibration.targets import Calibrators, calibrator_responses  # noqa: E402
 from e2esim.calibration.transponder import solve_transponder  # noqa: E402
-from e2esim.crosspol.analytic import hv_error_moments  # noqa: E402
+from e2esim.distortion.analytic import hv_error_moments  # noqa: E402
 from e2esim.faraday.distribution import ConstantFaraday, GaussianFaraday  # noqa: E402
 from e2esim.polarimetry.system_model import faraday_matrix  # noqa: E402
 from e2esim.retrieval.agb_error import AGBError  # noqa: E402

@@ -40,7 +40,7 @@ def main(top: int = 25) -> None:
                                       earth_rotation=rotation, b0_tesla=1.0)
         lat, bk_unit = b_dot_k_profile(base, TARGET_LAT)
         for b0, z, ground, form in itertools.product((IGRF_2016_B0, 3.0e-5, 3.12e-5), (1.0, 1.645, 1.96, 2.0, 2.576, 3.0),
-                                                     (False, True), ("printed", "corrected")):
+                                                     (False, True), ("printed", "asymptotic")):
             a = replace(base, b0_tesla=b0, confidence_z=z, ground_range=ground, variance_form=form)
             err = 0.0
             for (snr, looks), edges in TABLE1.items():

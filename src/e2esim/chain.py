@@ -13,8 +13,8 @@ from typing import Any
 
 import numpy as np
 
-from e2esim.crosspol.analytic import HVErrorMoments
-from e2esim.crosspol.montecarlo import MonteCarloErrors
+from e2esim.distortion.analytic import HVErrorMoments
+from e2esim.distortion.montecarlo import MonteCarloErrors
 from e2esim.faraday.distribution import FaradayDistribution
 from e2esim.instrument.system_errors import SystemErrorModel
 from e2esim.retrieval.agb_error import AGBError

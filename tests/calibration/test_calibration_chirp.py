@@ -6,11 +6,11 @@ import numpy as np
 import pytest
 
 from cal_helpers import Z_ACCEPT, biomass_system, forest, z_mean, z_variance
-from e2esim.calibration.chirp import (
+from e2esim.faraday.chirp import (
     ChirpSlopeEstimator, chirp_omega0_sd, fit_slope, locate_zero_crossing, sample_subband_covariances,
 )
-from e2esim.calibration.faraday_theory import bickel_bates_bias, bickel_bates_limit, bickel_bates_snr
-from e2esim.calibration.simulate import (
+from e2esim.faraday.theory import bickel_bates_bias, bickel_bates_limit, bickel_bates_snr
+from e2esim.polarimetry.simulate import (
     SystemState, faraday_at_frequency, measured_covariance, simulate_chirp_scene,
 )
 from e2esim.errors import PhysicsInputError

@@ -11,10 +11,10 @@ from e2esim.calibration.pipeline import (
     PipelineContext, ResidualSampler, ResidualSystemErrorModel, fit_residual_model, residual,
 )
 from e2esim.calibration.steps import FaradayStep, GainStep, QueganStep, TransponderStep, TrihedralStep
-from e2esim.calibration.simulate import SystemState
+from e2esim.polarimetry.simulate import SystemState
 from e2esim.calibration.targets import Calibrators
-from e2esim.crosspol.analytic import hv_error_moments
-from e2esim.crosspol.montecarlo import simulate
+from e2esim.distortion.analytic import hv_error_moments
+from e2esim.distortion.montecarlo import simulate
 from e2esim.faraday.distribution import ConstantFaraday, GaussianFaraday
 from e2esim.polarimetry.system_model import _kron, distortion_operator, effective_weights
 

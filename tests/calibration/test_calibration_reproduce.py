@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from e2esim.calibration.faraday_theory import bickel_bates_snr, bickel_bates_variance
+from e2esim.faraday.theory import bickel_bates_snr, bickel_bates_variance
 from e2esim.verification import quegan2018_calibration as q
 from e2esim.verification.published import all_published
 from e2esim.verification.reproduce import check

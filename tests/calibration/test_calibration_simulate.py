@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from cal_helpers import Z_ACCEPT, biomass_system, forest, z_mean
-from e2esim.calibration.simulate import (
+from e2esim.polarimetry.simulate import (
     QuadPolImage, SystemState, complex_wishart, measured_covariance, reciprocal_covariance4,
     sample_measured_covariance, simulate_scene,
 )

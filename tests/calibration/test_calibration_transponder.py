@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from cal_helpers import Z_ACCEPT, biomass_system, z_mean, z_variance
-from e2esim.calibration.simulate import SystemState
+from e2esim.polarimetry.simulate import SystemState
 from e2esim.calibration.targets import Calibrators, calibrator_responses, mean_response
 from e2esim.calibration.transponder import gauge_transform, solve_transponder
 from e2esim.errors import PhysicsInputError

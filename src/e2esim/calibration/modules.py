@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from e2esim.calibration.chirp import ChirpSlopeEstimator
+from e2esim.faraday.chirp import ChirpSlopeEstimator
 from e2esim.calibration.steps import FaradayStep, GainStep, QueganStep, TransponderStep, TrihedralStep
 from e2esim.calibration.radiometric import (
     UNIFORM_ARRAY_BEAM_SHAPING, absolute_gain_error_db, swath_pointing_gain_sd_db,

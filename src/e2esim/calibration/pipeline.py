@@ -26,7 +26,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from e2esim.calibration.quegan1994 import transform_covariance
-from e2esim.calibration.simulate import SystemState, sample_measured_covariance
+from e2esim.polarimetry.simulate import SystemState, sample_measured_covariance
 from e2esim.instrument.system_errors import SystemErrorModel, SystemErrorSamples
 from e2esim.polarimetry.system_model import ESTIMATOR_WEIGHTS, _kron, faraday_matrix
 from e2esim.units import linear_to_db

@@ -40,8 +40,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from e2esim.calibration.faraday_estimators import _check_window, block_mean
-from e2esim.calibration.simulate import QuadPolImage
+from e2esim.faraday.estimators import _check_window, block_mean
+from e2esim.polarimetry.simulate import QuadPolImage
 from e2esim.errors import PhysicsInputError
 from e2esim.polarimetry.system_model import _kron
 

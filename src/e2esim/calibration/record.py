@@ -23,7 +23,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from e2esim.calibration.faraday_estimators import AMBIGUITY_PERIOD
+from e2esim.faraday.estimators import AMBIGUITY_PERIOD
 from e2esim.calibration.pipeline import ResidualSampler, fit_residual_model
 from e2esim.faraday.distribution import ConstantFaraday
 from e2esim.units import linear_to_db
@@ -151,8 +151,8 @@ def summarise(step, diag: dict, record: CalibrationRecord) -> dict:
 def faraday_theory_values(step, record: CalibrationRecord) -> dict:
     """Predicted noise SD of the Faraday-rotation estimate (no crosstalk) and the probability that the
     climatology prior resolves the pi/2 ambiguity wrongly."""
-    from e2esim.calibration.chirp import chirp_omega0_sd
-    from e2esim.calibration.faraday_theory import (
+    from e2esim.faraday.chirp import chirp_omega0_sd
+    from e2esim.faraday.theory import (
         ambiguity_error_probability, bickel_bates_snr, bickel_bates_variance, freeman_variance,
     )
 

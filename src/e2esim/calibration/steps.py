@@ -14,13 +14,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from e2esim.calibration.chirp import ChirpSlopeEstimator, sample_subband_covariances
-from e2esim.calibration.faraday_estimators import (
+from e2esim.faraday.chirp import ChirpSlopeEstimator, sample_subband_covariances
+from e2esim.faraday.estimators import (
     AMBIGUITY_PERIOD, BickelBates, FreemanSecondMoment, resolve_ambiguity,
 )
 from e2esim.calibration.pipeline import PipelineContext
 from e2esim.calibration.quegan1994 import quegan_calibrate
-from e2esim.calibration.simulate import SystemState
+from e2esim.polarimetry.simulate import SystemState
 from e2esim.calibration.targets import Calibrators, calibrator_responses
 from e2esim.calibration.transponder import solve_transponder
 from e2esim.polarimetry.system_model import faraday_matrix

@@ -22,7 +22,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from e2esim.calibration.simulate import SystemState, reciprocal_covariance4, matrix_root
+from e2esim.polarimetry.simulate import SystemState, reciprocal_covariance4, matrix_root
 from e2esim.errors import PhysicsInputError
 from e2esim.polarimetry.system_model import measured_matrix, to_matrix, to_vector
 

@@ -38,7 +38,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from e2esim.calibration.simulate import SystemState
+from e2esim.polarimetry.simulate import SystemState
 from e2esim.calibration.targets import Calibrators, response_covariance
 from e2esim.errors import PhysicsInputError
 from e2esim.polarimetry.system_model import _kron, faraday_matrix, to_vector

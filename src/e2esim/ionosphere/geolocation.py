@@ -13,7 +13,7 @@ The paper does not state the geometry, the confidence or the variance it used. `
 the set found by searching incidence, pierce-point height, latitude convention, Earth rotation, dipole
 strength, confidence factor, slant or ground range and variance form (docs/theory/ionosphere.md,
 "Table 1"): with eq. (5) as printed it reproduces all eight printed latitudes to within 0.005 deg (their
-rounding). e2esim computes with the corrected variance (gamma^2, e2esim.ionosphere.bickel_bates), which
+rounding). e2esim computes with the corrected variance (gamma^2, e2esim.faraday.theory), which
 moves the edges by at most 0.08 deg (SNR 10 dB, L = 100).
 """
 
@@ -26,7 +26,7 @@ from scipy.optimize import brentq
 
 from e2esim.errors import PhysicsInputError
 from e2esim.geomag.field import FieldModel
-from e2esim.ionosphere.bickel_bates import bickel_bates_variance
+from e2esim.faraday.theory import bickel_bates_variance
 from e2esim.ionosphere.constants import CHARGE_TO_MASS_OVER_C
 from e2esim.orbit.frames import from_ecef
 from e2esim.orbit.geometry import ray_points, view_geometry
@@ -39,7 +39,7 @@ def range_delay_error(sigma_omega, b_dot_k) -> np.ndarray:
     return np.asarray(sigma_omega) / (CHARGE_TO_MASS_OVER_C * np.abs(np.asarray(b_dot_k)))
 
 
-def delay_error_from_estimator(snr_db, looks, b_dot_k, form: str = "corrected") -> np.ndarray:
+def delay_error_from_estimator(snr_db, looks, b_dot_k, form: str = "asymptotic") -> np.ndarray:
     """SD (m) of the slant range delay estimated from the Bickel-Bates Omega_hat (eqs. 5, 6, 8) for SNR
     (dB, eq. 6), L looks and B.k (T), any broadcastable shapes."""
     sigma = np.sqrt(bickel_bates_variance(10 ** (np.asarray(snr_db, float) / 10), looks, form))
@@ -56,7 +56,7 @@ class GeolocationAssumptions:
     two give the same zone for a dipole). b0_tesla : equatorial surface field of the axis-aligned centred
     dipole. confidence_z : the requirement is ``confidence_z * sigma_r <= requirement_m``.
     ground_range : apply the requirement to the ground-range error sigma_r / sin(incidence).
-    variance_form : "corrected" or "printed" eq. (5). altitude_m, ltan_h, look_side : the orbit.
+    variance_form : "asymptotic" (eq. 5 corrected, gamma^2) or "printed" eq. (5). altitude_m, ltan_h, look_side : the orbit.
     """
 
     incidence_deg: float = 26.0
@@ -68,7 +68,7 @@ class GeolocationAssumptions:
     confidence_z: float = 2.576
     requirement_m: float = 25.0
     ground_range: bool = False
-    variance_form: str = "corrected"
+    variance_form: str = "asymptotic"
     altitude_m: float = 666e3
     ltan_h: float = 6.0
     look_side: str = "left"

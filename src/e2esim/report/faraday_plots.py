@@ -121,7 +121,7 @@ def plot_faraday_distributions(result, folder: Path, options: dict) -> list:
 def plot_faraday_climatology(result, folder: Path, options: dict) -> list:
     """Report plot: global maps and latitude profiles of the FR climatology for the run's orbit, field and
     frequency, on a 5 deg grid (computed once and cached)."""
-    from e2esim.ionosphere.global_climatology import global_climatology
+    from e2esim.faraday.global_climatology import global_climatology
     from e2esim.ionosphere.slant import SlantSettings
 
     case = next((c for c in result.cases if c.state.geometry is not None and c.state.instrument is not None), None)

@@ -12,10 +12,10 @@ import dataclasses
 import numpy as np
 
 from e2esim.chain import RequirementVerdict
-from e2esim.crosspol.analytic import hv_error_moments
+from e2esim.distortion.analytic import hv_error_moments
 from e2esim.faraday.distribution import ConstantFaraday
 from e2esim.retrieval.agb_error import AGBError
-from e2esim.crosspol.tradeoff import (
+from e2esim.requirements.tradeoff import (
     AGBRequirement,
     axis_limits,
     first_failing_level,

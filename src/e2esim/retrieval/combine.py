@@ -48,7 +48,7 @@ def systematic_contributions(state) -> tuple:
 
     Needs the analytic moments (``state.backscatter.analytic``); returns () without them.
     """
-    from e2esim.crosspol.analytic import hv_error_moments
+    from e2esim.distortion.analytic import hv_error_moments
     from e2esim.faraday.distribution import ConstantFaraday
 
     bs = state.backscatter

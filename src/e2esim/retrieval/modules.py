@@ -17,7 +17,7 @@ from e2esim.errors import ConfigError, PhysicsInputError
 from e2esim.module import Module
 from e2esim.params import Param, ParamGroup
 from e2esim.retrieval.agb_error import AGBError, RelativeErrorMap
-from e2esim.retrieval.calibration_plots import REGRESSION_METHODS, REGRESSION_MODES, CalibrationCampaign, \
+from e2esim.retrieval.regression_campaign import REGRESSION_METHODS, REGRESSION_MODES, CalibrationCampaign, \
     regression_contribution
 from e2esim.retrieval.combine import combined_agb_error
 from e2esim.retrieval.loglinear import LogLinearModel

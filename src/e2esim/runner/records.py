@@ -13,7 +13,7 @@ import math
 
 import numpy as np
 
-from e2esim.crosspol.validation import compare_with_analytic, sample_moments
+from e2esim.distortion.validation import compare_with_analytic, sample_moments
 
 _AGB_QUANTILES = {"q00135": 0.00135, "q02275": 0.02275, "q50": 0.5, "q97725": 0.97725, "q99865": 0.99865}
 """Quantiles of the relative AGB error reported for every case (3 sigma, 2 sigma and median)."""

@@ -12,10 +12,10 @@ import re
 
 import numpy as np
 
-from e2esim.crosspol.analytic import hv_error_moments
-from e2esim.crosspol.montecarlo import simulate
-from e2esim.crosspol.tradeoff import AGBRequirement, axis_limits
-from e2esim.crosspol.validation import compare_with_analytic
+from e2esim.distortion.analytic import hv_error_moments
+from e2esim.distortion.montecarlo import simulate
+from e2esim.requirements.tradeoff import AGBRequirement, axis_limits
+from e2esim.distortion.validation import compare_with_analytic
 from e2esim.faraday.distribution import ConstantFaraday, GaussianFaraday
 from e2esim.instrument.system_errors import SystemErrorModel
 from e2esim.retrieval.power_law import BIOME_EXPONENTS, sigma_relative_error

@@ -82,7 +82,7 @@ def table1_edge(record):
     m = re.match(r"quegan2018\.table1\.snr(\d+)_L(\d+)\.(south|north)", record.id)
     snr, looks, side = int(m.group(1)), int(m.group(2)), m.group(3)
     i = 0 if side == "south" else 1
-    value = _zone(snr, looks, "corrected")[i]
+    value = _zone(snr, looks, "asymptotic")[i]
     printed = _zone(snr, looks, "printed")[i]
     edges = [zone[i] for zone in _alternative_zones(snr, looks)]
     a = TABLE1_ASSUMPTIONS

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from e2esim.calibration.faraday_theory import bickel_bates_snr, bickel_bates_variance
+from e2esim.faraday.theory import bickel_bates_snr, bickel_bates_variance
 from e2esim.calibration.pipeline import ResidualSampler
 from e2esim.calibration.steps import FaradayStep
 from e2esim.faraday.distribution import GaussianFaraday

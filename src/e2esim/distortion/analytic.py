@@ -5,7 +5,7 @@ Two forms:
 * ``"paper"``: Men et al. (2021), eqs. (11) and (12) with the Faraday-rotation moments of eq. (9)
   plugged in, exactly as published (with the (12a) typo corrected, see docs/errata.md).
 * ``"complete"`` (default): the same terms plus the O(V^2) terms eq. (12) misses
-  (``e2esim.crosspol.second_order``), computed at fixed Omega and averaged over the Faraday-rotation
+  (``e2esim.distortion.second_order``), computed at fixed Omega and averaged over the Faraday-rotation
   distribution exactly (``FaradayDistribution.quadrature``), with the law of total variance:
   ``Var e = E_Omega[Var(e | Omega)] + Var_Omega[E(e | Omega)]``. Eq. (12) instead inserts moments of
   Omega into a formula derived at fixed Omega, which drops the second part and treats X, Y, B as
@@ -24,7 +24,7 @@ from dataclasses import dataclass, fields
 
 import numpy as np
 
-from e2esim.crosspol.first_order import (
+from e2esim.distortion.first_order import (
     SceneTerms,
     bias_terms,
     crosstalk_moments,
@@ -32,7 +32,7 @@ from e2esim.crosspol.first_order import (
     trig_at,
     variance_terms,
 )
-from e2esim.crosspol.second_order import bias_correction, product_moments, variance_correction
+from e2esim.distortion.second_order import bias_correction, product_moments, variance_correction
 from e2esim.faraday.distribution import FaradayDistribution
 from e2esim.instrument.system_errors import SystemErrorModel
 from e2esim.polarimetry.system_model import estimator_noise_factor

@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 
 from e2esim.chain import BackscatterError
-from e2esim.crosspol.analytic import FORMS, REFERENCES, hv_error_moments
-from e2esim.crosspol.montecarlo import METHODS, gaussianity, simulate
+from e2esim.distortion.analytic import FORMS, REFERENCES, hv_error_moments
+from e2esim.distortion.montecarlo import METHODS, gaussianity, simulate
 from e2esim.errors import ConfigError
 from e2esim.module import Module
 from e2esim.params import Param

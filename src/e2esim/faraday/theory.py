@@ -24,8 +24,8 @@ from __future__ import annotations
 import numpy as np
 from scipy import special, stats
 
-from e2esim.calibration.faraday_estimators import _Z_A, _Z_B, AMBIGUITY_PERIOD, wrap_error
-from e2esim.calibration.simulate import SystemState, measured_covariance, reciprocal_covariance4
+from e2esim.faraday.estimators import _Z_A, _Z_B, AMBIGUITY_PERIOD, wrap_error
+from e2esim.polarimetry.simulate import SystemState, measured_covariance, reciprocal_covariance4
 from e2esim.errors import PhysicsInputError
 from e2esim.polarimetry.system_model import faraday_matrix, _kron
 

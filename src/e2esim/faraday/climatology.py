@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from e2esim.faraday.distribution import EmpiricalFaraday
-from e2esim.ionosphere import cache as cache_mod
+from e2esim.io import array_cache as cache_mod
 from e2esim.ionosphere.propagation import faraday_rotation_integral, phase_advance, range_delay
 from e2esim.ionosphere.slant import PathIntegrals, SlantSettings, path_integrals
 from e2esim.ionosphere.variability import lognormal_nodes

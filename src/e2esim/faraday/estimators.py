@@ -12,6 +12,12 @@ and ``z_b = (M_vh - M_hv) + j (M_hh + M_vv) = j (S_hh + S_vv) e^{-2j Omega}``, s
 ``Omega = arg(<z_a z_b*>) / 4`` (Bickel & Bates 1965): the two circular cross-polarised channels of the
 circular-basis scattering matrix. isce3 forms the same product as ``LR conj(RL)``.
 Both estimators are unambiguous only modulo pi/2 (``resolve_ambiguity``).
+
+In the circular basis ``P = [[1, j], [j, 1]]`` the Faraday matrix is diagonal,
+``P F(Omega) = diag(e^{-j Omega}, e^{j Omega}) P``, and ``z_a``, ``z_b`` are the two off-diagonal entries of
+``P M P``: that is why their cross product carries ``4 Omega``. The often-quoted ``arg(Z12 Z21*)/4`` has the
+opposite sign because it belongs to the transposed Faraday matrix (tests/test_faraday_sign.py recovers
++Omega through ``measured_matrix``). The variance of the estimate is in ``e2esim.faraday.theory``.
 """
 
 from __future__ import annotations
@@ -22,8 +28,9 @@ from typing import ClassVar
 
 import numpy as np
 
-from e2esim.calibration.simulate import QuadPolImage
 from e2esim.errors import PhysicsInputError
+from e2esim.polarimetry.simulate import QuadPolImage
+from e2esim.polarimetry.system_model import to_vector
 
 AMBIGUITY_PERIOD = np.pi / 2
 """Both estimators give Omega modulo pi/2: F(pi/2) S F(pi/2) swaps S_hh and -S_vv, another valid target."""
@@ -108,6 +115,18 @@ class FaradayRotationEstimator(ABC):
         looks = int(np.prod(image.shape)) if window is None else window[0] * window[1]
         return self.finish(moments, looks)
 
+    def from_matrices(self, m: np.ndarray, axis: int = -1) -> FaradayRotationEstimate:
+        """Estimates from measured matrices ``m`` (..., 2, 2) laid out ``[[hh, vh], [hv, vv]]``, averaging the
+        statistics over ``axis`` of the leading dimensions (the looks of a window)."""
+        m = np.asarray(m)
+        vector = to_vector(m)  # (..., 4) in the order (hh, hv, vh, vv)
+        looks = m.shape[:-2][axis]
+        moments = {}
+        for key, (u, v) in self.statistics.items():
+            zu, zv = vector @ u, vector @ v  # shape m.shape[:-2]: ``axis`` is the same
+            moments[key] = np.mean(zu * np.conj(zv), axis=axis)
+        return self.finish(moments, looks)
+
     def from_covariance(self, cov: np.ndarray, looks: int) -> FaradayRotationEstimate:
         """Estimates from sample covariances ``<m m^H>`` of (hh, hv, vh, vv), shape (..., 4, 4)."""
         cov = np.asarray(cov)
@@ -128,7 +147,7 @@ class BickelBates(FaradayRotationEstimator):
     with noise of equal power in the four channels, ``z_a`` and ``z_b`` are jointly circular Gaussian with
     coherence ``gamma = 1 / (1 + SNR^-1)``, ``SNR = <|S_hh + S_vv|^2> / sum of the four noise powers``
     (eq. 6), so its variance is that of the phase of an L-look coherence, divided by 16
-    (``e2esim.calibration.faraday_theory``).
+    (``e2esim.faraday.theory``).
     """
 
     name = "bickel_bates"

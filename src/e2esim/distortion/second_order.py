@@ -26,7 +26,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from e2esim.crosspol.first_order import SceneTerms
+from e2esim.distortion.first_order import SceneTerms
 
 
 def product_moments(v, c13, c24, ve, ce12) -> dict:

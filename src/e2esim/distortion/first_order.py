@@ -13,7 +13,7 @@ delta3)/2``, ``S24 = (delta2 + delta4)/2``, ``c = cos Omega``, ``s = sin Omega``
 
 Every function takes a ``trig`` mapping ``{"c4", "s4", "c2s2", "cs"}``: either the moments over the
 Faraday-rotation distribution (eq. 9, the paper's way) or the values at fixed Omega (arrays over
-quadrature nodes, for the exact average in ``e2esim.crosspol.analytic``). All inputs broadcast.
+quadrature nodes, for the exact average in ``e2esim.distortion.analytic``). All inputs broadcast.
 """
 
 from __future__ import annotations

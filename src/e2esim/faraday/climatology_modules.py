@@ -20,8 +20,8 @@ import numpy as np
 from e2esim.errors import ConfigError, PhysicsInputError
 from e2esim.geomag.field import FIELD_KINDS, FieldModel
 from e2esim.geomag.igrf import IGRF_MODELS
-from e2esim.ionosphere.cache import resolve_cache_dir
-from e2esim.ionosphere.climatology import climatology_from_integrals, site_path_integrals
+from e2esim.io.array_cache import resolve_cache_dir
+from e2esim.faraday.climatology import climatology_from_integrals, site_path_integrals
 from e2esim.ionosphere.iri import FOF2_MODELS
 from e2esim.ionosphere.klobuchar import KLOBUCHAR_ALPHA_DEFAULT, KLOBUCHAR_BETA_DEFAULT, klobuchar_vtec
 from e2esim.ionosphere.slant import METHODS, PathIntegrals, SlantSettings

@@ -23,7 +23,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from e2esim.crosspol.analytic import hv_error_moments
+from e2esim.distortion.analytic import hv_error_moments
 from e2esim.errors import PhysicsInputError
 from e2esim.retrieval.agb_error import standard_normal_quantile
 from e2esim.retrieval.power_law import sigma_relative_error

@@ -21,8 +21,8 @@ from pathlib import Path
 import numpy as np
 
 from e2esim.errors import PhysicsInputError
-from e2esim.ionosphere import cache as cache_mod
-from e2esim.ionosphere.climatology import _settings_description
+from e2esim.io import array_cache as cache_mod
+from e2esim.faraday.climatology import _settings_description
 from e2esim.ionosphere.propagation import faraday_rotation_integral
 from e2esim.ionosphere.slant import SlantSettings, path_integrals
 from e2esim.ionosphere.variability import lognormal_nodes

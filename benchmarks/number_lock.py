@@ -1,0 +1,141 @@
+"""Numbers are locked across refactors: save every number e2esim computes, and compare two saves.
+
+Before a restructuring, save the numbers of the code as it is; afterwards, save again and compare:
+
+    python benchmarks/number_lock.py save /tmp/numbers-before
+    ... restructure ...
+    python benchmarks/number_lock.py save /tmp/numbers-after
+    python benchmarks/number_lock.py compare /tmp/numbers-before /tmp/numbers-after
+
+``save`` writes ``reproduce.json`` (``e2esim reproduce --json``) and ``summaries/<scenario>.json`` (the
+summary.json of every shipped scenario, run at its own sizes). ``compare`` checks every number of the first
+save against the second: reproduce records by id (computed value and status), and in each summary every
+per-case scalar, every requirement verdict (passed, value, limit, margin, dominant contributor, details)
+and the requirement overview. Numbers must agree to a relative 1e-12 (floating-point reordering); text
+and booleans exactly. Provenance (time, command line, versions) is not compared. Keys that exist only in
+the second save are listed but are not failures (a refactor may add outputs); keys that disappear are.
+Exit status 0 when everything matches, 1 otherwise.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+PROVENANCE = {"created_utc", "command", "python", "numpy", "e2esim_version", "scenario_file", "executor",
+              "resumed_cases", "versions", "source_commit", "scipy", "h5py", "PyIRI", "ppigrf"}
+"""summary.json keys that describe the run rather than its results."""
+
+
+def _e2esim() -> list:
+    return [sys.executable, "-m", "e2esim"]
+
+
+def save(folder: Path, scenarios: list | None = None) -> None:
+    folder.mkdir(parents=True, exist_ok=True)
+    (folder / "summaries").mkdir(exist_ok=True)
+    out = subprocess.run(_e2esim() + ["reproduce", "--json"], capture_output=True, text=True, cwd=ROOT)
+    if out.returncode not in (0, 1):
+        raise SystemExit(f"e2esim reproduce failed:\n{out.stderr}")
+    (folder / "reproduce.json").write_text(out.stdout)
+    files = sorted((ROOT / "scenarios").glob("*.yaml"))
+    for path in files:
+        if scenarios and path.stem not in scenarios:
+            continue
+        with tempfile.TemporaryDirectory() as tmp:
+            run = subprocess.run(_e2esim() + ["run", str(path), "-o", tmp, "--force", "--no-progress"],
+                                 capture_output=True, text=True, cwd=ROOT)
+            if run.returncode != 0:
+                raise SystemExit(f"{path.name} failed:\n{run.stderr}")
+            (folder / "summaries" / f"{path.stem}.json").write_text((Path(tmp) / "summary.json").read_text())
+        print(f"saved {path.stem}", file=sys.stderr)
+
+
+class Comparison:
+    def __init__(self, rtol: float):
+        self.rtol = rtol
+        self.failures: list = []
+        self.added: list = []
+        self.checked = 0
+
+    def value(self, where: str, a, b) -> None:
+        if isinstance(a, dict) and isinstance(b, dict):
+            for key in a:
+                if key not in b:
+                    self.failures.append(f"{where}.{key}: missing in the new numbers")
+                else:
+                    self.value(f"{where}.{key}", a[key], b[key])
+            self.added.extend(f"{where}.{key}" for key in b if key not in a)
+            return
+        if isinstance(a, list) and isinstance(b, list):
+            if len(a) != len(b):
+                self.failures.append(f"{where}: {len(a)} items before, {len(b)} now")
+                return
+            for i, (x, y) in enumerate(zip(a, b)):
+                self.value(f"{where}[{i}]", x, y)
+            return
+        self.checked += 1
+        if isinstance(a, bool) or isinstance(b, bool) or not isinstance(a, (int, float)) or not isinstance(b, (int, float)):
+            if a != b:
+                self.failures.append(f"{where}: {a!r} before, {b!r} now")
+            return
+        if math.isnan(a) and math.isnan(b):
+            return
+        if a == b:
+            return
+        if not math.isclose(a, b, rel_tol=self.rtol, abs_tol=0.0):
+            self.failures.append(f"{where}: {a!r} before, {b!r} now (relative {abs(a - b) / max(abs(a), abs(b)):.2e})")
+
+
+def compare(old: Path, new: Path, rtol: float) -> int:
+    cmp = Comparison(rtol)
+    before = {r["id"]: r for r in json.loads((old / "reproduce.json").read_text())}
+    after = {r["id"]: r for r in json.loads((new / "reproduce.json").read_text())}
+    for rid, rec in before.items():
+        if rid not in after:
+            cmp.failures.append(f"reproduce {rid}: missing")
+            continue
+        cmp.value(f"reproduce {rid}.computed", rec["computed"], after[rid]["computed"])
+        cmp.value(f"reproduce {rid}.status", rec["status"], after[rid]["status"])
+    for path in sorted((old / "summaries").glob("*.json")):
+        other = new / "summaries" / path.name
+        if not other.exists():
+            cmp.failures.append(f"{path.stem}: no summary in the new numbers")
+            continue
+        a, b = json.loads(path.read_text()), json.loads(other.read_text())
+        for key in a:
+            if key not in PROVENANCE:
+                cmp.value(f"{path.stem}.{key}", a[key], b.get(key))
+    for line in cmp.failures:
+        print("DIFFERS  " + line)
+    if cmp.added:
+        print(f"{len(cmp.added)} new output keys (not compared), e.g. {', '.join(cmp.added[:5])}")
+    print(f"{cmp.checked} values compared, {len(cmp.failures)} differ (relative tolerance {rtol:g})")
+    return 1 if cmp.failures else 0
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    sub = parser.add_subparsers(dest="command", required=True)
+    s = sub.add_parser("save", help="save every number into FOLDER")
+    s.add_argument("folder", type=Path)
+    s.add_argument("--scenario", action="append", help="only this scenario (repeatable)")
+    c = sub.add_parser("compare", help="compare two saves")
+    c.add_argument("old", type=Path)
+    c.add_argument("new", type=Path)
+    c.add_argument("--rtol", type=float, default=1e-12)
+    args = parser.parse_args(argv)
+    if args.command == "save":
+        save(args.folder, args.scenario)
+        return 0
+    return compare(args.old, args.new, args.rtol)
+
+
+if __name__ == "__main__":
+    sys.exit(main())
