@@ -182,7 +182,7 @@ def test_decoding_never_calls_the_class():
 def test_a_planted_climatology_cache_file_never_runs(tmp_path):
     import h5py
 
-    from e2esim.ionosphere import cache
+    from e2esim.io import array_cache as cache
 
     marker = tmp_path / "MARKER"
     pickled = tmp_path / "faraday_site_x.h5"

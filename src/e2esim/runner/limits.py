@@ -51,7 +51,7 @@ def check_count(what: str, count: float, limit: int, where: str, advice: str = "
 
 
 def monte_carlo_bytes(looks: int, realisations: int, noise_realisations: int) -> float:
-    """Estimated peak memory (bytes) of one case's Monte Carlo (``e2esim.crosspol.montecarlo``).
+    """Estimated peak memory (bytes) of one case's Monte Carlo (``e2esim.distortion.montecarlo``).
 
     Per realisation and noise draw the simulation keeps the error of three channels plus temporaries (about
     24 doubles), per realisation the system errors and Faraday angles (about 32 doubles), and per look the
