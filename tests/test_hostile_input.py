@@ -7,7 +7,6 @@ except the few checks that need a fresh interpreter (the current directory on ``
 """
 
 import os
-import subprocess
 import sys
 import textwrap
 import time
@@ -131,7 +130,8 @@ def test_billion_laughs(tmp_path, capsys, where):
 
 
 def test_recursive_alias(tmp_path, capsys):
-    _refused(tmp_path, capsys, GOOD + "description: &a [1, *a]\n", expect=["refers to a mapping or list that contains it"])
+    _refused(tmp_path, capsys, GOOD + "description: &a [1, *a]\n",
+             expect=["refers to a mapping or list that contains it"])
 
 
 MERGED = GOOD.replace("  - type: agb_error_bound\n", """\
@@ -167,7 +167,8 @@ def test_standard_tags_are_plain_data(tmp_path, capsys):
 
 # ---------------------------------------------------------------------------------------------- types
 def test_integer_key_in_a_swept_section(tmp_path, capsys):
-    text = GOOD.replace("  crosstalk:\n", "  1: 2\n  crosstalk:\n") + "sweep:\n  parameters:\n    instrument.nesz_db: [-30, -27]\n"
+    text = (GOOD.replace("  crosstalk:\n", "  1: 2\n  crosstalk:\n")
+            + "sweep:\n  parameters:\n    instrument.nesz_db: [-30, -27]\n")
     _refused(tmp_path, capsys, text, expect=[":7: the key '1' in instrument is read as int 1", "quote it"])
     _refused(tmp_path, capsys, GOOD + "output: {yes: 1}\n", expect=["is read as bool True", "keys must be text"])
     with pytest.raises(ConfigError, match=r"instrument\[1\]: the key 1 is int, not text; keys must be text"):
@@ -202,7 +203,8 @@ def test_a_module_in_the_working_directory_never_runs(tmp_path, capsys, monkeypa
     monkeypatch.syspath_prepend(on_path or str(tmp_path))
     text = GOOD.replace("type: biomass", "type: 'evil:X'")
     _refused(tmp_path, capsys, text, expect=["'evil' is not an installed distribution"])
-    _refused(tmp_path, capsys, text, "--allow-import", "evil", expect=["cannot import 'evil:X': No module named 'evil'"])
+    _refused(tmp_path, capsys, text, "--allow-import", "evil",
+             expect=["cannot import 'evil:X': No module named 'evil'"])
     assert not (tmp_path / "MARKER").exists() and "evil" not in sys.modules
 
 

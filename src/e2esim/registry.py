@@ -64,9 +64,10 @@ def _load() -> Dict[Tuple[str, str], Registration]:
 
 
 def refresh() -> None:
-    """Forget the cached registry (after installing a plug-in in the same process)."""
-    global _cache
+    """Forget the cached registry and installed packages (after installing a plug-in in the same process)."""
+    global _cache, _installed
     _cache = None
+    _installed = None
 
 
 def _check_class(cls, origin: str, kind: str | None = None, type_name: str | None = None) -> None:
@@ -148,9 +149,16 @@ def _import_class(type_name: str) -> type:
         raise ModuleLookupError(f"cannot import {type_name!r}: module {module_name!r} has no {class_name!r}") from exc
 
 
-def _installed_packages() -> set:
-    """Top-level packages of the installed distributions (importlib.metadata)."""
-    return set(packages_distributions())
+def _installed_packages() -> frozenset:
+    """Top-level packages of the installed distributions (importlib.metadata; read once, like the entry points,
+    and again after ``refresh``)."""
+    global _installed
+    if _installed is None:
+        _installed = frozenset(packages_distributions())
+    return _installed
+
+
+_installed: frozenset | None = None
 
 
 @contextlib.contextmanager

@@ -61,7 +61,8 @@ def _read_npy(path: Path, fail) -> np.ndarray:
     try:
         values = np.load(path, allow_pickle=False)
     except ValueError:
-        raise fail("is not a .npy file of numbers (it is malformed, or holds Python objects, which are not read)")
+        problem = "is not a .npy file of numbers (it is malformed, or holds Python objects, which are not read)"
+        raise fail(problem) from None
     if not isinstance(values, np.ndarray) or values.dtype.kind not in "biuf":
         raise fail("does not hold real numbers")
     return values.astype(float)

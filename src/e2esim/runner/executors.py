@@ -69,7 +69,7 @@ def iter_results(specs: list, workers: int = 1, scheduler: str | None = None, pa
 
 
 def _processes(specs: list, workers: int, packages: frozenset):
-    with ProcessPoolExecutor(max_workers=workers, initializer=exit_with_parent, initargs=(os.getpid(),)) as pool:
+    with ProcessPoolExecutor(max_workers=workers, initializer=exit_with_parent) as pool:
         pending = {pool.submit(run_batch_remote, batch, packages) for batch in _batches(specs, workers)}
         try:
             while pending:
@@ -82,14 +82,16 @@ def _processes(specs: list, workers: int, packages: frozenset):
             raise
 
 
-def exit_with_parent(parent_pid: int) -> None:
-    """Worker initializer: end this worker when the main process dies, even by SIGKILL (which gives it no
-    chance to stop its workers). Linux: the kernel sends SIGKILL on the parent's death (PR_SET_PDEATHSIG);
-    everywhere: a daemon thread polls the parent's PID every half second."""
+def exit_with_parent() -> None:
+    """Worker initializer: end this worker when its parent dies, even by SIGKILL (which gives the main process
+    no chance to stop its workers). The parent is the main process (fork, spawn) or the forkserver, which
+    itself ends with the main process. Linux: the kernel sends SIGKILL on the parent's death
+    (PR_SET_PDEATHSIG); everywhere: a daemon thread polls the parent's PID every half second."""
+    parent = os.getppid()
     _set_parent_death_signal()
-    if os.getppid() != parent_pid:  # the parent died before the signal was armed
+    if os.getppid() != parent:  # the parent died before the signal was armed
         os._exit(1)
-    threading.Thread(target=_watch_parent, args=(parent_pid,), name="e2esim-parent-watch", daemon=True).start()
+    threading.Thread(target=_watch_parent, args=(parent,), name="e2esim-parent-watch", daemon=True).start()
 
 
 def _set_parent_death_signal() -> None:

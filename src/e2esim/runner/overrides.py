@@ -72,7 +72,7 @@ def swept_keys(sweep) -> dict:
 def check_not_swept(raw: dict, set_keys: list, source: str) -> None:
     """Refuse a ``--set`` whose key the sweep also sets (or which contains, or lies below, a swept key)."""
     swept = swept_keys(raw.get("sweep"))
-    for key, path in set_keys:
+    for _key, path in set_keys:
         if path[:1] == ("sweep",):
             continue
         for skey, section in swept.items():

@@ -376,7 +376,7 @@ def _set_path(data: dict, path: tuple, value: Any, where: Location, copy_on_writ
 
 def _resolved_config(raw: dict, case: CaseSpec, output: dict) -> dict:
     """The scenario with every module's defaults filled in (first case), for provenance."""
-    resolved = {k: copy.deepcopy(v) for k, v in raw.items() if k in ("name", "description", "sweep")}
+    resolved = {k: copy.deepcopy(v) for k, v in raw.items() if k in ("name", "description", "plugins", "sweep")}
     reqs = []
     for module in case.chain:
         entry = {"type": module.type_name, **_jsonable(module.config)}

@@ -124,7 +124,8 @@ def _compose(text: str, source: str):
         problem = "an escape sequence names no Unicode character" if "chr()" in str(exc) else shorten(str(exc))
         raise ScenarioFileError(f"{source}: malformed YAML: {problem}") from exc
     except RecursionError as exc:
-        raise LimitError(f"{source}: mappings and lists are nested deeper than the limit of {MAX_DEPTH} levels") from exc
+        raise LimitError(f"{source}: mappings and lists are nested deeper than the limit of {MAX_DEPTH} levels") \
+            from exc
 
 
 def check_structure(text: str, source: str) -> None:
@@ -234,8 +235,9 @@ def _scalar(node, loader, source: str):
     try:
         return loader.construct_object(node, deep=True)
     except _CONSTRUCT_ERRORS as exc:
-        raise ScenarioFileError(f"{source}:{node.start_mark.line + 1}: cannot read the value "
-                                f"{shorten(repr(getattr(node, 'value', '')))}: {shorten(_error_text(exc), 160)}") from exc
+        value = shorten(repr(getattr(node, "value", "")))
+        raise ScenarioFileError(f"{source}:{node.start_mark.line + 1}: cannot read the value {value}: "
+                                f"{shorten(_error_text(exc), 160)}") from exc
 
 
 def _key_problem(source: str, key_node, key, path: tuple) -> str:
@@ -244,8 +246,8 @@ def _key_problem(source: str, key_node, key, path: tuple) -> str:
     inside = f" in {inside}" if inside else ""
     if isinstance(key, (list, dict)):
         return f"{where}: a key must be a plain value{inside}, not a mapping or list"
-    return (f"{where}: the key {shorten(key_node.value)!r}{inside} is read as {type(key).__name__} {shorten(repr(key))}; "
-            f"keys must be text: quote it, e.g. '{shorten(key_node.value)}':")
+    return (f"{where}: the key {shorten(key_node.value)!r}{inside} is read as {type(key).__name__} "
+            f"{shorten(repr(key))}; keys must be text: quote it, e.g. '{shorten(key_node.value)}':")
 
 
 def parse_scalar(text: str, source: str = "--set"):
