@@ -100,7 +100,7 @@ class FaradayCorrection(CalibrationModule):
         c = self.config
         if c["estimator"] == "chirp_slope" and c["looks"] < c["subbands"]:
             raise PhysicsInputError(f"looks = {c['looks']} cannot be shared among subbands = {c['subbands']}; "
-                                    "give at least one look per sub-band")
+                                    "give at least one look per sub-band", key="looks")
 
     def steps(self, state, record):
         c = self.config
@@ -199,12 +199,12 @@ class TransponderCalibration(CalibrationModule):
         names = self.config["calibrators"]
         if len(names) < 3:
             raise PhysicsInputError(f"{len(names)} calibrators cannot determine the system errors; give at least "
-                                    "three independent ones (four or more over-determine it)")
+                                    "three independent ones (four or more over-determine it)", key="calibrators")
         rank = np.linalg.matrix_rank(np.stack([to_vector(target_matrix(n)) for n in names]))
         if rank < 3:
             raise PhysicsInputError(
                 f"calibrators {', '.join(names)} span only {rank} independent scattering matrices; the system errors "
-                "need at least 3 (e.g. trihedral, dihedral_0 and dihedral_45, or four transponders)")
+                "need at least 3 (e.g. trihedral, dihedral_0 and dihedral_45, or four transponders)", key="calibrators")
 
     def steps(self, state, record):
         c = self.config

@@ -121,13 +121,13 @@ class IRIClimatologyModule(_GeometryIonosphere):
         c = self.config
         if c["solar"] == "f107":
             if c["f107_sfu"] is None:
-                raise PhysicsInputError("solar: f107 needs f107_sfu")
+                raise PhysicsInputError("solar: f107 needs f107_sfu", key="f107_sfu")
             self.f107 = c["f107_sfu"]
         else:
             self.f107 = SOLAR_PRESETS[c["solar"]]
         if c["bottom_height_km"] >= c["shell_height_km"]:
             raise PhysicsInputError(f"bottom_height_km {c['bottom_height_km']:g} must be below shell_height_km "
-                                    f"{c['shell_height_km']:g}")
+                                    f"{c['shell_height_km']:g}", key="bottom_height_km")
         self.cache_dir = resolve_cache_dir(c["cache_dir"])
 
     def integrals(self, geometry) -> PathIntegrals:

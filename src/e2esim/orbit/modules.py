@@ -31,7 +31,7 @@ _ACQ = ParamGroup("acquisitions", "the dates on which the site is imaged", (
     Param("start", "str", "first date of the period (ISO)", default="2026-01-01"),
     Param("end", "str", "last date of the period (ISO)", default="2026-12-31"),
     Param("step_days", "float", "days between acquisitions in the period (3: the repeat interval)", default=3.0,
-          unit="day", exclusive_minimum=0.0),
+          unit="day", exclusive_minimum=0.0, maximum=36525.0),
     Param("phase", "str", "timeline mode: which phase's acquisitions", default="mission", choices=PHASES),
     Param("mission_start", "str", "timeline mode: first day of the commissioning phase (ISO)", default=BIOMASS_LAUNCH),
     Param("site_slot", "float", "timeline mode: where in each phase/cycle the site's stack starts (0 first day, "
