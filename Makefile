@@ -16,7 +16,8 @@ $(STAMP): pyproject.toml
 demo: $(STAMP)  ## install and run the default BIOMASS scenario
 	$(BIN)/e2esim run scenarios/biomass_default.yaml --force
 
-test: $(STAMP)  ## install and run the test suite (slow tests excluded)
+test: $(STAMP)  ## install and run the linter and the test suite (slow tests excluded)
+	$(BIN)/ruff check src tests benchmarks examples docs
 	$(BIN)/python -m pytest
 
 test-slow: $(STAMP)  ## the slow statistical and end-to-end tests only

@@ -67,13 +67,20 @@ def bench_climatology(step: float, workers: int, cache: Path, maps: Path | None)
     from e2esim.ionosphere.slant import SlantSettings
     from e2esim.orbit.sunsync import SunSynchronousOrbit
 
+    from concurrent.futures import ProcessPoolExecutor
+
+    from e2esim.io.array_cache import ArrayCache
+
     orbit = SunSynchronousOrbit(666e3)  # BIOMASS: dawn (ascending) and dusk (descending) passes
+    pool = ProcessPoolExecutor(workers) if workers > 1 else None
     kw = dict(step_deg=step, months=range(1, 13), f107=(70.0, 180.0), settings=SlantSettings("thin_shell"),
-              cache_dir=cache, workers=workers)
+              cache=ArrayCache(cache), executor=pool)
     t0 = time.perf_counter()
-    clim = global_climatology(orbit, progress=True, **kw)
+    clim = global_climatology(orbit, **kw)
     t1 = time.perf_counter()
     again = global_climatology(orbit, **kw)
+    if pool is not None:
+        pool.shutdown()
     t2 = time.perf_counter()
     stats = again.statistics(435e6)
     t3 = time.perf_counter()
@@ -94,10 +101,11 @@ def bench_climatology(step: float, workers: int, cache: Path, maps: Path | None)
         from e2esim.report.faraday_plots import plot_global_maps, plot_latitude_profiles
 
         maps.mkdir(parents=True, exist_ok=True)
-        plot_global_maps(clim, 435e6, maps / "fr_map_mean_abs.png", 0.25, "mean_abs_deg")
-        plot_global_maps(clim, 435e6, maps / "fr_map_sd.png", 0.25, "sd_deg")
-        plot_global_maps(clim, 435e6, maps / "fr_map_mean.png", 0.25, "mean_deg")
-        plot_latitude_profiles(clim, 435e6, maps / "fr_latitude_profiles.png", 0.25)
+        fr_map = clim.map(435e6, 0.25)
+        plot_global_maps(fr_map, maps / "fr_map_mean_abs.png", "mean_abs_deg")
+        plot_global_maps(fr_map, maps / "fr_map_sd.png", "sd_deg")
+        plot_global_maps(fr_map, maps / "fr_map_mean.png", "mean_deg")
+        plot_latitude_profiles(fr_map, maps / "fr_latitude_profiles.png")
         print(f"maps written to {maps}")
 
 

@@ -77,7 +77,7 @@ def reference_simex_bootstrap(fp, rng, n_sim, n_boot):
 
 def bench_simex_bootstrap(n_sim=100, n_boot=1000, reference=True):
     rng = np.random.default_rng(2014)
-    fp = synthetic_field_plots(TRUE, 40, rng, allometric_error_percent=10, backscatter_error_percent=5,
+    fp = synthetic_field_plots(TRUE, 40, rng, allometric_error=0.1, backscatter_error=0.05,
                                model_error_sd=0.002, agb_range_t_ha=(5, 350))
     t0 = time.perf_counter()
     sx = simex(TRUE, fp.agb, fp.sigma, fp.agb_error_sd, fp.sigma_error_sd, rng, lambdas=LAMBDAS, n_sim=n_sim)

@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 
 from helpers import TEST_SEED
+from quick_runs import SCENARIOS, quick_overrides
 
 
 def pytest_configure(config):
@@ -38,3 +39,25 @@ def seed(request) -> int:
 def rng(seed) -> np.random.Generator:
     return np.random.default_rng(seed)
 
+
+
+@pytest.fixture(scope="session")
+def quick_run(tmp_path_factory):
+    """``quick_run(name)`` -> (ScenarioResult, output folder) of the shipped scenario ``name`` at reduced sizes
+    (tests/quick_runs.py), run once per session and shared by the tests that need it."""
+    from e2esim.runner.outputs import write_outputs
+    from e2esim.runner.run import run_scenario
+    from e2esim.runner.scenario import Scenario
+
+    done: dict = {}
+
+    def run(name: str):
+        if name not in done:
+            scenario = Scenario.load(SCENARIOS / f"{name}.yaml", quick_overrides(name))
+            result = run_scenario(scenario.resolve(), progress=False, command=f"quick run of {name}")
+            folder = tmp_path_factory.mktemp(name)
+            write_outputs(result, folder)
+            done[name] = (result, folder)
+        return done[name]
+
+    return run

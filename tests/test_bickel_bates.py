@@ -31,8 +31,7 @@ def test_coherence_eq6():
 
 
 @pytest.mark.parametrize("snr_db, looks, trials", [(0.0, 256, 1500), (10.0, 128, 1500)])
-def test_variance_is_the_corrected_eq5(snr_db, looks, trials):
-    rng = np.random.default_rng()
+def test_variance_is_the_corrected_eq5(rng, snr_db, looks, trials):
     omega = np.radians(15.0)
     est = simulate_bickel_bates(omega, 10 ** (snr_db / 10), looks, trials, rng, hhvv_correlation=0.4 + 0.2j)
     var = np.var(est, ddof=1)

@@ -103,10 +103,9 @@ def test_mnr_eq_27_and_speckle_terms_eq_21():
     assert s + t + m == pytest.approx(printed, rel=1e-14)
 
 
-def test_eq_21_against_speckle_simulation():
+def test_eq_21_against_speckle_simulation(rng):
     """Average N looks of speckled signal plus noise, subtract the noise level: the relative SD is
     (1 + 1/SNR)/sqrt(N) (eq. 21 with N_os = N_ot = 1). Chi-square test of the sample variance."""
-    rng = np.random.default_rng()
     looks, snr_lin, trials = 50, 4.0, 20_000
     sigma, noise = 1.0, 0.25
     intensity = (sigma + noise) * rng.gamma(looks, 1.0 / looks, trials)  # speckle and noise are one exponential
@@ -279,7 +278,7 @@ def test_unknown_preset():
         preset("nisar")
 
 
-def test_speckle_gamma_law_matches_budget_variance():
+def test_speckle_gamma_law_matches_budget_variance(rng):
     """The Monte Carlo law of the speckle term: Gamma(k, 1/k) - 1 with k = 1/v has variance v (KS against
     the gamma law and a z test on the variance)."""
     from e2esim.retrieval.combine import draw_random_errors
@@ -289,7 +288,7 @@ def test_speckle_gamma_law_matches_budget_variance():
         channels=("hh", "hv", "vv"), groups=("speckle_noise",))
     v = float(b.channel("hv").group_sd("speckle_noise") ** 2)
     contrib = (AGBContribution("speckle_noise", "random", 0.0, v),)
-    x = draw_random_errors(np.random.default_rng(), (40_000,), b, contrib)
+    x = draw_random_errors(rng, (40_000,), b, contrib)
     k = 1 / v
     assert stats.kstest(x + 1, stats.gamma(k, scale=1 / k).cdf).pvalue > 1e-4
     assert abs(x.mean()) < 5 * math.sqrt(v / x.size)

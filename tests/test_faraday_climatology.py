@@ -6,7 +6,9 @@ import os
 import numpy as np
 import pytest
 
-from e2esim.chain import CaseState, SimulationSettings
+from e2esim.case import Case, Services
+from e2esim.io.array_cache import ArrayCache, open_cache
+from e2esim.settings import SimulationSettings
 from e2esim.errors import ConfigError
 from e2esim.faraday.distribution import EmpiricalFaraday
 from e2esim.instrument.modules import BiomassInstrument
@@ -30,10 +32,9 @@ SITE = {"name": "boreal", "lat_deg": 60.0, "lon_deg": 92.0}
 FEW_DATES = {"start": "2026-02-01", "end": "2026-11-30", "step_days": 90}
 
 
-def _state(geometry):
-    inst = BiomassInstrument()
-    st = CaseState(0, {}, SimulationSettings(), np.random.default_rng(0), geometry=geometry)
-    return inst.forward(st)
+def _case(geometry):
+    case = Case(0, {}, SimulationSettings(), np.random.default_rng(0), services=Services(cache=open_cache))
+    return case.adding({"geometry": geometry, **BiomassInstrument().forward(case)})
 
 
 def test_lognormal_nodes_keep_the_median_and_the_log_variance():
@@ -89,7 +90,7 @@ def test_cache_location(monkeypatch, tmp_path):
 def test_site_integrals_cached_and_read_back(tmp_path, monkeypatch):
     geo = BiomassOrbit(site=SITE, swath_samples=2, acquisitions=FEW_DATES).geometry
     settings = SlantSettings("thin_shell")
-    first = site_path_integrals(geo, [70.0], settings, tmp_path)
+    first = site_path_integrals(geo, [70.0], settings, ArrayCache(tmp_path))
     files = list(tmp_path.iterdir())
     assert len(files) == 1 and files[0].suffix == ".h5" and not any(f.name.endswith(".tmp") for f in files)
 
@@ -97,17 +98,17 @@ def test_site_integrals_cached_and_read_back(tmp_path, monkeypatch):
         raise AssertionError("recomputed instead of reading the cache")
 
     monkeypatch.setattr(clim_mod, "path_integrals", boom)
-    again = site_path_integrals(geo, [70.0], settings, tmp_path)
+    again = site_path_integrals(geo, [70.0], settings, ArrayCache(tmp_path))
     assert np.array_equal(again.faraday, first.faraday) and np.array_equal(again.vtec, first.vtec)
     with pytest.raises(AssertionError, match="recomputed"):
-        site_path_integrals(geo, [180.0], settings, tmp_path)  # another key
+        site_path_integrals(geo, [180.0], settings, ArrayCache(tmp_path))  # another key
 
 
 def test_iri_module_in_a_chain(tmp_path):
     geo = BiomassOrbit(site=SITE, swath_samples=2, passes="dusk", acquisitions=FEW_DATES).geometry
-    st = _state(geo)
-    lo = IRIClimatologyModule(solar="min", method="thin_shell", cache_dir=str(tmp_path)).forward(st).faraday
-    hi = IRIClimatologyModule(solar="max", method="thin_shell", cache_dir=str(tmp_path)).forward(st).faraday
+    case = _case(geo)
+    lo = IRIClimatologyModule(solar="min", method="thin_shell", cache_dir=str(tmp_path)).forward(case)["faraday.geophysical"]
+    hi = IRIClimatologyModule(solar="max", method="thin_shell", cache_dir=str(tmp_path)).forward(case)["faraday.geophysical"]
     assert isinstance(lo, FaradayClimatology) and lo.samples.size == geo.size * 15
     assert 0 < lo.mean_rad < hi.mean_rad  # northern hemisphere: B.k > 0; more TEC at solar maximum
     assert lo.f107 == 70.0 and hi.f107 == 180.0 and lo.frequency_hz == 435e6
@@ -116,22 +117,23 @@ def test_iri_module_in_a_chain(tmp_path):
 
 def test_fallback_and_user_tec_modules():
     geo = BiomassOrbit(site=SITE, swath_samples=2, acquisitions=FEW_DATES).geometry
-    st = _state(geo)
-    user = UserTECModule(vtec_tecu=10.0, tec_variability=0.0).forward(st).faraday
+    case = _case(geo)
+    user = UserTECModule(vtec_tecu=10.0, tec_variability=0.0).forward(case)["faraday.geophysical"]
     # thin shell: Omega = A B.k (10 TECU / cos chi) / f^2 for every acquisition
     assert np.allclose(user.stec, 10e16 / np.cos(geo.pierce_zenith))
     assert user.sd_rad > 0  # from the spread of geometry alone
-    klob = KlobucharModule().forward(st).faraday
+    klob = KlobucharModule().forward(case)["faraday.geophysical"]
     assert np.all(klob.vtec / 1e16 >= 9.2)
     assert np.all(np.sign(klob.acquisition_omega) == np.sign(user.acquisition_omega))
 
 
 def test_module_bad_input_names_the_key():
-    with pytest.raises(ConfigError, match="solar: f107 needs f107_sfu"):
+    with pytest.raises(ConfigError, match="f107_sfu: is null, but solar is 'f107'; give f107_sfu when solar is 'f107'"):
         IRIClimatologyModule(solar="f107")
     with pytest.raises(ConfigError, match="method"):
         IRIClimatologyModule(method="raytrace")
-    with pytest.raises(ConfigError, match="bottom_height_km 150 must be below shell_height_km 120"):
+    with pytest.raises(ConfigError, match="bottom_height_km: 150 is not below shell_height_km = 120; expected "
+                       "bottom_height_km < shell_height_km"):
         IRIClimatologyModule(bottom_height_km=150.0, shell_height_km=120.0)
     with pytest.raises(ConfigError, match="tec_variability"):
         UserTECModule(vtec_tecu=10.0, tec_variability=-0.1)
@@ -140,7 +142,7 @@ def test_module_bad_input_names_the_key():
 def test_global_climatology_table_and_cache(tmp_path):
     orbit = SunSynchronousOrbit(666e3)
     kw = dict(step_deg=15.0, months=(3, 9), f107=(70.0, 180.0), incidence_deg=(28.0,),
-              settings=SlantSettings("thin_shell"), cache_dir=tmp_path)
+              settings=SlantSettings("thin_shell"), cache=ArrayCache(tmp_path))
     c = global_climatology(orbit, **kw)
     assert c.faraday.shape == (2, 2, 2, 1, 12, 24)
     valid = np.isfinite(c.faraday)
@@ -158,14 +160,17 @@ def test_global_climatology_table_and_cache(tmp_path):
 def test_latitude_band_and_missing_orbit(tmp_path):
     orbit = SunSynchronousOrbit(666e3)
     band = global_climatology(orbit, 10.0, months=(6,), f107=(100.0,), incidence_deg=(28.0,),
-                              settings=SlantSettings("thin_shell"), lat_range=(40.0, 70.0), cache_dir=None)
+                              settings=SlantSettings("thin_shell"), lat_range=(40.0, 70.0), cache=None)
     assert band.lat_deg.tolist() == [45.0, 55.0, 65.0] and band.faraday.shape[-2:] == (3, 36)
     from e2esim.runner.scenario import Scenario
 
     sc = Scenario({"scene": {"type": "table1_forest"}, "instrument": {"type": "biomass"},
                    "ionosphere": {"type": "iri_climatology", "cache_dir": str(tmp_path)}})
-    with pytest.raises(ConfigError, match="needs 'geometry', which no earlier module provides"):
+    with pytest.raises(ConfigError, match="ionosphere type 'iri_climatology' needs the product 'geometry', which no "
+                       "stage of this chain provides.*modules that provide it: orbit.biomass_orbit, "
+                       "orbit.sun_synchronous") as info:
         sc.resolve()
+    assert "<scenario>: ionosphere" in str(info.value)
 
 
 def test_global_table_cell_equals_a_direct_site_computation():

@@ -7,27 +7,17 @@ import numpy as np
 import pytest
 
 from e2esim.faraday.climatology import FaradayClimatology
-from e2esim.runner.outputs import write_outputs
 from e2esim.runner.run import run_scenario
 from e2esim.runner.scenario import Scenario
 
 SCENARIO = Path(__file__).resolve().parents[1] / "scenarios" / "biomass_fr_climatology.yaml"
-FAST = (
-    "orbit.acquisitions.step_days=120", "orbit.swath_samples=2", "ionosphere.method=thin_shell",
-    "ionosphere.variability_nodes=3", "simulation.realisations=300", "simulation.looks=1000",
-)
-
-
-def _run(tmp_path, overrides):
-    sc = Scenario.load(SCENARIO, overrides=(*overrides, f"ionosphere.cache_dir={tmp_path / 'cache'}"))
-    return run_scenario(sc.resolve(), progress=False)
 
 
 def _check(result):
     assert len(result.cases) == 8
     by = {}
     for c in result.cases:
-        fr = c.state.faraday
+        fr = c.get("faraday.geophysical")
         assert isinstance(fr, FaradayClimatology)
         label = c.inputs["orbit.passes"]
         assert set(fr.pass_label) == {label}
@@ -42,17 +32,15 @@ def _check(result):
     return by
 
 
-def test_fr_climatology_scenario_fast(tmp_path):
-    result = _run(tmp_path, FAST)
+def test_fr_climatology_scenario_fast(quick_run):
+    result, folder = quick_run("biomass_fr_climatology")
     _check(result)
-    out = write_outputs(result, tmp_path / "run")
-    assert (tmp_path / "run" / "faraday_distributions.png").exists()
-    assert (tmp_path / "run" / "summary.json").exists()
-    assert out["plots"]
+    assert (folder / "faraday_distributions.png").exists()
 
 
 @pytest.mark.slow
 def test_fr_climatology_scenario_as_shipped(tmp_path):
-    by = _check(_run(tmp_path, ()))
+    sc = Scenario.load(SCENARIO, overrides=(f"ionosphere.cache_dir={tmp_path / 'cache'}",))
+    by = _check(run_scenario(sc.resolve(), progress=False))
     # dusk at solar maximum over the boreal site: tens of degrees one way at 435 MHz
     assert np.degrees(by[("boreal_siberia", "dusk", "max")].mean_rad) > 20

@@ -1,9 +1,12 @@
 """Every registered module passes the conformance check (e2esim.testing)."""
 
+import itertools
+
 import pytest
 
+from e2esim import products as P
 from e2esim import registry
-from e2esim.module import Module
+from e2esim.module import Stage
 from e2esim.params import Param
 from e2esim.testing import check_declaration, check_module
 
@@ -28,15 +31,43 @@ def test_builtin_module_conforms(reg):
     check_module(reg.cls, CONFIGS.get((reg.kind, reg.type_name)))
 
 
-class Broken(Module):
+class Broken(Stage):
     kind = "scene"
     type_name = "broken"
     summary = "claims a scene but provides nothing"
     params = (Param("size_km", "float", "a size", default=1.0),)  # unit missing
-    provides = ("scene",)
+    provides = (P.SCENE,)
 
-    def forward(self, state):
-        return state
+    def forward(self, case):
+        return {}
+
+
+class WrongType(Stage):
+    kind = "scene"
+    type_name = "wrong_type"
+    summary = "provides a scene that is not a covariance"
+    provides = (P.SCENE,)
+
+    def forward(self, case):
+        return {"scene.covariance": [[1.0]]}
+
+
+_CALLS = itertools.count()  # a new seed at every call: what a module drawing outside the case's generator does
+
+
+class Random(Stage):
+    kind = "scene"
+    type_name = "random"
+    summary = "draws from a generator of its own"
+    provides = (P.SCENE,)
+
+    def forward(self, case):
+        import numpy as np
+
+        from e2esim.scene.covariance import ScatteringCovariance
+
+        power = np.random.default_rng(next(_CALLS)).uniform(0.01, 0.1)  # not the case's generator: differs per call
+        return {"scene.covariance": ScatteringCovariance.from_powers(1.0, power, 0.5, 0.1, 0.0)}
 
 
 def test_the_checker_catches_a_broken_module():
@@ -44,7 +75,12 @@ def test_the_checker_catches_a_broken_module():
         check_declaration(Broken)
     Broken.params = (Param("size_km", "float", "a size", default=1.0, unit="km"),)
     try:
-        with pytest.raises(AssertionError, match="provides 'scene' but left it empty"):
+        with pytest.raises(AssertionError, match="scene type 'broken' returned nothing; it declares scene.covariance"):
             check_module(Broken)
     finally:
         Broken.params = (Param("size_km", "float", "a size", default=1.0),)
+    with pytest.raises(AssertionError, match="returned a list for product 'scene.covariance', which must be a "
+                       "ScatteringCovariance"):
+        check_module(WrongType)
+    with pytest.raises(AssertionError, match="forward is not deterministic"):
+        check_module(Random)

@@ -162,7 +162,7 @@ def test_biomass_orbit_module_geometry():
 
 
 def test_orbit_module_bad_input_names_the_key():
-    with pytest.raises(ConfigError, match="incidence_near_deg 35 must be below"):
+    with pytest.raises(ConfigError, match="incidence_near_deg: 35 is not below incidence_far_deg = 33.75"):
         BiomassOrbit(site={"lat_deg": 0, "lon_deg": 0}, incidence_near_deg=35.0)
     with pytest.raises(ConfigError, match="out of reach"):
         BiomassOrbit(site={"lat_deg": 85.0, "lon_deg": 0})

@@ -2,6 +2,7 @@
 ``e2esim.modules`` and used by a scenario."""
 
 import json
+import math
 import os
 import subprocess
 import sys
@@ -11,14 +12,16 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 PLUGIN = ROOT / "examples" / "e2esim-example-instrument"
+SCINTILLATION = ROOT / "examples" / "e2esim-example-scintillation"
 
 
 @pytest.fixture(scope="module")
 def plugin_path(tmp_path_factory):
+    """Both example plug-ins installed into a folder of their own (not into the test environment)."""
     target = tmp_path_factory.mktemp("site")
     proc = subprocess.run(
         [sys.executable, "-m", "pip", "install", "--quiet", "--no-deps", "--no-build-isolation",
-         "--target", str(target), str(PLUGIN)],
+         "--target", str(target), str(PLUGIN), str(SCINTILLATION)],
         capture_output=True, text=True,
     )
     assert proc.returncode == 0, proc.stderr
@@ -64,3 +67,72 @@ def test_without_the_plugin_the_type_is_unknown(tmp_path):
     proc = subprocess.run([sys.executable, "-m", "e2esim", "validate", str(PLUGIN / "scenario.yaml")],
                           capture_output=True, text=True)
     assert proc.returncode == 2 and "unknown instrument type 'example_lband'" in proc.stderr
+
+
+def test_a_plugin_adds_an_error_source_with_attribution_margins_and_a_tradeoff_curve(plugin_path, tmp_path):
+    """The scintillation plug-in adds a stage kind, a product and an error source from outside e2esim; the
+    report of its scenario attributes the AGB error to scintillation, finds its margin and traces the
+    crosstalk/channel-imbalance trade-off curve through the plug-in's error model."""
+    proc = _e2esim(plugin_path, "validate", str(SCINTILLATION / "scenario.yaml"))
+    assert proc.returncode == 0, proc.stderr
+    assert "scintillation=s4_index" in proc.stdout and "ionosphere.scintillation -> " in proc.stdout
+    out = tmp_path / "run"
+    proc = _e2esim(plugin_path, "run", str(SCINTILLATION / "scenario.yaml"), "-o", str(out), "--no-progress")
+    assert proc.returncode == 0, proc.stderr
+    case = json.loads((out / "summary.json").read_text())["cases"][0]
+    assert case["results"]["scintillation.factor_variance"] == pytest.approx(0.3**2 / 400)
+    details = case["requirements"][0]["details"]
+    # S4 = 0.3 over 400 patterns adds a relative SD of 1.5 % to sigma_hv, comparable to the noise at -27 dB
+    assert 1.0 < details["contribution.scintillation_percent"] < 10.0
+    assert details["contribution.gain_percent"] == 0.0  # no gain error: nothing to take away
+    # the level at which the verdict flips: a variance of the intensity factor above the current 2.25e-4
+    assert -45.0 < details["scintillation.limit_db"] < -20.0
+    assert details["scintillation.margin_db"] == pytest.approx(details["scintillation.limit_db"]
+                                                               - 10 * math.log10(0.3**2 / 400))
+    assert details["over.crosstalk_axis_db"] > -30.0  # the trade-off curve, through the plug-in's model
+    report = (out / "report.md").read_text()
+    assert "scintillation limit (dB)" in report and (out / "tradeoff.png").exists()
+
+
+def test_the_plugin_error_model_agrees_with_its_monte_carlo(plugin_path, seed):
+    """Var[e'] = v (1 + V) + (sigma + m)^2 V for a multiplicative factor of variance V (the plug-in's
+    derivation) against the Monte Carlo of the full system model times gamma draws: z-test, any seed."""
+    code = """
+import math, sys
+import numpy as np
+from e2esim.runner.run import run_case
+from e2esim.runner.scenario import Scenario
+sc = Scenario.load(sys.argv[1], ["simulation.realisations=20000", "scintillation.independent_patterns=20",
+                                 f"simulation.seed={int(sys.argv[2])}"])
+case = run_case(sc.resolve().cases[0])
+model = case.get("backscatter.error")
+x = model.relative_samples().ravel()
+m = model.current()
+var_x = float(m.variance) / model.value**2
+d = x - x.mean()
+se_var = math.sqrt((np.mean(d**4) - np.mean(d**2) ** 2) / x.size)  # SE of a sample variance, any kurtosis
+z_var = (x.var(ddof=1) - var_x) / se_var
+z_mean = (x.mean() - float(m.mean) / model.value) / (x.std(ddof=1) / math.sqrt(x.size))
+print(f"{z_var:.3f} {z_mean:.3f}")
+"""
+    env = {**os.environ, "PYTHONPATH": str(plugin_path)}
+    proc = subprocess.run([sys.executable, "-c", code, str(SCINTILLATION / "scenario.yaml"), str(seed)],
+                          capture_output=True, text=True, env=env, cwd=ROOT)
+    assert proc.returncode == 0, proc.stderr
+    z_var, z_mean = map(float, proc.stdout.split())
+    assert abs(z_var) < 4.5 and abs(z_mean) < 4.5, (seed, z_var, z_mean)
+
+
+def test_plugin_modules_conform(plugin_path):
+    code = ("from e2esim.testing import check_module; "
+            "from e2esim_example_scintillation.stage import S4Scintillation; "
+            "from e2esim_example_scintillation.propagation import HVWithScintillation; "
+            "from e2esim.testing import reference_case; "
+            "from e2esim_example_scintillation.products import Scintillation; "
+            "check_module(S4Scintillation, {'s4': 0.5, 'at_frequency_mhz': 250}); "
+            "case = reference_case(HVWithScintillation.needs[:-1]).adding("
+            "{'ionosphere.scintillation': Scintillation(0.3, 50)}); "
+            "check_module(HVWithScintillation, {}, case); print('ok')")
+    env = {**os.environ, "PYTHONPATH": str(plugin_path)}
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env)
+    assert proc.returncode == 0 and proc.stdout.strip() == "ok", proc.stderr

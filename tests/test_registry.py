@@ -4,7 +4,7 @@ import pytest
 
 from e2esim import registry
 from e2esim.errors import ModuleLookupError
-from e2esim.module import KINDS
+from e2esim.module import KIND_ORDER
 
 
 def test_builtins_register_through_the_entry_point_group():
@@ -12,7 +12,10 @@ def test_builtins_register_through_the_entry_point_group():
     assert {r.kind for r in regs} >= {"scene", "instrument", "ionosphere", "propagation", "retrieval", "requirement"}
     assert all(r.distribution.lower() == "e2esim" for r in regs if r.cls.__module__.startswith("e2esim."))
     assert registry.lookup("instrument", "biomass").__name__ == "BiomassInstrument"
-    assert [r.kind for r in regs] == sorted((r.kind for r in regs), key=KINDS.index)
+    ranks = [KIND_ORDER.index(r.kind) if r.kind in KIND_ORDER else len(KIND_ORDER) for r in regs]
+    assert ranks == sorted(ranks)  # e2esim's own kinds in chain order, then the others
+    assert registry.kinds()[-1] == "faraday_estimator"
+    assert registry.lookup("faraday_estimator", "chirp_slope").ambiguous is False
 
 
 def test_unknown_type_lists_the_valid_names():

@@ -16,13 +16,12 @@ from e2esim.retrieval.synthetic import synthetic_field_plots
 SAT = SaturatingModel(0.055, 0.015, 0.008)
 # 60 plots between 5 and 150 t/ha, 15 % allometric and 2 % backscatter error, small error in equation:
 # measurement error dominates, the naive fit is clearly biased (test_retrieval_simex.py).
-DESIGN = dict(allometric_error_percent=15, backscatter_error_percent=2, model_error_sd=0.0005,
+DESIGN = dict(allometric_error=0.15, backscatter_error=0.02, model_error_sd=0.0005,
               agb_range_t_ha=(5, 150))
 P_MIN = 1e-4  # two-sided binomial p-value below which the coverage is inconsistent with 95 %
 
 
-def _coverage(n_sets, design, agb=50.0, n_sim=50, n_boot=200, refit="naive"):
-    rng = np.random.default_rng()
+def _coverage(rng, n_sets, design, agb=50.0, n_sim=50, n_boot=200, refit="naive"):
     truth = SAT.sigma(agb)
     hits = 0
     for _ in range(n_sets):
@@ -35,24 +34,24 @@ def _coverage(n_sets, design, agb=50.0, n_sim=50, n_boot=200, refit="naive"):
     return hits
 
 
-def test_bootstrap_confidence_band_covers_truth_at_nominal_rate():
+def test_bootstrap_confidence_band_covers_truth_at_nominal_rate(rng):
     """SIMEX centre, conditional bootstrap, eqs. (3)-(4) with the bootstrap covariance: 95 % band at
     50 t/ha over 200 data sets, binomial test (simulation of 800 data sets: 95.0 %)."""
-    hits = _coverage(200, "conditional")
+    hits = _coverage(rng, 200, "conditional")
     assert stats.binomtest(hits, 200, 0.95).pvalue > P_MIN, hits
 
 
 @pytest.mark.slow
 @pytest.mark.parametrize("agb", [25.0, 100.0])
-def test_bootstrap_coverage_other_agb_levels(agb):
-    hits = _coverage(400, "conditional", agb=agb)
+def test_bootstrap_coverage_other_agb_levels(rng, agb):
+    hits = _coverage(rng, 400, "conditional", agb=agb)
     assert stats.binomtest(hits, 400, 0.95).pvalue > P_MIN, hits
 
 
-def test_printed_eq_12_undercovers():
+def test_printed_eq_12_undercovers(rng):
     """Eq. (12) as printed generates the response at the perturbed predictor W_b, so the bootstrap data
     carry no predictor error: the band is far too narrow (about 45 % coverage at 50 t/ha)."""
-    hits = _coverage(60, "paper", n_sim=20, n_boot=100)
+    hits = _coverage(rng, 60, "paper", n_sim=20, n_boot=100)
     assert stats.binomtest(hits, 60, 0.95, alternative="less").pvalue < P_MIN, hits
 
 
@@ -89,8 +88,8 @@ def test_bootstrap_with_simex_refits_and_given_model_error():
 def test_bootstrap_counts_failed_refits():
     """Backscatter error comparable to the dynamic range (the paper's subplots): some refits fail; they
     are counted by mode and left out of the covariance."""
-    fp = synthetic_field_plots(SAT, 40, np.random.default_rng(6), allometric_error_percent=10,
-                               backscatter_error_percent=40, model_error_sd=0.005, agb_range_t_ha=(5, 350))
+    fp = synthetic_field_plots(SAT, 40, np.random.default_rng(6), allometric_error=0.1,
+                               backscatter_error=0.4, model_error_sd=0.005, agb_range_t_ha=(5, 350))
     r = parametric_bootstrap(SAT, fp.agb, fp.sigma, fp.agb_error_sd, fp.sigma_error_sd, np.random.default_rng(7),
                              n_boot=300)
     assert r.n_failed > 0
@@ -105,23 +104,23 @@ def test_bootstrap_counts_failed_refits():
     ({"n_boot": 1}, "n_boot must be an integer >= 2"),
     ({"model_error": -1.0}, "model_error variance must be >= 0"),
 ])
-def test_bootstrap_bad_input_messages(kwargs, message):
+def test_bootstrap_bad_input_messages(rng, kwargs, message):
     agb = np.linspace(5, 300, 20)
     with pytest.raises(PhysicsInputError, match=message):
-        parametric_bootstrap(SAT, agb, SAT.sigma(agb), 1.0, 0.001, np.random.default_rng(), **kwargs)
+        parametric_bootstrap(SAT, agb, SAT.sigma(agb), 1.0, 0.001, rng, **kwargs)
 
 
-def test_bootstrap_rejects_multichannel_data_and_negative_errors():
+def test_bootstrap_rejects_multichannel_data_and_negative_errors(rng):
     agb = np.linspace(5, 300, 20)
     with pytest.raises(PhysicsInputError, match="single-channel data"):
-        parametric_bootstrap(SAT, agb, np.ones((20, 3)), 1.0, 0.001, np.random.default_rng())
+        parametric_bootstrap(SAT, agb, np.ones((20, 3)), 1.0, 0.001, rng)
     with pytest.raises(PhysicsInputError, match="finite and >= 0"):
-        parametric_bootstrap(SAT, agb, SAT.sigma(agb), -1.0, 0.001, np.random.default_rng())
+        parametric_bootstrap(SAT, agb, SAT.sigma(agb), -1.0, 0.001, rng)
 
 
-def test_given_model_error_estimate_is_used():
+def test_given_model_error_estimate_is_used(rng):
     agb = np.linspace(5, 300, 20)
     me = ModelErrorEstimate(1e-6, 1e-6, 2e-6, 5e-7, 5e-7, False, 17)
-    r = parametric_bootstrap(SAT, agb, SAT.sigma(agb), 1.0, 0.001, np.random.default_rng(), n_boot=20,
+    r = parametric_bootstrap(SAT, agb, SAT.sigma(agb), 1.0, 0.001, rng, n_boot=20,
                              model_error=me)
     assert r.model_error is me

@@ -34,7 +34,7 @@ def _run(data, **changes):
 
 def test_budget_module_attaches_a_per_channel_budget():
     case = _run(BASE)[0]
-    budget = case.state.backscatter.budget
+    budget = case.get("backscatter.budget")
     assert budget.channels == ("hh", "hv", "vv")
     assert float(budget.channel("hv").sigma) == pytest.approx(0.0726)
     assert case.scalars["budget.looks"] == pytest.approx(float(budget.channel("hv").looks))
@@ -43,19 +43,20 @@ def test_budget_module_attaches_a_per_channel_budget():
 
 def test_contributions_add_up_to_the_reported_error():
     case = _run(BASE)[0]
-    agb, bs = case.state.agb, case.state.backscatter
+    agb, model = case.get("agb.error"), case.get("backscatter.error")
     names = [c.name for c in agb.contributions]
     assert names == ["system_distortions", "faraday_rotation", "noise_bias", "speckle_noise", "temporal",
                      "calibration", "area_projection"]
-    s = bs.sigma_hv
+    s = model.value
+    moments = model.current()
     systematic = [c for c in agb.contributions if c.group == "systematic"]
     # the three systematic parts add up to the propagation module's analytic moments exactly
-    assert sum(c.relative_mean for c in systematic) * s == pytest.approx(float(bs.analytic.mean), rel=1e-10)
-    assert sum(c.relative_variance for c in systematic) * s**2 == pytest.approx(float(bs.analytic.variance), rel=1e-10)
+    assert sum(c.relative_mean for c in systematic) * s == pytest.approx(float(moments.mean), rel=1e-10)
+    assert sum(c.relative_variance for c in systematic) * s**2 == pytest.approx(float(moments.variance), rel=1e-10)
     # the total is systematic + budget (independent sources)
-    budget_var = float(bs.budget.channel("hv").total_variance)
-    assert agb.error_sd**2 == pytest.approx(float(bs.analytic.variance) + s**2 * budget_var, rel=1e-10)
-    assert agb.error_mean == pytest.approx(float(bs.analytic.mean))
+    budget_var = float(case.get("backscatter.budget").channel("hv").total_variance)
+    assert agb.error_sd**2 == pytest.approx(float(moments.variance) + s**2 * budget_var, rel=1e-10)
+    assert agb.error_mean == pytest.approx(float(moments.mean))
     shares = [case.scalars[f"agb.contribution.{n}.variance_share"] for n in names]
     assert sum(shares) == pytest.approx(1.0)
     assert agb.dominant_contribution() == "speckle_noise"  # about 92 looks at 4 ha
@@ -66,7 +67,7 @@ def test_monte_carlo_agrees_with_analytic_with_the_budget():
     mean of the analytic model: z test on the sample mean of q against the analytic E[q] (the gamma law of
     the speckle term and the Gaussian model differ in skewness, not in the first two moments of x)."""
     case = _run(BASE, simulation={**BASE["simulation"], "realisations": 20_000})[0]
-    agb = case.state.agb
+    agb = case.get("agb.error")
     q = agb.samples
     x_analytic_sd = agb.error_sd / agb.sigma_hv
     # compare relative sigma errors: invert q = (1 + x)^p - 1
@@ -80,29 +81,32 @@ def test_monte_carlo_agrees_with_analytic_with_the_budget():
 def test_without_budget_results_are_unchanged():
     plain = dict(BASE, propagation={"type": "hv_backscatter_error"})
     a = _run(plain)[0]
-    assert a.state.agb.contributions == ()
+    agb, model = a.get("agb.error"), a.get("backscatter.error")
+    assert agb.contributions == ()
     assert not any(k.startswith(("agb.contribution", "budget.")) for k in a.scalars)
-    # the power law without a budget is exactly the old computation
-    from e2esim.retrieval.agb_error import AGBError
+    # without a budget the AGB error is the power law of eq. (16) applied to the propagation's error alone,
+    # checked here against the formula written out: q = (1 + e / sigma_hv)^p - 1, p = 2.2 (boreal)
+    x = model.relative_samples()  # errors relative to each simulated scene's own sigma_hv (eq. 17)
+    np.testing.assert_allclose(agb.samples, np.ravel((1 + x) ** 2.2 - 1), rtol=1e-12)
+    from scipy import integrate, stats
 
-    bs = a.state.backscatter
-    ref = np.asarray(bs.montecarlo.reference["hv"])
-    old = AGBError.from_sigma_errors(2.2, bs.sigma_hv, float(bs.analytic.mean), float(bs.analytic.sd),
-                                     bs.montecarlo.hv / ref)
-    np.testing.assert_array_equal(a.state.agb.samples, old.samples)
-    assert a.state.agb.rmse() == old.rmse()
+    m = model.current()
+    mu, sd = float(m.mean) / model.value, float(m.sd) / model.value
+    mean_square, _ = integrate.quad(lambda t: ((1 + t) ** 2.2 - 1) ** 2 * stats.norm.pdf(t, mu, sd),
+                                    mu - 12 * sd, mu + 12 * sd, epsabs=0, epsrel=1e-12)
+    assert agb.rmse() == pytest.approx(np.sqrt(mean_square), rel=1e-10)
 
 
 def test_budget_reproducible_per_case():
     a, b = _run(BASE)[0], _run(BASE)[0]
-    np.testing.assert_array_equal(a.state.agb.samples, b.state.agb.samples)
+    np.testing.assert_array_equal(a.get("agb.error").samples, b.get("agb.error").samples)
 
 
 def test_regression_contribution_and_saturating_model():
     data = dict(BASE, retrieval={"type": "saturating", "agb_max_t_ha": 600.0,
                                  "regression": {"mode": "prediction", "plots": 40}})
     case = _run(data)[0]
-    agb = case.state.agb
+    agb = case.get("agb.error")
     reg = agb.contribution("regression")
     assert reg.group == "regression" and reg.relative_variance > 0
     assert 0 <= case.scalars["agb.analytic.saturated_fraction"] <= 1
@@ -113,7 +117,7 @@ def test_regression_contribution_and_saturating_model():
 def test_log_linear_retrieval_runs_and_uses_the_hv_weight():
     data = dict(BASE, retrieval={"type": "log_linear"})
     case = _run(data)[0]
-    agb = case.state.agb
+    agb = case.get("agb.error")
     assert 0 < agb.exponent < 1  # c_hv of the Table I boreal fit: HH carries most of the weight
     assert {c.name for c in agb.contributions} >= {"speckle_noise", "calibration"}
     assert np.all(np.isfinite(agb.samples))
@@ -130,7 +134,8 @@ def test_budget_module_bad_input_names_the_key():
     data = dict(BASE, propagation=[{"type": "hv_backscatter_error"},
                                    {"type": "backscatter_error_budget", "observation": {"area_m2": 1e4,
                                                                                         "product_resolution_m": 100}}])
-    with pytest.raises(ConfigError, match=r"propagation\[1\]\.observation: gives both area_m2 and product_resolution_m"):
+    with pytest.raises(ConfigError, match=r"propagation\[1\]\.observation\.product_resolution_m: area_m2, "
+                       "product_resolution_m are all given; give at most one of area_m2, product_resolution_m"):
         _run(data)
     data = dict(BASE, propagation=[{"type": "hv_backscatter_error"},
                                    {"type": "backscatter_error_budget",
@@ -142,7 +147,7 @@ def test_budget_module_bad_input_names_the_key():
         _run(data)
 
 
-def test_draw_random_errors_moments():
+def test_draw_random_errors_moments(rng):
     """Independent Gaussian and gamma draws: mean 0 and the summed variance (z tests)."""
     from e2esim.budget.presets import preset
     from e2esim.budget.result import backscatter_budget
@@ -151,18 +156,15 @@ def test_draw_random_errors_moments():
     budget = budget.with_(channels=("hh", "hv", "vv"))
     hv = budget.channel("hv")
     contribs = tuple(AGBContribution(g, "random", 0.0, float(hv.group_sd(g) ** 2)) for g in budget.groups)
-    x = draw_random_errors(np.random.default_rng(), (200_000,), budget, contribs, regression_variance=1e-4)
+    x = draw_random_errors(rng, (200_000,), budget, contribs, regression_variance=1e-4)
     v = sum(c.relative_variance for c in contribs) + 1e-4
     assert abs(x.mean()) < 5 * np.sqrt(v / x.size)
     assert abs(x.var() - v) < 5 * v * np.sqrt(2.5 / x.size)
 
 
 @pytest.mark.parametrize("name", ["biomass_error_budget", "uavsar_ahmed2014"])
-def test_issue6_scenarios_run(name):
-    scenario = Scenario.load(ROOT / "scenarios" / f"{name}.yaml",
-                             overrides=["simulation.realisations=500", "retrieval.regression.bootstrap_samples=30",
-                                        "retrieval.regression.simex_samples=5"])
-    cases = run_scenario(scenario.resolve(), progress=False).cases
+def test_issue6_scenarios_run(name, quick_run):
+    cases = quick_run(name)[0].cases
     assert len(cases) == 5
     for c in cases:
         for contribution in ("system_distortions", "faraday_rotation", "speckle_noise", "temporal", "calibration",

@@ -85,10 +85,9 @@ def test_power_law_log_fit_exact_and_linear_fit():
     np.testing.assert_allclose(lin.params, PL.params, rtol=1e-6)
 
 
-def test_power_law_log_fit_covariance_is_exact_ols_theory():
+def test_power_law_log_fit_covariance_is_exact_ols_theory(rng):
     """Log-space OLS with Gaussian ln-residuals: the +-t SE interval of the exponent covers the truth 95 % of
     the time (binomial test over 400 data sets)."""
-    rng = np.random.default_rng()
     n_sets, n, hits = 400, 15, 0
     agb = np.exp(rng.uniform(np.log(20), np.log(400), n))
     t = stats.t.ppf(0.975, n - 2)
@@ -243,10 +242,9 @@ def test_loglinear_inversion_exact_and_with_unusable_channels():
         LL.invert(np.ones(4))
 
 
-def test_loglinear_joint_fit_recovers_coefficients_and_sur_covariance():
+def test_loglinear_joint_fit_recovers_coefficients_and_sur_covariance(rng):
     """Coverage of the +-1.96 SE intervals of a_hv (SUR covariance Sigma_r kron (X^T X)^-1) over 300 data
     sets: binomial test against 95 % (normal critical value, 60 plots: t_57 differs by 1.5 %)."""
-    rng = np.random.default_rng()
     chol = np.linalg.cholesky(LL.residual_covariance)
     hits = 0
     for _ in range(300):

@@ -65,17 +65,16 @@ def test_log_space_band_is_asymmetric_in_sigma():
     assert math.log(band.conf_upper[0] / band.fit[0]) == pytest.approx(1.959964 * band.se_fit[0], rel=1e-6)
 
 
-def test_naive_confidence_band_coverage_and_eq_6_needs_the_residual_variance():
+def test_naive_confidence_band_coverage_and_eq_6_needs_the_residual_variance(rng):
     """Without measurement error, the eq. (3) band at M = 100 t/ha covers the true curve at the nominal
     rate (binomial test over 300 data sets, Student t critical value). The printed eq. (6),
     (J^T J)^-1 without sigma_hat^2, gives a band wider by 1/sigma_hat: it always covers (errata)."""
-    rng = np.random.default_rng()
     hits = printed = 0
     n_sets, m = 300, np.array([100.0])
     truth = SAT.sigma(100.0)
     for _ in range(n_sets):
-        fp = synthetic_field_plots(SAT, 40, rng, agb_range_t_ha=(5, 300), allometric_error_percent=0,
-                                   backscatter_error_percent=0, model_error_sd=0.003)
+        fp = synthetic_field_plots(SAT, 40, rng, agb_range_t_ha=(5, 300), allometric_error=0.0,
+                                   backscatter_error=0.0, model_error_sd=0.003)
         fit = SAT.fit(fp.agb, fp.sigma)
         assert fit.converged
         band = band_from_fit(fit, m, critical="t")
@@ -114,8 +113,8 @@ def test_inverted_intervals_become_unbounded_with_saturation():
     """Figs. 13 and 20: the inverted confidence interval is bounded at low AGB and unbounded where the
     lower band flattens below the observation."""
     rng = np.random.default_rng(5)
-    fp = synthetic_field_plots(SAT, 40, rng, agb_range_t_ha=(5, 350), allometric_error_percent=0,
-                               backscatter_error_percent=0, model_error_sd=0.004)
+    fp = synthetic_field_plots(SAT, 40, rng, agb_range_t_ha=(5, 350), allometric_error=0.0,
+                               backscatter_error=0.0, model_error_sd=0.004)
     fit = SAT.fit(fp.agb, fp.sigma)
     band = band_from_fit(fit, np.linspace(0, 600, 1201))
     iv = invert_band(band, fit.model.sigma(np.array([20.0, 50.0, 300.0])))
@@ -126,24 +125,23 @@ def test_inverted_intervals_become_unbounded_with_saturation():
     assert pred.width[0] > iv.width[0]
 
 
-def test_model_error_eq_14_is_unbiased():
+def test_model_error_eq_14_is_unbiased(rng):
     """Eq. (14) subtracts the measurement errors from the residual scatter. (a) No predictor error, fitted
     coefficients, denominator n - p: E[sigma_hat^2] = sigma^2; (b) with a 10 % allometric error and the
     true coefficients (n degrees of freedom): the F_X^2 sigma_u^2 term removes the predictor error to first
     order. z tests over 300 data sets; the printed n - k denominator is (n - p)/(n - 1) times smaller."""
-    rng = np.random.default_rng()
     sigma_eps, n = 0.002, 20
     a, b = [], []
     for _ in range(300):
-        fp = synthetic_field_plots(SAT, n, rng, agb_range_t_ha=(5, 300), allometric_error_percent=0,
-                                   backscatter_error_percent=5, model_error_sd=sigma_eps)
+        fp = synthetic_field_plots(SAT, n, rng, agb_range_t_ha=(5, 300), allometric_error=0.0,
+                                   backscatter_error=0.05, model_error_sd=sigma_eps)
         fit = SAT.fit(fp.agb, fp.sigma)
         me = model_error_variance(fit.model, fp.agb, fp.sigma, fp.sigma_error_sd, 0.0)
         a.append(me.raw)
         nk = model_error_variance(fit.model, fp.agb, fp.sigma, fp.sigma_error_sd, 0.0, denominator="n-k")
         assert nk.residual_mean_square == pytest.approx(me.residual_mean_square * (n - 3) / (n - 1))
-        fp = synthetic_field_plots(SAT, n, rng, agb_range_t_ha=(20, 300), allometric_error_percent=10,
-                                   backscatter_error_percent=5, model_error_sd=sigma_eps)
+        fp = synthetic_field_plots(SAT, n, rng, agb_range_t_ha=(20, 300), allometric_error=0.1,
+                                   backscatter_error=0.05, model_error_sd=sigma_eps)
         me = model_error_variance(SAT, fp.agb, fp.sigma, fp.sigma_error_sd, fp.agb_error_sd)
         b.append(me.residual_mean_square * (n - 3) / n - me.response_error - me.predictor_error)
     for est in (np.array(a), np.array(b)):

@@ -30,22 +30,20 @@ def _bias_reduced(true, naive, corrected, which):
         assert z_naive > Z and t1 > Z and t2 > Z, (true.param_names[j], z_naive, t1, t2)
 
 
-def test_simex_removes_power_law_attenuation():
+def test_simex_removes_power_law_attenuation(rng):
     """Classical attenuation: 15 % allometric error flattens the log-log slope (the exponent p comes out
     too large, z ~ 16 over 300 data sets); SIMEX removes the bias of both coefficients."""
-    rng = np.random.default_rng()
-    fp = synthetic_field_plots(PL, 40, rng, n_datasets=300, allometric_error_percent=15, backscatter_error_percent=5,
+    fp = synthetic_field_plots(PL, 40, rng, n_datasets=300, allometric_error=0.15, backscatter_error=0.05,
                                agb_distribution="loguniform", agb_range_t_ha=(20, 400))
     sb = simex_batch(PL, fp.agb, fp.sigma, fp.agb_error_sd, fp.sigma_error_sd, rng, n_sim=40)
     assert sb.ok.mean() > 0.95, sb.status_counts()
     _bias_reduced(PL, sb.naive[sb.ok], sb.params[sb.ok], which=(0, 1))
 
 
-def test_simex_reduces_saturating_model_bias_fast():
+def test_simex_reduces_saturating_model_bias_fast(rng):
     """Eq. (1) with 15 % allometric and 2 % backscatter error, 60 plots, 200 data sets: the naive beta0 and
     beta1 are biased (about -3 % and +17 %); SIMEX (quadratic extrapolant) reduces both biases."""
-    rng = np.random.default_rng()
-    fp = synthetic_field_plots(SAT, 60, rng, n_datasets=200, allometric_error_percent=15, backscatter_error_percent=2,
+    fp = synthetic_field_plots(SAT, 60, rng, n_datasets=200, allometric_error=0.15, backscatter_error=0.02,
                                model_error_sd=0.0005, agb_range_t_ha=(5, 150))
     sb = simex_batch(SAT, fp.agb, fp.sigma, fp.agb_error_sd, fp.sigma_error_sd, rng, n_sim=50)
     assert sb.ok.mean() > 0.95, sb.status_counts()
@@ -53,9 +51,8 @@ def test_simex_reduces_saturating_model_bias_fast():
 
 
 @pytest.mark.slow
-def test_simex_reduces_saturating_model_bias_all_coefficients():
-    rng = np.random.default_rng()
-    fp = synthetic_field_plots(SAT, 60, rng, n_datasets=1000, allometric_error_percent=15, backscatter_error_percent=2,
+def test_simex_reduces_saturating_model_bias_all_coefficients(rng):
+    fp = synthetic_field_plots(SAT, 60, rng, n_datasets=1000, allometric_error=0.15, backscatter_error=0.02,
                                model_error_sd=0.0005, agb_range_t_ha=(5, 150))
     sb = simex_batch(SAT, fp.agb, fp.sigma, fp.agb_error_sd, fp.sigma_error_sd, rng, n_sim=50)
     assert sb.ok.mean() > 0.95, sb.status_counts()
@@ -63,8 +60,8 @@ def test_simex_reduces_saturating_model_bias_all_coefficients():
 
 
 def test_simex_single_dataset_result_and_reproducibility():
-    fp = synthetic_field_plots(SAT, 40, np.random.default_rng(1), allometric_error_percent=10,
-                               backscatter_error_percent=5, model_error_sd=0.002)
+    fp = synthetic_field_plots(SAT, 40, np.random.default_rng(1), allometric_error=0.1,
+                               backscatter_error=0.05, model_error_sd=0.002)
     run = lambda seed: simex(SAT, fp.agb, fp.sigma, fp.agb_error_sd, fp.sigma_error_sd,  # noqa: E731
                              np.random.default_rng(seed), n_sim=30)
     a, b, c = run(7), run(7), run(8)
@@ -79,12 +76,12 @@ def test_simex_single_dataset_result_and_reproducibility():
     assert a.reliable == (a.failure_fraction <= 0.2)
 
 
-def test_simex_without_measurement_error_returns_the_naive_fit():
+def test_simex_without_measurement_error_returns_the_naive_fit(rng):
     agb = np.linspace(5, 300, 30)
     sigma = SAT.sigma(agb) + 0.002 * np.random.default_rng(2).standard_normal(30)
-    r = simex(SAT, agb, sigma, 0.0, 0.0, np.random.default_rng(), n_sim=5)
+    r = simex(SAT, agb, sigma, 0.0, 0.0, rng, n_sim=5)
     np.testing.assert_allclose(r.params, r.naive.params, rtol=1e-6)  # refits agree to the solver tolerance
-    sb = simex_batch(SAT, agb[None], sigma[None], 0.0, 0.0, np.random.default_rng(), n_sim=5)
+    sb = simex_batch(SAT, agb[None], sigma[None], 0.0, 0.0, rng, n_sim=5)
     assert sb.status[0] == SIMEX_OK
     np.testing.assert_allclose(sb.params[0], r.naive.params, rtol=1e-6)  # both converged to ftol
 
@@ -93,7 +90,7 @@ def test_simex_counts_failures_and_flags_unreliable_results():
     """Subplot-like data (measurement error comparable to the dynamic range, Section III-D): many of the
     simulated fits fail; they are counted by mode and the result is flagged, not silently averaged."""
     rng = np.random.default_rng(4)
-    fp = synthetic_field_plots(SAT, 40, rng, allometric_error_percent=10, backscatter_error_percent=30,
+    fp = synthetic_field_plots(SAT, 40, rng, allometric_error=0.1, backscatter_error=0.3,
                                model_error_sd=0.004, agb_range_t_ha=(5, 350))
     try:
         r = simex(SAT, fp.agb, fp.sigma, fp.agb_error_sd, fp.sigma_error_sd, rng, n_sim=50,
@@ -123,25 +120,25 @@ class _DriftingModel(SaturatingModel):
         return BatchFit(params, status, np.zeros(b1.shape), np.ones(b1.shape, dtype=np.int32))
 
 
-def test_simex_quadratic_falls_back_to_linear_when_it_leaves_the_domain():
+def test_simex_quadratic_falls_back_to_linear_when_it_leaves_the_domain(rng):
     agb = np.linspace(50, 300, 20_000)
     _DriftingModel.base, _DriftingModel.sd, _DriftingModel.converge = agb, 1.0, True
     _DriftingModel.curvature = 0.005
     model = _DriftingModel(0.05, 0.01, 0.01)
-    r = simex(model, agb, np.full(agb.size, 0.05), 1.0, 0.0, np.random.default_rng(), n_sim=4)
+    r = simex(model, agb, np.full(agb.size, 0.05), 1.0, 0.0, rng, n_sim=4)
     assert r.fallback and r.extrapolant == "linear"
     assert r.params[1] == pytest.approx(0.0025, abs=2e-4)
     _DriftingModel.curvature = 0.0  # straight drift: both extrapolants reach beta1(-1) = -0.01
     with pytest.raises(PhysicsInputError, match="left the model's domain"):
-        simex(model, agb, np.full(agb.size, 0.05), 1.0, 0.0, np.random.default_rng(), n_sim=4)
+        simex(model, agb, np.full(agb.size, 0.05), 1.0, 0.0, rng, n_sim=4)
 
 
-def test_simex_needs_a_converged_naive_fit():
+def test_simex_needs_a_converged_naive_fit(rng):
     agb = np.linspace(50, 300, 100)
     _DriftingModel.base, _DriftingModel.sd, _DriftingModel.converge = agb, 1.0, False
     _DriftingModel.curvature = 0.0
     with pytest.raises(PhysicsInputError, match=r"naive fit did not converge \(max_iterations\)"):
-        simex(_DriftingModel(0.05, 0.01, 0.01), agb, np.full(100, 0.05), 1.0, 0.0, np.random.default_rng())
+        simex(_DriftingModel(0.05, 0.01, 0.01), agb, np.full(100, 0.05), 1.0, 0.0, rng)
 
 
 @pytest.mark.parametrize("kwargs, message", [
@@ -153,12 +150,12 @@ def test_simex_needs_a_converged_naive_fit():
     ({"agb_error_sd": np.ones(3)}, r"agb_error_sd of shape \(3,\) does not match"),
     ({"sigma_error_sd": -1.0}, "sigma_error_sd must be finite and >= 0"),
 ])
-def test_simex_bad_input_messages(kwargs, message):
+def test_simex_bad_input_messages(rng, kwargs, message):
     agb = np.linspace(5, 300, 20)
     args = dict(agb_error_sd=1.0, sigma_error_sd=0.001)
     args.update({k: v for k, v in kwargs.items() if k in args})
     rest = {k: v for k, v in kwargs.items() if k not in args}
     with pytest.raises(PhysicsInputError, match=message):
-        simex(SAT, agb, SAT.sigma(agb), args["agb_error_sd"], args["sigma_error_sd"], np.random.default_rng(), **rest)
+        simex(SAT, agb, SAT.sigma(agb), args["agb_error_sd"], args["sigma_error_sd"], rng, **rest)
 
 

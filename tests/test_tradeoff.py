@@ -4,6 +4,8 @@ import numpy as np
 import pytest
 
 from e2esim.distortion.analytic import hv_error_moments
+from e2esim.distortion.error_model import HVErrorModel
+from e2esim.retrieval.power_law import sigma_relative_error
 from e2esim.requirements.tradeoff import AGBRequirement, ConicTradeoff, axis_limits, first_failing_level, tradeoff_curve
 from e2esim.errors import PhysicsInputError
 from e2esim.faraday.distribution import ConstantFaraday, GaussianFaraday
@@ -26,7 +28,7 @@ def test_conic_and_root_finding_agree(name, side, confidence):
     scene, fr, p = _setup(name)
     req = AGBRequirement(0.2, confidence, side, p)
     x = variance_from_level_db(np.linspace(-50, -12, 60), "three_sigma_amplitude")
-    by_roots = tradeoff_curve(req, scene, system(), fr, x, form="paper")
+    by_roots = tradeoff_curve(req, HVErrorModel(scene, system(), fr, form="paper"), x)
     conic = ConicTradeoff.from_moments(req, scene, system(), fr)
     closed = conic.imbalance_for_crosstalk(x)
     finite = np.isfinite(by_roots)
@@ -55,15 +57,22 @@ def test_the_conic_is_an_ellipse_at_high_confidence_and_can_be_a_hyperbola():
 def test_overestimation_curve_decreases_with_crosstalk():
     scene, fr, p = _setup("boreal_200")
     x = variance_from_level_db(np.linspace(-45, -21, 40), "three_sigma_amplitude")
-    y = tradeoff_curve(AGBRequirement(0.2, 0.99865, "over", p), scene, system(), fr, x, form="complete")
-    assert np.all(np.diff(y[np.isfinite(y)]) < 0)
+    req = AGBRequirement(0.2, 0.99865, "over", p)
+    y = tradeoff_curve(req, HVErrorModel(scene, system(), fr, form="complete"), x)
+    finite = np.isfinite(y)
+    assert finite.sum() >= 30  # the curve exists over most of the range (no vacuous pass on NaN)
+    assert np.all(np.diff(y[finite]) < 0)
+    # every point is on the curve: eq. (19) holds with equality there, computed from the moments directly
+    m = hv_error_moments(scene, system(), fr, "complete", crosstalk_level=x[finite], imbalance_level=y[finite])
+    f_sigma = sigma_relative_error(0.2, p) * scene.sigma_hv
+    np.testing.assert_allclose(m.mean + req.z * m.sd, f_sigma, rtol=1e-6)
 
 
 def test_tighter_requirements_need_smaller_errors():
     # Section V-B point 2: tighter confidence, smaller permissible errors; point 3: channel imbalance must be
     # much smaller than crosstalk.
     scene, fr, p = _setup("boreal_200")
-    limits = [axis_limits(AGBRequirement(b, c, "over", p), scene, system(), fr, "paper")
+    limits = [axis_limits(AGBRequirement(b, c, "over", p), HVErrorModel(scene, system(), fr, form="paper"))
               for b, c in [(0.2, 0.95), (0.2, 0.99865), (0.1, 0.99865)]]
     assert limits[0]["imbalance_limit"] > limits[1]["imbalance_limit"] > limits[2]["imbalance_limit"]
     assert limits[0]["crosstalk_limit"] > limits[1]["crosstalk_limit"] > limits[2]["crosstalk_limit"]
@@ -74,8 +83,8 @@ def test_underestimation_is_less_demanding_than_overestimation():
     # Section III-D and V-B: constraining overestimation also bounds underestimation.
     for name in FORESTS:
         scene, fr, p = _setup(name)
-        over = axis_limits(AGBRequirement(0.2, 0.99865, "over", p), scene, system(), fr, "paper")
-        under = axis_limits(AGBRequirement(0.2, 0.99865, "under", p), scene, system(), fr, "paper")
+        over = axis_limits(AGBRequirement(0.2, 0.99865, "over", p), HVErrorModel(scene, system(), fr, form="paper"))
+        under = axis_limits(AGBRequirement(0.2, 0.99865, "under", p), HVErrorModel(scene, system(), fr, form="paper"))
         assert under["imbalance_limit"] > over["imbalance_limit"]
 
 
@@ -98,6 +107,6 @@ def test_conic_refuses_gain_errors_and_requirement_validates():
 def test_random_faraday_rotation_tightens_the_crosstalk_limit():
     scene, _, p = _setup("boreal_350")
     req = AGBRequirement(0.2, 0.99865, "over", p)
-    fixed = axis_limits(req, scene, system(), ConstantFaraday(np.pi / 3), "complete")["crosstalk_limit"]
-    spread = axis_limits(req, scene, system(), GaussianFaraday(np.pi / 3, np.radians(20)), "complete")["crosstalk_limit"]
+    fixed = axis_limits(req, HVErrorModel(scene, system(), ConstantFaraday(np.pi / 3)))["crosstalk_limit"]
+    spread = axis_limits(req, HVErrorModel(scene, system(), GaussianFaraday(np.pi / 3, np.radians(20))))["crosstalk_limit"]
     assert spread < fixed

@@ -27,18 +27,30 @@ from e2esim.orbit.geometry import view_geometry  # noqa: E402
 from e2esim.orbit.sunsync import SunSynchronousOrbit  # noqa: E402
 from e2esim.report.faraday_plots import plot_global_maps, plot_latitude_profiles  # noqa: E402
 
+from concurrent.futures import ProcessPoolExecutor  # noqa: E402
+
+from e2esim.io.array_cache import ArrayCache  # noqa: E402
+
 IMG = Path(__file__).resolve().parent / "img"
 ORBIT = SunSynchronousOrbit(666e3)
 F = 435e6
 
 
 def maps(cache: Path | None) -> None:
-    clim = global_climatology(ORBIT, 2.0, f107=(70.0, 180.0), settings=SlantSettings("thin_shell"), workers=2,
-                              cache_dir=cache, progress=True)
-    plot_global_maps(clim, F, IMG / "fr_map_mean_abs.png", 0.25, "mean_abs_deg")
-    plot_global_maps(clim, F, IMG / "fr_map_sd.png", 0.25, "sd_deg")
-    plot_global_maps(clim, F, IMG / "fr_map_mean.png", 0.25, "mean_deg")
-    plot_latitude_profiles(clim, F, IMG / "fr_latitude_profiles.png", 0.25)
+    with ProcessPoolExecutor(2) as pool:
+        clim = global_climatology(ORBIT, 2.0, f107=(70.0, 180.0), settings=SlantSettings("thin_shell"), executor=pool,
+                                  cache=None if cache is None else ArrayCache(cache), progress=_bar)
+    fr_map = clim.map(F, 0.25)
+    plot_global_maps(fr_map, IMG / "fr_map_mean_abs.png", "mean_abs_deg")
+    plot_global_maps(fr_map, IMG / "fr_map_sd.png", "sd_deg")
+    plot_global_maps(fr_map, IMG / "fr_map_mean.png", "mean_deg")
+    plot_latitude_profiles(fr_map, IMG / "fr_latitude_profiles.png")
+
+
+def _bar(iterable, total, description):
+    from tqdm.auto import tqdm
+
+    return tqdm(iterable, total=total, desc=description)
 
 
 def slant_methods() -> None:

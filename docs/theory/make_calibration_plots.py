@@ -24,6 +24,7 @@ from e2esim.faraday.theory import (  # noqa: E402
 from e2esim.calibration.modules import CLUTTER_SHAPES  # noqa: E402
 from e2esim.calibration.pipeline import ResidualSampler, fit_residual_model  # noqa: E402
 from e2esim.calibration.steps import FaradayStep, QueganStep, TransponderStep, TrihedralStep  # noqa: E402
+from e2esim.faraday.estimator_modules import BickelBatesEstimator
 from e2esim.calibration.quegan1994 import quegan_calibrate  # noqa: E402
 from e2esim.calibration.radiometric import ahmed_range_gain_error, swath_pointing_gain_sd_db  # noqa: E402
 from e2esim.polarimetry.simulate import SystemState, measured_covariance, sample_measured_covariance  # noqa: E402
@@ -35,6 +36,8 @@ from e2esim.polarimetry.system_model import faraday_matrix  # noqa: E402
 from e2esim.retrieval.agb_error import AGBError  # noqa: E402
 from e2esim.retrieval.power_law import BIOME_EXPONENTS  # noqa: E402
 from e2esim.verification.men2021 import forest, system  # noqa: E402
+
+BB = BickelBatesEstimator()  # the default estimator of FaradayStep
 
 OUT = Path(__file__).resolve().parent / "img"
 F0, BW = 435e6, 6e6
@@ -261,14 +264,14 @@ def transponder(rng):
         out = []
         for v in scr:
             cal = Calibrators.named(TRANSPONDERS, v, CLUTTER_SHAPES["low_vegetation"], -60.0)
-            smp = ResidualSampler(SPEC, fr, scene, NOISE, (TransponderStep(cal, absolute_gain=ag), FaradayStep()))
+            smp = ResidualSampler(SPEC, fr, scene, NOISE, (TransponderStep(cal, absolute_gain=ag), FaradayStep(BB)))
             model, _ = fit_residual_model(smp.sample(rng, 2000), NOISE)
             out.append(float(hv_error_moments(scene, model, ConstantFaraday(0.0), looks=100_000).sd) / scene.sigma_hv)
         a2.semilogy(scr, out, style, label=f"transponders, absolute_gain {ag}")
     tri_out = []
     for v in scr:
         cal = Calibrators.named(["trihedral"] * 4, v, CLUTTER_SHAPES["low_vegetation"], -60.0)
-        smp = ResidualSampler(SPEC, fr, scene, NOISE, (FaradayStep(), QueganStep(), TrihedralStep(cal, False)))
+        smp = ResidualSampler(SPEC, fr, scene, NOISE, (FaradayStep(BB), QueganStep(), TrihedralStep(cal, False)))
         model, _ = fit_residual_model(smp.sample(rng, 2000), NOISE)
         tri_out.append(float(hv_error_moments(scene, model, ConstantFaraday(0.0), looks=100_000).sd) / scene.sigma_hv)
     a2.semilogy(scr, tri_out, "^-", label="FR + Quegan + 4 trihedrals")
@@ -289,10 +292,10 @@ def strategies(rng):
     plans = {
         "none": None,
         "FR corrected": None,
-        "FR + Quegan": (FaradayStep(), QueganStep()),
-        "FR + Quegan + 4 trihedrals (40 dB), relative": (FaradayStep(), QueganStep(), TrihedralStep(tri, False)),
-        "FR + Quegan + 4 trihedrals (40 dB), absolute": (FaradayStep(), QueganStep(), TrihedralStep(tri, True)),
-        "transponders (30 dB) + FR": (TransponderStep(cal30), FaradayStep()),
+        "FR + Quegan": (FaradayStep(BB), QueganStep()),
+        "FR + Quegan + 4 trihedrals (40 dB), relative": (FaradayStep(BB), QueganStep(), TrihedralStep(tri, False)),
+        "FR + Quegan + 4 trihedrals (40 dB), absolute": (FaradayStep(BB), QueganStep(), TrihedralStep(tri, True)),
+        "transponders (30 dB) + FR": (TransponderStep(cal30), FaradayStep(BB)),
     }
     fig, ax = plt.subplots(figsize=(9, 4.4))
     width = 0.38

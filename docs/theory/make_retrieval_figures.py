@@ -35,8 +35,8 @@ GRID = np.linspace(0.0, 400.0, 801)
 def hectare_data(rng):
     """38 'hectares' like the combined Harvard/Howland set: 0-350 t/ha, allometric error ~3 %, the
     hectare-scale budget of Tables III-IV as backscatter error, and an error in equation of 0.006."""
-    fp = synthetic_field_plots(TRUE, 38, rng, agb_range_t_ha=(5, 350), allometric_error_percent=3,
-                               backscatter_error_percent=0, model_error_sd=0.006)
+    fp = synthetic_field_plots(TRUE, 38, rng, agb_range_t_ha=(5, 350), allometric_error=0.03,
+                               backscatter_error=0.0, model_error_sd=0.006)
     budget = backscatter_budget(preset("uavsar_ahmed2014"), np.clip(fp.sigma_true, 1e-3, None))
     sq = budget.absolute_sd("total")
     sigma = fp.sigma_true + sq * rng.standard_normal(fp.sigma_true.shape)

@@ -176,18 +176,20 @@ def cmd_run(args) -> int:
 
 def cmd_validate(args) -> int:
     resolved = _scenario(args).resolve()
-    modules = ", ".join(f"{m.kind}={m.type_name}" for m in resolved.cases[0].chain)
-    print(f"{args.scenario}: valid; {len(resolved.cases)} case(s); chain: {modules}")
+    case = resolved.cases[0]
+    modules = ", ".join(f"{m.kind}={m.type_name}" for m in case.modules)
+    products = " -> ".join("+".join(p.name for p in stage.provides) for stage in case.chain)
+    print(f"{args.scenario}: valid; {len(resolved.cases)} case(s); modules: {modules}; products: {products}")
     return 0
 
 
 def cmd_modules(args) -> int:
     from e2esim import registry
     from e2esim.docs_reference import module_records
-    from e2esim.module import KINDS
 
-    if args.kind is not None and args.kind not in KINDS:
-        raise UserError(f"unknown module kind {args.kind!r}; kinds: {', '.join(KINDS)}")
+    kinds = registry.kinds()
+    if args.kind is not None and args.kind not in kinds:
+        raise UserError(f"unknown module kind {args.kind!r}; kinds: {', '.join(kinds)}")
     records = module_records(registry.available(args.kind))
     if args.json:
         print(json.dumps(records, indent=2, default=str))

@@ -9,8 +9,8 @@ from __future__ import annotations
 import sys
 
 from e2esim import registry
-from e2esim.module import KIND_DOCS, KINDS
-from e2esim.params import REQUIRED, ParamGroup, iter_params
+from e2esim.module import KIND_DOCS, KIND_ORDER
+from e2esim.params import REQUIRED, ParamGroup, iter_constraints, iter_params
 
 
 def param_records(params) -> list:
@@ -78,8 +78,10 @@ def render() -> str:
         "",
         "A scenario is a YAML mapping with one section per module kind, each naming a registered module with "
         "`type:` and giving its parameters, plus `requirements` (a list of requirement modules), `simulation`, "
-        "`sweep` and `output`. Keys carry their unit (`_db`, `_deg`, `_mhz`, `_t_ha`, `_percent`): SI units and "
-        "radians are used inside. Any value can be overridden from the command line with "
+        "`sweep` and `output`. Keys carry their unit (`_db`, `_deg`, `_mhz`, `_t_ha`, `_percent`); each value is "
+        "converted to SI once and modules read it under its SI name (`mean_deg` -> `mean_rad`, `nesz_db` -> "
+        "`nesz_linear`, `bandwidth_mhz` -> `bandwidth_hz`, `bound_percent` -> `bound_fraction`; dB values of "
+        "formulas written in dB keep their name). Any value can be overridden from the command line with "
         "`--set section.key=value` (dotted keys; list items by index, e.g. `requirements.0.bound_percent=10`); "
         "a key that the sweep sets is changed in the sweep instead (`--set sweep.parameters.KEY=[...]`, "
         "`--set sweep.cases.I.KEY=VALUE` or `--replace-sweep KEY=VALUE`). An optional top-level `plugins:` "
@@ -88,7 +90,8 @@ def render() -> str:
         "",
         f"Required sections: {', '.join('`' + s + '`' for s in REQUIRED_SECTIONS)}. Sections left out use: "
         + ", ".join(f"`{k}: {{type: {v['type']}}}`" for k, v in DEFAULT_MODULES.items())
-        + "; `orbit` and `calibration` are then not part of the chain.",
+        + "; without `orbit` the chain has no acquisition geometry, and without `calibration` the propagation sees "
+        "the raw system errors and Faraday rotation.",
         "",
         "## `simulation`",
         "",
@@ -125,10 +128,12 @@ def render() -> str:
         *_table(OUTPUT_PARAMS),
         "",
     ]
-    for kind in KINDS:
+    for kind in (*KIND_ORDER, "faraday_estimator"):
         regs = [r for r in registry.available(kind) if r.distribution.lower() == "e2esim"]
         section = "requirements" if kind == "requirement" else kind
-        out += [f"## `{section}`: {KIND_DOCS[kind]}", ""]
+        title = f"## `{section}`: {KIND_DOCS[kind]}" if kind != "faraday_estimator" else (
+            f"## Faraday-rotation estimators (`estimator` of `faraday_correction`): {KIND_DOCS[kind]}")
+        out += [title, ""]
         if kind == "requirement":
             out += ["A list; each item is a mapping with `type:` and the parameters below.", ""]
         if not regs:
@@ -140,6 +145,10 @@ def render() -> str:
             if groups:
                 out += ["Nested groups: " + ", ".join(f"`{g}`" for g in groups) + " (keys below are dotted).", ""]
             out += _table(r.cls.params) if r.cls.params else ["No parameters."]
+            rules = [("`" + prefix + "`: " if prefix else "") + rule.describe()
+                     for prefix, rule in iter_constraints(r.cls.params)]
+            if rules:
+                out += ["", "Constraints: " + "; ".join(rules) + "."]
             out.append("")
     return "\n".join(out)
 

@@ -37,6 +37,10 @@ class Location:
     def child(self, key: Any) -> "Location":
         return Location(self.source, self.key_path + (key,), self.lines)
 
+    def parent(self) -> "Location":
+        """The enclosing section (e.g. ``calibration`` of ``calibration[1]``)."""
+        return Location(self.source, self.key_path[:-1], self.lines)
+
     @property
     def dotted(self) -> str:
         return format_key_path(self.key_path)

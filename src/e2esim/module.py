@@ -1,20 +1,25 @@
-"""The base class of every pluggable module, and the kinds of module a scenario chains.
+"""The base classes of every pluggable module: ``Module`` (a validated configuration) and ``Stage`` (a module
+the runner chains).
 
-A module answers one physical question. It declares its parameters once (``params``), is built from a
-YAML section or a Python call with the same validation, and has one method, ``forward``, that takes the
-case state (``e2esim.chain.CaseState``) and returns it with the field it provides filled in. To add an
-instrument, subclass an existing instrument module or ``Module`` itself (docs/writing-a-module.md).
+A module answers one physical question. It declares its parameters once (``params``) and is built from a
+YAML section or a Python call with the same validation; the values are converted to SI once (``si``),
+and ``derive`` may adjust them (an instrument with an extra loss, say) without touching the configuration
+the user gave. A ``Stage`` also declares the products it ``needs``, may ``use`` and ``provides``
+(``e2esim.products``) and has one method, ``forward``, that returns its new products. Modules that are
+parts of a stage rather than stages themselves (calibration steps, requirements, Faraday-rotation
+estimators) subclass ``Module`` directly. docs/writing-a-module.md walks through both.
 """
 
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
+from types import MappingProxyType
 from typing import Any, ClassVar, Mapping
 
 from e2esim.errors import ConfigError, Location, PhysicsInputError
-from e2esim.params import validate_section
+from e2esim.params import to_si, validate_section
 
-KINDS = (
+KIND_ORDER = (
     "orbit",
     "scene",
     "instrument",
@@ -24,43 +29,49 @@ KINDS = (
     "retrieval",
     "requirement",
 )
-"""Module kinds in the order the runner chains them. The instrument comes before the ionosphere (unlike
-the sketch in design.md) because Faraday rotation scales as 1/f^2 with the radar frequency."""
+"""The built-in kinds, in the order a scenario's sections are listed and chained when their products
+allow it. The chain order itself follows the products (``e2esim.runner.chain``): a plug-in kind is placed
+after the stages whose products it needs. The instrument comes before the ionosphere (unlike the sketch in
+design.md) because Faraday rotation scales as 1/f^2 with the radar frequency."""
 
 KIND_DOCS = {
-    "orbit": "acquisition geometry: where and when the mission looks (AcquisitionGeometry)",
-    "ionosphere": "Faraday rotation distribution seen by the case (FaradayDistribution)",
-    "scene": "scattering covariance of the target for an AGB level and biome (ScatteringCovariance)",
-    "instrument": "system-error statistics, noise and gain of the radar (SystemErrorModel)",
-    "calibration": "what calibration leaves of the system errors and Faraday rotation",
-    "propagation": "error of the backscattering coefficient (BackscatterError)",
-    "retrieval": "relative AGB error through a backscatter-AGB model (AGBError)",
-    "requirement": "verdict of a mission requirement on the AGB error (RequirementVerdict)",
+    "orbit": "acquisition geometry: where and when the mission looks",
+    "ionosphere": "Faraday rotation of the case (its geophysical distribution)",
+    "scene": "scattering covariance of the target for an AGB level and biome",
+    "instrument": "system-error statistics, noise and gain of the radar, and its specification",
+    "calibration": "a calibration strategy (list of steps) and the residual errors it leaves",
+    "propagation": "error of the backscattering coefficient (an error model), and its random-error budget",
+    "retrieval": "relative AGB error through a backscatter-AGB model",
+    "requirement": "verdict of a mission requirement on the AGB error",
+    "faraday_estimator": "a Faraday-rotation estimator used by the faraday_correction calibration step",
 }
 
 
+def _frozen(values: dict) -> Mapping:
+    return MappingProxyType({k: _frozen(v) if isinstance(v, dict) else v for k, v in values.items()})
+
+
 class Module(ABC):
-    """Base class: a validated configuration and a ``forward`` step of the chain.
+    """Base class: a validated configuration, its SI values and what ``setup`` derives from them.
 
     Class attributes a subclass sets:
 
-    kind : one of ``KINDS``.
+    kind : the registry kind (a scenario section for stages: "instrument", "propagation", ...).
     type_name : the name a scenario uses in ``type:`` (unique within the kind).
     summary : one line for ``e2esim modules`` and the scenario reference.
-    params : tuple of ``Param``/``ParamGroup``; the single declaration of the parameters.
-    requires : names of ``CaseState`` fields the module reads (checked before a run).
-    provides : names of ``CaseState`` fields it fills.
+    params : tuple of ``Param``/``ParamGroup`` and constraints; the single declaration of the parameters.
 
-    Subclasses override ``setup`` (derive physics objects from ``self.config``; raise
-    ``PhysicsInputError`` for impossible combinations) and ``forward``.
+    Instances carry ``config`` (the values as the user gave them, defaults filled in, YAML units),
+    ``si`` (read-only: every value in SI under its SI name, ``Param.si_name``, after ``derive``) and
+    ``location`` (where in the scenario the section is, for messages). Subclasses override ``derive``
+    (adjust or add SI values) and ``setup`` (build physics objects; raise ``PhysicsInputError`` for
+    impossible combinations).
     """
 
     kind: ClassVar[str] = ""
     type_name: ClassVar[str] = ""
     summary: ClassVar[str] = ""
     params: ClassVar[tuple] = ()
-    requires: ClassVar[tuple] = ()
-    provides: ClassVar[tuple] = ()
 
     def __init__(self, **values: Any):
         self._configure(values, Location(source=f"{type(self).__name__}(...)"))
@@ -76,16 +87,24 @@ class Module(ABC):
         self.config = validate_section(self.params, values, where, ignore=ignore)
         self.location = where
         try:
+            self.si = _frozen(self.derive(to_si(self.params, self.config)))
             self.setup()
         except PhysicsInputError as exc:
             raise ConfigError(exc.location(where), str(exc)) from exc
 
-    def setup(self) -> None:
-        """Derive physics objects from ``self.config`` (override)."""
+    def derive(self, si: dict) -> dict:
+        """The SI values the module works with, from those of its parameters (override to adjust or add:
+        call ``super().derive(si)`` first). ``config`` is left as the user gave it, so a module built from
+        its own ``config`` is equal to it (``e2esim.testing.check_module``)."""
+        return si
 
-    @abstractmethod
-    def forward(self, state):
-        """Return ``state`` with this module's result filled in."""
+    def setup(self) -> None:
+        """Derive physics objects from ``self.si`` (override)."""
+
+    @property
+    def identity(self) -> str:
+        """How messages name this module: "propagation type 'hv_backscatter_error'"."""
+        return f"{self.kind} type {self.type_name!r}"
 
     # Plain-object behaviour: equality, repr and pickling go through the configuration.
     def __eq__(self, other: object) -> bool:
@@ -102,13 +121,51 @@ class Module(ABC):
         # Pickle the built module as it is (configuration, location and the physics objects ``setup``
         # made), so a worker process or a dask worker gets exactly this module without re-reading files.
         state = dict(self.__dict__)
+        state["si"] = _thawed(state["si"]) if "si" in state else None
         if "location" in state:  # the line-number table can be large and is only for messages
             loc = state["location"]
             state["location"] = Location(loc.source, loc.key_path)
         return (_restore, (type(self), state))
 
 
+def _thawed(values: Mapping) -> dict:
+    return {k: _thawed(v) if isinstance(v, Mapping) else v for k, v in values.items()}
+
+
 def _restore(cls, state):
     obj = cls.__new__(cls)
+    if state.get("si") is not None:
+        state["si"] = _frozen(state["si"])
     obj.__dict__.update(state)
     return obj
+
+
+class Stage(Module):
+    """A module the runner chains: it needs products, provides products, and ``forward`` makes them.
+
+    Class attributes (instances may narrow them as properties when a configuration changes what they need):
+
+    needs : names of products that must be in the case before this stage runs.
+    uses : names of products it reads when a stage of the chain provides them (optional inputs).
+    provides : the ``Product`` declarations it adds (``e2esim.products``).
+
+    ``forward(case)`` reads ``case[name]`` for what it needs, draws random numbers only from ``case.rng``
+    and returns ``{product name: value}`` for every product it provides; it never changes what is in the
+    case. Product values may carry a leading case axis (a block of sweep cases evaluated at once); a stage
+    written for one case sees scalars there.
+    """
+
+    needs: ClassVar[tuple] = ()
+    uses: ClassVar[tuple] = ()
+    provides: ClassVar[tuple] = ()
+
+    @abstractmethod
+    def forward(self, case) -> dict:
+        """The products this stage adds to ``case``."""
+
+
+def fail(module: Module, problem: str, allowed: str | None = None, key: str | None = None) -> ConfigError:
+    """A ``ConfigError`` at ``module``'s section (or at its parameter ``key``) for a problem met while the
+    chain runs (e.g. a case the module cannot handle)."""
+    where = module.location if key is None else module.location.child(key)
+    return ConfigError(where, problem, allowed)

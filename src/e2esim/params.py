@@ -1,10 +1,17 @@
 """Parameter declarations: each module declares its parameters once, here is what checks them.
 
-A module class lists ``Param`` and ``ParamGroup`` objects in its ``params`` attribute. The same
+A module class lists ``Param`` and ``ParamGroup`` objects in its ``params`` attribute, together with the
+constraints between them (``ExactlyOneOf``, ``AtMostOneOf``, ``Requires``, ``Ordered``). The same
 declaration validates a YAML section and a Python call (``Module(**values)``), fills in defaults and
 generates docs/scenario-reference.md. Values are checked for type, bounds, choices and length, and
 every complaint is a ``ConfigError`` naming the key path, the value and what is allowed (the models are
 astropy.modeling's ``Parameter`` and scikit-learn's ``_parameter_constraints``, without their magic).
+
+Units: a value is written in YAML in the unit its name ends with (``mean_deg``, ``nesz_db``,
+``bandwidth_mhz``, ``bound_percent``); ``to_si`` converts every value once, and modules read the SI
+values under SI names (``mean_rad``, ``nesz_linear``, ``bandwidth_hz``, ``bound_fraction``): see
+``SI_UNITS``. A parameter of a formula or a distribution defined in dB itself (the SD of a log-normal gain,
+an ISLR in Ahmed et al. 2014) is declared with ``convert=False`` and keeps its dB value and name.
 """
 
 from __future__ import annotations
@@ -12,9 +19,12 @@ from __future__ import annotations
 import difflib
 import math
 from dataclasses import dataclass, field
-from typing import Any, Iterable, Mapping, Sequence
+from typing import Any, Callable, Iterable, Mapping, Sequence
 
-from e2esim.errors import ConfigError, Location
+import numpy as np
+
+from e2esim.errors import ConfigError, Location, ModuleLookupError
+from e2esim.units import db_to_linear
 
 
 class _Required:
@@ -25,7 +35,31 @@ class _Required:
 REQUIRED = _Required()
 """Marker for a parameter that has no default and must be given."""
 
-_TYPE_NAMES = {"float": "a number", "int": "an integer", "bool": "true or false", "str": "a string"}
+_TYPE_NAMES = {"float": "a number", "int": "an integer", "bool": "true or false", "str": "a string",
+               "module": "a module type name or a mapping with a 'type' key"}
+
+
+@dataclass(frozen=True)
+class SIUnit:
+    """How a YAML unit converts to SI: the ending of a parameter name in that unit, the ending of its SI
+    name, and the conversion of a value (numbers, or arrays of them)."""
+
+    suffix: str
+    si_suffix: str
+    convert: Callable
+
+
+SI_UNITS = {
+    "deg": SIUnit("_deg", "_rad", np.radians),
+    "mrad": SIUnit("_mrad", "_rad", lambda x: x * 1e-3),
+    "MHz": SIUnit("_mhz", "_hz", lambda x: x * 1e6),
+    "km": SIUnit("_km", "_m", lambda x: x * 1e3),
+    "%": SIUnit("_percent", "_fraction", lambda x: x / 100.0),
+    "dB": SIUnit("_db", "_linear", db_to_linear),  # a power ratio
+    "TECU": SIUnit("_tecu", "_el_m2", lambda x: x * 1e16),  # 1 TECU = 1e16 electrons/m^2
+}
+"""YAML units that have an SI counterpart. Other units (t/ha, m, m2, m2/m2, sfu, h, day) are kept: the
+field states AGB in t/ha, and local time and repeat intervals in hours and days, with the unit in the name."""
 
 
 @dataclass(frozen=True)
@@ -43,6 +77,8 @@ class Param:
     length : if set, the value is a list of exactly this many items of ``type``.
     variable_length : the value is a list of one or more items of ``type`` (``length`` unset).
     nullable : ``null`` is allowed (it means "not given" or "automatic", as ``doc`` says).
+    convert : convert to SI (``SI_UNITS``); False keeps a value whose formula is written in its own unit.
+    kind : for type "module": the registry kind of the component named (e.g. "faraday_estimator").
     """
 
     name: str
@@ -58,10 +94,38 @@ class Param:
     length: int | None = None
     variable_length: bool = False
     nullable: bool = False
+    convert: bool = True
+    kind: str | None = None
 
     def __post_init__(self):
         if self.type not in _TYPE_NAMES:
             raise TypeError(f"Param {self.name!r}: unknown type {self.type!r}")
+        if (self.type == "module") != (self.kind is not None):
+            raise TypeError(f"Param {self.name!r}: a 'module' parameter needs a kind, and only it has one")
+        unit = SI_UNITS.get(self.unit)
+        if unit is not None and self.convert and not self.name.endswith(unit.suffix):
+            raise TypeError(f"Param {self.name!r} in {self.unit} must end with {unit.suffix!r} (or set convert=False)")
+
+    @property
+    def si_name(self) -> str:
+        """Name of the SI value (``mean_deg`` -> ``mean_rad``); the name itself if nothing converts."""
+        unit = SI_UNITS.get(self.unit)
+        if unit is None or not self.convert:
+            return self.name
+        return self.name[: -len(unit.suffix)] + unit.si_suffix
+
+    def to_si(self, value: Any) -> Any:
+        """The validated ``value`` in SI (a float, a tuple of floats, or the built component)."""
+        if value is None:
+            return None
+        if self.type == "module":
+            return _build_component(self, value)
+        unit = SI_UNITS.get(self.unit)
+        if unit is None or not self.convert:
+            return value
+        if isinstance(value, tuple):
+            return tuple(float(x) for x in np.ravel(unit.convert(np.asarray(value, dtype=float))))
+        return float(unit.convert(value))
 
     @property
     def required(self) -> bool:
@@ -74,6 +138,8 @@ class Param:
     def describe_allowed(self) -> str:
         """What is allowed, in words: "expected a number in [-60, 0] dB"."""
         item = _TYPE_NAMES[self.type]
+        if self.type == "module":
+            return f"expected {item} of a registered {self.kind} type" + (" (or null)" if self.nullable else "")
         if self.choices is not None:
             text = "expected one of " + ", ".join(repr(c) for c in self.choices)
         else:
@@ -121,6 +187,8 @@ class Param:
 
     def _validate_item(self, value: Any, where: Location) -> Any:
         allowed = self.describe_allowed()
+        if self.type == "module":
+            return _validate_component(self, value, where)
         if self.type == "bool":
             if not isinstance(value, bool):
                 raise ConfigError(where, f"{_show(value)} has the wrong type", allowed)
@@ -171,11 +239,11 @@ class ParamGroup:
 
     @property
     def required(self) -> bool:
-        return any(p.required for p in self.params)
+        return any(p.required for p in self.params if not isinstance(p, Constraint))
 
     @property
     def default(self) -> dict:
-        return {p.name: p.default for p in self.params if not p.required}
+        return {p.name: p.default for p in self.params if not isinstance(p, Constraint) and not p.required}
 
 
 def with_defaults(params: Iterable, overrides: Mapping[str, Any]) -> tuple:
@@ -191,6 +259,8 @@ def with_defaults(params: Iterable, overrides: Mapping[str, Any]) -> tuple:
 
 
 def _override(p, overrides: dict, prefix: str):
+    if isinstance(p, Constraint):
+        return p
     name = prefix + p.name
     if isinstance(p, ParamGroup):
         return ParamGroup(p.name, p.doc, tuple(_override(q, overrides, name + ".") for q in p.params))
@@ -204,14 +274,14 @@ def validate_section(
 ) -> dict:
     """Check a mapping against a parameter declaration; return it complete with defaults.
 
-    Unknown keys, missing required keys and bad values raise ``ConfigError`` at their key path.
-    Keys listed in ``ignore`` (e.g. ``type``) are skipped.
+    Unknown keys, missing required keys, bad values and broken constraints raise ``ConfigError`` at
+    their key path. Keys listed in ``ignore`` (e.g. ``type``) are skipped.
     """
     if values is None:
         values = {}
     if not isinstance(values, Mapping):
         raise ConfigError(where, f"{_show(values)} is not a mapping", "expected key: value pairs")
-    known = {p.name: p for p in params}
+    known = {p.name: p for p in params if not isinstance(p, Constraint)}
     ignore = set(ignore)
     for key in values:
         if key in ignore:
@@ -227,9 +297,26 @@ def validate_section(
             resolved[name] = p.validate(values[name], here)
         elif p.required:
             raise ConfigError(here, "is required but missing", p.describe_allowed())
+        elif p.type == "module" and p.default is not None:
+            resolved[name] = p.validate(p.default, here)  # the complete mapping, as if given
         else:
             resolved[name] = p.default
+    for rule in params:
+        if isinstance(rule, Constraint):
+            rule.check(resolved, where)
     return resolved
+
+
+def to_si(params: Sequence, config: Mapping) -> dict:
+    """The SI values of a validated section (``validate_section``), under their SI names (``Param.si_name``);
+    groups stay nested."""
+    out: dict = {}
+    for p in params:
+        if isinstance(p, ParamGroup):
+            out[p.name] = to_si(p.params, config[p.name])
+        elif isinstance(p, Param):
+            out[p.si_name] = p.to_si(config[p.name])
+    return out
 
 
 def unknown_key_error(where: Location, key: Any, valid: Sequence[str]) -> ConfigError:
@@ -242,18 +329,29 @@ def unknown_key_error(where: Location, key: Any, valid: Sequence[str]) -> Config
 
 
 def iter_params(params: Sequence, prefix: str = ""):
-    """Yield ``(dotted_name, Param)`` for every leaf parameter, groups flattened."""
+    """Yield ``(dotted_name, Param)`` for every leaf parameter, groups flattened (constraints skipped)."""
     for p in params:
         if isinstance(p, ParamGroup):
             yield from iter_params(p.params, prefix + p.name + ".")
-        else:
+        elif isinstance(p, Param):
             yield prefix + p.name, p
+
+
+def iter_constraints(params: Sequence, prefix: str = ""):
+    """Yield ``(group prefix, Constraint)`` for every constraint, groups included."""
+    for p in params:
+        if isinstance(p, ParamGroup):
+            yield from iter_constraints(p.params, prefix + p.name + ".")
+        elif isinstance(p, Constraint):
+            yield prefix, p
 
 
 def find_param(params: Sequence, dotted: str):
     """The Param (or ParamGroup) at a dotted name, or None."""
     head, _, rest = dotted.partition(".")
     for p in params:
+        if isinstance(p, Constraint):
+            continue
         if p.name == head:
             if not rest:
                 return p
@@ -292,3 +390,131 @@ def _show(value: Any) -> str:
     else:
         text = repr(value) if not isinstance(value, (int, float)) else f"{value:g}"
     return text if len(text) <= _SHOW_CHARS else text[:_SHOW_CHARS] + "..."
+
+
+# Components named by a parameter (type "module") ----------------------------------------------------
+def _validate_component(param: Param, value: Any, where: Location) -> dict:
+    """A component given by its type name or a mapping ``{type: ..., <its parameters>}``; returned as the
+    complete mapping (its defaults filled in), so the configuration stays plain data."""
+    section = {"type": value} if isinstance(value, str) else value
+    if not isinstance(section, Mapping) or not isinstance(section.get("type"), str):
+        raise ConfigError(where, f"{_show(value)} is not a {param.kind} type", param.describe_allowed())
+    cls = _lookup_component(param, section["type"], where.child("type") if not isinstance(value, str) else where)
+    module = cls.from_config(section, where)
+    return {"type": section["type"], **module.config}
+
+
+def _lookup_component(param: Param, type_name: str, where: Location):
+    from e2esim import registry  # here: the registry imports the module base, which imports this file
+
+    try:
+        return registry.lookup(param.kind, type_name)
+    except ModuleLookupError as exc:
+        raise ConfigError(where, str(exc)) from exc
+
+
+def _build_component(param: Param, section: Mapping | str):
+    section = {"type": section} if isinstance(section, str) else section
+    cls = _lookup_component(param, section["type"], Location(f"parameter {param.name}"))
+    return cls(**{k: v for k, v in section.items() if k != "type"})
+
+
+# Constraints between parameters ------------------------------------------------------------------
+class Constraint:
+    """A rule between parameters of one section, declared in its ``params`` next to them and checked with
+    them (so docs/scenario-reference.md lists it too)."""
+
+    names: tuple = ()
+
+    def check(self, values: Mapping, where: Location) -> None:  # pragma: no cover - abstract
+        raise NotImplementedError
+
+    def describe(self) -> str:  # pragma: no cover - abstract
+        raise NotImplementedError
+
+    def __eq__(self, other: object) -> bool:
+        return type(self) is type(other) and vars(self) == vars(other)
+
+    def __hash__(self) -> int:
+        return hash((type(self), self.names))
+
+    def __repr__(self) -> str:
+        return f"{type(self).__name__}({self.describe()})"
+
+
+def _given(values: Mapping, names) -> list:
+    return [n for n in names if values.get(n) is not None]
+
+
+class ExactlyOneOf(Constraint):
+    """Exactly one of the named parameters is given (not null)."""
+
+    def __init__(self, *names: str):
+        self.names = tuple(names)
+
+    def check(self, values, where):
+        given = _given(values, self.names)
+        if len(given) != 1:
+            problem = "none of them is given" if not given else f"{', '.join(given)} are all given"
+            raise ConfigError(where.child(given[1] if given else self.names[0]), problem,
+                              f"give exactly one of {', '.join(self.names)}")
+
+    def describe(self) -> str:
+        return f"exactly one of {', '.join(self.names)}"
+
+
+class AtMostOneOf(Constraint):
+    """At most one of the named parameters is given (not null)."""
+
+    def __init__(self, *names: str):
+        self.names = tuple(names)
+
+    def check(self, values, where):
+        given = _given(values, self.names)
+        if len(given) > 1:
+            raise ConfigError(where.child(given[1]), f"{', '.join(given)} are all given",
+                              f"give at most one of {', '.join(self.names)}")
+
+    def describe(self) -> str:
+        return f"at most one of {', '.join(self.names)}"
+
+
+class Requires(Constraint):
+    """``name`` must be given (not null) when parameter ``when`` has the value ``equals``."""
+
+    def __init__(self, name: str, when: str, equals: Any):
+        self.names = (name, when)
+        self.name, self.when, self.equals = name, when, equals
+
+    def check(self, values, where):
+        if values.get(self.when) == self.equals and values.get(self.name) is None:
+            raise ConfigError(where.child(self.name), f"is null, but {self.when} is {_show(self.equals)}",
+                              f"give {self.name} when {self.when} is {_show(self.equals)}")
+
+    def describe(self) -> str:
+        return f"{self.name} is required when {self.when} is {_show(self.equals)}"
+
+
+class Ordered(Constraint):
+    """``lower < upper`` for two parameters, or ``value[0] < value[1]`` for one two-item parameter."""
+
+    def __init__(self, lower: str, upper: str | None = None):
+        self.names = (lower,) if upper is None else (lower, upper)
+        self.lower, self.upper = lower, upper
+
+    def check(self, values, where):
+        if self.upper is None:
+            pair = values.get(self.lower)
+            if pair is not None and not pair[0] < pair[1]:
+                raise ConfigError(where.child(self.lower), f"{_show(list(pair))} is not an increasing range",
+                                  "expected [low, high] with low < high")
+            return
+        lo, hi = values.get(self.lower), values.get(self.upper)
+        if lo is not None and hi is not None and not lo < hi:
+            raise ConfigError(where.child(self.lower), f"{_show(lo)} is not below {self.upper} = {_show(hi)}",
+                              f"expected {self.lower} < {self.upper}")
+
+    def describe(self) -> str:
+        if self.upper is None:
+            return f"{self.lower} is an increasing range"
+        return f"{self.lower} < {self.upper}"

@@ -1,7 +1,9 @@
 """One registry for every module kind, filled from the entry-point group ``e2esim.modules``.
 
 Built-in modules are declared in e2esim's own pyproject.toml exactly as a third-party package declares
-its modules, under ``[project.entry-points."e2esim.modules"]`` with names ``"<kind>.<type_name>"``.
+its modules, under ``[project.entry-points."e2esim.modules"]`` with names ``"<kind>.<type_name>"``. Kinds
+are open: a plug-in may register modules of a kind e2esim does not know (a new stage kind, which then is
+a scenario section of that name).
 A scenario may also name a class directly, ``type: package.module:ClassName`` (model: xarray's backend
 plug-ins; the error for an unknown name lists the valid ones), of an installed distribution or of a
 package the user allows explicitly; see ``lookup`` and docs/security.md.
@@ -21,7 +23,7 @@ from importlib.metadata import entry_points, packages_distributions
 from typing import Dict, Tuple
 
 from e2esim.errors import ModuleLookupError
-from e2esim.module import KINDS, Module
+from e2esim.module import KIND_ORDER, Module
 
 ENTRY_POINT_GROUP = "e2esim.modules"
 
@@ -73,8 +75,8 @@ def refresh() -> None:
 def _check_class(cls, origin: str, kind: str | None = None, type_name: str | None = None) -> None:
     if not (isinstance(cls, type) and issubclass(cls, Module)):
         raise ModuleLookupError(f"{origin} is not an e2esim Module subclass")
-    if cls.kind not in KINDS:
-        raise ModuleLookupError(f"{origin}: kind {cls.kind!r} is not one of {', '.join(KINDS)}")
+    if not (isinstance(cls.kind, str) and cls.kind.isidentifier()):
+        raise ModuleLookupError(f"{origin}: kind {cls.kind!r} is not a name (e.g. 'propagation', 'interferometry')")
     if kind is not None and (cls.kind != kind or cls.type_name != type_name):
         raise ModuleLookupError(
             f"{origin} names {kind}.{type_name} but the class says {cls.kind}.{cls.type_name}"
@@ -84,7 +86,17 @@ def _check_class(cls, origin: str, kind: str | None = None, type_name: str | Non
 def available(kind: str | None = None) -> list[Registration]:
     """Registered modules, optionally of one kind, sorted by kind then name."""
     regs = _load().values()
-    return sorted((r for r in regs if kind is None or r.kind == kind), key=lambda r: (KINDS.index(r.kind), r.type_name))
+    return sorted((r for r in regs if kind is None or r.kind == kind), key=_sort_key)
+
+
+def _sort_key(r: Registration) -> tuple:
+    rank = KIND_ORDER.index(r.kind) if r.kind in KIND_ORDER else len(KIND_ORDER)
+    return rank, r.kind, r.type_name
+
+
+def kinds() -> list:
+    """Every registered kind, e2esim's own first."""
+    return list(dict.fromkeys(r.kind for r in available()))
 
 
 def lookup(kind: str, type_name: str) -> type:

@@ -2,9 +2,17 @@
 ``parametrize_with_checks``).
 
 ``check_module(cls, config)`` builds the module from ``config`` and checks that: the declaration is
-well formed (kind, type name, summary, unique parameter names with docs); the configuration round-trips
-(``cls(**m.config) == m``) and pickles; ``forward`` on a representative case state fills what the module
-says it provides, does not touch what it does not, and is deterministic for a given random generator.
+well formed (kind, type name, summary, unique parameter names with docs, units in the names, unique SI
+names); the configuration round-trips (``cls(**m.config) == m``, with the same SI values after ``derive``)
+and pickles; and what the module does on a representative case made by e2esim's default chain:
+
+* a ``Stage``: ``forward`` returns exactly the products it declares, each of its declared type, and is
+  deterministic for a given random generator (compared through the products' output scalars);
+* a ``Requirement``: ``evaluate`` returns a ``RequirementVerdict``, deterministically;
+* a ``CalibrationModule``: its steps are ``CalibrationStep`` objects and the strategy made of it is
+  deterministic;
+* a Faraday-rotation estimator: its predicted SD is a positive number.
+
 Run it in a plug-in's own tests::
 
     from e2esim.testing import check_module
@@ -14,91 +22,162 @@ Run it in a plug-in's own tests::
 
 from __future__ import annotations
 
-import dataclasses
+import math
 import pickle
 
 import numpy as np
 
-from e2esim.chain import CaseState, SimulationSettings
-from e2esim.module import KINDS, Module
-from e2esim.params import Param, ParamGroup, iter_params
+from e2esim.case import Case, Products
+from e2esim.errors import Location
+from e2esim.module import Module, Stage
+from e2esim.params import Constraint, Param, ParamGroup, iter_params
+from e2esim.settings import SimulationSettings
 
-_SMALL = SimulationSettings(mode="both", seed=1, looks=500, realisations=400, noise_realisations=1)
+SMALL = SimulationSettings(mode="both", seed=1, looks=500, realisations=400, noise_realisations=1)
 """Monte Carlo sizes small enough for a quick check."""
 
-_DEFAULT_CHAIN = {
-    "orbit": ("biomass_orbit", {"site": {"name": "boreal", "lat_deg": 60.0, "lon_deg": 92.0}, "swath_samples": 2,
+DEFAULT_CHAIN = (
+    ("orbit", "biomass_orbit", {"site": {"name": "boreal", "lat_deg": 60.0, "lon_deg": 92.0}, "swath_samples": 2,
                                 "acquisitions": {"start": "2026-01-01", "end": "2026-12-31", "step_days": 60}}),
-    "scene": ("table1_forest", {"forest": "boreal_200"}),
-    "instrument": ("biomass", {}),
-    "ionosphere": ("gaussian_faraday", {"mean_deg": 60.0, "sd_deg": 5.0}),
-    "propagation": ("hv_backscatter_error", {}),
-    "retrieval": ("power_law", {}),
-}
-"""Built-in modules that produce the state a module of a later kind expects."""
+    ("scene", "table1_forest", {"forest": "boreal_200"}),
+    ("instrument", "biomass", {}),
+    ("ionosphere", "gaussian_faraday", {"mean_deg": 60.0, "sd_deg": 5.0}),
+    ("propagation", "hv_backscatter_error", {}),
+    ("retrieval", "power_law", {}),
+)
+"""Built-in modules whose chain makes the products a module under test needs."""
 
 
-def reference_state(before_kind: str, settings: SimulationSettings = _SMALL, seed: int = 0,
-                    including: bool = False) -> CaseState:
-    """A case state as the built-in default chain leaves it just before a module of ``before_kind`` (or just
-    after the default module of that kind, with ``including``: for modules stacked after it)."""
+def reference_case(needs=(), uses=(), settings: SimulationSettings = SMALL, seed: int = 0) -> Case:
+    """A case holding the products ``needs`` names (and those of ``uses`` the default chain makes), made by
+    the default chain (``DEFAULT_CHAIN``, no calibration) and stopped as soon as it has them."""
     from e2esim import registry
+    from e2esim.runner.chain import assemble
+    from e2esim.runner.run import checked_products
 
-    state = CaseState(index=0, inputs={}, settings=settings, rng=np.random.default_rng(seed))
-    for kind in KINDS[: KINDS.index(before_kind) + int(including)]:
-        if kind in _DEFAULT_CHAIN:
-            type_name, config = _DEFAULT_CHAIN[kind]
-            state = registry.lookup(kind, type_name)(**config).forward(state)
-    return state
+    modules = [registry.lookup(kind, name)(**config) for kind, name, config in DEFAULT_CHAIN]
+    chain = assemble(modules, Location("reference chain"))
+    makeable = {p.name for stage in chain for p in stage.provides}
+    wanted = set(needs) | (set(uses) & makeable)
+    case = Case(index=0, inputs={}, settings=settings, rng=np.random.default_rng(seed))
+    for stage in chain:
+        if wanted <= set(case.products):
+            break
+        case = case.adding(checked_products(stage, stage.forward(case)))
+    missing = wanted - set(case.products)
+    assert not missing, f"the default chain cannot make {sorted(missing)}; give check_module a case"
+    return case
 
 
 def check_declaration(cls) -> None:
     assert isinstance(cls, type) and issubclass(cls, Module), f"{cls} is not a Module subclass"
-    assert cls.kind in KINDS, f"{cls.__name__}.kind {cls.kind!r} is not one of {KINDS}"
+    assert isinstance(cls.kind, str) and cls.kind.isidentifier(), f"{cls.__name__}.kind {cls.kind!r} is not a name"
     assert cls.type_name and cls.type_name.isidentifier(), f"{cls.__name__}.type_name must be an identifier"
     assert cls.summary, f"{cls.__name__}.summary is empty"
     names = [name for name, _ in iter_params(cls.params)]
     assert len(names) == len(set(names)), f"{cls.__name__}: duplicate parameter names"
+    si_names = [name.rpartition(".")[0] + "." + p.si_name for name, p in iter_params(cls.params)]
+    assert len(si_names) == len(set(si_names)), f"{cls.__name__}: two parameters share an SI name"
     for p in cls.params:
-        assert isinstance(p, (Param, ParamGroup)), f"{cls.__name__}: {p!r} is not a Param"
+        assert isinstance(p, (Param, ParamGroup, Constraint)), f"{cls.__name__}: {p!r} is not a Param"
     for name, p in iter_params(cls.params):
         assert p.doc, f"{cls.__name__}.{name} has no doc"
         assert not name.endswith(("_deg", "_db", "_mhz", "_km", "_percent")) or p.unit, (
             f"{cls.__name__}.{name}: the unit in the name must be declared")
+    if issubclass(cls, Stage):
+        for product in cls.provides:
+            assert hasattr(product, "name") and hasattr(product, "type"), (
+                f"{cls.__name__}.provides must hold Product declarations (e2esim.products), got {product!r}")
 
 
-def check_module(cls, config: dict | None = None, state: CaseState | None = None) -> Module:
+def check_module(cls, config: dict | None = None, case: Case | None = None) -> Module:
     """Run every conformance check on ``cls`` built with ``config``; return the built module."""
     check_declaration(cls)
     module = cls(**(config or {}))
     rebuilt = cls(**module.config)
     assert rebuilt == module, f"{cls.__name__}: configuration does not round-trip"
-    assert pickle.loads(pickle.dumps(module)) == module, f"{cls.__name__}: does not survive pickling"
+    assert _same(rebuilt.si, module.si), f"{cls.__name__}: derive() gives other SI values for the same configuration"
+    copy = pickle.loads(pickle.dumps(module))
+    assert copy == module, f"{cls.__name__}: does not survive pickling"
     assert repr(module).startswith(cls.__name__)
 
-    if state is None:
-        state = reference_state(cls.kind)
-        if any(getattr(state, f, None) is None for f in cls.requires):  # stacked after the default module
-            state = reference_state(cls.kind, including=True)
-    missing = [f for f in cls.requires if getattr(state, f, None) is None]
-    assert not missing, f"{cls.__name__} requires {missing}, which the reference state lacks"
-    before = dataclasses.replace(state, rng=None)
-    out1 = module.forward(dataclasses.replace(state, rng=np.random.default_rng(123)))
-    out2 = pickle.loads(pickle.dumps(module)).forward(dataclasses.replace(state, rng=np.random.default_rng(123)))
-    assert isinstance(out1, CaseState), f"{cls.__name__}.forward must return a CaseState"
-    for f in cls.provides:
-        assert getattr(out1, f) is not None, f"{cls.__name__} says it provides {f!r} but left it empty"
-    changed = {f.name for f in dataclasses.fields(CaseState)
-               if f.name != "rng" and getattr(out1, f.name) is not getattr(before, f.name)}
-    allowed = set(cls.provides) | ({"verdicts"} if cls.kind == "requirement" else set())
-    allowed |= {"backscatter"} if cls.kind == "propagation" else set()
-    allowed |= {"system", "faraday", "calibration"} if cls.kind == "calibration" else set()
-    assert changed <= allowed, f"{cls.__name__}.forward changed {sorted(changed - allowed)} it does not provide"
-    assert _fingerprint(out1) == _fingerprint(out2), f"{cls.__name__}.forward is not deterministic for a given rng"
+    from e2esim.calibration.modules import CalibrationModule
+    from e2esim.faraday.estimator_modules import FaradayEstimatorModule
+    from e2esim.requirements.base import Requirement
+
+    if isinstance(module, Stage):
+        _check_stage(module, copy, case)
+    elif isinstance(module, Requirement):
+        _check_requirement(module, copy, case)
+    elif isinstance(module, CalibrationModule):
+        _check_calibration(module, copy, case)
+    elif isinstance(module, FaradayEstimatorModule):
+        case = case or reference_case(("scene.covariance", "system", "faraday.geophysical", "instrument"))
+        system = case["system"]
+        sd = module.predicted_sd(case["scene.covariance"], system.noise_power, case["faraday.geophysical"], 10_000,
+                                 case["instrument"])
+        assert math.isfinite(sd) and sd > 0, f"{cls.__name__}.predicted_sd gives {sd!r}"
     return module
 
 
-def _fingerprint(state: CaseState):
+def _with_rng(case: Case, seed: int) -> Case:
+    from dataclasses import replace
+
+    return replace(case, rng=np.random.default_rng(seed))
+
+
+def _check_stage(module, copy, case) -> None:
+    from e2esim.runner.records import case_scalars
+    from e2esim.runner.run import checked_products
+
+    name = type(module).__name__
+    case = case or reference_case(module.needs, module.uses)
+    missing = [n for n in module.needs if n not in case]
+    assert not missing, f"{name} needs {missing}, which the reference case lacks"
+    try:
+        out1 = checked_products(module, module.forward(_with_rng(case, 123)))
+        out2 = checked_products(copy, copy.forward(_with_rng(case, 123)))
+    except TypeError as exc:  # what the runner would refuse
+        raise AssertionError(str(exc)) from exc
+    declared = {p.name: p for p in module.provides}
+    assert case_scalars(Products(out1), declared).keys() == case_scalars(Products(out2), declared).keys()
+    assert _fingerprint(case_scalars(Products(out1), declared)) == _fingerprint(case_scalars(Products(out2), declared)), (
+        f"{name}.forward is not deterministic for a given rng")
+
+
+def _check_requirement(module, copy, case) -> None:
+    from e2esim.requirements.verdict import RequirementVerdict
+
+    name = type(module).__name__
+    case = case or reference_case(module.needs, module.uses)
+    v1 = module.evaluate(_with_rng(case, 123))
+    v2 = copy.evaluate(_with_rng(case, 123))
+    assert isinstance(v1, RequirementVerdict), f"{name}.evaluate must return a RequirementVerdict"
+    assert _fingerprint(v1.details) == _fingerprint(v2.details) and v1.value == v2.value, (
+        f"{name}.evaluate is not deterministic")
+
+
+def _check_calibration(module, copy, case) -> None:
+    from e2esim.calibration.stage import CalibrationStrategy
+    from e2esim.calibration.steps import CalibrationStep
     from e2esim.runner.records import case_scalars
 
-    return sorted((k, v) for k, v in case_scalars(dataclasses.replace(state, rng=None)).items() if v == v)
+    name = type(module).__name__
+    case = case or reference_case(module.needs, module.uses)
+    steps = module.steps(_with_rng(case, 123))
+    assert all(isinstance(step, CalibrationStep) for _, step in steps), f"{name}.steps must give CalibrationSteps"
+    runs = [CalibrationStrategy([m], Location("check")).forward(_with_rng(case, 123)) for m in (module, copy)]
+    assert _fingerprint(case_scalars(Products(runs[0]))) == _fingerprint(case_scalars(Products(runs[1]))), (
+        f"{name}: the calibration strategy is not deterministic for a given rng")
+
+
+def _fingerprint(values: dict):
+    return sorted((k, v) for k, v in values.items() if isinstance(v, float) and v == v)
+
+
+def _same(a, b) -> bool:
+    if hasattr(a, "keys") and hasattr(b, "keys"):
+        return a.keys() == b.keys() and all(_same(a[k], b[k]) for k in a)
+    if isinstance(a, Module) or isinstance(b, Module):
+        return a == b
+    return bool(np.array_equal(np.asarray(a, dtype=object), np.asarray(b, dtype=object)))

@@ -11,12 +11,15 @@ from e2esim.calibration.pipeline import (
     PipelineContext, ResidualSampler, ResidualSystemErrorModel, fit_residual_model, residual,
 )
 from e2esim.calibration.steps import FaradayStep, GainStep, QueganStep, TransponderStep, TrihedralStep
+from e2esim.faraday.estimator_modules import BickelBatesEstimator
 from e2esim.polarimetry.simulate import SystemState
 from e2esim.calibration.targets import Calibrators
 from e2esim.distortion.analytic import hv_error_moments
 from e2esim.distortion.montecarlo import simulate
 from e2esim.faraday.distribution import ConstantFaraday, GaussianFaraday
 from e2esim.polarimetry.system_model import _kron, distortion_operator, effective_weights
+
+BB = BickelBatesEstimator()  # the default estimator of FaradayStep
 
 SYSTEM = biomass_system()
 BOREAL_FR = GaussianFaraday(np.pi / 3, np.radians(5.0))
@@ -36,7 +39,7 @@ def _run(rng, steps, n=500, scene=None, faraday=BOREAL_FR):
 def test_faraday_correction_leaves_the_hv_estimator_unchanged(rng):
     """(M_hv + M_vh)/2 is invariant under F(-W) M F(-W): its weights on (S_hh, S_hv, S_vv) and its noise
     are exactly those of the raw data, whatever the residual rotation (Men et al. 2021, eq. 2)."""
-    ctx, res = _run(rng, [FaradayStep(looks=100)])
+    ctx, res = _run(rng, [FaradayStep(BB, looks=100)])
     t = ctx.truth
     raw = effective_weights(t.delta, t.f, t.omega, "hv", t.gain)
     corrected = effective_weights(res.delta, res.f, np.zeros(ctx.size), "hv", res.gain)
@@ -46,7 +49,7 @@ def test_faraday_correction_leaves_the_hv_estimator_unchanged(rng):
 
 def test_residual_decomposition_is_exact(rng):
     """For any strategy, gain_res (T_res^T kron R_res) is the corrected operator (P_t^T kron P_r) K."""
-    steps = [TransponderStep(TRANSPONDERS), FaradayStep(), QueganStep(looks=10_000, iterations=2)]
+    steps = [TransponderStep(TRANSPONDERS), FaradayStep(BB), QueganStep(looks=10_000, iterations=2)]
     ctx, res = _run(rng, steps, n=200)
     t = ctx.truth
     corrected = _kron(np.swapaxes(ctx.p_transmit, -1, -2), ctx.p_receive) @ t.operator()
@@ -55,7 +58,7 @@ def test_residual_decomposition_is_exact(rng):
 
 
 def test_fit_residual_model_holds_the_second_moments(rng):
-    ctx, res = _run(rng, [FaradayStep(), QueganStep()], n=2000)
+    ctx, res = _run(rng, [FaradayStep(BB), QueganStep()], n=2000)
     model, unmodelled = fit_residual_model(res, SYSTEM.noise_power)
     v = np.mean(np.abs(res.delta) ** 2, 0)
     np.testing.assert_allclose(model.crosstalk_variance, v, rtol=1e-12)
@@ -67,7 +70,7 @@ def test_fit_residual_model_holds_the_second_moments(rng):
 
 
 def test_residual_model_samples_through_the_strategy_and_scales_without_it(rng):
-    sampler = ResidualSampler(SYSTEM, BOREAL_FR, forest(), SYSTEM.noise_power, (FaradayStep(), QueganStep()))
+    sampler = ResidualSampler(SYSTEM, BOREAL_FR, forest(), SYSTEM.noise_power, (FaradayStep(BB), QueganStep()))
     model, _ = fit_residual_model(sampler.sample(rng, 500), SYSTEM.noise_power, sampler)
     draws = model.sample(rng, 300)
     assert draws.delta.shape == (300, 4) and draws.f.shape == (300, 2) and draws.gain.shape == (300,)
@@ -77,8 +80,8 @@ def test_residual_model_samples_through_the_strategy_and_scales_without_it(rng):
 
 
 @pytest.mark.parametrize("steps, min_gain_db", [
-    ([FaradayStep(), QueganStep()], 5.0),
-    ([TransponderStep(TRANSPONDERS), FaradayStep()], 5.0),
+    ([FaradayStep(BB), QueganStep()], 5.0),
+    ([TransponderStep(TRANSPONDERS), FaradayStep(BB)], 5.0),
 ])
 def test_calibration_reduces_the_residual_crosstalk(rng, steps, min_gain_db):
     """BIOMASS specification, boreal forest, Faraday rotation 60 +- 5 deg: the residual crosstalk power after
@@ -93,7 +96,7 @@ def test_transponders_reduce_the_imbalance_and_the_sigma_hv_error(rng):
     (analytic model of the residual, checked against the Monte Carlo of the exact residual draws) drop."""
     scene = forest("tropical_338")
     fr = GaussianFaraday(0.0, np.radians(5.0))
-    sampler = ResidualSampler(SYSTEM, fr, scene, SYSTEM.noise_power, (TransponderStep(TRANSPONDERS), FaradayStep()))
+    sampler = ResidualSampler(SYSTEM, fr, scene, SYSTEM.noise_power, (TransponderStep(TRANSPONDERS), FaradayStep(BB)))
     model, unmodelled = fit_residual_model(sampler.sample(rng, 2500), SYSTEM.noise_power, sampler)
     assert unmodelled["imbalance_level_db"] < 10 * np.log10(SYSTEM.imbalance_level) - 5
     raw = hv_error_moments(scene, SYSTEM, fr, looks=100_000)
@@ -107,10 +110,10 @@ def test_trihedral_and_gain_steps(rng):
     """A gain step sets |A|^2 to the truth times 10^(-error/10) (no Faraday rotation here: with it, the
     residual's HH normalisation carries cos(Omega)); a trihedral at 60 dB SCR measures f1 f2."""
     ctx, res = _run(rng, [GainStep(sd_db=0.3, offset_db=0.1)], n=20_000, faraday=ConstantFaraday(0.0))
-    err = ctx.diagnostics[0]["gain_error_db"]
+    err = ctx.diagnostics[0].gain_error_db
     np.testing.assert_allclose(20 * np.log10(np.abs(res.gain)), -err, atol=0.02)  # up to first-order crosstalk
     assert abs(z_mean(err, 0.1)) < Z_ACCEPT
     tri = Calibrators.named(["trihedral"] * 4, 60.0, CLUTTER_SHAPES["low_vegetation"], -70.0)
-    ctx, res = _run(rng, [FaradayStep(), QueganStep(), TrihedralStep(tri, absolute_gain=False)], n=2000)
+    ctx, res = _run(rng, [FaradayStep(BB), QueganStep(), TrihedralStep(tri, absolute_gain=False)], n=2000)
     eps = np.abs(res.f - 1) ** 2
     assert 10 * np.log10(np.mean(eps)) < 10 * np.log10(SYSTEM.imbalance_level) - 10

@@ -13,19 +13,16 @@ and the scenario does not.
 
 from __future__ import annotations
 
-import dataclasses
-
 import numpy as np
 
+from e2esim import products as P
 from e2esim.budget.geometry import slant_range_spherical
 from e2esim.budget.presets import PRESETS
 from e2esim.budget.result import COMBINATIONS, GROUPS, BudgetInputs, backscatter_budget
 from e2esim.errors import ConfigError, PhysicsInputError
-from e2esim.module import Module
-from e2esim.params import Param, ParamGroup
+from e2esim.module import Stage, fail
+from e2esim.params import AtMostOneOf, Param, ParamGroup
 
-_DEG = np.pi / 180.0
-_MHZ = 1e6
 _CHANNELS = ("hh", "hv", "vv")
 SPECKLE_DISTRIBUTIONS = ("gamma", "gaussian")
 
@@ -34,7 +31,13 @@ def _p(name, doc, unit="", **bounds):
     return Param(name, "float", doc + " (null: the preset's value)", default=None, unit=unit, nullable=True, **bounds)
 
 
-class BackscatterErrorBudget(Module):
+def _p_db(name, doc, **bounds):
+    """A dB value the formulas of Ahmed et al. (2014) take in dB (kept, not converted)."""
+    return Param(name, "float", doc + " (null: the preset's value)", default=None, unit="dB", nullable=True,
+                 convert=False, **bounds)
+
+
+class BackscatterErrorBudget(Stage):
     """Random error of sigma0 at the product scale, Ahmed et al. (2014), eqs. (20)-(38)."""
 
     kind = "propagation"
@@ -55,14 +58,14 @@ class BackscatterErrorBudget(Module):
             _p("window_eta_azimuth", "azimuth window pedestal eta", minimum=0.0, maximum=1.0),
             _p("range_broadening", "range broadening kappa, instead of eq. (25)", minimum=1.0),
             _p("azimuth_broadening", "azimuth broadening kappa, instead of eq. (25)", minimum=1.0),
-            _p("islr_range_db", "range ISLR, instead of eq. (29)", "dB", maximum=0.0),
-            _p("islr_azimuth_db", "azimuth ISLR, instead of eq. (29)", "dB", maximum=0.0),
+            _p_db("islr_range_db", "range ISLR, instead of eq. (29)", maximum=0.0),
+            _p_db("islr_azimuth_db", "azimuth ISLR, instead of eq. (29)", maximum=0.0),
             _p("nesz_db", "noise-equivalent sigma0, eq. (26) (null: the instrument's, else the preset's)", "dB",
                minimum=-100.0, maximum=20.0),
             _p("quantisation_bits", "bits b of the quantiser, eq. (28)", minimum=1.0, maximum=32.0),
-            _p("ambiguity_ratio_db", "total signal-to-ambiguity ratio AMB_t, eq. (27)", "dB", minimum=0.0),
-            _p("random_calibration_db", "residual random calibration error Delta sigma_dB (1 sigma), eq. (31)", "dB",
-               minimum=0.0, maximum=10.0),
+            _p_db("ambiguity_ratio_db", "total signal-to-ambiguity ratio AMB_t, eq. (27)", minimum=0.0),
+            _p_db("random_calibration_db", "residual random calibration error Delta sigma_dB (1 sigma), eq. (31)",
+                  minimum=0.0, maximum=10.0),
             _p("pointing_error_mrad", "antenna pointing uncertainty Delta theta, eqs. (32)-(34)", "mrad", minimum=0.0),
             _p("elevation_beamwidth_deg", "elevation half-power beamwidth, eq. (33)", "deg", exclusive_minimum=0.0),
             _p("azimuth_beamwidth_deg", "azimuth half-power beamwidth, eq. (34)", "deg", exclusive_minimum=0.0),
@@ -91,6 +94,7 @@ class BackscatterErrorBudget(Module):
                minimum=1.0),
             _p("speckle_diverse_observations", "N_os: speckle-diverse observations among them, eqs. (21), (36)",
                minimum=1.0),
+            AtMostOneOf("area_m2", "product_resolution_m"),
         )),
         ParamGroup("temporal", "temporal variability of sigma0 unrelated to AGB (Section II-D-2)", (
             _p("sd_percent", "relative SD of sigma0 from weather, moisture, wind", "%", minimum=0.0),
@@ -107,8 +111,9 @@ class BackscatterErrorBudget(Module):
               "Monte Carlo law of the speckle-and-noise term: gamma (multi-look intensity) or gaussian",
               default="gamma", choices=SPECKLE_DISTRIBUTIONS),
     )
-    requires = ("scene", "backscatter")
-    provides = ("backscatter",)
+    needs = ("scene.covariance",)
+    uses = ("backscatter.error", "instrument")
+    provides = (P.BACKSCATTER_BUDGET,)
 
     def setup(self):
         self.base = self._base_inputs()
@@ -118,15 +123,15 @@ class BackscatterErrorBudget(Module):
             raise ConfigError(self.location, str(exc)) from exc
 
     def _base_inputs(self) -> BudgetInputs:
-        c = self.config
+        c = self.si
         values = dict(PRESETS[c["preset"]])
         ins, dem, obs, tmp = c["instrument"], c["dem"], c["observation"], c["temporal"]
 
-        def put(key, value, scale=1.0):
+        def put(key, value):
             if value is not None:
-                values[key] = value * scale
+                values[key] = value
 
-        put("bandwidth_hz", ins["bandwidth_mhz"], _MHZ)
+        put("bandwidth_hz", ins["bandwidth_hz"])
         put("antenna_length_m", ins["antenna_length_m"])
         put("range_resolution_m", ins["range_resolution_m"])
         put("azimuth_resolution_m", ins["azimuth_resolution_m"])
@@ -136,69 +141,63 @@ class BackscatterErrorBudget(Module):
         put("azimuth_broadening", ins["azimuth_broadening"])
         put("islr_range_db", ins["islr_range_db"])
         put("islr_azimuth_db", ins["islr_azimuth_db"])
-        if ins["nesz_db"] is not None:
-            values["nesz"] = 10 ** (ins["nesz_db"] / 10)
+        put("nesz", ins["nesz_linear"])
         put("quantisation_bits", ins["quantisation_bits"])
         put("ambiguity_ratio_db", ins["ambiguity_ratio_db"])
         put("random_calibration_db", ins["random_calibration_db"])
-        put("pointing_error_rad", ins["pointing_error_mrad"], 1e-3)
-        put("elevation_beamwidth_rad", ins["elevation_beamwidth_deg"], _DEG)
-        put("azimuth_beamwidth_rad", ins["azimuth_beamwidth_deg"], _DEG)
+        put("pointing_error_rad", ins["pointing_error_rad"])
+        put("elevation_beamwidth_rad", ins["elevation_beamwidth_rad"])
+        put("azimuth_beamwidth_rad", ins["azimuth_beamwidth_rad"])
         put("beam_shaping", ins["beam_shaping_factor"])
         put("dem_height_error_m", dem["height_error_m"])
         put("dem_posting_m", dem["posting_m"])
-        if obs["area_m2"] is not None and obs["product_resolution_m"] is not None:
-            raise ConfigError(self.location.child("observation"), "gives both area_m2 and product_resolution_m",
-                              "give one of them")
         put("area_m2", obs["area_m2"])
         if obs["product_resolution_m"] is not None:
             values["area_m2"] = obs["product_resolution_m"] ** 2
-        put("incidence_rad", obs["incidence_deg"], _DEG)
-        put("slope_range_rad", obs["slope_range_deg"], _DEG)
-        put("slope_azimuth_rad", obs["slope_azimuth_deg"], _DEG)
-        if obs["slant_range_km"] is not None:
-            values["slant_range_m"] = obs["slant_range_km"] * 1e3
-        elif obs["altitude_km"] is not None:
-            values["slant_range_m"] = float(slant_range_spherical(obs["altitude_km"] * 1e3, values["incidence_rad"]))
+        put("incidence_rad", obs["incidence_rad"])
+        put("slope_range_rad", obs["slope_range_rad"])
+        put("slope_azimuth_rad", obs["slope_azimuth_rad"])
+        if obs["slant_range_m"] is not None:
+            values["slant_range_m"] = obs["slant_range_m"]
+        elif obs["altitude_m"] is not None:
+            values["slant_range_m"] = float(slant_range_spherical(obs["altitude_m"], values["incidence_rad"]))
         put("observations", obs["observations"])
         put("diverse_observations", obs["speckle_diverse_observations"])
         if tmp["sd_m2m2"] is not None:
             values["temporal_sd_m2m2"] = tmp["sd_m2m2"]
-        elif tmp["sd_percent"] is not None:
+        elif tmp["sd_fraction"] is not None:
             values["temporal_sd_m2m2"] = None
-            values["temporal_relative_sd"] = tmp["sd_percent"] / 100.0
+            values["temporal_relative_sd"] = tmp["sd_fraction"]
         values["combination"] = c["combination"]
         values["cap_dem_factor"] = dem["cap_averaging_factor"]
         return BudgetInputs(**values)
 
-    def inputs_for(self, state) -> BudgetInputs:
+    def inputs_for(self, case) -> BudgetInputs:
         """The budget inputs of a case: the instrument's NESZ and bandwidth unless the scenario gives them."""
         changes = {}
-        inst = state.instrument
-        ins = self.config["instrument"]
+        inst = case.get("instrument")
+        ins = self.si["instrument"]
         if inst is not None:
-            if ins["nesz_db"] is None and np.isfinite(inst.nesz_db):
+            if ins["nesz_linear"] is None and np.isfinite(inst.nesz_db):
                 changes["nesz"] = 10 ** (inst.nesz_db / 10)
-            if (ins["bandwidth_mhz"] is None and ins["range_resolution_m"] is None and inst.bandwidth_hz
+            if (ins["bandwidth_hz"] is None and ins["range_resolution_m"] is None and inst.bandwidth_hz
                     and np.isfinite(inst.bandwidth_hz)):
                 changes["bandwidth_hz"] = inst.bandwidth_hz
         return self.base.replace(**changes) if changes else self.base
 
-    def forward(self, state):
-        bs = state.backscatter
-        include = tuple(self.config["include"])
-        if bs.reference == "population" and "speckle_noise" in include:
-            raise ConfigError(
-                self.location.child("include"),
-                "speckle would be counted twice: the hv_backscatter_error module uses reference 'population', "
-                "which already draws a new speckle pattern per realisation",
-                "use reference: scene in hv_backscatter_error, or leave speckle_noise out of include")
-        scene = state.scene
+    def forward(self, case):
+        include = tuple(self.si["include"])
+        model = case.get("backscatter.error")
+        if model is not None and model.includes_speckle and "speckle_noise" in include:
+            raise fail(self, "speckle would be counted twice: the propagation's error model already draws a new "
+                       "speckle pattern per realisation (hv_backscatter_error with reference 'population')",
+                       "use reference: scene in hv_backscatter_error, or leave speckle_noise out of include",
+                       key="include")
+        scene = case["scene.covariance"]
         sigma = np.array([scene.sigma_hh, scene.sigma_hv, scene.sigma_vv])
         try:
-            budget = backscatter_budget(self.inputs_for(state), sigma)
+            budget = backscatter_budget(self.inputs_for(case), sigma)
         except PhysicsInputError as exc:
-            raise ConfigError(self.location, f"case {state.index}: {exc}") from exc
-        budget = budget.with_(channels=_CHANNELS, groups=include,
-                              speckle_distribution=self.config["speckle_distribution"])
-        return state.with_(backscatter=dataclasses.replace(bs, budget=budget))
+            raise fail(self, f"case {case.index}: {exc}") from exc
+        budget = budget.with_(channels=_CHANNELS, groups=include, speckle_distribution=self.si["speckle_distribution"])
+        return {"backscatter.budget": budget}

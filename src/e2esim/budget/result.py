@@ -258,6 +258,10 @@ class BackscatterBudget:
         out["mnr_db"] = float(-10 * np.log10(np.squeeze(self.inverse_mnr)))
         return out
 
+    def scalars(self) -> dict:
+        """Output scalars (``budget.*``): ``as_dict`` of the HV channel (of the budget itself if single-channel)."""
+        return (self.channel("hv") if self.channels else self).as_dict()
+
 
 def backscatter_budget(inputs: BudgetInputs, sigma) -> BackscatterBudget:
     """Every term of eqs. (20)-(38) for backscatter ``sigma`` (m^2/m^2), vectorised over all inputs."""

@@ -1,27 +1,27 @@
-"""Calibration modules (kind ``calibration``): a calibration strategy and the residual errors it leaves.
+"""Calibration modules (kind ``calibration``): the steps of a calibration strategy.
 
-A scenario's ``calibration`` section is one module or a list applied in order. Each module adds its
-step to ``state.calibration`` (``CalibrationRecord``), simulates the whole strategy on calibration data
-drawn through the full system model (distributed-target windows, calibrators in clutter), and hands the
-propagation the residual errors: what the estimators' errors leave, not the raw instrument errors
-(``e2esim.calibration.record`` explains the representation).
+A scenario's ``calibration`` section is one module or a list applied in order. Each module contributes
+correction steps (``steps``); the calibration stage (``e2esim.calibration.stage``) simulates the whole
+strategy on calibration data drawn through the full system model (distributed-target windows, calibrators
+in clutter) and provides the residual errors beside the raw ones: what the estimators' errors leave, not
+the raw instrument errors (``e2esim.calibration.record`` explains the representation).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from e2esim.faraday.chirp import ChirpSlopeEstimator
-from e2esim.calibration.steps import FaradayStep, GainStep, QueganStep, TransponderStep, TrihedralStep
 from e2esim.calibration.radiometric import (
-    UNIFORM_ARRAY_BEAM_SHAPING, absolute_gain_error_db, swath_pointing_gain_sd_db,
+    UNIFORM_ARRAY_BEAM_SHAPING,
+    absolute_gain_error_db,
+    swath_pointing_gain_sd_db,
 )
-from e2esim.calibration.record import CalibrationRecord
+from e2esim.calibration.steps import FaradayStep, GainStep, QueganStep, TransponderStep, TrihedralStep
 from e2esim.calibration.targets import TARGET_NAMES, Calibrators, target_matrix
 from e2esim.calibration.transponder import GAUGES
-from e2esim.errors import ConfigError, PhysicsInputError
+from e2esim.errors import PhysicsInputError
 from e2esim.faraday.distribution import GaussianFaraday
-from e2esim.module import Module
+from e2esim.module import Module, fail
 from e2esim.params import Param
 from e2esim.polarimetry.system_model import to_vector
 
@@ -31,31 +31,27 @@ CLUTTER_SHAPES = {
     # the level.
     "low_vegetation": np.array([[1.0, 0.0, 0.6], [0.0, 0.1, 0.0], [0.6, 0.0, 1.0]], dtype=complex),
 }
-CLUTTER_CHOICES = tuple(CLUTTER_SHAPES) + ("scene",)
-FARADAY_METHODS = ("bickel_bates", "freeman", "chirp_slope")
+CLUTTER_CHOICES = (*CLUTTER_SHAPES, "scene")
 PRIORS = ("climatology", "tec_map")
 
 
 class CalibrationModule(Module):
-    """Base class: a module contributes one or more pipeline steps (``steps``)."""
+    """Base class: a module contributes one or more steps of the calibration strategy (``steps``).
+
+    ``needs`` and ``uses`` name the products its steps read (the stage adds them to its own).
+    """
 
     kind = "calibration"
-    requires = ("scene", "system", "faraday")
-    provides = ("system", "faraday", "calibration")
+    needs = ("system", "faraday.geophysical", "scene.covariance")
+    uses = ("instrument",)
 
-    def steps(self, state, record: CalibrationRecord) -> list:
-        """``[(name, step), ...]`` this module adds (override)."""
+    def steps(self, case) -> list:
+        """``[(name, CalibrationStep), ...]`` this module adds (override; none for ``calibration: none``)."""
         return []
 
-    def forward(self, state):
-        record = CalibrationRecord.start(state)
-        for name, step in self.steps(state, record):
-            record = record.extended(name, step)
-        return record.apply(state)
-
-    def _clutter(self, state) -> np.ndarray:
-        name = self.config["clutter"]
-        return state.scene.matrix if name == "scene" else CLUTTER_SHAPES[name]
+    def _clutter(self, case) -> np.ndarray:
+        name = self.si["clutter"]
+        return case["scene.covariance"].matrix if name == "scene" else CLUTTER_SHAPES[name]
 
 
 class NoCalibration(CalibrationModule):
@@ -63,17 +59,13 @@ class NoCalibration(CalibrationModule):
 
     type_name = "none"
     summary = "no calibration: raw crosstalk, channel imbalance, gain and Faraday rotation"
-    provides = ("calibration",)
-
-    def forward(self, state):
-        if isinstance(state.calibration, CalibrationRecord):
-            return state  # after other calibration modules: adds nothing
-        return state.with_(calibration=CalibrationRecord.start(state))
+    needs = ("system", "faraday.geophysical")
 
 
 class FaradayCorrection(CalibrationModule):
     """Estimate Omega on the scene and rotate it away, ``S = F^-1 M F^-1`` (Quegan et al. 2018, eq. 4).
 
+    The estimator is a registered ``faraday_estimator`` module (``e2esim.faraday.estimator_modules``):
     Bickel-Bates (circular basis; variance eqs. 5-6, corrected in docs/errata.md), Freeman's second-moment
     estimator, or the chirp slope (eq. 12). The pi/2 ambiguity is resolved with a prior: the ionosphere
     module's mean (``climatology``) or a TEC-map prediction with an error SD (``tec_map``). On its own
@@ -84,37 +76,27 @@ class FaradayCorrection(CalibrationModule):
     type_name = "faraday_correction"
     summary = "Faraday-rotation correction by Bickel-Bates, Freeman or chirp-slope estimates over N looks"
     params = (
-        Param("estimator", "str", "Faraday-rotation estimator", default="bickel_bates", choices=FARADAY_METHODS),
+        Param("estimator", "module", "Faraday-rotation estimator: a faraday_estimator type (bickel_bates, freeman, "
+              "chirp_slope) or a mapping with its type and parameters, e.g. {type: chirp_slope, subbands: 8}",
+              default="bickel_bates", kind="faraday_estimator"),
         Param("looks", "int", "independent samples in the estimation window (10^4: 2 km x 2 km for BIOMASS, "
               "Quegan et al. 2018, Sect. 6)", default=10_000, minimum=1, maximum=10**9),
         Param("prior", "str", "prior that resolves the pi/2 ambiguity: the ionosphere module's mean, or a "
               "TEC-map prediction with error prior_sd_deg", default="climatology", choices=PRIORS),
         Param("prior_sd_deg", "float", "SD of the TEC-map prediction of Omega (prior: tec_map)", default=10.0,
               unit="deg", minimum=0.0, maximum=180.0),
-        Param("subbands", "int", "sub-bands of the chirp (estimator: chirp_slope)", default=4, minimum=2,
-              maximum=1024),
-        Param("noise_subtraction", "bool", "Freeman: subtract the known noise power", default=True),
     )
 
     def setup(self):
-        c = self.config
-        if c["estimator"] == "chirp_slope" and c["looks"] < c["subbands"]:
-            raise PhysicsInputError(f"looks = {c['looks']} cannot be shared among subbands = {c['subbands']}; "
-                                    "give at least one look per sub-band", key="looks")
+        self.si["estimator"].check_window(self.si["looks"])
 
-    def steps(self, state, record):
-        c = self.config
-        chirp = None
-        if c["estimator"] == "chirp_slope":
-            inst = state.instrument
-            if inst is None or not (inst.centre_frequency_hz > 0 and inst.bandwidth_hz > 0):
-                raise ConfigError(self.location.child("estimator"),
-                                  "chirp_slope needs the instrument's centre frequency and bandwidth",
-                                  "use an instrument module that gives centre_frequency_mhz and bandwidth_mhz")
-            chirp = ChirpSlopeEstimator(inst.centre_frequency_hz, inst.bandwidth_hz, c["subbands"])
-        step = FaradayStep(method=c["estimator"], looks=c["looks"], prior=c["prior"],
-                           prior_sd_rad=float(np.radians(c["prior_sd_deg"])), chirp=chirp,
-                           noise_subtraction=c["noise_subtraction"])
+    def steps(self, case):
+        estimator = self.si["estimator"]
+        inst = case.get("instrument")
+        if estimator.needs_frequency and (inst is None or not (inst.centre_frequency_hz > 0 and inst.bandwidth_hz > 0)):
+            raise fail(self, f"{estimator.type_name} needs the instrument's centre frequency and bandwidth",
+                       "use an instrument module that gives centre_frequency_mhz and bandwidth_mhz", key="estimator")
+        step = FaradayStep(estimator, self.si["looks"], self.si["prior"], self.si["prior_sd_rad"], inst)
         return [(self.type_name, step)]
 
 
@@ -152,12 +134,12 @@ class DistributedTargetCalibration(CalibrationModule):
               choices=CLUTTER_CHOICES),
     )
 
-    def steps(self, state, record):
-        c = self.config
+    def steps(self, case):
+        c = self.si
         out = [(self.type_name, QueganStep(c["looks"], c["iterations"], c["subtract_noise"]))]
         if c["trihedral"]:
-            cal = Calibrators.named(["trihedral"] * c["trihedral_count"], c["trihedral_scr_db"], self._clutter(state),
-                                    -c["snr_db"])
+            cal = Calibrators.from_ratios(["trihedral"] * c["trihedral_count"], c["trihedral_scr_linear"],
+                                          self._clutter(case), 1.0 / c["snr_linear"])
             out.append((self.type_name + ".trihedral", TrihedralStep(cal, c["absolute_gain"])))
         return out
 
@@ -196,7 +178,7 @@ class TransponderCalibration(CalibrationModule):
     )
 
     def setup(self):
-        names = self.config["calibrators"]
+        names = self.si["calibrators"]
         if len(names) < 3:
             raise PhysicsInputError(f"{len(names)} calibrators cannot determine the system errors; give at least "
                                     "three independent ones (four or more over-determine it)", key="calibrators")
@@ -206,17 +188,17 @@ class TransponderCalibration(CalibrationModule):
                 f"calibrators {', '.join(names)} span only {rank} independent scattering matrices; the system errors "
                 "need at least 3 (e.g. trihedral, dihedral_0 and dihedral_45, or four transponders)", key="calibrators")
 
-    def steps(self, state, record):
-        c = self.config
-        cal = Calibrators.named(c["calibrators"], c["scr_db"], self._clutter(state), -c["snr_db"])
+    def steps(self, case):
+        c = self.si
+        cal = Calibrators.from_ratios(c["calibrators"], c["scr_linear"], self._clutter(case), 1.0 / c["snr_linear"])
         site = None
-        if c["site_faraday_mean_deg"] is not None:
-            site = GaussianFaraday(float(np.radians(c["site_faraday_mean_deg"])), float(np.radians(c["site_faraday_sd_deg"])))
+        if c["site_faraday_mean_rad"] is not None:
+            site = GaussianFaraday(c["site_faraday_mean_rad"], c["site_faraday_sd_rad"])
         try:
-            step = TransponderStep(cal, c["gauge"], site, float(np.radians(c["faraday_prior_sd_deg"])),
-                                   c["correct_faraday"], c["absolute_gain"])
+            step = TransponderStep(cal, c["gauge"], site, c["faraday_prior_sd_rad"], c["correct_faraday"],
+                                   c["absolute_gain"])
         except PhysicsInputError as exc:
-            raise ConfigError(self.location.child("calibrators"), str(exc)) from exc
+            raise fail(self, str(exc), key="calibrators") from exc
         return [(self.type_name, step)]
 
 
@@ -242,17 +224,17 @@ class RadiometricCalibration(CalibrationModule):
         Param("swath_fraction", "float", "part of the half-power beam the swath spans", default=1.0,
               exclusive_minimum=0.0, maximum=1.0),
         Param("drift_sd_db", "float", "gain stability between calibrations (SD)", default=0.0, unit="dB",
-              minimum=0.0, maximum=10.0),
+              minimum=0.0, maximum=10.0, convert=False),
     )
 
     def gain_error_db(self) -> tuple[float, float]:
         """(mean, SD) of the error of the estimated |A|^2, dB."""
-        c = self.config
-        pointing = swath_pointing_gain_sd_db(np.radians(c["pointing_sd_deg"]), np.radians(c["elevation_beamwidth_deg"]),
-                                             c["beam_shaping"], c["swath_fraction"])
-        return absolute_gain_error_db(10 ** (c["scr_db"] / 10), c["targets"], c["background_subtraction"], pointing,
+        c = self.si
+        pointing = swath_pointing_gain_sd_db(c["pointing_sd_rad"], c["elevation_beamwidth_rad"], c["beam_shaping"],
+                                             c["swath_fraction"])
+        return absolute_gain_error_db(c["scr_linear"], c["targets"], c["background_subtraction"], pointing,
                                       c["drift_sd_db"])
 
-    def steps(self, state, record):
+    def steps(self, case):
         mean, sd = self.gain_error_db()
         return [(self.type_name, GainStep(sd_db=sd, offset_db=mean))]

@@ -42,7 +42,7 @@ class PipelineContext:
     truth : the true system, one realisation per row (crosstalk, imbalance, complex gain, scene Omega).
     scene : covariance of the distributed target that distributed-target steps look at (m^2/m^2).
     noise_power : sigma_n per channel. faraday : the raw Faraday-rotation distribution (priors).
-    p_receive, p_transmit : (n, 2, 2) corrections so far. diagnostics : one dict per step.
+    p_receive, p_transmit : (n, 2, 2) corrections so far. diagnostics : the StepResult of each step.
     """
 
     def __init__(self, rng, truth: SystemState, scene, noise_power: float, faraday):
@@ -55,7 +55,7 @@ class PipelineContext:
         self.p_receive = np.broadcast_to(np.eye(2, dtype=complex), (n, 2, 2)).copy()
         self.p_transmit = self.p_receive.copy()
         self._windows: dict = {}
-        self.diagnostics: list = []
+        self.diagnostics: list = []  # the StepResult of every step so far
 
     @property
     def size(self) -> int:
@@ -90,7 +90,7 @@ class ResidualSamples:
     delta (n, 4), f (n, 2) : residual crosstalk and imbalance (no Faraday rotation left; see module doc).
     gain (n,) : residual complex gain. noise_factor (n,) : noise power per channel of the corrected data
     in units of the raw sigma_n, as the sigma_hv estimator (M_hv + M_vh)/2 sees it.
-    diagnostics : per step, dicts of arrays (errors of what each step estimated).
+    diagnostics : per step, its ``StepResult`` (errors of what it estimated, per realisation).
     """
 
     delta: np.ndarray
@@ -160,7 +160,7 @@ class ResidualSampler:
             parts.append(residual(ctx))
         if len(parts) == 1:
             return parts[0]
-        diag = [{key: np.concatenate([p.diagnostics[i][key] for p in parts]) for key in parts[0].diagnostics[i]}
+        diag = [type(parts[0].diagnostics[i]).concatenate([p.diagnostics[i] for p in parts])
                 for i in range(len(self.steps))]
         cat = lambda name: np.concatenate([getattr(p, name) for p in parts])  # noqa: E731
         return ResidualSamples(cat("delta"), cat("f"), cat("gain"), cat("noise_factor"), diag)

@@ -89,11 +89,19 @@ class Calibrators:
 
     @classmethod
     def named(cls, names, scr_db, clutter: np.ndarray, noise_to_signal_db: float | None = None) -> "Calibrators":
+        """``from_ratios`` with the signal-to-clutter and noise-to-signal ratios in dB."""
+        nts = 0.0 if noise_to_signal_db is None else 10 ** (noise_to_signal_db / 10)
+        return cls.from_ratios(names, 10 ** (np.asarray(scr_db, dtype=float) / 10), clutter, nts)
+
+    @classmethod
+    def from_ratios(cls, names, scr, clutter: np.ndarray, noise_to_signal: float = 0.0) -> "Calibrators":
+        """Calibrators ``names`` (``TARGET_NAMES``) with signal-to-clutter ratio ``scr`` (linear, one or per
+        calibrator), clutter shape (3x3, hh/hv/vv) and peak noise-to-signal ratio (linear)."""
         names = tuple(names)
         if not names:
             raise PhysicsInputError("give at least one calibrator")
-        scr = 10 ** (np.broadcast_to(np.asarray(scr_db, dtype=float), (len(names),)) / 10)
-        nts = 0.0 if noise_to_signal_db is None else 10 ** (noise_to_signal_db / 10)
+        scr = np.broadcast_to(np.asarray(scr, dtype=float), (len(names),))
+        nts = float(noise_to_signal)
         clutter = np.asarray(clutter, dtype=complex)
         if clutter.shape != (3, 3):
             raise PhysicsInputError(f"clutter covariance must be 3x3 (hh, hv, vv), got shape {clutter.shape}")

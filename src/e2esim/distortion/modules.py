@@ -4,11 +4,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from e2esim.chain import BackscatterError
-from e2esim.distortion.analytic import FORMS, REFERENCES, hv_error_moments
+from e2esim import products as P
+from e2esim.distortion.analytic import FORMS, REFERENCES
+from e2esim.distortion.error_model import HVErrorModel
 from e2esim.distortion.montecarlo import METHODS, gaussianity, simulate
-from e2esim.errors import ConfigError
-from e2esim.module import Module
+from e2esim.module import Stage, fail
 from e2esim.params import Param
 
 
@@ -33,7 +33,7 @@ def analytic_caveat(system) -> str | None:
     return check() if callable(check) else None
 
 
-class HVBackscatterErrorPropagation(Module):
+class HVBackscatterErrorPropagation(Stage):
     """Error of sigma_hv under crosstalk, channel imbalance, Faraday rotation and noise.
 
     Men et al. (2021): analytic mean and variance (eqs. 11-12, completed to second order) and/or the
@@ -55,55 +55,40 @@ class HVBackscatterErrorPropagation(Module):
               default="fast", choices=METHODS),
         Param("gaussianity", "bool", "test the simulated errors for Gaussianity (Fig. 2)", default=True),
     )
-    requires = ("scene", "system", "faraday")
-    provides = ("backscatter",)
+    needs = ("scene.covariance", "system.residual", "faraday.residual")
+    provides = (P.BACKSCATTER_ERROR,)
 
-    def forward(self, state):
-        c, s = self.config, state.settings
-        analytic = mc = gauss = None
+    def forward(self, case):
+        c, s = self.si, case.settings
+        scene, system, faraday = case["scene.covariance"], case["system.residual"], case["faraday.residual"]
+        mc = gauss = None
         notes = ()
-        problem = analytic_problem(state.system) if s.analytic else None
+        problem = analytic_problem(system) if s.analytic else None
         if problem is not None and not s.montecarlo:
-            raise ConfigError(self.location, f"case {state.index}: the analytic error model does not apply: {problem}",
-                              "use simulation.mode: montecarlo (or both) for this case")
+            raise fail(self, f"case {case.index}: the analytic error model does not apply: {problem}",
+                       "use simulation.mode: montecarlo (or both) for this case")
         if problem is not None:  # mode both: the Monte Carlo alone, and say why
             notes = (f"analytic model not used: {problem}; results from the Monte Carlo",)
-        elif s.analytic and analytic_caveat(state.system):
-            notes = (analytic_caveat(state.system),)
-        if s.analytic and problem is None:
-            if not state.scene.is_reflection_symmetric():
-                raise ConfigError(
-                    self.location,
-                    "the analytic error model assumes a reflection-symmetric scene (Men et al. 2021, Section III) "
-                    f"but case {state.index} has HH-HV or HV-VV correlation",
-                    "use simulation.mode: montecarlo for this scene",
-                )
-            looks = s.looks if c["variance_form"] == "complete" else None
-            analytic = hv_error_moments(
-                state.scene, state.system, state.faraday, c["variance_form"], looks, c["reference"]
-            )
+        elif s.analytic and analytic_caveat(system):
+            notes = (analytic_caveat(system),)
+        if s.analytic and problem is None and not scene.is_reflection_symmetric():
+            raise fail(self, "the analytic error model assumes a reflection-symmetric scene (Men et al. 2021, "
+                       f"Section III) but case {case.index} has HH-HV or HV-VV correlation",
+                       "use simulation.mode: montecarlo for this scene")
+        if not s.analytic:
+            unavailable = f"the analytic moments are not computed in simulation mode {s.mode!r}"
+        else:
+            unavailable = problem
+        looks = s.looks if c["variance_form"] == "complete" else None
+        model = HVErrorModel(scene, system, faraday, c["variance_form"], looks, c["reference"],
+                             notes=notes, unavailable=unavailable)
+        if unavailable is None:
+            model.current()  # evaluated here, once: every later stage reads it
         if s.montecarlo:
-            mc = simulate(
-                state.scene,
-                state.system,
-                state.faraday,
-                state.rng,
-                looks=s.looks,
-                realisations=s.realisations,
-                noise_realisations=s.noise_realisations,
-                reference=c["reference"],
-                method=c["mc_method"],
-            )
+            mc = simulate(scene, system, faraday, case.rng, looks=s.looks, realisations=s.realisations,
+                          noise_realisations=s.noise_realisations, reference=c["reference"], method=c["mc_method"])
             if c["gaussianity"] and np.ravel(mc.hv).size >= 20:
                 gauss = gaussianity(mc.hv)
-        result = BackscatterError(
-            sigma_hv=state.scene.sigma_hv,
-            analytic=analytic,
-            montecarlo=mc,
-            gaussianity=gauss,
-            form=c["variance_form"],
-            looks=s.looks if c["variance_form"] == "complete" else None,
-            reference=c["reference"],
-            notes=notes,
-        )
-        return state.with_(backscatter=result)
+            model = HVErrorModel(scene, system, faraday, c["variance_form"], looks, c["reference"], mc, gauss,
+                                 notes, unavailable, model._memo)
+        return {"backscatter.error": model}

@@ -12,30 +12,13 @@ mode, Men et al. 2021, eq. 9) or by sampling (Monte Carlo).
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from pathlib import Path
 
 import numpy as np
 
-from e2esim.faraday.distribution import EmpiricalFaraday
-from e2esim.io import array_cache as cache_mod
+from e2esim.faraday.distribution import PERCENTILES, EmpiricalFaraday, weighted_percentiles  # noqa: F401
 from e2esim.ionosphere.propagation import faraday_rotation_integral, phase_advance, range_delay
 from e2esim.ionosphere.slant import PathIntegrals, SlantSettings, path_integrals
 from e2esim.ionosphere.variability import lognormal_nodes
-
-PERCENTILES = (0.135, 2.275, 5.0, 25.0, 50.0, 75.0, 95.0, 97.725, 99.865)
-"""Percentiles (%) of Omega reported for every climatology (3-sigma, 2-sigma, quartiles, median)."""
-
-
-def weighted_percentiles(values, weights, percents) -> np.ndarray:
-    """Percentiles (%) of a weighted sample: the inverse of the weighted empirical CDF, with linear
-    interpolation between the mid-points of the sorted samples' probability masses."""
-    v = np.asarray(values, float).ravel()
-    w = np.asarray(weights, float).ravel()
-    order = np.argsort(v)
-    v, w = v[order], w[order] / w.sum()
-    cdf = np.cumsum(w) - w / 2
-    return np.interp(np.asarray(percents, float) / 100.0, cdf, v)
-
 
 @dataclass(frozen=True, eq=False)
 class FaradayClimatology(EmpiricalFaraday):
@@ -65,14 +48,13 @@ class FaradayClimatology(EmpiricalFaraday):
     method: str = ""
     site: str = ""
 
-    def percentiles_deg(self, percents=PERCENTILES) -> dict:
-        """``{percent: Omega (deg)}`` of the distribution (variability included)."""
-        vals = weighted_percentiles(self.samples, self._w, percents)
-        return {float(p): float(np.degrees(v)) for p, v in zip(percents, vals)}
-
     @property
     def mean_abs_rad(self) -> float:
         return float(np.dot(self._w, np.abs(self.samples)))
+
+    def scalars(self) -> dict:
+        """Output scalars: those of any distribution and the ``summary`` of the climatology."""
+        return {**super().scalars(), **self.summary()}
 
     def summary(self) -> dict:
         """Scalars for reports: Omega mean, SD, mean |Omega|, percentiles (deg); TEC (TECU); delays."""
@@ -116,26 +98,23 @@ def climatology_from_integrals(integrals: PathIntegrals, level: int, frequency_h
     )
 
 
-def site_path_integrals(geometry, f107_levels, settings: SlantSettings, cache_dir: Path | None = None) -> PathIntegrals:
-    """Path integrals of every acquisition of an ``AcquisitionGeometry`` (cached in HDF5 when
-    ``cache_dir`` is given)."""
+def site_path_integrals(geometry, f107_levels, settings: SlantSettings, cache=None) -> PathIntegrals:
+    """Path integrals of every acquisition of an ``AcquisitionGeometry``; ``cache`` (an object with ``get`` and
+    ``put``, e.g. ``e2esim.io.array_cache.ArrayCache``, handed in by the runner) keeps them between runs."""
     dates = [d.astype("datetime64[D]").item() for d in geometry.time_utc]
     desc = {"f107": [float(f) for f in f107_levels], "settings": _settings_description(settings)}
     arrays = {"target": geometry.target_ecef, "satellite": geometry.satellite_ecef,
               "time": geometry.time_utc.astype("int64")}
-    path = None
-    if cache_dir is not None:
-        key = cache_mod.cache_key("site", desc, arrays)
-        path = cache_mod.cache_file(cache_dir, "faraday_site", key)
-        stored = cache_mod.read(path, ("vtec", "stec", "faraday", "b_dot_k_pierce", "pierce_zenith", "f107"))
+    if cache is not None:
+        stored = cache.get("site", desc, arrays, ("vtec", "stec", "faraday", "b_dot_k_pierce", "pierce_zenith", "f107"))
         if stored is not None:
             return PathIntegrals(stored["vtec"], stored["stec"], stored["faraday"], stored["b_dot_k_pierce"],
                                  stored["pierce_zenith"], tuple(stored["f107"].tolist()), settings.method)
     result = path_integrals(geometry.target_ecef, geometry.satellite_ecef, dates, geometry.ut_h, f107_levels, settings)
-    if path is not None:
-        cache_mod.write(path, {"vtec": result.vtec, "stec": result.stec, "faraday": result.faraday,
-                               "b_dot_k_pierce": result.b_dot_k_pierce, "pierce_zenith": result.pierce_zenith,
-                               "f107": np.array(result.f107)}, {"description": desc, "site": geometry.site.name})
+    if cache is not None:
+        cache.put("site", desc, arrays, {"vtec": result.vtec, "stec": result.stec, "faraday": result.faraday,
+                                         "b_dot_k_pierce": result.b_dot_k_pierce, "pierce_zenith": result.pierce_zenith,
+                                         "f107": np.array(result.f107)}, {"description": desc, "site": geometry.site.name})
     return result
 
 

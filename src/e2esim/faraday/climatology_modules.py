@@ -1,8 +1,9 @@
 """Ionosphere modules that compute Faraday rotation from the acquisition geometry (kind ``ionosphere``).
 
-They read ``state.geometry`` (an orbit module's ``AcquisitionGeometry``) and the radar frequency
-``state.instrument.centre_frequency_hz`` and put a ``FaradayClimatology`` (an ``EmpiricalFaraday`` with
-percentiles, TEC and delays) into ``state.faraday``:
+They read ``geometry`` (an orbit module's ``AcquisitionGeometry``) and the radar frequency from ``instrument``
+and provide ``faraday.geophysical``, a ``FaradayClimatology`` (an ``EmpiricalFaraday`` with percentiles, TEC
+and delays), and on request ``faraday.global_map``, the global maps of the climatology for the case's
+orbit (``global_map_step_deg``):
 
 * ``iri_climatology``: IRI electron density (PyIRI) along every line of sight, IGRF or dipole field;
 * ``klobuchar_tec``: the Klobuchar broadcast model as a simple fallback (thin shell);
@@ -17,20 +18,18 @@ from abc import abstractmethod
 
 import numpy as np
 
-from e2esim.errors import ConfigError, PhysicsInputError
+from e2esim import products as P
+from e2esim.errors import PhysicsInputError
+from e2esim.faraday.climatology import climatology_from_integrals, site_path_integrals
+from e2esim.faraday.global_climatology import global_climatology
 from e2esim.geomag.field import FIELD_KINDS, FieldModel
 from e2esim.geomag.igrf import IGRF_MODELS
-from e2esim.io.array_cache import resolve_cache_dir
-from e2esim.faraday.climatology import climatology_from_integrals, site_path_integrals
 from e2esim.ionosphere.iri import FOF2_MODELS
 from e2esim.ionosphere.klobuchar import KLOBUCHAR_ALPHA_DEFAULT, KLOBUCHAR_BETA_DEFAULT, klobuchar_vtec
 from e2esim.ionosphere.slant import METHODS, PathIntegrals, SlantSettings
 from e2esim.ionosphere.variability import DEFAULT_TEC_VARIABILITY
-from e2esim.module import Module
-from e2esim.params import Param, ParamGroup
-
-_KM = 1e3  # m per km
-_TECU = 1e16  # electrons/m^2 per TECU
+from e2esim.module import Stage, fail
+from e2esim.params import Ordered, Param, ParamGroup, Requires
 
 SOLAR_PRESETS = {"min": 70.0, "max": 180.0}
 """F10.7 (sfu) of the solar-activity presets: monthly F10.7 near the minima of cycles 23-25 is about 70 sfu
@@ -50,19 +49,27 @@ _COMMON = (
     Param("tec_variability", "float", "day-to-day coefficient of variation of TEC about the median (Rishbeth & "
           "Mendillo 2001)", default=DEFAULT_TEC_VARIABILITY, minimum=0.0, maximum=2.0),
     Param("variability_nodes", "int", "log-normal quantile nodes per acquisition", default=15, minimum=1, maximum=201),
+    Param("global_map_step_deg", "float", "also provide global maps of the climatology for the case's orbit on a "
+          "grid of this step (thin shell; for the report's faraday_climatology plot); null: none", default=None,
+          unit="deg", exclusive_minimum=0.0, maximum=30.0, nullable=True, convert=False),
     _FIELD,
 )
 
 
-class _GeometryIonosphere(Module):
-    """Shared parts: field model, variability, the result object."""
+class _GeometryIonosphere(Stage):
+    """Shared parts: field model, variability, the result object, the global maps."""
 
     kind = "ionosphere"
-    requires = ("geometry", "instrument")
-    provides = ("faraday",)
+    needs = ("geometry", "instrument")
+    provides = (P.FARADAY, P.FARADAY_MAP)  # every product it can provide; ``setup`` narrows it
+    cache_setting = "off"  # no cache unless a subclass has a cache_dir parameter
+
+    def setup(self):
+        self.provides = (P.FARADAY,) + ((P.FARADAY_MAP,) if self.si["global_map_step_deg"] else ())
+        self._maps: dict = {}  # global maps already made, by orbit and frequency
 
     def field_model(self, geometry) -> FieldModel:
-        f = self.config["field"]
+        f = self.si["field"]
         epoch = f["epoch"]
         if epoch is None:
             t = geometry.time_utc.astype("int64")
@@ -70,21 +77,36 @@ class _GeometryIonosphere(Module):
         return FieldModel(f["model"], epoch, f["coefficients"])
 
     @abstractmethod
-    def integrals(self, geometry) -> PathIntegrals:
+    def integrals(self, geometry, cache) -> PathIntegrals:
         """Path integrals (TEC, B.k-weighted TEC) of every acquisition's line of sight."""
 
-    def forward(self, state):
-        geometry = state.geometry
+    def forward(self, case):
+        geometry = case["geometry"]
+        frequency = case["instrument"].centre_frequency_hz
         try:
-            integrals = self.integrals(geometry)
+            integrals = self.integrals(geometry, case.services.cache_for(self.cache_setting))
             clim = climatology_from_integrals(
-                integrals, 0, state.instrument.centre_frequency_hz, self.config["tec_variability"],
-                self.config["variability_nodes"], geometry.weight, geometry.pass_label, geometry.site.name,
-                label=f"{self.type_name} {geometry.site.name}",
+                integrals, 0, frequency, self.si["tec_variability"], self.si["variability_nodes"], geometry.weight,
+                geometry.pass_label, geometry.site.name, label=f"{self.type_name} {geometry.site.name}",
             )
         except PhysicsInputError as exc:
-            raise ConfigError(self.location, str(exc)) from exc
-        return state.with_(faraday=clim)
+            raise fail(self, str(exc)) from exc
+        out = {"faraday.geophysical": clim}
+        if self.si["global_map_step_deg"]:
+            out["faraday.global_map"] = self.global_map(geometry.orbit, frequency, case.services)
+        return out
+
+    def global_map(self, orbit, frequency_hz: float, services):
+        """Global maps of the climatology for ``orbit`` (thin shell at ``shell_height_km``), made once per orbit
+        and frequency and kept with the module (cases of a sweep share it); the table itself is cached."""
+        key = (orbit, frequency_hz)
+        if key not in self._maps:
+            settings = SlantSettings(method="thin_shell", shell_height_m=self.si["shell_height_m"])
+            clim = global_climatology(orbit, self.si["global_map_step_deg"], settings=settings,
+                                      cache=services.cache_for(self.cache_setting), progress=services.progress,
+                                      executor=services.executor)
+            self._maps[key] = clim.map(frequency_hz, self.si["tec_variability"])
+        return self._maps[key]
 
 
 class IRIClimatologyModule(_GeometryIonosphere):
@@ -115,28 +137,26 @@ class IRIClimatologyModule(_GeometryIonosphere):
         *_COMMON,
         Param("cache_dir", "str", "HDF5 cache folder (null: $E2ESIM_CACHE or ~/.cache/e2esim; 'off': no cache)",
               default=None, nullable=True),
+        Requires("f107_sfu", when="solar", equals="f107"),
+        Ordered("bottom_height_km", "shell_height_km"),
     )
 
     def setup(self):
-        c = self.config
-        if c["solar"] == "f107":
-            if c["f107_sfu"] is None:
-                raise PhysicsInputError("solar: f107 needs f107_sfu", key="f107_sfu")
-            self.f107 = c["f107_sfu"]
-        else:
-            self.f107 = SOLAR_PRESETS[c["solar"]]
-        if c["bottom_height_km"] >= c["shell_height_km"]:
-            raise PhysicsInputError(f"bottom_height_km {c['bottom_height_km']:g} must be below shell_height_km "
-                                    f"{c['shell_height_km']:g}", key="bottom_height_km")
-        self.cache_dir = resolve_cache_dir(c["cache_dir"])
+        super().setup()
+        c = self.si
+        self.f107 = c["f107_sfu"] if c["solar"] == "f107" else SOLAR_PRESETS[c["solar"]]
 
-    def integrals(self, geometry) -> PathIntegrals:
-        c = self.config
-        settings = SlantSettings(method=c["method"], shell_height_m=c["shell_height_km"] * _KM,
-                                 bottom_height_m=c["bottom_height_km"] * _KM, layer_step_m=c["layer_step_km"] * _KM,
+    @property
+    def cache_setting(self):
+        return self.si["cache_dir"]
+
+    def integrals(self, geometry, cache) -> PathIntegrals:
+        c = self.si
+        settings = SlantSettings(method=c["method"], shell_height_m=c["shell_height_m"],
+                                 bottom_height_m=c["bottom_height_m"], layer_step_m=c["layer_step_m"],
                                  field=self.field_model(geometry), fof2_model=c["fof2_model"],
                                  monthly_medians=c["monthly_medians"])
-        return site_path_integrals(geometry, [self.f107], settings, self.cache_dir)
+        return site_path_integrals(geometry, [self.f107], settings, cache)
 
 
 class _ThinShellIonosphere(_GeometryIonosphere):
@@ -146,10 +166,10 @@ class _ThinShellIonosphere(_GeometryIonosphere):
     def vertical_tec(self, geometry, lat, lon) -> np.ndarray:
         """Vertical TEC (electrons/m^2) at pierce points (lat, lon in rad) of ``geometry``'s acquisitions."""
 
-    def integrals(self, geometry) -> PathIntegrals:
+    def integrals(self, geometry, cache) -> PathIntegrals:
         from e2esim.orbit.geometry import ray_points
 
-        h = self.config["shell_height_km"] * _KM
+        h = self.si["shell_height_m"]
         ray = ray_points(geometry.target_ecef, geometry.satellite_ecef, np.array([h]))
         k = geometry.target_ecef - geometry.satellite_ecef
         k = k / np.linalg.norm(k, axis=-1, keepdims=True)
@@ -173,7 +193,7 @@ class KlobucharModule(_ThinShellIonosphere):
     )
 
     def vertical_tec(self, geometry, lat, lon):
-        return klobuchar_vtec(lat, lon, geometry.ut_h, self.config["alpha"], self.config["beta"])
+        return klobuchar_vtec(lat, lon, geometry.ut_h, self.si["alpha"], self.si["beta"])
 
 
 class UserTECModule(_ThinShellIonosphere):
@@ -187,4 +207,4 @@ class UserTECModule(_ThinShellIonosphere):
     )
 
     def vertical_tec(self, geometry, lat, lon):
-        return np.full(np.shape(lat), self.config["vtec_tecu"] * _TECU)
+        return np.full(np.shape(lat), self.si["vtec_el_m2"])

@@ -13,6 +13,7 @@ Omega is a circular variable" does not apply to these moments (docs/errata.md).
 from __future__ import annotations
 
 import functools
+import math
 from abc import ABC, abstractmethod
 from dataclasses import dataclass, field
 
@@ -23,6 +24,21 @@ from e2esim.errors import PhysicsInputError
 QUADRATURE_DEGREE = 8
 """Highest harmonic in Omega of any quantity averaged over Faraday rotation (the second-order variance
 contains products of four of cos^2, sin^2, cos sin, i.e. harmonics up to 8 Omega)."""
+
+
+PERCENTILES = (0.135, 2.275, 5.0, 25.0, 50.0, 75.0, 95.0, 97.725, 99.865)
+"""Percentiles (%) of Omega reported for every climatology (3-sigma, 2-sigma, quartiles, median)."""
+
+
+def weighted_percentiles(values, weights, percents) -> np.ndarray:
+    """Percentiles (%) of a weighted sample: the inverse of the weighted empirical CDF, with linear
+    interpolation between the mid-points of the sorted samples' probability masses."""
+    v = np.asarray(values, float).ravel()
+    w = np.asarray(weights, float).ravel()
+    order = np.argsort(v)
+    v, w = v[order], w[order] / w.sum()
+    cdf = np.cumsum(w) - w / 2
+    return np.interp(np.asarray(percents, float) / 100.0, cdf, v)
 
 
 @functools.lru_cache(maxsize=256)
@@ -92,6 +108,10 @@ class FaradayDistribution(ABC):
 
     def describe(self) -> str:
         return f"mean {np.degrees(self.mean_rad):.3g} deg, SD {np.degrees(self.sd_rad):.3g} deg"
+
+    def scalars(self) -> dict:
+        """Output scalars: mean and SD of Omega in degrees (``mean_deg``, ``sd_deg``)."""
+        return {"mean_deg": math.degrees(self.mean_rad), "sd_deg": math.degrees(self.sd_rad)}
 
 
 @dataclass(frozen=True)
@@ -180,6 +200,16 @@ class EmpiricalFaraday(FaradayDistribution):
 
     def sample(self, rng, size) -> np.ndarray:
         return rng.choice(self.samples, size=size, p=self._w)
+
+    @property
+    def probabilities(self) -> np.ndarray:
+        """The normalised weight of every sample."""
+        return self._w
+
+    def percentiles_deg(self, percents=PERCENTILES) -> dict:
+        """``{percent: Omega (deg)}`` of the distribution."""
+        vals = weighted_percentiles(self.samples, self._w, percents)
+        return {float(p): float(np.degrees(v)) for p, v in zip(percents, vals)}
 
     @property
     def mean_rad(self) -> float:

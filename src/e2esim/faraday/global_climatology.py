@@ -11,17 +11,14 @@ swath positions and day-to-day variability are computed on demand. Cached in HDF
 
 from __future__ import annotations
 
-import concurrent.futures as cf
 import datetime as dt
 import time
 import warnings
 from dataclasses import dataclass, field
-from pathlib import Path
 
 import numpy as np
 
 from e2esim.errors import PhysicsInputError
-from e2esim.io import array_cache as cache_mod
 from e2esim.faraday.climatology import _settings_description
 from e2esim.ionosphere.propagation import faraday_rotation_integral
 from e2esim.ionosphere.slant import SlantSettings, path_integrals
@@ -86,6 +83,35 @@ class GlobalClimatology:
             return {k: np.nanmean(v, axis=-1) for k, v in s.items()}
 
 
+    def map(self, frequency_hz: float, variability: float = 0.25, nodes: int = 15) -> "FaradayMap":
+        """The statistics and latitude profiles at one radar frequency (product ``faraday.global_map``)."""
+        return FaradayMap(self.lat_deg, self.lon_deg, self.passes, self.pass_labels, self.f107, float(frequency_hz),
+                          float(variability), self.statistics(frequency_hz, variability, nodes),
+                          self.latitude_profiles(frequency_hz, variability, nodes))
+
+
+@dataclass(frozen=True)
+class FaradayMap:
+    """Maps of the Faraday-rotation climatology at one radar frequency, pooled over months, swath positions
+    and day-to-day variability (product ``faraday.global_map``, drawn by the report).
+
+    lat_deg, lon_deg : cell centres (deg). passes, pass_labels, f107 : the axes of the maps.
+    frequency_hz : radar frequency. variability : coefficient of variation of TEC pooled in.
+    statistics : "mean_deg", "sd_deg", "mean_abs_deg" -> arrays (pass, solar, lat, lon), deg.
+    profiles : the same quantities' zonal means, arrays (pass, solar, lat), deg.
+    """
+
+    lat_deg: np.ndarray
+    lon_deg: np.ndarray
+    passes: tuple
+    pass_labels: tuple
+    f107: tuple
+    frequency_hz: float
+    variability: float
+    statistics: dict
+    profiles: dict
+
+
 def grid_axes(step_deg: float, lat_range=(-90.0, 90.0), lon_range=(-180.0, 180.0)) -> tuple:
     """Cell-centre latitudes and longitudes (deg) of a grid of square cells of ``step_deg`` covering
     ``lat_range`` x ``lon_range`` (deg; the whole globe by default, a latitude band or a region otherwise)."""
@@ -127,11 +153,13 @@ def _month_task(args):
 
 def compute_global_climatology(orbit: SunSynchronousOrbit, step_deg: float = 2.0, months=range(1, 13),
                                passes=("ascending", "descending"), f107=(70.0, 180.0), incidence_deg=None,
-                               settings: SlantSettings | None = None, year: int = 2026, workers: int = 1,
-                               progress: bool = False, lat_range=(-90.0, 90.0),
+                               settings: SlantSettings | None = None, year: int = 2026, executor=None,
+                               progress=None, lat_range=(-90.0, 90.0),
                                lon_range=(-180.0, 180.0)) -> GlobalClimatology:
-    """Compute the table (no cache; see ``global_climatology``). ``workers`` processes share the months;
-    ``lat_range``, ``lon_range`` (deg) restrict it to a latitude band or region."""
+    """Compute the table (no cache; see ``global_climatology``). ``executor`` (a ``concurrent.futures``
+    executor, or None to compute here) shares the months among processes; ``progress(iterable, total,
+    description)`` reports them as they finish; ``lat_range``, ``lon_range`` (deg) restrict the grid to a
+    latitude band or region."""
     settings = settings or SlantSettings()
     if incidence_deg is None:
         incidence_deg = (25.0, 28.4, 31.7)
@@ -141,27 +169,10 @@ def compute_global_climatology(orbit: SunSynchronousOrbit, step_deg: float = 2.0
     months = tuple(int(m) for m in months)
     tasks = [(year, m, t, s, ut, ok, tuple(f107), settings) for m in months]
     start = time.perf_counter()
-    results = {}
-    bar = None
-    if progress:
-        from tqdm.auto import tqdm
-
-        bar = tqdm(total=len(tasks), desc="FR climatology", unit="month", leave=False)
-    if workers > 1:
-        with cf.ProcessPoolExecutor(max_workers=workers) as pool:
-            done = pool.map(_month_task, tasks)
-            for month, res in done:
-                results[month] = res
-                if bar is not None:
-                    bar.update()
-    else:
-        for task in tasks:
-            month, res = _month_task(task)
-            results[month] = res
-            if bar is not None:
-                bar.update()
-    if bar is not None:
-        bar.close()
+    done = executor.map(_month_task, tasks) if executor is not None else map(_month_task, tasks)
+    if progress is not None:
+        done = progress(done, len(tasks), "FR climatology (months)")
+    results = dict(done)
     stack = {k: np.stack([results[m][k] for m in months], axis=2) for k in ("faraday", "stec", "vtec")}
     # (solar, pass, swath, lat, lon) per month -> (pass, solar, month, swath, lat, lon)
     stack = {k: np.moveaxis(v, 1, 0) for k, v in stack.items()}
@@ -173,11 +184,12 @@ def compute_global_climatology(orbit: SunSynchronousOrbit, step_deg: float = 2.0
 
 def global_climatology(orbit: SunSynchronousOrbit, step_deg: float = 2.0, months=range(1, 13),
                        passes=("ascending", "descending"), f107=(70.0, 180.0), incidence_deg=None,
-                       settings: SlantSettings | None = None, year: int = 2026, workers: int = 1,
-                       cache_dir: Path | None = None, progress: bool = False, lat_range=(-90.0, 90.0),
+                       settings: SlantSettings | None = None, year: int = 2026, executor=None,
+                       cache=None, progress=None, lat_range=(-90.0, 90.0),
                        lon_range=(-180.0, 180.0)) -> GlobalClimatology:
-    """The table (global, or a latitude band / region with ``lat_range``, ``lon_range`` in deg), read from
-    the HDF5 cache in ``cache_dir`` if present, else computed and stored."""
+    """The table (global, or a latitude band / region with ``lat_range``, ``lon_range`` in deg), from ``cache``
+    (an object with ``get`` and ``put``, e.g. ``e2esim.io.array_cache.ArrayCache``) if it holds it, else
+    computed (``compute_global_climatology``) and stored there."""
     settings = settings or SlantSettings()
     if incidence_deg is None:
         incidence_deg = (25.0, 28.4, 31.7)
@@ -186,23 +198,22 @@ def global_climatology(orbit: SunSynchronousOrbit, step_deg: float = 2.0, months
             "incidence_deg": [float(i) for i in incidence_deg], "year": year,
             "lat_range": [float(x) for x in lat_range], "lon_range": [float(x) for x in lon_range],
             "settings": _settings_description(settings)}
-    path = None
-    if cache_dir is not None:
-        path = cache_mod.cache_file(cache_dir, "faraday_global", cache_mod.cache_key("global", desc))
-        stored = cache_mod.read(path, ("lat_deg", "lon_deg", "months", "f107", "incidence_deg", "faraday", "stec",
-                                       "vtec"))
-        if stored is not None and "year" in stored["attrs"]:
+    if cache is not None:
+        stored = cache.get("global", desc, None, ("lat_deg", "lon_deg", "months", "f107", "incidence_deg", "faraday",
+                                                  "stec", "vtec", "year"))
+        if stored is not None:
             a = stored["attrs"]
             return GlobalClimatology(stored["lat_deg"], stored["lon_deg"], tuple(stored["months"].tolist()),
                                      tuple(passes), tuple(orbit.pass_label(p) for p in passes),
                                      tuple(stored["f107"].tolist()), stored["incidence_deg"], stored["faraday"],
                                      stored["stec"], stored["vtec"], int(a["year"]), desc["settings"],
                                      float(a.get("compute_s", np.nan)))
-    clim = compute_global_climatology(orbit, step_deg, months, passes, f107, incidence_deg, settings, year, workers,
+    clim = compute_global_climatology(orbit, step_deg, months, passes, f107, incidence_deg, settings, year, executor,
                                       progress, lat_range, lon_range)
-    if path is not None:
-        cache_mod.write(path, {"lat_deg": clim.lat_deg, "lon_deg": clim.lon_deg, "months": np.array(clim.months),
-                               "f107": np.array(clim.f107), "incidence_deg": clim.incidence_deg,
-                               "faraday": clim.faraday, "stec": clim.stec, "vtec": clim.vtec},
-                        {"year": year, "compute_s": clim.compute_s, "description": desc})
+    if cache is not None:
+        cache.put("global", desc, None, {"lat_deg": clim.lat_deg, "lon_deg": clim.lon_deg,
+                                         "months": np.array(clim.months), "f107": np.array(clim.f107),
+                                         "incidence_deg": clim.incidence_deg, "faraday": clim.faraday,
+                                         "stec": clim.stec, "vtec": clim.vtec},
+                  {"year": year, "compute_s": clim.compute_s, "description": desc})
     return clim

@@ -9,11 +9,12 @@ from pathlib import Path
 
 import numpy as np
 
+from e2esim import products as P
+from e2esim.errors import PhysicsInputError
 from e2esim.faraday.distribution import ConstantFaraday, EmpiricalFaraday, GaussianFaraday
 from e2esim.io.samples import read_samples_file
-from e2esim.module import Module
-from e2esim.params import Param
-from e2esim.errors import ConfigError, PhysicsInputError
+from e2esim.module import Stage, fail
+from e2esim.params import ExactlyOneOf, Param
 
 
 _AT_FREQUENCY = Param(
@@ -23,21 +24,28 @@ _AT_FREQUENCY = Param(
     "null: given at the instrument's frequency", default=None, unit="MHz", exclusive_minimum=0.0, nullable=True)
 
 
-def _frequency_scale(module, state) -> float:
+def _frequency_scale(module, case) -> float:
     """(f_given / f_radar)^2, or 1 when the angles are given at the radar frequency."""
-    given = module.config["at_frequency_mhz"]
+    given = module.si["at_frequency_hz"]
     if given is None:
         return 1.0
-    if state.instrument is None:
-        raise ConfigError(module.location.child("at_frequency_mhz"), "needs an instrument with a centre frequency",
-                          "add an instrument section, or set at_frequency_mhz: null")
-    return (given * 1e6 / state.instrument.centre_frequency_hz) ** 2
+    if "instrument" not in case:
+        raise fail(module, "needs an instrument with a centre frequency",
+                   "add an instrument section, or set at_frequency_mhz: null", key="at_frequency_mhz")
+    return (given / case["instrument"].centre_frequency_hz) ** 2
 
 
-class GaussianFaradayModule(Module):
-    """Omega ~ N(mean, SD^2), Men et al. (2021), Section III item 4 and eq. (10)."""
+class _FaradayStage(Stage):
+    """Shared declarations of the modules that state the Faraday-rotation distribution directly."""
 
     kind = "ionosphere"
+    uses = ("instrument",)
+    provides = (P.FARADAY,)
+
+
+class GaussianFaradayModule(_FaradayStage):
+    """Omega ~ N(mean, SD^2), Men et al. (2021), Section III item 4 and eq. (10)."""
+
     type_name = "gaussian_faraday"
     summary = "Gaussian one-way Faraday rotation with given mean and SD (Men et al. 2021, eq. 10)"
     params = (
@@ -47,18 +55,15 @@ class GaussianFaradayModule(Module):
               unit="deg", minimum=0.0, maximum=180.0),
         _AT_FREQUENCY,
     )
-    provides = ("faraday",)
 
-    def forward(self, state):
-        k = _frequency_scale(self, state)
-        fr = GaussianFaraday(k * np.radians(self.config["mean_deg"]), k * np.radians(self.config["sd_deg"]))
-        return state.with_(faraday=fr)
+    def forward(self, case):
+        k = _frequency_scale(self, case)
+        return {"faraday.geophysical": GaussianFaraday(k * self.si["mean_rad"], k * self.si["sd_rad"])}
 
 
-class ConstantFaradayModule(Module):
+class ConstantFaradayModule(_FaradayStage):
     """A fixed one-way Faraday rotation angle."""
 
-    kind = "ionosphere"
     type_name = "constant_faraday"
     summary = "fixed one-way Faraday rotation angle"
     params = (
@@ -66,17 +71,15 @@ class ConstantFaradayModule(Module):
               minimum=-180.0, maximum=180.0),
         _AT_FREQUENCY,
     )
-    provides = ("faraday",)
 
-    def forward(self, state):
-        k = _frequency_scale(self, state)
-        return state.with_(faraday=ConstantFaraday(k * np.radians(self.config["value_deg"])))
+    def forward(self, case):
+        k = _frequency_scale(self, case)
+        return {"faraday.geophysical": ConstantFaraday(k * self.si["value_rad"])}
 
 
-class FaradaySamplesModule(Module):
+class FaradaySamplesModule(_FaradayStage):
     """Omega given by samples: a list in the scenario, or a text/.npy file of values in degrees."""
 
-    kind = "ionosphere"
     type_name = "faraday_samples"
     summary = "empirical one-way Faraday rotation distribution from samples (list or file, degrees)"
     params = (
@@ -84,18 +87,17 @@ class FaradaySamplesModule(Module):
               variable_length=True, nullable=True),
         Param("samples_file", "str", "text or .npy file of samples in degrees, relative to the scenario file",
               default=None, nullable=True),
+        ExactlyOneOf("samples_deg", "samples_file"),
     )
-    provides = ("faraday",)
+    uses = ()
 
     def setup(self):
-        values, path = self.config["samples_deg"], self.config["samples_file"]
-        if (values is None) == (path is None):
-            raise PhysicsInputError("give exactly one of samples_deg and samples_file")
+        values, path = self.config["samples_deg"], self.si["samples_file"]
         if path is not None:
             base = Path(self.location.source).parent if Path(self.location.source).exists() else Path(".")
             file = (base / path) if not Path(path).is_absolute() else Path(path)
             values = read_samples_file(file, key="samples_file")
         self.distribution = EmpiricalFaraday(np.radians(np.asarray(values, dtype=float)), label="samples")
 
-    def forward(self, state):
-        return state.with_(faraday=self.distribution)
+    def forward(self, case):
+        return {"faraday.geophysical": self.distribution}

@@ -9,13 +9,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from e2esim.chain import InstrumentDescription
+from e2esim import products as P
+from e2esim.instrument.description import InstrumentDescription
 from e2esim.instrument.system_errors import SystemErrorModel
-from e2esim.module import Module
+from e2esim.module import Stage
 from e2esim.params import Param, ParamGroup, with_defaults
-from e2esim.units import LEVEL_CONVENTIONS, THREE_SIGMA_AMPLITUDE, db_to_linear, variance_from_level_db
-
-_MHZ = 1e6  # Hz per MHz
+from e2esim.units import LEVEL_CONVENTIONS, THREE_SIGMA_AMPLITUDE, variance_from_level_db
 
 
 def _error_group(name: str, what: str, terms: str, n_terms: int, extra: tuple = ()) -> ParamGroup:
@@ -23,8 +22,8 @@ def _error_group(name: str, what: str, terms: str, n_terms: int, extra: tuple = 
         name,
         f"{what} terms {terms}: zero-mean circular complex Gaussian (Men et al. 2021, Section III)",
         (
-            Param("level_db", "float", f"{what} level (null: no {what})", unit="dB", minimum=-200.0,
-                  maximum=0.0, nullable=True),
+            Param("level_db", "float", f"{what} level (null: no {what}); its variance follows the convention",
+                  unit="dB", minimum=-200.0, maximum=0.0, nullable=True, convert=False),
             Param("convention", "str", "how level_db maps to the variance V of each term (docs/conventions.md)",
                   default=THREE_SIGMA_AMPLITUDE, choices=LEVEL_CONVENTIONS),
             Param("term_offsets_db", "float", f"offset of each of {terms} from level_db (unequal variances)",
@@ -53,7 +52,7 @@ _CROSSTALK = _error_group(
 _IMBALANCE = _error_group("channel_imbalance", "channel imbalance", "epsilon_1, epsilon_2 (f_i = 1 + epsilon_i)", 2)
 
 
-class GaussianErrorsInstrument(Module):
+class GaussianErrorsInstrument(Stage):
     """A polarimetric radar with jointly Gaussian crosstalk and channel imbalance, noise and gain error."""
 
     kind = "instrument"
@@ -65,53 +64,61 @@ class GaussianErrorsInstrument(Module):
         _IMBALANCE,
         Param("nesz_db", "float", "noise-equivalent sigma zero (null: no noise)", unit="dB", minimum=-200.0,
               maximum=20.0, nullable=True),
-        Param("gain_offset_db", "float", "absolute gain error |A|^2, mean", default=0.0, unit="dB",
-              minimum=-20.0, maximum=20.0),
+        Param("gain_offset_db", "float", "absolute gain error |A|^2, mean (Gaussian in dB)", default=0.0, unit="dB",
+              minimum=-20.0, maximum=20.0, convert=False),
         Param("gain_sd_db", "float", "absolute gain error |A|^2, SD (Gaussian in dB)", default=0.0, unit="dB",
-              minimum=0.0, maximum=20.0),
+              minimum=0.0, maximum=20.0, convert=False),
         Param("centre_frequency_mhz", "float", "radar centre frequency", unit="MHz", exclusive_minimum=0.0),
         Param("bandwidth_mhz", "float", "radar bandwidth", unit="MHz", exclusive_minimum=0.0),
     )
-    provides = ("system", "raw_system", "instrument")
+    provides = (P.SYSTEM, P.INSTRUMENT)
+
+    def derive(self, si: dict) -> dict:
+        """Adds the variances V_delta and V_eps of the error terms (``crosstalk_variance``,
+        ``imbalance_variance``) from each level in dB and its convention (docs/conventions.md)."""
+        si = super().derive(si)
+        si["crosstalk_variance"] = _variance(si["crosstalk"])
+        si["imbalance_variance"] = _variance(si["channel_imbalance"])
+        return si
 
     def setup(self):
-        self.model = system_error_model(self.config)
-        xt, ci = self.config["crosstalk"], self.config["channel_imbalance"]
+        self.model = system_error_model(self.si)
+        xt, ci = self.si["crosstalk"], self.si["channel_imbalance"]
         self.description = InstrumentDescription(
-            name=self.config["name"],
+            name=self.si["name"],
             crosstalk_db=_db_or_off(xt["level_db"]),
             imbalance_db=_db_or_off(ci["level_db"]),
             convention=xt["convention"] if xt["convention"] == ci["convention"] else "mixed",
             nesz_db=_db_or_off(self.config["nesz_db"]),
-            centre_frequency_hz=self.config["centre_frequency_mhz"] * _MHZ,
-            bandwidth_hz=self.config["bandwidth_mhz"] * _MHZ,
+            centre_frequency_hz=self.si["centre_frequency_hz"],
+            bandwidth_hz=self.si["bandwidth_hz"],
         )
 
-    def forward(self, state):
-        return state.with_(system=self.model, raw_system=self.model, instrument=self.description)
+    def forward(self, case):
+        return {"system": self.model, "instrument": self.description}
 
 
-def system_error_model(config: dict) -> SystemErrorModel:
-    """``SystemErrorModel`` from the configuration of a ``gaussian_errors`` instrument."""
-    xt, ci = config["crosstalk"], config["channel_imbalance"]
-    rho13 = xt["correlation_magnitude"] * np.exp(1j * np.radians(xt["correlation_phase_deg"]))
+def system_error_model(si) -> SystemErrorModel:
+    """``SystemErrorModel`` from the SI values of a ``gaussian_errors`` instrument (``Module.si``)."""
+    xt, ci = si["crosstalk"], si["channel_imbalance"]
+    rho13 = xt["correlation_magnitude"] * np.exp(1j * xt["correlation_phase_rad"])
     mag24 = xt["correlation_24_magnitude"]
-    phase24 = xt["correlation_24_phase_deg"]
+    phase24 = xt["correlation_24_phase_rad"]
     rho24 = (xt["correlation_magnitude"] if mag24 is None else mag24) * np.exp(
-        1j * np.radians(xt["correlation_phase_deg"] if phase24 is None else phase24)
+        1j * (xt["correlation_phase_rad"] if phase24 is None else phase24)
     )
-    rho_eps = ci["correlation_magnitude"] * np.exp(1j * np.radians(ci["correlation_phase_deg"]))
+    rho_eps = ci["correlation_magnitude"] * np.exp(1j * ci["correlation_phase_rad"])
     return SystemErrorModel(
-        crosstalk_level=_variance(xt),
-        crosstalk_relative=tuple(db_to_linear(xt["term_offsets_db"])),
+        crosstalk_level=si["crosstalk_variance"],
+        crosstalk_relative=xt["term_offsets_linear"],
         crosstalk_rho13=rho13,
         crosstalk_rho24=rho24,
-        imbalance_level=_variance(ci),
-        imbalance_relative=tuple(db_to_linear(ci["term_offsets_db"])),
+        imbalance_level=si["imbalance_variance"],
+        imbalance_relative=ci["term_offsets_linear"],
         imbalance_rho=rho_eps,
-        noise_power=0.0 if config["nesz_db"] is None else float(db_to_linear(config["nesz_db"])),
-        gain_offset_db=config["gain_offset_db"],
-        gain_sd_db=config["gain_sd_db"],
+        noise_power=0.0 if si["nesz_linear"] is None else si["nesz_linear"],
+        gain_offset_db=si["gain_offset_db"],
+        gain_sd_db=si["gain_sd_db"],
     )
 
 

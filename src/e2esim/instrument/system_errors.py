@@ -134,6 +134,11 @@ class SystemErrorModel:
     def has_gain_error(self) -> bool:
         return self.gain_offset_db != 0.0 or self.gain_sd_db != 0.0
 
+    def scalars(self) -> dict:
+        """Output scalars (``system.*``): V_delta and V_eps (variances) and the noise power sigma_n (m^2/m^2)."""
+        return {"crosstalk_variance": self.crosstalk_level, "imbalance_variance": self.imbalance_level,
+                "noise_power": self.noise_power}
+
     def sample(self, rng: np.random.Generator, n: int) -> SystemErrorSamples:
         """Draw ``n`` joint realisations of (delta, f, gain) under the Gaussian model of Section III."""
         v = self.crosstalk_variance

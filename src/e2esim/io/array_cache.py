@@ -1,8 +1,11 @@
-"""HDF5 cache of ionospheric path integrals, keyed by a hash of everything that determines them.
+"""A cache of plain arrays in HDF5 files, keyed by a hash of everything that determines them.
 
-The location is a parameter; by default ``$E2ESIM_CACHE``, else ``$XDG_CACHE_HOME/e2esim``, else
-``~/.cache/e2esim``. Files are written atomically (``e2esim.io.atomic``), so an interrupted run never leaves
-a half-written table. The key includes the cache schema version and the PyIRI version.
+Physics kernels (the Faraday-rotation climatologies) never import it: the runner hands them an
+``ArrayCache`` (or None) through the stage, and they call ``get`` and ``put``. The location is a module
+parameter; by default ``$E2ESIM_CACHE``, else ``$XDG_CACHE_HOME/e2esim``, else ``~/.cache/e2esim``. Files are
+written atomically (``e2esim.io.atomic``), so an interrupted run never leaves a half-written table, and hold
+plain numeric arrays only (nothing is unpickled or executed on reading). The key includes the cache schema
+version and the PyIRI version.
 """
 
 from __future__ import annotations
@@ -66,8 +69,8 @@ def cache_file(folder: Path, kind: str, key: str) -> Path:
 
 def read(path: Path, required: tuple = ()) -> dict | None:
     """The arrays and attributes stored in ``path``, or None if it is absent, unreadable or not what this
-    cache writes: numeric datasets at the top level (all of ``required`` among them) and attributes of
-    numbers and text. Nothing in the file can run code (HDF5 through h5py holds no pickles); anything
+    cache writes: numeric datasets at the top level and attributes of numbers and text, with every name of
+    ``required`` among the datasets or the attributes. Nothing in the file can run code (HDF5 through h5py holds no pickles); anything
     unexpected is a cache miss, recomputed and overwritten."""
     import h5py
 
@@ -83,7 +86,7 @@ def read(path: Path, required: tuple = ()) -> dict | None:
             attrs = {k: (v.decode() if isinstance(v, bytes) else v) for k, v in f.attrs.items()}
     except Exception:  # noqa: BLE001 - any unreadable or foreign file is only a cache miss
         return None
-    if any(name not in out for name in required):
+    if any(name not in out and name not in attrs for name in required):
         return None
     if not all(isinstance(v, (str, int, float, np.integer, np.floating)) for v in attrs.values()):
         return None
@@ -104,3 +107,28 @@ def write(path: Path, arrays: dict, attrs: dict) -> None:
                 f.create_dataset(name, data=value)
         for key, value in attrs.items():
             f.attrs[key] = value if isinstance(value, (int, float, str)) else json.dumps(value, default=str)
+
+
+class ArrayCache:
+    """Plain-array cache in one folder: ``get`` what ``put`` stored under the same kind, description and
+    input arrays (HDF5, one file per key)."""
+
+    def __init__(self, folder: Path):
+        self.folder = Path(folder)
+
+    def _path(self, kind: str, description: dict, inputs: dict | None) -> Path:
+        return cache_file(self.folder, f"faraday_{kind}", cache_key(kind, description, inputs))
+
+    def get(self, kind: str, description: dict, inputs: dict | None = None, required: tuple = ()) -> dict | None:
+        """The arrays stored for this key (and ``attrs``), or None (also when one of the arrays or attributes
+        named in ``required`` is missing, or the file is not what ``put`` writes: see ``read``)."""
+        return read(self._path(kind, description, inputs), required)
+
+    def put(self, kind: str, description: dict, inputs: dict | None, arrays: dict, attrs: dict) -> None:
+        write(self._path(kind, description, inputs), arrays, attrs)
+
+
+def open_cache(setting) -> ArrayCache | None:
+    """The cache for a module's ``cache_dir`` setting (None: the default folder; "off": no cache)."""
+    folder = resolve_cache_dir(setting)
+    return None if folder is None else ArrayCache(folder)

@@ -48,7 +48,7 @@ def write_results(result, path) -> None:
         req_names = result.requirement_names
         req.create_dataset("names", data=req_names, dtype=_STR)
         if req_names:
-            verdicts = [[c.state.verdicts[j] for j in range(len(req_names))] for c in cases]
+            verdicts = [[c.verdicts[j] for j in range(len(req_names))] for c in cases]
             req.create_dataset("passed", data=np.array([[v.passed for v in row] for row in verdicts], dtype=bool))
             for attr in ("value", "limit", "margin"):
                 req.create_dataset(attr, data=np.array([[getattr(v, attr) for v in row] for row in verdicts]))
@@ -64,11 +64,12 @@ def write_results(result, path) -> None:
         arrays = f.create_group("arrays")
         for c in cases:
             cg = None
-            mc = c.state.backscatter.montecarlo if c.state.backscatter is not None else None
-            if mc is not None and c.state.settings.keep_samples:
+            model = c.get("backscatter.error")
+            samples = model.samples() if model is not None else None
+            if samples is not None and result.scenario.cases[c.index].settings.keep_samples:
                 cg = arrays.require_group(f"case{c.index:06d}")
-                cg.create_dataset("hv_errors", data=mc.hv)  # random doubles barely compress: no filter
-            for j, v in enumerate(c.state.verdicts):
+                cg.create_dataset(f"{model.channel}_errors", data=samples)  # random doubles barely compress: no filter
+            for j, v in enumerate(c.verdicts):
                 for name, values in v.curves.items():
                     cg = cg or arrays.require_group(f"case{c.index:06d}")
                     cg.create_dataset(f"requirement{j}/{name}", data=np.asarray(values, dtype=float))

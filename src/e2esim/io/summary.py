@@ -16,7 +16,7 @@ def requirement_overview(result) -> list:
     """Per requirement: how many cases pass, the worst margin and where it occurs."""
     rows = []
     for j, name in enumerate(result.requirement_names):
-        every = [(c.index, c.label, c.state.verdicts[j]) for c in result.cases]
+        every = [(c.index, c.label, c.verdicts[j]) for c in result.cases]
         verdicts = [t for t in every if t[2].details.get("applies", 1.0) != 0.0]  # cases the requirement covers
         worst = min(verdicts or every, key=lambda t: t[2].margin if math.isfinite(t[2].margin) else math.inf)
         rows.append({
@@ -40,13 +40,13 @@ def summary_dict(result) -> dict:
             "index": c.index,
             "label": c.label,
             "inputs": c.inputs,
-            "notes": list(c.state.backscatter.notes) if c.state.backscatter is not None else [],
+            "notes": list(c.notes),
             "results": _finite(c.scalars),
             "requirements": [
                 {"name": v.name, "passed": v.passed, "value": _number(v.value), "limit": _number(v.limit),
                  "margin": _number(v.margin), "unit": v.unit, "basis": v.basis, "dominant": v.dominant,
-                 "details": _finite(v.details)}
-                for v in c.state.verdicts
+                 "details": _finite(v.details), "notes": list(v.notes)}
+                for v in c.verdicts
             ],
         })
     return _clean({

@@ -8,16 +8,14 @@ from __future__ import annotations
 
 import numpy as np
 
-from e2esim.errors import PhysicsInputError
-from e2esim.module import Module
+from e2esim import products as P
+from e2esim.module import Stage
 from e2esim.orbit.acquisition import Site, acquisitions, swath_incidences
 from e2esim.orbit.sunsync import PASSES, SunSynchronousOrbit
 from e2esim.orbit.timeline import BIOMASS_LAUNCH, PHASES, MissionTimeline, period_dates
-from e2esim.params import Param, ParamGroup, with_defaults
+from e2esim.params import Ordered, Param, ParamGroup, with_defaults
 
 PASS_CHOICES = ("both", "ascending", "descending", "dawn", "dusk")
-
-_KM = 1e3  # m per km
 
 _SITE = ParamGroup("site", "the target imaged", (
     Param("name", "str", "label of the site", default="site"),
@@ -39,7 +37,7 @@ _ACQ = ParamGroup("acquisitions", "the dates on which the site is imaged", (
 ))
 
 
-class SunSynchronousOrbitModule(Module):
+class SunSynchronousOrbitModule(Stage):
     """A side-looking SAR on a circular sun-synchronous orbit imaging one site.
 
     Orbit: inclination from the sun-synchronous condition, local time of the ascending node, left or right
@@ -69,29 +67,24 @@ class SunSynchronousOrbitModule(Module):
               default=350.0, unit="km", minimum=50.0, maximum=2000.0),
         _SITE,
         _ACQ,
+        Ordered("pierce_height_km", "altitude_km"),
+        Ordered("incidence_near_deg", "incidence_far_deg"),
     )
-    provides = ("geometry",)
+    provides = (P.GEOMETRY,)
 
     def setup(self):
-        c = self.config
-        self.orbit = SunSynchronousOrbit(c["altitude_km"] * _KM, c["ltan_hours"], c["look_side"], c["earth_rotation"])
-        if c["pierce_height_km"] >= c["altitude_km"]:
-            raise PhysicsInputError(f"pierce_height_km {c['pierce_height_km']:g} must be below the orbit "
-                                    f"({c['altitude_km']:g} km)", key="pierce_height_km")
-        if c["incidence_near_deg"] >= c["incidence_far_deg"]:
-            raise PhysicsInputError(f"incidence_near_deg {c['incidence_near_deg']:g} must be below "
-                                    f"incidence_far_deg {c['incidence_far_deg']:g}", key="incidence_near_deg")
+        c = self.si
+        self.orbit = SunSynchronousOrbit(c["altitude_m"], c["ltan_hours"], c["look_side"], c["earth_rotation"])
         passes = self._passes(c["passes"])
-        site = Site(c["site"]["name"], np.radians(c["site"]["lat_deg"]),
-                    np.radians(((c["site"]["lon_deg"] + 180.0) % 360.0) - 180.0))
+        lon_deg = self.config["site"]["lon_deg"]  # wrapped to [-180, 180) in degrees, as given
+        site = Site(c["site"]["name"], c["site"]["lat_rad"], np.radians(((lon_deg + 180.0) % 360.0) - 180.0))
         try:
             dates, phases = self._dates(c["acquisitions"])
         except PhysicsInputError as exc:  # name the key below the section: acquisitions.<argument>
             raise PhysicsInputError(str(exc), key="acquisitions." + (exc.key or "start")) from exc
-        inc = swath_incidences(self.orbit, np.radians(c["incidence_near_deg"]), np.radians(c["incidence_far_deg"]),
-                               c["swath_samples"])
+        inc = swath_incidences(self.orbit, c["incidence_near_rad"], c["incidence_far_rad"], c["swath_samples"])
         try:
-            self.geometry = acquisitions(self.orbit, site, dates, passes, inc, phases, c["pierce_height_km"] * _KM)
+            self.geometry = acquisitions(self.orbit, site, dates, passes, inc, phases, c["pierce_height_m"])
         except PhysicsInputError as exc:  # out of reach of a pass: the site's latitude
             raise PhysicsInputError(str(exc), key=exc.key or "site.lat_deg") from exc
 
@@ -114,8 +107,8 @@ class SunSynchronousOrbitModule(Module):
         dates = timeline.acquisition_dates(acq["phase"])
         return dates, tuple(timeline.phase_of(d) for d in dates)
 
-    def forward(self, state):
-        return state.with_(geometry=self.geometry)
+    def forward(self, case):
+        return {"geometry": self.geometry}
 
 
 class BiomassOrbit(SunSynchronousOrbitModule):

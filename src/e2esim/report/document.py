@@ -77,8 +77,8 @@ def build_report(result, plots: list) -> list:
         "σ and bias in m²/m² (linear), SD of the σ_hv error in m²/m²; AGB errors are relative, in percent, at the "
         "given one-sided quantile. Each verdict names its dominant contributor: the error source whose removal "
         "would reduce the checked value most (analytic model)." + _truncation_note(result))]
-    notes = [f"Case {c.index} ({c.label}): {n}" for c in result.cases if c.state.backscatter is not None
-             for n in c.state.backscatter.notes]
+    notes = [f"Case {c.index} ({c.label}): {n}" for c in result.cases for n in c.notes]
+    notes += [f"Case {c.index} ({c.label}), {v.name}: {n}" for c in result.cases for v in c.verdicts for n in v.notes]
     if notes:
         blocks += [Heading(2, "Notes")] + [Paragraph(n) for n in notes[:_MAX_TABLE_ROWS]]
     comparison = _comparison_table(result)
@@ -117,7 +117,7 @@ def _case_table(result) -> Table:
     rows = []
     for case in result.cases[:_MAX_TABLE_ROWS]:
         cells = [str(case.index), case.label] + [fmt(case.scalars.get(k), d) for _, k, d in present]
-        cells += [_verdict_cell(v) for v in case.state.verdicts]
+        cells += [_verdict_cell(v) for v in case.verdicts]
         rows.append(tuple(cells))
     return Table(header, tuple(rows))
 
@@ -146,18 +146,28 @@ def _comparison_table(result):
     return Table(("case", "inputs", "bias rel. diff.", "z", "variance rel. diff.", "z"), tuple(rows))
 
 
+_LEVEL_NAMES = {"crosstalk": "crosstalk", "channel_imbalance": "channel imbalance", "nesz": "NESZ"}
+
+
 def _margin_table(result):
+    """Level margins of every verdict that has them: one column pair per level of the error model."""
+    levels: list = []
+    for c in result.cases[:_MAX_TABLE_ROWS]:
+        for v in c.verdicts:
+            levels += [k[: -len(".limit_db")] for k in v.details if k.endswith(".limit_db")]
+    levels = list(dict.fromkeys(levels))
+    if not levels:
+        return None
     rows = []
     for c in result.cases[:_MAX_TABLE_ROWS]:
-        for v in c.state.verdicts:
-            if "crosstalk.limit_db" not in v.details:
+        for v in c.verdicts:
+            if not any(f"{level}.limit_db" in v.details for level in levels):
                 continue
-            d = v.details
-            rows.append((str(c.index), v.name,
-                         fmt(d["crosstalk.limit_db"], 4), fmt(d["crosstalk.margin_db"], 3),
-                         fmt(d["channel_imbalance.limit_db"], 4), fmt(d["channel_imbalance.margin_db"], 3),
-                         fmt(d["nesz.limit_db"], 4), fmt(d["nesz.margin_db"], 3)))
-    if not rows:
-        return None
-    return Table(("case", "requirement", "crosstalk limit (dB)", "margin", "channel imbalance limit (dB)", "margin",
-                  "NESZ limit (dB)", "margin"), tuple(rows))
+            cells = [str(c.index), v.name]
+            for level in levels:
+                cells += [fmt(v.details.get(f"{level}.limit_db"), 4), fmt(v.details.get(f"{level}.margin_db"), 3)]
+            rows.append(tuple(cells))
+    header = ["case", "requirement"]
+    for level in levels:
+        header += [f"{_LEVEL_NAMES.get(level, level.replace('_', ' '))} limit (dB)", "margin"]
+    return Table(tuple(header), tuple(rows))

@@ -1,6 +1,6 @@
 """Plots of Faraday-rotation climatologies: global maps, latitude profiles and per-case distributions.
 
-``plot_global_maps`` and ``plot_latitude_profiles`` draw a ``GlobalClimatology`` (used by the report and by
+``plot_global_maps`` and ``plot_latitude_profiles`` draw a ``FaradayMap`` (used by the report and by
 docs/theory/ionosphere.md); ``plot_faraday_distributions`` and ``plot_faraday_climatology`` are report
 plot types (``output.plots``).
 """
@@ -15,6 +15,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
+from e2esim.faraday.distribution import EmpiricalFaraday  # noqa: E402
 from e2esim.io.atomic import atomic_path  # noqa: E402
 
 _DPI = 110
@@ -28,12 +29,10 @@ def _save(fig, path: Path) -> str:
     return path.name
 
 
-def plot_global_maps(clim, frequency_hz: float, path, variability: float = 0.25, quantity: str = "mean_abs_deg",
-                     title: str | None = None) -> str:
-    """Maps of ``quantity`` ("mean_abs_deg", "sd_deg" or "mean_deg") for every pass (rows) and solar
-    level (columns), pooled over months, swath positions and day-to-day variability."""
-    stats = clim.statistics(frequency_hz, variability)
-    data = stats[quantity]
+def plot_global_maps(fr_map, path, quantity: str = "mean_abs_deg", title: str | None = None) -> str:
+    """Maps of ``quantity`` ("mean_abs_deg", "sd_deg" or "mean_deg") of a ``FaradayMap`` for every pass
+    (rows) and solar level (columns), pooled over months, swath positions and day-to-day variability."""
+    data = fr_map.statistics[quantity]
     n_pass, n_sol = data.shape[:2]
     fig, axes = plt.subplots(n_pass, n_sol, figsize=(5.2 * n_sol, 3.1 * n_pass), squeeze=False,
                              constrained_layout=True)
@@ -41,13 +40,14 @@ def plot_global_maps(clim, frequency_hz: float, path, variability: float = 0.25,
     signed = quantity == "mean_deg"
     vmax = float(np.nanpercentile(np.abs(finite), 99)) if finite.size else 1.0
     cmap, vmin = ("RdBu_r", -vmax) if signed else ("viridis", 0.0)
-    lon_edges = np.r_[clim.lon_deg - np.diff(clim.lon_deg)[0] / 2, clim.lon_deg[-1] + np.diff(clim.lon_deg)[0] / 2]
-    lat_edges = np.r_[clim.lat_deg - np.diff(clim.lat_deg)[0] / 2, clim.lat_deg[-1] + np.diff(clim.lat_deg)[0] / 2]
+    lat, lon = fr_map.lat_deg, fr_map.lon_deg
+    lon_edges = np.r_[lon - np.diff(lon)[0] / 2, lon[-1] + np.diff(lon)[0] / 2]
+    lat_edges = np.r_[lat - np.diff(lat)[0] / 2, lat[-1] + np.diff(lat)[0] / 2]
     for i in range(n_pass):
         for j in range(n_sol):
             ax = axes[i, j]
             mesh = ax.pcolormesh(lon_edges, lat_edges, data[i, j], cmap=cmap, vmin=vmin, vmax=vmax, shading="flat")
-            ax.set_title(f"{clim.pass_labels[i]} ({clim.passes[i]}), F10.7 = {clim.f107[j]:g} sfu", fontsize=9)
+            ax.set_title(f"{fr_map.pass_labels[i]} ({fr_map.passes[i]}), F10.7 = {fr_map.f107[j]:g} sfu", fontsize=9)
             ax.set_xlim(-180, 180)
             ax.set_ylim(-90, 90)
             ax.set_xticks(range(-180, 181, 60))
@@ -60,21 +60,22 @@ def plot_global_maps(clim, frequency_hz: float, path, variability: float = 0.25,
         ax.set_xlabel("longitude (deg)", fontsize=8)
     for ax in axes[:, 0]:
         ax.set_ylabel("latitude (deg)", fontsize=8)
-    fig.suptitle(title or f"One-way Faraday rotation at {frequency_hz / 1e6:g} MHz: {label}", fontsize=10)
+    fig.suptitle(title or f"One-way Faraday rotation at {fr_map.frequency_hz / 1e6:g} MHz: {label}", fontsize=10)
     return _save(fig, path)
 
 
-def plot_latitude_profiles(clim, frequency_hz: float, path, variability: float = 0.25) -> str:
-    """Zonal-mean latitude profiles of mean |Omega| and its SD, one line per pass and solar level."""
-    prof = clim.latitude_profiles(frequency_hz, variability)
+def plot_latitude_profiles(fr_map, path) -> str:
+    """Zonal-mean latitude profiles of mean |Omega| and its SD of a ``FaradayMap``, one line per pass and
+    solar level."""
+    prof = fr_map.profiles
     fig, (a1, a2) = plt.subplots(1, 2, figsize=(11, 4.2), sharey=True)
     styles = ["-", "--", ":", "-."]
     colors = plt.get_cmap("tab10")
-    for i, lab in enumerate(clim.pass_labels):
-        for j, f in enumerate(clim.f107):
+    for i, lab in enumerate(fr_map.pass_labels):
+        for j, f in enumerate(fr_map.f107):
             kw = dict(color=colors(i), ls=styles[j % 4], label=f"{lab}, F10.7 {f:g}")
-            a1.plot(prof["mean_abs_deg"][i, j], clim.lat_deg, **kw)
-            a2.plot(prof["sd_deg"][i, j], clim.lat_deg, **kw)
+            a1.plot(prof["mean_abs_deg"][i, j], fr_map.lat_deg, **kw)
+            a2.plot(prof["sd_deg"][i, j], fr_map.lat_deg, **kw)
     a1.set_xlabel("zonal mean of mean |Ω| (deg)")
     a2.set_xlabel("zonal mean of SD of Ω (deg)")
     a1.set_ylabel("latitude (deg)")
@@ -82,15 +83,15 @@ def plot_latitude_profiles(clim, frequency_hz: float, path, variability: float =
         ax.grid(alpha=0.3)
         ax.set_ylim(-90, 90)
     a1.legend(fontsize=7)
-    fig.suptitle(f"Faraday rotation at {frequency_hz / 1e6:g} MHz by latitude (months, swath positions and "
-                 f"{variability:.0%} TEC variability pooled)", fontsize=10)
+    fig.suptitle(f"Faraday rotation at {fr_map.frequency_hz / 1e6:g} MHz by latitude (months, swath positions and "
+                 f"{fr_map.variability:.0%} TEC variability pooled)", fontsize=10)
     fig.tight_layout()
     return _save(fig, path)
 
 
 def plot_faraday_distributions(result, folder: Path, options: dict) -> list:
     """Report plot: histogram of each case's Omega samples with its mean and 95 % interval."""
-    cases = [c for c in result.cases if c.state.faraday is not None and hasattr(c.state.faraday, "samples")]
+    cases = [c for c in result.cases if isinstance(c.get("faraday.geophysical"), EmpiricalFaraday)]
     cases = cases[: options.get("histogram_cases", 12)]
     if not cases:
         return []
@@ -98,14 +99,12 @@ def plot_faraday_distributions(result, folder: Path, options: dict) -> list:
     nrow = -(-len(cases) // ncol)
     fig, axes = plt.subplots(nrow, ncol, figsize=(3.6 * ncol, 2.8 * nrow), squeeze=False)
     for ax, c in zip(axes.ravel(), cases):
-        fr = c.state.faraday
-        w = getattr(fr, "_w", None)
+        fr = c.get("faraday.geophysical")
         deg = np.degrees(fr.samples)
-        ax.hist(deg, bins=40, weights=w, color="0.6")
+        ax.hist(deg, bins=40, weights=fr.probabilities, color="0.6")
         ax.axvline(np.degrees(fr.mean_rad), color="r", lw=1.2, label="mean")
-        if hasattr(fr, "percentiles_deg"):
-            p = fr.percentiles_deg((2.275, 97.725))
-            ax.axvspan(p[2.275], p[97.725], color="r", alpha=0.1, label="95.45 %")
+        p = fr.percentiles_deg((2.275, 97.725))
+        ax.axvspan(p[2.275], p[97.725], color="r", alpha=0.1, label="95.45 %")
         ax.set_title(c.label, fontsize=7)
         ax.set_xlabel("Ω (deg)", fontsize=8)
         ax.tick_params(labelsize=7)
@@ -119,29 +118,20 @@ def plot_faraday_distributions(result, folder: Path, options: dict) -> list:
 
 
 def plot_faraday_climatology(result, folder: Path, options: dict) -> list:
-    """Report plot: global maps and latitude profiles of the FR climatology for the run's orbit, field and
-    frequency, on a 5 deg grid (computed once and cached)."""
-    from e2esim.faraday.global_climatology import global_climatology
-    from e2esim.ionosphere.slant import SlantSettings
-
-    case = next((c for c in result.cases if c.state.geometry is not None and c.state.instrument is not None), None)
+    """Report plot: global maps and latitude profiles of the FR climatology, the ``faraday.global_map`` product of
+    the ionosphere stage (``global_map_step_deg``)."""
+    case = next((c for c in result.cases if c.get("faraday.global_map") is not None), None)
     if case is None:
         return []
-    iono = next((m for m in result.scenario.cases[case.index].chain if m.kind == "ionosphere"), None)
-    cfg = getattr(iono, "config", {})
-    cache = getattr(iono, "cache_dir", None)
-    settings = SlantSettings(method="thin_shell", shell_height_m=cfg.get("shell_height_km", 350.0) * 1e3)
-    variability = cfg.get("tec_variability", 0.25)
-    freq = case.state.instrument.centre_frequency_hz
-    clim = global_climatology(case.state.geometry.orbit, 5.0, settings=settings, cache_dir=cache)
+    fr_map = case.get("faraday.global_map")
     folder = Path(folder)
-    out = [
-        (plot_global_maps(clim, freq, folder / "faraday_map_mean_abs.png", variability, "mean_abs_deg"),
-         "Global map of mean |Ω| per pass and solar level (5 deg grid; 12 monthly IRI medians, three swath "
+    step = float(np.diff(fr_map.lat_deg)[0]) if fr_map.lat_deg.size > 1 else float("nan")
+    return [
+        (plot_global_maps(fr_map, folder / "faraday_map_mean_abs.png", "mean_abs_deg"),
+         f"Global map of mean |Ω| per pass and solar level ({step:g} deg grid; 12 monthly IRI medians, three swath "
          "positions and day-to-day variability pooled; thin shell)."),
-        (plot_global_maps(clim, freq, folder / "faraday_map_sd.png", variability, "sd_deg"),
+        (plot_global_maps(fr_map, folder / "faraday_map_sd.png", "sd_deg"),
          "Global map of the SD of Ω per pass and solar level (same pooling)."),
-        (plot_latitude_profiles(clim, freq, folder / "faraday_latitude_profiles.png", variability),
+        (plot_latitude_profiles(fr_map, folder / "faraday_latitude_profiles.png"),
          "Zonal means of mean |Ω| and of its SD against latitude, per pass and solar level."),
     ]
-    return out

@@ -66,8 +66,8 @@ def plot_verdicts(result, folder: Path, options: dict) -> list:
     n = len(result.cases)
     fig, axes = plt.subplots(len(names), 1, figsize=(8, len(names) * (1.1 + 0.22 * min(n, 60))), squeeze=False)
     for j, (ax, name) in enumerate(zip(axes[:, 0], names)):
-        margins = np.array([c.state.verdicts[j].margin for c in result.cases])
-        passed = np.array([c.state.verdicts[j].passed for c in result.cases])
+        margins = np.array([c.verdicts[j].margin for c in result.cases])
+        passed = np.array([c.verdicts[j].passed for c in result.cases])
         if n <= 60:
             y = np.arange(n)
             ax.barh(y, margins, color=np.where(passed, "tab:green", "tab:red"))
@@ -77,7 +77,7 @@ def plot_verdicts(result, folder: Path, options: dict) -> list:
             ax.scatter(np.arange(n), margins, c=np.where(passed, "tab:green", "tab:red"), s=6)
             ax.set_xlabel("case")
         ax.axvline(0, color="k", lw=0.8) if n <= 60 else ax.axhline(0, color="k", lw=0.8)
-        unit = result.cases[0].state.verdicts[j].unit
+        unit = result.cases[0].verdicts[j].unit
         (ax.set_xlabel if n <= 60 else ax.set_ylabel)(f"margin ({unit})")
         ax.set_title(name, fontsize=9)
     fig.tight_layout()
@@ -115,7 +115,8 @@ def plot_backscatter_vs_sweep(result, folder: Path, options: dict) -> list:
 
 
 def plot_error_histograms(result, folder: Path, options: dict) -> list:
-    cases = [c for c in result.cases if c.state.backscatter is not None and c.state.backscatter.montecarlo is not None]
+    cases = [c for c in result.cases if c.get("backscatter.error") is not None
+             and c.get("backscatter.error").samples() is not None]
     cases = cases[: options.get("histogram_cases", 12)]
     if not cases:
         return []
@@ -123,12 +124,13 @@ def plot_error_histograms(result, folder: Path, options: dict) -> list:
     nrow = math.ceil(len(cases) / ncol)
     fig, axes = plt.subplots(nrow, ncol, figsize=(4 * ncol, 3 * nrow), squeeze=False)
     for ax, c in zip(axes.ravel(), cases):
-        e = np.ravel(c.state.backscatter.montecarlo.hv)
+        model = c.get("backscatter.error")
+        e = np.ravel(model.samples())
         ax.hist(e, bins=60, density=True, color="0.7")
         mu, sd = e.mean(), e.std(ddof=1)
         x = np.linspace(e.min(), e.max(), 300)
         ax.plot(x, stats.norm.pdf(x, mu, sd), "r-", lw=1.2, label="Gaussian fit")
-        an = c.state.backscatter.analytic
+        an = model.current() if model.unavailable is None else None
         if an is not None:
             ax.plot(x, stats.norm.pdf(x, float(an.mean), float(an.sd)), "b--", lw=1, label="analytic")
         ax.set_title(_short(c.label, 50), fontsize=8)
@@ -144,7 +146,7 @@ def plot_error_histograms(result, folder: Path, options: dict) -> list:
 
 
 def plot_tradeoff(result, folder: Path, options: dict) -> list:
-    cases = [c for c in result.cases if any(v.curves for v in c.state.verdicts)][:12]
+    cases = [c for c in result.cases if any(v.curves for v in c.verdicts)][:12]
     if not cases:
         return []
     ncol = min(2, len(cases))
@@ -152,14 +154,14 @@ def plot_tradeoff(result, folder: Path, options: dict) -> list:
     fig, axes = plt.subplots(nrow, ncol, figsize=(6 * ncol, 4.5 * nrow), squeeze=False)
     styles = {"over": "-", "under": "--"}
     for ax, c in zip(axes.ravel(), cases):
-        verdicts = [v for v in c.state.verdicts if v.curves]
+        verdicts = [v for v in c.verdicts if v.curves]
         for v, color in zip(verdicts, _colors(len(verdicts))):
             x = v.curves["crosstalk_db"]
             for side in ("over", "under"):
                 key = f"{side}.imbalance_db"
                 if key in v.curves:
                     ax.plot(x, v.curves[key], styles[side], color=color, label=f"{v.name} ({side})")
-        inst = c.state.instrument
+        inst = c.get("instrument")
         if inst is not None and np.isfinite(inst.crosstalk_db) and np.isfinite(inst.imbalance_db):
             ax.plot(inst.crosstalk_db, inst.imbalance_db, "k*", ms=12, label=f"{inst.name} specification")
         conv = inst.convention if inst is not None else "variance"

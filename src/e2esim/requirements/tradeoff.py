@@ -11,10 +11,13 @@ channel-imbalance level V_eps (variances; plotted in dB with a stated convention
 
 Two ways to trace it, cross-checked in the tests:
 
-* ``tradeoff_curve``: vectorised root finding on the analytic moments (any form, gain error and finite
-  looks included);
+* ``tradeoff_curve``: vectorised root finding on an error model's moments (``e2esim.error_model``: any
+  propagation module, any form, gain error and finite looks included);
 * ``ConicTradeoff``: the closed form of Appendix B for the paper form, where b is linear and
   sigma_e^2 quadratic in (V_eps, V_delta), so the curve is a conic (eqs. B2-B7).
+
+The same root finding gives the level at which a requirement starts to fail for any level an error model
+has (``first_failing_level``): the margins of the requirement modules.
 """
 
 from __future__ import annotations
@@ -23,7 +26,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from e2esim.distortion.analytic import hv_error_moments
+from e2esim.distortion.analytic import hv_error_moments  # the closed form of Appendix B is for this model
 from e2esim.errors import PhysicsInputError
 from e2esim.retrieval.agb_error import standard_normal_quantile
 from e2esim.retrieval.power_law import sigma_relative_error
@@ -83,11 +86,10 @@ class AGBRequirement:
         return self.f * sigma_hv - (mean - self.z * sd)
 
 
-def requirement_violation(requirement, scene, system, faraday, form="complete", looks=None,
-                          reference="scene", **levels):
-    """``AGBRequirement.violation`` of the analytic moments at the given levels (broadcast)."""
-    m = hv_error_moments(scene, system, faraday, form, looks, reference, **levels)
-    return requirement.violation(m.mean, m.sd, m.sigma_hv)
+def requirement_violation(requirement: AGBRequirement, model, **levels):
+    """``AGBRequirement.violation`` of the error model's moments at the given levels (broadcast)."""
+    m = model.moments(**levels)
+    return requirement.violation(m.mean, m.sd, model.value)
 
 
 def first_failing_level(violation, shape=(), search_range=LEVEL_SEARCH_RANGE) -> np.ndarray:
@@ -136,36 +138,34 @@ def first_failing_level(violation, shape=(), search_range=LEVEL_SEARCH_RANGE) ->
     return result
 
 
-def tradeoff_curve(requirement, scene, system, faraday, crosstalk_levels, form="complete", looks=None,
-                   reference="scene") -> np.ndarray:
+TRADEOFF_LEVELS = ("crosstalk", "channel_imbalance")
+"""The plane of the trade-off curve: levels an error model must have for it."""
+
+
+def tradeoff_curve(requirement: AGBRequirement, model, crosstalk_levels) -> np.ndarray:
     """Channel-imbalance level V_eps on the trade-off curve for each crosstalk level V_delta.
 
-    By root finding on the analytic moments (``first_failing_level``): V_eps is the largest
+    By root finding on the error model's moments (``first_failing_level``): V_eps is the largest
     channel-imbalance variance that still meets the requirement. NaN where the crosstalk level alone
     already breaks it; +inf where no channel-imbalance level up to 1 does.
     """
     x = np.atleast_1d(np.asarray(crosstalk_levels, dtype=float))
 
     def violation(v_eps):
-        return requirement_violation(
-            requirement, scene, system, faraday, form, looks, reference,
-            crosstalk_level=x[:, None], imbalance_level=v_eps,
-        )
+        return requirement_violation(requirement, model, crosstalk=x[:, None], channel_imbalance=v_eps)
 
     return first_failing_level(violation, x.shape)
 
 
-def axis_limits(requirement, scene, system, faraday, form="complete", looks=None, reference="scene") -> dict:
+def axis_limits(requirement: AGBRequirement, model) -> dict:
     """Where the trade-off curve meets the axes: the largest V_eps with no crosstalk and the largest
     V_delta with no channel imbalance (variances). Men et al. (2021), Section V-B, points 3 and 6."""
 
     def imbalance_alone(v):
-        return requirement_violation(requirement, scene, system, faraday, form, looks, reference,
-                                     crosstalk_level=0.0, imbalance_level=v)
+        return requirement_violation(requirement, model, crosstalk=0.0, channel_imbalance=v)
 
     def crosstalk_alone(v):
-        return requirement_violation(requirement, scene, system, faraday, form, looks, reference,
-                                     crosstalk_level=v, imbalance_level=0.0)
+        return requirement_violation(requirement, model, crosstalk=v, channel_imbalance=0.0)
 
     return {
         "imbalance_limit": float(first_failing_level(imbalance_alone)),

@@ -26,6 +26,8 @@ from e2esim.retrieval.power_law import agb_relative_error, sigma_relative_error
 _HERMITE_NODES, _HERMITE_WEIGHTS = np.polynomial.hermite_e.hermegauss(64)
 _HERMITE_WEIGHTS = _HERMITE_WEIGHTS / np.sqrt(2 * np.pi)  # probabilists' Hermite: weights sum to 1
 _X_SEARCH = (-1.0 + 1e-12, 1e6)  # relative sigma errors searched when inverting a map numerically
+REPORTED_QUANTILES = {"q00135": 0.00135, "q02275": 0.02275, "q50": 0.5, "q97725": 0.97725, "q99865": 0.99865}
+"""Quantiles of the relative AGB error reported for every case (3 sigma, 2 sigma and median)."""
 
 
 def standard_normal_quantile(probability):
@@ -214,6 +216,32 @@ class AGBError:
         stats_["sigma_mean_percent"] = 100 * c.relative_mean
         stats_["sigma_sd_percent"] = 100 * float(np.sign(c.relative_variance) * np.sqrt(abs(c.relative_variance)))
         return stats_
+
+    def scalars(self) -> dict:
+        """Output scalars (``agb.*``): the exponent; per basis the mean, RMSE and quantiles of the relative AGB
+        error (percent) and the saturated fraction; per named contribution the relative AGB error it causes
+        on its own (mean, SD, RMSE in percent), its share of the sigma error variance and its relative
+        sigma error (docs/output-format.md)."""
+        out = {"exponent": self.exponent}
+        for basis in ("analytic", "montecarlo"):
+            if self.has(basis):
+                out[f"{basis}.mean_percent"] = 100 * self.mean(basis)
+                out[f"{basis}.rmse_percent"] = 100 * self.rmse(basis)
+                quantiles = self.quantile(np.array(list(REPORTED_QUANTILES.values())), basis)
+                for label, q in zip(REPORTED_QUANTILES, quantiles):
+                    out[f"{basis}.{label}_percent"] = 100 * float(q)
+        for basis, fraction in self.saturated_fraction:
+            out[f"{basis}.saturated_fraction"] = fraction
+        for c in self.contributions:
+            stats = self.contribution_stats(c.name)
+            key = f"contribution.{c.name}"
+            out[f"{key}.mean_percent"] = 100 * stats["mean"]
+            out[f"{key}.sd_percent"] = 100 * stats["sd"]
+            out[f"{key}.rmse_percent"] = 100 * stats["rmse"]
+            out[f"{key}.variance_share"] = stats["variance_share"]
+            out[f"{key}.sigma_mean_percent"] = stats["sigma_mean_percent"]
+            out[f"{key}.sigma_sd_percent"] = stats["sigma_sd_percent"]
+        return out
 
     def dominant_contribution(self) -> str | None:
         """Name of the contribution with the largest mean square relative sigma error (bias^2 + variance)."""

@@ -35,7 +35,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from tqdm.auto import tqdm
 
 from e2esim.errors import PhysicsInputError
 from e2esim.retrieval.models import RetrievalModel
@@ -175,7 +174,7 @@ def parametric_bootstrap(
     simex_options: dict | None = None,
     space: str | None = None,
     chunk: int = 250,
-    progress: bool = False,
+    progress=None,
     denominator: str = "n-p",
     **covariates,
 ) -> BootstrapResult:
@@ -185,7 +184,8 @@ def parametric_bootstrap(
     model_error : sigma_hat^2 as a number, an ``ModelErrorEstimate``, or None for eq. (14) from the data.
     estimate : centre of the "normal"/"basic" coefficient intervals (default beta_c).
     simex_options : keyword arguments of ``simex_batch`` for ``refit="simex"`` (lambdas, n_sim, ...).
-    chunk : refits per batch (memory); progress : tqdm bar over the chunks.
+    chunk : refits per batch (memory); progress : ``progress(iterable, total, description)`` reporting the
+    chunks (e.g. a tqdm bar handed in by the caller), or None.
     """
     if design not in DESIGNS:
         raise PhysicsInputError(f"design must be one of {DESIGNS}, got {design!r}")
@@ -220,7 +220,7 @@ def parametric_bootstrap(
     modes: dict = {}
     opts = {"lambdas": DEFAULT_LAMBDAS, "n_sim": 50, **(simex_options or {})}
     starts = range(0, n_boot, chunk)
-    for start in tqdm(starts, desc="bootstrap", unit="chunk", disable=not progress, leave=False):
+    for start in (starts if progress is None else progress(starts, len(starts), "bootstrap")):
         b = min(chunk, n_boot - start)
         w_b = agb + su * rng.standard_normal((b,) + agb.shape)  # eq. (11)
         w_b = np.clip(w_b, 0.0, None)

@@ -3,12 +3,11 @@
 Three groups of sources, each kept as named ``AGBContribution`` records (relative sigma_hv errors
 x = e / sigma_hv, mean and variance):
 
-* systematic (``hv_backscatter_error``; Men et al. 2021): the error from crosstalk, channel imbalance,
-  gain and noise, split by a counterfactual into ``system_distortions`` (the same system with no Faraday
-  rotation), ``faraday_rotation`` (what the actual Faraday rotation adds to it; FR alone leaves the
-  symmetrised HV unchanged, so it acts only through the distortions) and ``noise_bias`` (the sigma_n/2
-  bias of the noise in the HV estimate and its spread over the simulated looks). The three add up to the
-  analytic mean and variance of the propagation module exactly;
+* systematic (the propagation's error model, ``backscatter.error``): its ``contributions()``, for the HV
+  model of Men et al. (2021) ``system_distortions`` (the same system with no Faraday rotation),
+  ``faraday_rotation`` (what the actual Faraday rotation adds to it; FR alone leaves the symmetrised HV
+  unchanged, so it acts only through the distortions) and ``noise_bias`` (the sigma_n/2 bias of the noise in
+  the HV estimate and its spread over the simulated looks). They add up to the model's mean and variance;
 * random (``backscatter_error_budget``; Ahmed et al. 2014): ``speckle_noise``, ``temporal``,
   ``calibration``, ``area_projection`` at the product's scale, zero mean;
 * regression: the uncertainty of the retrieval model's calibration (confidence or prediction band at the
@@ -29,11 +28,6 @@ import numpy as np
 
 from e2esim.retrieval.agb_error import AGBContribution, AGBError, RelativeErrorMap
 
-SYSTEMATIC_DESCRIPTIONS = {
-    "system_distortions": "crosstalk, channel imbalance and gain errors without Faraday rotation (Men et al. 2021)",
-    "faraday_rotation": "what the case's Faraday rotation adds to the system-distortion error",
-    "noise_bias": "thermal-noise bias sigma_n/2 of the HV estimate and its spread over the simulated looks",
-}
 BUDGET_DESCRIPTIONS = {
     "speckle_noise": "speckle, thermal and multiplicative noise at the product's looks (Ahmed et al. 2014, eq. 21)",
     "temporal": "temporal variability unrelated to AGB (Ahmed et al. 2014, Section II-D-2)",
@@ -43,32 +37,15 @@ BUDGET_DESCRIPTIONS = {
 _COMMON_MODE = ("temporal", "calibration", "area_projection")  # the same relative error in every channel
 
 
-def systematic_contributions(state) -> tuple:
-    """The systematic error of the propagation module split into system distortions, FR and noise bias.
-
-    Needs the analytic moments (``state.backscatter.analytic``); returns () without them.
-    """
-    from e2esim.distortion.analytic import hv_error_moments
-    from e2esim.faraday.distribution import ConstantFaraday
-
-    bs = state.backscatter
-    m = bs.analytic
-    if m is None:
+def systematic_contributions(model) -> tuple:
+    """The systematic error of the propagation's error model (``backscatter.error``) as relative
+    contributions, from its ``contributions()`` (for the HV model: system distortions, Faraday rotation and
+    noise bias). Returns () when the model has no analytic moments."""
+    if model.unavailable is not None:
         return ()
-    s = bs.sigma_hv
-    m0 = hv_error_moments(state.scene, state.system, ConstantFaraday(0.0), form=bs.form, looks=bs.looks,
-                          reference=bs.reference)
-    sd_mean = float(m0.mean - m0.bias_noise)
-    sd_var = float(m0.variance - m0.var_finite_looks)
-    fr_mean = float(m.mean - m.bias_noise) - sd_mean
-    fr_var = float(m.variance - m.var_finite_looks) - sd_var
-    values = {
-        "system_distortions": (sd_mean, sd_var),
-        "faraday_rotation": (fr_mean, fr_var),
-        "noise_bias": (float(m.bias_noise), float(m.var_finite_looks)),
-    }
-    return tuple(AGBContribution(name, "systematic", mean / s, var / s**2, SYSTEMATIC_DESCRIPTIONS[name])
-                 for name, (mean, var) in values.items())
+    s = model.value
+    return tuple(AGBContribution(name, "systematic", c.mean / s, c.variance / s**2, c.description)
+                 for name, c in model.contributions().items())
 
 
 def budget_contributions(budget, channel_weights=None, scene=None) -> tuple:
@@ -151,7 +128,15 @@ def _draw_multichannel(rng, shape, budget, weights, scene):
     return r[..., 1], others
 
 
-def combined_agb_error(state, exponent: float, mapping: RelativeErrorMap | None = None,
+def systematic_agb_error(model, exponent: float) -> AGBError:
+    """The relative AGB error from the propagation's error model alone, through the power law of
+    ``exponent`` (no budget, no regression: the chain of Men et al. 2021)."""
+    m = model.current() if model.unavailable is None else None
+    return AGBError.from_sigma_errors(exponent, model.value, None if m is None else float(m.mean),
+                                      None if m is None else float(m.sd), model.relative_samples())
+
+
+def combined_agb_error(case, exponent: float, mapping: RelativeErrorMap | None = None,
                        regression: AGBContribution | None = None, channel_weights=None) -> AGBError:
     """The relative AGB error of a case from all its sources (module docstring).
 
@@ -159,25 +144,26 @@ def combined_agb_error(state, exponent: float, mapping: RelativeErrorMap | None 
     relative sigma errors to relative AGB errors (None: the power law). regression : the regression
     contribution, or None. channel_weights : (3,) joint-inversion weights of a multi-channel model.
     """
-    bs = state.backscatter
-    s = bs.sigma_hv
-    systematic = systematic_contributions(state)
-    budget = bs.budget
-    random_ = budget_contributions(budget, channel_weights, state.scene)
+    model = case["backscatter.error"]
+    budget = case.get("backscatter.budget")
+    scene = case["scene.covariance"]
+    s = model.value
+    systematic = systematic_contributions(model)
+    random_ = budget_contributions(budget, channel_weights, scene)
     reg = (regression,) if regression is not None else ()
     contributions = systematic + random_ + reg
     reg_var = regression.relative_variance if regression is not None else 0.0
     rand_var = random_total_variance(budget, random_)
     mean = sd = None
-    if bs.analytic is not None:
-        mean = float(bs.analytic.mean)
-        var = float(bs.analytic.variance) + s**2 * (rand_var + reg_var)
+    if model.unavailable is None:
+        m = model.current()
+        mean = float(m.mean)
+        var = float(m.variance) + s**2 * (rand_var + reg_var)
         sd = float(np.sqrt(max(var, 0.0)))
     relative = None
-    if bs.montecarlo is not None:
-        ref = np.asarray(bs.montecarlo.reference["hv"])
-        sys_rel = bs.montecarlo.hv / (ref[:, None] if ref.ndim else ref)
-        drawn = draw_random_errors(state.rng, sys_rel.shape, budget, random_, reg_var, channel_weights, state.scene)
+    sys_rel = model.relative_samples()
+    if sys_rel is not None:
+        drawn = draw_random_errors(case.rng, sys_rel.shape, budget, random_, reg_var, channel_weights, scene)
         if channel_weights is not None:
             r_hv, others = drawn
             relative = (1.0 + sys_rel + r_hv) * others - 1.0

@@ -13,13 +13,18 @@ from __future__ import annotations
 
 import numpy as np
 
+from e2esim import products as P
 from e2esim.errors import ConfigError, PhysicsInputError
-from e2esim.module import Module
-from e2esim.params import Param, ParamGroup
+from e2esim.module import Stage, fail
+from e2esim.params import Ordered, Param, ParamGroup
 from e2esim.retrieval.agb_error import AGBError, RelativeErrorMap
-from e2esim.retrieval.regression_campaign import REGRESSION_METHODS, REGRESSION_MODES, CalibrationCampaign, \
-    regression_contribution
-from e2esim.retrieval.combine import combined_agb_error
+from e2esim.retrieval.regression_campaign import (
+    REGRESSION_METHODS,
+    REGRESSION_MODES,
+    CalibrationCampaign,
+    regression_contribution,
+)
+from e2esim.retrieval.combine import combined_agb_error, systematic_agb_error
 from e2esim.retrieval.loglinear import LogLinearModel
 from e2esim.retrieval.power_law import BIOME_EXPONENTS, PowerLaw
 from e2esim.retrieval.saturating import ALPHA_DEFAULT, SaturatingModel
@@ -40,6 +45,7 @@ _REGRESSION = ParamGroup("regression", "uncertainty of the model's calibration o
           default=10.0, unit="%", minimum=0.0),
     Param("bootstrap_samples", "int", "B for method bootstrap", default=200, minimum=10, maximum=100000),
     Param("simex_samples", "int", "S per lambda for method bootstrap", default=50, minimum=2, maximum=10000),
+    Ordered("agb_range_t_ha"),
 ))
 
 _AGB = Param("agb_t_ha", "float", "AGB the case's backscatter error is applied at (null: the scene's AGB)",
@@ -48,38 +54,34 @@ _CAP = Param("agb_max_t_ha", "float", "largest AGB the model returns: estimates 
              default=1000.0, unit="t/ha", exclusive_minimum=0.0)
 
 
-class _Retrieval(Module):
+class _Retrieval(Stage):
     """Shared parts: the case's AGB, the calibration campaign, the combination of the error sources."""
 
     kind = "retrieval"
-    requires = ("scene", "backscatter")
-    provides = ("agb",)
+    needs = ("scene.covariance", "backscatter.error")
+    uses = ("backscatter.budget",)
+    provides = (P.AGB_ERROR,)
 
     def setup(self):
-        r = self.config["regression"]
-        lo, hi = r["agb_range_t_ha"]
-        if not lo < hi:
-            raise ConfigError(self.location.child("regression").child("agb_range_t_ha"),
-                              f"[{lo:g}, {hi:g}] is not an increasing range", "expected [low, high] with low < high")
+        r = self.si["regression"]
         self.campaign = CalibrationCampaign(**{k: (tuple(v) if isinstance(v, (list, tuple)) else v)
                                                for k, v in r.items()})
 
-    def case_agb(self, state) -> float:
-        agb = self.config.get("agb_t_ha") or state.scene.agb_t_ha
+    def case_agb(self, case) -> float:
+        agb = self.si.get("agb_t_ha") or case["scene.covariance"].agb_t_ha
         if agb is None:
-            raise ConfigError(self.location.child("agb_t_ha"),
-                              f"case {state.index}: the scene states no AGB and agb_t_ha is null",
-                              "give agb_t_ha, or a scene with an AGB")
+            raise fail(self, f"case {case.index}: the scene states no AGB and agb_t_ha is null",
+                       "give agb_t_ha, or a scene with an AGB", key="agb_t_ha")
         return float(agb)
 
-    def regression(self, state, model, agb, covariates=None):
+    def regression(self, case, model, agb, covariates=None):
         try:
-            return regression_contribution(model, agb, self.campaign, state.rng, covariates)
+            return regression_contribution(model, agb, self.campaign, case.rng, covariates)
         except PhysicsInputError as exc:
-            raise ConfigError(self.location.child("regression"), f"case {state.index}: {exc}") from exc
+            raise fail(self, f"case {case.index}: {exc}", key="regression") from exc
 
-    def combine(self, state, exponent, mapping=None, regression=None, channel_weights=None):
-        return state.with_(agb=combined_agb_error(state, exponent, mapping, regression, channel_weights))
+    def combine(self, case, exponent, mapping=None, regression=None, channel_weights=None):
+        return {"agb.error": combined_agb_error(case, exponent, mapping, regression, channel_weights)}
 
 
 class PowerLawRetrieval(_Retrieval):
@@ -94,8 +96,8 @@ class PowerLawRetrieval(_Retrieval):
     )
 
     def exponent_for(self, scene) -> float:
-        if self.config["exponent"] is not None:
-            return self.config["exponent"]
+        if self.si["exponent"] is not None:
+            return self.si["exponent"]
         if scene.biome not in BIOME_EXPONENTS:
             raise ConfigError(
                 self.location.child("exponent"),
@@ -104,31 +106,16 @@ class PowerLawRetrieval(_Retrieval):
             )
         return BIOME_EXPONENTS[scene.biome]
 
-    def forward(self, state):
-        bs = state.backscatter
-        p = self.exponent_for(state.scene)
-        if bs.budget is None and self.campaign.mode == "none":
-            return state.with_(agb=self._plain(bs, p))
+    def forward(self, case):
+        model = case["backscatter.error"]
+        p = self.exponent_for(case["scene.covariance"])
+        if "backscatter.budget" not in case and self.campaign.mode == "none":
+            return {"agb.error": systematic_agb_error(model, p)}
         regression = None
         if self.campaign.mode != "none":
-            agb = self.case_agb(state)
-            regression = self.regression(state, PowerLaw.through(agb, bs.sigma_hv, p), agb)
-        return self.combine(state, p, None, regression)
-
-    @staticmethod
-    def _plain(bs, p) -> AGBError:
-        """The systematic error alone (the chain without a budget), exactly as before the budget existed."""
-        relative = None
-        if bs.montecarlo is not None:
-            ref = np.asarray(bs.montecarlo.reference["hv"])
-            relative = bs.montecarlo.hv / (ref[:, None] if ref.ndim else ref)
-        return AGBError.from_sigma_errors(
-            p,
-            bs.sigma_hv,
-            None if bs.analytic is None else float(bs.analytic.mean),
-            None if bs.analytic is None else float(bs.analytic.sd),
-            relative,
-        )
+            agb = self.case_agb(case)
+            regression = self.regression(case, PowerLaw.through(agb, model.value, p), agb)
+        return self.combine(case, p, None, regression)
 
 
 class SaturatingRetrieval(_Retrieval):
@@ -153,23 +140,22 @@ class SaturatingRetrieval(_Retrieval):
 
     def setup(self):
         super().setup()
-        c = self.config
+        c = self.si
         try:
             self.model = SaturatingModel(c["beta0"], c["beta1"], c["beta2"], c["alpha"])
             self.model.branch(c["agb_max_t_ha"])
         except PhysicsInputError as exc:
             raise ConfigError(self.location, str(exc)) from exc
 
-    def forward(self, state):
-        agb = self.case_agb(state)
-        cap = self.config["agb_max_t_ha"]
+    def forward(self, case):
+        agb = self.case_agb(case)
+        cap = self.si["agb_max_t_ha"]
         if agb >= cap:
-            raise ConfigError(self.location.child("agb_max_t_ha"),
-                              f"case {state.index}: the case's AGB {agb:g} t/ha is not below the cap {cap:g} t/ha",
-                              "raise agb_max_t_ha")
+            raise fail(self, f"case {case.index}: the case's AGB {agb:g} t/ha is not below the cap {cap:g} t/ha",
+                       "raise agb_max_t_ha", key="agb_max_t_ha")
         mapping = RelativeErrorMap(self.model, agb, cap)
-        regression = self.regression(state, self.model, agb) if self.campaign.mode != "none" else None
-        return self.combine(state, mapping.local_exponent(), mapping, regression)
+        regression = self.regression(case, self.model, agb) if self.campaign.mode != "none" else None
+        return self.combine(case, mapping.local_exponent(), mapping, regression)
 
 
 class LogLinearRetrieval(_Retrieval):
@@ -183,7 +169,8 @@ class LogLinearRetrieval(_Retrieval):
     type_name = "log_linear"
     summary = "multi-channel log-linear model l_pq AGB^a_pq cos^n_pq(theta), joint HH/HV/VV inversion"
     params = (
-        Param("l_db", "float", "l_pq for (hh, hv, vv)", default=(-20.374, -21.113, -7.054), unit="dB", length=3),
+        Param("l_db", "float", "l_pq for (hh, hv, vv)", default=(-20.374, -21.113, -7.054), unit="dB", length=3,
+              convert=False),
         Param("a", "float", "AGB exponents a_pq for (hh, hv, vv)", default=(0.8039, 0.4224, 0.0612), length=3),
         Param("n", "float", "cosine powers n_pq for (hh, hv, vv)", default=(0.0, 0.0, 0.0), length=3),
         Param("residual_sd", "float", "SD of the ln-sigma residuals of (hh, hv, vv) around the model",
@@ -199,7 +186,7 @@ class LogLinearRetrieval(_Retrieval):
 
     def setup(self):
         super().setup()
-        c = self.config
+        c = self.si
         sd = np.asarray(c["residual_sd"])
         corr = np.full((3, 3), c["residual_correlation"])
         np.fill_diagonal(corr, 1.0)
@@ -209,13 +196,13 @@ class LogLinearRetrieval(_Retrieval):
             self.model.check_hv_weight()
         except PhysicsInputError as exc:
             raise ConfigError(self.location, str(exc)) from exc
-        self.covariates = {"incidence_rad": float(np.radians(c["incidence_deg"]))}
+        self.covariates = {"incidence_rad": c["incidence_rad"]}
 
-    def forward(self, state):
-        agb = self.case_agb(state)
-        cap = self.config["agb_max_t_ha"]
+    def forward(self, case):
+        agb = self.case_agb(case)
+        cap = self.si["agb_max_t_ha"]
         mapping = RelativeErrorMap(self.model, agb, cap, tuple(self.covariates.items()))
-        regression = (self.regression(state, self.model, agb, self.covariates)
+        regression = (self.regression(case, self.model, agb, self.covariates)
                       if self.campaign.mode != "none" else None)
         weights = self.model.channel_weights()
-        return self.combine(state, float(weights[1]), mapping, regression, weights)
+        return self.combine(case, float(weights[1]), mapping, regression, weights)

@@ -37,8 +37,8 @@ class CalibrationCampaign:
     """How the retrieval model is calibrated (the ``regression`` section of a retrieval module).
 
     mode : "none", "confidence" or "prediction". method : "delta" or "bootstrap". plots : n.
-    agb_range_t_ha : (low, high) AGB of the plots. allometric_error_percent, backscatter_error_percent,
-    model_error_percent : sizes of the three errors (percent of AGB, of sigma, of sigma).
+    agb_range_t_ha : (low, high) AGB of the plots. allometric_error_fraction, backscatter_error_fraction,
+    model_error_fraction : sizes of the three errors (relative SDs: of AGB, of sigma, of sigma).
     bootstrap_samples, simex_samples : B and S for ``method="bootstrap"``.
     """
 
@@ -46,9 +46,9 @@ class CalibrationCampaign:
     method: str = "delta"
     plots: int = 40
     agb_range_t_ha: tuple = (20.0, 400.0)
-    allometric_error_percent: float = 10.0
-    backscatter_error_percent: float = 5.0
-    model_error_percent: float = 10.0
+    allometric_error_fraction: float = 0.10
+    backscatter_error_fraction: float = 0.05
+    model_error_fraction: float = 0.10
     bootstrap_samples: int = 200
     simex_samples: int = 50
 
@@ -67,10 +67,10 @@ def regression_contribution(model, agb: float, campaign: CalibrationCampaign, rn
     cov = dict(covariates or {})
     plots = synthetic_field_plots(
         model, campaign.plots, rng, agb_range_t_ha=campaign.agb_range_t_ha,
-        allometric_error_percent=campaign.allometric_error_percent,
-        backscatter_error_percent=campaign.backscatter_error_percent,
-        model_error_percent=campaign.model_error_percent,
-        incidence_range_deg=None if "incidence_rad" not in cov else (np.degrees(cov["incidence_rad"]),) * 2,
+        allometric_error=campaign.allometric_error_fraction,
+        backscatter_error=campaign.backscatter_error_fraction,
+        model_error=campaign.model_error_fraction,
+        incidence_range_rad=None if "incidence_rad" not in cov else (cov["incidence_rad"],) * 2,
     )
     fit_cov = {} if plots.incidence_rad is None else {"incidence_rad": plots.incidence_rad}
     multi = np.ndim(model.sigma(agb, **cov)) == 1

@@ -24,7 +24,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from tqdm.auto import tqdm
 
 from e2esim.errors import PhysicsInputError
 from e2esim.retrieval.models import FIT_STATUS_NAMES, FitResult, RetrievalModel
@@ -109,7 +108,7 @@ def simex(
     space: str | None = None,
     naive: FitResult | None = None,
     max_failure_fraction: float = 0.2,
-    progress: bool = False,
+    progress=None,
     **covariates,
 ) -> SimexResult:
     """SIMEX estimate of the coefficients of ``model`` from error-prone field data.
@@ -119,8 +118,9 @@ def simex(
     the shape of sigma. rng : the generator of every simulated error. lambdas : positive, increasing.
     n_sim : S, simulated data sets per lambda. p0 : start of the naive fit (the model's coefficients by
     default); the simulated fits start from the naive estimate. naive : a naive fit already done.
-    Raises ``PhysicsInputError`` for bad input, a naive fit that does not converge, or too few lambdas
-    with converged fits to extrapolate.
+    progress : ``progress(iterable, total, description)`` reporting the lambdas (a bar the caller hands in),
+    or None. Raises ``PhysicsInputError`` for bad input, a naive fit that does not converge, or too few
+    lambdas with converged fits to extrapolate.
     """
     if extrapolant not in EXTRAPOLANTS:
         raise PhysicsInputError(f"extrapolant must be one of {tuple(EXTRAPOLANTS)}, got {extrapolant!r}")
@@ -153,7 +153,7 @@ def simex(
     clipped = 0
     cov_batch = {k: None if v is None else np.broadcast_to(np.asarray(v), (n_sim,) + agb.shape)
                  for k, v in covariates.items()}
-    for i, value in enumerate(tqdm(lam, desc="SIMEX", unit="lambda", disable=not progress, leave=False)):
+    for i, value in enumerate(lam if progress is None else progress(lam, len(lam), "SIMEX")):
         root = np.sqrt(value)
         w = agb + root * su * rng.standard_normal((n_sim,) + agb.shape)  # eq. (17)
         d = sigma + root * sq * rng.standard_normal((n_sim,) + sigma.shape)  # eq. (18)

@@ -17,7 +17,7 @@ import datetime as dt
 import json
 import re
 import sys
-from dataclasses import is_dataclass
+from types import MappingProxyType
 
 import numpy as np
 
@@ -93,6 +93,8 @@ class _Encoder:
             node = self._remember(v, {"$": "d", "i": []})
             node["i"] = [[self.encode(k), self.encode(x)] for k, x in v.items()]
             return node
+        if t is MappingProxyType:
+            return {"$": "mp", "i": [[self.encode(k), self.encode(x)] for k, x in v.items()]}
         return self._object(v)
 
     def _remember(self, v, node: dict) -> dict:
@@ -110,13 +112,26 @@ class _Encoder:
     def _object(self, v):
         cls = type(v)
         module = getattr(cls, "__module__", "") or ""
-        if module.split(".")[0] not in self.packages or not hasattr(v, "__dict__"):
+        if module.split(".")[0] not in self.packages or isinstance(v, (type, BaseException)):
             raise NotPlainData(f"an object of type {module}.{cls.__qualname__}")
-        if getattr(cls, "__slots__", ()) and not is_dataclass(cls):
-            raise NotPlainData(f"an object with slots, {module}.{cls.__qualname__}")
+        fields = dict(vars(v)) if hasattr(v, "__dict__") else {}
+        fields.update((name, getattr(v, name)) for name in slot_names(cls) if hasattr(v, name))
+        if not fields and not hasattr(v, "__dict__"):
+            raise NotPlainData(f"an object without fields, {module}.{cls.__qualname__}")
         node = self._remember(v, {"$": "o", "c": f"{module}:{cls.__qualname__}", "f": []})
-        node["f"] = [[name, self.encode(x)] for name, x in vars(v).items()]
+        node["f"] = [[name, self.encode(x)] for name, x in fields.items()]
         return node
+
+
+def slot_names(cls: type) -> tuple:
+    """The ``__slots__`` of ``cls`` and its bases (without ``__dict__`` and ``__weakref__``)."""
+    names = []
+    for klass in cls.__mro__:
+        slots = klass.__dict__.get("__slots__", ())
+        for name in (slots,) if isinstance(slots, str) else slots:
+            if name not in ("__dict__", "__weakref__") and not name.startswith("__") and name not in names:
+                names.append(name)
+    return tuple(names)
 
 
 # ---------------------------------------------------------------------------------------------- decoding
@@ -248,16 +263,29 @@ class _Decoder:
             out[self.decode(pair[0])] = self.decode(pair[1])
         return out
 
+    def _mp(self, node):
+        out = {}
+        for pair in self._items(node):
+            if type(pair) is not list or len(pair) != 2:
+                raise BadPlainData("a mapping entry is malformed")
+            out[self.decode(pair[0])] = self.decode(pair[1])
+        return MappingProxyType(out)
+
     def _o(self, node):
         cls = self._class(node["c"])
         obj = object.__new__(cls)  # no __init__, no __post_init__: nothing of the class runs
         self._register(node, obj)
-        fields = {}
+        slots = slot_names(cls)
         for pair in node["f"]:
             if type(pair) is not list or len(pair) != 2 or not isinstance(pair[0], str) or not _NAME.match(pair[0]):
                 raise BadPlainData("an object field is malformed")
-            fields[pair[0]] = self.decode(pair[1])
-        obj.__dict__.update(fields)
+            name, value = pair[0], self.decode(pair[1])
+            if name in slots:
+                object.__setattr__(obj, name, value)  # the slot's own descriptor: no code of the class
+            elif hasattr(obj, "__dict__"):
+                obj.__dict__[name] = value
+            else:
+                raise BadPlainData(f"{node['c'][:80]!r} has no field {name!r}")
         return obj
 
     def _class(self, path) -> type:
@@ -275,10 +303,8 @@ class _Decoder:
         cls = module
         for part in qualname.split("."):
             cls = getattr(cls, part, None)
-        if not isinstance(cls, type) or cls.__module__ != module_name or issubclass(cls, BaseException):
+        if not isinstance(cls, type) or cls.__module__ != module_name or issubclass(cls, (BaseException, type)):
             raise BadPlainData(f"{path[:80]!r} is not a class of its module")
-        if getattr(cls, "__slots__", ()) and not is_dataclass(cls):
-            raise BadPlainData(f"{path[:80]!r} is not a plain class")
         return cls
 
 

@@ -1,4 +1,4 @@
-"""Run every sweep case of a resolved scenario through its chain of modules.
+"""Run every sweep case of a resolved scenario through its chain of stages.
 
 Each case gets its own generator, ``numpy.random.Generator(PCG64(SeedSequence(seed, spawn_key=(i,))))``,
 so its numbers depend only on the seed and its index, not on the order in which cases run or how many
@@ -9,14 +9,15 @@ from __future__ import annotations
 
 import platform
 import sys
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from datetime import datetime, timezone
 
 import numpy as np
 from tqdm.auto import tqdm
 
 import e2esim
-from e2esim.chain import CaseState
+from e2esim.case import Case, Products, Services
+from e2esim.io.array_cache import open_cache
 from e2esim.runner.executors import iter_results
 from e2esim.runner.records import case_scalars
 from e2esim.runner.scenario import CaseSpec, ResolvedScenario
@@ -24,14 +25,30 @@ from e2esim.runner.scenario import CaseSpec, ResolvedScenario
 
 @dataclass
 class CaseResult:
-    """Outcome of one case: its inputs, the final state of the chain (without its generator) and the
-    flattened scalars (``e2esim.runner.records``)."""
+    """Outcome of one case: its inputs, the products its stages made and the flattened scalars
+    (``e2esim.runner.records``)."""
 
     index: int
     inputs: dict
     label: str
-    state: CaseState
+    products: Products
     scalars: dict
+
+    def get(self, name: str, default=None):
+        """The product ``name`` of this case, or ``default``."""
+        return self.products.get(name, default)
+
+    @property
+    def verdicts(self) -> tuple:
+        """The requirement verdicts, in scenario order (empty without requirements)."""
+        verdicts = self.products.get("verdicts")
+        return tuple(verdicts) if verdicts is not None else ()
+
+    @property
+    def notes(self) -> tuple:
+        """Remarks of the propagation's error model (e.g. why the analytic model was not used)."""
+        model = self.products.get("backscatter.error")
+        return tuple(getattr(model, "notes", ())) if model is not None else ()
 
 
 @dataclass
@@ -52,14 +69,36 @@ def case_generator(seed: int, index: int) -> np.random.Generator:
     return np.random.Generator(np.random.PCG64(np.random.SeedSequence(seed, spawn_key=(index,))))
 
 
-def run_case(spec: CaseSpec) -> CaseResult:
-    """Pass one case through its chain of modules."""
-    state = CaseState(index=spec.index, inputs=spec.inputs, settings=spec.settings,
-                      rng=case_generator(spec.settings.seed, spec.index))
-    for module in spec.chain:
-        state = module.forward(state)
-    state = replace(state, rng=None)
-    return CaseResult(spec.index, spec.inputs, spec.label, state, case_scalars(state))
+def default_services(progress: bool = False) -> Services:
+    """What the runner hands to stages: the array cache of a module's setting, and a progress bar for long
+    kernels on the command line."""
+    return Services(cache=open_cache, progress=_progress_bar if progress else None)
+
+
+def _progress_bar(iterable, total=None, description=""):
+    return tqdm(iterable, total=total, desc=description, leave=False)
+
+
+def run_case(spec: CaseSpec, services: Services | None = None) -> CaseResult:
+    """Pass one case through its chain of stages (``e2esim.module.Stage``): each stage reads the products it
+    needs and returns its own, which are added to the case (never overwritten)."""
+    case = Case(index=spec.index, inputs=spec.inputs, settings=spec.settings,
+                rng=case_generator(spec.settings.seed, spec.index), services=services or default_services())
+    for stage in spec.chain:
+        case = case.adding(checked_products(stage, stage.forward(case)))
+    declared = {p.name: p for stage in spec.chain for p in stage.provides}  # plug-in products included
+    return CaseResult(spec.index, spec.inputs, spec.label, case.products, case_scalars(case.products, declared))
+
+
+def checked_products(stage, new) -> dict:
+    """``new`` if it holds exactly the products ``stage`` declares, each of its declared type."""
+    declared = {p.name: p for p in stage.provides}
+    if not isinstance(new, dict) or set(new) != set(declared):
+        got = ", ".join(new) if isinstance(new, dict) else type(new).__name__
+        raise TypeError(f"{stage.identity} returned {got or 'nothing'}; it declares {', '.join(declared) or 'nothing'}")
+    for name, value in new.items():
+        declared[name].check(value, stage.identity)
+    return new
 
 
 def run_scenario(

@@ -1,8 +1,8 @@
 """Scenario files: reading, command-line overrides, complete validation, sweep expansion.
 
-A scenario has one section per module kind (``scene``, ``instrument``, ...; each with ``type:`` and
-the module's parameters), a ``requirements`` list, and the ``simulation``, ``sweep`` and ``output``
-sections declared below. ``Scenario.resolve()`` checks everything a run needs, for every sweep case,
+A scenario has one section per stage kind (``scene``, ``instrument``, ...; each with ``type:`` and
+the module's parameters; a plug-in's stage kind is a section too), a ``requirements`` list, and the
+``simulation``, ``sweep`` and ``output`` sections declared below. ``Scenario.resolve()`` checks everything a run needs, for every sweep case,
 without running anything: that is ``e2esim validate``.
 """
 
@@ -15,18 +15,31 @@ from pathlib import Path
 from typing import Any
 
 from e2esim import registry
-from e2esim.chain import MODES, SimulationSettings
 from e2esim.errors import ConfigError, Location, ModuleLookupError, ScenarioFileError
-from e2esim.module import KINDS, Module
+from e2esim.module import KIND_ORDER, Module, Stage
 from e2esim.params import Param, find_param, unknown_key_error, validate_section
+from e2esim.runner.chain import assemble
 from e2esim.runner.limits import check_monte_carlo, check_plain, shorten
 from e2esim.runner.overrides import check_not_swept, parse_value, remove_from_sweep, split_assignment
 from e2esim.runner.plugins import plugin_list
 from e2esim.runner.sweep import case_label, expand_sweep, label_keys
 from e2esim.runner.yaml_loader import load_yaml, read_scenario_text
+from e2esim.settings import MODES, SimulationSettings
 
-MODULE_SECTIONS = ("orbit", "scene", "instrument", "ionosphere", "calibration", "propagation", "retrieval")
-"""Sections that hold one module each, in chain order (the ``requirement`` kind has a list)."""
+BUILT_IN_SECTIONS = tuple(k for k in KIND_ORDER if k != "requirement")
+"""Module sections of e2esim's own kinds, in section order (the ``requirement`` kind is the
+``requirements`` list)."""
+
+
+def module_sections() -> tuple:
+    """Sections that hold modules: e2esim's own, then every stage kind a plug-in registers."""
+    extra = [r.kind for r in registry.available() if issubclass(r.cls, Stage) and r.kind not in KIND_ORDER]
+    return BUILT_IN_SECTIONS + tuple(dict.fromkeys(extra))
+
+
+def top_level_keys() -> tuple:
+    return ("name", "description", "plugins", *module_sections(), "requirements", "simulation", "sweep", "output")
+
 
 DEFAULT_MODULES = {
     "ionosphere": {"type": "constant_faraday"},
@@ -37,9 +50,10 @@ DEFAULT_MODULES = {
 
 REQUIRED_SECTIONS = ("scene", "instrument")
 
-STACKABLE_SECTIONS = ("calibration", "propagation")
-"""Sections that may hold a list of modules, applied in order (e.g. Faraday-rotation correction, then
-crosstalk calibration; the polarimetric error, then the backscatter error budget)."""
+SINGLE_SECTIONS = ("orbit", "scene", "instrument", "ionosphere", "retrieval")
+"""Sections that hold one module; every other module section may hold a list, applied in order (e.g.
+Faraday-rotation correction, then crosstalk calibration; the polarimetric error, then the backscatter
+error budget)."""
 
 PLOT_TYPES = (
     "auto",
@@ -79,18 +93,19 @@ OUTPUT_PARAMS = (
     Param("histogram_cases", "int", "at most this many cases get an error histogram", default=12, minimum=1),
 )
 
-TOP_LEVEL = ("name", "description", "plugins") + MODULE_SECTIONS + ("requirements", "simulation", "sweep", "output")
 NOT_SWEEPABLE = ("name", "description", "plugins", "sweep", "output")
 
 
 @dataclass
 class CaseSpec:
-    """One sweep case, ready to run: its inputs, label, settings and chain of modules."""
+    """One sweep case, ready to run: its inputs, label, settings, its modules (in section order) and the
+    chain of stages they form (``e2esim.runner.chain``)."""
 
     index: int
     inputs: dict
     label: str
     settings: SimulationSettings
+    modules: list
     chain: list
 
 
@@ -109,7 +124,7 @@ class ResolvedScenario:
 
     @property
     def requirement_names(self) -> list:
-        return [m.label for m in self.cases[0].chain if m.kind == "requirement"] if self.cases else []
+        return [m.label for m in self.cases[0].modules if m.kind == "requirement"] if self.cases else []
 
 
 class Scenario:
@@ -148,8 +163,9 @@ class Scenario:
     def override(self, assignment: str) -> tuple:
         """Apply one ``--set dotted.key=value`` (value parsed as YAML); return (key, key path)."""
         key, text, path = split_assignment(assignment, "--set", Location(self.source, (), self.lines))
-        if path[0] not in TOP_LEVEL:
-            raise unknown_key_error(Location(f"{self.source} (--set)", path[:1]), path[0], TOP_LEVEL)
+        top_level = top_level_keys()
+        if path[0] not in top_level:
+            raise unknown_key_error(Location(f"{self.source} (--set)", path[:1]), path[0], top_level)
         _set_path(self.raw, path, parse_value(text, "--set", key), Location(self.source, path, self.lines))
         self.lines[path] = f"--set {shorten(key)}"
         return key, path
@@ -159,8 +175,9 @@ class Scenario:
         case (e2esim.runner.overrides)."""
         where = Location(self.source, (), self.lines)
         key, text, path = split_assignment(assignment, "--replace-sweep", where)
-        if path[0] not in TOP_LEVEL or path[0] in NOT_SWEEPABLE:
-            raise unknown_key_error(Location(f"{self.source} (--replace-sweep)", path[:1]), path[0], TOP_LEVEL)
+        top_level = top_level_keys()
+        if path[0] not in top_level or path[0] in NOT_SWEEPABLE:
+            raise unknown_key_error(Location(f"{self.source} (--replace-sweep)", path[:1]), path[0], top_level)
         remove_from_sweep(self.raw, key, Location(f"{self.source} (--replace-sweep)", ("sweep",)))
         _set_path(self.raw, path, parse_value(text, "--replace-sweep", key), Location(self.source, path, self.lines))
         self.lines[path] = f"--replace-sweep {shorten(key)}"
@@ -178,9 +195,10 @@ class Scenario:
             return self._resolve(root)
 
     def _resolve(self, root: Location) -> ResolvedScenario:
+        top_level = top_level_keys()
         for key in self.raw:
-            if key not in TOP_LEVEL:
-                raise unknown_key_error(root.child(key), key, TOP_LEVEL)
+            if key not in top_level:
+                raise unknown_key_error(root.child(key), key, top_level)
         for key in REQUIRED_SECTIONS:
             if key not in self.raw:
                 kinds = ", ".join(r.type_name for r in registry.available(key))
@@ -217,7 +235,7 @@ class Scenario:
         for key, value in inputs.items():
             path = _dotted_to_path(key)
             where = Location(self.source, path, lines)
-            if path[0] in NOT_SWEEPABLE or path[0] not in TOP_LEVEL:
+            if path[0] in NOT_SWEEPABLE or path[0] not in top_level_keys():
                 raise ConfigError(Location(self.source, ("sweep", key), lines), f"cannot sweep over {key!r}",
                                   "sweep keys start with a module section, requirements or simulation")
             _set_path(config, path, value, where, copy_on_write=True)
@@ -227,27 +245,27 @@ class Scenario:
             **validate_section(SIMULATION_PARAMS, config.get("simulation"), case_root.child("simulation"))
         )
         check_monte_carlo(settings, case_root.child("simulation").describe())
-        chain = []
-        for section in MODULE_SECTIONS:
+        modules = []
+        for section in module_sections():
             raw = config.get(section, DEFAULT_MODULES.get(section))
             if raw is None:
                 continue
-            if isinstance(raw, list) and section in STACKABLE_SECTIONS:
+            if isinstance(raw, list) and section not in SINGLE_SECTIONS:
                 for i, item in enumerate(raw):
-                    chain.append(_build_module(section, item, case_root.child(section).child(i), cache))
+                    modules.append(_build_module(section, item, case_root.child(section).child(i), cache))
             else:
-                chain.append(_build_module(section, raw, case_root.child(section), cache))
+                modules.append(_build_module(section, raw, case_root.child(section), cache))
         reqs = config.get("requirements", [])
         if not isinstance(reqs, list):
             raise ConfigError(case_root.child("requirements"), "is not a list",
                               "expected a list of requirement sections, each with a type")
         for i, raw in enumerate(reqs):
-            chain.append(_build_module("requirement", raw, case_root.child("requirements").child(i), cache))
-        _check_chain(chain)
+            modules.append(_build_module("requirement", raw, case_root.child("requirements").child(i), cache))
+        chain = assemble(modules, case_root)
         for key in inputs:
-            _check_sweep_key(key, config, chain, Location(self.source, ("sweep", "parameters", key), lines))
+            _check_sweep_key(key, config, modules, Location(self.source, ("sweep", "parameters", key), lines))
         shown = {k: v for k, v in inputs.items() if shown_keys is None or k in shown_keys}
-        return CaseSpec(index, dict(inputs), case_label(shown), settings, chain)
+        return CaseSpec(index, dict(inputs), case_label(shown), settings, modules, chain)
 
 
 _PRISTINE = "ids of the scenario's own mappings and lists"  # cache entry: sections no case has changed
@@ -277,6 +295,9 @@ def _build_module(kind_or_section: str, raw: Any, where: Location, cache: dict) 
         cls = registry.lookup(kind, type_name)
     except ModuleLookupError as exc:
         raise ConfigError(where.child("type"), str(exc)) from exc
+    if kind not in ("calibration", "requirement") and not issubclass(cls, Stage):
+        raise ConfigError(where.child("type"), f"{type_name!r} is a {kind} module but not a stage of the chain",
+                          "a scenario section names a Stage subclass (docs/writing-a-module.md)")
     # A section no sweep case changes is the scenario's own object: key it by identity (cheap); a changed
     # one by its content, so cases with equal sections share one module.
     pristine = cache.get(_PRISTINE, ())
@@ -286,20 +307,7 @@ def _build_module(kind_or_section: str, raw: Any, where: Location, cache: dict) 
     return cache[key]
 
 
-def _check_chain(chain: list) -> None:
-    available = {"settings", "rng", "inputs"}
-    for module in chain:
-        for need in module.requires:
-            if need not in available:
-                raise ConfigError(
-                    module.location,
-                    f"{module.kind} type {module.type_name!r} needs '{need}', which no earlier module provides",
-                    "add the module kind that provides it",
-                )
-        available.update(module.provides)
-
-
-def _check_sweep_key(key: str, config: dict, chain: list, where: Location) -> None:
+def _check_sweep_key(key: str, config: dict, modules: list, where: Location) -> None:
     path = _dotted_to_path(key)
     head = path[0]
     if head == "simulation":
@@ -309,19 +317,19 @@ def _check_sweep_key(key: str, config: dict, chain: list, where: Location) -> No
         if len(path) < 3 or not isinstance(path[1], int):
             raise ConfigError(where, f"{key!r} does not name a requirement parameter",
                               "expected requirements.<index>.<parameter>")
-        params = [m for m in chain if m.kind == "requirement"][path[1]].params
+        params = [m for m in modules if m.kind == "requirement"][path[1]].params
         rest = path[2:]
     elif isinstance(config.get(head), list):
         if len(path) < 3 or not isinstance(path[1], int):
             raise ConfigError(where, f"{key!r} does not name a parameter of a module in the list {head!r}",
                               f"expected {head}.<index>.<parameter>")
-        params = [m for m in chain if m.kind == head][path[1]].params
+        params = [m for m in modules if m.kind == head][path[1]].params
         rest = path[2:]
     else:
-        module = next(m for m in chain if m.kind == head)
+        module = next(m for m in modules if m.kind == head)
         params = module.params
         rest = path[1:]
-    if rest == ("type",) and head in MODULE_SECTIONS:
+    if rest == ("type",) and head in module_sections():
         return
     dotted = ".".join(str(p) for p in rest)
     if not rest or find_param(params, dotted) is None:
@@ -378,7 +386,7 @@ def _resolved_config(raw: dict, case: CaseSpec, output: dict) -> dict:
     """The scenario with every module's defaults filled in (first case), for provenance."""
     resolved = {k: copy.deepcopy(v) for k, v in raw.items() if k in ("name", "description", "plugins", "sweep")}
     reqs = []
-    for module in case.chain:
+    for module in case.modules:
         entry = {"type": module.type_name, **_jsonable(module.config)}
         if module.kind == "requirement":
             reqs.append(entry)
@@ -402,4 +410,4 @@ def _jsonable(value: Any) -> Any:
     return value
 
 
-__all__ = ["Scenario", "ResolvedScenario", "CaseSpec", "KINDS"]
+__all__ = ["Scenario", "ResolvedScenario", "CaseSpec"]

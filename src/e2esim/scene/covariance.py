@@ -9,6 +9,8 @@ of Men et al. (2021) assume it, the Monte Carlo does not.
 
 from __future__ import annotations
 
+import math
+
 from dataclasses import dataclass
 
 import numpy as np
@@ -92,6 +94,14 @@ class ScatteringCovariance:
     @property
     def hhvv_phase_rad(self) -> float:
         return float(np.angle(self.hhvv))
+
+    def scalars(self) -> dict:
+        """Output scalars (``scene.*``): the three powers and the HH-VV correlation (m^2/m^2, deg), the AGB."""
+        return {
+            "sigma_hh": self.sigma_hh, "sigma_hv": self.sigma_hv, "sigma_vv": self.sigma_vv,
+            "hhvv_magnitude": self.hhvv_magnitude, "hhvv_phase_deg": math.degrees(self.hhvv_phase_rad),
+            "agb_t_ha": float("nan") if self.agb_t_ha is None else self.agb_t_ha,
+        }
 
     def is_reflection_symmetric(self, rtol: float = _REFLECTION_SYMMETRY_RTOL) -> bool:
         d = np.sqrt(np.real(np.diag(self.matrix)))

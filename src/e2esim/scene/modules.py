@@ -4,7 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from e2esim.module import Module
+from e2esim import products as P
+from e2esim.module import Stage
 from e2esim.params import Param
 from e2esim.retrieval.power_law import BIOME_EXPONENTS
 from e2esim.scene.agb_model import forest_covariance
@@ -12,7 +13,7 @@ from e2esim.scene.covariance import ScatteringCovariance
 from e2esim.scene.table1 import TABLE1_FORESTS
 
 
-class Table1ForestScene(Module):
+class Table1ForestScene(Stage):
     """One of the five forests of Men et al. (2021), Table I."""
 
     kind = "scene"
@@ -21,20 +22,20 @@ class Table1ForestScene(Module):
     params = (
         Param("forest", "str", "Table I forest", default="boreal_200", choices=tuple(TABLE1_FORESTS)),
     )
-    provides = ("scene",)
+    provides = (P.SCENE,)
 
     def setup(self):
-        biome, agb, hh, hv, vv, r, theta = TABLE1_FORESTS[self.config["forest"]]
+        biome, agb, hh, hv, vv, r, theta = TABLE1_FORESTS[self.si["forest"]]
         self.covariance = ScatteringCovariance.from_powers(
             hh, hv, vv, r, np.radians(theta), agb_t_ha=agb, biome=biome,
             label=f"{biome} {agb:g} t/ha (Men et al. 2021, Table I)",
         )
 
-    def forward(self, state):
-        return state.with_(scene=self.covariance)
+    def forward(self, case):
+        return {"scene.covariance": self.covariance}
 
 
-class ForestAGBScene(Module):
+class ForestAGBScene(Stage):
     """Covariance that varies continuously with AGB (e2esim.scene.agb_model), for sweeps over AGB."""
 
     kind = "scene"
@@ -47,17 +48,17 @@ class ForestAGBScene(Module):
         Param("exponent", "float", "power-law exponent p of sigma_hv(AGB); null: the biome's (2.2, 1.9)",
               default=None, exclusive_minimum=0.0, nullable=True),
     )
-    provides = ("scene",)
+    provides = (P.SCENE,)
 
     def setup(self):
-        c = self.config
+        c = self.si
         self.covariance = forest_covariance(c["biome"], c["agb_t_ha"], c["exponent"])
 
-    def forward(self, state):
-        return state.with_(scene=self.covariance)
+    def forward(self, case):
+        return {"scene.covariance": self.covariance}
 
 
-class CovarianceScene(Module):
+class CovarianceScene(Stage):
     """A user-given reciprocal covariance in the basis (hh, hv, vv), in backscattering-coefficient units.
 
     Reflection symmetry (zero HH-HV and HV-VV correlation) is the default; non-zero values are accepted
@@ -90,14 +91,13 @@ class CovarianceScene(Module):
         Param("biome", "str", "biome label (sets the default power-law exponent: boreal, tropical)",
               default=None, nullable=True),
     )
-    provides = ("scene",)
+    provides = (P.SCENE,)
 
     def setup(self):
-        c = self.config
-        polar = lambda mag, deg: mag * np.exp(1j * np.radians(deg))  # noqa: E731
-        hhvv = polar(c["hhvv_magnitude"], c["hhvv_phase_deg"])
-        hhhv = polar(c["hhhv_magnitude"], c["hhhv_phase_deg"])
-        hvvv = polar(c["hvvv_magnitude"], c["hvvv_phase_deg"])
+        c = self.si
+        hhvv = c["hhvv_magnitude"] * np.exp(1j * c["hhvv_phase_rad"])
+        hhhv = c["hhhv_magnitude"] * np.exp(1j * c["hhhv_phase_rad"])
+        hvvv = c["hvvv_magnitude"] * np.exp(1j * c["hvvv_phase_rad"])
         m = np.array(
             [
                 [c["sigma_hh"], hhhv, hhvv],
@@ -108,5 +108,5 @@ class CovarianceScene(Module):
         )
         self.covariance = ScatteringCovariance(m, agb_t_ha=c["agb_t_ha"], biome=c["biome"], label="user covariance")
 
-    def forward(self, state):
-        return state.with_(scene=self.covariance)
+    def forward(self, case):
+        return {"scene.covariance": self.covariance}

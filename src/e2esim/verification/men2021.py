@@ -14,6 +14,7 @@ import numpy as np
 
 from e2esim.distortion.analytic import hv_error_moments
 from e2esim.distortion.montecarlo import simulate
+from e2esim.distortion.error_model import HVErrorModel
 from e2esim.requirements.tradeoff import AGBRequirement, axis_limits
 from e2esim.distortion.validation import compare_with_analytic
 from e2esim.faraday.distribution import ConstantFaraday, GaussianFaraday
@@ -71,7 +72,7 @@ def _axis_limit(forest_name: str, which: str) -> float:
     scene = forest(forest_name)
     req = AGBRequirement(0.20, 0.99865, "over", BIOME_EXPONENTS[scene.biome])
     fr = ConstantFaraday(np.pi / 3 if scene.biome == "boreal" else 0.0)
-    limits = axis_limits(req, scene, system(-30.0, -34.0), fr, form="paper")
+    limits = axis_limits(req, HVErrorModel(scene, system(-30.0, -34.0), fr, form="paper"))
     return float(level_db_from_variance(limits[which], THREE_SIGMA_AMPLITUDE))
 
 

@@ -15,6 +15,7 @@ import numpy as np
 from e2esim.faraday.theory import bickel_bates_snr, bickel_bates_variance
 from e2esim.calibration.pipeline import ResidualSampler
 from e2esim.calibration.steps import FaradayStep
+from e2esim.faraday.estimator_modules import BickelBatesEstimator
 from e2esim.faraday.distribution import GaussianFaraday
 from e2esim.verification.men2021 import forest, system
 
@@ -32,9 +33,10 @@ def fr_errors(forest_name: str, mean_deg: float, looks: int = WINDOW_LOOKS, cros
     scene = forest(forest_name)
     sys_model = system(crosstalk_db, -34.0)
     fr = GaussianFaraday(np.radians(mean_deg), np.radians(FR_SD_DEG))
-    sampler = ResidualSampler(sys_model, fr, scene, sys_model.noise_power, (FaradayStep(looks=looks),))
+    step = FaradayStep(BickelBatesEstimator(), looks=looks)
+    sampler = ResidualSampler(sys_model, fr, scene, sys_model.noise_power, (step,))
     res = sampler.sample(np.random.default_rng(seed), n)
-    return np.degrees(res.diagnostics[0]["omega_error"])
+    return np.degrees(res.diagnostics[0].omega_error)
 
 
 def fr_correction_accuracy(record):

@@ -3,12 +3,14 @@
 It subclasses e2esim's Gaussian-error instrument, declares its own parameters once (they validate the
 YAML section, the Python call and appear in ``e2esim modules``), and derives the crosstalk and
 channel-imbalance levels from a single "calibration grade" -- the kind of coupling a system engineer may
-want to explore. Everything else (sampling, analytic statistics, reports) comes from e2esim.
+want to explore. It does so in ``derive``, the hook for derived parameters: the configuration stays as the
+user gave it, so the module passes ``e2esim.testing.check_module``. Everything else (sampling, analytic
+statistics, reports) comes from e2esim.
 """
 
 from __future__ import annotations
 
-from e2esim.instrument.modules import GaussianErrorsInstrument, system_error_model
+from e2esim.instrument.modules import GaussianErrorsInstrument
 from e2esim.params import Param, with_defaults
 
 _GRADE_LEVELS_DB = {  # (crosstalk, channel imbalance), 3-sigma amplitude labels
@@ -40,11 +42,10 @@ class ExampleLBandInstrument(GaussianErrorsInstrument):
               default="nominal", choices=tuple(_GRADE_LEVELS_DB)),
     )
 
-    def setup(self):
-        crosstalk_db, imbalance_db = _GRADE_LEVELS_DB[self.config["calibration_grade"]]
-        if self.config["crosstalk"]["level_db"] is None:
-            self.config["crosstalk"]["level_db"] = crosstalk_db
-        if self.config["channel_imbalance"]["level_db"] is None:
-            self.config["channel_imbalance"]["level_db"] = imbalance_db
-        super().setup()
-        self.model = system_error_model(self.config)
+    def derive(self, si):
+        """Levels left null take the grade's; then the instrument derives their variances as usual."""
+        crosstalk_db, imbalance_db = _GRADE_LEVELS_DB[si["calibration_grade"]]
+        for group, level in (("crosstalk", crosstalk_db), ("channel_imbalance", imbalance_db)):
+            if si[group]["level_db"] is None:
+                si[group] = {**si[group], "level_db": level}
+        return super().derive(si)

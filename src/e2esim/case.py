@@ -1,0 +1,109 @@
+"""What flows along the chain: one sweep case and the immutable mapping of the products its stages made.
+
+``Case`` is passed through the stages in chain order, like hcipy's ``Wavefront`` through an
+``OpticalSystem``: each stage reads products by name (``case["scene.covariance"]``), draws random numbers
+from ``case.rng`` only, and returns its new products, which the runner adds with ``Case.adding``. Nothing
+is overwritten: a product name is added once. The products are documented in ``e2esim.products``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+from types import MappingProxyType
+from typing import Any, Callable, Iterator, Mapping
+
+import numpy as np
+
+from e2esim.settings import SimulationSettings
+
+
+class Products(Mapping):
+    """Immutable mapping of product name -> value, in the order the stages added them."""
+
+    __slots__ = ("_values",)
+
+    def __init__(self, values: Mapping | None = None):
+        self._values = MappingProxyType(dict(values or {}))
+
+    def __getitem__(self, name: str) -> Any:
+        try:
+            return self._values[name]
+        except KeyError:
+            have = ", ".join(self._values) or "none"
+            raise KeyError(f"product {name!r} is not in the case (products so far: {have})") from None
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self._values)
+
+    def __len__(self) -> int:
+        return len(self._values)
+
+    def __repr__(self) -> str:
+        return f"Products({', '.join(self._values)})"
+
+    def __reduce__(self):
+        return (Products, (dict(self._values),))
+
+    def adding(self, new: Mapping) -> "Products":
+        """A copy with the ``new`` products added; a name already present is an error (never overwritten)."""
+        clash = [name for name in new if name in self._values]
+        if clash:
+            raise ValueError(f"products {', '.join(clash)} are already in the case and cannot be replaced")
+        return Products({**self._values, **new})
+
+
+@dataclass(frozen=True)
+class Services:
+    """What the runner hands to stages and, through them, to physics kernels (which import none of it).
+
+    cache : ``cache(setting)`` -> an array cache (``e2esim.io.array_cache.ArrayCache``) for a module's cache
+        setting (a folder, "off" or None for the default), or None for no caching.
+    progress : ``progress(iterable, total, description)`` -> the iterable, reporting progress (a tqdm bar
+        on the command line), or None for silence.
+    executor : a ``concurrent.futures.Executor`` for work a kernel can spread over processes, or None to
+        run it here.
+    """
+
+    cache: Callable | None = None
+    progress: Callable | None = None
+    executor: Any = None
+
+    def cache_for(self, setting):
+        return None if self.cache is None else self.cache(setting)
+
+    def progress_over(self, iterable, total: int | None = None, description: str = ""):
+        return iterable if self.progress is None else self.progress(iterable, total, description)
+
+
+@dataclass(frozen=True)
+class Case:
+    """One sweep case as it passes along the chain.
+
+    index : case number in the sweep. inputs : the sweep values of this case (dotted key -> value).
+    settings : the simulation settings. rng : the case's own random generator (None once the chain is done).
+    products : the products made so far. services : cache, progress and executor from the runner.
+    """
+
+    index: int
+    inputs: dict
+    settings: SimulationSettings
+    rng: np.random.Generator | None
+    products: Products = field(default_factory=Products)
+    services: Services = field(default_factory=Services, compare=False, repr=False)
+
+    def __getitem__(self, name: str) -> Any:
+        return self.products[name]
+
+    def __contains__(self, name: str) -> bool:
+        return name in self.products
+
+    def get(self, name: str, default: Any = None) -> Any:
+        return self.products.get(name, default)
+
+    def adding(self, new: Mapping) -> "Case":
+        """The case with ``new`` products added (``Products.adding``)."""
+        return replace(self, products=self.products.adding(new))
+
+    def finished(self) -> "Case":
+        """The case without its generator and services, to be kept or sent between processes."""
+        return replace(self, rng=None, services=Services())

@@ -1,0 +1,194 @@
+"""The error model of sigma_hv under crosstalk, channel imbalance, Faraday rotation, noise and gain.
+
+``HVErrorModel`` is what the ``hv_backscatter_error`` stage provides as ``backscatter.error``: the analytic
+moments of Men et al. (2021), eqs. (11)-(12) (``e2esim.distortion.analytic``, completed to second order),
+evaluated at any error level, with any source removed, and split into contributions; plus the Monte Carlo
+errors of the full system model when simulated (``e2esim.distortion.montecarlo``). Every evaluation is made
+once per model object and kept with it, so the retrieval and every requirement of a case share them.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from e2esim.distortion.analytic import HVErrorMoments, hv_error_moments
+from e2esim.distortion.montecarlo import MonteCarloErrors
+from e2esim.distortion.validation import compare_with_analytic, sample_moments
+from e2esim.error_model import Contribution, ErrorModel, ErrorModelUnavailable
+from e2esim.faraday.distribution import ConstantFaraday, FaradayDistribution
+from e2esim.instrument.system_errors import SystemErrorModel
+from e2esim.scene.covariance import ScatteringCovariance
+
+LEVELS = ("crosstalk", "channel_imbalance", "nesz")
+"""Levels ``moments`` accepts: V_delta and V_eps (variances of the error terms) and sigma_n (noise power,
+m^2/m^2, the NESZ as a linear ratio)."""
+
+SOURCES = ("crosstalk", "channel_imbalance", "noise", "faraday_rotation", "gain")
+"""Sources ``without`` removes: a level set to zero, no Faraday rotation, or no absolute gain error."""
+
+CONTRIBUTION_DESCRIPTIONS = {
+    "system_distortions": "crosstalk, channel imbalance and gain errors without Faraday rotation (Men et al. 2021)",
+    "faraday_rotation": "what the case's Faraday rotation adds to the system-distortion error",
+    "noise_bias": "thermal-noise bias sigma_n/2 of the HV estimate and its spread over the simulated looks",
+}
+_LEVEL_SOURCES = {"crosstalk": 0, "channel_imbalance": 1, "noise": 2}  # rows of the batched variants
+
+
+@dataclass(frozen=True, eq=False)
+class HVErrorModel(ErrorModel):
+    """Error of sigma_hv_hat for one scene, system-error model and Faraday-rotation distribution.
+
+    scene, system, faraday : what the error is computed for (the residual system and Faraday rotation
+        after calibration). form, looks, reference : settings of the analytic moments
+        (``hv_error_moments``). montecarlo : simulated errors, or None. gaussianity : statistics of the
+        simulated errors (Fig. 2), or None. notes : remarks for the report. unavailable : why the analytic
+        moments cannot be evaluated (None: they can).
+    """
+
+    scene: ScatteringCovariance
+    system: SystemErrorModel
+    faraday: FaradayDistribution
+    form: str = "complete"
+    looks: int | None = None
+    reference: str = "scene"
+    montecarlo: MonteCarloErrors | None = None
+    gaussianity: dict | None = None
+    notes: tuple = ()
+    unavailable: str | None = None
+    _memo: dict = field(default_factory=dict, repr=False, compare=False)
+
+    channel = "hv"
+
+    @property
+    def value(self) -> float:
+        return self.scene.sigma_hv
+
+    @property
+    def includes_speckle(self) -> bool:
+        return self.reference == "population"
+
+    @property
+    def levels(self) -> dict:
+        s = self.system
+        return {"crosstalk": s.crosstalk_level, "channel_imbalance": s.imbalance_level, "nesz": s.noise_power}
+
+    @property
+    def sources(self) -> tuple:
+        return SOURCES
+
+    # Moments ---------------------------------------------------------------------------------------
+    def moments(self, crosstalk=None, channel_imbalance=None, nesz=None, **unknown) -> HVErrorMoments:
+        """``hv_error_moments`` with the levels V_delta, V_eps and sigma_n replaced where given (broadcast)."""
+        if unknown:
+            raise TypeError(f"unknown levels {', '.join(unknown)}; this model has {', '.join(LEVELS)}")
+        self.check_available()
+        return hv_error_moments(self.scene, self.system, self.faraday, self.form, self.looks, self.reference,
+                                crosstalk_level=crosstalk, imbalance_level=channel_imbalance, noise_power=nesz)
+
+    def current(self) -> HVErrorMoments:
+        if "current" not in self._memo:
+            self._memo["current"] = self.moments()
+        return self._memo["current"]
+
+    # Sources removed -------------------------------------------------------------------------------
+    def without(self, source: str) -> "HVErrorModel":
+        if source not in SOURCES:
+            raise KeyError(f"unknown error source {source!r}; sources: {', '.join(SOURCES)}")
+        key = f"without {source}"
+        if key not in self._memo:
+            self._memo[key] = self._without(source)
+        return self._memo[key]
+
+    def _without(self, source: str) -> "HVErrorModel":
+        sysm, fr = self.system, self.faraday
+        if source == "faraday_rotation":
+            return self if fr.mean_rad == 0.0 and fr.sd_rad == 0.0 else self._no_faraday()
+        if source == "gain":
+            return self if not sysm.has_gain_error else self._variant(
+                system=dataclasses.replace(sysm, gain_offset_db=0.0, gain_sd_db=0.0))
+        # the three level sources in one vectorised evaluation: [no crosstalk, no imbalance, no noise]
+        if "level variants" not in self._memo:
+            self._memo["level variants"] = self.moments(
+                crosstalk=np.array([0.0, sysm.crosstalk_level, sysm.crosstalk_level]),
+                channel_imbalance=np.array([sysm.imbalance_level, 0.0, sysm.imbalance_level]),
+                nesz=np.array([sysm.noise_power, sysm.noise_power, 0.0]),
+            )
+        row = _LEVEL_SOURCES[source]
+        levels = {"crosstalk": 0.0} if source == "crosstalk" else (
+            {"imbalance": 0.0} if source == "channel_imbalance" else {"noise_power": 0.0})
+        variant = self._variant(system=sysm.with_levels(**levels))
+        variant._memo["current"] = _row(self._memo["level variants"], row)
+        return variant
+
+    def _no_faraday(self) -> "HVErrorModel":
+        if "no faraday" not in self._memo:
+            self._memo["no faraday"] = self._variant(faraday=ConstantFaraday(0.0))
+        return self._memo["no faraday"]
+
+    def _variant(self, **changes) -> "HVErrorModel":
+        return dataclasses.replace(self, montecarlo=None, gaussianity=None, notes=(), _memo={}, **changes)
+
+    # Contributions ---------------------------------------------------------------------------------
+    def contributions(self) -> dict:
+        """The error split into system distortions (the same system with no Faraday rotation), what the
+        Faraday rotation adds to it (FR alone leaves the symmetrised HV unchanged, so it acts only through the
+        distortions) and the noise bias sigma_n/2 with its spread over the looks; they add up to the mean
+        and variance exactly."""
+        m = self.current()
+        m0 = self._no_faraday().current()
+        sd_mean = float(m0.mean - m0.bias_noise)
+        sd_var = float(m0.variance - m0.var_finite_looks)
+        values = {
+            "system_distortions": (sd_mean, sd_var),
+            "faraday_rotation": (float(m.mean - m.bias_noise) - sd_mean, float(m.variance - m.var_finite_looks) - sd_var),
+            "noise_bias": (float(m.bias_noise), float(m.var_finite_looks)),
+        }
+        return {name: Contribution(mean, var, CONTRIBUTION_DESCRIPTIONS[name]) for name, (mean, var) in values.items()}
+
+    # Monte Carlo -----------------------------------------------------------------------------------
+    def relative_samples(self) -> np.ndarray | None:
+        if self.montecarlo is None:
+            return None
+        ref = np.asarray(self.montecarlo.reference["hv"])
+        return self.montecarlo.hv / (ref[:, None] if ref.ndim else ref)
+
+    def samples(self) -> np.ndarray | None:
+        return None if self.montecarlo is None else self.montecarlo.hv
+
+    # Output ----------------------------------------------------------------------------------------
+    def scalars(self) -> dict:
+        """``analytic.*`` (every part of the moments, m^2/m^2), ``montecarlo.*`` (sample moments with standard
+        errors, Gaussianity) and ``comparison.*`` (eq. 18 differences with standard errors)."""
+        out: dict = {}
+        analytic = None
+        if self.unavailable is None:
+            analytic = self.current()
+            for name, value in analytic.as_dict().items():
+                if name not in ("form", "sigma_hv"):
+                    out[f"analytic.{name}"] = float(value)
+            out["analytic.sd"] = float(analytic.sd)
+        mc = self.montecarlo
+        if mc is not None:
+            for name, value in sample_moments(mc.hv).items():
+                out[f"montecarlo.{name}"] = value
+            out["montecarlo.sd"] = math.sqrt(max(out["montecarlo.variance"], 0.0))
+            for name, value in (self.gaussianity or {}).items():
+                out[f"montecarlo.{name}"] = value
+        if analytic is not None and mc is not None:
+            cmp = compare_with_analytic(float(analytic.mean), float(analytic.variance), mc.hv, mc.looks,
+                                        fixed_scene=self.reference == "scene")
+            out.update({f"comparison.{name}": value for name, value in cmp.items()})
+        return out
+
+
+def _row(moments: HVErrorMoments, i: int) -> HVErrorMoments:
+    """Element ``i`` of moments evaluated over a vector of levels."""
+    values = {f.name: getattr(moments, f.name) for f in dataclasses.fields(moments)}
+    return HVErrorMoments(**{k: (v[i] if isinstance(v, np.ndarray) and v.ndim else v) for k, v in values.items()})
+
+
+__all__ = ["HVErrorModel", "LEVELS", "SOURCES", "ErrorModelUnavailable"]

@@ -1,0 +1,105 @@
+"""The named, typed products stages exchange, declared once with their type, units and output scalars.
+
+A stage declares the products it ``needs`` (names) and ``provides`` (these declarations); the runner
+orders the chain by them, checks that every product a stage needs is provided by an earlier stage
+(``e2esim validate`` says which module needs it and which modules could provide it), and checks the type
+of every product a stage returns. A plug-in declares its own products the same way, in its own package:
+
+    STACK = Product("scene.stack", "my_package.stack:StackCovariance", "3N x 3N covariance of N passes")
+
+Numbers inside a product are SI (radians, m^2/m^2, Hz, m), may carry a leading case axis (a block of sweep
+cases), and every product type that writes output scalars has a ``scalars()`` method; ``scalars`` here
+is the prefix of their names in summary.json and results.h5 (None: not written; "": names as they are).
+"""
+
+from __future__ import annotations
+
+import functools
+import importlib
+from dataclasses import dataclass
+
+
+@dataclass(frozen=True)
+class Product:
+    """Declaration of one product.
+
+    name : dotted name, e.g. "faraday.geophysical". type : the class of its value, or "module:Class" (read
+    when first checked, so that declarations import nothing). description : what it is, units and shape.
+    scalars : prefix of its output scalars (the value's ``scalars()``), "" for none, None if not written.
+    """
+
+    name: str
+    type: object
+    description: str
+    scalars: str | None = None
+
+    def check(self, value, by: str) -> None:
+        """Raise TypeError unless ``value`` is of the declared type (``by`` names the stage)."""
+        cls = _resolve(self.type) if isinstance(self.type, str) else self.type
+        if not isinstance(value, cls):
+            raise TypeError(f"{by} returned a {type(value).__name__} for product {self.name!r}, which must be a "
+                            f"{getattr(cls, '__name__', cls)}")
+
+
+@functools.lru_cache(maxsize=None)
+def _resolve(path: str):
+    module, _, name = path.partition(":")
+    return getattr(importlib.import_module(module), name)
+
+
+GEOMETRY = Product(
+    "geometry", "e2esim.orbit.acquisition:AcquisitionGeometry",
+    "every acquisition of the site: time (UTC), pass, incidence (rad), heading, look vector, satellite and target "
+    "positions (ECEF, m), ionospheric pierce point, weights; arrays over acquisitions")
+SCENE = Product(
+    "scene.covariance", "e2esim.scene.covariance:ScatteringCovariance",
+    "3x3 covariance of (S_hh, S_hv, S_vv) in backscattering-coefficient units (m^2/m^2), with AGB (t/ha) and "
+    "biome", scalars="scene")
+INSTRUMENT = Product(
+    "instrument", "e2esim.instrument.description:InstrumentDescription",
+    "how the instrument states its specification: crosstalk and channel-imbalance levels (dB, with their "
+    "convention), NESZ (dB), centre frequency and bandwidth (Hz)", scalars="instrument")
+SYSTEM = Product(
+    "system", "e2esim.instrument.system_errors:SystemErrorModel",
+    "the instrument's system errors before calibration: variances and pair correlations of crosstalk and "
+    "channel imbalance (Men et al. 2021, Section III), noise power (m^2/m^2), gain error (dB)")
+FARADAY = Product(
+    "faraday.geophysical", "e2esim.faraday.distribution:FaradayDistribution",
+    "distribution of the one-way Faraday rotation Omega (rad) the case sees before any correction",
+    scalars="faraday")
+FARADAY_MAP = Product(
+    "faraday.global_map", "e2esim.faraday.global_climatology:FaradayMap",
+    "global maps of the Faraday-rotation climatology for the case's orbit and frequency: mean, SD and mean |Omega| "
+    "(deg) per pass, solar level, latitude and longitude, and their zonal means")
+CALIBRATION = Product(
+    "calibration", "e2esim.calibration.record:CalibrationRecord",
+    "the calibration strategy applied (its steps) and their results: the errors of what each step estimated, "
+    "with their theory, and the residual model's fields", scalars="calibration")
+SYSTEM_RESIDUAL = Product(
+    "system.residual", "e2esim.instrument.system_errors:SystemErrorModel",
+    "the system errors the propagation applies after calibration (the raw ones when nothing corrects them); "
+    "with faraday.residual it describes the corrected data (e2esim.calibration.record)", scalars="system")
+FARADAY_RESIDUAL = Product(
+    "faraday.residual", "e2esim.faraday.distribution:FaradayDistribution",
+    "the Faraday rotation (rad) the propagation applies together with system.residual (none once a "
+    "polarimetric step has absorbed it into the residual crosstalk)", scalars="faraday_residual")
+BACKSCATTER_ERROR = Product(
+    "backscatter.error", "e2esim.error_model:ErrorModel",
+    "error model of the backscatter estimate (e2esim.error_model.ErrorModel): moments at any error level, "
+    "with a source removed, contributions; Monte Carlo samples when simulated", scalars="")
+BACKSCATTER_BUDGET = Product(
+    "backscatter.budget", "e2esim.budget.result:BackscatterBudget",
+    "random-error budget of sigma0 at the product scale (Ahmed et al. 2014): relative SDs of speckle and noise, "
+    "temporal, calibration and area projection per channel", scalars="budget")
+AGB_ERROR = Product(
+    "agb.error", "e2esim.retrieval.agb_error:AGBError",
+    "relative AGB error (AGB_hat / AGB - 1): analytic mean and SD of the sigma error, Monte Carlo samples, the "
+    "named contributions", scalars="agb")
+VERDICTS = Product(
+    "verdicts", "e2esim.requirements.verdict:RequirementVerdicts",
+    "the verdict of every requirement, in scenario order: pass/fail, value, limit, margin, details, trade-off "
+    "curves, dominant contributor", scalars="")
+
+BUILT_IN = (GEOMETRY, SCENE, INSTRUMENT, SYSTEM, FARADAY, FARADAY_MAP, CALIBRATION, SYSTEM_RESIDUAL, FARADAY_RESIDUAL,
+            BACKSCATTER_ERROR, BACKSCATTER_BUDGET, AGB_ERROR, VERDICTS)
+"""The products of e2esim's own stages, in chain order (docs/architecture.md lists them)."""

@@ -1,0 +1,70 @@
+"""What every requirement shares: the AGB error it checks, its basis, and the requirement base class."""
+
+from __future__ import annotations
+
+from abc import abstractmethod
+from typing import ClassVar
+
+from e2esim.module import Module, fail
+from e2esim.params import Param
+from e2esim.requirements.verdict import RequirementVerdict
+from e2esim.retrieval.agb_error import AGBError
+
+BASES = ("auto", "analytic", "montecarlo")
+SOURCE_CHOICES = ("all", "systematic")
+PERCENT = 100.0
+
+SOURCES_PARAM = Param(
+    "sources", "str", "error sources checked: all (system, Faraday rotation, noise, error budget, regression) or "
+    "systematic (system distortions, Faraday rotation and noise only: the criterion of Men et al. 2021)",
+    default="all", choices=SOURCE_CHOICES)
+BASIS_PARAM = Param("basis", "str", "analytic Gaussian model or Monte Carlo samples (auto: analytic when computed)",
+                    default="auto", choices=BASES)
+
+
+class Requirement(Module):
+    """A mission requirement on the AGB error: ``evaluate`` gives the verdict of one case.
+
+    Requirements are not stages themselves: the scenario's ``requirements`` list is one stage
+    (``e2esim.requirements.stage.RequirementSet``) that evaluates them in order and provides ``verdicts``.
+    ``needs`` and ``uses`` name the products a requirement reads.
+    """
+
+    kind = "requirement"
+    needs: ClassVar[tuple] = ("agb.error", "backscatter.error")
+    uses: ClassVar[tuple] = ("instrument",)
+
+    @property
+    @abstractmethod
+    def label(self) -> str:
+        """The requirement's name in reports."""
+
+    @abstractmethod
+    def evaluate(self, case) -> RequirementVerdict:
+        """The verdict of this requirement on ``case``."""
+
+
+def checked_error(requirement: Requirement, case) -> AGBError:
+    """The AGB error a requirement checks: from every source (``all``), or only from the systematic error of
+    the propagation's error model, system distortions, Faraday rotation and noise (``systematic``, the
+    criterion of Men et al. 2021), leaving out the random-error budget and the regression uncertainty."""
+    agb = case["agb.error"]
+    if requirement.si["sources"] == "all" or not agb.contributions:
+        return agb
+    model = case["backscatter.error"]
+    m = model.current() if model.unavailable is None else None
+    return AGBError.from_sigma_errors(
+        agb.exponent, model.value, None if m is None else float(m.mean), None if m is None else float(m.sd),
+        model.relative_samples(), agb.mapping,
+    )
+
+
+def basis_of(requirement: Requirement, case, agb: AGBError) -> str:
+    """The basis a verdict uses: the configured one, or analytic when computed (``auto``)."""
+    basis = requirement.si["basis"]
+    if basis == "auto":
+        return "analytic" if agb.has("analytic") else "montecarlo"
+    if not agb.has(basis):
+        raise fail(requirement, f"{basis!r} results are not computed in simulation mode {case.settings.mode!r}",
+                   "use basis: auto, or a simulation mode that computes them", key="basis")
+    return basis

@@ -1,0 +1,76 @@
+"""How far each error level may degrade before a requirement fails, and the crosstalk/channel-imbalance
+trade-off curves: root finding on the propagation's error model (``e2esim.requirements.tradeoff``)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from e2esim.requirements.tradeoff import (
+    TRADEOFF_LEVELS,
+    axis_limits,
+    first_failing_level,
+    requirement_violation,
+    tradeoff_curve,
+)
+from e2esim.units import level_db_from_variance, variance_from_level_db
+
+INSTRUMENT_LEVELS = ("crosstalk", "channel_imbalance")
+"""Levels stated in the instrument's own dB convention (the others are powers: 10 log10 of the level)."""
+
+
+def level_convention(case) -> str:
+    """The dB convention of the instrument's crosstalk and channel-imbalance levels ("variance" if unknown)."""
+    inst = case.get("instrument")
+    return inst.level_convention if inst is not None else "variance"
+
+
+def level_margins(requirements, model, convention: str) -> dict:
+    """Levels (dB) at which the verdict flips, each level of the error model varied alone, and their margins.
+
+    ``<level>.limit_db``: the level where the first of the requirement's sides starts to fail (NaN if it
+    fails at any level, +inf if it never fails); ``<level>.margin_db = limit_db - current level``. The
+    crosstalk and channel-imbalance levels are in the instrument's ``convention``, the others (the noise
+    power, as the NESZ) as 10 log10 of the level.
+    """
+    out = {}
+    for level, current in model.levels.items():
+        conv = convention if level in INSTRUMENT_LEVELS else "variance"
+        limits = []
+        for req in requirements:
+            def violation(levels, req=req, level=level):
+                return requirement_violation(req, model, **{level: levels})
+            limits.append(float(first_failing_level(violation)))
+        limit = min(limits) if not any(np.isnan(limits)) else float("nan")
+        limit_db = float(level_db_from_variance(limit, conv)) if np.isfinite(limit) else limit
+        current_db = float(level_db_from_variance(current, conv)) if current > 0 else float("-inf")
+        out[f"{level}.limit_db"] = limit_db
+        out[f"{level}.margin_db"] = limit_db - current_db if np.isfinite(current_db) else float("inf")
+    return out
+
+
+def has_tradeoff_plane(model) -> bool:
+    return all(level in model.levels for level in TRADEOFF_LEVELS)
+
+
+def axis_crossings(requirements, model, convention: str) -> dict:
+    """Where each trade-off curve meets the axes (Men et al. 2021, Section V-B points 3 and 6), in dB:
+    the largest channel imbalance with no crosstalk and the largest crosstalk with no channel imbalance."""
+    out = {}
+    for req in requirements:
+        limits = axis_limits(req, model)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            out[f"{req.side}.imbalance_axis_db"] = float(level_db_from_variance(limits["imbalance_limit"], convention))
+            out[f"{req.side}.crosstalk_axis_db"] = float(level_db_from_variance(limits["crosstalk_limit"], convention))
+    return out
+
+
+def tradeoff_curves(requirements, model, convention: str, crosstalk_db_range, points: int) -> dict:
+    """The trade-off curve of every side: channel imbalance (dB) against crosstalk (dB), in ``convention``."""
+    x_db = np.linspace(*crosstalk_db_range, points)
+    x = variance_from_level_db(x_db, convention)
+    curves = {"crosstalk_db": x_db}
+    for req in requirements:
+        v_eps = tradeoff_curve(req, model, x)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            curves[f"{req.side}.imbalance_db"] = level_db_from_variance(v_eps, convention)
+    return curves

@@ -1,0 +1,39 @@
+"""Every shipped scenario at reduced sizes, run once per test session (``quick_run`` fixture, tests/conftest.py).
+
+The default suite runs each scenario once through these overrides (smaller Monte Carlo, sparser dates,
+fewer swath positions and variability nodes, a coarse global map); tests that need a scenario's results
+share that run. The full sizes run in the tests marked slow (tests/test_scenarios_run.py).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+SCENARIOS = Path(__file__).resolve().parents[1] / "scenarios"
+
+_MC = ("simulation.realisations=400", "simulation.looks=2000")
+_ORBIT = ("orbit.acquisitions.step_days=60", "orbit.swath_samples=2", "ionosphere.variability_nodes=3")
+_REGRESSION = ("simulation.realisations=500", "retrieval.regression.bootstrap_samples=30",
+               "retrieval.regression.simex_samples=5")
+
+QUICK = {
+    "biomass_calibration": ("simulation.realisations=600", "simulation.looks=20000"),
+    "biomass_default": (*_MC, *_ORBIT),
+    "biomass_error_budget": _REGRESSION,
+    "biomass_fr_climatology": ("orbit.acquisitions.step_days=120", "orbit.swath_samples=2",
+                               "ionosphere.method=thin_shell", "ionosphere.variability_nodes=3",
+                               "simulation.realisations=300", "simulation.looks=1000"),
+    "biomass_latitude_sweep": ("orbit.acquisitions.step_days=60", "orbit.swath_samples=2",
+                               "ionosphere.variability_nodes=3", "ionosphere.global_map_step_deg=30"),
+    "nisar_lband": (*_MC, *_ORBIT),
+    "uavsar_ahmed2014": _REGRESSION,
+}
+"""Overrides (``--set``) of each scenario for the default suite; others get ``_MC``."""
+
+
+def quick_overrides(name: str) -> tuple:
+    return QUICK.get(name, _MC)
+
+
+def scenario_names() -> list:
+    return sorted(p.stem for p in SCENARIOS.glob("*.yaml"))
