@@ -25,7 +25,7 @@ from hypothesis import strategies as st
 
 from e2esim import registry
 from e2esim.cli import main
-from e2esim.params import ParamGroup
+from e2esim.params import Param, ParamGroup
 from helpers import TEST_SEED
 
 _DUMPER = getattr(yaml, "CSafeDumper", yaml.SafeDumper)
@@ -76,7 +76,7 @@ def _leaf_keys() -> list:
                     p, prefix = stack.pop()
                     if isinstance(p, ParamGroup):
                         stack += [(q, prefix + p.name + ".") for q in p.params]
-                    else:
+                    elif isinstance(p, Param):  # not a constraint between parameters
                         key = ("requirements.0" if kind == "requirement" else kind, prefix + p.name)
                         PARAMS.setdefault(key, p)
                         out.append(key)

@@ -9,6 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from e2esim import products as P
+from e2esim.errors import PhysicsInputError
 from e2esim.module import Stage
 from e2esim.orbit.acquisition import Site, acquisitions, swath_incidences
 from e2esim.orbit.sunsync import PASSES, SunSynchronousOrbit
