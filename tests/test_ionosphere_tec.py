@@ -93,7 +93,11 @@ def _site_rays(lat, lon, n_dates=3):
 def test_thin_shell_maps_vertical_to_slant_tec():
     g, dates = _site_rays(45.0, 30.0)
     p = path_integrals(g.target_ecef, g.satellite_ecef, dates, g.ut_h, (70.0, 180.0), SlantSettings("thin_shell"))
-    assert np.allclose(p.stec, p.vtec / np.cos(p.pierce_zenith))
+    # the mapping function by the law of sines on a sphere: sin(chi) = r sin(theta) / (r + h) at the shell
+    # height h = 350 km, theta the incidence at the target, r the target's geocentric radius
+    r = np.linalg.norm(g.target_ecef, axis=-1)
+    chi = np.arcsin(r * np.sin(g.incidence) / (r + 350e3))
+    np.testing.assert_allclose(p.stec / p.vtec, np.broadcast_to(1 / np.cos(chi), p.stec.shape), rtol=2e-3)
     assert np.allclose(p.faraday, p.stec * p.b_dot_k_pierce)
     assert np.all(p.vtec[1] > p.vtec[0])  # solar maximum has more electrons
     assert np.all((p.vtec > 0.5 * TECU) & (p.vtec < 100 * TECU))

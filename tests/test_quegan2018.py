@@ -43,12 +43,16 @@ def test_zone_centre_width_scaling_and_delay_error():
     s1, n1 = excluded_zone(10, 100)
     s2, n2 = excluded_zone(10, 10000)
     assert (n1 - s1) / (n2 - s2) == pytest.approx(10.0, rel=0.01)  # sigma ~ 1/sqrt(L), B.k linear near 0
-    # at the edge the 99 % delay error equals the requirement
+    # the threshold by hand: 2.576 SD(Omega_hat) / (586.68 |B.k|) = 25 m, with the corrected eq. (5) at
+    # SNR 10 dB (gamma = 10/11), L = 100: var = (1 - g^2) / (16 * 2 * L * g^2)
+    g = 10 / 11
+    sd_omega = np.sqrt((1 - g**2) / (16 * 2 * 100 * g**2))
     thr = delay_error_threshold(10, 100, TABLE1_ASSUMPTIONS)
-    sigma = thr * 586.679 * 25.0 / 2.576
-    _, bk_edge = b_dot_k_profile(TABLE1_ASSUMPTIONS, np.array([-3.0, 0.0]))  # target latitudes
-    assert range_delay_error(sigma, thr) * 2.576 == pytest.approx(25.0, rel=1e-3)
-    assert np.all(np.abs(bk_edge) > 0)
+    assert thr == pytest.approx(2.576 * sd_omega / (586.679 * 25.0), rel=1e-3)
+    # at the edges of the zone |B.k| equals that threshold: the 99 % delay error equals the requirement
+    at_target = replace(TABLE1_ASSUMPTIONS, latitude_at="target")  # edges as target latitudes
+    _, bk_edges = b_dot_k_profile(at_target, np.array(excluded_zone(10, 100, at_target)))
+    np.testing.assert_allclose(np.abs(bk_edges), thr, rtol=1e-6)
 
 
 def test_both_passes_give_the_same_zone():

@@ -7,6 +7,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from e2esim.budget.presets import PRESETS
 from e2esim.errors import ConfigError
 from e2esim.retrieval.agb_error import AGBContribution
 from e2esim.retrieval.combine import draw_random_errors
@@ -37,7 +38,10 @@ def test_budget_module_attaches_a_per_channel_budget():
     budget = case.get("backscatter.budget")
     assert budget.channels == ("hh", "hv", "vv")
     assert float(budget.channel("hv").sigma) == pytest.approx(0.0726)
-    assert case.scalars["budget.looks"] == pytest.approx(float(budget.channel("hv").looks))
+    # 4 ha at c / 2B (B = 6 MHz, unweighted) x 8.3 m in ground range: Ahmed et al. 2014, eq. (22)
+    looks = 40_000 * np.sin(PRESETS["biomass_200m"]["incidence_rad"]) / (299_792_458.0 / (2 * 6e6) * 8.3)
+    assert case.scalars["budget.looks"] == pytest.approx(looks, rel=1e-9)
+    assert case.scalars["budget.speckle.relative_sd_percent"] == pytest.approx(100 / np.sqrt(looks), rel=1e-9)
     assert case.scalars["budget.temporal.relative_sd_percent"] == pytest.approx(5.0)
 
 
@@ -167,7 +171,14 @@ def test_issue6_scenarios_run(name, quick_run):
     cases = quick_run(name)[0].cases
     assert len(cases) == 5
     for c in cases:
-        for contribution in ("system_distortions", "faraday_rotation", "speckle_noise", "temporal", "calibration",
-                             "area_projection", "regression"):
-            assert f"agb.contribution.{contribution}.sd_percent" in c.scalars
-        assert np.isfinite(c.scalars["agb.analytic.rmse_percent"])
+        agb = c.get("agb.error")
+        names = [k.name for k in agb.contributions]
+        assert names == ["system_distortions", "faraday_rotation", "noise_bias", "speckle_noise", "temporal",
+                         "calibration", "area_projection", "regression"]
+        # independent sources: the relative variance of the total is the sum of the parts (budget terms
+        # combined independently in these scenarios), and the speckle part is at least 1 / looks
+        total = (agb.error_sd / agb.sigma_hv) ** 2
+        assert sum(k.relative_variance for k in agb.contributions) == pytest.approx(total, rel=1e-9)
+        speckle = agb.contribution("speckle_noise").relative_variance
+        assert 1 / c.scalars["budget.looks"] <= speckle < 2 / c.scalars["budget.looks"]
+        assert agb.contribution("regression").relative_variance > 0

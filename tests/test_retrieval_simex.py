@@ -92,12 +92,8 @@ def test_simex_counts_failures_and_flags_unreliable_results():
     rng = np.random.default_rng(4)
     fp = synthetic_field_plots(SAT, 40, rng, allometric_error=0.1, backscatter_error=0.3,
                                model_error_sd=0.004, agb_range_t_ha=(5, 350))
-    try:
-        r = simex(SAT, fp.agb, fp.sigma, fp.agb_error_sd, fp.sigma_error_sd, rng, n_sim=50,
-                  max_failure_fraction=0.01)
-    except PhysicsInputError as exc:  # extrapolation impossible: reported as such
-        assert "SIMEX" in str(exc)
-        return
+    r = simex(SAT, fp.agb, fp.sigma, fp.agb_error_sd, fp.sigma_error_sd, rng, n_sim=50, max_failure_fraction=0.01)
+    assert r.failure_fraction > 0.1  # a large share of the simulated fits fail on such data
     assert r.failures.sum() > 0
     assert r.failures.sum() == sum(r.failure_modes.values())
     assert not r.reliable

@@ -143,6 +143,11 @@ def test_crosstalk_bias_is_a_sinusoid_in_the_crosstalk_phase():
         return bickel_bates_bias_first_order(SCENE, a * np.exp(1j * phi) * d, f, np.radians(10.0))
 
     b0, b90 = bias(0.0, 0.01), bias(np.pi / 2, 0.01)
+    assert np.hypot(b0, b90) > 1e-4  # a bias that vanished would pass the checks below
+    # the first-order bias is the exact bias (the estimator's limit) to first order in the crosstalk
+    state = SystemState(0.01 * d[None], f[None], np.array([np.radians(10.0)]), np.ones(1, complex))
+    exact = bickel_bates_bias(SCENE, state)
+    assert float(exact[0]) == pytest.approx(b0, rel=0.05)
     for phi in phis:
         assert bias(phi, 0.01) == pytest.approx(b0 * np.cos(phi) + b90 * np.sin(phi), abs=1e-15)
     assert bias(1.1, 0.02) == pytest.approx(2 * bias(1.1, 0.01), rel=1e-12)

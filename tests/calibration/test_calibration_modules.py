@@ -9,7 +9,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from e2esim.calibration.modules import FaradayCorrection, TransponderCalibration
+from cal_helpers import Z_ACCEPT
+from e2esim.calibration.modules import FaradayCorrection, RadiometricCalibration, TransponderCalibration
 from e2esim.calibration.pipeline import ResidualSystemErrorModel
 from e2esim.calibration.record import CalibrationRecord
 from e2esim.errors import ConfigError
@@ -68,7 +69,10 @@ def test_full_calibration_leaves_smaller_errors_than_the_raw_instrument():
     assert cal.scalars["analytic.sd"] < 0.7 * raw.scalars["analytic.sd"]
     assert cal.scalars["montecarlo.sd"] < 0.7 * raw.scalars["montecarlo.sd"]
     assert cal.scalars["calibration.residual.crosstalk_level_db"] < -40
-    assert "calibration.0.transponder_calibration.chi2_mean" in cal.scalars
+    # the whitened least-squares residual of 4 calibrators is chi-square with 8 K - 14 = 18 degrees of
+    # freedom (e2esim.calibration.transponder): its mean over the 2000 pilot realisations
+    chi2 = cal.scalars["calibration.0.transponder_calibration.chi2_mean"]
+    assert abs(chi2 - 18.0) < Z_ACCEPT * np.sqrt(2 * 18.0 / 2000)
 
 
 def test_distributed_target_calibration_needs_faraday_correction_far_from_the_equator():
@@ -90,8 +94,15 @@ def test_chirp_slope_and_radiometric_modules_run():
     sd = chirp.scalars["calibration.0.faraday_correction.omega_error_sd_deg"]
     predicted = chirp.scalars["calibration.0.faraday_correction.predicted_noise_sd_deg"]
     assert sd == pytest.approx(predicted, rel=0.1)
-    assert chirp.get("system.residual").gain_sd_db > 0
-    assert chirp.scalars["calibration.residual.gain_sd_db"] == pytest.approx(chirp.get("system.residual").gain_sd_db)
+    # the residual gain: the radiometric calibration's predicted error (3 targets at 35 dB SCR, pointing
+    # 0.05 deg in a 5 deg beam), drawn over the 2000 pilot realisations
+    module = RadiometricCalibration(scr_db=35.0, targets=3, pointing_sd_deg=0.05)
+    mean_db, sd_db = module.gain_error_db()
+    assert sd_db > 0.01
+    residual = chirp.get("system.residual")
+    assert abs(residual.gain_sd_db - sd_db) < Z_ACCEPT * sd_db / np.sqrt(2 * 2000)
+    assert abs(residual.gain_offset_db + mean_db) < Z_ACCEPT * sd_db / np.sqrt(2000)  # residual = -error
+    assert chirp.scalars["calibration.residual.gain_sd_db"] == residual.gain_sd_db
 
 
 def test_none_module_and_determinism():

@@ -58,25 +58,36 @@ def test_residual_decomposition_is_exact(rng):
 
 
 def test_fit_residual_model_holds_the_second_moments(rng):
-    ctx, res = _run(rng, [FaradayStep(BB), QueganStep()], n=2000)
-    model, unmodelled = fit_residual_model(res, SYSTEM.noise_power)
-    v = np.mean(np.abs(res.delta) ** 2, 0)
-    np.testing.assert_allclose(model.crosstalk_variance, v, rtol=1e-12)
-    c13 = np.mean(res.delta[:, 0] * np.conj(res.delta[:, 2]))
-    assert model.crosstalk_cov13 == pytest.approx(c13, rel=1e-10)
-    assert unmodelled["crosstalk_level_db"] == pytest.approx(10 * np.log10(np.mean(v)))
+    """The Gaussian fields of the residual model describe the corrected data: the analytic sigma_hv error of
+    the fitted model agrees with the Monte Carlo of the exact residual draws through the full system model
+    (z-tests with a 3 % allowance on the mean and the variance for what the pair structure of Men et al.
+    2021, Section III, cannot hold, reported in ``unmodelled``); its draws reproduce the residuals' crosstalk
+    powers."""
+    sampler = ResidualSampler(SYSTEM, BOREAL_FR, forest(), SYSTEM.noise_power, (FaradayStep(BB), QueganStep()))
+    model, unmodelled = fit_residual_model(sampler.sample(rng, 4000), SYSTEM.noise_power, sampler)
     assert isinstance(model, ResidualSystemErrorModel)
-    assert model.noise_power == pytest.approx(SYSTEM.noise_power, rel=0.01)
+    # Quegan (1994) estimates the crosstalk terms together: their errors are correlated outside the pairs
+    # of the Gaussian model, which the model reports (and the analytic moments say they are approximate)
+    assert unmodelled["max_abs_correlation_outside_pairs"] > 0.3 and model.analytic_caveat() is not None
+    assert model.noise_power == pytest.approx(SYSTEM.noise_power, rel=0.01)  # rotations keep the noise power
+    an = hv_error_moments(forest(), model, ConstantFaraday(0.0), looks=100_000)
+    mc = simulate(forest(), model, ConstantFaraday(0.0), rng, looks=100_000, realisations=4000)  # exact draws
+    e = np.ravel(mc.hv)
+    se_mean = e.std(ddof=1) / np.sqrt(e.size)
+    assert abs(e.mean() - float(an.mean)) < Z_ACCEPT * se_mean + 0.03 * abs(float(an.mean))
+    se_var = np.sqrt((np.mean((e - e.mean()) ** 4) - e.var() ** 2) / e.size)
+    assert abs(e.var(ddof=1) - float(an.variance)) < Z_ACCEPT * se_var + 0.03 * float(an.variance)
+    draws = model.sample(rng, 4000)
+    v = np.mean(np.abs(draws.delta) ** 2, 0)
+    np.testing.assert_allclose(v, model.crosstalk_variance, rtol=0.15)  # a different sample of the same strategy
 
 
-def test_residual_model_samples_through_the_strategy_and_scales_without_it(rng):
+def test_residual_model_scales_without_the_strategy(rng):
     sampler = ResidualSampler(SYSTEM, BOREAL_FR, forest(), SYSTEM.noise_power, (FaradayStep(BB), QueganStep()))
     model, _ = fit_residual_model(sampler.sample(rng, 500), SYSTEM.noise_power, sampler)
-    draws = model.sample(rng, 300)
-    assert draws.delta.shape == (300, 4) and draws.f.shape == (300, 2) and draws.gain.shape == (300,)
     scaled = model.with_levels(crosstalk=1e-3)
-    assert scaled.sampler is None and scaled.crosstalk_level == 1e-3
-    assert scaled.crosstalk_rho13 == model.crosstalk_rho13
+    assert scaled.sampler is None and scaled.crosstalk_level == 1e-3  # a hypothetical Gaussian model
+    assert scaled.crosstalk_rho13 == model.crosstalk_rho13 and scaled.imbalance_level == model.imbalance_level
 
 
 @pytest.mark.parametrize("steps, min_gain_db", [

@@ -43,11 +43,18 @@ def test_wishart_sample_covariance_is_unbiased(rng, looks):
     state = _state(rng)
     cov = measured_covariance(forest("tropical_338"), state, 0.002)
     draws = complex_wishart(rng, np.broadcast_to(cov, (20_000, 4, 4)), looks)
-    for i, j in [(0, 0), (1, 1), (0, 3), (1, 0), (2, 3)]:
-        for part in (np.real, np.imag):
-            x = part(draws[:, i, j])
-            if np.std(x) > 0:
-                assert abs(z_mean(x, part(cov[i, j]))) < Z_ACCEPT
+    assert np.all(np.imag(np.diagonal(draws, axis1=1, axis2=2)) == 0)  # powers are real
+    parts = [(0, 0, np.real), (1, 1, np.real)] + [(i, j, f) for i, j in [(0, 3), (1, 0), (2, 3)]
+                                                   for f in (np.real, np.imag)]
+    for i, j, part in parts:
+        x = part(draws[:, i, j])
+        assert np.std(x) > 0  # a draw that returned its input would have no spread
+        assert abs(z_mean(x, part(cov[i, j]))) < Z_ACCEPT
+        # Var(Re C_ij) = (C_ii C_jj + Re(C_ij^2)) / (2L) for a complex Wishart / L (Im: minus Re(C_ij^2));
+        # on the diagonal Var(C_ii) = C_ii^2 / L
+        sign = 1 if part is np.real else -1
+        var = np.real(cov[i, i] * cov[j, j] + sign * cov[i, j] ** 2) / (2 * looks)
+        assert abs(z_mean((x - part(cov[i, j])) ** 2, var)) < Z_ACCEPT
 
 
 def test_wishart_variance_of_a_power(rng):
@@ -75,6 +82,15 @@ def test_sample_measured_covariance_batches_over_realisations(rng):
     out = sample_measured_covariance(rng, forest(), state, 0.001, 100)
     assert out.shape == (5, 4, 4)
     np.testing.assert_allclose(out, np.conj(np.swapaxes(out, -1, -2)))
+    # each realisation's window is centred on its own measured covariance, with the spread of L = 100 looks
+    one = _state(rng, n=1)
+    cov = measured_covariance(forest(), one, 0.001)[0]
+    many = sample_measured_covariance(rng, forest(), SystemState(*(np.repeat(getattr(one, f), 4000, axis=0)
+                                                                    for f in ("delta", "f", "omega", "gain"))),
+                                      0.001, 100)
+    x = np.real(many[:, 1, 1])
+    assert abs(z_mean(x, cov[1, 1].real)) < Z_ACCEPT
+    assert abs(z_mean((x - cov[1, 1].real) ** 2, cov[1, 1].real ** 2 / 100)) < Z_ACCEPT
 
 
 def test_canonical_calibrators():

@@ -12,7 +12,6 @@ Omega is a circular variable" does not apply to these moments (docs/errata.md).
 
 from __future__ import annotations
 
-import functools
 import math
 from abc import ABC, abstractmethod
 from dataclasses import dataclass, field
@@ -39,14 +38,6 @@ def weighted_percentiles(values, weights, percents) -> np.ndarray:
     v, w = v[order], w[order] / w.sum()
     cdf = np.cumsum(w) - w / 2
     return np.interp(np.asarray(percents, float) / 100.0, cdf, v)
-
-
-@functools.lru_cache(maxsize=256)
-def _cached_quadrature(dist: "FaradayDistribution", degree: int):
-    nodes, weights = dist._quadrature(degree)
-    nodes.setflags(write=False)
-    weights.setflags(write=False)
-    return nodes, weights
 
 
 class FaradayDistribution(ABC):
@@ -93,9 +84,16 @@ class FaradayDistribution(ABC):
         with equally spaced nodes ``Omega_g = 2 pi g / G``, ``G = 2 degree + 1``, and weights
         ``w_g = (1/G) sum_{|k| <= degree} phi_k exp(-i k Omega_g)``: the discrete Fourier transform of h
         is exact for G > 2 degree, and ``E[exp(i m Omega)] = phi_m``. Weights can be negative.
-        Cached per distribution (the arrays are read-only).
+        Kept with the distribution (the arrays are read-only): every evaluation of the error model of a case
+        averages over the same distribution.
         """
-        return _cached_quadrature(self, degree)
+        memo = self.__dict__.setdefault("_quadrature_memo", {})
+        if degree not in memo:
+            nodes, weights = self._quadrature(degree)
+            nodes.setflags(write=False)
+            weights.setflags(write=False)
+            memo[degree] = (nodes, weights)
+        return memo[degree]
 
     def _quadrature(self, degree: int) -> tuple[np.ndarray, np.ndarray]:
         """Uncached ``quadrature``."""
