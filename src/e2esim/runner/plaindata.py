@@ -8,7 +8,7 @@ or of a registered plug-in), so it follows changes to the result types without a
 and round-trips exactly: floats through ``repr``, arrays byte for byte, shared references kept.
 
 Layout of one encoded value: ``(header, payload)``; ``header`` is a JSON text ``{"tree": ..., "arrays":
-[[dtype, shape], ...]}``, ``payload`` the arrays' bytes back to back, in C order.
+[[dtype, shape] or [dtype, shape, "read-only"], ...]}``, ``payload`` the arrays' bytes back to back, in C order.
 """
 
 from __future__ import annotations
@@ -105,7 +105,7 @@ class _Encoder:
     def _array(self, a: np.ndarray) -> int:
         if a.dtype.kind not in ARRAY_KINDS or a.dtype.fields is not None or a.dtype.subdtype is not None:
             raise NotPlainData(f"an array of dtype {a.dtype}")
-        self.specs.append([a.dtype.str, list(a.shape)])
+        self.specs.append([a.dtype.str, list(a.shape)] + ([] if a.flags.writeable else ["read-only"]))
         self.chunks.append(np.ascontiguousarray(a).tobytes())
         return len(self.specs) - 1
 
@@ -155,8 +155,9 @@ def _arrays(specs: list, payload: bytes) -> list:
     buffer = bytearray(payload)  # writeable arrays, like the ones that were stored
     out, pos = [], 0
     for spec in specs:
-        if not (isinstance(spec, list) and len(spec) == 2 and isinstance(spec[0], str) and isinstance(spec[1], list)
-                and all(type(n) is int and n >= 0 for n in spec[1])):
+        if not (isinstance(spec, list) and len(spec) in (2, 3) and isinstance(spec[0], str)
+                and isinstance(spec[1], list) and all(type(n) is int and n >= 0 for n in spec[1])
+                and spec[2:] in ([], ["read-only"])):
             raise BadPlainData("an array description is malformed")
         try:
             dtype = np.dtype(spec[0])
@@ -170,7 +171,9 @@ def _arrays(specs: list, payload: bytes) -> list:
         size = count * dtype.itemsize
         if pos + size > len(buffer):
             raise BadPlainData("the arrays are longer than the record")
-        out.append(np.frombuffer(buffer, dtype, count, pos).reshape(spec[1]))
+        array = np.frombuffer(buffer, dtype, count, pos).reshape(spec[1])
+        array.flags.writeable = not spec[2:]  # as it was stored: read-only arrays stay read-only
+        out.append(array)
         pos += size
     if pos != len(buffer):
         raise BadPlainData("the record holds bytes that belong to no array")
