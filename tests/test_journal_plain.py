@@ -11,6 +11,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from test_parallel_and_resume import _scenario as _sweep
 
 from e2esim.cli import main
 from e2esim.errors import JournalError
@@ -18,7 +19,7 @@ from e2esim.runner import plaindata
 from e2esim.runner.journal import JOURNAL, Journal, count_finished
 from e2esim.runner.run import run_case, run_scenario
 from e2esim.runner.scenario import Scenario
-from test_parallel_and_resume import _scenario as _sweep
+
 
 class Payload:
     """Unpickling this writes a marker file: proof that a file's content ran as code."""

@@ -12,11 +12,11 @@ import time
 from pathlib import Path
 
 import pytest
+from test_parallel_and_resume import _scenario as _sweep
 
 from e2esim.cli import main
 from e2esim.runner.journal import JOURNAL
 from e2esim.runner.lock import LOCK_NAME
-from test_parallel_and_resume import _scenario as _sweep
 
 SMALL = """
 name: small

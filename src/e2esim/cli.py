@@ -133,11 +133,11 @@ def _scenario(args):
 
 
 def cmd_run(args) -> int:
-    from e2esim.report.document import verdict_lines
     from e2esim.io.summary import summary_json
+    from e2esim.report.document import verdict_lines
     from e2esim.runner.executors import check_scheduler_address
-    from e2esim.runner.outputs import output_folder, prepare_folder, write_outputs
     from e2esim.runner.journal import Journal
+    from e2esim.runner.outputs import output_folder, prepare_folder, write_outputs
     from e2esim.runner.run import run_scenario
 
     if args.workers < 1:

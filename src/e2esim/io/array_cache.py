@@ -70,8 +70,8 @@ def cache_file(folder: Path, kind: str, key: str) -> Path:
 def read(path: Path, required: tuple = ()) -> dict | None:
     """The arrays and attributes stored in ``path``, or None if it is absent, unreadable or not what this
     cache writes: numeric datasets at the top level and attributes of numbers and text, with every name of
-    ``required`` among the datasets or the attributes. Nothing in the file can run code (HDF5 through h5py holds no pickles); anything
-    unexpected is a cache miss, recomputed and overwritten."""
+    ``required`` among the datasets or the attributes. Nothing in the file can run code (HDF5 through h5py
+    holds no pickles); anything unexpected is a cache miss, recomputed and overwritten."""
     import h5py
 
     if not Path(path).exists():
@@ -84,7 +84,7 @@ def read(path: Path, required: tuple = ()) -> dict | None:
                     return None
                 out[name] = item[()]
             attrs = {k: (v.decode() if isinstance(v, bytes) else v) for k, v in f.attrs.items()}
-    except Exception:  # noqa: BLE001 - any unreadable or foreign file is only a cache miss
+    except Exception:  # any unreadable or foreign file is only a cache miss
         return None
     if any(name not in out and name not in attrs for name in required):
         return None

@@ -31,7 +31,7 @@ class FolderLock:
         self.path = self.folder / LOCK_NAME
         self._fd: int | None = None
 
-    def acquire(self) -> "FolderLock":
+    def acquire(self) -> FolderLock:
         for _ in range(20):  # another run may remove the file between our open and our lock: try again
             try:
                 fd = self._open()
@@ -106,7 +106,7 @@ class FolderLock:
         os.close(self._fd)
         self._fd = None
 
-    def __enter__(self) -> "FolderLock":
+    def __enter__(self) -> FolderLock:
         return self.acquire() if self._fd is None else self
 
     def __exit__(self, *exc) -> None:

@@ -141,7 +141,7 @@ class Scenario:
         self.raw = data
 
     @classmethod
-    def load(cls, path: str | Path, overrides=(), allow_imports=(), replace_sweep=()) -> "Scenario":
+    def load(cls, path: str | Path, overrides=(), allow_imports=(), replace_sweep=()) -> Scenario:
         """Read a scenario file and apply ``--replace-sweep`` then ``--set`` assignments (``KEY=VALUE``).
 
         allow_imports : top-level packages that ``type: package.module:Class`` may import besides installed

@@ -45,7 +45,7 @@ edges for the incidence, other pierce heights, the latitude convention, the Eart
 levels, and the requirement on the ground-range error."""
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def _alternative_zones(snr_db: int, looks: int) -> tuple:
     """The zone (south, north) under each of ``TABLE1_ALTERNATIVES``, corrected variance, to about 0.001 deg:
     threshold crossings of |B.k| interpolated on a 0.01 deg grid (one vectorised profile per alternative,
@@ -53,7 +53,7 @@ def _alternative_zones(snr_db: int, looks: int) -> tuple:
     return tuple(_grid_zones(tuple(sorted(change.items())))[(snr_db, looks)] for change in TABLE1_ALTERNATIVES.values())
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def _grid_zones(change: tuple) -> dict:
     from e2esim.ionosphere.geolocation import b_dot_k_profile, delay_error_threshold
     from e2esim.verification.quegan2018_values import TABLE1
