@@ -9,7 +9,6 @@ is ``h(t) = a sinc(t) + b (sinc(t - 1) + sinc(t + 1))`` with ``a = (1 + eta) / 2
 from __future__ import annotations
 
 import numpy as np
-from scipy import integrate, optimize
 
 
 def impulse_response(t, eta):
@@ -21,6 +20,8 @@ def impulse_response(t, eta):
 def resolution_width(eta) -> float:
     """-3 dB width of |h|^2 (units of 1/B)."""
     peak = impulse_response(0.0, eta) ** 2
+    from scipy import optimize  # imported here: it costs a second at start-up
+
     half = optimize.brentq(lambda t: impulse_response(t, eta) ** 2 - 0.5 * peak, 1e-9, 1.5, xtol=1e-14)
     return 2.0 * half
 
@@ -35,5 +36,7 @@ def window_islr_db(eta, mainlobe_widths: float = 2.0) -> float:
     inside. The total energy is exact (Parseval: int w^2 df); the main lobe is integrated numerically."""
     total = (eta**2 + eta * (1 - eta) + 3.0 * (1 - eta) ** 2 / 8.0)  # int_{-1/2}^{1/2} w(f)^2 df
     edge = mainlobe_widths * resolution_width(eta)
+    from scipy import integrate  # imported here, as above
+
     main, _ = integrate.quad(lambda t: impulse_response(t, eta) ** 2, -edge, edge, limit=400, epsabs=1e-14)
     return float(10.0 * np.log10((total - main) / main))

@@ -20,7 +20,6 @@ left enters the error budget as the absolute gain error (``SystemErrorModel.gain
 from __future__ import annotations
 
 import numpy as np
-from scipy import integrate
 
 from e2esim.errors import PhysicsInputError
 
@@ -71,6 +70,8 @@ def ahmed_azimuth_gain_error(dtheta, k: float = UNIFORM_ARRAY_BEAM_SHAPING) -> n
     use the exact pattern (``pattern_gain_error``, ``swath_pointing_gain_sd_db``).
     """
     u = np.pi / (2 * k)
+    from scipy import integrate  # imported here: it costs a second at start-up
+
     area = integrate.quad(lambda x: np.sinc(x / np.pi) ** 2, 0, u)[0]
     return 2 * k * np.asarray(dtheta, dtype=float) / np.pi * np.log(np.sinc(1 / (2 * k))) / area
 

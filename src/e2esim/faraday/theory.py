@@ -22,7 +22,6 @@ the bias depends on their amplitudes and phases (cf. Quegan & Lomas 2015, IEEE T
 from __future__ import annotations
 
 import numpy as np
-from scipy import special, stats
 
 from e2esim.faraday.estimators import _Z_A, _Z_B, AMBIGUITY_PERIOD, wrap_error
 from e2esim.polarimetry.simulate import SystemState, measured_covariance, reciprocal_covariance4
@@ -63,6 +62,8 @@ def phase_pdf(psi, looks: int, coherence: float) -> np.ndarray:
     if not 0 <= rho < 1:
         raise PhysicsInputError(f"coherence must be in [0, 1), got {coherence!r}")
     b = rho * np.cos(np.asarray(psi, dtype=float))
+    from scipy import special  # imported here: scipy.special and scipy.stats cost seconds at start-up
+
     gl = special.gammaln
     lq = np.log1p(-rho**2)
     lb = np.log1p(-b**2)
@@ -171,7 +172,9 @@ def ambiguity_error_probability(prior_sd_rad, estimate_sd_rad=0.0, period: float
     ``P(|e| > period/2)`` for ``e ~ N(0, prior_sd^2 + estimate_sd^2)`` (other branches' overlap ignored)."""
     sd = np.hypot(prior_sd_rad, estimate_sd_rad)
     with np.errstate(divide="ignore"):
-        return 2 * stats.norm.sf(period / 2 / np.asarray(sd, dtype=float))
+        from scipy import special
+
+        return 2 * special.ndtr(-(period / 2 / np.asarray(sd, dtype=float)))  # 2 P(Z > period / 2 sd)
 
 
 def freeman_variance(scene, noise_power: float, omega: float, looks: int, noise_subtraction: bool = True) -> float:

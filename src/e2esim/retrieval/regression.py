@@ -22,7 +22,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import stats
 
 from e2esim.errors import PhysicsInputError
 from e2esim.retrieval.models import FitResult, RetrievalModel
@@ -51,10 +50,14 @@ def critical_value(level: float, kind: str = "normal", dof: int | None = None) -
     if not 0 < level < 1:
         raise PhysicsInputError(f"confidence level must be in (0, 1), got {level}")
     if kind == "normal":
-        return float(stats.norm.ppf(0.5 + level / 2))
+        from scipy import special
+
+        return float(special.ndtri(0.5 + level / 2))
     if kind == "t":
         if dof is None or dof < 1:
             raise PhysicsInputError(f"a Student t critical value needs dof >= 1, got {dof}")
+        from scipy import stats  # imported here: scipy.stats costs a second at start-up
+
         return float(stats.t.ppf(0.5 + level / 2, dof))
     raise PhysicsInputError(f"critical value kind must be one of {CRITICAL_KINDS}, got {kind!r}")
 
