@@ -51,7 +51,8 @@ def test_reproduce_json_records_have_the_required_fields(capsys):
     out = json.loads(capsys.readouterr().out)
     assert {r["id"] for r in out} >= set(MEN2021_IDS)
     for r in out:
-        assert set(r) == {"id", "quantity", "published", "computed", "tolerance", "status", "citation", "note"}
+        assert set(r) == {"id", "quantity", "published", "computed", "tolerance", "status", "citation", "note",
+                          "expected_computed", "computed_tolerance"}
 
 
 def test_unknown_source_is_a_user_error(capsys):

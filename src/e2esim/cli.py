@@ -7,15 +7,19 @@ traceback; ``--debug`` shows the traceback.
 from __future__ import annotations
 
 import argparse
+import contextlib
+import functools
 import json
+import os
 import sys
 
 import e2esim
-from e2esim.errors import UserError
+from e2esim.errors import UserError, one_line
 
 EXAMPLES = """examples:
   e2esim run scenarios/biomass_default.yaml
   e2esim run scenarios/biomass_default.yaml -o runs/test --force --set instrument.crosstalk.level_db=-28
+  e2esim run scenarios/biomass_latitude_sweep.yaml --replace-sweep ionosphere.solar=max
   e2esim validate scenarios/men2021_table2.yaml
   e2esim modules instrument
   e2esim reproduce men2021 --json
@@ -23,7 +27,13 @@ EXAMPLES = """examples:
 """
 
 
+@functools.lru_cache(maxsize=1)
 def build_parser() -> argparse.ArgumentParser:
+    """The command-line parser (built once per process: parsing does not change it)."""
+    return _build_parser()
+
+
+def _build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="e2esim",
         description="End-to-end mission performance simulator for spaceborne polarimetric SAR biomass missions.",
@@ -39,9 +49,10 @@ def build_parser() -> argparse.ArgumentParser:
                                      "results.h5, summary.json, report.md and PNG plots into the output folder.")
     run.add_argument("scenario", help="scenario YAML file")
     run.add_argument("-o", "--output", metavar="DIR", help="output folder (default: output.folder, else runs/<name>)")
-    run.add_argument("--force", action="store_true", help="overwrite an existing output folder")
-    run.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
-                     help="override a scenario value by dotted key, e.g. instrument.nesz_db=-30 (repeatable)")
+    run.add_argument("--force", action="store_true",
+                     help="use an existing output folder: first remove the outputs and journal of the run that was "
+                          "there (other files stay); a folder where a run is live is still refused")
+    _add_scenario_options(run)
     run.add_argument("--json", action="store_true", help="also print summary.json to stdout")
     run.add_argument("--no-progress", action="store_true", help="no progress bar")
     run.add_argument("--workers", type=int, default=1, metavar="N",
@@ -55,8 +66,7 @@ def build_parser() -> argparse.ArgumentParser:
                          description="Read and check a scenario: every section, key, value, module type and sweep "
                                      "case. Exit status 0 if valid, 2 with a message naming the problem if not.")
     val.add_argument("scenario", help="scenario YAML file")
-    val.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
-                     help="override a scenario value by dotted key (repeatable)")
+    _add_scenario_options(val)
 
     mods = sub.add_parser("modules", help="list registered modules and their parameters",
                           description="List the modules registered through the entry-point group e2esim.modules "
@@ -86,6 +96,19 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _add_scenario_options(sub) -> None:
+    """The options that change the scenario: the same for run and validate, applied the same way."""
+    sub.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
+                     help="override a scenario value by dotted key, e.g. instrument.nesz_db=-30 (repeatable); "
+                          "a key the sweep sets is an error: change the sweep with --set sweep.parameters.KEY=[...] "
+                          "or --set sweep.cases.I.KEY=VALUE, or use --replace-sweep")
+    sub.add_argument("--replace-sweep", dest="replace_sweep", action="append", default=[], metavar="KEY=VALUE",
+                     help="take KEY out of the sweep and give it VALUE in every case (repeatable)")
+    sub.add_argument("--allow-import", dest="allow_import", action="append", default=[], metavar="PACKAGE",
+                     help="let 'type: PACKAGE.module:Class' import PACKAGE although it is not an installed "
+                          "distribution (repeatable; the working directory is never searched; docs/security.md)")
+
+
 def main(argv=None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
@@ -97,38 +120,64 @@ def main(argv=None) -> int:
     except UserError as exc:
         if args.debug:
             raise
-        print(f"e2esim: error: {exc}", file=sys.stderr)
+        print(f"e2esim: error: {one_line(exc)}", file=sys.stderr)
         return exc.exit_status
     except KeyboardInterrupt:
         print("e2esim: interrupted; no partial output files were left", file=sys.stderr)
         return 130
+    except BrokenPipeError:
+        return _broken_pipe()
+
+
+def _broken_pipe() -> int:
+    """The reader of our output went away (``e2esim modules | head -1``): stop quietly, as Unix tools do.
+    stdout is pointed at /dev/null so that the interpreter's final flush cannot complain either."""
+    with contextlib.suppress(OSError, ValueError):
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+    return 0
+
+
+def _scenario(args):
+    from e2esim.runner.scenario import Scenario
+
+    return Scenario.load(args.scenario, args.overrides, allow_imports=args.allow_import,
+                         replace_sweep=args.replace_sweep)
 
 
 def cmd_run(args) -> int:
-    from e2esim.report.document import verdict_lines
     from e2esim.io.summary import summary_json
-    from e2esim.runner.outputs import output_folder, prepare_folder, write_outputs
+    from e2esim.report.document import verdict_lines
+    from e2esim.runner.executors import check_scheduler_address
     from e2esim.runner.journal import Journal
+    from e2esim.runner.outputs import output_folder, prepare_folder, write_outputs
     from e2esim.runner.run import run_scenario
-    from e2esim.runner.scenario import Scenario
 
     if args.workers < 1:
         raise UserError(f"--workers {args.workers}: expected a number of processes >= 1")
-    resolved = Scenario.load(args.scenario, args.overrides).resolve()
+    if args.scheduler:
+        check_scheduler_address(args.scheduler)
+    resolved = _scenario(args).resolve()
     folder = output_folder(resolved, args.output)
-    prepare_folder(folder, args.force, args.resume)
-    journal = Journal(folder, resolved)
-    finished = journal.start(resume=args.resume)
+    lock = prepare_folder(folder, args.force, args.resume)
     try:
-        result = run_scenario(resolved, progress=not args.no_progress, command=" ".join(["e2esim"] + sys.argv[1:]),
-                              workers=args.workers, scheduler=args.scheduler, journal=journal, finished=finished)
-    except KeyboardInterrupt:
-        journal.close()
-        print(f"e2esim: interrupted; {journal.finished_count()} of {len(resolved.cases)} cases are saved in "
-              f"{journal.path}; run the same command with --resume to finish", file=sys.stderr)
-        return 130
-    write_outputs(result, folder)
-    journal.remove()
+        journal = Journal(folder, resolved)
+        finished = journal.start(resume=args.resume)
+        try:
+            result = run_scenario(resolved, progress=not args.no_progress,
+                                  command=" ".join(["e2esim"] + sys.argv[1:]), workers=args.workers,
+                                  scheduler=args.scheduler, journal=journal, finished=finished)
+        except KeyboardInterrupt:
+            journal.close()
+            print(f"e2esim: interrupted; {journal.finished_count()} of {len(resolved.cases)} cases are saved in "
+                  f"{journal.path}; run the same command with --resume to finish", file=sys.stderr)
+            return 130
+        finally:
+            journal.close()
+        write_outputs(result, folder)
+        journal.remove()
+    finally:
+        lock.release()
     out = sys.stderr if args.json else sys.stdout
     print(f"{resolved.name}: {len(result.cases)} case(s); outputs in {folder}/", file=out)
     for line in verdict_lines(result) or ["(no requirements stated)"]:
@@ -139,9 +188,7 @@ def cmd_run(args) -> int:
 
 
 def cmd_validate(args) -> int:
-    from e2esim.runner.scenario import Scenario
-
-    resolved = Scenario.load(args.scenario, args.overrides).resolve()
+    resolved = _scenario(args).resolve()
     case = resolved.cases[0]
     modules = ", ".join(f"{m.kind}={m.type_name}" for m in case.modules)
     products = " -> ".join("+".join(p.name for p in stage.provides) for stage in case.chain)

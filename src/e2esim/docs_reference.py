@@ -82,7 +82,11 @@ def render() -> str:
         "converted to SI once and modules read it under its SI name (`mean_deg` -> `mean_rad`, `nesz_db` -> "
         "`nesz_linear`, `bandwidth_mhz` -> `bandwidth_hz`, `bound_percent` -> `bound_fraction`; dB values of "
         "formulas written in dB keep their name). Any value can be overridden from the command line with "
-        "`--set section.key=value` (dotted keys; list items by index, e.g. `requirements.0.bound_percent=10`).",
+        "`--set section.key=value` (dotted keys; list items by index, e.g. `requirements.0.bound_percent=10`); "
+        "a key that the sweep sets is changed in the sweep instead (`--set sweep.parameters.KEY=[...]`, "
+        "`--set sweep.cases.I.KEY=VALUE` or `--replace-sweep KEY=VALUE`). An optional top-level `plugins:` "
+        "list names packages that `type: package.module:Class` may import although they are not installed "
+        "distributions (security.md).",
         "",
         f"Required sections: {', '.join('`' + s + '`' for s in REQUIRED_SECTIONS)}. Sections left out use: "
         + ", ".join(f"`{k}: {{type: {v['type']}}}`" for k, v in DEFAULT_MODULES.items())

@@ -103,8 +103,41 @@ class OutputExistsError(UserError):
 class PhysicsInputError(UserError, ValueError):
     """A physically impossible input given through the Python API (e.g. a covariance that is not
     Hermitian positive semi-definite). Inside a scenario it is re-raised as a ``ConfigError`` that
-    names the key path."""
+    names the key path: the module's section, and below it ``key`` (a dotted parameter name such as
+    ``acquisitions.start``) when the raiser knows which parameter is at fault."""
+
+    def __init__(self, message: str, key: str | None = None):
+        super().__init__(message)
+        self.key = key
+
+    def location(self, section: Location) -> Location:
+        """Where the bad value is: ``section`` and below it ``key``, when known."""
+        where = section
+        for part in (self.key or "").split("."):
+            if part:
+                where = where.child(int(part) if part.isdigit() else part)
+        return where
 
 
 class ModuleLookupError(UserError, LookupError):
-    """A module type name that no registered module has."""
+    """A module type name that no registered module has, or a ``package.module:Class`` that may not or
+    cannot be imported."""
+
+
+class LimitError(UserError):
+    """An input beyond one of the validation limits (``e2esim.runner.limits``): the message names the
+    number, the limit and, where the work is legitimate, how to run it."""
+
+
+class OutputFolderError(UserError):
+    """The output folder cannot be used: below a file, not writable, full, or locked by a live run."""
+
+
+class JournalError(UserError):
+    """The resume journal in an output folder is corrupt, foreign or of another version."""
+
+
+def one_line(text: str) -> str:
+    """``text`` on one line: line breaks (and runs of blanks around them) become one space, so that every
+    message e2esim prints is a single line."""
+    return " ".join(part.strip() for part in str(text).splitlines() if part.strip())

@@ -90,7 +90,7 @@ class Module(ABC):
             self.si = _frozen(self.derive(to_si(self.params, self.config)))
             self.setup()
         except PhysicsInputError as exc:
-            raise ConfigError(where, str(exc)) from exc
+            raise ConfigError(exc.location(where), str(exc)) from exc
 
     def derive(self, si: dict) -> dict:
         """The SI values the module works with, from those of its parameters (override to adjust or add:

@@ -208,6 +208,8 @@ class Param:
             raise ConfigError(where, f"{_show(value)} has the wrong type", allowed)
         if isinstance(value, float) and not math.isfinite(value):
             raise ConfigError(where, f"{_show(value)} is not a finite number", allowed)
+        if isinstance(value, int) and not -_LARGEST < value < _LARGEST:
+            raise ConfigError(where, f"{_show(value)} is too large", allowed)
         if self.type == "int":
             if isinstance(value, float):
                 if not value.is_integer():
@@ -369,16 +371,25 @@ def _fmt(x: float) -> str:
     return f"{x:g}"
 
 
+_LARGEST = 10**300  # integers beyond this are not numbers a scenario means (and overflow a float)
+_SHOW_CHARS = 80  # a value quoted in a message is cut to about this length
+
+
 def _show(value: Any) -> str:
+    """A value as a message quotes it: YAML-like, on one line, cut to ``_SHOW_CHARS``."""
     if isinstance(value, str):
-        return repr(value)
-    if isinstance(value, bool):
-        return "true" if value else "false"
-    if isinstance(value, (list, tuple)):
-        return "[" + ", ".join(_show(v) for v in value) + "]"
-    if isinstance(value, Mapping):
-        return "a mapping"
-    return repr(value) if not isinstance(value, (int, float)) else f"{value:g}"
+        text = repr(value)
+    elif isinstance(value, bool):
+        text = "true" if value else "false"
+    elif isinstance(value, (list, tuple)):
+        text = "[" + ", ".join(_show(v) for v in value[:20]) + (", ...]" if len(value) > 20 else "]")
+    elif isinstance(value, Mapping):
+        text = "a mapping"
+    elif isinstance(value, int) and not -_LARGEST < value < _LARGEST:
+        text = f"an integer of {len(str(abs(value))) if abs(value) < 10**4000 else 'over 4000'} digits"
+    else:
+        text = repr(value) if not isinstance(value, (int, float)) else f"{value:g}"
+    return text if len(text) <= _SHOW_CHARS else text[:_SHOW_CHARS] + "..."
 
 
 # Components named by a parameter (type "module") ----------------------------------------------------

@@ -5,14 +5,21 @@ its modules, under ``[project.entry-points."e2esim.modules"]`` with names ``"<ki
 are open: a plug-in may register modules of a kind e2esim does not know (a new stage kind, which then is
 a scenario section of that name).
 A scenario may also name a class directly, ``type: package.module:ClassName`` (model: xarray's backend
-plug-ins; the error for an unknown name lists the valid ones).
+plug-ins; the error for an unknown name lists the valid ones), of an installed distribution or of a
+package the user allows explicitly; see ``lookup`` and docs/security.md.
 """
 
 from __future__ import annotations
 
+import contextlib
 import importlib
+import os
+import re
+import sys
+import threading
+from contextvars import ContextVar
 from dataclasses import dataclass
-from importlib.metadata import entry_points
+from importlib.metadata import entry_points, packages_distributions
 from typing import Dict, Tuple
 
 from e2esim.errors import ModuleLookupError
@@ -59,9 +66,10 @@ def _load() -> Dict[Tuple[str, str], Registration]:
 
 
 def refresh() -> None:
-    """Forget the cached registry (after installing a plug-in in the same process)."""
-    global _cache
+    """Forget the cached registry and installed packages (after installing a plug-in in the same process)."""
+    global _cache, _installed
     _cache = None
+    _installed = None
 
 
 def _check_class(cls, origin: str, kind: str | None = None, type_name: str | None = None) -> None:
@@ -92,22 +100,92 @@ def kinds() -> list:
 
 
 def lookup(kind: str, type_name: str) -> type:
-    """The module class for ``type_name`` (a registered name or ``package.module:Class``)."""
+    """The module class for ``type_name`` (a registered name or ``package.module:Class``).
+
+    Registered names come first. A ``package.module:Class`` path is imported only if its syntax is right
+    and its top-level package belongs to an installed distribution or is allowed explicitly
+    (``allowed_imports``: the scenario's ``plugins:`` list, ``--allow-import``); the current working
+    directory and relative path entries are never searched (docs/security.md).
+    """
+    reg = _load().get((kind, type_name))
+    if reg is not None:
+        return reg.cls
     if ":" in type_name:
-        module_name, _, class_name = type_name.partition(":")
-        try:
-            cls = getattr(importlib.import_module(module_name), class_name)
-        except (ImportError, AttributeError) as exc:
-            raise ModuleLookupError(f"cannot import {type_name!r}: {exc}") from exc
+        cls = _import_class(type_name)
         _check_class(cls, repr(type_name))
         if cls.kind != kind:
             raise ModuleLookupError(f"{type_name!r} is a {cls.kind} module, not a {kind} module")
         return cls
-    reg = _load().get((kind, type_name))
-    if reg is None:
-        names = [r.type_name for r in available(kind)]
+    names = [r.type_name for r in available(kind)]
+    raise ModuleLookupError(
+        f"unknown {kind} type {_short(type_name)!r}; registered {kind} types: {', '.join(names) or 'none'} "
+        "(or give package.module:ClassName)"
+    )
+
+
+_CLASS_PATH = re.compile(r"^([A-Za-z_][A-Za-z0-9_]*(?:\.[A-Za-z_][A-Za-z0-9_]*)*):([A-Za-z_][A-Za-z0-9_]*)$")
+_allowed: ContextVar[frozenset] = ContextVar("e2esim_allowed_imports", default=frozenset())
+_import_lock = threading.Lock()
+
+
+@contextlib.contextmanager
+def allowed_imports(packages):
+    """Within the block, ``package.module:Class`` may also import these top-level packages."""
+    token = _allowed.set(_allowed.get() | frozenset(packages))
+    try:
+        yield
+    finally:
+        _allowed.reset(token)
+
+
+def _import_class(type_name: str) -> type:
+    match = _CLASS_PATH.match(type_name)
+    if not match:
+        raise ModuleLookupError(f"{_short(type_name)!r} is not a class path; expected package.module:ClassName "
+                                "with Python names (e.g. my_instruments.radar:MyRadar)")
+    module_name, class_name = match.groups()
+    top = module_name.split(".")[0]
+    if top not in _allowed.get() and top not in _installed_packages():
         raise ModuleLookupError(
-            f"unknown {kind} type {type_name!r}; registered {kind} types: {', '.join(names) or 'none'} "
-            "(or give package.module:ClassName)"
+            f"will not import {module_name!r} for {type_name!r}: {top!r} is not an installed distribution; "
+            f"install it (pip install), or allow it with 'plugins: [{top}]' in the scenario or --allow-import {top}"
         )
-    return reg.cls
+    with _import_lock, _without_working_directory():
+        try:
+            module = importlib.import_module(module_name)
+        except ImportError as exc:
+            raise ModuleLookupError(f"cannot import {type_name!r}: {exc}") from exc
+    try:
+        return getattr(module, class_name)
+    except AttributeError as exc:
+        raise ModuleLookupError(f"cannot import {type_name!r}: module {module_name!r} has no {class_name!r}") from exc
+
+
+def _installed_packages() -> frozenset:
+    """Top-level packages of the installed distributions (importlib.metadata; read once, like the entry points,
+    and again after ``refresh``)."""
+    global _installed
+    if _installed is None:
+        _installed = frozenset(packages_distributions())
+    return _installed
+
+
+_installed: frozenset | None = None
+
+
+@contextlib.contextmanager
+def _without_working_directory():
+    """``sys.path`` without the entries that mean the current working directory ('' and '.', and the folder
+    itself, which ``python -m`` puts first), so that no file there is imported by a scenario."""
+    cwd = os.path.realpath(os.getcwd())
+    saved = list(sys.path)
+    sys.path[:] = [p for p in saved if p not in ("", ".") and os.path.realpath(p) != cwd]
+    try:
+        yield
+    finally:
+        sys.path[:] = saved
+
+
+def _short(text: str, limit: int = 80) -> str:
+    text = " ".join(str(text).split())
+    return text if len(text) <= limit else text[:limit] + "..."

@@ -181,12 +181,12 @@ class TransponderCalibration(CalibrationModule):
         names = self.si["calibrators"]
         if len(names) < 3:
             raise PhysicsInputError(f"{len(names)} calibrators cannot determine the system errors; give at least "
-                                    "three independent ones (four or more over-determine it)")
+                                    "three independent ones (four or more over-determine it)", key="calibrators")
         rank = np.linalg.matrix_rank(np.stack([to_vector(target_matrix(n)) for n in names]))
         if rank < 3:
             raise PhysicsInputError(
                 f"calibrators {', '.join(names)} span only {rank} independent scattering matrices; the system errors "
-                "need at least 3 (e.g. trihedral, dihedral_0 and dihedral_45, or four transponders)")
+                "need at least 3 (e.g. trihedral, dihedral_0 and dihedral_45, or four transponders)", key="calibrators")
 
     def steps(self, case):
         c = self.si

@@ -106,7 +106,7 @@ def site_path_integrals(geometry, f107_levels, settings: SlantSettings, cache=No
     arrays = {"target": geometry.target_ecef, "satellite": geometry.satellite_ecef,
               "time": geometry.time_utc.astype("int64")}
     if cache is not None:
-        stored = cache.get("site", desc, arrays)
+        stored = cache.get("site", desc, arrays, ("vtec", "stec", "faraday", "b_dot_k_pierce", "pierce_zenith", "f107"))
         if stored is not None:
             return PathIntegrals(stored["vtec"], stored["stec"], stored["faraday"], stored["b_dot_k_pierce"],
                                  stored["pierce_zenith"], tuple(stored["f107"].tolist()), settings.method)

@@ -199,7 +199,8 @@ def global_climatology(orbit: SunSynchronousOrbit, step_deg: float = 2.0, months
             "lat_range": [float(x) for x in lat_range], "lon_range": [float(x) for x in lon_range],
             "settings": _settings_description(settings)}
     if cache is not None:
-        stored = cache.get("global", desc)
+        stored = cache.get("global", desc, None, ("lat_deg", "lon_deg", "months", "f107", "incidence_deg", "faraday",
+                                                  "stec", "vtec", "year"))
         if stored is not None:
             a = stored["attrs"]
             return GlobalClimatology(stored["lat_deg"], stored["lon_deg"], tuple(stored["months"].tolist()),

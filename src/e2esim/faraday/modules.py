@@ -12,6 +12,7 @@ import numpy as np
 from e2esim import products as P
 from e2esim.errors import PhysicsInputError
 from e2esim.faraday.distribution import ConstantFaraday, EmpiricalFaraday, GaussianFaraday
+from e2esim.io.samples import read_samples_file
 from e2esim.module import Stage, fail
 from e2esim.params import ExactlyOneOf, Param
 
@@ -95,10 +96,7 @@ class FaradaySamplesModule(_FaradayStage):
         if path is not None:
             base = Path(self.location.source).parent if Path(self.location.source).exists() else Path(".")
             file = (base / path) if not Path(path).is_absolute() else Path(path)
-            try:
-                values = np.load(file) if file.suffix == ".npy" else np.loadtxt(file, ndmin=1)
-            except (OSError, ValueError) as exc:
-                raise PhysicsInputError(f"cannot read Faraday-rotation samples from {file}: {exc}") from exc
+            values = read_samples_file(file, key="samples_file")
         self.distribution = EmpiricalFaraday(np.radians(np.asarray(values, dtype=float)), label="samples")
 
     def forward(self, case):

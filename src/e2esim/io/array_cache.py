@@ -67,19 +67,31 @@ def cache_file(folder: Path, kind: str, key: str) -> Path:
     return Path(folder) / f"{kind}_{key}.h5"
 
 
-def read(path: Path) -> dict | None:
-    """The arrays and attributes stored in ``path``, or None if it is absent or unreadable."""
+def read(path: Path, required: tuple = ()) -> dict | None:
+    """The arrays and attributes stored in ``path``, or None if it is absent, unreadable or not what this
+    cache writes: numeric datasets at the top level and attributes of numbers and text, with every name of
+    ``required`` among the datasets or the attributes. Nothing in the file can run code (HDF5 through h5py
+    holds no pickles); anything unexpected is a cache miss, recomputed and overwritten."""
     import h5py
 
     if not Path(path).exists():
         return None
     try:
         with h5py.File(path, "r") as f:
-            out = {name: f[name][()] for name in f}
-            out["attrs"] = {k: (v.decode() if isinstance(v, bytes) else v) for k, v in f.attrs.items()}
-            return out
-    except (OSError, KeyError):
+            out = {}
+            for name, item in f.items():
+                if not isinstance(item, h5py.Dataset) or item.dtype.kind not in "biuf":
+                    return None
+                out[name] = item[()]
+            attrs = {k: (v.decode() if isinstance(v, bytes) else v) for k, v in f.attrs.items()}
+    except Exception:  # any unreadable or foreign file is only a cache miss
         return None
+    if any(name not in out and name not in attrs for name in required):
+        return None
+    if not all(isinstance(v, (str, int, float, np.integer, np.floating)) for v in attrs.values()):
+        return None
+    out["attrs"] = attrs
+    return out
 
 
 def write(path: Path, arrays: dict, attrs: dict) -> None:
@@ -107,9 +119,10 @@ class ArrayCache:
     def _path(self, kind: str, description: dict, inputs: dict | None) -> Path:
         return cache_file(self.folder, f"faraday_{kind}", cache_key(kind, description, inputs))
 
-    def get(self, kind: str, description: dict, inputs: dict | None = None) -> dict | None:
-        """The arrays stored for this key (and ``attrs``), or None."""
-        return read(self._path(kind, description, inputs))
+    def get(self, kind: str, description: dict, inputs: dict | None = None, required: tuple = ()) -> dict | None:
+        """The arrays stored for this key (and ``attrs``), or None (also when one of the arrays or attributes
+        named in ``required`` is missing, or the file is not what ``put`` writes: see ``read``)."""
+        return read(self._path(kind, description, inputs), required)
 
     def put(self, kind: str, description: dict, inputs: dict | None, arrays: dict, attrs: dict) -> None:
         write(self._path(kind, description, inputs), arrays, attrs)

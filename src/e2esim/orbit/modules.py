@@ -9,6 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from e2esim import products as P
+from e2esim.errors import PhysicsInputError
 from e2esim.module import Stage
 from e2esim.orbit.acquisition import Site, acquisitions, swath_incidences
 from e2esim.orbit.sunsync import PASSES, SunSynchronousOrbit
@@ -29,7 +30,7 @@ _ACQ = ParamGroup("acquisitions", "the dates on which the site is imaged", (
     Param("start", "str", "first date of the period (ISO)", default="2026-01-01"),
     Param("end", "str", "last date of the period (ISO)", default="2026-12-31"),
     Param("step_days", "float", "days between acquisitions in the period (3: the repeat interval)", default=3.0,
-          unit="day", exclusive_minimum=0.0),
+          unit="day", exclusive_minimum=0.0, maximum=36525.0),
     Param("phase", "str", "timeline mode: which phase's acquisitions", default="mission", choices=PHASES),
     Param("mission_start", "str", "timeline mode: first day of the commissioning phase (ISO)", default=BIOMASS_LAUNCH),
     Param("site_slot", "float", "timeline mode: where in each phase/cycle the site's stack starts (0 first day, "
@@ -78,9 +79,15 @@ class SunSynchronousOrbitModule(Stage):
         passes = self._passes(c["passes"])
         lon_deg = self.config["site"]["lon_deg"]  # wrapped to [-180, 180) in degrees, as given
         site = Site(c["site"]["name"], c["site"]["lat_rad"], np.radians(((lon_deg + 180.0) % 360.0) - 180.0))
-        dates, phases = self._dates(c["acquisitions"])
+        try:
+            dates, phases = self._dates(c["acquisitions"])
+        except PhysicsInputError as exc:  # name the key below the section: acquisitions.<argument>
+            raise PhysicsInputError(str(exc), key="acquisitions." + (exc.key or "start")) from exc
         inc = swath_incidences(self.orbit, c["incidence_near_rad"], c["incidence_far_rad"], c["swath_samples"])
-        self.geometry = acquisitions(self.orbit, site, dates, passes, inc, phases, c["pierce_height_m"])
+        try:
+            self.geometry = acquisitions(self.orbit, site, dates, passes, inc, phases, c["pierce_height_m"])
+        except PhysicsInputError as exc:  # out of reach of a pass: the site's latitude
+            raise PhysicsInputError(str(exc), key=exc.key or "site.lat_deg") from exc
 
     def _passes(self, choice: str) -> tuple:
         if choice == "both":
@@ -94,7 +101,10 @@ class SunSynchronousOrbitModule(Stage):
         if acq["mode"] == "period":
             dates = period_dates(acq["start"], acq["end"], acq["step_days"])
             return dates, ("period",) * len(dates)
-        timeline = MissionTimeline(start=acq["mission_start"], site_slot=acq["site_slot"])
+        try:
+            timeline = MissionTimeline(start=acq["mission_start"], site_slot=acq["site_slot"])
+        except PhysicsInputError as exc:
+            raise PhysicsInputError(str(exc), key="mission_start" if exc.key == "start" else exc.key) from exc
         dates = timeline.acquisition_dates(acq["phase"])
         return dates, tuple(timeline.phase_of(d) for d in dates)
 

@@ -18,9 +18,11 @@ evenly over the CP. ESA later quoted about 18 months for the TP and 9-month IP c
 from __future__ import annotations
 
 import datetime as dt
+import math
 from dataclasses import dataclass
 
 from e2esim.errors import PhysicsInputError
+from e2esim.runner.limits import MAX_DATES, shorten
 
 PHASES = ("commissioning", "tomographic", "interferometric", "mission")
 
@@ -53,7 +55,7 @@ class MissionTimeline:
     site_slot: float = 0.5
 
     def __post_init__(self):
-        _parse_date(self.start)
+        _parse_date(self.start, "start")
         if not 0.0 <= self.site_slot <= 1.0:
             raise PhysicsInputError(f"site_slot {self.site_slot} is outside [0, 1]")
         for name in ("tomographic", "interferometric"):
@@ -115,27 +117,38 @@ class MissionTimeline:
 
 
 def period_dates(start: str, end: str, step_days: float) -> list:
-    """Dates from ``start`` to ``end`` (ISO, inclusive) every ``step_days`` days."""
-    a, b = _parse_date(start), _parse_date(end)
+    """Dates from ``start`` to ``end`` (ISO, inclusive) every ``step_days`` days, at most
+    ``e2esim.runner.limits.MAX_DATES`` of them. Errors name the argument at fault (``PhysicsInputError.key``)."""
+    a, b = _parse_date(start, "start"), _parse_date(end, "end")
     if b < a:
-        raise PhysicsInputError(f"period end {end} is before its start {start}")
-    if step_days <= 0:
-        raise PhysicsInputError(f"step_days must be > 0, got {step_days}")
-    out, k = [], 0
-    while True:
-        d = a + dt.timedelta(days=k * step_days)
+        raise PhysicsInputError(f"period end {end} is before its start {start}", key="end")
+    if not step_days > 0 or not math.isfinite(step_days):
+        raise PhysicsInputError(f"step_days must be a finite number > 0, got {step_days}", key="step_days")
+    span = (b - a) / dt.timedelta(days=1)
+    count = math.floor(span / step_days) + 1
+    if count > MAX_DATES:
+        raise PhysicsInputError(f"{count:,} dates from {start} to {end} every {step_days:g} days exceed the limit of "
+                                f"{MAX_DATES:,} dates; use a larger step_days or a shorter period", key="step_days")
+    out = []
+    for k in range(count + 1):
+        if k * step_days > span + 1:  # past the end: stop before a huge step could overflow a timedelta
+            break
+        try:
+            d = a + dt.timedelta(days=k * step_days)
+        except OverflowError:
+            break
         if d > b:
-            return out
+            break
         out.append(_day(d))
-        k += 1
+    return out
 
 
 def _day(when: dt.datetime) -> dt.datetime:
     return dt.datetime(when.year, when.month, when.day)
 
 
-def _parse_date(text: str) -> dt.datetime:
+def _parse_date(text: str, key: str | None = None) -> dt.datetime:
     try:
         return dt.datetime.fromisoformat(str(text))
     except ValueError as exc:
-        raise PhysicsInputError(f"{text!r} is not an ISO date (YYYY-MM-DD)") from exc
+        raise PhysicsInputError(f"{shorten(repr(text))} is not an ISO date (YYYY-MM-DD)", key=key) from exc

@@ -1,32 +1,45 @@
 """Incremental results of a run, so an interrupted sweep resumes without recomputing finished cases.
 
 While a run is going, every finished case is appended, as soon as it finishes, to
-``<output>/.e2esim-partial/cases.journal`` (a length-prefixed pickle per case, flushed at once), beside a
-``manifest.json`` holding the run's fingerprint: the resolved scenario, every case's inputs and seed, and the
-e2esim version. A process killed while writing leaves at most a torn last record, which ``--resume``
-recognises by its length and cuts off. ``e2esim run --resume`` loads the complete records when the
-fingerprint matches, runs the other cases, and writes the final outputs; the journal is removed once they
-are written. One appended file, not a file per case, keeps the bookkeeping cheap for sweeps of many
-thousand cases. The journal is e2esim's own working data in the user's own output folder; it is not meant
-to be shared.
+``<output>/.e2esim-partial/cases.journal``, beside a ``manifest.json`` holding the journal format and
+the run's fingerprint: the resolved scenario, every case's inputs and seed, and the e2esim version.
+Both are plain data, never pickle (``e2esim.runner.plaindata``): each record is a frame
+
+    magic "E2J1" | case index, header length, payload length (little-endian u64) | CRC-32 | header | payload
+
+with a JSON header and the case's numeric arrays as raw bytes. Reading a journal builds numbers, text,
+arrays and e2esim's own result objects, and runs no code from the file; a record that does not check out
+(magic, lengths, CRC, JSON, dtypes and shapes, allowed classes, the case it claims to be) makes the
+journal corrupt: exit status 2, with ``--force`` as the way out. A process killed while writing leaves at
+most a torn last frame, shorter than it says, which ``--resume`` cuts off. A case whose result holds
+something plain data cannot store (a plug-in's own object, say) is simply not journaled and runs again
+on resume. The files are created with the first finished case, so a run that fails before any case
+finishes (an unreachable scheduler) leaves no journal. ``e2esim run --resume`` loads the records when the
+fingerprint matches, runs the other cases and writes the final outputs; the journal is then removed.
+One appended file, not a file per case, keeps the bookkeeping cheap for sweeps of many thousand cases.
 """
 
 from __future__ import annotations
 
 import hashlib
 import json
-import pickle
 import shutil
 import struct
+import zlib
 from pathlib import Path
 
 import e2esim
-from e2esim.errors import OutputExistsError
+from e2esim.errors import JournalError, OutputExistsError, OutputFolderError
 from e2esim.io.atomic import write_text_atomic
+from e2esim.runner.plaindata import BadPlainData, NotPlainData, allowed_packages, decode, encode
 
 JOURNAL = ".e2esim-partial"
 _RECORDS = "cases.journal"
-_LENGTH = struct.Struct("<Q")  # 8-byte little-endian length before each pickled record
+_MANIFEST = "manifest.json"
+FORMAT = "e2esim-journal"
+VERSION = 2  # 1 was the pickle journal of e2esim <= 0.x, which is never read
+_MAGIC = b"E2J1"
+_FRAME = struct.Struct("<4sQQQI")  # magic, case index, header length, payload length, CRC-32 of both
 
 
 def fingerprint(resolved) -> str:
@@ -40,52 +53,96 @@ def fingerprint(resolved) -> str:
     return hashlib.sha256(text.encode()).hexdigest()
 
 
+def encode_case(result, packages: frozenset) -> bytes | None:
+    """The journal frame of one finished case, or None if its result is not plain data."""
+    try:
+        header, payload = encode(result, packages)
+    except (NotPlainData, ValueError):
+        return None
+    crc = zlib.crc32(payload, zlib.crc32(header))
+    return _FRAME.pack(_MAGIC, result.index, len(header), len(payload), crc) + header + payload
+
+
 class Journal:
     """The partial results of one run in ``folder``."""
 
     def __init__(self, folder: Path, resolved):
         self.path = Path(folder) / JOURNAL
+        self.resolved = resolved
         self.fingerprint = fingerprint(resolved)
+        self.packages = allowed_packages()
         self._file = None
+        self._count = 0
 
     def exists(self) -> bool:
-        return (self.path / "manifest.json").exists()
+        return (self.path / _MANIFEST).exists()
 
     def finished_count(self) -> int:
-        return len(_read_records(self.path / _RECORDS)[0])
+        return self._count
 
     def start(self, resume: bool) -> dict:
-        """Open the journal; with ``resume``, return the finished cases it holds ({index: CaseResult})."""
+        """Check an existing journal; with ``resume``, return the finished cases it holds ({index: CaseResult})."""
+        if not self.exists():
+            return {}
+        manifest = read_manifest(self.path)
+        if not resume:
+            raise OutputExistsError(
+                f"{self.path.parent}: holds an interrupted run ({count_finished(self.path.parent)} cases finished); "
+                "use --resume to continue it or --force to start again"
+            )
+        if manifest.get("fingerprint") != self.fingerprint:
+            raise OutputExistsError(
+                f"{self.path.parent}: the interrupted run there is of a different scenario, seed or e2esim "
+                "version; use --force to start again"
+            )
+        frames, good_length = _frames(self.path / _RECORDS)
         finished = {}
-        records = self.path / _RECORDS
-        if self.exists():
-            manifest = json.loads((self.path / "manifest.json").read_text())
-            if not resume:
-                raise OutputExistsError(
-                    f"{self.path.parent}: holds an interrupted run ({self.finished_count()} cases finished); "
-                    "use --resume to continue it or --force to start again"
-                )
-            if manifest.get("fingerprint") != self.fingerprint:
-                raise OutputExistsError(
-                    f"{self.path.parent}: the interrupted run there is of a different scenario, seed or e2esim "
-                    "version; use --force to start again"
-                )
-            results, good_length = _read_records(records)
-            finished = {r.index: r for r in results}
-            with open(records, "r+b") as fh:  # cut a torn last record off, so appends continue cleanly
-                fh.truncate(good_length)
-        else:
-            self.path.mkdir(parents=True, exist_ok=True)
-            records.write_bytes(b"")
-            write_text_atomic(self.path / "manifest.json", json.dumps({"fingerprint": self.fingerprint}) + "\n")
-        self._file = open(records, "ab")
+        for number, (index, header, payload) in enumerate(frames):
+            finished[index] = self._case(number, index, header, payload)
+        with open(self.path / _RECORDS, "r+b") as fh:  # cut a torn last frame off, so appends continue cleanly
+            fh.truncate(good_length)
+        self._count = len(finished)
         return finished
 
+    def _case(self, number: int, index: int, header: bytes, payload: bytes):
+        from e2esim.runner.run import CaseResult
+
+        try:
+            result = decode(header, payload, self.packages)
+        except BadPlainData as exc:
+            raise _corrupt(self.path, f"record {number} is not valid: {exc}") from exc
+        cases = self.resolved.cases
+        if not isinstance(result, CaseResult) or result.index != index or not 0 <= index < len(cases):
+            raise _corrupt(self.path, f"record {number} is not a finished case of this run")
+        if result.inputs != cases[index].inputs:
+            raise _corrupt(self.path, f"record {number} holds other inputs than case {index}")
+        return result
+
     def record(self, result, data: bytes | None = None) -> None:
-        """Append one finished case (``data``: its pickle, when already made)."""
-        data = pickle.dumps(result, protocol=pickle.HIGHEST_PROTOCOL) if data is None else data
-        self._file.write(_LENGTH.pack(len(data)) + data)
-        self._file.flush()  # in the OS's hands at once: a killed process loses nothing it reported finished
+        """Append one finished case (``data``: its frame, when a worker already made it)."""
+        data = encode_case(result, self.packages) if data is None else data
+        if data is None:
+            return  # not plain data: it runs again on resume
+        if self._file is None:
+            self._create()
+        try:
+            self._file.write(data)
+            self._file.flush()  # in the OS's hands at once: a killed process loses nothing it reported finished
+        except OSError as exc:
+            raise OutputFolderError(f"{self.path}: cannot save a finished case: {exc.strerror or exc}; "
+                                    f"{self._count} cases are saved; free the space and run the same command "
+                                    "with --resume") from exc
+        self._count += 1
+
+    def _create(self) -> None:
+        try:
+            self.path.mkdir(parents=True, exist_ok=True)
+            manifest = {"format": FORMAT, "version": VERSION, "e2esim": e2esim.__version__,
+                        "fingerprint": self.fingerprint, "cases": len(self.resolved.cases)}
+            write_text_atomic(self.path / _MANIFEST, json.dumps(manifest) + "\n")
+            self._file = open(self.path / _RECORDS, "ab")
+        except OSError as exc:
+            raise OutputFolderError(f"{self.path}: cannot create the resume journal: {exc.strerror or exc}") from exc
 
     def close(self) -> None:
         if self._file is not None:
@@ -97,20 +154,56 @@ class Journal:
         shutil.rmtree(self.path, ignore_errors=True)
 
 
-def _read_records(path: Path) -> tuple[list, int]:
-    """The complete records of a journal file and the length they span (a torn tail is left out)."""
+def read_manifest(path: Path) -> dict:
+    """The manifest of the journal folder ``path``, checked: JSON of this format and version."""
+    try:
+        text = (path / _MANIFEST).read_text(encoding="utf-8")
+        manifest = json.loads(text)
+    except (OSError, UnicodeDecodeError, ValueError) as exc:
+        raise _corrupt(path, f"its manifest cannot be read ({type(exc).__name__})") from exc
+    if not isinstance(manifest, dict) or manifest.get("format") != FORMAT:
+        raise _corrupt(path, "it is not an e2esim journal, or one of an older e2esim that is not read")
+    if manifest.get("version") != VERSION:
+        raise _corrupt(path, f"it has journal version {str(manifest.get('version'))[:20]}, this e2esim reads "
+                             f"version {VERSION}")
+    return manifest
+
+
+def count_finished(folder: Path) -> int:
+    """Number of complete records in the journal of an output folder (checked, not decoded)."""
+    path = Path(folder) / JOURNAL
+    read_manifest(path)
+    return len(_frames(path / _RECORDS)[0])
+
+
+def _frames(path: Path) -> tuple[list, int]:
+    """The complete frames of a journal file [(index, header, payload)] and the length they span; a torn
+    last frame is left out, anything else that does not check out is a JournalError."""
     if not path.exists():
         return [], 0
-    data = path.read_bytes()
-    results, pos = [], 0
-    while pos + _LENGTH.size <= len(data):
-        (n,) = _LENGTH.unpack_from(data, pos)
-        end = pos + _LENGTH.size + n
+    try:
+        data = path.read_bytes()
+    except OSError as exc:
+        raise _corrupt(path.parent, f"it cannot be read: {exc.strerror or exc}") from exc
+    frames, pos = [], 0
+    while pos < len(data):
+        if pos + _FRAME.size > len(data):
+            break  # a torn frame head
+        magic, index, n_header, n_payload, crc = _FRAME.unpack_from(data, pos)
+        if magic != _MAGIC:
+            raise _corrupt(path.parent, f"record {len(frames)} does not start with the journal's mark")
+        start = pos + _FRAME.size
+        end = start + n_header + n_payload
         if end > len(data):
-            break
-        try:
-            results.append(pickle.loads(data[pos + _LENGTH.size:end]))
-        except Exception:  # a torn record whose length happened to fit: stop here
-            break
+            break  # a torn last frame
+        header, payload = data[start:start + n_header], data[start + n_header:end]
+        if zlib.crc32(payload, zlib.crc32(header)) != crc:
+            raise _corrupt(path.parent, f"record {len(frames)} fails its checksum")
+        frames.append((index, header, payload))
         pos = end
-    return results, pos
+    return frames, pos
+
+
+def _corrupt(path: Path, problem: str) -> JournalError:
+    return JournalError(f"{path}: the resume journal is corrupt or foreign: {problem}; it is not used. Run with "
+                        "--force to discard it and start again")

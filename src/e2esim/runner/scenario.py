@@ -19,8 +19,11 @@ from e2esim.errors import ConfigError, Location, ModuleLookupError, ScenarioFile
 from e2esim.module import KIND_ORDER, Module, Stage
 from e2esim.params import Param, find_param, unknown_key_error, validate_section
 from e2esim.runner.chain import assemble
+from e2esim.runner.limits import check_monte_carlo, check_plain, shorten
+from e2esim.runner.overrides import check_not_swept, parse_value, remove_from_sweep, split_assignment
+from e2esim.runner.plugins import plugin_list
 from e2esim.runner.sweep import case_labels, expand_sweep
-from e2esim.runner.yaml_loader import load_yaml, parse_scalar
+from e2esim.runner.yaml_loader import load_yaml, read_scenario_text
 from e2esim.settings import MODES, SimulationSettings
 
 BUILT_IN_SECTIONS = tuple(k for k in KIND_ORDER if k != "requirement")
@@ -35,7 +38,7 @@ def module_sections() -> tuple:
 
 
 def top_level_keys() -> tuple:
-    return ("name", "description", *module_sections(), "requirements", "simulation", "sweep", "output")
+    return ("name", "description", "plugins", *module_sections(), "requirements", "simulation", "sweep", "output")
 
 
 DEFAULT_MODULES = {
@@ -94,7 +97,7 @@ OUTPUT_PARAMS = (
     Param("histogram_cases", "int", "at most this many cases get an error histogram", default=12, minimum=1),
 )
 
-NOT_SWEEPABLE = ("name", "description", "sweep", "output")
+NOT_SWEEPABLE = ("name", "description", "plugins", "sweep", "output")
 
 
 @dataclass
@@ -142,43 +145,60 @@ class Scenario:
         self.raw = data
 
     @classmethod
-    def load(cls, path: str | Path, overrides=()) -> "Scenario":
-        path = Path(path)
+    def load(cls, path: str | Path, overrides=(), allow_imports=(), replace_sweep=()) -> Scenario:
+        """Read a scenario file and apply ``--replace-sweep`` then ``--set`` assignments (``KEY=VALUE``).
+
+        allow_imports : top-level packages that ``type: package.module:Class`` may import besides installed
+            distributions (``--allow-import``; e2esim.registry).
+        """
         source = str(path)
-        if not path.exists():
-            raise ScenarioFileError(f"{source}: no such scenario file")
-        if path.is_dir():
-            raise ScenarioFileError(f"{source}: is a folder, not a scenario file")
-        try:
-            text = path.read_text(encoding="utf-8")
-        except (OSError, UnicodeDecodeError) as exc:
-            raise ScenarioFileError(f"{source}: cannot read the scenario file: {exc}") from exc
+        text = read_scenario_text(path, source)
         if not text.strip():
             raise ScenarioFileError(f"{source}: the scenario file is empty")
         data, lines = load_yaml(text, source)
         scenario = cls(data, source, lines)
-        for item in overrides:
-            scenario.override(item)
+        scenario.allow_imports = tuple(allow_imports)
+        for item in replace_sweep:
+            scenario.replace_sweep(item)
+        set_keys = [scenario.override(item) for item in overrides]
+        check_not_swept(scenario.raw, set_keys, source)
         return scenario
 
-    def override(self, assignment: str) -> None:
-        """Apply one ``--set dotted.key=value`` (value parsed as YAML)."""
-        key, sep, text = assignment.partition("=")
-        key = key.strip()
-        if not sep or not key:
-            raise ConfigError(Location(self.source, (), self.lines), f"--set {assignment!r} is not key=value",
-                              "expected e.g. --set instrument.crosstalk.level_db=-28")
-        path = _dotted_to_path(key)
+    def override(self, assignment: str) -> tuple:
+        """Apply one ``--set dotted.key=value`` (value parsed as YAML); return (key, key path)."""
+        key, text, path = split_assignment(assignment, "--set", Location(self.source, (), self.lines))
         top_level = top_level_keys()
         if path[0] not in top_level:
             raise unknown_key_error(Location(f"{self.source} (--set)", path[:1]), path[0], top_level)
-        _set_path(self.raw, path, parse_scalar(text), Location(self.source, path, self.lines))
-        self.lines[path] = f"--set {key}"
+        _set_path(self.raw, path, parse_value(text, "--set", key), Location(self.source, path, self.lines))
+        self.lines[path] = f"--set {shorten(key)}"
+        return key, path
+
+    def replace_sweep(self, assignment: str) -> None:
+        """Apply one ``--replace-sweep dotted.key=value``: the key leaves the sweep and has ``value`` in every
+        case (e2esim.runner.overrides)."""
+        where = Location(self.source, (), self.lines)
+        key, text, path = split_assignment(assignment, "--replace-sweep", where)
+        top_level = top_level_keys()
+        if path[0] not in top_level or path[0] in NOT_SWEEPABLE:
+            raise unknown_key_error(Location(f"{self.source} (--replace-sweep)", path[:1]), path[0], top_level)
+        remove_from_sweep(self.raw, key, Location(f"{self.source} (--replace-sweep)", ("sweep",)))
+        _set_path(self.raw, path, parse_value(text, "--replace-sweep", key), Location(self.source, path, self.lines))
+        self.lines[path] = f"--replace-sweep {shorten(key)}"
 
     # ------------------------------------------------------------------------------------------
     def resolve(self) -> ResolvedScenario:
-        """Validate every section and every sweep case; build the modules. Raises ConfigError."""
+        """Validate every section and every sweep case; build the modules. Raises ConfigError.
+
+        ``type: package.module:Class`` may import the packages of the scenario's ``plugins:`` list and of
+        ``allow_imports`` besides installed distributions (e2esim.registry, docs/security.md)."""
         root = Location(self.source, (), self.lines)
+        check_plain(self.raw, root)
+        with registry.allowed_imports(plugin_list(self.raw.get("plugins"), root.child("plugins"))
+                                      + tuple(getattr(self, "allow_imports", ()))):
+            return self._resolve(root)
+
+    def _resolve(self, root: Location) -> ResolvedScenario:
         top_level = top_level_keys()
         for key in self.raw:
             if key not in top_level:
@@ -228,6 +248,7 @@ class Scenario:
         settings = SimulationSettings(
             **validate_section(SIMULATION_PARAMS, config.get("simulation"), case_root.child("simulation"))
         )
+        check_monte_carlo(settings, case_root.child("simulation").describe())
         modules = []
         for section in module_sections():
             raw = config.get(section, DEFAULT_MODULES.get(section))
@@ -366,7 +387,7 @@ def _set_path(data: dict, path: tuple, value: Any, where: Location, copy_on_writ
 
 def _resolved_config(raw: dict, case: CaseSpec, output: dict) -> dict:
     """The scenario with every module's defaults filled in (first case), for provenance."""
-    resolved = {k: copy.deepcopy(v) for k, v in raw.items() if k in ("name", "description", "sweep")}
+    resolved = {k: copy.deepcopy(v) for k, v in raw.items() if k in ("name", "description", "plugins", "sweep")}
     reqs = []
     for module in case.modules:
         entry = {"type": module.type_name, **_jsonable(module.config)}

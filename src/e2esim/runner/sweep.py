@@ -8,12 +8,14 @@ keys together. ``sweep.cases`` lists the cases explicitly.
 from __future__ import annotations
 
 import itertools
+import math
 from typing import Any
 
 import numpy as np
 
 from e2esim.errors import ConfigError, Location
 from e2esim.params import Param, unknown_key_error, validate_section
+from e2esim.runner.limits import MAX_CASES, SPLIT_ADVICE, check_count, shorten
 
 SWEEP_PARAMS = (
     Param("mode", "str", "grid: every combination of the parameter lists; zip: the lists side by side",
@@ -30,7 +32,8 @@ def expand_sweep(sweep: Any, where: Location) -> tuple[list, tuple]:
     if sweep is None:
         return [{}], ()
     if not isinstance(sweep, dict):
-        raise ConfigError(where, f"{sweep!r} is not a mapping", "expected 'parameters:' and/or 'mode:', or 'cases:'")
+        raise ConfigError(where, f"{shorten(repr(sweep))} is not a mapping",
+                          "expected 'parameters:' and/or 'mode:', or 'cases:'")
     for key in sweep:
         if key not in SWEEP_KEYS:
             raise unknown_key_error(where.child(key), key, SWEEP_KEYS)
@@ -44,7 +47,7 @@ def expand_sweep(sweep: Any, where: Location) -> tuple[list, tuple]:
         out = []
         for i, case in enumerate(cases):
             if not isinstance(case, dict):
-                raise ConfigError(where.child("cases").child(i), f"{case!r} is not a mapping",
+                raise ConfigError(where.child("cases").child(i), f"{shorten(repr(case))} is not a mapping",
                                   "expected dotted.key: value pairs")
             out.append({str(k): _plain(v) for k, v in case.items()})
         keys = tuple(dict.fromkeys(k for c in out for k in c))
@@ -59,7 +62,7 @@ def expand_sweep(sweep: Any, where: Location) -> tuple[list, tuple]:
         if len(subkeys) > 1:  # "a.b, c.d": [[a1, c1], [a2, c2]] varies the keys together
             for i, item in enumerate(items):
                 if not isinstance(item, list) or len(item) != len(subkeys):
-                    raise ConfigError(here.child(i), f"{item!r} is not a list of {len(subkeys)} values",
+                    raise ConfigError(here.child(i), f"{shorten(repr(item))} is not a list of {len(subkeys)} values",
                                       f"each item gives one value for each of {', '.join(subkeys)}")
         values[subkeys] = [tuple(item) if len(subkeys) > 1 else (item,) for item in items]
     keys = tuple(k for sub in values for k in sub)
@@ -70,6 +73,8 @@ def expand_sweep(sweep: Any, where: Location) -> tuple[list, tuple]:
                               "give lists of the same length, or use mode: grid")
         combos = zip(*values.values())
     else:
+        check_count("sweep cases", math.prod(len(v) for v in values.values()), MAX_CASES,
+                    where.child("parameters").describe(), SPLIT_ADVICE)
         combos = itertools.product(*values.values())
     return [dict(zip(keys, (v for group in combo for v in group))) for combo in combos], keys
 
@@ -85,12 +90,13 @@ def _sweep_values(spec: Any, where: Location) -> list:
             ok = isinstance(args, list) and len(args) == 3 and all(
                 isinstance(a, (int, float)) and not isinstance(a, bool) for a in args
             )
-            if not ok or int(args[2]) != args[2] or args[2] < 1:
-                raise ConfigError(where.child(kind), f"{args!r} is not [start, stop, number]",
-                                  "expected two numbers and a positive integer")
+            if not ok or not all(math.isfinite(a) for a in args) or int(args[2]) != args[2] or args[2] < 1:
+                raise ConfigError(where.child(kind), f"{shorten(repr(args))} is not [start, stop, number]",
+                                  "expected two finite numbers and a positive integer")
+            check_count("sweep values", args[2], MAX_CASES, where.child(kind).describe(), SPLIT_ADVICE)
             fn = np.linspace if kind == "linspace" else np.logspace
             return [float(x) for x in fn(args[0], args[1], int(args[2]))]
-    raise ConfigError(where, f"{spec!r} is not a list of values",
+    raise ConfigError(where, f"{shorten(repr(spec))} is not a list of values",
                       "expected a list, {linspace: [start, stop, n]} or {logspace: [start, stop, n]}")
 
 

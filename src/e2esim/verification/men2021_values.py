@@ -31,6 +31,7 @@ PUBLISHED: list = [
         1.43e-4, 0.01 * 1.43e-4,
         "Men et al. (2021), Section V-A and Fig. 1 (eqs. 11, 13, 14)",
         f"{_MEN}:fig1_system_bias",
+        expected_computed=0.00013280424555255947, computed_tolerance=1.33e-10,
         known_discrepancy=(
             "With the stated inputs of the lower curves (crosstalk -30 dB, channel imbalance -34 dB, 3-sigma "
             "labels, rho = 0.9, FR N(pi/3, (pi/36)^2)) eq. (11) gives 1.328e-4. The printed 1.43e-4 is what "
@@ -51,6 +52,7 @@ PUBLISHED: list = [
         -30.2, 0.05,
         "Men et al. (2021), Section V-B point 6 and Fig. 5",
         f"{_MEN}:fig5_channel_imbalance_limit",
+        expected_computed=-30.024729714559946, computed_tolerance=3e-05,
         known_discrepancy=(
             "Where the Fig. 5 curve meets the channel-imbalance axis (no crosstalk) eq. (19) gives -30.02 dB, "
             "not -30.2 dB; the text quotes the companion crosstalk limit to two decimals (-20.16), so "
@@ -92,3 +94,13 @@ for _i, (_xt, _ci, _forest, _fr, _pb, _pv) in enumerate(TABLE2_ROWS, start=1):
             "Men et al. (2021), Table II and eq. (18)",
             f"{_MEN}:table2_relative_difference",
         ))
+
+for _what, _column in (("bias", 4), ("var", 5)):
+    PUBLISHED.append(Published(
+        f"men2021.table2.pooled.{_what}_rel_diff",
+        f"mean over the ten Table II rows of the Monte Carlo vs analytic relative difference of the sigma_hv error "
+        f"{_what} (%)",
+        round(sum(row[_column] for row in TABLE2_ROWS) / len(TABLE2_ROWS), 6), float("nan"),
+        "Men et al. (2021), Table II and eq. (18)",
+        f"{_MEN}:table2_pooled_difference",
+    ))

@@ -20,6 +20,9 @@ class Published:
     compute function returns its own (statistical) tolerance. citation : paper, table/figure/equation.
     compute : ``module:function`` returning ``(computed, tolerance or None, note)``.
     known_discrepancy : explanation when a correct computation differs (status ``discrepancy``).
+    expected_computed, computed_tolerance : for a known discrepancy, the value e2esim computes and how far
+        it may move (``PIN_TOLERANCE_NOTE``); a computed value outside that band (or NaN) is ``failed``, so a
+        regression cannot hide behind the discrepancy.
     """
 
     id: str
@@ -29,6 +32,14 @@ class Published:
     citation: str
     compute: str
     known_discrepancy: str = ""
+    expected_computed: float | None = None
+    computed_tolerance: float | None = None
+
+
+PIN_TOLERANCE_NOTE = (
+    "the pinned values are deterministic closed-form results; their tolerance, 1e-6 of the value, covers "
+    "floating-point differences between platforms and library versions and nothing else"
+)
 
 
 def _all() -> list:

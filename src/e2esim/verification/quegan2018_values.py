@@ -17,6 +17,7 @@ PUBLISHED: list = [
         586.3, 0.05,
         "Quegan et al. (2018), eq. (8)",
         f"{_Q}:omega_over_range_delay",
+        expected_computed=586.6792047110132, computed_tolerance=0.000587,
         known_discrepancy=(
             "With CODATA 2018 constants e/(m_e c) = 586.68 rad m^-1 T^-1 (also A / (c^2 r_e / 2 pi) from eqs. 3 "
             "and 7b). The printed 586.3 is e/m_e divided by c rounded to 3e8 m/s (586.27); the relation itself "

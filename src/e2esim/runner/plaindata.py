@@ -1,0 +1,324 @@
+"""Plain-data encoding of case results for files: JSON for the structure, raw bytes for numeric arrays.
+
+The resume journal stores each finished case with this encoding, never with pickle: reading it builds only
+numbers, strings, lists, mappings, numpy arrays of plain dtypes (no object arrays) and instances of
+allowed classes, filled field by field without calling any of their code. So a crafted journal can give
+wrong numbers at worst; it cannot run code. The encoding is generic (any dataclass-like object of e2esim
+or of a registered plug-in), so it follows changes to the result types without a schema to maintain,
+and round-trips exactly: floats through ``repr``, arrays byte for byte, shared references kept.
+
+Layout of one encoded value: ``(header, payload)``; ``header`` is a JSON text ``{"tree": ..., "arrays":
+[[dtype, shape] or [dtype, shape, "read-only"], ...]}``, ``payload`` the arrays' bytes back to back, in C order.
+"""
+
+from __future__ import annotations
+
+import datetime as dt
+import json
+import re
+import sys
+from types import MappingProxyType
+
+import numpy as np
+
+ARRAY_KINDS = frozenset("biufcUSMm")
+"""numpy dtype kinds stored: booleans, integers, floats, complex, text, bytes, datetimes, time deltas."""
+
+_CLASS = re.compile(r"^([A-Za-z_][A-Za-z0-9_]*(?:\.[A-Za-z_][A-Za-z0-9_]*)*):([A-Za-z_][A-Za-z0-9_.]*)$")
+_NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
+
+
+class NotPlainData(TypeError):
+    """The value holds something this encoding does not store (a function, a file, an object array...)."""
+
+
+class BadPlainData(ValueError):
+    """Encoded data that is malformed, inconsistent or names a class that is not allowed."""
+
+
+def allowed_packages() -> frozenset:
+    """Top-level packages whose classes may be stored: e2esim and the packages of registered modules."""
+    from e2esim import registry
+
+    return frozenset({"e2esim"} | {r.cls.__module__.split(".")[0] for r in registry.available()})
+
+
+# ---------------------------------------------------------------------------------------------- encoding
+def encode(value, packages: frozenset) -> tuple[bytes, bytes]:
+    """(header, payload) of ``value``; raises NotPlainData for what cannot be stored."""
+    enc = _Encoder(packages)
+    tree = enc.encode(value)
+    header = json.dumps({"tree": tree, "arrays": enc.specs}, separators=(",", ":"), allow_nan=True)
+    return header.encode("utf-8"), b"".join(enc.chunks)
+
+
+class _Encoder:
+    def __init__(self, packages: frozenset):
+        self.packages = packages
+        self.specs: list = []
+        self.chunks: list = []
+        self.memo: dict = {}  # id -> reference number, for objects met twice (shared or cyclic)
+        self.keep: list = []  # keeps encoded objects alive, so that their ids stay unique
+
+    def encode(self, v):
+        t = type(v)
+        if v is None or t is bool or t is str or t is int:
+            return v
+        if t is float:
+            return {"$": "f", "v": repr(v)} if v != v or v in (float("inf"), float("-inf")) else v
+        if t is complex:
+            return {"$": "c", "v": [repr(v.real), repr(v.imag)]}
+        if isinstance(v, np.generic):
+            return {"$": "n", "a": self._array(np.asarray(v))}
+        if t is tuple:
+            return {"$": "t", "i": [self.encode(x) for x in v]}
+        if t in (set, frozenset):
+            return {"$": "s" if t is set else "fs", "i": [self.encode(x) for x in v]}
+        if t is dt.datetime:
+            return {"$": "dt", "v": v.isoformat()}
+        if t is dt.date:
+            return {"$": "date", "v": v.isoformat()}
+        if t is dt.timedelta:
+            return {"$": "td", "v": [v.days, v.seconds, v.microseconds]}
+        ref = self.memo.get(id(v))
+        if ref is not None:
+            return {"$": "r", "r": ref}
+        if t is np.ndarray:
+            return self._remember(v, {"$": "a", "a": self._array(v)})
+        if t is list:
+            node = self._remember(v, {"$": "l", "i": []})
+            node["i"] = [self.encode(x) for x in v]
+            return node
+        if t is dict:
+            node = self._remember(v, {"$": "d", "i": []})
+            node["i"] = [[self.encode(k), self.encode(x)] for k, x in v.items()]
+            return node
+        if t is MappingProxyType:
+            return {"$": "mp", "i": [[self.encode(k), self.encode(x)] for k, x in v.items()]}
+        return self._object(v)
+
+    def _remember(self, v, node: dict) -> dict:
+        node["id"] = self.memo[id(v)] = len(self.memo)
+        self.keep.append(v)
+        return node
+
+    def _array(self, a: np.ndarray) -> int:
+        if a.dtype.kind not in ARRAY_KINDS or a.dtype.fields is not None or a.dtype.subdtype is not None:
+            raise NotPlainData(f"an array of dtype {a.dtype}")
+        self.specs.append([a.dtype.str, list(a.shape)] + ([] if a.flags.writeable else ["read-only"]))
+        self.chunks.append(np.ascontiguousarray(a).tobytes())
+        return len(self.specs) - 1
+
+    def _object(self, v):
+        cls = type(v)
+        module = getattr(cls, "__module__", "") or ""
+        if module.split(".")[0] not in self.packages or isinstance(v, (type, BaseException)):
+            raise NotPlainData(f"an object of type {module}.{cls.__qualname__}")
+        fields = dict(vars(v)) if hasattr(v, "__dict__") else {}
+        fields.update((name, getattr(v, name)) for name in slot_names(cls) if hasattr(v, name))
+        if not fields and not hasattr(v, "__dict__"):
+            raise NotPlainData(f"an object without fields, {module}.{cls.__qualname__}")
+        node = self._remember(v, {"$": "o", "c": f"{module}:{cls.__qualname__}", "f": []})
+        node["f"] = [[name, self.encode(x)] for name, x in fields.items()]
+        return node
+
+
+def slot_names(cls: type) -> tuple:
+    """The ``__slots__`` of ``cls`` and its bases (without ``__dict__`` and ``__weakref__``)."""
+    names = []
+    for klass in cls.__mro__:
+        slots = klass.__dict__.get("__slots__", ())
+        for name in (slots,) if isinstance(slots, str) else slots:
+            if name not in ("__dict__", "__weakref__") and not name.startswith("__") and name not in names:
+                names.append(name)
+    return tuple(names)
+
+
+# ---------------------------------------------------------------------------------------------- decoding
+def decode(header: bytes, payload: bytes, packages: frozenset):
+    """The value encoded by ``encode``; raises BadPlainData if anything does not check out. Builds no
+    object other than plain data and instances of classes already defined in ``packages``."""
+    try:
+        doc = json.loads(header.decode("utf-8"))
+    except (UnicodeDecodeError, ValueError, RecursionError) as exc:
+        raise BadPlainData(f"the record header is not JSON ({type(exc).__name__})") from exc
+    if not isinstance(doc, dict) or set(doc) != {"tree", "arrays"} or not isinstance(doc["arrays"], list):
+        raise BadPlainData("the record header does not have the expected fields")
+    arrays = _arrays(doc["arrays"], payload)
+    try:
+        return _Decoder(arrays, packages).decode(doc["tree"])
+    except RecursionError as exc:
+        raise BadPlainData("the record is nested too deeply") from exc
+
+
+def _arrays(specs: list, payload: bytes) -> list:
+    buffer = bytearray(payload)  # writeable arrays, like the ones that were stored
+    out, pos = [], 0
+    for spec in specs:
+        if not (isinstance(spec, list) and len(spec) in (2, 3) and isinstance(spec[0], str)
+                and isinstance(spec[1], list) and all(type(n) is int and n >= 0 for n in spec[1])
+                and spec[2:] in ([], ["read-only"])):
+            raise BadPlainData("an array description is malformed")
+        try:
+            dtype = np.dtype(spec[0])
+        except (TypeError, ValueError) as exc:
+            raise BadPlainData(f"unknown array dtype {spec[0][:40]!r}") from exc
+        if dtype.kind not in ARRAY_KINDS or dtype.fields is not None or dtype.subdtype is not None:
+            raise BadPlainData(f"array dtype {spec[0][:40]!r} is not plain data")
+        count = 1
+        for n in spec[1]:
+            count *= n
+        size = count * dtype.itemsize
+        if pos + size > len(buffer):
+            raise BadPlainData("the arrays are longer than the record")
+        array = np.frombuffer(buffer, dtype, count, pos).reshape(spec[1])
+        array.flags.writeable = not spec[2:]  # as it was stored: read-only arrays stay read-only
+        out.append(array)
+        pos += size
+    if pos != len(buffer):
+        raise BadPlainData("the record holds bytes that belong to no array")
+    return out
+
+
+class _Decoder:
+    def __init__(self, arrays: list, packages: frozenset):
+        self.arrays = arrays
+        self.packages = packages
+        self.memo: dict = {}
+
+    def decode(self, node):
+        if node is None or type(node) in (bool, str, int, float):
+            return node
+        if type(node) is not dict or not isinstance(node.get("$"), str):
+            raise BadPlainData("an encoded value is malformed")
+        tag = node["$"]
+        handler = getattr(self, "_" + tag, None) if re.fullmatch(r"[a-z]+", tag) else None
+        if handler is None:
+            raise BadPlainData(f"unknown value tag {tag[:20]!r}")
+        try:
+            return handler(node)
+        except (KeyError, TypeError, ValueError, IndexError, OverflowError) as exc:
+            if isinstance(exc, BadPlainData):
+                raise
+            raise BadPlainData(f"a value tagged {tag!r} is malformed ({type(exc).__name__})") from exc
+
+    def _items(self, node) -> list:
+        items = node["i"]
+        if type(items) is not list:
+            raise BadPlainData("a collection is malformed")
+        return items
+
+    def _register(self, node, value):
+        ref = node["id"]
+        if type(ref) is not int or ref in self.memo:
+            raise BadPlainData("a reference number is malformed or repeated")
+        self.memo[ref] = value
+        return value
+
+    def _f(self, node):
+        return float(node["v"]) if node["v"] in ("nan", "inf", "-inf") else _bad("a special float")
+
+    def _c(self, node):
+        re_, im = node["v"]
+        return complex(float(re_), float(im))
+
+    def _n(self, node):
+        return self.arrays[node["a"]][()]
+
+    def _a(self, node):
+        return self._register(node, self.arrays[node["a"]])
+
+    def _t(self, node):
+        return tuple(self.decode(x) for x in self._items(node))
+
+    def _s(self, node):
+        return {self.decode(x) for x in self._items(node)}
+
+    def _fs(self, node):
+        return frozenset(self.decode(x) for x in self._items(node))
+
+    def _dt(self, node):
+        return dt.datetime.fromisoformat(node["v"])
+
+    def _date(self, node):
+        return dt.date.fromisoformat(node["v"])
+
+    def _td(self, node):
+        days, seconds, micro = node["v"]
+        return dt.timedelta(days=days, seconds=seconds, microseconds=micro)
+
+    def _r(self, node):
+        try:
+            return self.memo[node["r"]]
+        except (KeyError, TypeError) as exc:
+            raise BadPlainData("a reference to nothing") from exc
+
+    def _l(self, node):
+        out = self._register(node, [])
+        out.extend(self.decode(x) for x in self._items(node))
+        return out
+
+    def _d(self, node):
+        out = self._register(node, {})
+        for pair in self._items(node):
+            if type(pair) is not list or len(pair) != 2:
+                raise BadPlainData("a mapping entry is malformed")
+            out[self.decode(pair[0])] = self.decode(pair[1])
+        return out
+
+    def _mp(self, node):
+        out = {}
+        for pair in self._items(node):
+            if type(pair) is not list or len(pair) != 2:
+                raise BadPlainData("a mapping entry is malformed")
+            out[self.decode(pair[0])] = self.decode(pair[1])
+        return MappingProxyType(out)
+
+    def _o(self, node):
+        cls = self._class(node["c"])
+        obj = object.__new__(cls)  # no __init__, no __post_init__: nothing of the class runs
+        self._register(node, obj)
+        slots = slot_names(cls)
+        for pair in node["f"]:
+            if type(pair) is not list or len(pair) != 2 or not isinstance(pair[0], str) or not _NAME.match(pair[0]):
+                raise BadPlainData("an object field is malformed")
+            name, value = pair[0], self.decode(pair[1])
+            if name in slots:
+                object.__setattr__(obj, name, value)  # the slot's own descriptor: no code of the class
+            elif hasattr(obj, "__dict__"):
+                obj.__dict__[name] = value
+            else:
+                raise BadPlainData(f"{node['c'][:80]!r} has no field {name!r}")
+        return obj
+
+    def _class(self, path) -> type:
+        m = _CLASS.match(path) if isinstance(path, str) else None
+        if m is None:
+            raise BadPlainData("a class name is malformed")
+        module_name, qualname = m.groups()
+        if module_name.split(".")[0] not in self.packages:
+            raise BadPlainData(f"class {path[:80]!r} is not of e2esim or a registered plug-in")
+        module = sys.modules.get(module_name)  # plug-ins: only classes already defined, never an import
+        if module is None and module_name.startswith("e2esim."):
+            module = _import_own(module_name)  # e2esim's own code, found through the e2esim package
+        if module is None:
+            raise BadPlainData(f"class {path[:80]!r} is not loaded")
+        cls = module
+        for part in qualname.split("."):
+            cls = getattr(cls, part, None)
+        if not isinstance(cls, type) or cls.__module__ != module_name or issubclass(cls, (BaseException, type)):
+            raise BadPlainData(f"{path[:80]!r} is not a class of its module")
+        return cls
+
+
+def _import_own(module_name: str):
+    import importlib
+
+    try:
+        return importlib.import_module(module_name)
+    except ImportError:
+        return None
+
+
+def _bad(what: str):
+    raise BadPlainData(f"{what} is malformed")
