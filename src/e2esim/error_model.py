@@ -213,7 +213,9 @@ class MultiChannelErrorModel(ErrorModel):
 
 
 def _channel_moments(joint, i: int) -> Moments:
-    return Moments(np.asarray(joint.mean)[..., i], np.asarray(joint.covariance)[..., i, i])
+    # a truncated expansion evaluated far beyond its range (root finding scans levels up to 0 dB) can give a
+    # slightly negative variance: read it as 0
+    return Moments(np.asarray(joint.mean)[..., i], np.clip(np.asarray(joint.covariance)[..., i, i], 0.0, None))
 
 
 class DerivedErrorModel(ErrorModel):
