@@ -62,6 +62,7 @@ PLOT_TYPES = (
     "agb_error_vs_sweep",
     "faraday_distributions",
     "faraday_climatology",
+    "estimator_comparison",
 )
 
 SIMULATION_PARAMS = (
