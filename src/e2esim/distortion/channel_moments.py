@@ -65,37 +65,70 @@ def unit_covariances(system) -> np.ndarray:
 
 def conditional_polynomials(exp: Expansion, scene, gammas: np.ndarray) -> ConditionalPolynomials:
     """Co-pol eqs. (3.2)-(3.3) at every node of ``exp``, for scene covariance ``scene`` (..., 3, 3) and unit
-    error covariances ``gammas`` (2, 6, 6) [crosstalk, imbalance]."""
+    error covariances ``gammas`` (2, 6, 6) [crosstalk, imbalance]. Written as two-operand contractions and
+    matrix products (a multi-operand einsum costs far more here)."""
     c = np.asarray(scene, dtype=complex)[..., None, :, :]  # node axis before the matrix
     g = np.asarray(gammas, dtype=complex)
     a0, u, w = exp.a0, exp.u, exp.w
-    uc, wc = u @ c[..., None, :, :], w @ c[..., None, None, :, :]  # u_i C, w_ij C
+    shape = np.broadcast_shapes(c.shape[:-2], a0.shape[:-2])
+    uc = u @ c[..., None, :, :]  # u_i C: (..., 6, p, d)
+    wc = w @ c[..., None, None, :, :]  # w_ij C: (..., 3, 3, p, d)
     a0c = a0 @ c
-    ub, wb = u.conj(), w.conj()
-    mean = np.zeros(np.broadcast_shapes(c.shape[:-2], a0.shape[:-2]) + (6, 3, 3), dtype=complex)
-    mean[..., CONSTANT, :, :] = a0c @ np.swapaxes(a0.conj(), -1, -2)
-    mean[..., CROSSTALK:IMBALANCE + 1, :, :] = np.einsum("aij,...ipd,...jqd->...apq", g, uc, ub, optimize=True)
+    ub, wb = np.broadcast_to(u.conj(), uc.shape), np.broadcast_to(w.conj(), wc.shape)
+    n_e = u.shape[-3]
+    # products over the scene index d, as matrices: (..., i p, d) @ (..., d, j q)
+    beta = (uc.reshape(shape + (n_e * 3, 3)) @ _herm(ub.reshape(shape + (n_e * 3, 3)))).reshape(
+        shape + (n_e, 3, n_e, 3))  # u_ip C u_jq^H [i, p, j, q]
+    omega = (wc.reshape(shape + (27, 3)) @ _herm(wb.reshape(shape + (27, 3)))).reshape(
+        shape + (3, 3, 3, 3, 3, 3))  # w_ijp C w_klq^H [i, j, p, k, l, q]
+    mean = np.empty(shape + (6, 3, 3), dtype=complex)
+    mean[..., CONSTANT, :, :] = a0c @ _herm(np.broadcast_to(a0, a0c.shape))
+    mean[..., CROSSTALK:IMBALANCE + 1, :, :] = np.moveaxis(np.tensordot(beta, g, axes=([-4, -2], [1, 2])), -1, -3)
     g_rr, g_tt, g_rt, g_tr = g[:, RECEIVE, RECEIVE], g[:, TRANSMIT, TRANSMIT], g[:, RECEIVE, TRANSMIT], g[:, TRANSMIT, RECEIVE]
-    quad = (np.einsum("aik,bjl,...ijpd,...klqd->...abpq", g_rr, g_tt, wc, wb, optimize=True)
-            + np.einsum("ail,bjk,...ijpd,...klqd->...abpq", g_rt, g_tr, wc, wb, optimize=True))
-    mean[..., CROSSTALK2:, :, :] = _symmetric_pairs(quad)
+    # omega axes [..., i, j, p, k, l, q]; contract the transmit pair, then the receive pair -> [..., p, q, b, a]
+    quad = np.tensordot(np.tensordot(omega, g_tt, axes=([-5, -2], [1, 2])), g_rr, axes=([-5, -3], [1, 2]))
+    quad = quad + np.tensordot(np.tensordot(omega, g_tr, axes=([-5, -3], [1, 2])), g_rt, axes=([-5, -3], [1, 2]))
+    mean[..., CROSSTALK2:, :, :] = _symmetric_pairs(np.moveaxis(quad, (-1, -2), (-4, -3)))
 
-    alpha = np.einsum("...pd,...ipd->...ip", a0c, ub)  # a0_p C u_ip^H (co-pol eq. 3.4)
-    beta = np.einsum("...ipd,...jpd->...pij", uc, ub)  # u_ip C u_jp^H
-    gamma = np.einsum("...pd,...ijpd->...pij", a0c, wb)  # a0_p C w_ijp^H
-    tau = np.einsum("...mqd,...klqd->...qmkl", uc, wb)  # u_mq C w_klq^H
+    idx = np.arange(3)
+    alpha = (ub * a0c[..., None, :, :]).sum(-1)  # a0_p C u_ip^H [i, p] (co-pol eq. 3.4)
+    beta_pp = np.moveaxis(beta[..., :, idx, :, idx], 0, -3)  # u_ip C u_jp^H [p, i, j]
+    gamma = np.moveaxis((wb * a0c[..., None, None, :, :]).sum(-1), -1, -3)  # a0_p C w_ijp^H [p, i, j]
+    tau = (np.moveaxis(uc, -3, -2) @ np.moveaxis(wb, (-4, -3), (-2, -1)).reshape(wb.shape[:-4] + (3, 3, 9))
+           ).reshape(uc.shape[:-3] + (3, n_e, 3, 3))  # u_mq C w_klq^H [q, m, k, l]
     cov = np.zeros(mean.shape)
-    t1 = np.einsum("...ip,aij,...jq->...apq", alpha.conj(), g, alpha, optimize=True)
+    t1 = np.einsum("...ip,aij->...apj", alpha.conj(), g) @ alpha[..., None, :, :]  # alpha_p^H Gamma alpha_q
     cov[..., CROSSTALK:IMBALANCE + 1, :, :] = 2 * t1.real
-    q2 = np.einsum("...pij,...qkl,ail,bkj->...abpq", beta, beta, g, g, optimize=True).real
-    p2 = 2 * (np.einsum("...pij,...qkl,aki,blj->...abpq", gamma, gamma.conj(), g_rr, g_tt, optimize=True)
-              + np.einsum("...pij,...qkl,akj,bli->...abpq", gamma, gamma.conj(), g_rt, g_tr, optimize=True)).real
+    # Cov(Q_p, Q_q) = tr(beta_p Gamma_a^T beta_q Gamma_b^T) for the pairs of level structures (a, b)
+    x = beta_pp[..., None, :, :, :] @ np.swapaxes(g, -1, -2)[:, None, :, :]  # (..., a, p, i, j)
+    flat = x.reshape(x.shape[:-4] + (6, n_e * n_e))
+    q2 = (flat @ np.swapaxes(np.swapaxes(x, -1, -2).reshape(flat.shape), -1, -2)).real  # tr(X_pa X_qb)
+    q2 = np.swapaxes(q2.reshape(q2.shape[:-2] + (2, 3, 2, 3)), -3, -2)
+    p2 = 2 * _p2(gamma, gamma.conj(), g_rr, g_tt, g_rt, g_tr).real
     g_xr, g_xt = g[:, :, RECEIVE], g[:, :, TRANSMIT]
-    t13 = 2 * (np.einsum("...np,...qmkl,ank,bml->...abpq", alpha.conj(), tau, g_xr, g_xt, optimize=True)
-               + np.einsum("...np,...qmkl,anl,bmk->...abpq", alpha.conj(), tau, g_xt, g_xr, optimize=True)).real
+    va = np.moveaxis(np.tensordot(alpha.conj(), g_xr, axes=([-2], [1])), -2, -3)  # sum_n conj(alpha_np) Gamma_a[n, k]
+    vt = np.moveaxis(np.tensordot(alpha.conj(), g_xt, axes=([-2], [1])), -2, -3)  # ... Gamma_a[n, 3 + l]
+    tb_t = np.moveaxis(np.tensordot(tau, g_xt, axes=([-3, -1], [1, 2])), -1, -3)  # sum_ml tau_q[m,k,l] Gamma_b[m,3+l]
+    tb_r = np.moveaxis(np.tensordot(tau, g_xr, axes=([-3, -2], [1, 2])), -1, -3)  # sum_mk tau_q[m,k,l] Gamma_b[m,k]
+    t13 = 2 * (np.einsum("...apk,...bqk->...abpq", va, tb_t) + np.einsum("...apl,...bql->...abpq", vt, tb_r)).real
     t13 = t13 + np.swapaxes(t13, -1, -2)  # Cov(T1_p, T3_q) + Cov(T3_p, T1_q)
     cov[..., CROSSTALK2:, :, :] = _symmetric_pairs(q2 + p2 + t13)
     return ConditionalPolynomials(mean, cov)
+
+
+def _p2(gamma, gb, g_rr, g_tt, g_rt, g_tr):
+    """Cov(2 Re P_p, 2 Re P_q) / 2 before the real part: sum gamma_p[i,j] conj(gamma_q[k,l]) (Gamma_a[k,i]
+    Gamma_b[3+l,3+j] + Gamma_a[k,3+j] Gamma_b[3+l,i]) for the pairs (a, b), shape (..., a, b, p, q)."""
+    first = np.tensordot(np.tensordot(gb, g_rr, axes=([-2], [1])), g_tt, axes=([-3], [1]))  # [q, a, i, b, j]
+    second = np.tensordot(np.tensordot(gb, g_rt, axes=([-2], [1])), g_tr, axes=([-3], [1]))  # [q, a, j, b, i]
+    both = first + np.swapaxes(second, -3, -1)
+    both = np.moveaxis(both, (-4, -2, -5), (-5, -4, -3)).reshape(both.shape[:-5] + (2, 2, 3, 9))  # [a, b, q, (i j)]
+    flat = gamma.reshape(gamma.shape[:-2] + (9,))[..., None, None, :, :]  # [1, 1, p, (i j)]
+    return flat @ np.swapaxes(both, -1, -2)
+
+
+def _herm(x: np.ndarray) -> np.ndarray:
+    return np.swapaxes(x.conj(), -1, -2)
 
 
 def _symmetric_pairs(x: np.ndarray) -> np.ndarray:

@@ -20,7 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from e2esim.errors import PhysicsInputError
-from e2esim.faraday.distribution import FaradayDistribution
+from e2esim.faraday.distribution import ConstantFaraday, FaradayDistribution
 
 MODES = ("none", "perfect", "estimated")
 
@@ -52,12 +52,12 @@ class FaradayCorrection:
     def nodes(self, faraday: FaradayDistribution) -> tuple:
         """(omega, omega_hat or None, weights), each (G,): nodes and weights that average a trigonometric
         polynomial of degree <= 8 in Omega (and in dW) over the distributions exactly."""
-        om, w = faraday.quadrature()
+        om, w = nodes_of(faraday)
         if self.mode == "none":
             return om, None, w
         if self.mode == "perfect":
             return om, om, w
-        dw, v = self.residual.quadrature()
+        dw, v = nodes_of(self.residual)
         omega = np.repeat(om, dw.size)
         return omega, omega - np.tile(dw, om.size), np.outer(w, v).ravel()
 
@@ -68,3 +68,10 @@ class FaradayCorrection:
         if self.mode == "perfect":
             return np.asarray(omega, float)
         return np.asarray(omega, float) - self.residual.sample(rng, np.shape(omega))
+
+
+def nodes_of(dist: FaradayDistribution) -> tuple:
+    """Quadrature nodes and weights of a distribution; a single node for a constant rotation."""
+    if isinstance(dist, ConstantFaraday):
+        return np.array([float(dist.value)]), np.ones(1)
+    return dist.quadrature()

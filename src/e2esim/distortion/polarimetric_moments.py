@@ -137,7 +137,7 @@ def evaluate(poly: ErrorPolynomial, crosstalk, imbalance, noise_power, gain_mome
     ex = x[..., :, None, None]
     mean_parts = poly.mean * ex  # (..., 6, 3, 3)
     cov_parts = poly.cov * ex
-    spread = np.einsum("...k,...l,klpq->...pq", x, x, poly.spread)
+    spread = np.einsum("...k,...l,...klpq->...pq", x, x, poly.spread)
 
     def diag(m):
         return np.real(np.diagonal(m, axis1=-2, axis2=-1))
@@ -175,9 +175,23 @@ def evaluate(poly: ErrorPolynomial, crosstalk, imbalance, noise_power, gain_mome
 
 
 def error_polynomial(scene, system, faraday, correction: FaradayCorrection | None = None) -> ErrorPolynomial:
-    """``ErrorPolynomial`` for a ``ScatteringCovariance``, ``SystemErrorModel`` and ``FaradayDistribution``."""
-    omega, omega_hat, weights = (correction or FaradayCorrection()).nodes(faraday)
-    return ErrorPolynomial.build(scene.matrix, unit_covariances(system), omega, omega_hat, weights)
+    """``ErrorPolynomial`` for a ``ScatteringCovariance``, ``SystemErrorModel`` and ``FaradayDistribution``; the
+    last few are kept, for the sweep cases that share them (e.g. several retrievals of the same data)."""
+    correction = correction or FaradayCorrection()
+    gammas = unit_covariances(system)
+    key = (np.ascontiguousarray(scene.matrix).tobytes(), gammas.tobytes(), faraday, correction)
+    poly = _RECENT.get(key)
+    if poly is None:
+        omega, omega_hat, weights = correction.nodes(faraday)
+        poly = ErrorPolynomial.build(scene.matrix, gammas, omega, omega_hat, weights)
+        if len(_RECENT) >= _RECENT_SIZE:
+            _RECENT.pop(next(iter(_RECENT)))
+        _RECENT[key] = poly
+    return poly
+
+
+_RECENT: dict = {}
+_RECENT_SIZE = 32
 
 
 def polarimetric_error_moments(scene, system, faraday, correction: FaradayCorrection | None = None,
