@@ -18,9 +18,9 @@ import numpy as np
 
 from e2esim.distortion.covariance_montecarlo import CovarianceSamples
 from e2esim.distortion.faraday_correction import FaradayCorrection
-from e2esim.distortion.polarimetric_moments import ChannelErrorMoments, error_polynomial, evaluate
+from e2esim.distortion.polarimetric_moments import ChannelErrorMoments, error_polynomial, evaluate, evaluate_totals
 from e2esim.distortion.validation import sample_covariance_moments
-from e2esim.error_model import JointContribution, MultiChannelErrorModel
+from e2esim.error_model import JointContribution, JointMoments, MultiChannelErrorModel
 from e2esim.faraday.distribution import ConstantFaraday, FaradayDistribution
 from e2esim.instrument.system_errors import SystemErrorModel
 from e2esim.polarimetry.system_model import RECIPROCAL_CHANNELS
@@ -87,20 +87,28 @@ class PolarimetricErrorModel(MultiChannelErrorModel):
             self._memo["polynomial"] = error_polynomial(self.scene, self.system, self.faraday, self.correction)
         return self._memo["polynomial"]
 
-    def joint_moments(self, crosstalk=None, channel_imbalance=None, nesz=None, **unknown) -> ChannelErrorMoments:
-        """Co-pol eqs. (5.1)-(5.4) with V_delta, V_eps and sigma_n replaced where given (broadcast)."""
+    def joint_moments(self, crosstalk=None, channel_imbalance=None, nesz=None, **unknown) -> JointMoments:
+        """Mean vector and covariance matrix, co-pol eqs. (5.1)-(5.4), with V_delta, V_eps and sigma_n replaced
+        where given (broadcast); ``current_joint`` has every part."""
+        mean, cov = evaluate_totals(self.polynomial(), *self._levels(crosstalk, channel_imbalance, nesz, unknown),
+                                    self.system.gain_power_moments, self.looks, self.reference)
+        return JointMoments(self.channels, mean, cov)
+
+    def current_joint(self) -> ChannelErrorMoments:
+        """The moments at the model's own levels with their parts by source (computed once)."""
+        if "current" not in self._memo:
+            self._memo["current"] = evaluate(self.polynomial(), *self._levels(None, None, None, {}),
+                                             self.system.gain_power_moments, self.looks, self.reference)
+        return self._memo["current"]
+
+    def _levels(self, crosstalk, channel_imbalance, nesz, unknown) -> tuple:
         if unknown:
             raise TypeError(f"unknown levels {', '.join(unknown)}; this model has {', '.join(LEVELS)}")
         self.check_available()
         s = self.system
-        return evaluate(self.polynomial(), s.crosstalk_level if crosstalk is None else crosstalk,
-                        s.imbalance_level if channel_imbalance is None else channel_imbalance,
-                        s.noise_power if nesz is None else nesz, s.gain_power_moments, self.looks, self.reference)
-
-    def current_joint(self) -> ChannelErrorMoments:
-        if "current" not in self._memo:
-            self._memo["current"] = self.joint_moments()
-        return self._memo["current"]
+        return (s.crosstalk_level if crosstalk is None else crosstalk,
+                s.imbalance_level if channel_imbalance is None else channel_imbalance,
+                s.noise_power if nesz is None else nesz)
 
     # Sources removed -------------------------------------------------------------------------------
     def without(self, source: str) -> "PolarimetricErrorModel":

@@ -137,7 +137,8 @@ def evaluate(poly: ErrorPolynomial, crosstalk, imbalance, noise_power, gain_mome
     ex = x[..., :, None, None]
     mean_parts = poly.mean * ex  # (..., 6, 3, 3)
     cov_parts = poly.cov * ex
-    spread = np.einsum("...k,...l,...klpq->...pq", x, x, poly.spread)
+    xx = (x[..., :, None] * x[..., None, :]).reshape(shape + (1, 36))
+    spread = (xx @ poly.spread.reshape(poly.spread.shape[:-4] + (36, 9))).reshape(shape + (3, 3))
 
     def diag(m):
         return np.real(np.diagonal(m, axis1=-2, axis2=-1))
@@ -172,6 +173,37 @@ def evaluate(poly: ErrorPolynomial, crosstalk, imbalance, noise_power, gain_mome
     return ChannelErrorMoments(mean, covariance, bias_faraday, bias_crosstalk, bias_imbalance, bias_higher, noise,
                                bias_gain, cov_crosstalk, cov_imbalance, cov_interaction, spread, finite, cov_gain,
                                expected, poly.sigma)
+
+
+def evaluate_totals(poly: ErrorPolynomial, crosstalk, imbalance, noise_power, gain_moments=(1.0, 1.0),
+                    looks: int | None = None, reference: str = "scene") -> tuple:
+    """(mean (..., 3), covariance (..., 3, 3)) of ``evaluate`` without the parts: a few matrix products, for the
+    many evaluations of root finding (margins, trade-off curves)."""
+    x = monomials(crosstalk, imbalance)
+    sn = np.asarray(noise_power, float)
+    shape = np.broadcast_shapes(x.shape[:-1], sn.shape, poly.sigma.shape[:-1])
+    x = np.broadcast_to(x, shape + (6,))[..., None, :]  # (..., 1, 6)
+    lead = poly.mean.shape[:-3]
+    mean_m = poly.mean.reshape(lead + (6, 9))
+    signal = (x @ mean_m).reshape(shape + (3, 3))  # E[A C A^H]
+    q1 = np.real(np.diagonal(signal, axis1=-2, axis2=-1))
+    xx = (x[..., 0, :, None] * x[..., 0, None, :]).reshape(shape + (1, 36))
+    signal_cov = ((x @ poly.cov.reshape(lead + (6, 9))) + xx @ poly.spread.reshape(lead + (36, 9))).reshape(
+        shape + (3, 3))
+    g1, g2 = gain_moments
+    noise = np.broadcast_to(sn, shape)[..., None] * NOISE_FACTORS
+    mean = g1 * q1 + noise - poly.sigma
+    cov = g2 * signal_cov + (g2 - g1**2) * q1[..., :, None] * q1[..., None, :]
+    if looks is not None:
+        idx = np.arange(3)
+        if reference == "scene":
+            cov[..., idx, idx] += (noise**2 + 2 * noise * g1 * q1) / looks
+        else:
+            finite = g2 * np.abs(signal) ** 2 / looks
+            finite[..., idx, idx] = (g2 * (np.diagonal(signal_cov, axis1=-2, axis2=-1) + q1**2)
+                                     + 2 * noise * g1 * q1 + noise**2) / looks
+            cov = cov + finite
+    return mean, cov
 
 
 def error_polynomial(scene, system, faraday, correction: FaradayCorrection | None = None) -> ErrorPolynomial:
