@@ -11,6 +11,11 @@ requirement margins, attribution and trade-off curves for free:
 
 A model that cannot answer (for example a Monte Carlo only model, when the errors are too large for an
 expansion) says why in ``unavailable``; the stages that need the answer then report that reason.
+
+Several channels estimated from the same data have correlated errors: a ``MultiChannelErrorModel`` answers
+the same questions for all of them at once (mean vector, covariance matrix) and is, for every single-channel
+consumer, the error model of its primary channel; ``ChannelView`` and other ``DerivedErrorModel``s turn it
+into single-channel models (docs/architecture.md, "Several channels").
 """
 
 from __future__ import annotations
