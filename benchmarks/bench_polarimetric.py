@@ -21,6 +21,7 @@ import time
 os.environ.setdefault("OMP_NUM_THREADS", "1")  # one core, as the targets say
 
 import numpy as np  # noqa: E402
+from bench_crosspol import best_of  # noqa: E402  (this folder is on sys.path when run as a script)
 
 from e2esim.distortion.channel_moments import unit_covariances  # noqa: E402
 from e2esim.distortion.covariance_montecarlo import simulate_covariance  # noqa: E402
@@ -39,15 +40,6 @@ PAPER = dict(looks=100_000, realisations=10_000, noise_realisations=1)
 FR = GaussianFaraday(np.pi / 3, np.pi / 36)
 CORRECTIONS = {"uncorrected": FaradayCorrection(),
                "corrected": FaradayCorrection("estimated", GaussianFaraday(0.0, np.radians(0.2)))}
-
-
-def best_of(fn, repeats=3):
-    times = []
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t0)
-    return min(times)
 
 
 def brute_force_seconds(quick: bool, correction) -> float:

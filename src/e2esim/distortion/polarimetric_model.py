@@ -17,6 +17,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from e2esim.distortion.covariance_montecarlo import CovarianceSamples
+from e2esim.distortion.error_model import LEVELS, SystemLevels
 from e2esim.distortion.faraday_correction import FaradayCorrection
 from e2esim.distortion.polarimetric_moments import ChannelErrorMoments, error_polynomial, evaluate, evaluate_totals
 from e2esim.distortion.validation import sample_covariance_moments
@@ -26,8 +27,6 @@ from e2esim.instrument.system_errors import SystemErrorModel
 from e2esim.polarimetry.system_model import RECIPROCAL_CHANNELS
 from e2esim.scene.covariance import ScatteringCovariance
 
-LEVELS = ("crosstalk", "channel_imbalance", "nesz")
-SOURCES = ("crosstalk", "channel_imbalance", "noise", "faraday_rotation", "gain")
 CONTRIBUTION_DESCRIPTIONS = {
     "system_distortions": "crosstalk, channel imbalance and gain errors without Faraday rotation",
     "faraday_rotation": "what the case's Faraday rotation (or what its correction leaves) adds to the system "
@@ -39,7 +38,7 @@ _LEVEL_ZERO = {"crosstalk": {"crosstalk": 0.0}, "channel_imbalance": {"imbalance
 
 
 @dataclass(frozen=True, eq=False)
-class PolarimetricErrorModel(MultiChannelErrorModel):
+class PolarimetricErrorModel(SystemLevels, MultiChannelErrorModel):
     """Errors of (sigma_hh, sigma_hv, sigma_vv) for one scene, system-error model and Faraday rotation.
 
     scene, system, faraday : what the error is computed for (the residual system; the Faraday rotation in the
@@ -66,19 +65,6 @@ class PolarimetricErrorModel(MultiChannelErrorModel):
     @property
     def values(self) -> np.ndarray:
         return np.real(np.diag(self.scene.matrix))
-
-    @property
-    def includes_speckle(self) -> bool:
-        return self.reference == "population"
-
-    @property
-    def levels(self) -> dict:
-        s = self.system
-        return {"crosstalk": s.crosstalk_level, "channel_imbalance": s.imbalance_level, "nesz": s.noise_power}
-
-    @property
-    def sources(self) -> tuple:
-        return SOURCES
 
     # Moments ---------------------------------------------------------------------------------------
     def polynomial(self):
@@ -110,15 +96,7 @@ class PolarimetricErrorModel(MultiChannelErrorModel):
                 s.imbalance_level if channel_imbalance is None else channel_imbalance,
                 s.noise_power if nesz is None else nesz)
 
-    # Sources removed -------------------------------------------------------------------------------
-    def without(self, source: str) -> "PolarimetricErrorModel":
-        if source not in SOURCES:
-            raise KeyError(f"unknown error source {source!r}; sources: {', '.join(SOURCES)}")
-        key = f"without {source}"
-        if key not in self._memo:
-            self._memo[key] = self._without(source)
-        return self._memo[key]
-
+    # Sources removed (``SystemLevels.without``) ----------------------------------------------------
     def _without(self, source: str) -> "PolarimetricErrorModel":
         sysm = self.system
         if source == "faraday_rotation":
