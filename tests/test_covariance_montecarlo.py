@@ -51,7 +51,7 @@ def test_noise_distribution_given_the_scene_is_exact(seed):
     # has the distribution of the pixel sums (co-pol eq. 7.1); noise comparable to the signal
     scene, sys_model = forest("boreal_50"), system(-25.0, -28.0, nesz_db=-12.0)
     vectors = scene.sample(np.random.default_rng(seed + 1), 8)
-    kw = dict(looks=8, realisations=2, noise_realisations=4000, scene_vectors=vectors, correction=ESTIMATED)
+    kw = dict(looks=8, realisations=2, noise_realisations=2500, scene_vectors=vectors, correction=ESTIMATED)
     fast = simulate_covariance(scene, sys_model, FR, np.random.default_rng(seed), method="fast", **kw).covariance
     brute = simulate_covariance(scene, sys_model, FR, np.random.default_rng(seed), method="brute_force",
                                 **kw).covariance

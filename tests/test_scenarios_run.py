@@ -12,7 +12,7 @@ SCENARIOS = sorted((ROOT / "scenarios").glob("*.yaml"))
 QUICK = ["--set", "simulation.realisations=400", "--set", "simulation.looks=2000"]
 EXTRA = {  # the global Faraday-rotation maps (a whole-globe climatology) are slow: drawn by docs/theory/ionosphere_figures.py
     "biomass_latitude_sweep": ["--set", "output.plots=[verdicts, agb_error_vs_sweep, faraday_distributions]"],
-    "biomass_multichannel": ["--set", "output.plots=[estimator_comparison]"],  # 16 cases: the other plots are slow
+    "biomass_multichannel": ["--set", "output.plots=[estimator_comparison]", "--set", "requirements.0.curve_points=9"],
 }
 
 
