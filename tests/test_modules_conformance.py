@@ -26,9 +26,24 @@ CONFIGS = {
 BUILTIN = [r for r in registry.available() if r.distribution.lower() == "e2esim"]
 
 
+def _multichannel_case():
+    """The reference case with a multi-channel backscatter.error (the default chain's is HV only)."""
+    from e2esim.distortion.polarimetric_modules import PolarimetricErrorPropagation
+    from e2esim.testing import reference_case
+
+    stage = PolarimetricErrorPropagation()
+    case = reference_case(stage.needs)
+    return case.adding(stage.forward(case))
+
+
+CASES = {("retrieval", "multichannel_power_law"): _multichannel_case}
+"""Reference cases for modules that need products the default chain does not make."""
+
+
 @pytest.mark.parametrize("reg", BUILTIN, ids=lambda r: f"{r.kind}.{r.type_name}")
 def test_builtin_module_conforms(reg):
-    check_module(reg.cls, CONFIGS.get((reg.kind, reg.type_name)))
+    make_case = CASES.get((reg.kind, reg.type_name))
+    check_module(reg.cls, CONFIGS.get((reg.kind, reg.type_name)), make_case() if make_case else None)
 
 
 class Broken(Stage):

@@ -11,6 +11,11 @@ requirement margins, attribution and trade-off curves for free:
 
 A model that cannot answer (for example a Monte Carlo only model, when the errors are too large for an
 expansion) says why in ``unavailable``; the stages that need the answer then report that reason.
+
+Several channels estimated from the same data have correlated errors: a ``MultiChannelErrorModel`` answers
+the same questions for all of them at once (mean vector, covariance matrix) and is, for every single-channel
+consumer, the error model of its primary channel; ``ChannelView`` and other ``DerivedErrorModel``s turn it
+into single-channel models (docs/architecture.md, "Several channels").
 """
 
 from __future__ import annotations
@@ -115,3 +120,188 @@ class ErrorModel(ABC):
     def scalars(self) -> dict:
         """Output scalars of the model (summary.json, results.h5); names documented in docs/output-format.md."""
         return {}
+
+
+# Several channels ----------------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class JointMoments:
+    """Mean vector and covariance matrix of the errors of several channels: mean (..., C), covariance
+    (..., C, C), in m^2/m^2 and (m^2/m^2)^2, channels in ``channels`` order."""
+
+    channels: tuple
+    mean: np.ndarray
+    covariance: np.ndarray
+
+    @property
+    def variance(self) -> np.ndarray:
+        return np.diagonal(self.covariance, axis1=-2, axis2=-1)
+
+
+@dataclass(frozen=True)
+class JointContribution:
+    """One source's share of the errors of several channels: mean (C,) and covariance (C, C)."""
+
+    mean: np.ndarray
+    covariance: np.ndarray
+    description: str = ""
+
+
+class MultiChannelErrorModel(ErrorModel):
+    """Errors ``e_p = sigma_hat_p - sigma_p`` of several channels estimated from the same data, jointly.
+
+    The channel errors share their sources (the same crosstalk, imbalance and Faraday rotation act on all), so
+    they are correlated; a multi-channel retrieval needs their covariance. The multi-channel questions:
+
+    * ``joint_moments(**levels)``: a ``JointMoments``-like object (``mean`` (..., C), ``covariance``
+      (..., C, C)) at other levels, broadcast like ``moments``; ``current_joint()`` at the model's own;
+    * ``joint_contributions()``: {name: ``JointContribution``}, adding up to the joint mean and covariance;
+    * ``joint_relative_samples()``: Monte Carlo samples of e_p / sigma_p, shape (M, N, C), or None;
+    * ``channel_view(name)``: one channel as a single-channel ``ErrorModel`` (verdicts, margins, trade-off
+      curves through the single-channel requirement code);
+    * ``without(source)`` returns a ``MultiChannelErrorModel``.
+
+    It is also an ``ErrorModel`` of its ``channel`` (the primary channel, HV by default), so every
+    single-channel consumer (power-law retrieval, requirements, reports) works with it unchanged.
+    """
+
+    channels: tuple = ("hh", "hv", "vv")
+
+    @property
+    @abstractmethod
+    def values(self) -> np.ndarray:
+        """The true coefficients sigma_p (m^2/m^2), shape (C,)."""
+
+    @abstractmethod
+    def joint_moments(self, **levels):
+        """Mean vector and covariance matrix of the channel errors with some levels replaced (broadcast)."""
+
+    @abstractmethod
+    def joint_contributions(self) -> dict:
+        """{name: JointContribution}, adding up to ``current_joint()``."""
+
+    def current_joint(self):
+        """``joint_moments()`` at the model's own levels (implementations cache it)."""
+        return self.joint_moments()
+
+    def joint_relative_samples(self) -> np.ndarray | None:
+        """Monte Carlo samples of e_p / sigma_p, shape (M, N, C), or None."""
+        return None
+
+    def index(self, channel: str) -> int:
+        if channel not in self.channels:
+            raise KeyError(f"unknown channel {channel!r}; channels: {', '.join(self.channels)}")
+        return self.channels.index(channel)
+
+    def channel_view(self, channel: str) -> "ChannelView":
+        """Channel ``channel`` as a single-channel ``ErrorModel``."""
+        return ChannelView(self, channel)
+
+    # the single-channel interface: the primary channel
+    @property
+    def value(self) -> float:
+        return float(self.values[self.index(self.channel)])
+
+    def moments(self, **levels) -> Moments:
+        return _channel_moments(self.joint_moments(**levels), self.index(self.channel))
+
+    def current(self) -> Moments:
+        return _channel_moments(self.current_joint(), self.index(self.channel))
+
+    def contributions(self) -> dict:
+        i = self.index(self.channel)
+        return {name: Contribution(float(c.mean[i]), float(c.covariance[i, i]), c.description)
+                for name, c in self.joint_contributions().items()}
+
+    def relative_samples(self) -> np.ndarray | None:
+        rel = self.joint_relative_samples()
+        return None if rel is None else rel[..., self.index(self.channel)]
+
+
+def _channel_moments(joint, i: int) -> Moments:
+    # a truncated expansion evaluated far beyond its range (root finding scans levels up to 0 dB) can give a
+    # slightly negative variance: read it as 0
+    return Moments(np.asarray(joint.mean)[..., i], np.clip(np.asarray(joint.covariance)[..., i, i], 0.0, None))
+
+
+class DerivedErrorModel(ErrorModel):
+    """A single-channel error model computed from a ``MultiChannelErrorModel``: one of its channels
+    (``ChannelView``) or a function of all of them (e.g. the log-AGB error of a multi-channel retrieval).
+    Levels, sources and availability are the source model's; subclasses say how the joint moments and
+    samples reduce (``reduce``, ``reduce_samples``) and how a variant is rebuilt (``rebuilt``)."""
+
+    def __init__(self, source: MultiChannelErrorModel):
+        self.source = source
+
+    @abstractmethod
+    def reduce(self, joint) -> Moments:
+        """Mean and variance of this error from the joint moments (any broadcast shape)."""
+
+    @abstractmethod
+    def reduce_samples(self, relative: np.ndarray) -> np.ndarray:
+        """Samples of this relative error from relative channel errors (M, N, C)."""
+
+    @abstractmethod
+    def rebuilt(self, source: MultiChannelErrorModel) -> "DerivedErrorModel":
+        """The same reduction of another source model."""
+
+    @property
+    def levels(self) -> dict:
+        return self.source.levels
+
+    @property
+    def sources(self) -> tuple:
+        return self.source.sources
+
+    @property
+    def unavailable(self) -> str | None:
+        return self.source.unavailable
+
+    @property
+    def includes_speckle(self) -> bool:
+        return self.source.includes_speckle
+
+    @property
+    def notes(self) -> tuple:
+        return self.source.notes
+
+    def moments(self, **levels) -> Moments:
+        self.check_available()
+        return self.reduce(self.source.joint_moments(**levels))
+
+    def current(self) -> Moments:
+        self.check_available()
+        return self.reduce(self.source.current_joint())
+
+    def without(self, source: str) -> ErrorModel:
+        variant = self.source.without(source)
+        return self if variant is self.source else self.rebuilt(variant)
+
+    def relative_samples(self) -> np.ndarray | None:
+        rel = self.source.joint_relative_samples()
+        return None if rel is None else self.reduce_samples(rel)
+
+
+class ChannelView(DerivedErrorModel):
+    """One channel of a ``MultiChannelErrorModel`` as a single-channel ``ErrorModel``."""
+
+    def __init__(self, source: MultiChannelErrorModel, channel: str):
+        super().__init__(source)
+        self.channel = channel
+        self._i = source.index(channel)
+
+    @property
+    def value(self) -> float:
+        return float(self.source.values[self._i])
+
+    def reduce(self, joint) -> Moments:
+        return _channel_moments(joint, self._i)
+
+    def reduce_samples(self, relative: np.ndarray) -> np.ndarray:
+        return relative[..., self._i]
+
+    def rebuilt(self, source: MultiChannelErrorModel) -> "ChannelView":
+        return ChannelView(source, self.channel)
+
+    def contributions(self) -> dict:
+        return {name: Contribution(float(c.mean[self._i]), float(c.covariance[self._i, self._i]), c.description)
+                for name, c in self.source.joint_contributions().items()}

@@ -38,8 +38,35 @@ CONTRIBUTION_DESCRIPTIONS = {
 _LEVEL_SOURCES = {"crosstalk": 0, "channel_imbalance": 1, "noise": 2}  # rows of the batched variants
 
 
+class SystemLevels:
+    """What the distortion error models share: the levels are the system's (V_delta, V_eps, sigma_n), the
+    sources ``SOURCES``, speckle counts for the population reference, and ``without`` is evaluated once per
+    source (``_without`` makes the variant). Needs ``system``, ``reference`` and ``_memo`` fields."""
+
+    @property
+    def includes_speckle(self) -> bool:
+        return self.reference == "population"
+
+    @property
+    def levels(self) -> dict:
+        s = self.system
+        return {"crosstalk": s.crosstalk_level, "channel_imbalance": s.imbalance_level, "nesz": s.noise_power}
+
+    @property
+    def sources(self) -> tuple:
+        return SOURCES
+
+    def without(self, source: str):
+        if source not in SOURCES:
+            raise KeyError(f"unknown error source {source!r}; sources: {', '.join(SOURCES)}")
+        key = f"without {source}"
+        if key not in self._memo:
+            self._memo[key] = self._without(source)
+        return self._memo[key]
+
+
 @dataclass(frozen=True, eq=False)
-class HVErrorModel(ErrorModel):
+class HVErrorModel(SystemLevels, ErrorModel):
     """Error of sigma_hv_hat for one scene, system-error model and Faraday-rotation distribution.
 
     scene, system, faraday : what the error is computed for (the residual system and Faraday rotation
@@ -67,19 +94,6 @@ class HVErrorModel(ErrorModel):
     def value(self) -> float:
         return self.scene.sigma_hv
 
-    @property
-    def includes_speckle(self) -> bool:
-        return self.reference == "population"
-
-    @property
-    def levels(self) -> dict:
-        s = self.system
-        return {"crosstalk": s.crosstalk_level, "channel_imbalance": s.imbalance_level, "nesz": s.noise_power}
-
-    @property
-    def sources(self) -> tuple:
-        return SOURCES
-
     # Moments ---------------------------------------------------------------------------------------
     def moments(self, crosstalk=None, channel_imbalance=None, nesz=None, **unknown) -> HVErrorMoments:
         """``hv_error_moments`` with the levels V_delta, V_eps and sigma_n replaced where given (broadcast)."""
@@ -94,15 +108,7 @@ class HVErrorModel(ErrorModel):
             self._memo["current"] = self.moments()
         return self._memo["current"]
 
-    # Sources removed -------------------------------------------------------------------------------
-    def without(self, source: str) -> "HVErrorModel":
-        if source not in SOURCES:
-            raise KeyError(f"unknown error source {source!r}; sources: {', '.join(SOURCES)}")
-        key = f"without {source}"
-        if key not in self._memo:
-            self._memo[key] = self._without(source)
-        return self._memo[key]
-
+    # Sources removed (``SystemLevels.without``) ----------------------------------------------------
     def _without(self, source: str) -> "HVErrorModel":
         sysm, fr = self.system, self.faraday
         if source == "faraday_rotation":

@@ -55,3 +55,30 @@ def compare_with_analytic(analytic_mean: float, analytic_variance: float, errors
         "var_rel_diff": (s["variance"] - analytic_variance) / analytic_variance,
         "var_rel_se": float(var_se),
     }
+
+
+def sample_covariance_moments(errors: np.ndarray) -> dict:
+    """Mean vector and covariance matrix of simulated channel errors (M, N, C), with standard errors.
+
+    As ``sample_moments`` for several channels: rows (system-error realisations) are independent, the N
+    noise draws of a row are not, so the standard errors come from the M row statistics
+    ``r1 = mean_n d``, ``r2 = mean_n d d^T`` (delta method for the covariance).
+    """
+    e = np.asarray(errors, dtype=float)
+    if e.ndim == 2:
+        e = e[:, None, :]
+    m = e.shape[0]
+    centre = e.reshape(-1, e.shape[-1]).mean(0)
+    d = e - centre
+    r1 = d.mean(1)  # (M, C)
+    r2 = np.einsum("mnp,mnq->mpq", d, d) / e.shape[1]  # (M, C, C)
+    mu = r1.mean(0)
+    cov = r2.mean(0) - np.outer(mu, mu)
+    z = r2 - mu[None, None, :] * r1[:, :, None] - mu[None, :, None] * r1[:, None, :]
+    return {
+        "mean": centre + mu,
+        "covariance": cov,
+        "mean_se": r1.std(0, ddof=1) / np.sqrt(m),
+        "covariance_se": z.std(0, ddof=1) / np.sqrt(m),
+        "realisations": m,
+    }

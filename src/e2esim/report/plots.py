@@ -25,6 +25,7 @@ from e2esim.report.plot_base import PlotSkipped, save  # noqa: E402
 from e2esim.report.sweep_layout import legend, sweep_layout  # noqa: E402
 from e2esim.report.sweep_plots import plot_agb_error_vs_sweep, plot_backscatter_vs_sweep, plot_verdicts  # noqa: E402
 from e2esim.units import level_db_from_variance  # noqa: E402
+from e2esim.report.multichannel_plots import plot_estimator_comparison  # noqa: E402
 
 
 def plot_error_histograms(result, folder: Path, options: dict) -> list:
@@ -154,6 +155,7 @@ PLOTTERS = {
     "faraday_distributions": plot_faraday_distributions,
     "faraday_climatology": plot_faraday_climatology,
     "site_map": plot_site_map,
+    "estimator_comparison": plot_estimator_comparison,
 }
 """Plot types by name: function(result, folder, options) -> [(file name, caption)]; ``PlotSkipped`` says why
 one draws nothing."""

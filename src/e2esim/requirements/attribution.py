@@ -6,6 +6,7 @@ import dataclasses
 
 import numpy as np
 
+from e2esim.requirements.base import error_model_of
 from e2esim.retrieval.agb_error import AGBError
 
 
@@ -21,7 +22,7 @@ def attribution(case, value_of, agb: AGBError, unit: str = "percent") -> tuple[d
     the checked value; ``agb`` is the error the requirement checks; ``unit`` ends the keys,
     ``contribution.<source>_<unit>``. Returns (contributions, notes).
     """
-    model = case["backscatter.error"]
+    model = error_model_of(case)
     if model.unavailable is not None or agb.error_mean is None:
         return {}, (f"no attribution to error sources: {model.unavailable or 'no analytic AGB error'}",)
     # what the budget and regression add to the systematic variance (m^2/m^2)^2

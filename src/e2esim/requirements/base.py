@@ -44,6 +44,13 @@ class Requirement(Module):
         """The verdict of this requirement on ``case``."""
 
 
+def error_model_of(case):
+    """The single-channel error model the case's AGB error maps: the one the retrieval names (a channel or a
+    channel combination of a multi-channel model), else ``backscatter.error``."""
+    model = getattr(case["agb.error"], "error_model", None)
+    return model if model is not None else case["backscatter.error"]
+
+
 def checked_error(requirement: Requirement, case) -> AGBError:
     """The AGB error a requirement checks: from every source (``all``), or only from the systematic error of
     the propagation's error model, system distortions, Faraday rotation and noise (``systematic``, the
@@ -51,11 +58,11 @@ def checked_error(requirement: Requirement, case) -> AGBError:
     agb = case["agb.error"]
     if requirement.si["sources"] == "all" or not agb.contributions:
         return agb
-    model = case["backscatter.error"]
+    model = error_model_of(case)
     m = model.current() if model.unavailable is None else None
     return AGBError.from_sigma_errors(
         agb.exponent, model.value, None if m is None else float(m.mean), None if m is None else float(m.sd),
-        model.relative_samples(), agb.mapping,
+        model.relative_samples(), agb.mapping, error_model=agb.error_model,
     )
 
 

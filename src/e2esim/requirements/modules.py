@@ -14,7 +14,15 @@ from __future__ import annotations
 from e2esim.module import fail
 from e2esim.params import Param
 from e2esim.requirements.attribution import attribution, dominant
-from e2esim.requirements.base import BASIS_PARAM, PERCENT, SOURCES_PARAM, Requirement, basis_of, checked_error
+from e2esim.requirements.base import (
+    BASIS_PARAM,
+    PERCENT,
+    SOURCES_PARAM,
+    Requirement,
+    basis_of,
+    checked_error,
+    error_model_of,
+)
 from e2esim.requirements.margins import (
     axis_crossings,
     has_tradeoff_plane,
@@ -82,7 +90,7 @@ class AGBErrorBound(Requirement):
             values.append(q if side == "over" else -q)
         value = max(values)
         verdict_curves = {}
-        model = case["backscatter.error"]
+        model = error_model_of(case)
         if (c["level_margins"] or c["tradeoff_curve"]) and model.unavailable is not None:
             notes.append(f"no level margins or trade-off curve: {model.unavailable}")
         elif c["level_margins"] or c["tradeoff_curve"]:

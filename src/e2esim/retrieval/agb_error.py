@@ -125,6 +125,9 @@ class AGBError:
     contributions : ``AGBContribution`` records of the named error sources (empty when the error has a
         single source, the system distortions and FR of the propagation module).
     saturated_fraction : basis -> fraction of estimates that saturate (probability for "analytic").
+    error_model : the single-channel ``ErrorModel`` this error maps (a channel or a channel combination of a
+        multi-channel model), for the requirements' margins, attribution and trade-off curves; None: the
+        case's ``backscatter.error``.
     """
 
     exponent: float
@@ -135,17 +138,18 @@ class AGBError:
     mapping: RelativeErrorMap | None = None
     contributions: tuple = ()
     saturated_fraction: tuple = ()
+    error_model: object = None
 
     @classmethod
     def from_sigma_errors(cls, exponent, sigma_hv, error_mean=None, error_sd=None, relative_samples=None,
-                          mapping=None, contributions=(), saturated_fraction=()):
+                          mapping=None, contributions=(), saturated_fraction=(), error_model=None):
         """From the analytic mean/SD of e (m^2/m^2) and/or Monte Carlo relative errors e / sigma_hv."""
         samples = None
         if relative_samples is not None:
             x = np.ravel(relative_samples)
             samples = agb_relative_error(x, exponent) if mapping is None else mapping(x)
         return cls(exponent, sigma_hv, error_mean, error_sd, samples, mapping, tuple(contributions),
-                   tuple(saturated_fraction))
+                   tuple(saturated_fraction), error_model)
 
     def has(self, basis: str) -> bool:
         return (self.error_mean is not None) if basis == "analytic" else (self.samples is not None)

@@ -50,6 +50,16 @@ from e2esim.retrieval.models import (
 
 CHANNELS = ("hh", "hv", "vv")
 _N_CH = len(CHANNELS)
+
+
+def selected_channels(channels=None) -> np.ndarray:
+    """Boolean mask over (hh, hv, vv) of the channel names given (None: all)."""
+    if channels is None:
+        return np.ones(_N_CH, dtype=bool)
+    unknown = [c for c in channels if c not in CHANNELS]
+    if unknown or not channels:
+        raise PhysicsInputError(f"channels must be a non-empty subset of {CHANNELS}, got {tuple(channels)}")
+    return np.array([c in channels for c in CHANNELS])
 _THETA_SPREAD = 1e-6  # rad: incidence angles spread less than this cannot determine n_pq (held fixed)
 
 
@@ -115,11 +125,15 @@ class LogLinearModel(RetrievalModel):
     def with_residual_covariance(self, cov) -> "LogLinearModel":
         return replace(self, residual_covariance=np.asarray(cov, dtype=float))
 
-    def channel_weights(self) -> np.ndarray:
-        """c = Sigma_r^-1 a / (a^T Sigma_r^-1 a): weights of ln sigma_pq in the GLS estimate of ln AGB."""
-        a = np.asarray(self.a)
-        w = np.linalg.solve(self.residual_covariance, a)
-        return w / float(a @ w)
+    def channel_weights(self, channels=None) -> np.ndarray:
+        """c = Sigma_r^-1 a / (a^T Sigma_r^-1 a): weights of ln sigma_pq in the GLS estimate of ln AGB, over the
+        ``channels`` used (default all; the others get weight 0)."""
+        use = selected_channels(channels)
+        a = np.asarray(self.a)[use]
+        w = np.linalg.solve(self.residual_covariance[np.ix_(use, use)], a)
+        out = np.zeros(_N_CH)
+        out[use] = w / float(a @ w)
+        return out
 
     # forward model -------------------------------------------------------------------------------------
     def _coefficients(self, params):
@@ -187,14 +201,17 @@ class LogLinearModel(RetrievalModel):
         return np.broadcast_to(np.asarray(self.a), np.shape(agb) + (_N_CH,)).copy()
 
     # inversion -------------------------------------------------------------------------------------------
-    def invert(self, sigma, agb_max: float | None = None, incidence_rad=None, **covariates) -> Inversion:
-        """Joint GLS inversion of (..., 3) backscatter (hh, hv, vv) to AGB (module docstring)."""
+    def invert(self, sigma, agb_max: float | None = None, incidence_rad=None, channels=None,
+               **covariates) -> Inversion:
+        """Joint GLS inversion of (..., 3) backscatter (hh, hv, vv) to AGB (module docstring), from the
+        ``channels`` given (default all three; the others are ignored)."""
         s = np.asarray(sigma, dtype=float)
         if s.shape[-1:] != (_N_CH,):
             raise PhysicsInputError(f"log-linear inversion needs sigma (..., 3) in (hh, hv, vv), got shape {s.shape}")
+        use = selected_channels(channels)
         cap = np.inf if agb_max is None else float(agb_max)
-        finite = np.all(np.isfinite(s), axis=-1)
-        usable = np.isfinite(s) & (s > 0)
+        finite = np.all(np.isfinite(s[..., use]), axis=-1)
+        usable = np.isfinite(s) & (s > 0) & use
         ln_l, a, n = (np.asarray(v) for v in (self.ln_l, self.a, self.n))
         ln_cos = self._log_cos(s[..., 0], incidence_rad)
         with np.errstate(divide="ignore", invalid="ignore"):
@@ -229,7 +246,7 @@ class LogLinearModel(RetrievalModel):
         return Inversion(agb, status, sigma_max, cap)
 
     def relative_agb_error(self, agb, sigma_relative_error, agb_max: float | None = None, channel: str = "hv",
-                           incidence_rad=None, **covariates):
+                           incidence_rad=None, channels=None, **covariates):
         """Relative AGB error for relative sigma errors x applied to ``channel`` alone (any shape), or with
         ``channel=None`` to all channels (x of shape (..., 3) in hh, hv, vv). Returns (q, Inversion)."""
         agb = float(agb)
@@ -246,7 +263,7 @@ class LogLinearModel(RetrievalModel):
             full = np.zeros(x.shape + (_N_CH,))
             full[..., CHANNELS.index(channel)] = x
             x = full
-        inv = self.invert(truth * (1.0 + x), agb_max=agb_max, incidence_rad=incidence_rad)
+        inv = self.invert(truth * (1.0 + x), agb_max=agb_max, incidence_rad=incidence_rad, channels=channels)
         return inv.agb / agb - 1.0, inv
 
     # fitting ---------------------------------------------------------------------------------------------

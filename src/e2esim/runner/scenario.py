@@ -67,6 +67,7 @@ PLOT_TYPES = (
     "faraday_climatology",
     "error_budget",
     "site_map",
+    "estimator_comparison",
 )
 
 SIMULATION_PARAMS = (

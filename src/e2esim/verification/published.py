@@ -45,6 +45,7 @@ PIN_TOLERANCE_NOTE = (
 def _all() -> list:
     from e2esim.verification import (
         ahmed2014_values,
+        men2021_sec6_values,
         men2021_values,
         quegan2018_calibration_values,
         quegan2018_values,
@@ -52,6 +53,7 @@ def _all() -> list:
 
     return [
         *men2021_values.PUBLISHED,
+        *men2021_sec6_values.PUBLISHED,
         *quegan2018_values.PUBLISHED,
         *quegan2018_calibration_values.PUBLISHED,
         *ahmed2014_values.PUBLISHED,
