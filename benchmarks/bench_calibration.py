@@ -13,23 +13,26 @@ import os
 for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "NUMEXPR_NUM_THREADS"):
     os.environ[_var] = "1"
 
-import time  # noqa: E402
+import time
 
-import numpy as np  # noqa: E402
+import numpy as np
 
-from e2esim.faraday.chirp import ChirpSlopeEstimator, sample_subband_covariances  # noqa: E402
-from e2esim.faraday.estimators import BickelBates, FreemanSecondMoment, wrap_error  # noqa: E402
-from e2esim.calibration.modules import CLUTTER_SHAPES  # noqa: E402
-from e2esim.calibration.quegan1994 import block_covariances, quegan_calibrate, quegan_ratios  # noqa: E402
-from e2esim.polarimetry.simulate import (  # noqa: E402
-    SystemState, sample_measured_covariance, simulate_chirp_scene, simulate_scene,
+from e2esim.calibration.modules import CLUTTER_SHAPES
+from e2esim.calibration.quegan1994 import block_covariances, quegan_calibrate, quegan_ratios
+from e2esim.calibration.targets import Calibrators, calibrator_responses
+from e2esim.calibration.transponder import solve_transponder
+from e2esim.faraday.chirp import ChirpSlopeEstimator, sample_subband_covariances
+from e2esim.faraday.estimators import BickelBates, FreemanSecondMoment, wrap_error
+from e2esim.instrument.system_errors import SystemErrorModel
+from e2esim.polarimetry.simulate import (
+    SystemState,
+    sample_measured_covariance,
+    simulate_chirp_scene,
+    simulate_scene,
 )
-from e2esim.calibration.targets import Calibrators, calibrator_responses  # noqa: E402
-from e2esim.calibration.transponder import solve_transponder  # noqa: E402
-from e2esim.instrument.system_errors import SystemErrorModel  # noqa: E402
-from e2esim.scene.covariance import ScatteringCovariance  # noqa: E402
-from e2esim.scene.table1 import TABLE1_FORESTS  # noqa: E402
-from e2esim.units import db_to_linear, variance_from_level_db  # noqa: E402
+from e2esim.scene.covariance import ScatteringCovariance
+from e2esim.scene.table1 import TABLE1_FORESTS
+from e2esim.units import db_to_linear, variance_from_level_db
 
 SHAPE = (1000, 1000)
 WINDOW = (10, 10)
@@ -159,7 +162,7 @@ def main():
 
     print(f"Monte Carlo characterisation (bias and SD over {REALISATIONS} realisations)")
     looks = 100
-    tstate = lambda k: SystemState.from_samples(SYSTEM.sample(rng, k), np.full(k, 0.3))  # noqa: E731
+    tstate = lambda k: SystemState.from_samples(SYSTEM.sample(rng, k), np.full(k, 0.3))
     t, err = timed(lambda: wrap_error(BickelBates().from_covariance(
         sample_measured_covariance(rng, scene, tstate(REALISATIONS), NOISE, looks), looks).omega - 0.3))
     t_ref, err_ref = timed(lambda: ref_mc_bickel_bates(rng, scene, looks, REALISATIONS), repeat=1)

@@ -63,13 +63,12 @@ def bench_iri(n: int = 16_200) -> None:
 
 
 def bench_climatology(step: float, workers: int, cache: Path, maps: Path | None) -> None:
-    from e2esim.faraday.global_climatology import global_climatology
-    from e2esim.ionosphere.slant import SlantSettings
-    from e2esim.orbit.sunsync import SunSynchronousOrbit
-
     from concurrent.futures import ProcessPoolExecutor
 
+    from e2esim.faraday.global_climatology import global_climatology
     from e2esim.io.array_cache import ArrayCache
+    from e2esim.ionosphere.slant import SlantSettings
+    from e2esim.orbit.sunsync import SunSynchronousOrbit
 
     orbit = SunSynchronousOrbit(666e3)  # BIOMASS: dawn (ascending) and dusk (descending) passes
     pool = ProcessPoolExecutor(workers) if workers > 1 else None

@@ -17,16 +17,16 @@ import time
 
 os.environ.setdefault("OMP_NUM_THREADS", "1")  # one core, as the targets say
 
-import numpy as np  # noqa: E402
+import numpy as np
 
-from e2esim.distortion.montecarlo import simulate  # noqa: E402
-from e2esim.distortion.error_model import HVErrorModel  # noqa: E402
-from e2esim.requirements.tradeoff import AGBRequirement, ConicTradeoff, tradeoff_curve  # noqa: E402
-from e2esim.faraday.distribution import ConstantFaraday, GaussianFaraday  # noqa: E402
-from e2esim.units import variance_from_level_db  # noqa: E402
-from e2esim.verification.men2021 import FIG1_FR, forest, system  # noqa: E402
-from e2esim.verification.men2021_values import TABLE2_ROWS  # noqa: E402
-from e2esim.verification.reproduce import run_checks  # noqa: E402
+from e2esim.distortion.error_model import HVErrorModel
+from e2esim.distortion.montecarlo import simulate
+from e2esim.faraday.distribution import ConstantFaraday, GaussianFaraday
+from e2esim.requirements.tradeoff import AGBRequirement, ConicTradeoff, tradeoff_curve
+from e2esim.units import variance_from_level_db
+from e2esim.verification.men2021 import FIG1_FR, forest, system
+from e2esim.verification.men2021_values import TABLE2_ROWS
+from e2esim.verification.reproduce import run_checks
 
 PAPER = dict(looks=100_000, realisations=10_000, noise_realisations=1)
 

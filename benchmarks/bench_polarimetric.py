@@ -16,21 +16,20 @@ from __future__ import annotations
 
 import os
 import sys
-import time
 
 os.environ.setdefault("OMP_NUM_THREADS", "1")  # one core, as the targets say
 
-import numpy as np  # noqa: E402
-from bench_crosspol import best_of  # noqa: E402  (this folder is on sys.path when run as a script)
+import numpy as np
+from bench_crosspol import best_of
 
-from e2esim.distortion.channel_moments import unit_covariances  # noqa: E402
-from e2esim.distortion.covariance_montecarlo import simulate_covariance  # noqa: E402
-from e2esim.distortion.faraday_correction import FaradayCorrection  # noqa: E402
-from e2esim.distortion import polarimetric_moments  # noqa: E402
-from e2esim.distortion.polarimetric_moments import ErrorPolynomial, evaluate, polarimetric_error_moments  # noqa: E402
-from e2esim.faraday.distribution import GaussianFaraday  # noqa: E402
-from e2esim.scene.table1 import TABLE1_FORESTS  # noqa: E402
-from e2esim.verification.men2021 import forest, system  # noqa: E402
+from e2esim.distortion import polarimetric_moments
+from e2esim.distortion.channel_moments import unit_covariances
+from e2esim.distortion.covariance_montecarlo import simulate_covariance
+from e2esim.distortion.faraday_correction import FaradayCorrection
+from e2esim.distortion.polarimetric_moments import ErrorPolynomial, evaluate, polarimetric_error_moments
+from e2esim.faraday.distribution import GaussianFaraday
+from e2esim.scene.table1 import TABLE1_FORESTS
+from e2esim.verification.men2021 import forest, system
 
 PAPER = dict(looks=100_000, realisations=10_000, noise_realisations=1)
 FR = GaussianFaraday(np.pi / 3, np.pi / 36)

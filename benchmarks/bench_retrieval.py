@@ -15,20 +15,20 @@ import os
 for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")  # one core, as the target says
 
-import sys  # noqa: E402
-import time  # noqa: E402
-import warnings  # noqa: E402
+import sys
+import time
+import warnings
 
-import numpy as np  # noqa: E402
-from scipy import optimize  # noqa: E402
+import numpy as np
+from scipy import optimize
 
-from e2esim.budget.presets import UAVSAR_AHMED2014  # noqa: E402
-from e2esim.budget.reference import budget_scalar, random_cases  # noqa: E402
-from e2esim.budget.result import BudgetInputs, backscatter_budget  # noqa: E402
-from e2esim.retrieval.bootstrap import parametric_bootstrap  # noqa: E402
-from e2esim.retrieval.saturating import SaturatingModel  # noqa: E402
-from e2esim.retrieval.simex import simex  # noqa: E402
-from e2esim.retrieval.synthetic import synthetic_field_plots  # noqa: E402
+from e2esim.budget.presets import UAVSAR_AHMED2014
+from e2esim.budget.reference import budget_scalar, random_cases
+from e2esim.budget.result import BudgetInputs, backscatter_budget
+from e2esim.retrieval.bootstrap import parametric_bootstrap
+from e2esim.retrieval.saturating import SaturatingModel
+from e2esim.retrieval.simex import simex
+from e2esim.retrieval.synthetic import synthetic_field_plots
 
 TRUE = SaturatingModel(0.055, 0.015, 0.008)
 LAMBDAS = (0.5, 1.0, 1.5, 2.0)
@@ -114,13 +114,17 @@ def bench_budget(n=100_000, n_ref=5_000):
     b = backscatter_budget(inputs, sigma)
     total = b.total_sd
     fast = time.perf_counter() - t0
-    print(f"error budget, {n:.0e} cases vectorised: {fast * 1e3:.0f} ms; target < 1 s: {'met' if fast < 1 else 'MISSED'}")
+    print(
+        f"error budget, {n:.0e} cases vectorised: {fast * 1e3:.0f} ms; target < 1 s: {'met' if fast < 1 else 'MISSED'}"
+    )
     t0 = time.perf_counter()
     ref = [budget_scalar({**base, **{k: float(v[i]) for k, v in arrays.items()}}, float(sigma[i]))["total"]
            for i in range(n_ref)]
     per_case = (time.perf_counter() - t0) / n_ref
-    print(f"  reference (scalar, one case at a time): {per_case * 1e6:.0f} us per case, {per_case * n:.1f} s for {n:.0e} "
-          f"cases (timed on {n_ref}); speed-up {per_case * n / fast:.0f}x")
+    print(
+        f"  reference (scalar, one case at a time): {per_case * 1e6:.0f} us per case, {per_case * n:.1f} s for {n:.0e} "
+        f"cases (timed on {n_ref}); speed-up {per_case * n / fast:.0f}x"
+    )
     print(f"  largest relative difference from the reference: {np.max(np.abs(np.array(ref) / total[:n_ref] - 1)):.1e}")
 
 

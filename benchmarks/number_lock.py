@@ -81,7 +81,12 @@ class Comparison:
                 self.value(f"{where}[{i}]", x, y)
             return
         self.checked += 1
-        if isinstance(a, bool) or isinstance(b, bool) or not isinstance(a, (int, float)) or not isinstance(b, (int, float)):
+        if (
+            isinstance(a, bool)
+            or isinstance(b, bool)
+            or not isinstance(a, (int, float))
+            or not isinstance(b, (int, float))
+        ):
             if a != b:
                 self.failures.append(f"{where}: {a!r} before, {b!r} now")
             return

@@ -14,9 +14,9 @@ from pathlib import Path
 import matplotlib
 
 matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
+import matplotlib.pyplot as plt
 
-import e2esim  # noqa: E402
+import e2esim
 
 SCENARIO = {
     "name": "api_crosstalk_sweep",

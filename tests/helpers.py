@@ -12,7 +12,6 @@ from e2esim.scene.covariance import ScatteringCovariance
 from e2esim.scene.table1 import TABLE1_FORESTS
 from e2esim.units import THREE_SIGMA_AMPLITUDE, db_to_linear, variance_from_level_db
 
-
 _env = os.environ.get("E2ESIM_TEST_SEED", "20210406")
 TEST_SEED = secrets.randbelow(2**31) if _env == "random" else int(_env)
 """Root seed of the statistical tests (E2ESIM_TEST_SEED: an integer, or ``random``)."""

@@ -2,11 +2,11 @@
 
 import numpy as np
 import pytest
-from helpers import Z_ACCEPT
 
 from e2esim.errors import PhysicsInputError
 from e2esim.retrieval.agb_error import AGBError, binomial_interval, standard_normal_quantile
 from e2esim.retrieval.power_law import PowerLaw, agb_relative_error, sigma_relative_error
+from helpers import Z_ACCEPT
 
 
 def test_eq16_and_its_inverse():

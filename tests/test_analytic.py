@@ -7,7 +7,6 @@ made at a precision far beyond the paper's (docs/errata.md, E3-E4).
 
 import numpy as np
 import pytest
-from helpers import Z_ACCEPT
 
 from e2esim.distortion.analytic import hv_error_moments
 from e2esim.distortion.first_order import (
@@ -20,7 +19,7 @@ from e2esim.distortion.first_order import (
 from e2esim.distortion.montecarlo import simulate
 from e2esim.faraday.distribution import ConstantFaraday, GaussianFaraday
 from e2esim.instrument.system_errors import SystemErrorModel
-from helpers import forest, mean_and_variance_z, system
+from helpers import Z_ACCEPT, forest, mean_and_variance_z, system
 
 
 def test_simplified_equals_general_form_for_equal_variances():

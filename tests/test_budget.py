@@ -281,8 +281,8 @@ def test_unknown_preset():
 def test_speckle_gamma_law_matches_budget_variance(rng):
     """The Monte Carlo law of the speckle term: Gamma(k, 1/k) - 1 with k = 1/v has variance v (KS against
     the gamma law and a z test on the variance)."""
-    from e2esim.retrieval.combine import draw_random_errors
     from e2esim.retrieval.agb_error import AGBContribution
+    from e2esim.retrieval.combine import draw_random_errors
 
     b = backscatter_budget(preset("biomass_200m"), np.array([0.5, 0.07, 0.3])).with_(
         channels=("hh", "hv", "vv"), groups=("speckle_noise",))

@@ -73,8 +73,8 @@ def test_the_chain_follows_the_products_wherever_the_sections_are():
 
 
 def test_a_missing_product_names_the_stage_and_who_could_provide_it():
-    with pytest.raises(ConfigError, match="checking type 'needs_doubled' needs the product 'test.doubled_scene', "
-                                          "which no stage of this chain provides.*no registered module provides it"):
+    with pytest.raises(ConfigError, match=r"checking type 'needs_doubled' needs the product 'test.doubled_scene', "
+                                          r"which no stage of this chain provides.*no registered module provides it"):
         assemble([NeedsDoubled(), *_modules()], Location("<test>"))
 
 
@@ -93,10 +93,10 @@ def test_products_are_never_replaced_and_are_type_checked():
     case = case.adding({"x": 1.0})
     with pytest.raises(ValueError, match="products x are already in the case and cannot be replaced"):
         case.adding({"x": 2.0})
-    with pytest.raises(TypeError, match="scene type 'broken' returned a list for product 'scene.covariance', which "
-                                        "must be a ScatteringCovariance"):
+    with pytest.raises(TypeError, match=r"scene type 'broken' returned a list for product 'scene.covariance', which "
+                                        r"must be a ScatteringCovariance"):
         checked_products(_Named("scene", "broken", (P.SCENE,)), {"scene.covariance": [1.0]})
-    with pytest.raises(TypeError, match="returned scene.covariance, extra; it declares scene.covariance"):
+    with pytest.raises(TypeError, match=r"returned scene.covariance, extra; it declares scene.covariance"):
         checked_products(_Named("scene", "broken", (P.SCENE,)), {"scene.covariance": None, "extra": 1})
     assert list(Products({"a": 1}).adding({"b": 2})) == ["a", "b"]
 

@@ -233,7 +233,9 @@ def test_results_h5_stores_acquisitions_and_provenance(default_runs):
     with h5py.File(default_runs["a"] / "results.h5") as f:
         acq = f["acquisitions/case000000"]
         n = acq["omega_deg"].shape[0]
-        assert n == 7 * 2 * 2 and acq["incidence_deg"].shape == (n,) and acq["time_utc"].shape == (n,)  # quick run: 7 dates, 2 passes, 2 swath positions
+        assert (
+            n == 7 * 2 * 2 and acq["incidence_deg"].shape == (n,) and acq["time_utc"].shape == (n,)
+        )  # quick run: 7 dates, 2 passes, 2 swath positions
         inc = acq["incidence_deg"][()]
         assert inc.min() >= 23.0 - 1e-9 and inc.max() <= 33.75 + 1e-9  # the BIOMASS swath
         assert acq["weight"][()].sum() == pytest.approx(1.0)

@@ -3,7 +3,6 @@ errors, its reduction to Men et al. (2021) for HV, closed forms it must reproduc
 
 import numpy as np
 import pytest
-from helpers import forest, system
 
 from e2esim.distortion.analytic import hv_error_moments
 from e2esim.distortion.channel_moments import CROSSTALK, IMBALANCE
@@ -15,6 +14,7 @@ from e2esim.faraday.distribution import ConstantFaraday, EmpiricalFaraday, Gauss
 from e2esim.instrument.system_errors import SystemErrorModel
 from e2esim.polarimetry.system_model import effective_weights
 from e2esim.scene.covariance import ScatteringCovariance
+from helpers import forest, system
 
 UNEQUAL = SystemErrorModel(crosstalk_level=1e-3, imbalance_level=4e-4, crosstalk_relative=(1, 2, 0.5, 1.5),
                            crosstalk_rho13=0.7 * np.exp(1j), crosstalk_rho24=0.3 * np.exp(-2j),
@@ -55,7 +55,9 @@ def test_pure_rotation_mixes_hh_and_vv_and_correction_undoes_it():
 @pytest.mark.parametrize("reference", ["scene", "population"])
 @pytest.mark.parametrize("case", ["paper", "unequal"])
 def test_hv_equals_the_existing_analysis_to_1e12(case, reference):
-    scene, sys_model = (forest("boreal_200"), system(-24, -28)) if case == "paper" else (forest("tropical_338"), UNEQUAL)
+    scene, sys_model = (
+        (forest("boreal_200"), system(-24, -28)) if case == "paper" else (forest("tropical_338"), UNEQUAL)
+    )
     fr = GaussianFaraday(np.pi / 3, 0.6)
     levels = np.array([1e-5, 1e-4, 1e-3])
     for looks in (None, 1000):
@@ -99,7 +101,7 @@ def test_first_order_closed_forms_without_correction():
     # co-pol eq. (4.3): uncorrected, HH has no first-order imbalance, VV has all of it (R_hh = T_hh = 1)
     poly = error_polynomial(forest("boreal_200"), UNEQUAL, ConstantFaraday(0.9))
     q = np.real(np.diagonal(poly.mean[0]))  # the rotated powers c^4 s_hh + s^4 s_vv - 2 c^2 s^2 R cos theta
-    v, _, _, ve, ce12 = UNEQUAL.unit_structure
+    _, _, _, ve, ce12 = UNEQUAL.unit_structure
     assert poly.cov[IMBALANCE][0, 0] == pytest.approx(0.0, abs=1e-18)
     assert poly.cov[IMBALANCE][2, 2] == pytest.approx(2 * q[2] ** 2 * (ve[0] + ve[1] + 2 * np.real(ce12)), rel=1e-12)
 

@@ -3,7 +3,6 @@ analytic moments of every channel against it at the paper's sizes (docs/theory/c
 
 import numpy as np
 import pytest
-from helpers import Z_ACCEPT, forest, system
 from scipy import stats
 
 from e2esim.distortion.covariance_montecarlo import simulate_covariance
@@ -14,6 +13,7 @@ from e2esim.faraday.distribution import GaussianFaraday
 from e2esim.instrument.system_errors import SystemErrorModel
 from e2esim.scene.covariance import ScatteringCovariance
 from e2esim.scene.table1 import TABLE1_FORESTS
+from helpers import Z_ACCEPT, forest, system
 
 FR = GaussianFaraday(np.pi / 3, np.pi / 36)
 ESTIMATED = FaradayCorrection("estimated", GaussianFaraday(0.0, np.radians(2.0)))
@@ -40,7 +40,7 @@ def test_fast_equals_brute_force_on_the_same_scene(seed, correction):
     assert np.allclose(fast.reference, brute.reference, rtol=1e-13)
     # every element of the 3x3 covariance: diagonal, real and imaginary off-diagonal parts, and their squares
     iu = np.triu_indices(3)
-    parts = lambda x: np.concatenate([x.real[..., iu[0], iu[1]], x.imag[..., [0, 0, 1], [1, 2, 2]]], -1)  # noqa: E731
+    parts = lambda x: np.concatenate([x.real[..., iu[0], iu[1]], x.imag[..., [0, 0, 1], [1, 2, 2]]], -1)
     f, b = parts(fast.covariance), parts(brute.covariance)
     for power in (1, 2):
         assert np.all(np.abs(_paired_z(f**power, b**power)) < Z_ACCEPT)

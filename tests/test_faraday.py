@@ -2,10 +2,10 @@
 
 import numpy as np
 import pytest
-from helpers import Z_ACCEPT
 
 from e2esim.errors import PhysicsInputError
 from e2esim.faraday.distribution import ConstantFaraday, EmpiricalFaraday, GaussianFaraday
+from helpers import Z_ACCEPT
 
 
 def test_eq10_moments_against_sampling(rng):

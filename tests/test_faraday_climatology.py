@@ -7,26 +7,25 @@ import numpy as np
 import pytest
 
 from e2esim.case import Case, Services
-from e2esim.io.array_cache import ArrayCache, open_cache
-from e2esim.settings import SimulationSettings
 from e2esim.errors import ConfigError
-from e2esim.faraday.distribution import EmpiricalFaraday
-from e2esim.instrument.modules import BiomassInstrument
 from e2esim.faraday import climatology as clim_mod
-from e2esim.io.array_cache import default_cache_dir, resolve_cache_dir
 from e2esim.faraday.climatology import (
     FaradayClimatology,
     climatology_from_integrals,
     site_path_integrals,
     weighted_percentiles,
 )
-from e2esim.faraday.global_climatology import global_climatology
 from e2esim.faraday.climatology_modules import IRIClimatologyModule, KlobucharModule, UserTECModule
+from e2esim.faraday.distribution import EmpiricalFaraday
+from e2esim.faraday.global_climatology import global_climatology
+from e2esim.instrument.modules import BiomassInstrument
+from e2esim.io.array_cache import ArrayCache, default_cache_dir, open_cache, resolve_cache_dir
 from e2esim.ionosphere.propagation import faraday_rotation
 from e2esim.ionosphere.slant import PathIntegrals, SlantSettings
 from e2esim.ionosphere.variability import lognormal_nodes
 from e2esim.orbit.modules import BiomassOrbit
 from e2esim.orbit.sunsync import SunSynchronousOrbit
+from e2esim.settings import SimulationSettings
 
 SITE = {"name": "boreal", "lat_deg": 60.0, "lon_deg": 92.0}
 FEW_DATES = {"start": "2026-02-01", "end": "2026-11-30", "step_days": 90}
@@ -107,8 +106,12 @@ def test_site_integrals_cached_and_read_back(tmp_path, monkeypatch):
 def test_iri_module_in_a_chain(tmp_path):
     geo = BiomassOrbit(site=SITE, swath_samples=2, passes="dusk", acquisitions=FEW_DATES).geometry
     case = _case(geo)
-    lo = IRIClimatologyModule(solar="min", method="thin_shell", cache_dir=str(tmp_path)).forward(case)["faraday.geophysical"]
-    hi = IRIClimatologyModule(solar="max", method="thin_shell", cache_dir=str(tmp_path)).forward(case)["faraday.geophysical"]
+    lo = IRIClimatologyModule(solar="min", method="thin_shell", cache_dir=str(tmp_path)).forward(case)[
+        "faraday.geophysical"
+    ]
+    hi = IRIClimatologyModule(solar="max", method="thin_shell", cache_dir=str(tmp_path)).forward(case)[
+        "faraday.geophysical"
+    ]
     assert isinstance(lo, FaradayClimatology) and lo.samples.size == geo.size * 15
     assert 0 < lo.mean_rad < hi.mean_rad  # northern hemisphere: B.k > 0; more TEC at solar maximum
     assert lo.f107 == 70.0 and hi.f107 == 180.0 and lo.frequency_hz == 435e6
@@ -166,9 +169,9 @@ def test_latitude_band_and_missing_orbit(tmp_path):
 
     sc = Scenario({"scene": {"type": "table1_forest"}, "instrument": {"type": "biomass"},
                    "ionosphere": {"type": "iri_climatology", "cache_dir": str(tmp_path)}})
-    with pytest.raises(ConfigError, match="ionosphere type 'iri_climatology' needs the product 'geometry', which no "
-                       "stage of this chain provides.*modules that provide it: orbit.biomass_orbit, "
-                       "orbit.sun_synchronous") as info:
+    with pytest.raises(ConfigError, match=r"ionosphere type 'iri_climatology' needs the product 'geometry', which no "
+                       r"stage of this chain provides.*modules that provide it: orbit.biomass_orbit, "
+                       r"orbit.sun_synchronous") as info:
         sc.resolve()
     assert "<scenario>: ionosphere" in str(info.value)
 

@@ -90,12 +90,12 @@ def test_the_checker_catches_a_broken_module():
         check_declaration(Broken)
     Broken.params = (Param("size_km", "float", "a size", default=1.0, unit="km"),)
     try:
-        with pytest.raises(AssertionError, match="scene type 'broken' returned nothing; it declares scene.covariance"):
+        with pytest.raises(AssertionError, match=r"scene type 'broken' returned nothing; it declares scene.covariance"):
             check_module(Broken)
     finally:
         Broken.params = (Param("size_km", "float", "a size", default=1.0),)
-    with pytest.raises(AssertionError, match="returned a list for product 'scene.covariance', which must be a "
-                       "ScatteringCovariance"):
+    with pytest.raises(AssertionError, match=r"returned a list for product 'scene.covariance', which must be a "
+                       r"ScatteringCovariance"):
         check_module(WrongType)
     with pytest.raises(AssertionError, match="forward is not deterministic"):
         check_module(Random)

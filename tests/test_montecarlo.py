@@ -2,12 +2,11 @@
 
 import numpy as np
 import pytest
-from helpers import Z_ACCEPT
 from scipy import stats
 
 from e2esim.distortion.montecarlo import gaussianity, simulate
 from e2esim.faraday.distribution import GaussianFaraday
-from helpers import forest, system
+from helpers import Z_ACCEPT, forest, system
 
 FR = GaussianFaraday(np.pi / 3, np.pi / 36)
 

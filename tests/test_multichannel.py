@@ -6,7 +6,6 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from helpers import Z_ACCEPT, forest, mean_and_variance_z, system
 from scipy import optimize
 
 from e2esim.distortion.covariance_montecarlo import simulate_covariance
@@ -22,6 +21,7 @@ from e2esim.retrieval.multichannel import TABLE1_ALPHA, CombinedChannelsError, l
 from e2esim.retrieval.multichannel_modules import MultiChannelRetrieval
 from e2esim.scene.covariance import ScatteringCovariance
 from e2esim.scene.table1 import TABLE1_FORESTS
+from helpers import Z_ACCEPT, forest, mean_and_variance_z, system
 
 FR = GaussianFaraday(np.pi / 3, np.pi / 36)
 CORRECTED = FaradayCorrection("estimated", GaussianFaraday(0.0, np.radians(0.2)))
@@ -95,9 +95,9 @@ def test_equal_weight_db_cost_minimiser():
     model = LogLinearModel((-4.7, -4.9, -1.6), tuple(alpha), (1.0, 1.0, 1.0))
     theta = np.radians(30.0)
     sigma = np.array([0.61, 0.075, 0.28])
-    db = lambda v: 10 * np.log10(v)  # noqa: E731
-    s, l, c = db(sigma), db(np.exp(np.asarray(model.ln_l))), db(np.cos(theta))
-    cost = lambda w: np.sum((s - l - 1.0 * c - alpha * w) ** 2)  # noqa: E731
+    db = lambda v: 10 * np.log10(v)
+    s, ell, c = db(sigma), db(np.exp(np.asarray(model.ln_l))), db(np.cos(theta))
+    cost = lambda w: np.sum((s - ell - 1.0 * c - alpha * w) ** 2)
     w_min = optimize.minimize_scalar(cost, bounds=(-20, 60), method="bounded", options={"xatol": 1e-10}).x
     inv = model.invert(sigma[None], incidence_rad=theta)
     assert db(inv.agb[0]) == pytest.approx(w_min, abs=1e-6)
@@ -115,7 +115,7 @@ def test_unbiased_on_error_free_data(forest_name):
     scene = forest(forest_name)
     stage = MultiChannelRetrieval()
     model = stage.model_for(scene, scene.agb_t_ha)
-    q, inv = model.relative_agb_error(scene.agb_t_ha, np.zeros((1, 3)), channel=None,
+    q, _ = model.relative_agb_error(scene.agb_t_ha, np.zeros((1, 3)), channel=None,
                                       incidence_rad=stage.si["incidence_rad"])
     assert q[0] == pytest.approx(0.0, abs=1e-12)
 
@@ -160,7 +160,7 @@ def test_retrieval_needs_a_multichannel_error_model():
     stage = MultiChannelRetrieval()
     products = Products({"scene.covariance": forest(), "backscatter.error": HVErrorModel(forest(), system(), FR)})
     case = Case(0, {}, SimulationSettings(), np.random.default_rng(0), products=products)
-    with pytest.raises(ConfigError, match="needs the errors of all channels.*use propagation type polarimetric_error"):
+    with pytest.raises(ConfigError, match=r"needs the errors of all channels.*use propagation type polarimetric_error"):
         stage.forward(case)
     with pytest.raises(ConfigError, match="alpha"):
         MultiChannelRetrieval(alpha=(0.8, -0.4, 0.1))
@@ -184,8 +184,8 @@ def test_estimators_through_the_chain_give_verdicts_margins_and_curves(tmp_path)
     verdicts = {}
     for spec in specs:
         v = run_case(spec).products["verdicts"]
-        verdicts[(spec.inputs["calibration.0.type"], spec.inputs["retrieval.estimator"])] = list(v)[0]
-    for (calibration, estimator), v in verdicts.items():
+        verdicts[(spec.inputs["calibration.0.type"], spec.inputs["retrieval.estimator"])] = v[0]
+    for (calibration, _estimator), v in verdicts.items():
         assert v.dominant in ("crosstalk", "channel_imbalance", "noise", "faraday_rotation")
         if calibration == "faraday_correction":  # corrected: every estimator passes, with a trade-off curve
             assert v.passed and v.details["over.crosstalk_axis_db"] < 0 and len(v.curves["crosstalk_db"]) == 9

@@ -2,6 +2,7 @@
 2018, Section 2)."""
 
 import datetime as dt
+import itertools
 
 import numpy as np
 import pytest
@@ -71,7 +72,7 @@ def test_view_geometry_incidence_zero_doppler_and_side(pass_name, earth_rotation
                        atol=1e-8)  # zero Doppler
     left = np.sum(np.cross(g.satellite_ecef, g.velocity_ecef) * (g.target_ecef - g.satellite_ecef), -1)
     assert np.all(left > 0)
-    _, gamma, rho = side_looking_angles(inc, orbit.radius_m)
+    _, _, rho = side_looking_angles(inc, orbit.radius_m)
     assert np.allclose(np.linalg.norm(g.target_ecef - g.satellite_ecef, axis=-1), rho, rtol=1e-9)
     assert np.allclose(np.linalg.norm(g.satellite_ecef, axis=-1), orbit.radius_m)
     assert np.all((np.cos(g.u) > 0) == (pass_name == "ascending"))
@@ -107,7 +108,7 @@ def test_pierce_points_on_the_line_of_sight():
     # the pierce point lies towards the satellite: east-north-east of the target for the ascending left look
     enu = ecef_to_enu(ray.position[1] - g.target_ecef, np.radians(50.0), np.radians(10.0))
     assert enu[0] > 0 and enu[1] > 0
-    lat, lon, _ = from_ecef(ray.position[1])
+    lat, _, _ = from_ecef(ray.position[1])
     assert np.degrees(lat) > 50.0
 
 
@@ -126,7 +127,7 @@ def test_mission_timeline_quegan2018_section2():
     tp = tl.acquisition_dates("tomographic")
     assert len(tp) == 7
     assert tp[0] == dt.datetime(2025, 7, 29)  # first day after the 91-day CP
-    assert all((b - a).days == 3 for a, b in zip(tp, tp[1:]))
+    assert all((b - a).days == 3 for a, b in itertools.pairwise(tp))
     ip = tl.acquisition_dates("interferometric")
     ip0 = dt.datetime(2025, 7, 29) + dt.timedelta(days=425)
     n_cycles = int((tl.end_date - ip0).days // 219)
@@ -162,9 +163,9 @@ def test_biomass_orbit_module_geometry():
 
 
 def test_orbit_module_bad_input_names_the_key():
-    with pytest.raises(ConfigError, match="incidence_near_deg: 35 is not below incidence_far_deg = 33.75"):
+    with pytest.raises(ConfigError, match=r"incidence_near_deg: 35 is not below incidence_far_deg = 33.75"):
         BiomassOrbit(site={"lat_deg": 0, "lon_deg": 0}, incidence_near_deg=35.0)
     with pytest.raises(ConfigError, match="out of reach"):
         BiomassOrbit(site={"lat_deg": 85.0, "lon_deg": 0})
-    with pytest.raises(ConfigError, match="site.lat_deg"):
+    with pytest.raises(ConfigError, match=r"site.lat_deg"):
         BiomassOrbit(site={"lat_deg": 95.0, "lon_deg": 0})

@@ -2,7 +2,6 @@
 sweep resumes without recomputing finished cases and leaves no corrupt file."""
 
 import json
-import os
 import signal
 import subprocess
 import sys

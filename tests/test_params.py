@@ -37,11 +37,11 @@ def test_defaults_and_normalisation():
     out = validate_section(p, {"n": 1e5, "x": 2, "pair": [1, 2]}, WHERE)
     assert out == {"n": 100000, "x": 2.0, "pair": (1.0, 2.0), "g": {"flag": False}}
     assert isinstance(out["n"], int) and isinstance(out["x"], float)
-    with pytest.raises(ConfigError, match="2.5 is not an integer"):
+    with pytest.raises(ConfigError, match=r"2.5 is not an integer"):
         validate_section(p, {"n": 2.5}, WHERE)
     with pytest.raises(ConfigError, match=r"section.pair: \[1\] has 1 items; expected a list of 2 items"):
         validate_section(p, {"pair": [1]}, WHERE)
-    with pytest.raises(ConfigError, match="section.g.flag: 'yes' has the wrong type; expected true or false"):
+    with pytest.raises(ConfigError, match=r"section.g.flag: 'yes' has the wrong type; expected true or false"):
         validate_section(p, {"g": {"flag": "yes"}}, WHERE)
     with pytest.raises(ConfigError, match="nan is not a finite number"):
         validate_section(p, {"x": float("nan")}, WHERE)

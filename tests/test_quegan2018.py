@@ -5,15 +5,14 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
+import e2esim.verification.published  # noqa: F401  (loads the value lists in the right order)
 from e2esim.ionosphere.geolocation import (
     TABLE1_ASSUMPTIONS,
     b_dot_k_profile,
     delay_error_threshold,
     excluded_zone,
-    range_delay_error,
     zero_line_latitude,
 )
-import e2esim.verification.published  # noqa: F401  (loads the value lists in the right order)
 from e2esim.verification.quegan2018_values import PUBLISHED, TABLE1
 from e2esim.verification.reproduce import check, select
 

@@ -57,7 +57,7 @@ def test_printed_eq_12_undercovers(rng):
 
 def test_bootstrap_result_and_reproducibility():
     fp = synthetic_field_plots(SAT, 40, np.random.default_rng(3), **DESIGN)
-    run = lambda seed: parametric_bootstrap(SAT, fp.agb, fp.sigma, fp.agb_error_sd, fp.sigma_error_sd,  # noqa: E731
+    run = lambda seed: parametric_bootstrap(SAT, fp.agb, fp.sigma, fp.agb_error_sd, fp.sigma_error_sd,
                                             np.random.default_rng(seed), n_boot=120, chunk=50)
     a, b = run(1), run(1)
     np.testing.assert_array_equal(a.samples, b.samples)

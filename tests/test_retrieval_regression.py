@@ -9,6 +9,7 @@ import pytest
 from scipy import stats
 
 from e2esim.errors import PhysicsInputError
+from e2esim.retrieval.power_law import PowerLaw
 from e2esim.retrieval.regression import (
     ABOVE_BAND,
     BELOW_BAND,
@@ -22,7 +23,6 @@ from e2esim.retrieval.regression import (
     model_error_variance,
 )
 from e2esim.retrieval.saturating import SaturatingModel
-from e2esim.retrieval.power_law import PowerLaw
 from e2esim.retrieval.synthetic import synthetic_field_plots
 
 SAT = SaturatingModel(0.055, 0.015, 0.008)

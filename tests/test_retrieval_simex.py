@@ -62,7 +62,7 @@ def test_simex_reduces_saturating_model_bias_all_coefficients(rng):
 def test_simex_single_dataset_result_and_reproducibility():
     fp = synthetic_field_plots(SAT, 40, np.random.default_rng(1), allometric_error=0.1,
                                backscatter_error=0.05, model_error_sd=0.002)
-    run = lambda seed: simex(SAT, fp.agb, fp.sigma, fp.agb_error_sd, fp.sigma_error_sd,  # noqa: E731
+    run = lambda seed: simex(SAT, fp.agb, fp.sigma, fp.agb_error_sd, fp.sigma_error_sd,
                              np.random.default_rng(seed), n_sim=30)
     a, b, c = run(7), run(7), run(8)
     np.testing.assert_array_equal(a.params, b.params)

@@ -67,7 +67,7 @@ def test_scenario_at_full_size(name, tmp_path):
 
 
 def test_tradeoff_scenario_reports_axis_crossings(quick_run):
-    result, folder = quick_run("men2021_tradeoff_over")
+    _, folder = quick_run("men2021_tradeoff_over")
     s = json.loads((folder / "summary.json").read_text())
     fig6 = s["cases"][2]  # boreal 350 t/ha
     assert fig6["inputs"]["scene.forest"] == "boreal_350"

@@ -2,13 +2,12 @@
 
 import numpy as np
 import pytest
-from helpers import Z_ACCEPT
 
 from e2esim.errors import PhysicsInputError
 from e2esim.scene.agb_model import forest_covariance
 from e2esim.scene.covariance import ScatteringCovariance
 from e2esim.scene.table1 import TABLE1_FORESTS
-from helpers import forest
+from helpers import Z_ACCEPT, forest
 
 
 def test_table1_values():
@@ -29,7 +28,7 @@ def test_non_hermitian_covariance_is_rejected():
 
 
 def test_indefinite_covariance_is_rejected_with_a_useful_message():
-    with pytest.raises(PhysicsInputError, match="not positive semi-definite.*sqrt\\(sigma_hh sigma_vv\\)"):
+    with pytest.raises(PhysicsInputError, match=r"not positive semi-definite.*sqrt\(sigma_hh sigma_vv\)"):
         ScatteringCovariance.from_powers(0.2, 0.05, 0.2, 0.3, 0.0)  # |<hh vv*>| > sqrt(0.2*0.2)
 
 

@@ -2,10 +2,10 @@
 
 import numpy as np
 import pytest
-from helpers import Z_ACCEPT
 
 from e2esim.errors import PhysicsInputError
 from e2esim.instrument.system_errors import SystemErrorModel
+from helpers import Z_ACCEPT
 
 
 def _check_cov(x, y, expected, n):

@@ -3,7 +3,6 @@ sizes (L = 100000, M = 10000, N = 1), for any seed; also for complex correlation
 
 import numpy as np
 import pytest
-from helpers import TEST_SEED, Z_ACCEPT
 
 from e2esim.distortion.analytic import hv_error_moments
 from e2esim.distortion.montecarlo import simulate
@@ -13,6 +12,7 @@ from e2esim.instrument.system_errors import SystemErrorModel
 from e2esim.units import db_to_linear, variance_from_level_db
 from e2esim.verification.men2021 import FIG1_FR, forest, system, table2_case
 from e2esim.verification.men2021_values import TABLE2_ROWS
+from helpers import TEST_SEED, Z_ACCEPT
 
 ROWS = range(1, len(TABLE2_ROWS) + 1)
 

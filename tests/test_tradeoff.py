@@ -5,11 +5,10 @@ import pytest
 
 from e2esim.distortion.analytic import hv_error_moments
 from e2esim.distortion.error_model import HVErrorModel
-from e2esim.retrieval.power_law import sigma_relative_error
-from e2esim.requirements.tradeoff import AGBRequirement, ConicTradeoff, axis_limits, first_failing_level, tradeoff_curve
 from e2esim.errors import PhysicsInputError
 from e2esim.faraday.distribution import ConstantFaraday, GaussianFaraday
-from e2esim.retrieval.power_law import BIOME_EXPONENTS
+from e2esim.requirements.tradeoff import AGBRequirement, ConicTradeoff, axis_limits, first_failing_level, tradeoff_curve
+from e2esim.retrieval.power_law import BIOME_EXPONENTS, sigma_relative_error
 from e2esim.units import variance_from_level_db
 from helpers import forest, system
 
@@ -108,5 +107,7 @@ def test_random_faraday_rotation_tightens_the_crosstalk_limit():
     scene, _, p = _setup("boreal_350")
     req = AGBRequirement(0.2, 0.99865, "over", p)
     fixed = axis_limits(req, HVErrorModel(scene, system(), ConstantFaraday(np.pi / 3)))["crosstalk_limit"]
-    spread = axis_limits(req, HVErrorModel(scene, system(), GaussianFaraday(np.pi / 3, np.radians(20))))["crosstalk_limit"]
+    spread = axis_limits(req, HVErrorModel(scene, system(), GaussianFaraday(np.pi / 3, np.radians(20))))[
+        "crosstalk_limit"
+    ]
     assert spread < fixed

@@ -16,20 +16,19 @@ from pathlib import Path
 import matplotlib
 
 matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
+from concurrent.futures import ProcessPoolExecutor
 
-from e2esim.ionosphere.geolocation import TABLE1_ASSUMPTIONS, b_dot_k_profile, delay_error_threshold  # noqa: E402
-from e2esim.faraday.global_climatology import global_climatology  # noqa: E402
-from e2esim.ionosphere.propagation import faraday_rotation_integral  # noqa: E402
-from e2esim.ionosphere.slant import SlantSettings, path_integrals  # noqa: E402
-from e2esim.orbit.geometry import view_geometry  # noqa: E402
-from e2esim.orbit.sunsync import SunSynchronousOrbit  # noqa: E402
-from e2esim.report.faraday_plots import plot_global_maps, plot_latitude_profiles  # noqa: E402
+import matplotlib.pyplot as plt
+import numpy as np
 
-from concurrent.futures import ProcessPoolExecutor  # noqa: E402
-
-from e2esim.io.array_cache import ArrayCache  # noqa: E402
+from e2esim.faraday.global_climatology import global_climatology
+from e2esim.io.array_cache import ArrayCache
+from e2esim.ionosphere.geolocation import TABLE1_ASSUMPTIONS, b_dot_k_profile, delay_error_threshold
+from e2esim.ionosphere.propagation import faraday_rotation_integral
+from e2esim.ionosphere.slant import SlantSettings, path_integrals
+from e2esim.orbit.geometry import view_geometry
+from e2esim.orbit.sunsync import SunSynchronousOrbit
+from e2esim.report.faraday_plots import plot_global_maps, plot_latitude_profiles
 
 IMG = Path(__file__).resolve().parent / "img"
 ORBIT = SunSynchronousOrbit(666e3)

@@ -11,31 +11,37 @@ from pathlib import Path
 import matplotlib
 
 matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
+import matplotlib.pyplot as plt
+import numpy as np
 
-from e2esim.faraday.chirp import (  # noqa: E402
-    ChirpSlopeEstimator, chirp_omega0_sd, locate_zero_crossing, sample_subband_covariances,
+from e2esim.calibration.modules import CLUTTER_SHAPES
+from e2esim.calibration.pipeline import ResidualSampler, fit_residual_model
+from e2esim.calibration.quegan1994 import quegan_calibrate
+from e2esim.calibration.radiometric import ahmed_range_gain_error, swath_pointing_gain_sd_db
+from e2esim.calibration.steps import FaradayStep, QueganStep, TransponderStep, TrihedralStep
+from e2esim.calibration.targets import Calibrators, calibrator_responses
+from e2esim.calibration.transponder import solve_transponder
+from e2esim.distortion.analytic import hv_error_moments
+from e2esim.faraday.chirp import (
+    ChirpSlopeEstimator,
+    chirp_omega0_sd,
+    locate_zero_crossing,
+    sample_subband_covariances,
 )
-from e2esim.faraday.estimators import BickelBates, wrap_error  # noqa: E402
-from e2esim.faraday.theory import (  # noqa: E402
-    bickel_bates_bias, bickel_bates_bias_first_order, bickel_bates_snr, bickel_bates_variance,
-)
-from e2esim.calibration.modules import CLUTTER_SHAPES  # noqa: E402
-from e2esim.calibration.pipeline import ResidualSampler, fit_residual_model  # noqa: E402
-from e2esim.calibration.steps import FaradayStep, QueganStep, TransponderStep, TrihedralStep  # noqa: E402
+from e2esim.faraday.distribution import ConstantFaraday, GaussianFaraday
 from e2esim.faraday.estimator_modules import BickelBatesEstimator
-from e2esim.calibration.quegan1994 import quegan_calibrate  # noqa: E402
-from e2esim.calibration.radiometric import ahmed_range_gain_error, swath_pointing_gain_sd_db  # noqa: E402
-from e2esim.polarimetry.simulate import SystemState, measured_covariance, sample_measured_covariance  # noqa: E402
-from e2esim.calibration.targets import Calibrators, calibrator_responses  # noqa: E402
-from e2esim.calibration.transponder import solve_transponder  # noqa: E402
-from e2esim.distortion.analytic import hv_error_moments  # noqa: E402
-from e2esim.faraday.distribution import ConstantFaraday, GaussianFaraday  # noqa: E402
-from e2esim.polarimetry.system_model import faraday_matrix  # noqa: E402
-from e2esim.retrieval.agb_error import AGBError  # noqa: E402
-from e2esim.retrieval.power_law import BIOME_EXPONENTS  # noqa: E402
-from e2esim.verification.men2021 import forest, system  # noqa: E402
+from e2esim.faraday.estimators import BickelBates, wrap_error
+from e2esim.faraday.theory import (
+    bickel_bates_bias,
+    bickel_bates_bias_first_order,
+    bickel_bates_snr,
+    bickel_bates_variance,
+)
+from e2esim.polarimetry.simulate import SystemState, measured_covariance, sample_measured_covariance
+from e2esim.polarimetry.system_model import faraday_matrix
+from e2esim.retrieval.agb_error import AGBError
+from e2esim.retrieval.power_law import BIOME_EXPONENTS
+from e2esim.verification.men2021 import forest, system
 
 BB = BickelBatesEstimator()  # the default estimator of FaradayStep
 
@@ -63,7 +69,13 @@ def bb_variance(rng):
         snr = bickel_bates_snr(scene, sigma_n)
         for form, style in (("exact", "-"), ("asymptotic", ":"), ("printed", "--")):
             sd = [np.degrees(np.sqrt(bickel_bates_variance(snr, int(L), form))) for L in looks]
-            ax.loglog(looks, sd, style, color=colour, label=f"{snr_db:g} dB, {form}" if snr_db == 0 or form == "exact" else None)
+            ax.loglog(
+                looks,
+                sd,
+                style,
+                color=colour,
+                label=f"{snr_db:g} dB, {form}" if snr_db == 0 or form == "exact" else None,
+            )
         mc = []
         for L in looks[::2]:
             cov = sample_measured_covariance(rng, scene, SystemState.ideal(np.zeros(4000)), sigma_n, int(L))
@@ -89,7 +101,9 @@ def bb_crosstalk_bias(rng):
         a = 10 ** (level_db / 20)
         for om, style in ((0.0, "-"), (np.pi / 3, "--")):
             b = bickel_bates_bias_first_order(scene, a * np.exp(1j * phi)[:, None] * d, np.ones(2), om)
-            a1.plot(np.degrees(phi), np.degrees(b), style, label=f"|delta| {level_db:g} dB, Omega {np.degrees(om):.0f} deg")
+            a1.plot(
+                np.degrees(phi), np.degrees(b), style, label=f"|delta| {level_db:g} dB, Omega {np.degrees(om):.0f} deg"
+            )
     a1.set_xlabel("common crosstalk phase (deg)")
     a1.set_ylabel("bias of Bickel-Bates (deg)")
     a1.legend(fontsize=7)
@@ -146,7 +160,9 @@ def chirp(rng):
             for dd, ff in zip(s.delta, s.f):
                 om_k = np.radians(omega0_deg) * (F0 / est.frequencies) ** 2
                 delta_k = dd[None, :] * (1 + c * (est.frequencies - F0)[:, None] / BW)
-                cov = measured_covariance(scene, SystemState(delta_k, np.broadcast_to(ff, (4, 2)), om_k, np.ones(4)), NOISE)
+                cov = measured_covariance(
+                    scene, SystemState(delta_k, np.broadcast_to(ff, (4, 2)), om_k, np.ones(4)), NOISE
+                )
                 errs.append(est.from_subband_covariances(cov, 10**9).omega0 - np.radians(omega0_deg))
             rms.append(np.degrees(np.sqrt(np.mean(np.square(errs)))))
         a2.plot(100 * change, rms, "o-", label=f"Omega0 = {omega0_deg:g} deg")
@@ -177,7 +193,10 @@ def zero_fr_line(rng):
     sd = chirp_omega0_sd(bickel_bates_snr(scene, NOISE), looks, est)
     x_bb, se_bb = locate_zero_crossing(lat, bb)
     x_sl, se_sl = locate_zero_crossing(lat, slope, sd)
-    print(f"  zero-FR line (true {lat0} deg): Bickel-Bates {x_bb:.3f} +- {se_bb:.3f}, chirp slope {x_sl:.3f} +- {se_sl:.3f}")
+    print(
+        f"  zero-FR line (true {lat0} deg): Bickel-Bates {x_bb:.3f} +- {se_bb:.3f}, "
+        f"chirp slope {x_sl:.3f} +- {se_sl:.3f}"
+    )
     fig, ax = plt.subplots(figsize=(6.4, 4.2))
     ax.plot(lat, np.degrees(omega), "k-", label="true Omega")
     ax.plot(lat, np.degrees(bb), ".", label=f"Bickel-Bates: zero at {x_bb:.2f} +- {se_bb:.2f}")
@@ -205,7 +224,10 @@ def quegan(rng):
             rot = faraday_matrix(st.omega)
             r = np.stack([np.stack([one, s.delta[:, 1]], -1), np.stack([s.delta[:, 0], s.f[:, 0]], -1)], -2)
             xr = np.linalg.inv(q.receive) @ r @ rot
-            res.append(10 * np.log10(np.mean(np.abs(xr[:, 1, 0] / xr[:, 0, 0]) ** 2 + np.abs(xr[:, 0, 1] / xr[:, 0, 0]) ** 2) / 2))
+            res.append(
+                10
+                * np.log10(np.mean(np.abs(xr[:, 1, 0] / xr[:, 0, 0]) ** 2 + np.abs(xr[:, 0, 1] / xr[:, 0, 0]) ** 2) / 2)
+            )
         a1.plot(omegas, res, style, label=f"{it} pass{'es' if it > 1 else ''}")
     a1.axhline(10 * np.log10(SPEC.crosstalk_level), color="k", lw=0.8, label="raw crosstalk")
     a1.set_xlabel("Faraday rotation (deg), not corrected")
@@ -247,7 +269,9 @@ def transponder(rng):
             cal = Calibrators.named(TRANSPONDERS, v, CLUTTER_SHAPES["low_vegetation"], -60.0)
             e = SPEC.sample(rng, n)
             st = SystemState(e.delta, e.f, np.full(n, np.radians(om)), e.gain.astype(complex))
-            sol = solve_transponder(calibrator_responses(rng, cal, st), cal, "faraday_prior", faraday_prior=(st.omega, 0.0))
+            sol = solve_transponder(
+                calibrator_responses(rng, cal, st), cal, "faraday_prior", faraday_prior=(st.omega, 0.0)
+            )
             sd_mc.append(np.sqrt(np.mean(np.abs(sol.delta - e.delta) ** 2)))
             sd_crb.append(np.sqrt(np.mean(np.real(np.diagonal(sol.covariance, axis1=-2, axis2=-1))[:, :4])))
         a1.semilogy(scr, sd_mc, "o", label=f"simulation, Omega {om:g} deg")
@@ -303,7 +327,7 @@ def strategies(rng):
                                     ("tropical_338", GaussianFaraday(0.0, np.radians(5))))):
         scene = forest(name)
         q = []
-        for label, steps in plans.items():
+        for steps in plans.values():
             if steps is None:
                 m = hv_error_moments(scene, SPEC, fr, looks=100_000)
             else:

@@ -15,16 +15,16 @@ from pathlib import Path
 import matplotlib
 
 matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
+import matplotlib.pyplot as plt
+import numpy as np
 
-from e2esim.budget.presets import preset  # noqa: E402
-from e2esim.budget.result import GROUPS, backscatter_budget  # noqa: E402
-from e2esim.retrieval.bootstrap import parametric_bootstrap  # noqa: E402
-from e2esim.retrieval.regression import BOUNDED, band_from_fit, invert_band  # noqa: E402
-from e2esim.retrieval.saturating import SaturatingModel  # noqa: E402
-from e2esim.retrieval.simex import simex  # noqa: E402
-from e2esim.retrieval.synthetic import synthetic_field_plots  # noqa: E402
+from e2esim.budget.presets import preset
+from e2esim.budget.result import GROUPS, backscatter_budget
+from e2esim.retrieval.bootstrap import parametric_bootstrap
+from e2esim.retrieval.regression import BOUNDED, band_from_fit, invert_band
+from e2esim.retrieval.saturating import SaturatingModel
+from e2esim.retrieval.simex import simex
+from e2esim.retrieval.synthetic import synthetic_field_plots
 
 OUT = Path(__file__).resolve().parent / "img"
 TRUE = SaturatingModel(0.055, 0.015, 0.008)  # an L-band HV curve saturating near 150 t/ha

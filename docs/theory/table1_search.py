@@ -39,8 +39,12 @@ def main(top: int = 25) -> None:
         base = GeolocationAssumptions(incidence_deg=inc, pierce_height_m=height, latitude_at=lat_at,
                                       earth_rotation=rotation, b0_tesla=1.0)
         lat, bk_unit = b_dot_k_profile(base, TARGET_LAT)
-        for b0, z, ground, form in itertools.product((IGRF_2016_B0, 3.0e-5, 3.12e-5), (1.0, 1.645, 1.96, 2.0, 2.576, 3.0),
-                                                     (False, True), ("printed", "asymptotic")):
+        for b0, z, ground, form in itertools.product(
+            (IGRF_2016_B0, 3.0e-5, 3.12e-5),
+            (1.0, 1.645, 1.96, 2.0, 2.576, 3.0),
+            (False, True),
+            ("printed", "asymptotic"),
+        ):
             a = replace(base, b0_tesla=b0, confidence_z=z, ground_range=ground, variance_form=form)
             err = 0.0
             for (snr, looks), edges in TABLE1.items():
@@ -50,7 +54,9 @@ def main(top: int = 25) -> None:
     rows.sort(key=lambda r: r[0])
     print("max |deviation| (deg), incidence, height (km), latitude of, Earth rotation, B0 (T), z, range, eq. 5")
     for r in rows[:top]:
-        print(f"{r[0]:.3f}  {r[1]:6.3f}  {r[2]:5.0f}  {r[3]:6s}  {str(r[4]):5s}  {r[5]:.4g}  {r[6]:5.3f}  {r[7]:6s}  {r[8]}")
+        print(
+            f"{r[0]:.3f}  {r[1]:6.3f}  {r[2]:5.0f}  {r[3]:6s}  {r[4]!s:5s}  {r[5]:.4g}  {r[6]:5.3f}  {r[7]:6s}  {r[8]}"
+        )
 
 
 if __name__ == "__main__":

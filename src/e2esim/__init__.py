@@ -21,4 +21,4 @@ def __getattr__(name):  # imported on first use: `import e2esim` stays light for
     raise AttributeError(f"module 'e2esim' has no attribute {name!r}")
 
 
-__all__ = ["run", "open_results", "load_scenario", "Results", "__version__"]
+__all__ = ["Results", "__version__", "load_scenario", "open_results", "run"]

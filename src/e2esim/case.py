@@ -8,9 +8,10 @@ is overwritten: a product name is added once. The products are documented in ``e
 
 from __future__ import annotations
 
+from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass, field, replace
 from types import MappingProxyType
-from typing import Any, Callable, Iterator, Mapping
+from typing import Any
 
 import numpy as np
 
@@ -44,7 +45,7 @@ class Products(Mapping):
     def __reduce__(self):
         return (Products, (dict(self._values),))
 
-    def adding(self, new: Mapping) -> "Products":
+    def adding(self, new: Mapping) -> Products:
         """A copy with the ``new`` products added; a name already present is an error (never overwritten)."""
         clash = [name for name in new if name in self._values]
         if clash:
@@ -100,10 +101,10 @@ class Case:
     def get(self, name: str, default: Any = None) -> Any:
         return self.products.get(name, default)
 
-    def adding(self, new: Mapping) -> "Case":
+    def adding(self, new: Mapping) -> Case:
         """The case with ``new`` products added (``Products.adding``)."""
         return replace(self, products=self.products.adding(new))
 
-    def finished(self) -> "Case":
+    def finished(self) -> Case:
         """The case without its generator and services, to be kept or sent between processes."""
         return replace(self, rng=None, services=Services())

@@ -62,13 +62,13 @@ def _yaml(value) -> str:
 
 
 def render() -> str:
-    from e2esim.runner.sweep import SWEEP_PARAMS
     from e2esim.runner.scenario import (
         DEFAULT_MODULES,
         OUTPUT_PARAMS,
         REQUIRED_SECTIONS,
         SIMULATION_PARAMS,
     )
+    from e2esim.runner.sweep import SWEEP_PARAMS
 
     out = [
         "# Scenario reference",

@@ -93,7 +93,7 @@ class ErrorModel(ABC):
         ``variance`` and ``sd``. Raises ``ErrorModelUnavailable`` when ``unavailable``."""
 
     @abstractmethod
-    def without(self, source: str) -> "ErrorModel":
+    def without(self, source: str) -> ErrorModel:
         """The same model with ``source`` removed; the model itself when the source is not active."""
 
     @abstractmethod
@@ -192,7 +192,7 @@ class MultiChannelErrorModel(ErrorModel):
             raise KeyError(f"unknown channel {channel!r}; channels: {', '.join(self.channels)}")
         return self.channels.index(channel)
 
-    def channel_view(self, channel: str) -> "ChannelView":
+    def channel_view(self, channel: str) -> ChannelView:
         """Channel ``channel`` as a single-channel ``ErrorModel``."""
         return ChannelView(self, channel)
 
@@ -241,7 +241,7 @@ class DerivedErrorModel(ErrorModel):
         """Samples of this relative error from relative channel errors (M, N, C)."""
 
     @abstractmethod
-    def rebuilt(self, source: MultiChannelErrorModel) -> "DerivedErrorModel":
+    def rebuilt(self, source: MultiChannelErrorModel) -> DerivedErrorModel:
         """The same reduction of another source model."""
 
     @property
@@ -299,7 +299,7 @@ class ChannelView(DerivedErrorModel):
     def reduce_samples(self, relative: np.ndarray) -> np.ndarray:
         return relative[..., self._i]
 
-    def rebuilt(self, source: MultiChannelErrorModel) -> "ChannelView":
+    def rebuilt(self, source: MultiChannelErrorModel) -> ChannelView:
         return ChannelView(source, self.channel)
 
     def contributions(self) -> dict:

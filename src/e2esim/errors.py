@@ -34,10 +34,10 @@ class Location:
     key_path: tuple = ()
     lines: dict = field(default_factory=dict, compare=False, repr=False, hash=False)
 
-    def child(self, key: Any) -> "Location":
+    def child(self, key: Any) -> Location:
         return Location(self.source, self.key_path + (key,), self.lines)
 
-    def parent(self) -> "Location":
+    def parent(self) -> Location:
         """The enclosing section (e.g. ``calibration`` of ``calibration[1]``)."""
         return Location(self.source, self.key_path[:-1], self.lines)
 

@@ -13,8 +13,9 @@ estimators) subclass ``Module`` directly. docs/writing-a-module.md walks through
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
+from collections.abc import Mapping
 from types import MappingProxyType
-from typing import Any, ClassVar, Mapping
+from typing import Any, ClassVar
 
 from e2esim.errors import ConfigError, Location, PhysicsInputError
 from e2esim.params import to_si, validate_section
@@ -51,7 +52,7 @@ def _frozen(values: dict) -> Mapping:
     return MappingProxyType({k: _frozen(v) if isinstance(v, dict) else v for k, v in values.items()})
 
 
-class Module(ABC):
+class Module:
     """Base class: a validated configuration, its SI values and what ``setup`` derives from them.
 
     Class attributes a subclass sets:
@@ -77,7 +78,7 @@ class Module(ABC):
         self._configure(values, Location(source=f"{type(self).__name__}(...)"))
 
     @classmethod
-    def from_config(cls, section: Mapping | None, where: Location) -> "Module":
+    def from_config(cls, section: Mapping | None, where: Location) -> Module:
         """Build from a scenario section (its ``type`` and ``name`` keys are ignored here)."""
         obj = cls.__new__(cls)
         obj._configure(section or {}, where, ignore=("type", "name"))
@@ -140,7 +141,7 @@ def _restore(cls, state):
     return obj
 
 
-class Stage(Module):
+class Stage(Module, ABC):
     """A module the runner chains: it needs products, provides products, and ``forward`` makes them.
 
     Class attributes (instances may narrow them as properties when a configuration changes what they need):

@@ -18,8 +18,9 @@ from __future__ import annotations
 
 import difflib
 import math
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Any, Callable, Iterable, Mapping, Sequence
+from typing import Any
 
 import numpy as np
 
@@ -131,7 +132,7 @@ class Param:
     def required(self) -> bool:
         return self.default is REQUIRED
 
-    def with_default(self, default: Any) -> "Param":
+    def with_default(self, default: Any) -> Param:
         return _replace(self, default=default)
 
     # ----------------------------------------------------------------------------------------

@@ -41,7 +41,7 @@ class Product:
                             f"{getattr(cls, '__name__', cls)}")
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def _resolve(path: str):
     module, _, name = path.partition(":")
     return getattr(importlib.import_module(module), name)

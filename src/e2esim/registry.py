@@ -20,7 +20,6 @@ import threading
 from contextvars import ContextVar
 from dataclasses import dataclass
 from importlib.metadata import entry_points, packages_distributions
-from typing import Dict, Tuple
 
 from e2esim.errors import ModuleLookupError
 from e2esim.module import KIND_ORDER, Module
@@ -36,14 +35,14 @@ class Registration:
     distribution: str  # installed distribution that declared it ("e2esim" for built-ins)
 
 
-_cache: Dict[Tuple[str, str], Registration] | None = None
+_cache: dict[tuple[str, str], Registration] | None = None
 
 
-def _load() -> Dict[Tuple[str, str], Registration]:
+def _load() -> dict[tuple[str, str], Registration]:
     global _cache
     if _cache is not None:
         return _cache
-    found: Dict[Tuple[str, str], Registration] = {}
+    found: dict[tuple[str, str], Registration] = {}
     for ep in entry_points(group=ENTRY_POINT_GROUP):
         kind, _, type_name = ep.name.partition(".")
         cls = ep.load()

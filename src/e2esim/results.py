@@ -53,7 +53,7 @@ class Results:
 
     # Construction -----------------------------------------------------------------------------------
     @classmethod
-    def from_run(cls, result) -> "Results":
+    def from_run(cls, result) -> Results:
         """From a ``ScenarioResult`` (``e2esim.runner.run.run_scenario``)."""
         from e2esim.io.summary import requirement_sources
 
@@ -65,21 +65,34 @@ class Results:
         verdicts = [list(c.verdicts) for c in cases]
 
         def table(attr, dtype=float):
-            return np.array([[getattr(v, attr) for v in row] for row in verdicts], dtype=dtype).reshape(len(cases), n_req)
+            return np.array([[getattr(v, attr) for v in row] for row in verdicts], dtype=dtype).reshape(
+                len(cases), n_req
+            )
 
         details = []
         for j in range(n_req):
             keys = list(dict.fromkeys(k for row in verdicts for k in row[j].details))
-            details.append({k: np.array([row[j].details.get(k, np.nan) for row in verdicts], dtype=float) for k in keys})
+            details.append(
+                {k: np.array([row[j].details.get(k, np.nan) for row in verdicts], dtype=float) for k in keys})
         return cls(
-            scenario_name=result.scenario.name, sweep_keys=tuple(result.scenario.sweep_keys),
-            labels=[c.label for c in cases], inputs={k: [c.inputs.get(k) for c in cases] for k in result.scenario.sweep_keys},
-            scalars=scalars, units={k: scalar_unit(k, tuple(req_units)) for k in names},
-            requirements=list(result.requirement_names), requirement_units=req_units,
+            scenario_name=result.scenario.name,
+            sweep_keys=tuple(result.scenario.sweep_keys),
+            labels=[c.label for c in cases],
+            inputs={k: [c.inputs.get(k) for c in cases] for k in result.scenario.sweep_keys},
+            scalars=scalars,
+            units={k: scalar_unit(k, tuple(req_units)) for k in names},
+            requirements=list(result.requirement_names),
+            requirement_units=req_units,
             requirement_sources=requirement_sources(result.scenario),
-            passed=table("passed", bool), value=table("value"), limit=table("limit"), margin=table("margin"),
-            dominant=table("dominant", object), details=details, provenance=dict(result.provenance),
-            resolved_scenario=result.scenario.resolved, run=result,
+            passed=table("passed", bool),
+            value=table("value"),
+            limit=table("limit"),
+            margin=table("margin"),
+            dominant=table("dominant", object),
+            details=details,
+            provenance=dict(result.provenance),
+            resolved_scenario=result.scenario.resolved,
+            run=result,
         )
 
     # Views ------------------------------------------------------------------------------------------

@@ -141,8 +141,9 @@ def _check_stage(module, copy, case) -> None:
         raise AssertionError(str(exc)) from exc
     declared = {p.name: p for p in module.provides}
     assert case_scalars(Products(out1), declared).keys() == case_scalars(Products(out2), declared).keys()
-    assert _fingerprint(case_scalars(Products(out1), declared)) == _fingerprint(case_scalars(Products(out2), declared)), (
-        f"{name}.forward is not deterministic for a given rng")
+    assert _fingerprint(case_scalars(Products(out1), declared)) == _fingerprint(
+        case_scalars(Products(out2), declared)
+    ), f"{name}.forward is not deterministic for a given rng"
 
 
 def _check_requirement(module, copy, case) -> None:

@@ -6,14 +6,21 @@ import numpy as np
 import pytest
 
 from cal_helpers import Z_ACCEPT, biomass_system, forest, z_mean, z_variance
+from e2esim.errors import PhysicsInputError
 from e2esim.faraday.chirp import (
-    ChirpSlopeEstimator, chirp_omega0_sd, fit_slope, locate_zero_crossing, sample_subband_covariances,
+    ChirpSlopeEstimator,
+    chirp_omega0_sd,
+    fit_slope,
+    locate_zero_crossing,
+    sample_subband_covariances,
 )
 from e2esim.faraday.theory import bickel_bates_bias, bickel_bates_limit, bickel_bates_snr
 from e2esim.polarimetry.simulate import (
-    SystemState, faraday_at_frequency, measured_covariance, simulate_chirp_scene,
+    SystemState,
+    faraday_at_frequency,
+    measured_covariance,
+    simulate_chirp_scene,
 )
-from e2esim.errors import PhysicsInputError
 
 F0, BW = 435e6, 6e6  # BIOMASS: Quegan et al. (2018) Sect. 5; ../shared/reference/mission-facts.md
 SCENE = forest("boreal_200")

@@ -6,16 +6,26 @@ import numpy as np
 import pytest
 
 from cal_helpers import Z_ACCEPT, biomass_system, forest, z_mean, z_variance
+from e2esim.calibration.quegan1994 import block_covariances
+from e2esim.errors import PhysicsInputError
 from e2esim.faraday.estimators import (
-    BickelBates, FreemanSecondMoment, resolve_ambiguity, wrap_error,
+    BickelBates,
+    FreemanSecondMoment,
+    resolve_ambiguity,
+    wrap_error,
 )
 from e2esim.faraday.theory import (
-    ambiguity_error_probability, bickel_bates_bias, bickel_bates_bias_first_order, bickel_bates_limit,
-    bickel_bates_snr, bickel_bates_variance, freeman_variance, phase_pdf, phase_variance,
+    ambiguity_error_probability,
+    bickel_bates_bias,
+    bickel_bates_bias_first_order,
+    bickel_bates_limit,
+    bickel_bates_snr,
+    bickel_bates_variance,
+    freeman_variance,
+    phase_pdf,
+    phase_variance,
 )
-from e2esim.calibration.quegan1994 import block_covariances
 from e2esim.polarimetry.simulate import SystemState, measured_covariance, sample_measured_covariance, simulate_scene
-from e2esim.errors import PhysicsInputError
 
 SCENE = forest("boreal_200")
 

@@ -8,15 +8,19 @@ import pytest
 from cal_helpers import Z_ACCEPT, biomass_system, forest, z_mean
 from e2esim.calibration.modules import CLUTTER_SHAPES
 from e2esim.calibration.pipeline import (
-    PipelineContext, ResidualSampler, ResidualSystemErrorModel, fit_residual_model, residual,
+    PipelineContext,
+    ResidualSampler,
+    ResidualSystemErrorModel,
+    fit_residual_model,
+    residual,
 )
 from e2esim.calibration.steps import FaradayStep, GainStep, QueganStep, TransponderStep, TrihedralStep
-from e2esim.faraday.estimator_modules import BickelBatesEstimator
-from e2esim.polarimetry.simulate import SystemState
 from e2esim.calibration.targets import Calibrators
 from e2esim.distortion.analytic import hv_error_moments
 from e2esim.distortion.montecarlo import simulate
 from e2esim.faraday.distribution import ConstantFaraday, GaussianFaraday
+from e2esim.faraday.estimator_modules import BickelBatesEstimator
+from e2esim.polarimetry.simulate import SystemState
 from e2esim.polarimetry.system_model import _kron, distortion_operator, effective_weights
 
 BB = BickelBatesEstimator()  # the default estimator of FaradayStep

@@ -8,8 +8,8 @@ import pytest
 
 from cal_helpers import Z_ACCEPT, biomass_system, forest, z_mean
 from e2esim.calibration.quegan1994 import block_covariances, quegan_calibrate, quegan_ratios
-from e2esim.polarimetry.simulate import SystemState, measured_covariance, sample_measured_covariance, simulate_scene
 from e2esim.errors import PhysicsInputError
+from e2esim.polarimetry.simulate import SystemState, measured_covariance, sample_measured_covariance, simulate_scene
 from e2esim.polarimetry.system_model import faraday_matrix
 
 

@@ -8,9 +8,17 @@ import pytest
 
 from cal_helpers import Z_ACCEPT, z_mean
 from e2esim.calibration.radiometric import (
-    DB_PER_NEPER_POWER, UNIFORM_ARRAY_BEAM_SHAPING, absolute_gain_error_db, ahmed_azimuth_gain_error,
-    ahmed_range_gain_error, dem_pointing_error, pattern_gain_error, point_target_power_bias, point_target_power_sd,
-    sinc_pattern, swath_pointing_gain_sd_db,
+    DB_PER_NEPER_POWER,
+    UNIFORM_ARRAY_BEAM_SHAPING,
+    absolute_gain_error_db,
+    ahmed_azimuth_gain_error,
+    ahmed_range_gain_error,
+    dem_pointing_error,
+    pattern_gain_error,
+    point_target_power_bias,
+    point_target_power_sd,
+    sinc_pattern,
+    swath_pointing_gain_sd_db,
 )
 from e2esim.errors import PhysicsInputError
 

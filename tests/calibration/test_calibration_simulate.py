@@ -6,15 +6,26 @@ import numpy as np
 import pytest
 
 from cal_helpers import Z_ACCEPT, biomass_system, forest, z_mean
-from e2esim.polarimetry.simulate import (
-    QuadPolImage, SystemState, complex_wishart, measured_covariance, reciprocal_covariance4,
-    sample_measured_covariance, simulate_scene,
-)
 from e2esim.calibration.targets import (
-    Calibrators, calibrator_responses, dihedral, mean_response, response_covariance, target_matrix, transponder,
+    Calibrators,
+    calibrator_responses,
+    dihedral,
+    mean_response,
+    response_covariance,
+    target_matrix,
+    transponder,
     trihedral,
 )
 from e2esim.errors import PhysicsInputError
+from e2esim.polarimetry.simulate import (
+    QuadPolImage,
+    SystemState,
+    complex_wishart,
+    measured_covariance,
+    reciprocal_covariance4,
+    sample_measured_covariance,
+    simulate_scene,
+)
 from e2esim.polarimetry.system_model import measured_matrix, to_matrix, to_vector
 
 CLUTTER = np.array([[1.0, 0, 0.6], [0, 0.1, 0], [0.6, 0, 1.0]], dtype=complex)

@@ -6,10 +6,10 @@ import numpy as np
 import pytest
 
 from cal_helpers import Z_ACCEPT, biomass_system, z_mean, z_variance
-from e2esim.polarimetry.simulate import SystemState
 from e2esim.calibration.targets import Calibrators, calibrator_responses, mean_response
 from e2esim.calibration.transponder import gauge_transform, solve_transponder
 from e2esim.errors import PhysicsInputError
+from e2esim.polarimetry.simulate import SystemState
 from e2esim.polarimetry.system_model import to_matrix
 
 CLUTTER = np.array([[1.0, 0, 0.6], [0, 0.1, 0], [0.6, 0, 1.0]], dtype=complex)
@@ -83,7 +83,9 @@ def test_errors_match_the_cramer_rao_covariance(rng, omega_deg):
     cal = Calibrators.named(TRANSPONDERS, 30.0, CLUTTER, -40.0)
     n = 3000
     truth = _truth(rng, n, omega_deg)
-    sol = solve_transponder(calibrator_responses(rng, cal, truth), cal, "faraday_prior", faraday_prior=(truth.omega, 0.0))
+    sol = solve_transponder(
+        calibrator_responses(rng, cal, truth), cal, "faraday_prior", faraday_prior=(truth.omega, 0.0)
+    )
     est = np.concatenate([sol.delta, sol.f, sol.gain[:, None]], -1)
     true = np.concatenate([truth.delta, truth.f, truth.gain[:, None]], -1)
     sd = np.sqrt(np.real(np.diagonal(sol.covariance, axis1=-2, axis2=-1)) / 2)

@@ -102,7 +102,7 @@ class BudgetInputs:
     combination: str = "independent"
     cap_dem_factor: bool = False
 
-    def replace(self, **changes) -> "BudgetInputs":
+    def replace(self, **changes) -> BudgetInputs:
         return replace(self, **changes)
 
     def check(self) -> None:
@@ -182,7 +182,7 @@ class BackscatterBudget:
     groups: tuple = tuple(GROUPS)
     speckle_distribution: str = "gamma"
 
-    def with_(self, **changes) -> "BackscatterBudget":
+    def with_(self, **changes) -> BackscatterBudget:
         """Copy with fields replaced (e.g. ``channels``, ``groups``)."""
         return replace(self, **changes)
 
@@ -231,7 +231,7 @@ class BackscatterBudget:
         """Delta sigma (m^2/m^2) of a contribution, group or the total."""
         return np.sqrt(self.variance(name)) * self.sigma
 
-    def channel(self, name: str) -> "BackscatterBudget":
+    def channel(self, name: str) -> BackscatterBudget:
         """The budget of one channel (trailing axis named in ``channels``)."""
         if self.channels is None or name not in self.channels:
             raise KeyError(f"no channel {name!r} in this budget (channels: {self.channels})")
@@ -302,7 +302,7 @@ def backscatter_budget(inputs: BudgetInputs, sigma) -> BackscatterBudget:
         temporal = np.asarray(i.temporal_relative_sd, float)
     terms = dict(zip(TERMS, (speckle, thermal, mult, temporal, cal_random, cal_pointing, cal_dem, area)))
     shape = np.broadcast_shapes(sigma.shape, *(np.shape(v) for v in terms.values()), np.shape(looks))
-    bc = lambda v: np.broadcast_to(np.asarray(v, float), shape)  # noqa: E731
+    bc = lambda v: np.broadcast_to(np.asarray(v, float), shape)
     return BackscatterBudget(
         sigma=bc(sigma), looks=bc(looks), range_resolution_m=bc(dr), azimuth_resolution_m=bc(ds),
         range_broadening=bc(kr), azimuth_broadening=bc(ks), pixel_area_m2=bc(pixel_area), snr=bc(snr_lin),

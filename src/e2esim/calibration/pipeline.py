@@ -26,8 +26,8 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from e2esim.calibration.quegan1994 import transform_covariance
-from e2esim.polarimetry.simulate import SystemState, sample_measured_covariance
 from e2esim.instrument.system_errors import SystemErrorModel, SystemErrorSamples
+from e2esim.polarimetry.simulate import SystemState, sample_measured_covariance
 from e2esim.polarimetry.system_model import ESTIMATOR_WEIGHTS, _kron, faraday_matrix
 from e2esim.units import linear_to_db
 
@@ -162,7 +162,7 @@ class ResidualSampler:
             return parts[0]
         diag = [type(parts[0].diagnostics[i]).concatenate([p.diagnostics[i] for p in parts])
                 for i in range(len(self.steps))]
-        cat = lambda name: np.concatenate([getattr(p, name) for p in parts])  # noqa: E731
+        cat = lambda name: np.concatenate([getattr(p, name) for p in parts])
         return ResidualSamples(cat("delta"), cat("f"), cat("gain"), cat("noise_factor"), diag)
 
 

@@ -40,9 +40,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from e2esim.errors import PhysicsInputError
 from e2esim.faraday.estimators import _check_window, block_mean
 from e2esim.polarimetry.simulate import QuadPolImage
-from e2esim.errors import PhysicsInputError
 from e2esim.polarimetry.system_model import _kron
 
 

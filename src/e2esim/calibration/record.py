@@ -64,7 +64,7 @@ class CalibrationRecord:
     representation: str = "raw"
     declared: bool = True
 
-    def extended(self, name: str, step) -> "CalibrationRecord":
+    def extended(self, name: str, step) -> CalibrationRecord:
         return replace(self, steps=self.steps + (step,), names=self.names + (name,))
 
     def sampler(self) -> ResidualSampler:
@@ -89,7 +89,9 @@ class CalibrationRecord:
         gain_steps = [i for i, step in enumerate(self.steps) if step.kind == "gain"]
         if gain_steps:  # the last gain step sets the scale: residual |A|^2 is minus its error (dB)
             resid_db = -res.diagnostics[gain_steps[-1]].gain_error_db
-            model = replace(self.raw_system, gain_offset_db=float(np.mean(resid_db)), gain_sd_db=float(np.std(resid_db)))
+            model = replace(
+                self.raw_system, gain_offset_db=float(np.mean(resid_db)), gain_sd_db=float(np.std(resid_db))
+            )
         residual = {"gain_offset_db": model.gain_offset_db, "gain_sd_db": model.gain_sd_db}
         return replace(done, residual=residual, representation="rotation_invariant"), model, self.raw_faraday
 

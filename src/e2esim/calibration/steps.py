@@ -48,7 +48,7 @@ class StepResult(ABC):
         """Scalars for the outputs (``calibration.<i>.<module>.<key>``), units in the key names."""
 
     @classmethod
-    def concatenate(cls, parts: list) -> "StepResult":
+    def concatenate(cls, parts: list) -> StepResult:
         """The results of several chunks of realisations as one (array fields joined, others from the first)."""
         first = parts[0]
         values = {}

@@ -22,8 +22,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from e2esim.polarimetry.simulate import SystemState, reciprocal_covariance4, matrix_root
 from e2esim.errors import PhysicsInputError
+from e2esim.polarimetry.simulate import SystemState, matrix_root, reciprocal_covariance4
 from e2esim.polarimetry.system_model import measured_matrix, to_matrix, to_vector
 
 TRANSPONDER_CHANNELS = ("hh", "hv", "vh", "vv")
@@ -88,13 +88,13 @@ class Calibrators:
     noise_to_signal: float = 0.0
 
     @classmethod
-    def named(cls, names, scr_db, clutter: np.ndarray, noise_to_signal_db: float | None = None) -> "Calibrators":
+    def named(cls, names, scr_db, clutter: np.ndarray, noise_to_signal_db: float | None = None) -> Calibrators:
         """``from_ratios`` with the signal-to-clutter and noise-to-signal ratios in dB."""
         nts = 0.0 if noise_to_signal_db is None else 10 ** (noise_to_signal_db / 10)
         return cls.from_ratios(names, 10 ** (np.asarray(scr_db, dtype=float) / 10), clutter, nts)
 
     @classmethod
-    def from_ratios(cls, names, scr, clutter: np.ndarray, noise_to_signal: float = 0.0) -> "Calibrators":
+    def from_ratios(cls, names, scr, clutter: np.ndarray, noise_to_signal: float = 0.0) -> Calibrators:
         """Calibrators ``names`` (``TARGET_NAMES``) with signal-to-clutter ratio ``scr`` (linear, one or per
         calibrator), clutter shape (3x3, hh/hv/vv) and peak noise-to-signal ratio (linear)."""
         names = tuple(names)

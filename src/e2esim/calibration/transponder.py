@@ -38,9 +38,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from e2esim.polarimetry.simulate import SystemState
 from e2esim.calibration.targets import Calibrators, response_covariance
 from e2esim.errors import PhysicsInputError
+from e2esim.polarimetry.simulate import SystemState
 from e2esim.polarimetry.system_model import _kron, faraday_matrix, to_vector
 
 GAUGES = ("min_crosstalk", "reciprocal", "faraday_prior")
@@ -166,7 +166,8 @@ def solve_transponder(
     if np.linalg.matrix_rank(svec) < 3:
         raise PhysicsInputError(
             f"calibrators {', '.join(calibrators.names)} span fewer than 3 independent scattering matrices; "
-            "the system errors are not determined (use e.g. trihedral, dihedral_0 and dihedral_45, or four transponders)"
+            "the system errors are not determined (use e.g. trihedral, dihedral_0 and dihedral_45, "
+            "or four transponders)"
         )
     batch = responses.shape[:-3]
     y = to_vector(responses)  # (..., K, 4)

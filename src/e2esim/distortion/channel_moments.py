@@ -84,7 +84,12 @@ def conditional_polynomials(exp: Expansion, scene, gammas: np.ndarray) -> Condit
     mean = np.empty(shape + (6, 3, 3), dtype=complex)
     mean[..., CONSTANT, :, :] = a0c @ _herm(np.broadcast_to(a0, a0c.shape))
     mean[..., CROSSTALK:IMBALANCE + 1, :, :] = np.moveaxis(np.tensordot(beta, g, axes=([-4, -2], [1, 2])), -1, -3)
-    g_rr, g_tt, g_rt, g_tr = g[:, RECEIVE, RECEIVE], g[:, TRANSMIT, TRANSMIT], g[:, RECEIVE, TRANSMIT], g[:, TRANSMIT, RECEIVE]
+    g_rr, g_tt, g_rt, g_tr = (
+        g[:, RECEIVE, RECEIVE],
+        g[:, TRANSMIT, TRANSMIT],
+        g[:, RECEIVE, TRANSMIT],
+        g[:, TRANSMIT, RECEIVE],
+    )
     # omega axes [..., i, j, p, k, l, q]; contract the transmit pair, then the receive pair -> [..., p, q, b, a]
     quad = np.tensordot(np.tensordot(omega, g_tt, axes=([-5, -2], [1, 2])), g_rr, axes=([-5, -3], [1, 2]))
     quad = quad + np.tensordot(np.tensordot(omega, g_tr, axes=([-5, -3], [1, 2])), g_rt, axes=([-5, -3], [1, 2]))

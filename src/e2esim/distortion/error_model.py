@@ -109,7 +109,7 @@ class HVErrorModel(SystemLevels, ErrorModel):
         return self._memo["current"]
 
     # Sources removed (``SystemLevels.without``) ----------------------------------------------------
-    def _without(self, source: str) -> "HVErrorModel":
+    def _without(self, source: str) -> HVErrorModel:
         sysm, fr = self.system, self.faraday
         if source == "faraday_rotation":
             return self if fr.mean_rad == 0.0 and fr.sd_rad == 0.0 else self._no_faraday()
@@ -130,12 +130,12 @@ class HVErrorModel(SystemLevels, ErrorModel):
         variant._memo["current"] = _row(self._memo["level variants"], row)
         return variant
 
-    def _no_faraday(self) -> "HVErrorModel":
+    def _no_faraday(self) -> HVErrorModel:
         if "no faraday" not in self._memo:
             self._memo["no faraday"] = self._variant(faraday=ConstantFaraday(0.0))
         return self._memo["no faraday"]
 
-    def _variant(self, **changes) -> "HVErrorModel":
+    def _variant(self, **changes) -> HVErrorModel:
         return dataclasses.replace(self, montecarlo=None, gaussianity=None, notes=(), _memo={}, **changes)
 
     # Contributions ---------------------------------------------------------------------------------
@@ -150,7 +150,10 @@ class HVErrorModel(SystemLevels, ErrorModel):
         sd_var = float(m0.variance - m0.var_finite_looks)
         values = {
             "system_distortions": (sd_mean, sd_var),
-            "faraday_rotation": (float(m.mean - m.bias_noise) - sd_mean, float(m.variance - m.var_finite_looks) - sd_var),
+            "faraday_rotation": (
+                float(m.mean - m.bias_noise) - sd_mean,
+                float(m.variance - m.var_finite_looks) - sd_var,
+            ),
             "noise_bias": (float(m.bias_noise), float(m.var_finite_looks)),
         }
         return {name: Contribution(mean, var, CONTRIBUTION_DESCRIPTIONS[name]) for name, (mean, var) in values.items()}
@@ -197,4 +200,4 @@ def _row(moments: HVErrorMoments, i: int) -> HVErrorMoments:
     return HVErrorMoments(**{k: (v[i] if isinstance(v, np.ndarray) and v.ndim else v) for k, v in values.items()})
 
 
-__all__ = ["HVErrorModel", "LEVELS", "SOURCES", "ErrorModelUnavailable"]
+__all__ = ["LEVELS", "SOURCES", "ErrorModelUnavailable", "HVErrorModel"]

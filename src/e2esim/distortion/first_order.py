@@ -34,7 +34,7 @@ class SceneTerms:
     theta: float  # phase of <S_hh S_vv*> (rad)
 
     @classmethod
-    def from_covariance(cls, cov) -> "SceneTerms":
+    def from_covariance(cls, cov) -> SceneTerms:
         return cls(cov.sigma_hh, cov.sigma_hv, cov.sigma_vv, cov.hhvv_magnitude, cov.hhvv_phase_rad)
 
     @property

@@ -11,7 +11,6 @@ from e2esim.distortion.montecarlo import METHODS, gaussianity, simulate
 from e2esim.module import Stage, fail
 from e2esim.params import Param
 
-
 MAX_ANALYTIC_LEVEL = 0.1
 """Largest crosstalk or channel-imbalance variance (-10 dB) for which the second-order expansion of Men et
 al. (2021) is used; beyond it the errors are not small and only the Monte Carlo is exact."""

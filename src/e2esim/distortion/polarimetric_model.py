@@ -50,7 +50,7 @@ class PolarimetricErrorModel(SystemLevels, MultiChannelErrorModel):
     scene: ScatteringCovariance
     system: SystemErrorModel
     faraday: FaradayDistribution
-    correction: FaradayCorrection = FaradayCorrection()
+    correction: FaradayCorrection = field(default_factory=FaradayCorrection)
     looks: int | None = None
     reference: str = "scene"
     montecarlo: CovarianceSamples | None = None
@@ -97,7 +97,7 @@ class PolarimetricErrorModel(SystemLevels, MultiChannelErrorModel):
                 s.noise_power if nesz is None else nesz)
 
     # Sources removed (``SystemLevels.without``) ----------------------------------------------------
-    def _without(self, source: str) -> "PolarimetricErrorModel":
+    def _without(self, source: str) -> PolarimetricErrorModel:
         sysm = self.system
         if source == "faraday_rotation":
             return self if self._rotation_free() else self._no_faraday()
@@ -115,12 +115,12 @@ class PolarimetricErrorModel(SystemLevels, MultiChannelErrorModel):
         residual = self.correction.residual
         return no_rotation and (residual is None or (residual.mean_rad == 0.0 and residual.sd_rad == 0.0))
 
-    def _no_faraday(self) -> "PolarimetricErrorModel":
+    def _no_faraday(self) -> PolarimetricErrorModel:
         if "no faraday" not in self._memo:
             self._memo["no faraday"] = self._variant(faraday=ConstantFaraday(0.0), correction=FaradayCorrection())
         return self._memo["no faraday"]
 
-    def _variant(self, **changes) -> "PolarimetricErrorModel":
+    def _variant(self, **changes) -> PolarimetricErrorModel:
         return dataclasses.replace(self, montecarlo=None, gaussianity=None, notes=(), _memo={}, **changes)
 
     # Contributions ---------------------------------------------------------------------------------

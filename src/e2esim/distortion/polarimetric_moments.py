@@ -58,7 +58,7 @@ class ErrorPolynomial:
     spread: np.ndarray
 
     @classmethod
-    def build(cls, scene_matrix, gammas, omega, omega_hat, weights) -> "ErrorPolynomial":
+    def build(cls, scene_matrix, gammas, omega, omega_hat, weights) -> ErrorPolynomial:
         """From the scene covariance (..., 3, 3), unit error covariances (2, 6, 6), nodes (G,) and weights (..., G)."""
         omega = np.ascontiguousarray(omega, dtype=float)
         oh = None if omega_hat is None else np.ascontiguousarray(omega_hat, dtype=float).tobytes()

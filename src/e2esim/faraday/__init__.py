@@ -7,4 +7,4 @@ from e2esim.faraday.distribution import (
     GaussianFaraday,
 )
 
-__all__ = ["FaradayDistribution", "GaussianFaraday", "ConstantFaraday", "EmpiricalFaraday"]
+__all__ = ["ConstantFaraday", "EmpiricalFaraday", "FaradayDistribution", "GaussianFaraday"]

@@ -21,14 +21,22 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from e2esim.errors import PhysicsInputError
 from e2esim.faraday.estimators import (
-    _Z_A, _Z_B, AMBIGUITY_PERIOD, BickelBates, _check_window,
+    _Z_A,
+    _Z_B,
+    AMBIGUITY_PERIOD,
+    BickelBates,
+    _check_window,
 )
 from e2esim.faraday.theory import bickel_bates_variance
 from e2esim.polarimetry.simulate import (
-    QuadPolImage, SystemState, faraday_at_frequency, sample_measured_covariance, subband_frequencies,
+    QuadPolImage,
+    SystemState,
+    faraday_at_frequency,
+    sample_measured_covariance,
+    subband_frequencies,
 )
-from e2esim.errors import PhysicsInputError
 
 
 @dataclass(frozen=True)

@@ -20,6 +20,7 @@ from e2esim.ionosphere.propagation import faraday_rotation_integral, phase_advan
 from e2esim.ionosphere.slant import PathIntegrals, SlantSettings, path_integrals
 from e2esim.ionosphere.variability import lognormal_nodes
 
+
 @dataclass(frozen=True, eq=False)
 class FaradayClimatology(EmpiricalFaraday):
     """Omega from a climatology: samples (rad) and weights, plus what produced them.
@@ -67,7 +68,9 @@ class FaradayClimatology(EmpiricalFaraday):
             "b_dot_k_mean_ut": float(np.dot(w, self.b_dot_k)) * 1e6,
             "f107_sfu": self.f107, "frequency_mhz": self.frequency_hz / 1e6, "tec_variability": self.variability,
         }
-        out.update({f"omega_p{p:g}_deg".replace(".", "_"): v for p, v in self.percentiles_deg().items()})  # no dots in names
+        out.update(
+            {f"omega_p{p:g}_deg".replace(".", "_"): v for p, v in self.percentiles_deg().items()}
+        )  # no dots in names
         return out
 
     def describe(self) -> str:
@@ -112,9 +115,20 @@ def site_path_integrals(geometry, f107_levels, settings: SlantSettings, cache=No
                                  stored["pierce_zenith"], tuple(stored["f107"].tolist()), settings.method)
     result = path_integrals(geometry.target_ecef, geometry.satellite_ecef, dates, geometry.ut_h, f107_levels, settings)
     if cache is not None:
-        cache.put("site", desc, arrays, {"vtec": result.vtec, "stec": result.stec, "faraday": result.faraday,
-                                         "b_dot_k_pierce": result.b_dot_k_pierce, "pierce_zenith": result.pierce_zenith,
-                                         "f107": np.array(result.f107)}, {"description": desc, "site": geometry.site.name})
+        cache.put(
+            "site",
+            desc,
+            arrays,
+            {
+                "vtec": result.vtec,
+                "stec": result.stec,
+                "faraday": result.faraday,
+                "b_dot_k_pierce": result.b_dot_k_pierce,
+                "pierce_zenith": result.pierce_zenith,
+                "f107": np.array(result.f107),
+            },
+            {"description": desc, "site": geometry.site.name},
+        )
     return result
 
 

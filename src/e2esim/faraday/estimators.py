@@ -151,7 +151,7 @@ class BickelBates(FaradayRotationEstimator):
     """
 
     name = "bickel_bates"
-    statistics = {"ab": (_Z_A, _Z_B), "aa": (_Z_A, _Z_A), "bb": (_Z_B, _Z_B)}
+    statistics: ClassVar[dict] = {"ab": (_Z_A, _Z_B), "aa": (_Z_A, _Z_A), "bb": (_Z_B, _Z_B)}
 
     def finish(self, moments, looks):
         ab = moments["ab"]
@@ -174,7 +174,8 @@ class FreemanSecondMoment(FaradayRotationEstimator):
     """
 
     name = "freeman"
-    statistics = {"cross": (_CROSS_DIFF, _CROSS_DIFF), "co": (_CO_SUM, _CO_SUM), "mix": (_CROSS_DIFF, _CO_SUM)}
+    statistics: ClassVar[dict] = {"cross": (_CROSS_DIFF, _CROSS_DIFF), "co": (_CO_SUM, _CO_SUM),
+                                  "mix": (_CROSS_DIFF, _CO_SUM)}
 
     def __init__(self, noise_power: float | None = None):
         if noise_power is not None and not (np.isfinite(noise_power) and noise_power >= 0):

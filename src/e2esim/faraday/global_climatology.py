@@ -83,7 +83,7 @@ class GlobalClimatology:
             return {k: np.nanmean(v, axis=-1) for k, v in s.items()}
 
 
-    def map(self, frequency_hz: float, variability: float = 0.25, nodes: int = 15) -> "FaradayMap":
+    def map(self, frequency_hz: float, variability: float = 0.25, nodes: int = 15) -> FaradayMap:
         """The statistics and latitude profiles at one radar frequency (product ``faraday.global_map``)."""
         return FaradayMap(self.lat_deg, self.lon_deg, self.passes, self.pass_labels, self.f107, float(frequency_hz),
                           float(variability), self.statistics(frequency_hz, variability, nodes),

@@ -10,12 +10,10 @@ from pathlib import Path
 import numpy as np
 
 from e2esim import products as P
-from e2esim.errors import PhysicsInputError
 from e2esim.faraday.distribution import ConstantFaraday, EmpiricalFaraday, GaussianFaraday
 from e2esim.io.samples import read_samples_file
 from e2esim.module import Stage, fail
 from e2esim.params import ExactlyOneOf, Param
-
 
 _AT_FREQUENCY = Param(
     "at_frequency_mhz", "float",

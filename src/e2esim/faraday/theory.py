@@ -23,10 +23,10 @@ from __future__ import annotations
 
 import numpy as np
 
+from e2esim.errors import PhysicsInputError
 from e2esim.faraday.estimators import _Z_A, _Z_B, AMBIGUITY_PERIOD, wrap_error
 from e2esim.polarimetry.simulate import SystemState, measured_covariance, reciprocal_covariance4
-from e2esim.errors import PhysicsInputError
-from e2esim.polarimetry.system_model import faraday_matrix, _kron
+from e2esim.polarimetry.system_model import _kron, faraday_matrix
 
 VARIANCE_FORMS = ("exact", "asymptotic", "printed")
 _EXACT_MAX_LOOKS = 1000  # beyond, exact exceeds asymptotic by < 1 % for gamma >= 0.3 (~ (1 + 0.6 (1 - g^2)/g^2) / L)
@@ -144,7 +144,12 @@ def _first_order_distortion(delta, f) -> np.ndarray:
     d1, d2, d3, d4 = (np.asarray(delta)[..., i] for i in range(4))
     e1, e2 = np.asarray(f)[..., 0] - 1, np.asarray(f)[..., 1] - 1
     z = np.zeros_like(d1 * e1)
-    rows = [[z, d2 + z, d4 + z, z], [d1 + z, e1 + z, z, d4 + z], [d3 + z, z, e2 + z, d2 + z], [z, d3 + z, d1 + z, e1 + e2 + z]]
+    rows = [
+        [z, d2 + z, d4 + z, z],
+        [d1 + z, e1 + z, z, d4 + z],
+        [d3 + z, z, e2 + z, d2 + z],
+        [z, d3 + z, d1 + z, e1 + e2 + z],
+    ]
     return np.stack([np.stack(r, -1) for r in rows], -2)
 
 

@@ -72,7 +72,9 @@ class SystemErrorModel:
             [rel, rel_e, [self.crosstalk_level, self.imbalance_level, self.noise_power, self.gain_sd_db]]
         )
         if not np.all(np.isfinite(numbers)) or np.any(numbers < 0):
-            raise PhysicsInputError("system-error levels, relative variances, noise power and gain SD must be finite and >= 0")
+            raise PhysicsInputError(
+                "system-error levels, relative variances, noise power and gain SD must be finite and >= 0"
+            )
         for name in ("crosstalk_rho13", "crosstalk_rho24", "imbalance_rho"):
             rho = complex(getattr(self, name))
             if not np.isfinite(rho) or abs(rho) > 1 + 1e-12:
@@ -115,7 +117,7 @@ class SystemErrorModel:
         return (np.asarray(unit.crosstalk_variance), unit.crosstalk_cov13, unit.crosstalk_cov24,
                 np.asarray(unit.imbalance_variance), unit.imbalance_cov12)
 
-    def with_levels(self, crosstalk=None, imbalance=None, noise_power=None) -> "SystemErrorModel":
+    def with_levels(self, crosstalk=None, imbalance=None, noise_power=None) -> SystemErrorModel:
         """Same structure with other levels (variances) or noise power."""
         return replace(
             self,

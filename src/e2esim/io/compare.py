@@ -37,7 +37,11 @@ def input_differences(a: Results, b: Results) -> list:
     fa = {k: v for k, v in flatten(a.resolved_scenario).items() if k.split(".")[0] not in PROVENANCE_ONLY}
     fb = {k: v for k, v in flatten(b.resolved_scenario).items() if k.split(".")[0] not in PROVENANCE_ONLY}
     missing = "(not set)"
-    return [(k, fa.get(k, missing), fb.get(k, missing)) for k in sorted(set(fa) | set(fb)) if fa.get(k, missing) != fb.get(k, missing)]
+    return [
+        (k, fa.get(k, missing), fb.get(k, missing))
+        for k in sorted(set(fa) | set(fb))
+        if fa.get(k, missing) != fb.get(k, missing)
+    ]
 
 
 def matched_cases(a: Results, b: Results) -> list:
@@ -74,8 +78,16 @@ def number_differences(a: Results, b: Results, pairs: list, rtol: float) -> list
     out = []
     for name in sorted(set(a.scalars) | set(b.scalars)):
         if name not in a.scalars or name not in b.scalars:
-            out.append((name, a.units.get(name, b.units.get(name, "")), "only in " + ("B" if name in b.scalars else "A"),
-                        math.nan, math.nan, math.nan))
+            out.append(
+                (
+                    name,
+                    a.units.get(name, b.units.get(name, "")),
+                    "only in " + ("B" if name in b.scalars else "A"),
+                    math.nan,
+                    math.nan,
+                    math.nan,
+                )
+            )
             continue
         x, y = a.scalars[name][ia], b.scalars[name][ib]
         both_nan = np.isnan(x) & np.isnan(y)
@@ -95,7 +107,7 @@ def compare_report(a: Results, b: Results, name_a: str, name_b: str, rtol: float
     inputs = input_differences(a, b)
     verdicts = verdict_differences(a, b, pairs)
     numbers = number_differences(a, b, pairs, rtol)
-    lines = [f"# Comparison of two runs", "", f"- A: `{name_a}` ({a.scenario_name}, {a.n_cases} cases)",
+    lines = ["# Comparison of two runs", "", f"- A: `{name_a}` ({a.scenario_name}, {a.n_cases} cases)",
              f"- B: `{name_b}` ({b.scenario_name}, {b.n_cases} cases)",
              f"- cases compared: {len(pairs)}, matched by their sweep inputs" if a.sweep_keys == b.sweep_keys else
              f"- cases compared: {len(pairs)}, matched by position (the sweeps differ)", ""]
@@ -111,7 +123,12 @@ def _section(title: str, what: str, header: tuple, rows: list) -> list:
     out = [f"## {title}", ""]
     if not rows:
         return out + [f"No differences ({what}).", ""]
-    out += [f"{len(rows)} difference{'s' if len(rows) > 1 else ''} ({what}).", "", "| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+    out += [
+        f"{len(rows)} difference{'s' if len(rows) > 1 else ''} ({what}).",
+        "",
+        "| " + " | ".join(header) + " |",
+        "|" + "---|" * len(header),
+    ]
     out += ["| " + " | ".join(_cell(v) for v in row) + " |" for row in rows]
     return out + [""]
 

@@ -89,7 +89,11 @@ def _write_requirements(req, result) -> None:
           "error sources each requirement covers: all, or systematic (system distortions, Faraday rotation, noise)")
     put(req, "passed", np.array([[v.passed for v in row] for row in verdicts], dtype=bool), "1",
         "verdict of requirement j (column) in case i (row): true passes")
-    about = {"value": "the checked quantity", "limit": "the requirement's bound", "margin": "limit - value; positive passes"}
+    about = {
+        "value": "the checked quantity",
+        "limit": "the requirement's bound",
+        "margin": "limit - value; positive passes",
+    }
     for attr in ("value", "limit", "margin"):
         put(req, attr, np.array([[getattr(v, attr) for v in row] for row in verdicts], dtype=float),
             "see /requirements/unit", f"{about[attr]} (case, requirement), in /requirements/unit")

@@ -35,7 +35,9 @@ def read_results(path) -> Results:
     with f:
         if "cases" not in f or "provenance" not in f:
             raise UserError(f"{path}: not an e2esim results file (no /cases or /provenance)")
-        provenance = {k: _attr(v) for k, v in f.attrs.items() if k not in ("scenario_name", "n_cases", "format_version")}
+        provenance = {
+            k: _attr(v) for k, v in f.attrs.items() if k not in ("scenario_name", "n_cases", "format_version")
+        }
         resolved = yaml.safe_load(_str(f["provenance/resolved_scenario"][()]))
         cases = f["cases"]
         labels = [_str(x) for x in cases["label"][()]]
@@ -71,8 +73,8 @@ def read_results(path) -> Results:
 
 def _sweep_keys(inputs, resolved) -> list:
     """The sweep keys in the scenario's order (HDF5 lists a group's members alphabetically)."""
-    from e2esim.runner.sweep import expand_sweep
     from e2esim.errors import Location
+    from e2esim.runner.sweep import expand_sweep
 
     try:
         _, keys = expand_sweep(resolved.get("sweep"), Location("<results.h5>", ("sweep",)))

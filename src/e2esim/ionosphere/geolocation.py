@@ -25,8 +25,8 @@ import numpy as np
 from scipy.optimize import brentq
 
 from e2esim.errors import PhysicsInputError
-from e2esim.geomag.field import FieldModel
 from e2esim.faraday.theory import bickel_bates_variance
+from e2esim.geomag.field import FieldModel
 from e2esim.ionosphere.constants import CHARGE_TO_MASS_OVER_C
 from e2esim.orbit.frames import from_ecef
 from e2esim.orbit.geometry import ray_points, view_geometry
@@ -56,7 +56,8 @@ class GeolocationAssumptions:
     two give the same zone for a dipole). b0_tesla : equatorial surface field of the axis-aligned centred
     dipole. confidence_z : the requirement is ``confidence_z * sigma_r <= requirement_m``.
     ground_range : apply the requirement to the ground-range error sigma_r / sin(incidence).
-    variance_form : "asymptotic" (eq. 5 corrected, gamma^2) or "printed" eq. (5). altitude_m, ltan_h, look_side : the orbit.
+    variance_form : "asymptotic" (eq. 5 corrected, gamma^2) or "printed" eq. (5).
+    altitude_m, ltan_h, look_side : the orbit.
     """
 
     incidence_deg: float = 26.0

@@ -45,14 +45,14 @@ class SystemState:
     gain: np.ndarray
 
     @classmethod
-    def ideal(cls, omega=0.0) -> "SystemState":
+    def ideal(cls, omega=0.0) -> SystemState:
         """No crosstalk, no channel imbalance, unit gain, Faraday rotation ``omega`` (rad)."""
         omega = np.asarray(omega, dtype=float)
         shape = omega.shape
         return cls(np.zeros(shape + (4,), complex), np.ones(shape + (2,), complex), omega, np.ones(shape, complex))
 
     @classmethod
-    def from_samples(cls, samples: SystemErrorSamples, omega) -> "SystemState":
+    def from_samples(cls, samples: SystemErrorSamples, omega) -> SystemState:
         """From ``SystemErrorModel.sample`` draws (real amplitude gain) and Faraday angles (rad)."""
         return cls(np.asarray(samples.delta), np.asarray(samples.f), np.asarray(omega, dtype=float),
                    np.asarray(samples.gain).astype(complex))
@@ -94,7 +94,7 @@ class QuadPolImage:
         return np.stack([self.hh, self.hv, self.vh, self.vv], -1)
 
     @classmethod
-    def from_vector(cls, m: np.ndarray) -> "QuadPolImage":
+    def from_vector(cls, m: np.ndarray) -> QuadPolImage:
         return cls(m[..., 0], m[..., 1], m[..., 2], m[..., 3])
 
 

@@ -15,11 +15,15 @@ def conclusions(result) -> list:
     for j, (row, scope) in enumerate(zip(requirement_overview(result), requirement_sources(result.scenario))):
         total = row["passed_cases"] + row["failed_cases"]
         if total == 0:
-            out.append((badge(True, applies=False), f"{row['name']}: applies to none of the {len(result.cases)} cases."))
+            out.append(
+                (badge(True, applies=False), f"{row['name']}: applies to none of the {len(result.cases)} cases.")
+            )
             continue
         worst = result.cases[row["worst_case"]]
         v = worst.verdicts[j]
-        verb = f"passes in all {total} cases" if row["all_passed"] else f"fails in {row['failed_cases']} of {total} cases"
+        verb = (
+            f"passes in all {total} cases" if row["all_passed"] else f"fails in {row['failed_cases']} of {total} cases"
+        )
         outside = (f" ({row['not_applicable_cases']} cases outside its range)" if row["not_applicable_cases"] else "")
         sentence = (f"{row['name']} ({SCOPE_SHORT.get(scope, scope)}) {verb}{outside}; worst case {worst.index} "
                     f"({worst.label}): {fmt(v.value, 3)} {v.unit} against a limit of {fmt(v.limit, 3)} {v.unit}")

@@ -16,8 +16,18 @@ from e2esim.report.assumptions import assumption_rows
 from e2esim.report.blocks import Badge, Details, Heading, Image, Paragraph, Table, Warning, fmt, table_blocks
 from e2esim.report.conclusions import conclusions
 
-__all__ = ["build_report", "verdict_lines", "fmt", "Heading", "Paragraph", "Table", "Image", "Details", "Warning",
-           "Badge"]
+__all__ = [
+    "Badge",
+    "Details",
+    "Heading",
+    "Image",
+    "Paragraph",
+    "Table",
+    "Warning",
+    "build_report",
+    "fmt",
+    "verdict_lines",
+]
 
 
 def verdict_lines(result) -> list:

@@ -12,12 +12,12 @@ from pathlib import Path
 import matplotlib
 
 matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
+import matplotlib.pyplot as plt
+import numpy as np
 
-from e2esim.faraday.distribution import EmpiricalFaraday  # noqa: E402
-from e2esim.io.atomic import atomic_path  # noqa: E402
-from e2esim.report.plot_base import PlotSkipped  # noqa: E402
+from e2esim.faraday.distribution import EmpiricalFaraday
+from e2esim.io.atomic import atomic_path
+from e2esim.report.plot_base import PlotSkipped
 
 _DPI = 110
 

@@ -12,9 +12,9 @@ from pathlib import Path
 import matplotlib
 
 matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
+import matplotlib.pyplot as plt
 
-from e2esim.io.atomic import atomic_path  # noqa: E402
+from e2esim.io.atomic import atomic_path
 
 DPI = 110
 

@@ -14,18 +14,18 @@ from pathlib import Path
 import matplotlib
 
 matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-from scipy import stats  # noqa: E402
+import matplotlib.pyplot as plt
+import numpy as np
+from scipy import stats
 
-from e2esim.report.budget_plots import plot_error_budget  # noqa: E402
-from e2esim.report.faraday_plots import plot_faraday_climatology, plot_faraday_distributions  # noqa: E402
-from e2esim.report.map_plots import SITE_KEYS, plot_site_map  # noqa: E402
-from e2esim.report.plot_base import PlotSkipped, save  # noqa: E402
-from e2esim.report.sweep_layout import legend, sweep_layout  # noqa: E402
-from e2esim.report.sweep_plots import plot_agb_error_vs_sweep, plot_backscatter_vs_sweep, plot_verdicts  # noqa: E402
-from e2esim.units import level_db_from_variance  # noqa: E402
-from e2esim.report.multichannel_plots import plot_estimator_comparison  # noqa: E402
+from e2esim.report.budget_plots import plot_error_budget
+from e2esim.report.faraday_plots import plot_faraday_climatology, plot_faraday_distributions
+from e2esim.report.map_plots import SITE_KEYS, plot_site_map
+from e2esim.report.multichannel_plots import plot_estimator_comparison
+from e2esim.report.plot_base import PlotSkipped, save
+from e2esim.report.sweep_layout import legend, sweep_layout
+from e2esim.report.sweep_plots import plot_agb_error_vs_sweep, plot_backscatter_vs_sweep, plot_verdicts
+from e2esim.units import level_db_from_variance
 
 
 def plot_error_histograms(result, folder: Path, options: dict) -> list:
@@ -34,7 +34,11 @@ def plot_error_histograms(result, folder: Path, options: dict) -> list:
     if not cases:
         raise PlotSkipped("no case has Monte Carlo samples of the σ_hv error (simulation.mode analytic)")
     shown = cases[: options.get("histogram_cases", 12)]
-    more = f" The first {len(shown)} of {len(cases)} cases are shown (output.histogram_cases)." if len(cases) > len(shown) else ""
+    more = (
+        f" The first {len(shown)} of {len(cases)} cases are shown (output.histogram_cases)."
+        if len(cases) > len(shown)
+        else ""
+    )
     cases = shown
     ncol = min(3, len(cases))
     nrow = math.ceil(len(cases) / ncol)

@@ -15,11 +15,11 @@ from dataclasses import dataclass
 import matplotlib
 
 matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
+import matplotlib.pyplot as plt
+import numpy as np
 
-from e2esim.report.labels import axis_label, value_text  # noqa: E402
-from e2esim.runner.sweep import differing_keys  # noqa: E402
+from e2esim.report.labels import axis_label, value_text
+from e2esim.runner.sweep import differing_keys
 
 MAX_FACETS = 12
 MAX_SERIES_IN_LEGEND = 12

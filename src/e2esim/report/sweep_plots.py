@@ -97,8 +97,18 @@ def plot_agb_error_vs_sweep(result, folder: Path, options: dict) -> list:
         for i, (series, dx) in enumerate(zip(facet.series, series_offsets(layout, facet))):
             lo, mid, hi = (np.array([c.scalars[k] for c in series.cases]) for k in keys)
             st = style(i)
-            ax.errorbar(layout.x_values(series.cases) + dx, mid, yerr=[mid - lo, hi - mid], fmt="-", marker=st["marker"],
-                        ms=3.5, capsize=2, lw=1, color=st["color"], label=series.label)
+            ax.errorbar(
+                layout.x_values(series.cases) + dx,
+                mid,
+                yerr=[mid - lo, hi - mid],
+                fmt="-",
+                marker=st["marker"],
+                ms=3.5,
+                capsize=2,
+                lw=1,
+                color=st["color"],
+                label=series.label,
+            )
         ax.axhline(0, color="k", lw=0.8)
         ax.set_title(facet.title, fontsize=8)
         ax.set_xlabel(layout.x_label, fontsize=8)

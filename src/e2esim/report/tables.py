@@ -138,5 +138,12 @@ def contribution_key(verdict, source: str) -> str:
     return f"contribution.{source}_{unit_key(verdict.unit)}"
 
 
-__all__ = ["verdict_table", "budget_table", "agb_budget_table", "margin_table", "case_table", "comparison_table",
-           "SOURCE_SCOPES"]
+__all__ = [
+    "SOURCE_SCOPES",
+    "agb_budget_table",
+    "budget_table",
+    "case_table",
+    "comparison_table",
+    "margin_table",
+    "verdict_table",
+]

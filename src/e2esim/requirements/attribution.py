@@ -43,7 +43,9 @@ def attribution(case, value_of, agb: AGBError, unit: str = "percent") -> tuple[d
     for c in agb.contributions:
         if c.group in ("random", "regression"):
             var = max(agb.error_sd**2 - model.value**2 * max(c.relative_variance, 0.0), 0.0)
-            out[f"contribution.{c.name}_{unit}"] = base - value_of(dataclasses.replace(agb, error_sd=float(np.sqrt(var))))
+            out[f"contribution.{c.name}_{unit}"] = base - value_of(
+                dataclasses.replace(agb, error_sd=float(np.sqrt(var)))
+            )
     return out, ()
 
 

@@ -196,7 +196,7 @@ class ConicTradeoff:
     f_sigma: float
 
     @classmethod
-    def from_moments(cls, requirement: AGBRequirement, scene, system, faraday) -> "ConicTradeoff":
+    def from_moments(cls, requirement: AGBRequirement, scene, system, faraday) -> ConicTradeoff:
         if system.has_gain_error:
             raise PhysicsInputError("the conic of Appendix B has no gain error; use tradeoff_curve")
         u = 1e-3  # exact polynomial: any positive probe level gives the same coefficients

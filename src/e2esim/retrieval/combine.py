@@ -55,7 +55,9 @@ def budget_contributions(budget, channel_weights=None, scene=None) -> tuple:
     out = []
     for g in budget.groups:
         if channel_weights is None:
-            var = float(np.squeeze(budget.channel("hv").group_sd(g) ** 2 if budget.channels else budget.group_sd(g) ** 2))
+            var = float(
+                np.squeeze(budget.channel("hv").group_sd(g) ** 2 if budget.channels else budget.group_sd(g) ** 2)
+            )
         else:
             var = float(_channel_covariance(budget, g, scene).dot(channel_weights).dot(channel_weights)
                         / channel_weights[1] ** 2)

@@ -105,7 +105,7 @@ class LogLinearModel(RetrievalModel):
                                     f"(channel weights {self.channel_weights()}); check a_pq and the covariance")
 
     @classmethod
-    def from_linear(cls, l_pq, a_pq, n_pq, residual_covariance=None) -> "LogLinearModel":
+    def from_linear(cls, l_pq, a_pq, n_pq, residual_covariance=None) -> LogLinearModel:
         """From l_pq in m^2/m^2 (linear), a_pq, n_pq, each (hh, hv, vv)."""
         l_pq = np.asarray(l_pq, dtype=float)
         if np.any(l_pq <= 0):
@@ -118,11 +118,11 @@ class LogLinearModel(RetrievalModel):
     def params(self) -> np.ndarray:
         return np.stack([self.ln_l, self.a, self.n], axis=-1).reshape(-1)
 
-    def with_params(self, params) -> "LogLinearModel":
+    def with_params(self, params) -> LogLinearModel:
         c = np.asarray(params, dtype=float).reshape(_N_CH, 3)
         return replace(self, ln_l=tuple(c[:, 0]), a=tuple(c[:, 1]), n=tuple(c[:, 2]))
 
-    def with_residual_covariance(self, cov) -> "LogLinearModel":
+    def with_residual_covariance(self, cov) -> LogLinearModel:
         return replace(self, residual_covariance=np.asarray(cov, dtype=float))
 
     def channel_weights(self, channels=None) -> np.ndarray:
@@ -324,7 +324,7 @@ class LogLinearModel(RetrievalModel):
                                incidence_rad=None if theta is None else theta[None])
         model = self.with_params(batch.params[0])
         resid = self._residuals(model, agb, sigma, space, incidence_rad=theta)
-        design, fixed_n, _ = self._design(agb[None], None if theta is None else theta[None])
+        design, _fixed_n, _ = self._design(agb[None], None if theta is None else theta[None])
         k = design.shape[-1]
         dof = agb.shape[0] - k
         sigma_r = resid.T @ resid / dof  # (3, 3)

@@ -101,7 +101,7 @@ class FitResult:
     iterations : solver iterations. residuals : (n, ...) data minus fit, in the fit space.
     """
 
-    model: "RetrievalModel"
+    model: RetrievalModel
     covariance: np.ndarray
     residual_variance: float
     n: int
@@ -147,7 +147,7 @@ class RetrievalModel(ABC):
         """The coefficients as a float array of shape (p,)."""
 
     @abstractmethod
-    def with_params(self, params) -> "RetrievalModel":
+    def with_params(self, params) -> RetrievalModel:
         """A copy with other coefficients (same fixed hyper-parameters)."""
 
     def params_valid(self, params) -> np.ndarray:

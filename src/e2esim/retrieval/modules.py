@@ -17,16 +17,16 @@ from e2esim import products as P
 from e2esim.errors import ConfigError, PhysicsInputError
 from e2esim.module import Stage, fail
 from e2esim.params import Ordered, Param, ParamGroup
-from e2esim.retrieval.agb_error import AGBError, RelativeErrorMap
+from e2esim.retrieval.agb_error import RelativeErrorMap
+from e2esim.retrieval.combine import combined_agb_error, systematic_agb_error
+from e2esim.retrieval.loglinear import LogLinearModel
+from e2esim.retrieval.power_law import BIOME_EXPONENTS, PowerLaw
 from e2esim.retrieval.regression_campaign import (
     REGRESSION_METHODS,
     REGRESSION_MODES,
     CalibrationCampaign,
     regression_contribution,
 )
-from e2esim.retrieval.combine import combined_agb_error, systematic_agb_error
-from e2esim.retrieval.loglinear import LogLinearModel
-from e2esim.retrieval.power_law import BIOME_EXPONENTS, PowerLaw
 from e2esim.retrieval.saturating import ALPHA_DEFAULT, SaturatingModel
 
 _REGRESSION = ParamGroup("regression", "uncertainty of the model's calibration on field plots (Ahmed et al. 2014, "

@@ -115,7 +115,7 @@ class CombinedChannelsError(DerivedErrorModel):
         used = self.weights != 0
         return np.sum(self.weights[used] * logs[..., used], axis=-1)
 
-    def rebuilt(self, source: MultiChannelErrorModel) -> "CombinedChannelsError":
+    def rebuilt(self, source: MultiChannelErrorModel) -> CombinedChannelsError:
         return CombinedChannelsError(source, self.weights)
 
     def contributions(self) -> dict:

@@ -18,13 +18,13 @@ import numpy as np
 
 from e2esim.errors import PhysicsInputError
 from e2esim.retrieval.models import (
+    BAD_DATA,
     BELOW_RANGE,
     CONVERGED,
     INVALID,
     INVERTED,
     OUT_OF_DOMAIN,
     SATURATED,
-    BAD_DATA,
     BatchFit,
     Inversion,
     RetrievalModel,
@@ -79,7 +79,7 @@ class PowerLaw(RetrievalModel):
     def params(self) -> np.ndarray:
         return np.array([self.coefficient, self.exponent], dtype=float)
 
-    def with_params(self, params) -> "PowerLaw":
+    def with_params(self, params) -> PowerLaw:
         a, p = np.asarray(params, dtype=float)
         return PowerLaw(float(a), float(p))
 
@@ -99,7 +99,7 @@ class PowerLaw(RetrievalModel):
             return np.stack([np.exp(-w[..., 0] / w[..., 1]), 1.0 / w[..., 1]], axis=-1)
 
     @classmethod
-    def through(cls, agb, sigma, exponent) -> "PowerLaw":
+    def through(cls, agb, sigma, exponent) -> PowerLaw:
         """The power law of exponent p through the point (agb t/ha, sigma m^2/m^2): A = agb / sigma^p."""
         if not (agb > 0 and sigma > 0):
             raise PhysicsInputError(f"a power law through (AGB, sigma) needs both > 0, got ({agb}, {sigma})")
@@ -121,7 +121,7 @@ class PowerLaw(RetrievalModel):
 
     def agb_derivative(self, agb, params=None, **covariates):
         """d sigma / d AGB = sigma / (p AGB) (infinite at AGB = 0 for p > 1)."""
-        a, p = _split(self._params(params))
+        _, p = _split(self._params(params))
         agb = np.asarray(agb, dtype=float)
         with np.errstate(divide="ignore", invalid="ignore"):
             return np.where(agb > 0, self.evaluate(agb, params) / (p * np.where(agb > 0, agb, 1.0)), np.inf)

@@ -226,7 +226,7 @@ def _interp_crossing(m0, m1, v0, v1, target):
 
 
 def _invert_single_channel(model, s, channel, agb_max):
-    from e2esim.retrieval.models import INVERTED, SATURATED, BELOW_RANGE, Inversion
+    from e2esim.retrieval.models import BELOW_RANGE, INVERTED, SATURATED, Inversion
 
     ln_l, a = model.ln_l[channel], model.a[channel]
     positive = s > 0

@@ -73,7 +73,7 @@ class SaturatingModel(RetrievalModel):
     def params(self) -> np.ndarray:
         return np.array([self.beta0, self.beta1, self.beta2], dtype=float)
 
-    def with_params(self, params) -> "SaturatingModel":
+    def with_params(self, params) -> SaturatingModel:
         b0, b1, b2 = np.asarray(params, dtype=float)
         return SaturatingModel(float(b0), float(b1), float(b2), self.alpha)
 

@@ -48,7 +48,8 @@ class SimexResult:
     converge. failure_modes : counts by failure mode over all lambdas. extrapolant : "quadratic" or
     "linear" (the one used); coefficients : (p, degree + 1) of the polynomial in lambda (highest power
     first). fallback : True when the quadratic extrapolant left the model's domain and the linear one was
-    used instead (reported, never silent). n_clipped : simulated field AGB values set to 0. max_failure_fraction : threshold for ``reliable``.
+    used instead (reported, never silent). n_clipped : simulated field AGB values set to 0.
+    max_failure_fraction : threshold for ``reliable``.
     """
 
     naive: FitResult

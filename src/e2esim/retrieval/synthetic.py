@@ -54,9 +54,9 @@ class FieldPlots:
     def n_plots(self) -> int:
         return self.agb.shape[-1]
 
-    def dataset(self, i: int) -> "FieldPlots":
+    def dataset(self, i: int) -> FieldPlots:
         """Data set i of a batch."""
-        take = lambda a: None if a is None else a[i]  # noqa: E731
+        take = lambda a: None if a is None else a[i]
         return FieldPlots(self.agb_true[i], self.agb[i], self.agb_error_sd[i], self.sigma_true[i], self.sigma[i],
                           self.sigma_error_sd[i], self.model_error_sd, self.model, take(self.incidence_rad),
                           int(np.count_nonzero((self.agb[i] == 0) & (self.agb_true[i] > 0))))

@@ -2,8 +2,8 @@
 
 A scenario has one section per stage kind (``scene``, ``instrument``, ...; each with ``type:`` and
 the module's parameters; a plug-in's stage kind is a section too), a ``requirements`` list, and the
-``simulation``, ``sweep`` and ``output`` sections declared below. ``Scenario.resolve()`` checks everything a run needs, for every sweep case,
-without running anything: that is ``e2esim validate``.
+``simulation``, ``sweep`` and ``output`` sections declared below. ``Scenario.resolve()`` checks everything a
+run needs, for every sweep case, without running anything: that is ``e2esim validate``.
 """
 
 from __future__ import annotations
@@ -207,7 +207,9 @@ class Scenario:
         for key in REQUIRED_SECTIONS:
             if key not in self.raw:
                 kinds = ", ".join(r.type_name for r in registry.available(key))
-                raise ConfigError(root.child(key), "section is missing", f"add a '{key}:' section with a type ({kinds})")
+                raise ConfigError(
+                    root.child(key), "section is missing", f"add a '{key}:' section with a type ({kinds})"
+                )
         name = self.raw.get("name", Path(self.source).stem)
         for key in ("name", "description"):
             if key in self.raw and not isinstance(self.raw[key], str):
@@ -414,4 +416,4 @@ def _jsonable(value: Any) -> Any:
     return value
 
 
-__all__ = ["Scenario", "ResolvedScenario", "CaseSpec"]
+__all__ = ["CaseSpec", "ResolvedScenario", "Scenario"]

@@ -10,7 +10,6 @@ of Men et al. (2021) assume it, the Monte Carlo does not.
 from __future__ import annotations
 
 import math
-
 from dataclasses import dataclass
 
 import numpy as np

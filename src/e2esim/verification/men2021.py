@@ -13,12 +13,12 @@ import re
 import numpy as np
 
 from e2esim.distortion.analytic import hv_error_moments
-from e2esim.distortion.montecarlo import simulate
 from e2esim.distortion.error_model import HVErrorModel
-from e2esim.requirements.tradeoff import AGBRequirement, axis_limits
+from e2esim.distortion.montecarlo import simulate
 from e2esim.distortion.validation import compare_with_analytic
 from e2esim.faraday.distribution import ConstantFaraday, GaussianFaraday
 from e2esim.instrument.system_errors import SystemErrorModel
+from e2esim.requirements.tradeoff import AGBRequirement, axis_limits
 from e2esim.retrieval.power_law import BIOME_EXPONENTS, sigma_relative_error
 from e2esim.scene.covariance import ScatteringCovariance
 from e2esim.scene.table1 import TABLE1_FORESTS
@@ -53,7 +53,11 @@ def f_value(record):
     m = re.match(r"men2021\.eq16\.f_(over|under)_(\d+)pct_(boreal|tropical)", record.id)
     side, percent, biome = m.group(1), int(m.group(2)), m.group(3)
     q = percent / 100 * (1 if side == "over" else -1)
-    return float(sigma_relative_error(q, BIOME_EXPONENTS[biome])), None, f"(1 + q)^(1/p) - 1 with q = {q:+.2f}, p = {BIOME_EXPONENTS[biome]}"
+    return (
+        float(sigma_relative_error(q, BIOME_EXPONENTS[biome])),
+        None,
+        f"(1 + q)^(1/p) - 1 with q = {q:+.2f}, p = {BIOME_EXPONENTS[biome]}",
+    )
 
 
 def fig1_system_bias(record):
@@ -86,7 +90,7 @@ def fig6_crosstalk_limit(record):
     return value, None, "crosstalk axis crossing (no channel imbalance), FR = pi/3, paper form of eqs. 11-12"
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def table2_case(row: int, seed: int = TABLE2_SEED, form: str = "paper") -> dict:
     """Monte Carlo vs analytic relative differences for Table II row ``row`` (1-based), in percent."""
     from e2esim.verification.men2021_values import TABLE2_ROWS

@@ -1,6 +1,7 @@
 """Published values e2esim is checked against: one table for ``e2esim reproduce`` and the tests.
 
-The table is the concatenation of one list per seed paper (``e2esim.verification.<source>_values``). Each entry names the function that recomputes the value from the paper's equations and inputs
+The table is the concatenation of one list per seed paper (``e2esim.verification.<source>_values``). Each
+entry names the function that recomputes the value from the paper's equations and inputs
 (``module:function``), the tolerance and why it is that, and, where a correct computation cannot
 reproduce the printed number, the explanation (also in docs/errata.md). Never bend a computation to
 hit a published value.

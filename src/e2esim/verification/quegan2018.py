@@ -24,7 +24,7 @@ def omega_over_range_delay(record):
     return float(CHARGE_TO_MASS_OVER_C), None, note
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def _zone(snr_db: int, looks: int, form: str) -> tuple:
     return excluded_zone(snr_db, looks, replace(TABLE1_ASSUMPTIONS, variance_form=form))
 

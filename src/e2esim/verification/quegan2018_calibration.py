@@ -12,11 +12,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from e2esim.faraday.theory import bickel_bates_snr, bickel_bates_variance
 from e2esim.calibration.pipeline import ResidualSampler
 from e2esim.calibration.steps import FaradayStep
-from e2esim.faraday.estimator_modules import BickelBatesEstimator
 from e2esim.faraday.distribution import GaussianFaraday
+from e2esim.faraday.estimator_modules import BickelBatesEstimator
+from e2esim.faraday.theory import bickel_bates_snr, bickel_bates_variance
 from e2esim.verification.men2021 import forest, system
 
 WINDOW_LOOKS = 96  # 200 m AGB product pixel: 16 pixels of 50 m x 50 m, 6 looks each (Section 6)
@@ -52,9 +52,11 @@ def fr_correction_accuracy(record):
         bias = fr_errors(name, mean, looks=10**9, n=5000)  # window so large that only the crosstalk bias is left
         q_bias = float(np.quantile(np.abs(bias), QUANTILE))
         xt_1deg = -30.0 + 20 * np.log10(1.0 / q_bias)  # the bias is first order in the crosstalk amplitude
-        notes.append(f"{name}: 99.865 % |error| {q:.2f} deg, RMS {np.sqrt(np.mean(err**2)):.2f} deg at L = {WINDOW_LOOKS}, "
-                     f"SNR {10 * np.log10(snr):.1f} dB; the noise term alone stays below 1 deg (3 sigma) for "
-                     f"L >= {looks_1deg}; the crosstalk bias ({q_bias:.2f} deg) reaches 1 deg at about {xt_1deg:.0f} dB")
+        notes.append(
+            f"{name}: 99.865 % |error| {q:.2f} deg, RMS {np.sqrt(np.mean(err**2)):.2f} deg at L = {WINDOW_LOOKS}, "
+            f"SNR {10 * np.log10(snr):.1f} dB; the noise term alone stays below 1 deg (3 sigma) for "
+            f"L >= {looks_1deg}; the crosstalk bias ({q_bias:.2f} deg) reaches 1 deg at about {xt_1deg:.0f} dB"
+        )
     computed = max(quantiles)
     note = ("computed = worse 99.865 % quantile of |Omega_hat - Omega| over system errors, speckle and noise, "
             "BIOMASS specification, NESZ -27 dB; reproduced when below 1 deg. " + "; ".join(notes))

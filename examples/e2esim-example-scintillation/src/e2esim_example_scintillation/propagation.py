@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 from e2esim.distortion.modules import HVBackscatterErrorPropagation
-
 from e2esim_example_scintillation.error_model import ScintillationErrorModel
 
 

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 from e2esim.module import Stage, fail
 from e2esim.params import Param
-
 from e2esim_example_scintillation.products import SCINTILLATION, Scintillation
 
 WEAK_SCATTERING_EXPONENT = 1.5
