@@ -23,9 +23,11 @@ QUICK = {
     "biomass_fr_climatology": ("orbit.acquisitions.step_days=120", "orbit.swath_samples=2",
                                "ionosphere.method=thin_shell", "ionosphere.variability_nodes=3",
                                "simulation.realisations=300", "simulation.looks=1000"),
-    "biomass_latitude_sweep": ("orbit.acquisitions.step_days=60", "orbit.swath_samples=2",
-                               "ionosphere.variability_nodes=3", "ionosphere.global_map_step_deg=30"),
-    "nisar_lband": (*_MC, *_ORBIT),
+    "biomass_latitude_sweep": ("orbit.acquisitions.step_days=120", "orbit.swath_samples=2",
+                               "ionosphere.variability_nodes=2", "ionosphere.global_map_step_deg=30"),
+    "biomass_multichannel": (*_MC, "requirements.0.curve_points=9"),
+    "nisar_lband": ("simulation.realisations=200", "simulation.looks=2000", "orbit.acquisitions.step_days=120",
+                    "orbit.swath_samples=2", "ionosphere.variability_nodes=2"),
     "uavsar_ahmed2014": _REGRESSION,
 }
 """Overrides (``--set``) of each scenario for the default suite; others get ``_MC``."""

@@ -36,7 +36,14 @@ def _coverage(rng, n_sets, design, agb=50.0, n_sim=50, n_boot=200, refit="naive"
 
 def test_bootstrap_confidence_band_covers_truth_at_nominal_rate(rng):
     """SIMEX centre, conditional bootstrap, eqs. (3)-(4) with the bootstrap covariance: 95 % band at
-    50 t/ha over 200 data sets, binomial test (simulation of 800 data sets: 95.0 %)."""
+    50 t/ha over 60 data sets, binomial test (a simulation of 800 data sets gives 95.0 %; the printed
+    design's 45 % fails such a test by far, see below; 200 data sets in the slow test)."""
+    hits = _coverage(rng, 60, "conditional")
+    assert stats.binomtest(hits, 60, 0.95).pvalue > P_MIN, hits
+
+
+@pytest.mark.slow
+def test_bootstrap_coverage_at_50_t_ha_with_more_data_sets(rng):
     hits = _coverage(rng, 200, "conditional")
     assert stats.binomtest(hits, 200, 0.95).pvalue > P_MIN, hits
 
