@@ -124,9 +124,9 @@ def test_existing_output_folder_needs_force(default_runs, capsys):
 
 
 def test_json_flag_prints_the_summary(tmp_path, capsys):
-    status = main(["run", str(DEFAULT), "-o", str(tmp_path / "j"), "--no-progress", "--json", *QUICK, "--set", FIRST_TWO,
-                   "--set", "simulation.mode=analytic", "--set", "requirements.0.tradeoff_curve=false",
-                   "--set", "requirements.0.level_margins=false"])
+    status = main(["run", str(DEFAULT), "-o", str(tmp_path / "j"), "--no-progress", "--json", *QUICK,
+                   "--set", FIRST_TWO, "--set", "simulation.mode=analytic",
+                   "--set", "requirements.0.tradeoff_curve=false", "--set", "requirements.0.level_margins=false"])
     assert status == 0
     printed = json.loads(capsys.readouterr().out)
     on_disk = json.loads((tmp_path / "j" / "summary.json").read_text())
