@@ -88,7 +88,7 @@ def node_terms(scene: StackScene, errors: StackSystemErrors, faraday: StackFarad
     beta = errors.pass_gain_log_sd
     pair, cov4 = _pass_gain_products(n, beta) if beta > 0 else (None, None)
     out = node_polynomials(scene.blocks(), combination.matrix, omega, errors.pass_correlation(n),
-                           errors.unit_covariances(), pair, population_cross)
+                           errors.unit_covariances(), pair, population_cross, full_signal=beta > 0 or population_cross)
     out.update(weights=weights, pair=pair, cov4=cov4)
     return out
 
@@ -126,24 +126,21 @@ def stack_hv_moments(scene: StackScene, errors: StackSystemErrors, faraday: Stac
         mono = monomials(xs[sel], es[sel])  # (6, S)
         w = t["weights"]
         mu = np.einsum("ks,kg->sg", mono, t["mean"])
-        v = np.einsum("ks,kg->sg", mono, t["var"])
-        y0 = np.einsum("ks,kgnm->sgnm", mono, t["y0"])  # passes' signal covariance without gain factors
-        ybar = y0 if t["pair"] is None else y0 * t["pair"]
-        if t["cov4"] is not None:  # Var over the passes' own gains of the conditional mean sum eta eta kappa
-            kappa = q.T * y0
-            veta = np.real(np.einsum("sgnm,sgkl,nmkl->sg", kappa, kappa, t["cov4"]))
-        else:
-            veta = np.zeros_like(mu)
-        parts["mu"][sel] = mu @ w
-        parts["mu2"][sel] = (mu**2) @ w
-        parts["v"][sel] = v @ w
-        parts["veta"][sel] = veta @ w
-        parts["tr_q2y"][sel] = np.real(np.einsum("mn,sgnm->sg", q @ q, ybar)) @ w
-        if reference == "population" and looks is not None:
-            qy = np.einsum("mn,sgnk->sgmk", q, ybar)
-            parts["tr_qyqy"][sel] = np.real(np.einsum("sgmk,sgkm->sg", qy, qy)) @ w
+        parts["mu"][sel] = np.einsum("sg,g->s", mu, w)
+        parts["mu2"][sel] = np.einsum("sg,g->s", mu**2, w)
+        parts["v"][sel] = np.einsum("ks,kg,g->s", mono, t["var"], w)
+        parts["tr_q2y"][sel] = np.einsum("ks,kg,g->s", mono, t["trq2y"], w)
+        if t["y0"] is not None:
+            y0 = np.einsum("ks,kgnm->sgnm", mono, t["y0"])  # passes' signal covariance without gain factors
+            if t["cov4"] is not None:  # Var over the passes' own gains of the conditional mean sum eta eta kappa
+                kappa = q.T * y0
+                veta = np.real(np.einsum("sgnm,sgkl,nmkl->sg", kappa, kappa, t["cov4"], optimize=True))
+                parts["veta"][sel] = np.einsum("sg,g->s", veta, w)
             if need_cross:
-                parts["csys"][sel] = np.einsum("ks,kg->sg", mono, t["csys"]) @ w
+                ybar = y0 if t["pair"] is None else y0 * t["pair"]
+                qy = np.einsum("mn,sgnk->sgmk", q, ybar)
+                parts["tr_qyqy"][sel] = np.einsum("sg,g->s", np.real(np.einsum("sgmk,sgkm->sg", qy, qy)), w)
+                parts["csys"][sel] = np.einsum("ks,kg,g->s", mono, t["csys"], w)
     value = combination.value(scene.channel_matrix(1))
     signal_mean = parts["mu"]
     spread = np.clip(parts["mu2"] - signal_mean**2, 0.0, None)

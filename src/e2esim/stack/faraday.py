@@ -14,10 +14,13 @@ read (research notes Section 7): the default rho = 0 (independent days) is an **
 case; the scenarios sweep sigma_D directly. The small widening of each pass's marginal (variance of Omega_0
 plus sigma_D^2 / 2) is accepted.
 
-Averages over (Omega_0, Delta) use the exact quadrature of Omega_0 (``FaradayDistribution.quadrature``) times
-a fully symmetric degree-5 cubature for the N-dimensional Gaussian Delta (``gaussian_cubature``: 2 N^2 + 1
-nodes, exact for every monomial of degree <= 5, which the tests check): the moments of the error are smooth functions of
-Delta, so the neglected terms are O(sigma_D^6).
+Averages over (Omega_0, Delta) split Delta into its mean over the passes, Delta_bar ~ N(0, sigma_D^2 / (2N)),
+and the deviations from it, U zeta with U an orthonormal basis of the (N - 1)-dimensional subspace orthogonal to
+(1, ..., 1) and zeta ~ N(0, sigma_D^2 / 2 I). Omega_0 + Delta_bar has the circular moments of Omega_0 times
+exp(-k^2 sigma_D^2 / (4N)) (``ShiftedFaraday``), so its quadrature stays exact; zeta is averaged with a degree-5
+cubature (``gaussian_cubature``: Radon's 7-point rule in 2 dimensions, the fully symmetric 2 d^2 + 1-point rule
+otherwise; both exact for every monomial of degree <= 5, which the tests check). The moments of the error are
+smooth functions of zeta, so the neglected terms are O(sigma_D^6).
 """
 
 from __future__ import annotations
@@ -31,11 +34,20 @@ from e2esim.faraday.distribution import FaradayDistribution
 
 
 def gaussian_cubature(dim: int) -> tuple[np.ndarray, np.ndarray]:
-    """Nodes (K, dim) and weights (K,) of the degree-5 fully symmetric rule for N(0, I_dim).
+    """Nodes (K, dim) and weights (K,) of a degree-5 rule for N(0, I_dim).
 
-    Nodes: 0; +-sqrt(3) e_i; +-sqrt(3) e_i +- sqrt(3) e_j (i < j). Weights 1 + (d^2 - 7 d)/18, (4 - d)/18 and
-    1/36, which give E[x_i^2] = 1, E[x_i^4] = 3, E[x_i^2 x_j^2] = 1 and every odd moment 0.
+    dim 2: Radon's rule, the origin (weight 1/2) and six points at radius 2 and angles k 60 deg (weight 1/12
+    each); hexagonal symmetry integrates every harmonic below 6 exactly, and the radius and weights give
+    E[r^2] = 2, E[r^4] = 8. Otherwise the fully symmetric rule: 0; +-sqrt(3) e_i; +-sqrt(3) e_i +- sqrt(3) e_j
+    (i < j), weights 1 + (d^2 - 7 d)/18, (4 - d)/18 and 1/36, which give E[x_i^2] = 1, E[x_i^4] = 3,
+    E[x_i^2 x_j^2] = 1 and every odd moment 0.
     """
+    if dim == 0:
+        return np.zeros((1, 0)), np.ones(1)
+    if dim == 2:
+        angle = np.arange(6) * np.pi / 3
+        nodes = np.vstack([np.zeros((1, 2)), 2.0 * np.stack([np.cos(angle), np.sin(angle)], -1)])
+        return nodes, np.concatenate([[0.5], np.full(6, 1.0 / 12.0)])
     r = np.sqrt(3.0)
     nodes = [np.zeros(dim)]
     weights = [1.0 + (dim * dim - 7 * dim) / 18.0]
@@ -64,6 +76,36 @@ def tec_difference_sd(omega_rms_rad: float, tec_variability: float, tec_correlat
 
 
 @dataclass(frozen=True, eq=False)
+class ShiftedFaraday(FaradayDistribution):
+    """Omega_0 + Delta_bar: a distribution plus an independent N(0, ``shift_sd``^2) (circular moments times
+    exp(-k^2 shift_sd^2 / 2), so its quadrature is exact)."""
+
+    base: FaradayDistribution
+    shift_sd: float
+
+    def circular_moment(self, k) -> np.ndarray:
+        k = np.asarray(k, dtype=float)
+        return self.base.circular_moment(k) * np.exp(-0.5 * (k * self.shift_sd) ** 2)
+
+    def sample(self, rng, size) -> np.ndarray:
+        return self.base.sample(rng, size) + self.shift_sd * rng.standard_normal(size)
+
+    @property
+    def mean_rad(self) -> float:
+        return self.base.mean_rad
+
+    @property
+    def sd_rad(self) -> float:
+        return float(np.hypot(self.base.sd_rad, self.shift_sd))
+
+
+def deviation_basis(passes: int) -> np.ndarray:
+    """U (N, N - 1): an orthonormal basis of the subspace orthogonal to (1, ..., 1)."""
+    q, _ = np.linalg.qr(np.hstack([np.ones((passes, 1)), np.eye(passes)[:, : passes - 1]]))
+    return q[:, 1:]
+
+
+@dataclass(frozen=True, eq=False)
 class StackFaraday:
     """Omega_n = Omega_0 + Delta_n (eq. 6): common distribution ``common`` and difference SD ``difference_sd``
     (rad, the SD of Omega_n - Omega_m)."""
@@ -78,11 +120,14 @@ class StackFaraday:
     def nodes(self, passes: int, difference_sd: float | None = None) -> tuple[np.ndarray, np.ndarray]:
         """(Omega (K, N) rad, weights (K,)) averaging smooth functions of (Omega_1..Omega_N) over eq. (6)."""
         sd = self.difference_sd if difference_sd is None else float(difference_sd)
-        base, w0 = self.common.quadrature()
         if sd == 0.0:
+            base, w0 = self.common.quadrature()
             return np.repeat(base[:, None], passes, axis=1), np.asarray(w0)
-        u, wu = gaussian_cubature(passes)
-        omega = base[:, None, None] + sd / np.sqrt(2.0) * u[None, :, :]
+        s = sd / np.sqrt(2.0)  # SD of each Delta_n
+        base, w0 = ShiftedFaraday(self.common, s / np.sqrt(passes)).quadrature()
+        u, wu = gaussian_cubature(passes - 1)
+        dev = s * u @ deviation_basis(passes).T  # (K, N)
+        omega = base[:, None, None] + dev[None, :, :]
         return omega.reshape(-1, passes), (np.asarray(w0)[:, None] * wu[None, :]).ravel()
 
     def sample(self, rng: np.random.Generator, realisations: int, passes: int) -> np.ndarray:

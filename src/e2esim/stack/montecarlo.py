@@ -81,9 +81,13 @@ def _block_diagonal(a: np.ndarray) -> np.ndarray:
 
 def simulate_stack(scene: StackScene, errors: StackSystemErrors, faraday: StackFaraday,
                    combination: PassCombination, rng: np.random.Generator, looks: int, realisations: int,
-                   noise_realisations: int = 1, reference: str = "scene",
-                   correct_copol: bool = True) -> StackMonteCarloErrors:
-    """Simulate the errors of the combined estimates of (hh, hv, vv) (module docstring)."""
+                   noise_realisations: int = 1, reference: str = "scene", correct_copol: bool = True,
+                   scene_vectors: np.ndarray | None = None) -> StackMonteCarloErrors:
+    """Simulate the errors of the combined estimates of (hh, hv, vv) (module docstring).
+
+    scene_vectors : optional (L, N, 3) scattering vectors of the one scene ("scene" reference), so that the
+    fast path and the pixel-level simulation (``e2esim.stack.images``) can be compared on the same scene.
+    """
     if reference not in ("scene", "population"):
         raise ValueError(f"reference must be 'scene' or 'population', got {reference!r}")
     n = scene.passes
@@ -100,7 +104,11 @@ def simulate_stack(scene: StackScene, errors: StackSystemErrors, faraday: StackF
         w = complex_wishart(rng, cov, looks)
         c_ref = scene.matrix
     else:
-        c_ref = complex_wishart(rng, scene.matrix, looks)
+        if scene_vectors is None:
+            c_ref = complex_wishart(rng, scene.matrix, looks)
+        else:
+            x = np.asarray(scene_vectors).reshape(looks, 3 * n)
+            c_ref = x.T @ x.conj() / looks
         w = _noisy_sample_covariance(rng, big @ c_ref @ np.swapaxes(big.conj(), -1, -2), d, looks)
     combined = _combine(combination, w.reshape(-1, n, 3, n, 3))
     ideal = _combine(combination, c_ref.reshape(n, 3, n, 3)[None])[0]

@@ -72,7 +72,8 @@ def product_covariance(sa: np.ndarray, sb: np.ndarray) -> np.ndarray:
 
 
 def node_polynomials(blocks: np.ndarray, q: np.ndarray, omega: np.ndarray, r: np.ndarray, sigmas: tuple,
-                     gain_pair: np.ndarray | None = None, population_cross: bool = False) -> dict:
+                     gain_pair: np.ndarray | None = None, population_cross: bool = False,
+                     full_signal: bool = False) -> dict:
     """Coefficients of eqs. (12)-(14) at each Faraday-rotation node.
 
     blocks : C_nm, shape (N, N, 3, 3). q : Q (N x N). omega : Faraday rotation of each pass at each node (G, N).
@@ -81,76 +82,113 @@ def node_polynomials(blocks: np.ndarray, q: np.ndarray, omega: np.ndarray, r: np
     population_cross : also return ``csys`` (6, G): the first-order E tr(Q dY Q dY) of the finite-look speckle
         term of a combination of rank > 1 (ground-cancellation.md, eq. 16).
 
+    full_signal : also return ``y0``.
+
     Returns ``mean`` (6, G) and ``var`` (6, G) real coefficients of ``MONOMIALS`` (the mean includes e M e),
-    and ``y0`` (6, G, N, N): the coefficients of E[a_n C_nm a_m^H] (the passes' signal covariance without the
-    gain factors), from which the caller forms kappa_nm = Q_mn y0_nm and the finite-look terms.
+    ``trq2y`` (6, G): those of tr(Q^2 Y) with Y_nm = E[eta_n eta_m] E[a_n C_nm a_m^H] (the finite-look noise
+    term), and, on request, ``y0`` (6, G, N, N): the coefficients of E[a_n C_nm a_m^H] (the passes' signal
+    covariance without the gain factors), from which the caller forms kappa_nm = Q_mn y0_nm.
     """
     n = q.shape[0]
     g = omega.shape[0]
-    mm = q.T[:, :, None, None] * blocks  # M_nm = Q_mn C_nm, (N, N, 3, 3)
-    if gain_pair is not None:
-        mm = mm * gain_pair[:, :, None, None]
+    pair = np.ones((n, n)) if gain_pair is None else gain_pair
+    mm = (q.T * pair)[:, :, None, None] * blocks  # M_nm = Q_mn E[eta_n eta_m] C_nm, (N, N, 3, 3)
     mflat = mm.transpose(0, 2, 1, 3).reshape(3 * n, 3 * n)
+    m2 = ((q @ q).T * pair)[:, :, None, None] * blocks  # the same for Q^2: tr(Q^2 Y)
+    m2vec = m2.transpose(0, 2, 1, 3).reshape(-1)
     v = mflat[:, _HV::3].sum(axis=1)  # M e^H
     t1, t2 = trig_matrices(omega)  # (G, N, 3, 4), (G, N, 3, 3)
-    sd, se = sigmas
-    comps = {"d": sd, "e": se}
-
-    def flat(p):  # (G, N, 3, N, 3) -> (G, 3N, 3N)
-        return p.reshape(g, 3 * n, 3 * n)
-
-    p_lin, t1psi, csys = {}, {}, np.zeros((6, g))
+    t1f, t2f = t1.reshape(g, 3 * n, 4), t2.reshape(g, 3 * n, 3)
+    r3 = np.kron(r, np.ones((3, 3)))  # r_mn on every entry of block (m, n)
+    rm = r3 * mflat  # r_mn M_mn: contracts the K blocks of E[q1 q3]
+    comps = {"d": sigmas[0], "e": sigmas[1]}
+    cflat = blocks.transpose(0, 2, 1, 3).reshape(3 * n, 3 * n) if full_signal else None
     cx, cy = blocks[:, :, :, _HV], blocks[:, :, _HV, :]  # C_nm e^H and e C_nm
-    for a, sa in comps.items():
-        phi = _B @ sa @ _B.T
-        p5 = r[None, :, None, :, None] * np.einsum("gmix,xy,gnjy->gminj", t1, phi, t1.conj())
-        p_lin[a] = flat(p5)
-        if population_cross:  # sum_abcd Q_ab Q_cd (x_bc^T P_ba y_da + x_da^T P_dc y_bc)
-            csys[MONOMIALS.index(a)] = np.real(np.einsum("ab,cd,bci,gbiaj,daj->g", q, q, cx, p5, cy)
-                                               + np.einsum("ab,cd,dai,gdicj,bcj->g", q, q, cx, p5, cy))
-        t1psi[a] = np.einsum("gmix,xc->gmic", t1, _B @ sa)  # K blocks without r: T1_m Psi_a, (G, N, 3, 6)
-    p_quad = {}
-    for a, b in (("d", "d"), ("d", "e"), ("e", "d"), ("e", "e")):
-        pi = product_covariance(comps[a], comps[b])
-        p_quad[a + b] = flat((r**2)[None, :, None, :, None] * np.einsum("gmik,kl,gnjl->gminj", t2, pi, t2.conj()))
 
-    mean = np.zeros((6, g))
-    var = np.zeros((6, g))
+    p_lin, kmat, csys = {}, {}, np.zeros((6, g))
+    t1t = np.swapaxes(t1f, 1, 2)  # T1 is real: real products throughout
+    for a, sa in comps.items():
+        p_lin[a] = r3 * _real_sandwich(t1f, _B @ sa @ _B.T, t1t)  # P_mn = r T1_m Phi T1_n^H
+        kmat[a] = _real_left(t1f, _B @ sa)  # E[l_i xi_c*] without r_mn: T1_m Psi, (G, 3N, 6)
+        if population_cross:  # sum_abcd Q_ab Q_cd (x_bc^T P_ba y_da + x_da^T P_dc y_bc)
+            p5 = p_lin[a].reshape(g, n, 3, n, 3)
+            csys[MONOMIALS.index(a)] = np.real(
+                np.einsum("ab,cd,bci,gbiaj,daj->g", q, q, cx, p5, cy, optimize=True)
+                + np.einsum("ab,cd,dai,gdicj,bcj->g", q, q, cx, p5, cy, optimize=True))
+    p_quad = {}  # P_h, mn = r^2 T2_m Pi T2_n^H, by monomial (Pi_de + Pi_ed for V_d V_e)
+    r3sq = r3**2
+    t2t = np.swapaxes(t2f, 1, 2)
+    for mono in ("dd", "de", "ee"):
+        pi = product_covariance(comps[mono[0]], comps[mono[1]])
+        if mono == "de":
+            pi = pi + product_covariance(comps["e"], comps["d"])
+        p_quad[mono] = r3sq * _real_sandwich(t2f, pi, t2t)
+
+    mean, var, trq2y = np.zeros((6, g)), np.zeros((6, g)), np.zeros((6, g))
+    y0 = np.zeros((6, g, n, n), complex) if full_signal else None
     mean[0] = np.real(v[_HV::3].sum())  # e M e
+    trq2y[0] = np.real(m2[:, :, _HV, _HV].sum())
+    if full_signal:
+        y0[0] = blocks[:, :, _HV, _HV][None]
+    mvec, vc = mflat.ravel(), v.conj()
     for a in ("d", "e"):
         k = MONOMIALS.index(a)
-        mean[k] = np.real(np.einsum("ij,gij->g", mflat, p_lin[a]))
-        var[k] = 2 * np.real(np.einsum("i,gij,j->g", v, p_lin[a], v.conj()))
-    mp = {a: np.einsum("ij,gkj->gik", mflat, p_lin[a]) for a in ("d", "e")}  # M P^T
+        flat_p = p_lin[a].reshape(g, -1)
+        mean[k] = np.real(np.einsum("gk,k->g", flat_p, mvec))  # sum(M o P)
+        trq2y[k] = np.real(np.einsum("gk,k->g", flat_p, m2vec))
+        var[k] = 2 * np.real((p_lin[a] @ vc) @ v)  # 2 v^T P v*
+        if full_signal:
+            y0[k] = _block_sums(cflat * p_lin[a], n)
+    mp = {a: mflat @ np.swapaxes(p_lin[a], 1, 2) for a in ("d", "e")}  # M P^T
     pm = {a: p_lin[a] @ mflat.conj() for a in ("d", "e")}  # P M*
-    # E[q1 q3] ingredients: beta_n = sum_m r_mn v_m^T T1_m Psi, gamma_nj = sum_m r_mn sum_i M_mn[i, j] (T1_m Psi)_i
     vb = v.reshape(n, 3)
-    m4 = mm.transpose(0, 2, 1, 3)  # [m, i, n, j]
-    beta = {a: np.einsum("mn,mi,gmic->gnc", r, vb, t1psi[a]) for a in ("d", "e")}
-    gamma = {a: np.einsum("mn,minj,gmic->gnjc", r, m4, t1psi[a]) for a in ("d", "e")}
+    # E[q1 q3]: beta_n = sum_m r_mn v_m^T T1_m Psi, gamma_nj = sum_(m,i) r_mn M[(m,i),(n,j)] (T1_m Psi)_i
+    vt = np.einsum("mi,gmix->gmx", vb, t1)  # v_m^T T1_m, (G, N, 4)
+    beta = {a: np.einsum("mn,gmc->gnc", r, vt @ (_B @ comps[a])) for a in ("d", "e")}  # (G, N, 6)
+    gamma = {a: (np.swapaxes(rm, 0, 1)[None] @ kmat[a]).reshape(g, n, 3, 6) for a in ("d", "e")}
+    t2c = np.swapaxes(t2.conj(), -1, -2)  # [g, n, k, j]
+    for mono in ("dd", "de", "ee"):
+        k = MONOMIALS.index(mono)
+        flat_p = p_quad[mono].reshape(g, -1)
+        mean[k] += np.real(np.einsum("gk,k->g", flat_p, mvec))  # sum(M o P_h)
+        trq2y[k] += np.real(np.einsum("gk,k->g", flat_p, m2vec))
+        var[k] += 2 * np.real((p_quad[mono] @ vc) @ v)  # 2 v^T P_h v*
+        if full_signal:
+            y0[k] += _block_sums(cflat * p_quad[mono], n)
+    bm = {a: _times_products(beta[a]) for a in ("d", "e")}  # beta_n M_k
     for a, b, mono in (("d", "d", "dd"), ("d", "e", "de"), ("e", "d", "de"), ("e", "e", "ee")):
         k = MONOMIALS.index(mono)
-        ab = a + b
-        mean[k] += np.real(np.einsum("ij,gij->g", mflat, p_quad[ab]))
         var[k] += np.real(np.einsum("gik,gik->g", mp[a], pm[b]))  # sum((M P_a^T) o (P_b M*))
-        var[k] += 2 * np.real(np.einsum("i,gij,j->g", v, p_quad[ab], v.conj()))
-        bm = np.einsum("gnc,kcd->gnkd", beta[a], _PRODUCTS)
-        x = np.einsum("gnkd,gnjd->gnjk", bm, gamma[b])
-        var[k] += 2 * 4 * np.real(np.einsum("gnjk,gnjk->g", t2.conj(), x))  # 2 E[q1 q3]
-    # signal covariance of the passes: y0_nm = C_nm[hv, hv] + sum(C_nm o P_nm) + sum(C_nm o Ph_nm)
-    cflat = blocks.transpose(0, 2, 1, 3).reshape(3 * n, 3 * n)
-    y0 = np.zeros((6, g, n, n), complex)
-    y0[0] = blocks[:, :, _HV, _HV][None]
-    for a in ("d", "e"):
-        y0[MONOMIALS.index(a)] = _block_sums(cflat * p_lin[a], n)
-    for ab, mono in (("dd", "dd"), ("de", "de"), ("ed", "de"), ("ee", "ee")):
-        y0[MONOMIALS.index(mono)] += _block_sums(cflat * p_quad[ab], n)
-    return {"mean": mean, "var": var, "y0": y0, "csys": csys}
+        x = bm[a] @ np.swapaxes(gamma[b], -1, -2)  # [g, n, k, j] = beta_n M_k gamma_nj^T
+        var[k] += 8 * np.real(np.einsum("gnkj,gnkj->g", t2c, x))  # 2 E[q1 q3]
+    return {"mean": mean, "var": var, "trq2y": trq2y, "y0": y0, "csys": csys}
+
+
+_PRODUCT_ENTRIES = tuple(zip(*np.nonzero(_PRODUCTS)))
+
+
+def _times_products(beta: np.ndarray) -> np.ndarray:
+    """beta M_k for every k (the product matrices are sparse): (..., 6) -> (..., 3, 6)."""
+    out = np.zeros(beta.shape[:-1] + (3, 6), complex)
+    for k, c, d in _PRODUCT_ENTRIES:
+        out[..., k, d] += _PRODUCTS[k, c, d] * beta[..., c]
+    return out
+
+
+def _real_sandwich(left: np.ndarray, middle: np.ndarray, right: np.ndarray) -> np.ndarray:
+    """left @ middle @ right for real (G, a, b) ``left``, (b, b) complex ``middle`` and real (G, b, a) ``right``,
+    with real products (a quarter of the work of complex ones)."""
+    return (left @ middle.real @ right) + 1j * (left @ middle.imag @ right)
+
+
+def _real_left(left: np.ndarray, right: np.ndarray) -> np.ndarray:
+    """Real (G, a, b) ``left`` times complex (b, c) ``right``."""
+    return (left @ right.real) + 1j * (left @ right.imag)
 
 
 def _block_sums(x: np.ndarray, n: int) -> np.ndarray:
     """(G, 3N, 3N) -> (G, N, N): the sum of every 3 x 3 block."""
-    return x.reshape(x.shape[0], n, 3, n, 3).sum(axis=(2, 4))
+    return np.einsum("gaibj->gab", x.reshape(x.shape[0], n, 3, n, 3))
 
 
 def monomials(v_delta, v_eps) -> np.ndarray:
