@@ -34,8 +34,44 @@ def stack_covariance(stack: AcquisitionStack, volume: np.ndarray, ground: np.nda
     return blocks.transpose(0, 2, 1, 3).reshape(3 * n, 3 * n)
 
 
+class _StackBlocks:
+    """Views of a (3N, 3N) stack covariance ``matrix`` (passes outer, channels (hh, hv, vv) inner)."""
+
+    matrix: np.ndarray
+
+    @property
+    def passes(self) -> int:
+        return self.matrix.shape[0] // 3
+
+    def block(self, m: int, n: int) -> np.ndarray:
+        """C_mn (3x3)."""
+        return self.matrix[3 * m:3 * m + 3, 3 * n:3 * n + 3]
+
+    def blocks(self) -> np.ndarray:
+        """All blocks, shape (N, N, 3, 3)."""
+        n = self.passes
+        return self.matrix.reshape(n, 3, n, 3).transpose(0, 2, 1, 3)
+
+    def channel_matrix(self, channel: int = 1) -> np.ndarray:
+        """The N x N covariance of one channel (0 hh, 1 hv, 2 vv) across the passes."""
+        return self.blocks()[:, :, channel, channel]
+
+    def coherence(self, channel: int = 1) -> np.ndarray:
+        """Inter-pass complex coherence of one channel, N x N."""
+        c = self.channel_matrix(channel)
+        d = np.sqrt(np.real(np.diag(c)))
+        return c / np.outer(d, d)
+
+
 @dataclass(frozen=True, eq=False)
-class StackScene:
+class StackCovariance(_StackBlocks):
+    """A bare (3N, 3N) stack covariance (e.g. the ground alone, for the cancellation residual)."""
+
+    matrix: np.ndarray
+
+
+@dataclass(frozen=True, eq=False)
+class StackScene(_StackBlocks):
     """A forest seen by an acquisition stack: what ``scene.stack`` holds.
 
     acquisitions : the ``AcquisitionStack``. single_pass : the single-pass covariance (the case's
@@ -62,38 +98,16 @@ class StackScene:
             value.setflags(write=False)
             object.__setattr__(self, name, value)
 
-    @property
-    def passes(self) -> int:
-        return self.acquisitions.passes
-
-    def block(self, m: int, n: int) -> np.ndarray:
-        """C_mn (3x3)."""
-        return self.matrix[3 * m:3 * m + 3, 3 * n:3 * n + 3]
-
-    def blocks(self) -> np.ndarray:
-        """All blocks, shape (N, N, 3, 3)."""
-        n = self.passes
-        return self.matrix.reshape(n, 3, n, 3).transpose(0, 2, 1, 3)
-
-    def channel_matrix(self, channel: int = 1) -> np.ndarray:
-        """The N x N covariance of one channel (0 hh, 1 hv, 2 vv) across the passes."""
-        return self.blocks()[:, :, channel, channel]
-
-    def coherence(self, channel: int = 1) -> np.ndarray:
-        """Inter-pass complex coherence of one channel, N x N."""
-        c = self.channel_matrix(channel)
-        d = np.sqrt(np.real(np.diag(c)))
-        return c / np.outer(d, d)
-
     def replaced(self, **changes) -> "StackScene":
         """The same scene with fields replaced (e.g. ``temporal=TemporalDecorrelation.none()``)."""
         keep = {f.name: getattr(self, f.name) for f in dataclasses.fields(self) if f.name not in
                 ("volume", "ground", "matrix")}
         return StackScene(**{**keep, **changes})
 
-    def ground_only(self) -> np.ndarray:
-        """The (3N, 3N) covariance of the ground alone (volume removed): what ground cancellation removes."""
-        return stack_covariance(self.acquisitions, np.zeros((3, 3)), self.ground, self.forest, self.temporal)
+    def ground_only(self) -> StackCovariance:
+        """The stack covariance of the ground alone (volume removed): what ground cancellation removes."""
+        return StackCovariance(stack_covariance(self.acquisitions, np.zeros((3, 3)), self.ground, self.forest,
+                                                self.temporal))
 
     def sample(self, rng: np.random.Generator, size) -> np.ndarray:
         """Joint scattering vectors of all passes ~ CN(0, C), shape ``size + (N, 3)``."""
