@@ -19,6 +19,7 @@ from scipy import stats  # noqa: E402
 
 from e2esim.io.atomic import atomic_path  # noqa: E402
 from e2esim.report.faraday_plots import plot_faraday_climatology, plot_faraday_distributions  # noqa: E402
+from e2esim.report.stack_plots import plot_agb_error_vs_faraday_difference  # noqa: E402
 
 _DPI = 110
 
@@ -265,6 +266,7 @@ PLOTTERS = {
     "agb_error_vs_sweep": plot_agb_error_vs_sweep,
     "faraday_distributions": plot_faraday_distributions,
     "faraday_climatology": plot_faraday_climatology,
+    "agb_error_vs_faraday_difference": plot_agb_error_vs_faraday_difference,
 }
 AUTO_PLOTS = ("verdicts", "backscatter_vs_sweep", "agb_error_vs_sweep", "error_histograms", "tradeoff")
 

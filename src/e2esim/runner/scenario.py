@@ -62,6 +62,7 @@ PLOT_TYPES = (
     "agb_error_vs_sweep",
     "faraday_distributions",
     "faraday_climatology",
+    "agb_error_vs_faraday_difference",
 )
 
 SIMULATION_PARAMS = (

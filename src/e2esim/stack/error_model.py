@@ -120,7 +120,8 @@ class StackHVErrorModel(ErrorModel):
             if getattr(sysm, {"crosstalk": "crosstalk_level", "channel_imbalance": "imbalance_level",
                                "noise": "noise_power"}[source]) == 0.0:
                 return self
-            return self._variant(errors=dataclasses.replace(self.errors, system=sysm.with_levels(**{level: 0.0})))
+            return self._variant(errors=dataclasses.replace(self.errors, system=sysm.with_levels(**{level: 0.0})),
+                                 same_structure=True)
         if source == "faraday_rotation":
             common = self.faraday.common
             if common.mean_rad == 0.0 and common.sd_rad == 0.0:
@@ -128,7 +129,7 @@ class StackHVErrorModel(ErrorModel):
             return self._variant(faraday=dataclasses.replace(self.faraday, common=ConstantFaraday(0.0)))
         if source == "faraday_difference":
             return self if self.faraday.difference_sd == 0.0 else self._variant(
-                faraday=dataclasses.replace(self.faraday, difference_sd=0.0))
+                faraday=dataclasses.replace(self.faraday, difference_sd=0.0), same_structure=True)
         if source == "system_instability":
             return self if self.errors.correlation == 1.0 else self._variant(
                 errors=dataclasses.replace(self.errors, correlation=1.0))
@@ -140,8 +141,11 @@ class StackHVErrorModel(ErrorModel):
                 scene=self.scene.replaced(temporal=TemporalDecorrelation.none()))
         return self._variant(reference="scene")  # speckle
 
-    def _variant(self, **changes) -> "StackHVErrorModel":
-        return dataclasses.replace(self, montecarlo=None, gaussianity=None, notes=(), _memo={}, **changes)
+    def _variant(self, same_structure: bool = False, **changes) -> "StackHVErrorModel":
+        """The model with fields replaced. same_structure: only error levels or the Faraday-difference SD change,
+        so the kernel's node terms (level-free, keyed by that SD) are shared."""
+        memo = {"node terms": self._memo.setdefault("node terms", {})} if same_structure else {}
+        return dataclasses.replace(self, montecarlo=None, gaussianity=None, notes=(), _memo=memo, **changes)
 
     # Contributions ---------------------------------------------------------------------------------
     def contributions(self) -> dict:
@@ -150,16 +154,17 @@ class StackHVErrorModel(ErrorModel):
         differences between the passes, unstable system errors, noise, and speckle (population reference)."""
         sysm = self.errors.system
         quiet = dataclasses.replace(self.errors, system=sysm.with_levels(noise_power=0.0))
+        stable = dataclasses.replace(quiet, correlation=1.0)
+        is_stable = self.errors.correlation == 1.0
         steps = [
-            ("system_distortions", self._variant(errors=dataclasses.replace(quiet, correlation=1.0),
-                                                 faraday=StackFaraday(ConstantFaraday(0.0)), reference="scene")),
-            ("faraday_rotation", self._variant(errors=dataclasses.replace(quiet, correlation=1.0),
-                                               faraday=dataclasses.replace(self.faraday, difference_sd=0.0),
-                                               reference="scene")),
-            ("faraday_difference", self._variant(errors=dataclasses.replace(quiet, correlation=1.0),
+            ("system_distortions", self._variant(errors=stable, faraday=StackFaraday(ConstantFaraday(0.0)),
                                                  reference="scene")),
-            ("system_instability", self._variant(errors=quiet, reference="scene")),
-            ("noise", self._variant(reference="scene") if self.reference == "population" else self),
+            ("faraday_rotation", self._variant(errors=stable, reference="scene", same_structure=is_stable,
+                                               faraday=dataclasses.replace(self.faraday, difference_sd=0.0))),
+            ("faraday_difference", self._variant(errors=stable, reference="scene", same_structure=is_stable)),
+            ("system_instability", self._variant(errors=quiet, reference="scene", same_structure=True)),
+            ("noise", self._variant(reference="scene", same_structure=True) if self.reference == "population"
+             else self),
         ]
         if self.reference == "population":
             steps.append(("speckle", self))

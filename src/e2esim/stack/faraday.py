@@ -17,10 +17,11 @@ plus sigma_D^2 / 2) is accepted.
 Averages over (Omega_0, Delta) split Delta into its mean over the passes, Delta_bar ~ N(0, sigma_D^2 / (2N)),
 and the deviations from it, U zeta with U an orthonormal basis of the (N - 1)-dimensional subspace orthogonal to
 (1, ..., 1) and zeta ~ N(0, sigma_D^2 / 2 I). Omega_0 + Delta_bar has the circular moments of Omega_0 times
-exp(-k^2 sigma_D^2 / (4N)) (``ShiftedFaraday``), so its quadrature stays exact; zeta is averaged with a degree-5
-cubature (``gaussian_cubature``: Radon's 7-point rule in 2 dimensions, the fully symmetric 2 d^2 + 1-point rule
-otherwise; both exact for every monomial of degree <= 5, which the tests check). The moments of the error are
-smooth functions of zeta, so the neglected terms are O(sigma_D^6).
+exp(-k^2 sigma_D^2 / (4N)) (``ShiftedFaraday``), so its quadrature stays exact; zeta is averaged with a
+cubature (``gaussian_cubature``): for up to 3 passes (1 or 2 dimensions) of degree 5 (the 3-point Gauss-Hermite
+rule, Radon's 7-point rule), exact for every monomial of degree <= 5, so the neglected terms are O(sigma_D^6);
+for more passes of degree 3 (+-sqrt(d) e_i, 2 d points), neglecting O(sigma_D^4) terms (the tests bound them
+against the fully symmetric degree-5 rule). The moments of the error are smooth functions of zeta.
 """
 
 from __future__ import annotations
@@ -33,8 +34,11 @@ from e2esim.errors import PhysicsInputError
 from e2esim.faraday.distribution import FaradayDistribution
 
 
-def gaussian_cubature(dim: int) -> tuple[np.ndarray, np.ndarray]:
-    """Nodes (K, dim) and weights (K,) of a degree-5 rule for N(0, I_dim).
+def gaussian_cubature(dim: int, degree: int | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Nodes (K, dim) and weights (K,) of a cubature rule for N(0, I_dim) of ``degree`` 3 or 5 (None: 5 up to
+    2 dimensions, 3 above, the rule the stack uses).
+
+    Degree 3: +-sqrt(d) e_i, weight 1 / (2 d) each.
 
     dim 2: Radon's rule, the origin (weight 1/2) and six points at radius 2 and angles k 60 deg (weight 1/12
     each); hexagonal symmetry integrates every harmonic below 6 exactly, and the radius and weights give
@@ -44,6 +48,10 @@ def gaussian_cubature(dim: int) -> tuple[np.ndarray, np.ndarray]:
     """
     if dim == 0:
         return np.zeros((1, 0)), np.ones(1)
+    degree = (5 if dim <= 2 else 3) if degree is None else degree
+    if degree == 3:
+        nodes = np.sqrt(dim) * np.vstack([np.eye(dim), -np.eye(dim)])
+        return nodes, np.full(2 * dim, 1.0 / (2 * dim))
     if dim == 2:
         angle = np.arange(6) * np.pi / 3
         nodes = np.vstack([np.zeros((1, 2)), 2.0 * np.stack([np.cos(angle), np.sin(angle)], -1)])

@@ -31,3 +31,13 @@ SITES = {
 
 SITE_FORESTS = {"tropical": "tropical_338", "boreal": "boreal_200"}
 """The Table I forest of each site."""
+
+
+def ground_cancelled_exponent(exponent: float, ground_to_volume_db: float) -> float:
+    """Power-law exponent p of the ground-cancelled HV channel implied by the RVoG split (ground-cancellation.md,
+    eq. 19), **a stated model, not a published value**: if the HV ground term does not change with AGB and the
+    volume term carries all of the AGB dependence, sigma_hv = sigma_g + sigma_v(W) has d ln sigma_hv / d ln W =
+    (sigma_v / sigma_hv) d ln sigma_v / d ln W, while the ground-cancelled power follows the volume alone, so
+    p_GC = p_HV / (1 + mu_hv). Mariotti d'Alessandro et al. (2020, abstract) find ground-cancelled HV more
+    sensitive to AGB than the single images, which this reproduces qualitatively."""
+    return exponent / (1.0 + 10.0 ** (ground_to_volume_db / 10.0))
