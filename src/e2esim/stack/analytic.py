@@ -88,7 +88,7 @@ def node_terms(scene: StackScene, errors: StackSystemErrors, faraday: StackFarad
     beta = errors.pass_gain_log_sd
     pair, cov4 = _pass_gain_products(n, beta) if beta > 0 else (None, None)
     out = node_polynomials(scene.blocks(), combination.matrix, omega, errors.pass_correlation(n),
-                           errors.unit_covariances(), pair, population_cross, full_signal=beta > 0 or population_cross)
+                           errors.kernel_structure, pair, population_cross, full_signal=beta > 0 or population_cross)
     out.update(weights=weights, pair=pair, cov4=cov4)
     return out
 
@@ -133,8 +133,9 @@ def stack_hv_moments(scene: StackScene, errors: StackSystemErrors, faraday: Stac
         if t["y0"] is not None:
             y0 = np.einsum("ks,kgnm->sgnm", mono, t["y0"])  # passes' signal covariance without gain factors
             if t["cov4"] is not None:  # Var over the passes' own gains of the conditional mean sum eta eta kappa
-                kappa = q.T * y0
-                veta = np.real(np.einsum("sgnm,sgkl,nmkl->sg", kappa, kappa, t["cov4"], optimize=True))
+                kappa = (q.T * y0).reshape(y0.shape[:2] + (-1,))  # (S, G, N^2)
+                cov4 = t["cov4"].reshape(kappa.shape[-1], kappa.shape[-1])
+                veta = np.real(np.sum((kappa @ cov4) * kappa, axis=-1))
                 parts["veta"][sel] = np.einsum("sg,g->s", veta, w)
             if need_cross:
                 ybar = y0 if t["pair"] is None else y0 * t["pair"]

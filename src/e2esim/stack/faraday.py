@@ -26,7 +26,7 @@ against the fully symmetric degree-5 rule). The moments of the error are smooth 
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -120,6 +120,7 @@ class StackFaraday:
 
     common: FaradayDistribution
     difference_sd: float = 0.0
+    _nodes: dict = field(default_factory=dict, repr=False, compare=False)
 
     def __post_init__(self):
         if not (np.isfinite(self.difference_sd) and self.difference_sd >= 0):
@@ -128,6 +129,14 @@ class StackFaraday:
     def nodes(self, passes: int, difference_sd: float | None = None) -> tuple[np.ndarray, np.ndarray]:
         """(Omega (K, N) rad, weights (K,)) averaging smooth functions of (Omega_1..Omega_N) over eq. (6)."""
         sd = self.difference_sd if difference_sd is None else float(difference_sd)
+        if (passes, sd) not in self._nodes:
+            omega, weights = self._make_nodes(passes, sd)
+            omega.setflags(write=False)
+            weights.setflags(write=False)
+            self._nodes[(passes, sd)] = (omega, weights)
+        return self._nodes[(passes, sd)]
+
+    def _make_nodes(self, passes: int, sd: float) -> tuple[np.ndarray, np.ndarray]:
         if sd == 0.0:
             base, w0 = self.common.quadrature()
             return np.repeat(base[:, None], passes, axis=1), np.asarray(w0)

@@ -52,6 +52,19 @@ _PRODUCTS = np.stack([_sym({(0, 3): 1.0, (1, 2): -1.0}), _sym({(0, 3): 1.0, (1, 
                       _sym({(1, 5): 1.0, (3, 4): 1.0})])
 
 
+# T1 and T2 are linear in tau = (cos^2, sin^2, cos sin, 1): T = sum_k tau_k A_k
+_A1 = np.zeros((4, 3, 4))
+_A1[0, 0, 0] = _A1[0, 2, 1] = 1.0  # cos^2
+_A1[1, 0, 1] = _A1[1, 2, 0] = -1.0  # sin^2
+_A1[2, 0, 3] = _A1[2, 2, 3] = 1.0  # cos sin
+_A1[3, 1, 2] = 1.0  # 1
+_A2 = np.zeros((4, 3, 3))
+_A2[0, 2, 2] = 0.5
+_A2[1, 0, 2] = -0.5
+_A2[2, 0, 0] = _A2[2, 2, 0] = 0.5
+_A2[3, 1, 1] = 0.5
+
+
 def trig_matrices(omega: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(T1 (..., 3, 4), T2 (..., 3, 3)) of eqs. (10)-(11) at Faraday rotations ``omega`` (rad)."""
     c, s = np.cos(omega), np.sin(omega)
@@ -71,13 +84,31 @@ def product_covariance(sa: np.ndarray, sb: np.ndarray) -> np.ndarray:
     return 2.0 * np.einsum("kab,lab->kl", _PRODUCTS, inner)
 
 
-def node_polynomials(blocks: np.ndarray, q: np.ndarray, omega: np.ndarray, r: np.ndarray, sigmas: tuple,
+def error_structure(sigma_delta: np.ndarray, sigma_eps: np.ndarray) -> dict:
+    """What the kernel needs of the unit covariances Sigma_delta, Sigma_epsilon: ``psi`` (2, 4, 6) = E[v xi^H] per
+    component (V_d, V_e), v = B xi; ``pairs`` (2, 16, 45), the real and imaginary parts of A1_k Phi_c A1_l^T and
+    A2_k Pi_m A2_l^T for every (k, l) (Phi = E[v v^H] per component, Pi = E[p p^H] per monomial dd, de, ee of
+    p = (U, W, D)); ``psi_tau`` (2, 4, 36): of A1_k Psi_c."""
+    phi = np.stack([_B @ s @ _B.T for s in (sigma_delta, sigma_eps)])
+    psi = np.stack([_B @ s for s in (sigma_delta, sigma_eps)])
+    pi = np.stack([product_covariance(sigma_delta, sigma_delta),
+                   product_covariance(sigma_delta, sigma_eps) + product_covariance(sigma_eps, sigma_delta),
+                   product_covariance(sigma_eps, sigma_eps)])
+    consts = np.concatenate([np.einsum("kix,cxy,ljy->kcijl", _A1, phi, _A1).reshape(4, 2, 9, 4),
+                             np.einsum("kix,cxy,ljy->kcijl", _A2, pi, _A2).reshape(4, 3, 9, 4)], axis=1)
+    consts = consts.transpose(0, 3, 1, 2).reshape(16, 45)  # [(k, l), (component, i, j)]
+    kconst = np.einsum("kix,cxd->kcid", _A1, psi).reshape(4, 36)
+    return {"psi": psi, "pairs": np.ascontiguousarray(np.stack([consts.real, consts.imag])),
+            "psi_tau": np.ascontiguousarray(np.stack([kconst.real, kconst.imag]))}
+
+
+def node_polynomials(blocks: np.ndarray, q: np.ndarray, omega: np.ndarray, r: np.ndarray, structure: tuple,
                      gain_pair: np.ndarray | None = None, population_cross: bool = False,
                      full_signal: bool = False) -> dict:
     """Coefficients of eqs. (12)-(14) at each Faraday-rotation node.
 
     blocks : C_nm, shape (N, N, 3, 3). q : Q (N x N). omega : Faraday rotation of each pass at each node (G, N).
-    r : pass correlation r_mn (N x N). sigmas : (Sigma_delta, Sigma_epsilon) unit 6 x 6 covariances.
+    r : pass correlation r_mn (N x N). structure : ``error_structure`` of the unit covariances.
     gain_pair : E[eta_n eta_m] of the passes' own gain factors (N x N), or None for 1.
     population_cross : also return ``csys`` (6, G): the first-order E tr(Q dY Q dY) of the finite-look speckle
         term of a combination of rank > 1 (ground-cancellation.md, eq. 16).
@@ -95,72 +126,65 @@ def node_polynomials(blocks: np.ndarray, q: np.ndarray, omega: np.ndarray, r: np
     mm = (q.T * pair)[:, :, None, None] * blocks  # M_nm = Q_mn E[eta_n eta_m] C_nm, (N, N, 3, 3)
     mflat = mm.transpose(0, 2, 1, 3).reshape(3 * n, 3 * n)
     m2 = ((q @ q).T * pair)[:, :, None, None] * blocks  # the same for Q^2: tr(Q^2 Y)
-    m2vec = m2.transpose(0, 2, 1, 3).reshape(-1)
+    mvecs = np.stack([mflat.ravel(), m2.transpose(0, 2, 1, 3).ravel()])  # (2, 9N^2)
     v = mflat[:, _HV::3].sum(axis=1)  # M e^H
+    vc = v.conj()
     t1, t2 = trig_matrices(omega)  # (G, N, 3, 4), (G, N, 3, 3)
-    t1f, t2f = t1.reshape(g, 3 * n, 4), t2.reshape(g, 3 * n, 3)
     r3 = np.kron(r, np.ones((3, 3)))  # r_mn on every entry of block (m, n)
-    rm = r3 * mflat  # r_mn M_mn: contracts the K blocks of E[q1 q3]
-    comps = {"d": sigmas[0], "e": sigmas[1]}
-    cflat = blocks.transpose(0, 2, 1, 3).reshape(3 * n, 3 * n) if full_signal else None
-    cx, cy = blocks[:, :, :, _HV], blocks[:, :, _HV, :]  # C_nm e^H and e C_nm
-
-    p_lin, kmat, csys = {}, {}, np.zeros((6, g))
-    t1t = np.swapaxes(t1f, 1, 2)  # T1 is real: real products throughout
-    for a, sa in comps.items():
-        p_lin[a] = r3 * _real_sandwich(t1f, _B @ sa @ _B.T, t1t)  # P_mn = r T1_m Phi T1_n^H
-        kmat[a] = _real_left(t1f, _B @ sa)  # E[l_i xi_c*] without r_mn: T1_m Psi, (G, 3N, 6)
-        if population_cross:  # sum_abcd Q_ab Q_cd (x_bc^T P_ba y_da + x_da^T P_dc y_bc)
-            p5 = p_lin[a].reshape(g, n, 3, n, 3)
-            csys[MONOMIALS.index(a)] = np.real(
-                np.einsum("ab,cd,bci,gbiaj,daj->g", q, q, cx, p5, cy, optimize=True)
-                + np.einsum("ab,cd,dai,gdicj,bcj->g", q, q, cx, p5, cy, optimize=True))
-    p_quad = {}  # P_h, mn = r^2 T2_m Pi T2_n^H, by monomial (Pi_de + Pi_ed for V_d V_e)
-    r3sq = r3**2
-    t2t = np.swapaxes(t2f, 1, 2)
-    for mono in ("dd", "de", "ee"):
-        pi = product_covariance(comps[mono[0]], comps[mono[1]])
-        if mono == "de":
-            pi = pi + product_covariance(comps["e"], comps["d"])
-        p_quad[mono] = r3sq * _real_sandwich(t2f, pi, t2t)
+    psi = structure["psi"]
+    # P_mn = r T1_m Phi T1_n^H (components V_d, V_e) and P_h,mn = r^2 T2_m Pi T2_n^H (monomials dd, de, ee, with
+    # Pi_de + Pi_ed): with T = sum_k tau_k A_k both are tau_k(m) tau_l(n) times constant 3 x 3 matrices, so one
+    # pair of real matrix products gives all five (the per-node 3 x 3 products would cost a numpy call each)
+    c, s_ = np.cos(omega), np.sin(omega)
+    tau = np.stack([c * c, s_ * s_, c * s_, np.ones_like(c)], -1)  # (G, N, 4)
+    pairs = (tau[:, :, None, :, None] * tau[:, None, :, None, :]).reshape(g, n * n, 16)
+    # batched products: one large matrix product would let a threaded BLAS take over for a few microseconds of work
+    re, im = structure["pairs"]
+    both = (pairs @ re[None] + 1j * (pairs @ im[None])).reshape(g, n, n, 5, 3, 3)
+    re_psi, im_psi = structure["psi_tau"]
+    both = both.transpose(3, 0, 1, 4, 2, 5).reshape(5, g, 3 * n, 3 * n)  # [component, g, (m, i), (n, j)]
+    p_lin, p_quad = r3 * both[:2], r3**2 * both[2:]
+    kmat = (tau @ re_psi[None] + 1j * (tau @ im_psi[None])).reshape(g, n, 2, 3, 6)  # T1_m Psi
+    kmat = kmat.transpose(2, 0, 1, 3, 4).reshape(2, g, 3 * n, 6)  # E[l_i xi_c*] without r_mn
 
     mean, var, trq2y = np.zeros((6, g)), np.zeros((6, g)), np.zeros((6, g))
-    y0 = np.zeros((6, g, n, n), complex) if full_signal else None
+    lin, quad = slice(1, 3), slice(3, 6)  # rows of MONOMIALS
     mean[0] = np.real(v[_HV::3].sum())  # e M e
     trq2y[0] = np.real(m2[:, :, _HV, _HV].sum())
-    if full_signal:
+    both = np.real(np.einsum("cgk,tk->tcg", p_lin.reshape(2, g, -1), mvecs))  # sum(M o P), sum(M2 o P)
+    mean[lin], trq2y[lin] = both[0], both[1]
+    both = np.real(np.einsum("cgk,tk->tcg", p_quad.reshape(3, g, -1), mvecs))  # the same with P_h
+    mean[quad], trq2y[quad] = both[0], both[1]
+    var[lin] = 2 * np.real((p_lin @ vc) @ v)  # 2 v^T P v*
+    var[quad] = 2 * np.real((p_quad @ vc) @ v)  # 2 v^T P_h v*
+    # sum((M P_a^T) o (P_b M*)) for the four (a, b)
+    cross = np.real(np.einsum("agik,bgik->abg", mflat @ np.swapaxes(p_lin, -1, -2), p_lin @ mflat.conj()))
+    # 2 E[q1 q3]: beta_n = sum_m r_mn v_m^T T1_m Psi, gamma_nj = sum_(m,i) r_mn M[(m,i),(n,j)] (T1_m Psi)_i
+    vt = np.einsum("mi,gmix->gmx", v.reshape(n, 3), t1)  # v_m^T T1_m, (G, N, 4)
+    beta = np.einsum("mn,cgmd->cgnd", r, np.stack([vt @ psi[0], vt @ psi[1]]))  # (2, G, N, 6)
+    gamma = (np.swapaxes(r3 * mflat, 0, 1) @ kmat).reshape(2, g, n, 3, 6)
+    x = _times_products(beta)[:, None] @ np.swapaxes(gamma, -1, -2)[None]  # beta_n M_k gamma_nj^T, (2, 2, G, N, k, j)
+    q13 = 8 * np.real(np.einsum("gnjk,abgnkj->abg", t2.conj(), x))
+    cross = cross + q13
+    var[3] += cross[0, 0]
+    var[4] += cross[0, 1] + cross[1, 0]
+    var[5] += cross[1, 1]
+    y0 = None
+    if full_signal:  # the passes' signal covariance y0_nm = C_nm[hv, hv] + sum(C_nm o P_nm) + sum(C_nm o Ph_nm),
+        # from the same tau products: sum_ij C_nm[i, j] P_nm[i, j] = r_mn sum_kl tau_k(m) tau_l(n) <C_nm, F_kl>
+        f = (re + 1j * im).reshape(16, 5, 9)
+        d = np.einsum("mnx,kcx->cmnk", blocks.reshape(n, n, 9), f).reshape(5, n * n, 16)
+        sums = np.einsum("gpk,cpk->cgp", pairs, d).reshape(5, g, n, n)
+        y0 = np.zeros((6, g, n, n), complex)
         y0[0] = blocks[:, :, _HV, _HV][None]
-    mvec, vc = mflat.ravel(), v.conj()
-    for a in ("d", "e"):
-        k = MONOMIALS.index(a)
-        flat_p = p_lin[a].reshape(g, -1)
-        mean[k] = np.real(np.einsum("gk,k->g", flat_p, mvec))  # sum(M o P)
-        trq2y[k] = np.real(np.einsum("gk,k->g", flat_p, m2vec))
-        var[k] = 2 * np.real((p_lin[a] @ vc) @ v)  # 2 v^T P v*
-        if full_signal:
-            y0[k] = _block_sums(cflat * p_lin[a], n)
-    mp = {a: mflat @ np.swapaxes(p_lin[a], 1, 2) for a in ("d", "e")}  # M P^T
-    pm = {a: p_lin[a] @ mflat.conj() for a in ("d", "e")}  # P M*
-    vb = v.reshape(n, 3)
-    # E[q1 q3]: beta_n = sum_m r_mn v_m^T T1_m Psi, gamma_nj = sum_(m,i) r_mn M[(m,i),(n,j)] (T1_m Psi)_i
-    vt = np.einsum("mi,gmix->gmx", vb, t1)  # v_m^T T1_m, (G, N, 4)
-    beta = {a: np.einsum("mn,gmc->gnc", r, vt @ (_B @ comps[a])) for a in ("d", "e")}  # (G, N, 6)
-    gamma = {a: (np.swapaxes(rm, 0, 1)[None] @ kmat[a]).reshape(g, n, 3, 6) for a in ("d", "e")}
-    t2c = np.swapaxes(t2.conj(), -1, -2)  # [g, n, k, j]
-    for mono in ("dd", "de", "ee"):
-        k = MONOMIALS.index(mono)
-        flat_p = p_quad[mono].reshape(g, -1)
-        mean[k] += np.real(np.einsum("gk,k->g", flat_p, mvec))  # sum(M o P_h)
-        trq2y[k] += np.real(np.einsum("gk,k->g", flat_p, m2vec))
-        var[k] += 2 * np.real((p_quad[mono] @ vc) @ v)  # 2 v^T P_h v*
-        if full_signal:
-            y0[k] += _block_sums(cflat * p_quad[mono], n)
-    bm = {a: _times_products(beta[a]) for a in ("d", "e")}  # beta_n M_k
-    for a, b, mono in (("d", "d", "dd"), ("d", "e", "de"), ("e", "d", "de"), ("e", "e", "ee")):
-        k = MONOMIALS.index(mono)
-        var[k] += np.real(np.einsum("gik,gik->g", mp[a], pm[b]))  # sum((M P_a^T) o (P_b M*))
-        x = bm[a] @ np.swapaxes(gamma[b], -1, -2)  # [g, n, k, j] = beta_n M_k gamma_nj^T
-        var[k] += 8 * np.real(np.einsum("gnkj,gnkj->g", t2c, x))  # 2 E[q1 q3]
+        y0[lin] = r * sums[:2]
+        y0[quad] = r**2 * sums[2:]
+    csys = np.zeros((6, g))
+    if population_cross:  # sum_abcd Q_ab Q_cd (x_bc^T P_ba y_da + x_da^T P_dc y_bc)
+        cx, cy = blocks[:, :, :, _HV], blocks[:, :, _HV, :]  # C_nm e^H and e C_nm
+        p5 = p_lin.reshape(2, g, n, 3, n, 3)
+        csys[lin] = np.real(np.einsum("ab,cd,bci,kgbiaj,daj->kg", q, q, cx, p5, cy, optimize=True)
+                            + np.einsum("ab,cd,dai,kgdicj,bcj->kg", q, q, cx, p5, cy, optimize=True))
     return {"mean": mean, "var": var, "trq2y": trq2y, "y0": y0, "csys": csys}
 
 
@@ -173,22 +197,6 @@ def _times_products(beta: np.ndarray) -> np.ndarray:
     for k, c, d in _PRODUCT_ENTRIES:
         out[..., k, d] += _PRODUCTS[k, c, d] * beta[..., c]
     return out
-
-
-def _real_sandwich(left: np.ndarray, middle: np.ndarray, right: np.ndarray) -> np.ndarray:
-    """left @ middle @ right for real (G, a, b) ``left``, (b, b) complex ``middle`` and real (G, b, a) ``right``,
-    with real products (a quarter of the work of complex ones)."""
-    return (left @ middle.real @ right) + 1j * (left @ middle.imag @ right)
-
-
-def _real_left(left: np.ndarray, right: np.ndarray) -> np.ndarray:
-    """Real (G, a, b) ``left`` times complex (b, c) ``right``."""
-    return (left @ right.real) + 1j * (left @ right.imag)
-
-
-def _block_sums(x: np.ndarray, n: int) -> np.ndarray:
-    """(G, 3N, 3N) -> (G, N, N): the sum of every 3 x 3 block."""
-    return np.einsum("gaibj->gab", x.reshape(x.shape[0], n, 3, n, 3))
 
 
 def monomials(v_delta, v_eps) -> np.ndarray:

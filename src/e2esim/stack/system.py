@@ -12,6 +12,7 @@ al. 2021, Section VI); rho = 0: independent. Noise is independent between passes
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
@@ -57,6 +58,13 @@ class StackSystemErrors:
         v, c13, c24, ve, ce12 = self.system.unit_structure
         return (error_covariance(v, c13, c24, np.zeros(2), 0.0),
                 error_covariance(np.zeros(4), 0.0, 0.0, ve, ce12))
+
+    @functools.cached_property
+    def kernel_structure(self) -> tuple:
+        """``e2esim.stack.quadratic_form.error_structure`` of the unit covariances (computed once)."""
+        from e2esim.stack.quadratic_form import error_structure
+
+        return error_structure(*self.unit_covariances())
 
     @property
     def common_gain_moments(self) -> tuple[float, float]:
