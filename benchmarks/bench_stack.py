@@ -19,24 +19,24 @@ import time
 os.environ.setdefault("OMP_NUM_THREADS", "1")  # one core, as the targets say
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
-import numpy as np  # noqa: E402
+import numpy as np
 
-from e2esim.distortion.error_model import HVErrorModel  # noqa: E402
-from e2esim.distortion.montecarlo import simulate  # noqa: E402
-from e2esim.faraday.distribution import GaussianFaraday  # noqa: E402
-from e2esim.instrument.system_errors import SystemErrorModel  # noqa: E402
-from e2esim.scene.covariance import ScatteringCovariance  # noqa: E402
-from e2esim.scene.table1 import TABLE1_FORESTS  # noqa: E402
-from e2esim.stack.acquisitions import preset_stack  # noqa: E402
-from e2esim.stack.combination import interpolated  # noqa: E402
-from e2esim.stack.error_model import StackHVErrorModel  # noqa: E402
-from e2esim.stack.faraday import StackFaraday  # noqa: E402
-from e2esim.stack.montecarlo import simulate_stack  # noqa: E402
-from e2esim.stack.scene import StackScene  # noqa: E402
-from e2esim.stack.sites import SITES  # noqa: E402
-from e2esim.stack.system import StackSystemErrors  # noqa: E402
-from e2esim.stack.temporal import TemporalDecorrelation  # noqa: E402
-from e2esim.units import variance_from_level_db  # noqa: E402
+from e2esim.distortion.error_model import HVErrorModel
+from e2esim.distortion.montecarlo import simulate
+from e2esim.faraday.distribution import GaussianFaraday
+from e2esim.instrument.system_errors import SystemErrorModel
+from e2esim.scene.covariance import ScatteringCovariance
+from e2esim.scene.table1 import TABLE1_FORESTS
+from e2esim.stack.acquisitions import preset_stack
+from e2esim.stack.combination import interpolated
+from e2esim.stack.error_model import StackHVErrorModel
+from e2esim.stack.faraday import StackFaraday
+from e2esim.stack.montecarlo import simulate_stack
+from e2esim.stack.scene import StackScene
+from e2esim.stack.sites import SITES
+from e2esim.stack.system import StackSystemErrors
+from e2esim.stack.temporal import TemporalDecorrelation
+from e2esim.units import variance_from_level_db
 
 LOOKS, REALISATIONS = 100_000, 10_000
 

@@ -45,7 +45,8 @@ def test_bad_stack_input_names_its_key(tmp_path, override, message):
 
 
 def test_errors_met_while_running_name_the_parameter(tmp_path):
-    with pytest.raises(ConfigError, match=r"propagation\[0\]\.pair: subtraction needs two different passes of 3, got 2, 4"):
+    with pytest.raises(ConfigError, match=r"propagation\[0\]\.pair: subtraction needs two different passes of 3, "
+                       "got 2, 4"):
         _run(tmp_path, "propagation.0.cancellation=subtraction", "propagation.0.pair=[2, 4]")
     with pytest.raises(ConfigError, match=r"propagation\[0\]\.emphasised_height_m: no reference pass brackets"):
         _run(tmp_path, "propagation.0.emphasised_height_m=5")
@@ -65,7 +66,7 @@ def test_ground_cancelled_retrieval_uses_the_rvog_exponent(tmp_path):
 
 
 def test_the_ground_cancellation_scenario_answers_its_question(quick_run):
-    result, folder = quick_run("biomass_ground_cancelled")
+    _, folder = quick_run("biomass_ground_cancelled")
     assert (folder / "agb_error_vs_faraday_difference.png").is_file()
     summary = json.loads((folder / "summary.json").read_text())
     by = {}

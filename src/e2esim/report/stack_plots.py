@@ -13,10 +13,9 @@ from pathlib import Path
 import matplotlib
 
 matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
+import matplotlib.pyplot as plt
 
-from e2esim.report.faraday_plots import _save  # noqa: E402
+from e2esim.report.faraday_plots import _save
 
 X_SCALAR = "estimator.faraday_difference_sd_deg"
 

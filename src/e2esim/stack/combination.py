@@ -2,7 +2,7 @@
 
 Every estimator of this module is a sum of squared linear combinations of the passes' images of one channel,
 
-    sigma_hat = sum_r c_r |sum_n w_rn I_n|^2 = y^H Q y,    Q = sum_r c_r w_r^* w_r^T      (ground-cancellation.md, eq. 5)
+    sigma_hat = sum_r c_r |sum_n w_rn I_n|^2 = y^H Q y,  Q = sum_r c_r w_r^* w_r^T    (ground-cancellation.md, eq. 5)
 
 with y = (I_1, ..., I_N) the N images of the channel at one pixel (averaged over the looks afterwards):
 

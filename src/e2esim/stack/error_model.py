@@ -105,7 +105,7 @@ class StackHVErrorModel(ErrorModel):
         return self._memo["current"]
 
     # Sources removed -------------------------------------------------------------------------------
-    def without(self, source: str) -> "StackHVErrorModel":
+    def without(self, source: str) -> StackHVErrorModel:
         if source not in self.sources:
             raise KeyError(f"unknown error source {source!r}; sources: {', '.join(self.sources)}")
         key = f"without {source}"
@@ -113,7 +113,7 @@ class StackHVErrorModel(ErrorModel):
             self._memo[key] = self._without(source)
         return self._memo[key]
 
-    def _without(self, source: str) -> "StackHVErrorModel":
+    def _without(self, source: str) -> StackHVErrorModel:
         sysm = self.errors.system
         if source in ("crosstalk", "channel_imbalance", "noise"):
             level = {"crosstalk": "crosstalk", "channel_imbalance": "imbalance", "noise": "noise_power"}[source]
@@ -141,7 +141,7 @@ class StackHVErrorModel(ErrorModel):
                 scene=self.scene.replaced(temporal=TemporalDecorrelation.none()))
         return self._variant(reference="scene")  # speckle
 
-    def _variant(self, same_structure: bool = False, **changes) -> "StackHVErrorModel":
+    def _variant(self, same_structure: bool = False, **changes) -> StackHVErrorModel:
         """The model with fields replaced. same_structure: only error levels or the Faraday-difference SD change,
         so the kernel's node terms (level-free, keyed by that SD) are shared."""
         memo = {"node terms": self._memo.setdefault("node terms", {})} if same_structure else {}

@@ -7,7 +7,7 @@ When sigma_D is not given it follows from the day-to-day variability of the TEC 
 variability``): TEC_n = TEC_median X_n with ln X_n of SD s = sqrt(ln(1 + cv^2)) and correlation rho between
 passes, so Omega_n - Omega_m ~ Omega (ln X_n - ln X_m) has SD
 
-    sigma_D = Omega_rms s sqrt(2 (1 - rho)),    Omega_rms = sqrt(E[Omega_0^2])            (ground-cancellation.md, eq. 7)
+    sigma_D = Omega_rms s sqrt(2 (1 - rho)),  Omega_rms = sqrt(E[Omega_0^2])        (ground-cancellation.md, eq. 7)
 
 The correlation rho of the day-to-day TEC deviations of passes 3 days apart was not found in what could be
 read (research notes Section 7): the default rho = 0 (independent days) is an **assumption** and the worst

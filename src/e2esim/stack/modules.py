@@ -20,7 +20,14 @@ from e2esim.params import AtMostOneOf, Param, ParamGroup
 from e2esim.scene.covariance import ScatteringCovariance
 from e2esim.scene.table1 import TABLE1_FORESTS
 from e2esim.stack import combination as combos
-from e2esim.stack.acquisitions import DAY_S, PHASES, AcquisitionStack, preset_stack, radar_wavelength, vertical_wavenumber
+from e2esim.stack.acquisitions import (
+    DAY_S,
+    PHASES,
+    AcquisitionStack,
+    preset_stack,
+    radar_wavelength,
+    vertical_wavenumber,
+)
 from e2esim.stack.analytic import REFERENCES
 from e2esim.stack.error_model import StackHVErrorModel
 from e2esim.stack.faraday import StackFaraday, tec_difference_sd

@@ -29,8 +29,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from e2esim.distortion.montecarlo import MonteCarloErrors
-from e2esim.polarimetry.simulate import SystemState, complex_wishart, matrix_root
 from e2esim.errors import PhysicsInputError
+from e2esim.polarimetry.simulate import SystemState, complex_wishart, matrix_root
 from e2esim.polarimetry.system_model import (
     ESTIMATOR_WEIGHTS,
     RECIPROCAL_CHANNELS,

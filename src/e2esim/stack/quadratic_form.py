@@ -172,9 +172,10 @@ def node_polynomials(blocks: np.ndarray, q: np.ndarray, omega: np.ndarray, r: np
     y0 = None
     if full_signal:  # the passes' signal covariance y0_nm = C_nm[hv, hv] + sum(C_nm o P_nm) + sum(C_nm o Ph_nm),
         # from the same tau products: sum_ij C_nm[i, j] P_nm[i, j] = r_mn sum_kl tau_k(m) tau_l(n) <C_nm, F_kl>
-        f = (re + 1j * im).reshape(16, 5, 9)
-        d = np.einsum("mnx,kcx->cmnk", blocks.reshape(n, n, 9), f).reshape(5, n * n, 16)
-        sums = np.einsum("gpk,cpk->cgp", pairs, d).reshape(5, g, n, n)
+        f = (re + 1j * im).reshape(1, 80, 9)
+        d = (blocks.reshape(n * n, 1, 9) * f).sum(-1).reshape(n * n, 16, 5)  # <C_nm, F_kl> per component
+        pt = np.ascontiguousarray(pairs.transpose(1, 0, 2))  # (N^2, G, 16)
+        sums = (pt @ d.real + 1j * (pt @ d.imag)).transpose(2, 1, 0).reshape(5, g, n, n)
         y0 = np.zeros((6, g, n, n), complex)
         y0[0] = blocks[:, :, _HV, _HV][None]
         y0[lin] = r * sums[:2]

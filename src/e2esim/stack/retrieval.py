@@ -20,8 +20,8 @@ class StackPowerLawRetrieval(PowerLawRetrieval):
     """AGB = A sigma^p for single-date, multi-date and ground-cancelled HV (module docstring)."""
 
     type_name = "stack_power_law"
-    summary = ("power law for multi-pass HV estimates: the biome's exponent, or for ground-cancelled HV p / (1 + mu_hv) "
-               "from the scene's RVoG split (a stated model)")
+    summary = ("power law for multi-pass HV estimates: the biome's exponent, or for ground-cancelled HV "
+               "p / (1 + mu_hv) from the scene's RVoG split (a stated model)")
     params = PowerLawRetrieval.params + (
         Param("ground_cancelled_exponent", "str", "exponent of a ground-cancelled estimate when exponent is null: "
               "rvog (p / (1 + mu_hv)) or same (the biome's)", default="rvog", choices=GROUND_CANCELLED_EXPONENTS),

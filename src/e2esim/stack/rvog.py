@@ -68,8 +68,9 @@ class ForestStructure:
         if len(mu) != 3 or not all(np.isfinite(mu)):
             raise PhysicsInputError(f"ground_to_volume_db needs three finite values (hh, hv, vv), got {mu}")
         if not (self.height_m > 0 and self.extinction_db_m >= 0 and 0 <= self.volume_hhvv_coherence <= 1):
-            raise PhysicsInputError("forest height must be > 0, extinction >= 0 and the volume HH-VV coherence in "
-                                    f"[0, 1], got {self.height_m}, {self.extinction_db_m}, {self.volume_hhvv_coherence}")
+            raise PhysicsInputError(
+                "forest height must be > 0, extinction >= 0 and the volume HH-VV coherence in [0, 1], got "
+                f"{self.height_m}, {self.extinction_db_m}, {self.volume_hhvv_coherence}")
         object.__setattr__(self, "ground_to_volume_db", mu)
 
     @property

@@ -98,7 +98,7 @@ class StackScene(_StackBlocks):
             value.setflags(write=False)
             object.__setattr__(self, name, value)
 
-    def replaced(self, **changes) -> "StackScene":
+    def replaced(self, **changes) -> StackScene:
         """The same scene with fields replaced (e.g. ``temporal=TemporalDecorrelation.none()``)."""
         keep = {f.name: getattr(self, f.name) for f in dataclasses.fields(self) if f.name not in
                 ("volume", "ground", "matrix")}

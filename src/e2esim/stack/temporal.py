@@ -46,7 +46,7 @@ class TemporalDecorrelation:
                                     f"constant > 0, got {self}")
 
     @classmethod
-    def none(cls) -> "TemporalDecorrelation":
+    def none(cls) -> TemporalDecorrelation:
         """No decorrelation: gamma_v = gamma_g = 1 at every lag."""
         return cls(floor=1.0, time_constant_s=DAY_S, ground_ratio=0.0)
 
