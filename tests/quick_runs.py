@@ -16,10 +16,16 @@ _ORBIT = ("orbit.acquisitions.step_days=60", "orbit.swath_samples=2", "ionospher
 _REGRESSION = ("simulation.realisations=500", "retrieval.regression.bootstrap_samples=30",
                "retrieval.regression.simex_samples=5")
 
+_STACK = ("simulation.realisations=300", "simulation.looks=2000", "orbit.acquisitions.step_days=120",
+          "orbit.swath_samples=2", "ionosphere.variability_nodes=3", "requirements.0.level_margins=false",
+          "requirements.0.tradeoff_curve=false")
+
 QUICK = {
     "biomass_calibration": ("simulation.realisations=600", "simulation.looks=20000"),
     "biomass_default": (*_MC, *_ORBIT),
     "biomass_error_budget": _REGRESSION,
+    "biomass_ground_cancelled": (*_STACK, "propagation.0.tec_variability=0"),
+    "biomass_ground_cancelled_tomographic": (*_STACK, "propagation.0.faraday_difference_sd_deg=0"),
     "biomass_fr_climatology": ("orbit.acquisitions.step_days=120", "orbit.swath_samples=2",
                                "ionosphere.method=thin_shell", "ionosphere.variability_nodes=3",
                                "simulation.realisations=300", "simulation.looks=1000"),

@@ -36,7 +36,24 @@ def _multichannel_case():
     return case.adding(stage.forward(case))
 
 
-CASES = {("retrieval", "multichannel_power_law"): _multichannel_case}
+def _stack_case(with_model: bool):
+    """A reference case with the multi-pass scene (and the stack error model) that the default chain lacks."""
+    from e2esim.stack.modules import RVoGStackScene, StackBackscatterError
+    from e2esim.testing import reference_case
+
+    case = reference_case(("scene.covariance", "system.residual", "faraday.residual", "instrument"))
+    case = case.adding({"scene.stack": RVoGStackScene().forward(case)["scene.stack"]})
+    if with_model:
+        case = case.adding(StackBackscatterError(system_error_correlation=0.5).forward(case))
+    return case
+
+
+CASES = {
+    ("retrieval", "multichannel_power_law"): _multichannel_case,
+    ("propagation", "stack_backscatter_error"): lambda: _stack_case(False),
+    ("propagation", "stack_error_budget"): lambda: _stack_case(True),
+    ("retrieval", "stack_power_law"): lambda: _stack_case(True),
+}
 """Reference cases for modules that need products the default chain does not make."""
 
 

@@ -55,6 +55,11 @@ SCENE = Product(
     "scene.covariance", "e2esim.scene.covariance:ScatteringCovariance",
     "3x3 covariance of (S_hh, S_hv, S_vv) in backscattering-coefficient units (m^2/m^2), with AGB (t/ha) and "
     "biome", scalars="scene")
+STACK_SCENE = Product(
+    "scene.stack", "e2esim.stack.scene:StackScene",
+    "a forest seen by an acquisition stack of N passes: times (s), vertical wavenumbers (rad/m), incidences (rad), "
+    "the random-volume-over-ground structure, temporal decorrelation and the 3N x 3N covariance (m^2/m^2)",
+    scalars="stack")
 INSTRUMENT = Product(
     "instrument", "e2esim.instrument.description:InstrumentDescription",
     "how the instrument states its specification: crosstalk and channel-imbalance levels (dB, with their "
@@ -100,6 +105,6 @@ VERDICTS = Product(
     "the verdict of every requirement, in scenario order: pass/fail, value, limit, margin, details, trade-off "
     "curves, dominant contributor", scalars="")
 
-BUILT_IN = (GEOMETRY, SCENE, INSTRUMENT, SYSTEM, FARADAY, FARADAY_MAP, CALIBRATION, SYSTEM_RESIDUAL, FARADAY_RESIDUAL,
+BUILT_IN = (GEOMETRY, SCENE, STACK_SCENE, INSTRUMENT, SYSTEM, FARADAY, FARADAY_MAP, CALIBRATION, SYSTEM_RESIDUAL, FARADAY_RESIDUAL,
             BACKSCATTER_ERROR, BACKSCATTER_BUDGET, AGB_ERROR, VERDICTS)
 """The products of e2esim's own stages, in chain order (docs/architecture.md lists them)."""

@@ -26,6 +26,7 @@ from e2esim.report.plot_base import PlotSkipped, save
 from e2esim.report.sweep_layout import legend, sweep_layout
 from e2esim.report.sweep_plots import plot_agb_error_vs_sweep, plot_backscatter_vs_sweep, plot_verdicts
 from e2esim.units import level_db_from_variance
+from e2esim.report.stack_plots import plot_agb_error_vs_faraday_difference
 
 
 def plot_error_histograms(result, folder: Path, options: dict) -> list:
@@ -160,6 +161,7 @@ PLOTTERS = {
     "faraday_climatology": plot_faraday_climatology,
     "site_map": plot_site_map,
     "estimator_comparison": plot_estimator_comparison,
+    "agb_error_vs_faraday_difference": plot_agb_error_vs_faraday_difference,
 }
 """Plot types by name: function(result, folder, options) -> [(file name, caption)]; ``PlotSkipped`` says why
 one draws nothing."""

@@ -106,9 +106,13 @@ class PowerLawRetrieval(_Retrieval):
             )
         return BIOME_EXPONENTS[scene.biome]
 
+    def case_exponent(self, case) -> float:
+        """The exponent of a case (a subclass may read more of the case than the scene)."""
+        return self.exponent_for(case["scene.covariance"])
+
     def forward(self, case):
         model = case["backscatter.error"]
-        p = self.exponent_for(case["scene.covariance"])
+        p = self.case_exponent(case)
         if "backscatter.budget" not in case and self.campaign.mode == "none":
             return {"agb.error": systematic_agb_error(model, p)}
         regression = None

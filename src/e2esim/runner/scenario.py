@@ -68,6 +68,7 @@ PLOT_TYPES = (
     "error_budget",
     "site_map",
     "estimator_comparison",
+    "agb_error_vs_faraday_difference",
 )
 
 SIMULATION_PARAMS = (

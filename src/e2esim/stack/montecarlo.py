@@ -1,0 +1,142 @@
+"""Exact Monte Carlo of a multi-pass estimate for every channel: the full system model on every pass, then the
+passes combined (single date, multi-date average, ground cancellation) as the processor does.
+
+Each realisation draws the system errors of every pass (``StackSystemErrors``, eq. 8), the Faraday rotation of
+every pass (``StackFaraday``, eq. 6) and, per pass, the measured vector m_n = g_n K_n s_n + n_n of Men et al.
+(2021), eq. (1) (K_n = (T_n^T kron R_n)(F_n^T kron F_n)); the co-polarised channels may be corrected for each
+pass's Faraday rotation, F(-Omega_n) M F(-Omega_n) (Quegan et al. 2018, eq. 4), which leaves the symmetrised HV
+unchanged. The per-pass estimates z_n = (M_hh, (M_hv + M_vh)/2, M_vv) form the 3N-vector z = A s + nu.
+
+Fast path, exact in distribution (cost independent of the looks L), as ``e2esim.distortion.montecarlo``:
+
+* reference "population": the sample covariance W of L vectors z is complex Wishart with covariance
+  A C A^H + D (D = sigma_n diag(1, 1/2, 1) per pass), drawn directly;
+* reference "scene": one scene, its sample covariance C_hat drawn once; given it, with G G^H = L A C_hat A^H,
+  L W = L A C_hat A^H + G Z^H D^1/2 + D^1/2 Z G^H + D^1/2 (Z Z^H + W') D^1/2 with Z a 3N x 3N matrix of iid
+  CN(0, 1) and W' ~ CW(L - 3N, I) independent (the noise projected on the signal's row space and the rest;
+  ground-cancellation.md, eq. 18).
+
+Every estimate is then sum_r c_r sum_nm w_rn w_rm^* W_nm: the combined (for ground cancellation the
+ground-cancelled) 3 x 3 covariance of (hh, hv, vv), kept for a multi-channel estimator; its diagonal are the
+channel estimates, whose errors are taken against the estimator's value for the sample scene ("scene") or for
+the covariance ("population").
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from e2esim.distortion.montecarlo import MonteCarloErrors
+from e2esim.errors import PhysicsInputError
+from e2esim.polarimetry.simulate import SystemState, complex_wishart, matrix_root
+from e2esim.polarimetry.system_model import (
+    ESTIMATOR_WEIGHTS,
+    RECIPROCAL_CHANNELS,
+    RECIPROCAL_EMBEDDING,
+    distortion_operator,
+)
+from e2esim.stack.combination import PassCombination
+from e2esim.stack.faraday import StackFaraday
+from e2esim.stack.scene import StackScene
+from e2esim.stack.system import StackSystemErrors
+
+ESTIMATES = np.stack([ESTIMATOR_WEIGHTS[c] for c in RECIPROCAL_CHANNELS])
+"""3 x 4: the per-pass estimates (hh, hv, vv) from the measured (hh, hv, vh, vv): M_hh, (M_hv + M_vh)/2, M_vv."""
+NOISE_FACTORS = np.sum(ESTIMATES**2, axis=1)
+"""Noise power of each estimate per unit noise power per measured channel: (1, 1/2, 1)."""
+
+
+@dataclass(frozen=True)
+class StackMonteCarloErrors(MonteCarloErrors):
+    """``MonteCarloErrors`` of the channels (hh, hv, vv) plus the combined covariances (M, N_noise, 3, 3)."""
+
+    combined: np.ndarray = field(default=None, repr=False)
+
+
+def faraday_correction(omega: np.ndarray) -> np.ndarray:
+    """vec(F(-Omega) M F(-Omega)) = (F(-Omega)^T kron F(-Omega)) vec M: the correcting operator (..., 4, 4)."""
+    omega = np.asarray(omega, float)
+    return distortion_operator(np.zeros(omega.shape + (4,)), np.ones(omega.shape + (2,)), -omega)
+
+
+def pass_operators(delta, f, omega, gain, correct_copol: bool) -> np.ndarray:
+    """A_n: the 3 x 3 maps from (S_hh, S_hv, S_vv) of each pass to its estimates (..., 3, 3)."""
+    k = SystemState(delta, f, omega, gain.astype(complex)).operator() @ RECIPROCAL_EMBEDDING
+    a = ESTIMATES @ k
+    if correct_copol:  # the symmetrised HV row is unchanged by the correction (tested)
+        a = ESTIMATES @ (faraday_correction(omega) @ k)
+    return a
+
+
+def _block_diagonal(a: np.ndarray) -> np.ndarray:
+    """(..., N, 3, 3) -> (..., 3N, 3N) block-diagonal."""
+    n = a.shape[-3]
+    out = np.zeros(a.shape[:-3] + (3 * n, 3 * n), complex)
+    for i in range(n):
+        out[..., 3 * i:3 * i + 3, 3 * i:3 * i + 3] = a[..., i, :, :]
+    return out
+
+
+def simulate_stack(scene: StackScene, errors: StackSystemErrors, faraday: StackFaraday,
+                   combination: PassCombination, rng: np.random.Generator, looks: int, realisations: int,
+                   noise_realisations: int = 1, reference: str = "scene", correct_copol: bool = True,
+                   scene_vectors: np.ndarray | None = None) -> StackMonteCarloErrors:
+    """Simulate the errors of the combined estimates of (hh, hv, vv) (module docstring).
+
+    scene_vectors : optional (L, N, 3) scattering vectors of the one scene ("scene" reference), so that the
+    fast path and the pixel-level simulation (``e2esim.stack.images``) can be compared on the same scene.
+    """
+    if reference not in ("scene", "population"):
+        raise ValueError(f"reference must be 'scene' or 'population', got {reference!r}")
+    n = scene.passes
+    if reference == "scene" and looks < 3 * n:
+        raise PhysicsInputError(f"the fast Monte Carlo of one scene needs at least 3N = {3 * n} looks, got {looks}")
+    # draw order: system errors, Faraday rotation, scene, noise
+    delta, f, gain = errors.sample(rng, realisations, n)
+    omega = faraday.sample(rng, realisations, n)
+    big = _block_diagonal(pass_operators(delta, f, omega, gain, correct_copol))  # (M, 3N, 3N)
+    big = np.repeat(big, noise_realisations, axis=0)
+    d = np.tile(errors.system.noise_power * NOISE_FACTORS, n)  # noise power of every estimate
+    if reference == "population":
+        cov = big @ scene.matrix @ np.swapaxes(big.conj(), -1, -2) + np.diag(d)
+        w = complex_wishart(rng, cov, looks)
+        c_ref = scene.matrix
+    else:
+        if scene_vectors is None:
+            c_ref = complex_wishart(rng, scene.matrix, looks)
+        else:
+            x = np.asarray(scene_vectors).reshape(looks, 3 * n)
+            c_ref = x.T @ x.conj() / looks
+        w = _noisy_sample_covariance(rng, big @ c_ref @ np.swapaxes(big.conj(), -1, -2), d, looks)
+    combined = _combine(combination, w.reshape(-1, n, 3, n, 3))
+    ideal = _combine(combination, c_ref.reshape(n, 3, n, 3)[None])[0]
+    combined = combined.reshape(realisations, noise_realisations, 3, 3)
+    errs = {ch: np.real(combined[..., i, i]) - np.real(ideal[i, i]) for i, ch in enumerate(RECIPROCAL_CHANNELS)}
+    refs = {ch: np.asarray(np.real(ideal[i, i])) for i, ch in enumerate(RECIPROCAL_CHANNELS)}
+    return StackMonteCarloErrors(errs, refs, looks, realisations, noise_realisations, "fast", combined)
+
+
+def _combine(combination: PassCombination, w: np.ndarray) -> np.ndarray:
+    """sum_r c_r sum_nm w_rn w_rm^* W[n, :, m, :] for W of shape (..., N, 3, N, 3)."""
+    cw = combination.weights
+    return np.einsum("r,rn,rm,...nimj->...ij", combination.coefficients, cw, cw.conj(), w)
+
+
+def _noisy_sample_covariance(rng, signal: np.ndarray, noise: np.ndarray, looks: int) -> np.ndarray:
+    """Sample covariance of z_k = x_k + D^1/2 n_k over the looks given the signal's sample covariance ``signal``
+    (..., p, p) (eq. 18); D = diag(noise)."""
+    p = signal.shape[-1]
+    batch = signal.shape[:-2]
+    root = matrix_root(looks * signal)
+    z = (rng.standard_normal(batch + (p, p)) + 1j * rng.standard_normal(batch + (p, p))) / np.sqrt(2)
+    dh = np.sqrt(noise)
+    cross = root @ np.swapaxes(z.conj(), -1, -2) * dh[None, :]  # G Z^H D^1/2
+    rest = looks - p  # >= 0: checked by the caller
+    w_rest = np.zeros(batch + (p, p), complex)
+    if rest > 0:
+        w_rest = rest * complex_wishart(rng, np.broadcast_to(np.eye(p, dtype=complex), batch + (p, p)), rest)
+    nn = z @ np.swapaxes(z.conj(), -1, -2) + w_rest
+    total = looks * signal + cross + np.swapaxes(cross.conj(), -1, -2) + dh[:, None] * nn * dh[None, :]
+    return total / looks

@@ -1,0 +1,128 @@
+"""The exact Monte Carlo of multi-pass estimates: against the analytic moments, against the pixel-level simulation
+with ground cancellation of the measured images, and the reduction to the single-pass Monte Carlo. Every check is
+statistical, |z| < Z_MAX for any seed (E2ESIM_TEST_SEED); larger sizes and more configurations are slow tests."""
+
+import numpy as np
+import pytest
+
+from e2esim.distortion.montecarlo import simulate
+from e2esim.distortion.validation import compare_with_analytic, sample_moments
+from e2esim.errors import PhysicsInputError
+from e2esim.scene.covariance import ScatteringCovariance
+from e2esim.stack import combination as combos
+from e2esim.stack.analytic import stack_hv_moments
+from e2esim.stack.images import simulate_stack_images
+from e2esim.stack.montecarlo import simulate_stack
+from e2esim.stack.temporal import TemporalDecorrelation
+from stack_helpers import BOREAL_FR, rich_system, site_scene, stack_errors
+
+Z_MAX = 5.0  # two-sided false-failure probability 6e-7 per comparison
+
+
+def _z_scores(analytic, mc, looks=None, fixed_scene=False):
+    c = compare_with_analytic(float(analytic.mean), float(analytic.variance), mc.hv, looks, fixed_scene)
+    return c["bias_rel_diff"] / c["bias_rel_se"], c["var_rel_diff"] / c["var_rel_se"]
+
+
+def _agree(a: dict, b: dict) -> tuple:
+    """z-scores of the difference of two independent samples' means and variances (``sample_moments``)."""
+    zm = (a["mean"] - b["mean"]) / np.hypot(a["mean_se"], b["mean_se"])
+    zv = (a["variance"] - b["variance"]) / np.hypot(a["variance_se"], b["variance_se"])
+    return zm, zv
+
+
+CASES = [  # (site, estimator, correlation, Faraday difference deg, reference, looks)
+    ("boreal", "ground_cancelled", 0.3, 8.0, "population", 300),
+    ("tropical", "multi_date", 0.0, 15.0, "scene", 10**6),
+]
+
+
+def _combination(name, scene):
+    return {"ground_cancelled": combos.interpolated(scene.acquisitions.kz_rad_m),
+            "multi_date": combos.multi_date(scene.passes), "single_date": combos.single_date(scene.passes, 0),
+            "subtraction": combos.subtraction(scene.passes, 0, 1)}[name]
+
+
+def _check_against_monte_carlo(rng, site, estimator, rho, diff_deg, reference, looks, phase, realisations):
+    scene = site_scene(site, phase)
+    errors, faraday = stack_errors(rich_system(3e-3, 5e-3, gain_sd_db=0.3), rho, diff_deg)
+    comb = _combination(estimator, scene)
+    analytic = stack_hv_moments(scene, errors, faraday, comb, looks, reference)
+    mc = simulate_stack(scene, errors, faraday, comb, rng, looks, realisations, 1, reference)
+    zb, zv = _z_scores(analytic, mc)
+    assert abs(zb) < Z_MAX and abs(zv) < Z_MAX, (zb, zv)
+
+
+@pytest.mark.parametrize("site, estimator, rho, diff_deg, reference, looks", CASES)
+def test_analytic_moments_agree_with_the_monte_carlo(rng, site, estimator, rho, diff_deg, reference, looks):
+    _check_against_monte_carlo(rng, site, estimator, rho, diff_deg, reference, looks, "interferometric", 8000)
+
+
+SLOW_CASES = [
+    ("boreal", "ground_cancelled", 1.0, 0.0, "scene", 10**6, "interferometric"),
+    ("boreal", "ground_cancelled", 0.0, 30.0, "scene", 10**6, "interferometric"),
+    ("tropical", "ground_cancelled", 0.5, 10.0, "population", 200, "interferometric"),
+    ("tropical", "subtraction", 0.2, 20.0, "population", 100, "interferometric"),
+    ("boreal", "single_date", 0.0, 10.0, "population", 100, "interferometric"),
+    ("tropical", "multi_date", 0.7, 5.0, "population", 100, "interferometric"),
+    ("boreal", "ground_cancelled", 0.5, 10.0, "scene", 10**6, "tomographic"),
+    ("tropical", "ground_cancelled", 0.0, 5.0, "population", 500, "tomographic"),
+]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("site, estimator, rho, diff_deg, reference, looks, phase", SLOW_CASES)
+def test_analytic_moments_agree_with_a_large_monte_carlo(rng, site, estimator, rho, diff_deg, reference, looks, phase):
+    _check_against_monte_carlo(rng, site, estimator, rho, diff_deg, reference, looks, phase, 100_000)
+
+
+@pytest.mark.parametrize("reference", ["scene", "population"])
+def test_fast_path_equals_ground_cancellation_of_simulated_images(rng, reference):
+    """Every channel of the fast path against the pixel-level simulation that cancels the ground on the measured
+    images (same scene vectors for the one-scene reference)."""
+    scene = site_scene("boreal")
+    errors, faraday = stack_errors(rich_system(1e-2, 2e-2, noise_db=-20.0, gain_sd_db=0.5), 0.3, 10.0)
+    comb = combos.interpolated(scene.acquisitions.kz_rad_m)
+    looks, m = 24, 600
+    vectors = scene.sample(rng, looks) if reference == "scene" else None
+    images = simulate_stack_images(scene, errors, faraday, comb, rng, looks, m, reference, scene_vectors=vectors)
+    fast = simulate_stack(scene, errors, faraday, comb, rng, looks, m, 1, reference, scene_vectors=vectors)
+    for ch in ("hh", "hv", "vv"):
+        zm, zv = _agree(sample_moments(images.errors[ch]), sample_moments(fast.errors[ch]))
+        assert abs(zm) < Z_MAX and abs(zv) < Z_MAX, (ch, zm, zv)
+
+
+def test_stable_stack_monte_carlo_reduces_to_the_single_pass_one(rng):
+    """Stable errors, one Faraday rotation: the pair's Monte Carlo is the single-pass Monte Carlo of the combined
+    covariance with the noise of both passes (statistically)."""
+    scene = site_scene("tropical")
+    errors, faraday = stack_errors(rich_system(3e-3, 5e-3, noise_db=-22.0), 1.0, 0.0)
+    pair = combos.subtraction(3, 0, 1)
+    looks, m = 200, 6000
+    stack = simulate_stack(scene, errors, faraday, pair, rng, looks, m, 1, "population")
+    combined = ScatteringCovariance(pair.combined_covariance(scene.blocks()))
+    system = errors.system.with_levels(noise_power=2 * errors.system.noise_power)
+    single = simulate(combined, system, BOREAL_FR, rng, looks, m, 1, "population")
+    zm, zv = _agree(sample_moments(stack.hv), sample_moments(single.hv))
+    assert abs(zm) < Z_MAX and abs(zv) < Z_MAX, (zm, zv)
+
+
+def test_ground_left_by_unstable_errors_is_the_analytic_residual(rng):
+    """The ground alone, cancelled with errors that differ between the passes: the simulated power left is the
+    analytic cancellation residual."""
+    scene = site_scene("boreal", temporal=TemporalDecorrelation.none())
+    ground = scene.ground_only()
+    errors, faraday = stack_errors(rich_system(1e-2, 1e-2, noise_db=-200.0, gain_sd_db=0.0), 0.0, 10.0)
+    pair = combos.subtraction(3, 0, 1)
+    analytic = stack_hv_moments(ground, errors, faraday, pair, None, "scene")
+    residual = analytic.value + float(analytic.bias_distortion)
+    mc = simulate_stack(ground, errors, faraday, pair, rng, 10**6, 20000, 1, "scene")
+    left = sample_moments(np.real(mc.combined[..., 1, 1]))
+    assert residual > 0 and abs(left["mean"] - residual) < Z_MAX * left["mean_se"] + 1e-3 * residual
+
+
+def test_one_scene_needs_enough_looks(rng):
+    scene = site_scene("boreal")
+    errors, faraday = stack_errors()
+    with pytest.raises(PhysicsInputError, match="needs at least 3N = 9 looks, got 5"):
+        simulate_stack(scene, errors, faraday, combos.multi_date(3), rng, 5, 10, 1, "scene")
