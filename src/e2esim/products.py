@@ -105,6 +105,6 @@ VERDICTS = Product(
     "the verdict of every requirement, in scenario order: pass/fail, value, limit, margin, details, trade-off "
     "curves, dominant contributor", scalars="")
 
-BUILT_IN = (GEOMETRY, SCENE, STACK_SCENE, INSTRUMENT, SYSTEM, FARADAY, FARADAY_MAP, CALIBRATION, SYSTEM_RESIDUAL, FARADAY_RESIDUAL,
-            BACKSCATTER_ERROR, BACKSCATTER_BUDGET, AGB_ERROR, VERDICTS)
+BUILT_IN = (GEOMETRY, SCENE, STACK_SCENE, INSTRUMENT, SYSTEM, FARADAY, FARADAY_MAP, CALIBRATION, SYSTEM_RESIDUAL,
+            FARADAY_RESIDUAL, BACKSCATTER_ERROR, BACKSCATTER_BUDGET, AGB_ERROR, VERDICTS)
 """The products of e2esim's own stages, in chain order (docs/architecture.md lists them)."""

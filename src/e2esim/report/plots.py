@@ -23,10 +23,10 @@ from e2esim.report.faraday_plots import plot_faraday_climatology, plot_faraday_d
 from e2esim.report.map_plots import SITE_KEYS, plot_site_map
 from e2esim.report.multichannel_plots import plot_estimator_comparison
 from e2esim.report.plot_base import PlotSkipped, save
+from e2esim.report.stack_plots import plot_agb_error_vs_faraday_difference
 from e2esim.report.sweep_layout import legend, sweep_layout
 from e2esim.report.sweep_plots import plot_agb_error_vs_sweep, plot_backscatter_vs_sweep, plot_verdicts
 from e2esim.units import level_db_from_variance
-from e2esim.report.stack_plots import plot_agb_error_vs_faraday_difference
 
 
 def plot_error_histograms(result, folder: Path, options: dict) -> list:
