@@ -18,7 +18,7 @@ _REGRESSION = ("simulation.realisations=500", "retrieval.regression.bootstrap_sa
 
 _STACK = ("simulation.realisations=300", "simulation.looks=2000", "orbit.acquisitions.step_days=120",
           "orbit.swath_samples=2", "ionosphere.variability_nodes=3", "requirements.0.level_margins=false",
-          "requirements.0.tradeoff_curve=false")
+          "requirements.0.curve_points=5")
 
 QUICK = {
     "biomass_calibration": ("simulation.realisations=600", "simulation.looks=20000"),
