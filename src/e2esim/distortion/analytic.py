@@ -33,7 +33,7 @@ from e2esim.distortion.first_order import (
     variance_terms,
 )
 from e2esim.distortion.second_order import bias_correction, product_moments, variance_correction
-from e2esim.faraday.distribution import FaradayDistribution
+from e2esim.faraday.distribution import FaradayDistribution, quadrature_nodes
 from e2esim.instrument.system_errors import SystemErrorModel
 from e2esim.polarimetry.system_model import estimator_noise_factor
 from e2esim.scene.covariance import ScatteringCovariance
@@ -107,31 +107,125 @@ def hv_error_moments(
         (any broadcastable shapes; the correlation structure is kept): used to trace trade-off curves
         and margins with one vectorised call.
     """
+    check_settings(form, reference)
+    return moments_of(MomentInputs.of(scene, system, faraday, form), form, looks, reference,
+                      crosstalk_level, imbalance_level, noise_power)
+
+
+def check_settings(form: str, reference: str) -> None:
     if form not in FORMS:
         raise ValueError(f"form must be one of {FORMS}, got {form!r}")
     if reference not in REFERENCES:
         raise ValueError(f"reference must be one of {REFERENCES}, got {reference!r}")
-    terms = SceneTerms.from_covariance(scene)
-    xs, es, ns = np.broadcast_arrays(
-        np.asarray(system.crosstalk_level if crosstalk_level is None else crosstalk_level, float),
-        np.asarray(system.imbalance_level if imbalance_level is None else imbalance_level, float),
-        np.asarray(system.noise_power if noise_power is None else noise_power, float),
-    )
-    v, c13, c24, ve, ce12 = system.unit_structure  # the correlation structure; levels come from xs, es
 
+
+@dataclass(frozen=True)
+class MomentInputs:
+    """What ``moments_of`` needs from a scene, a system-error model and a Faraday-rotation distribution, as
+    arrays with a leading case shape C: () for one case, (B,) for a block of B sweep cases (``stack``).
+
+    terms : ``SceneTerms`` (fields of shape C). structure : (V_i C+(4,), C_13 C, C_24 C, V_eps_i C+(2,),
+    C_eps12 C), the correlation structure at unit levels (``SystemErrorModel.unit_structure``). levels :
+    (V_delta, V_eps, sigma_n), shape C. gain : (E|A|^2, E|A|^4), shape C. averaging : the quadrature
+    weights over Omega, C+(G,), for the complete form; the trig moments of eq. (9) (shape C each) for the
+    paper form.
+    """
+
+    terms: SceneTerms
+    structure: tuple
+    levels: tuple
+    gain: tuple
+    averaging: object
+
+    @classmethod
+    def of(cls, scene, system, faraday, form: str) -> MomentInputs:
+        averaging = faraday.trig_moments() if form == "paper" else faraday.quadrature()[1]
+        return cls(SceneTerms.from_covariance(scene), system.unit_structure,
+                   (system.crosstalk_level, system.imbalance_level, system.noise_power),
+                   system.gain_power_moments, averaging)
+
+    @classmethod
+    def stack(cls, rows: list) -> MomentInputs:
+        """The inputs of several cases (each with C = ()) as one block, C = (len(rows),)."""
+        first = rows[0]
+
+        def column(get):
+            return np.array([get(r) for r in rows])
+
+        terms = SceneTerms(*(column(lambda r, f=f.name: getattr(r.terms, f)) for f in fields(SceneTerms)))
+        structure = tuple(column(lambda r, i=i: r.structure[i]) for i in range(len(first.structure)))
+        levels = tuple(column(lambda r, i=i: r.levels[i]).astype(float) for i in range(3))
+        gain = tuple(column(lambda r, i=i: r.gain[i]).astype(float) for i in range(2))
+        if isinstance(first.averaging, dict):
+            averaging = {k: column(lambda r, k=k: r.averaging[k]) for k in first.averaging}
+        else:
+            averaging = column(lambda r: r.averaging)
+        return cls(terms, structure, levels, gain, averaging)
+
+    def take(self, index) -> MomentInputs:
+        """The rows ``index`` (an integer array) of a block."""
+        terms = SceneTerms(*(getattr(self.terms, f.name)[index] for f in fields(SceneTerms)))
+        averaging = ({k: v[index] for k, v in self.averaging.items()} if isinstance(self.averaging, dict)
+                     else self.averaging[index])
+        return MomentInputs(terms, tuple(x[index] for x in self.structure), tuple(x[index] for x in self.levels),
+                            tuple(x[index] for x in self.gain), averaging)
+
+    @property
+    def case_ndim(self) -> int:
+        return np.ndim(self.levels[0])
+
+
+def _expand(x, extra: int, trailing: int = 0):
+    """``x`` (case axes, then ``trailing`` component axes) with ``extra`` length-1 axes inserted after its case
+    axes, so that it broadcasts against arrays of shape case + extra + components."""
+    x = np.asarray(x)
+    if extra == 0:
+        return x
+    cut = x.ndim - trailing
+    return x.reshape(x.shape[:cut] + (1,) * extra + x.shape[cut:])
+
+
+def moments_of(
+    inputs: MomentInputs,
+    form: str = "complete",
+    looks=None,
+    reference: str = "scene",
+    crosstalk_level=None,
+    imbalance_level=None,
+    noise_power=None,
+) -> HVErrorMoments:
+    """``hv_error_moments`` of ``MomentInputs``: Men et al. (2021) eqs. (11)-(12) completed to second order
+    (module docstring). Levels replace V_delta, V_eps, sigma_n; with a case axis they are aligned on it
+    (shape C + E, E any further axes), and the result has shape C + E. Every case is computed element by
+    element with the same operations, so a case in a block gets exactly the numbers it gets alone."""
+    c = inputs.case_ndim
+    given = [None if x is None else np.asarray(x, float) for x in (crosstalk_level, imbalance_level, noise_power)]
+    extra = max([x.ndim - c for x in given if x is not None and x.ndim > 0] + [0])
+    xs, es, ns = np.broadcast_arrays(
+        *(_expand(own, extra) if x is None else x for x, own in zip(given, inputs.levels)),
+        _expand(np.zeros(np.shape(inputs.levels[0])), extra),
+    )[:3]
+    v, c13, c24, ve, ce12 = inputs.structure
+    node = 1 if form == "complete" else 0  # the quadrature's node axis, last
+
+    def case(x, trailing=0):
+        return _expand(x, extra + node, trailing)
+
+    t = inputs.terms
+    terms = SceneTerms(case(t.sigma_hh), case(t.sigma_hv), case(t.sigma_vv), case(t.r), case(t.theta))
+    structure = (case(v, 1), case(c13), case(c24), case(ve, 1), case(ce12))
     if form == "paper":
-        trig = faraday.trig_moments()
-        args = _scaled_errors(v, c13, c24, ve, ce12, xs, es)
-        parts = _conditional_parts(terms, trig, *args, complete=False)
+        trig = {k: case(m) for k, m in inputs.averaging.items()}
+        parts = _conditional_parts(terms, trig, *_scaled_errors(*structure, xs, es), complete=False)
         spread = np.zeros(xs.shape)
     else:
-        nodes, weights = faraday.quadrature()
-        trig = _trig_at_nodes(nodes.tobytes())  # arrays over the node axis, which is last
-        args = _scaled_errors(v, c13, c24, ve, ce12, xs[..., None], es[..., None])
-        node_parts = _conditional_parts(terms, trig, *args, complete=True)
-        parts = {k: x @ weights for k, x in node_parts.items()}  # average over the node axis
+        trig = _trig_at_nodes(quadrature_nodes().tobytes())  # arrays over the node axis, which is last
+        weights = _expand(inputs.averaging, extra, 1)
+        node_parts = _conditional_parts(terms, trig, *_scaled_errors(*structure, xs[..., None], es[..., None]),
+                                        complete=True)
+        parts = {k: _average(x, weights) for k, x in node_parts.items()}
         mean_at_node = node_parts["bias_imbalance"] + node_parts["bias_crosstalk"] + node_parts["bias_higher_order"]
-        spread = (mean_at_node**2) @ weights - (mean_at_node @ weights) ** 2
+        spread = _average(mean_at_node**2, weights) - _average(mean_at_node, weights) ** 2
         spread = np.clip(spread, 0.0, None)  # exact value >= 0; negative weights leave rounding noise
 
     signal_mean = parts["bias_imbalance"] + parts["bias_crosstalk"] + parts["bias_higher_order"]
@@ -140,14 +234,15 @@ def hv_error_moments(
     )
 
     # Absolute gain |A|^2 = G, independent: sigma_hat = G q + noise, E[q] = sigma_hv + signal_mean.
-    g1, g2 = system.gain_power_moments
-    q1 = terms.sigma_hv + signal_mean
+    g1, g2 = (_expand(g, extra) for g in inputs.gain)
+    q1 = _expand(t.sigma_hv, extra) + signal_mean
     bias_gain = (g1 - 1.0) * q1
     var_gain = (g2 - 1.0) * signal_var + (g2 - g1**2) * q1**2
 
     noise = ns * estimator_noise_factor("hv")  # sigma_n / 2
     finite = np.zeros(xs.shape)
     if form == "complete" and looks is not None:
+        looks = _expand(looks, extra)
         gq1 = g1 * q1
         gq2 = g2 * (signal_var + q1**2)
         if reference == "scene":
@@ -177,9 +272,15 @@ def hv_error_moments(
         var_faraday_spread=spread + z,
         var_finite_looks=finite + z,
         var_gain=var_gain + z,
-        sigma_hv=terms.sigma_hv,
+        sigma_hv=t.sigma_hv,
         form=form,
     )
+
+
+def _average(values, weights):
+    """The quadrature average over the node axis (last): an element-wise product and numpy's sum over a
+    contiguous axis, the same operations for a case alone as for a case in a block."""
+    return (values * weights).sum(-1)
 
 
 @functools.lru_cache(maxsize=8)

@@ -25,6 +25,13 @@ QUADRATURE_DEGREE = 8
 contains products of four of cos^2, sin^2, cos sin, i.e. harmonics up to 8 Omega)."""
 
 
+def quadrature_nodes(degree: int = QUADRATURE_DEGREE) -> np.ndarray:
+    """The nodes of ``FaradayDistribution.quadrature``: ``2 pi g / G``, g = 0..G-1, G = 2 degree + 1 (rad), the
+    same for every distribution (only the weights depend on it)."""
+    n_nodes = 2 * degree + 1
+    return 2 * np.pi * np.arange(n_nodes) / n_nodes
+
+
 PERCENTILES = (0.135, 2.275, 5.0, 25.0, 50.0, 75.0, 95.0, 97.725, 99.865)
 """Percentiles (%) of Omega reported for every climatology (3-sigma, 2-sigma, quartiles, median)."""
 
@@ -97,8 +104,8 @@ class FaradayDistribution(ABC):
 
     def _quadrature(self, degree: int) -> tuple[np.ndarray, np.ndarray]:
         """Uncached ``quadrature``."""
-        n_nodes = 2 * degree + 1
-        nodes = 2 * np.pi * np.arange(n_nodes) / n_nodes
+        nodes = quadrature_nodes(degree)
+        n_nodes = nodes.size
         k = np.arange(1, degree + 1)
         phi = self.circular_moment(k)
         weights = (1 + 2 * np.real(phi[None, :] * np.exp(-1j * np.outer(nodes, k))).sum(1)) / n_nodes

@@ -121,18 +121,22 @@ def first_failing_level(violation, shape=(), search_range=LEVEL_SEARCH_RANGE) ->
     fa, fb = np.where(todo, fa, -1.0), np.where(todo, fb, 1.0)  # harmless brackets where nothing to do
     b = np.where(fa == 0, a, b)  # the lower end is the root itself
     last = np.zeros(shape, dtype=int)  # +1: b moved last step, -1: a moved last step
+    active = todo.copy()
     for _ in range(_MAX_ITERATIONS):
         with np.errstate(invalid="ignore", divide="ignore"):
             c = np.where(b > a, (a * fb - b * fa) / (fb - fa), a)
         fc = violation((10.0**c)[..., None])[..., 0]
         fail = fc > 0
-        fa = np.where(fail & (last == 1), 0.5 * fa, fa)  # Illinois: halve the stale end's value
-        fb = np.where(~fail & (last == -1), 0.5 * fb, fb)
-        a, fa = np.where(fail, a, c), np.where(fail, fa, fc)
-        b, fb = np.where(fail, c, b), np.where(fail, fc, fb)
-        b = np.where(fc == 0, c, b)  # landed on the root
-        last = np.where(fail, 1, -1)
-        if np.all((b - a < _LOG_TOLERANCE) | ~todo):
+        # an element that has converged keeps its bracket: each element gets the same iterations whether it
+        # is solved alone or with others (a case in a block of sweep cases, a point of a curve)
+        fa = np.where(active & fail & (last == 1), 0.5 * fa, fa)  # Illinois: halve the stale end's value
+        fb = np.where(active & ~fail & (last == -1), 0.5 * fb, fb)
+        a, fa = np.where(active & ~fail, c, a), np.where(active & ~fail, fc, fa)
+        b, fb = np.where(active & fail, c, b), np.where(active & fail, fc, fb)
+        b = np.where(active & (fc == 0), c, b)  # landed on the root
+        last = np.where(active, np.where(fail, 1, -1), last)
+        active &= ~(b - a < _LOG_TOLERANCE)
+        if not np.any(active):
             break
     result[todo] = (10.0 ** (0.5 * (a + b)))[todo]
     return result
