@@ -6,7 +6,8 @@ Two forms:
   plugged in, exactly as published (with the (12a) typo corrected, see docs/errata.md).
 * ``"complete"`` (default): the same terms plus the O(V^2) terms eq. (12) misses
   (``e2esim.distortion.second_order``), computed at fixed Omega and averaged over the Faraday-rotation
-  distribution exactly (``FaradayDistribution.quadrature``), with the law of total variance:
+  distribution exactly (``FaradayDistribution.even_quadrature``: every term is a polynomial of degree <= 4 in
+  cos 2 Omega, averaged exactly by five nodes), with the law of total variance:
   ``Var e = E_Omega[Var(e | Omega)] + Var_Omega[E(e | Omega)]``. Eq. (12) instead inserts moments of
   Omega into a formula derived at fixed Omega, which drops the second part and treats X, Y, B as
   Gaussian when they are Gaussian mixtures over Omega; the difference is small for SD(Omega) = 5 deg
@@ -19,6 +20,7 @@ Quegan et al. 2018 eq. 11) is applied to both forms exactly.
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 from dataclasses import dataclass, fields
 
@@ -33,7 +35,7 @@ from e2esim.distortion.first_order import (
     variance_terms,
 )
 from e2esim.distortion.second_order import bias_correction, product_moments, variance_correction
-from e2esim.faraday.distribution import FaradayDistribution, quadrature_nodes
+from e2esim.faraday.distribution import EVEN_NODES, FaradayDistribution
 from e2esim.instrument.system_errors import SystemErrorModel
 from e2esim.polarimetry.system_model import estimator_noise_factor
 from e2esim.scene.covariance import ScatteringCovariance
@@ -139,10 +141,27 @@ class MomentInputs:
 
     @classmethod
     def of(cls, scene, system, faraday, form: str) -> MomentInputs:
-        averaging = faraday.trig_moments() if form == "paper" else faraday.quadrature()[1]
+        averaging = faraday.trig_moments() if form == "paper" else faraday.even_quadrature()[1]
         return cls(SceneTerms.from_covariance(scene), system.unit_structure,
                    (system.crosstalk_level, system.imbalance_level, system.noise_power),
                    system.gain_power_moments, averaging)
+
+    @classmethod
+    def gather(cls, scene, system, faraday, form: str) -> MomentInputs:
+        """The inputs of a block of cases from its scene, system and Faraday-rotation products (``Factor``s of
+        ``e2esim.block``), each distinct value read once (and once per run when they come from a catalog)."""
+        terms = scene.table("moment terms", lambda v: dataclasses.astuple(SceneTerms.from_covariance(v)))
+        parts = system.table("moment system", lambda v: (*v.unit_structure, v.crosstalk_level, v.imbalance_level,
+                                                         v.noise_power, *v.gain_power_moments))
+        if form == "paper":
+            trig = faraday.table("moment trig", lambda v: tuple(v.trig_moments().values()))
+            averaging = dict(zip(("c4", "s4", "c2s2", "cs"), (x[faraday.index] for x in trig)))
+        else:
+            averaging = faraday.table("moment weights", lambda v: v.even_quadrature()[1])[faraday.index]
+        at = system.index
+        return cls(SceneTerms(*(x[scene.index] for x in terms)), tuple(x[at] for x in parts[:5]),
+                   tuple(x[at].astype(float) for x in parts[5:8]), tuple(x[at].astype(float) for x in parts[8:]),
+                   averaging)
 
     @classmethod
     def stack(cls, rows: list) -> MomentInputs:
@@ -169,6 +188,17 @@ class MomentInputs:
                      else self.averaging[index])
         return MomentInputs(terms, tuple(x[index] for x in self.structure), tuple(x[index] for x in self.levels),
                             tuple(x[index] for x in self.gain), averaging)
+
+    @staticmethod
+    def concatenate(parts: list) -> MomentInputs:
+        """Blocks of inputs one after the other (case axis (B,) each)."""
+        first = parts[0]
+        terms = SceneTerms(*(np.concatenate([getattr(p.terms, f.name) for p in parts]) for f in fields(SceneTerms)))
+        averaging = ({k: np.concatenate([p.averaging[k] for p in parts]) for k in first.averaging}
+                     if isinstance(first.averaging, dict) else np.concatenate([p.averaging for p in parts]))
+        return MomentInputs(terms, *(tuple(np.concatenate([getattr(p, name)[i] for p in parts])
+                                           for i in range(len(getattr(first, name))))
+                                     for name in ("structure", "levels", "gain")), averaging)
 
     @property
     def case_ndim(self) -> int:
@@ -219,13 +249,13 @@ def moments_of(
         parts = _conditional_parts(terms, trig, *_scaled_errors(*structure, xs, es), complete=False)
         spread = np.zeros(xs.shape)
     else:
-        trig = _trig_at_nodes(quadrature_nodes().tobytes())  # arrays over the node axis, which is last
+        trig = _trig_at_nodes(EVEN_NODES.tobytes())  # arrays over the node axis, which is last
         weights = _expand(inputs.averaging, extra, 1)
         node_parts = _conditional_parts(terms, trig, *_scaled_errors(*structure, xs[..., None], es[..., None]),
                                         complete=True)
         parts = {k: _average(x, weights) for k, x in node_parts.items()}
         mean_at_node = node_parts["bias_imbalance"] + node_parts["bias_crosstalk"] + node_parts["bias_higher_order"]
-        spread = _average(mean_at_node**2, weights) - _average(mean_at_node, weights) ** 2
+        spread = _average(mean_at_node**2, weights) - np.square(_average(mean_at_node, weights))
         spread = np.clip(spread, 0.0, None)  # exact value >= 0; negative weights leave rounding noise
 
     signal_mean = parts["bias_imbalance"] + parts["bias_crosstalk"] + parts["bias_higher_order"]

@@ -144,19 +144,7 @@ class HVErrorModel(SystemLevels, ErrorModel):
         Faraday rotation adds to it (FR alone leaves the symmetrised HV unchanged, so it acts only through the
         distortions) and the noise bias sigma_n/2 with its spread over the looks; they add up to the mean
         and variance exactly."""
-        m = self.current()
-        m0 = self._no_faraday().current()
-        sd_mean = float(m0.mean - m0.bias_noise)
-        sd_var = float(m0.variance - m0.var_finite_looks)
-        values = {
-            "system_distortions": (sd_mean, sd_var),
-            "faraday_rotation": (
-                float(m.mean - m.bias_noise) - sd_mean,
-                float(m.variance - m.var_finite_looks) - sd_var,
-            ),
-            "noise_bias": (float(m.bias_noise), float(m.var_finite_looks)),
-        }
-        return {name: Contribution(mean, var, CONTRIBUTION_DESCRIPTIONS[name]) for name, (mean, var) in values.items()}
+        return split_contributions(self.current(), self._no_faraday().current(), float)
 
     # Monte Carlo -----------------------------------------------------------------------------------
     def relative_samples(self) -> np.ndarray | None:
@@ -176,10 +164,7 @@ class HVErrorModel(SystemLevels, ErrorModel):
         analytic = None
         if self.unavailable is None:
             analytic = self.current()
-            for name, value in analytic.as_dict().items():
-                if name not in ("form", "sigma_hv"):
-                    out[f"analytic.{name}"] = float(value)
-            out["analytic.sd"] = float(analytic.sd)
+            out.update({name: float(value) for name, value in analytic_scalars(analytic).items()})
         mc = self.montecarlo
         if mc is not None:
             for name, value in sample_moments(mc.hv).items():
@@ -192,6 +177,29 @@ class HVErrorModel(SystemLevels, ErrorModel):
                                         fixed_scene=self.reference == "scene")
             out.update({f"comparison.{name}": value for name, value in cmp.items()})
         return out
+
+
+def split_contributions(m, m0, convert=np.asarray) -> dict:
+    """``HVErrorModel.contributions`` from the moments ``m`` of the model and ``m0`` of the same model without
+    Faraday rotation (scalars or arrays over cases, ``convert`` applied to each part)."""
+    sd_mean = convert(m0.mean - m0.bias_noise)
+    sd_var = convert(m0.variance - m0.var_finite_looks)
+    values = {
+        "system_distortions": (sd_mean, sd_var),
+        "faraday_rotation": (
+            convert(m.mean - m.bias_noise) - sd_mean,
+            convert(m.variance - m.var_finite_looks) - sd_var,
+        ),
+        "noise_bias": (convert(m.bias_noise), convert(m.var_finite_looks)),
+    }
+    return {name: Contribution(mean, var, CONTRIBUTION_DESCRIPTIONS[name]) for name, (mean, var) in values.items()}
+
+
+def analytic_scalars(m) -> dict:
+    """``analytic.*`` output scalars of moments ``m`` (every part, m^2/m^2, and the SD)."""
+    out = {f"analytic.{name}": value for name, value in m.as_dict().items() if name not in ("form", "sigma_hv")}
+    out["analytic.sd"] = m.sd
+    return out
 
 
 def _row(moments: HVErrorMoments, i: int) -> HVErrorMoments:

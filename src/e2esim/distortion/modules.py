@@ -91,3 +91,24 @@ class HVBackscatterErrorPropagation(Stage):
             model = HVErrorModel(scene, system, faraday, c["variance_form"], looks, c["reference"], mc, gauss,
                                  notes, unavailable, model._memo)
         return {"backscatter.error": model}
+
+    def forward_block(self, block):
+        """``forward`` for a block of analytic cases at once (``HVErrorModelBlock``); None (case by case) for a
+        Monte Carlo, and for cases the analytic model does not describe plainly (large errors, a caveat, a
+        scene that is not reflection symmetric): ``forward`` reports those."""
+        from e2esim.block import Factor
+        from e2esim.distortion.error_model_block import HVErrorModelBlock, block_inputs
+
+        c, s = self.si, block.settings
+        scene, system, faraday = block["scene.covariance"], block["system.residual"], block["faraday.residual"]
+        if s.montecarlo or not s.analytic or not all(isinstance(p, Factor) for p in (scene, system, faraday)):
+            return None
+        plain = system.table("plain analytic", lambda v: not (analytic_problem(v) or analytic_caveat(v)))
+        symmetric = scene.table("reflection symmetric", lambda v: v.is_reflection_symmetric())
+        if not (plain[system.index].all() and symmetric[scene.index].all()):
+            return None
+        looks = s.looks if c["variance_form"] == "complete" else None
+        model = HVErrorModelBlock(scene, system, faraday, block_inputs(scene, system, faraday, c["variance_form"]),
+                                  c["variance_form"], looks, c["reference"])
+        model.current()
+        return {"backscatter.error": model}

@@ -32,6 +32,13 @@ def quadrature_nodes(degree: int = QUADRATURE_DEGREE) -> np.ndarray:
     return 2 * np.pi * np.arange(n_nodes) / n_nodes
 
 
+_EVEN_U = np.cos(np.pi * (2 * np.arange(5) + 1) / 10)  # Chebyshev points of [-1, 1]
+EVEN_NODES = 0.5 * np.arccos(_EVEN_U)
+"""Nodes Omega_j (rad) of ``FaradayDistribution.even_quadrature``, the same for every distribution."""
+EVEN_NODES.setflags(write=False)
+_EVEN_WEIGHTS = np.linalg.inv(np.vander(_EVEN_U, 5, increasing=True).T)  # w = V^-T E[u^k]
+
+
 PERCENTILES = (0.135, 2.275, 5.0, 25.0, 50.0, 75.0, 95.0, 97.725, 99.865)
 """Percentiles (%) of Omega reported for every climatology (3-sigma, 2-sigma, quartiles, median)."""
 
@@ -101,6 +108,26 @@ class FaradayDistribution(ABC):
             weights.setflags(write=False)
             memo[degree] = (nodes, weights)
         return memo[degree]
+
+    def even_quadrature(self) -> tuple[np.ndarray, np.ndarray]:
+        """Nodes (rad) and weights that average any polynomial of degree <= 4 in ``u = cos 2 Omega`` exactly: the
+        quantities of the sigma_hv error moments (Men et al. 2021, eqs. 6-8 and their products, functions of
+        cos^4, sin^4, cos^2 sin^2 and (cos sin)^2 only) are such polynomials.
+
+        Five fixed nodes ``u_j`` (the Chebyshev points of [-1, 1]; ``Omega_j = arccos(u_j) / 2``) with weights
+        solving ``sum_j w_j u_j^k = E[u^k]``, k = 0..4, where ``E[u^k]`` follows from the circular moments
+        phi_2, phi_4, phi_6, phi_8 (``u^2 = (1 + cos 4 Omega)/2``, ``u^3 = (3 cos 2 Omega + cos 6 Omega)/4``,
+        ``u^4 = (3 + 4 cos 4 Omega + cos 8 Omega)/8``). Weights can be negative; kept with the distribution.
+        """
+        memo = self.__dict__.setdefault("_quadrature_memo", {})
+        if "even" not in memo:
+            phi = np.real(self.circular_moment(np.array([2.0, 4.0, 6.0, 8.0])))
+            moments = np.array([1.0, phi[0], (1 + phi[1]) / 2, (3 * phi[0] + phi[2]) / 4,
+                                (3 + 4 * phi[1] + phi[3]) / 8])
+            weights = _EVEN_WEIGHTS @ moments
+            weights.setflags(write=False)
+            memo["even"] = (EVEN_NODES, weights)
+        return memo["even"]
 
     def _quadrature(self, degree: int) -> tuple[np.ndarray, np.ndarray]:
         """Uncached ``quadrature``."""

@@ -2,8 +2,11 @@
 
 from __future__ import annotations
 
+import dataclasses
 from abc import abstractmethod
 from typing import ClassVar
+
+import numpy as np
 
 from e2esim.module import Module, fail
 from e2esim.params import Param
@@ -13,6 +16,21 @@ from e2esim.retrieval.agb_error import AGBError
 BASES = ("auto", "analytic", "montecarlo")
 SOURCE_CHOICES = ("all", "systematic")
 PERCENT = 100.0
+
+
+def plain(x):
+    """A float for one case, the array for a block of cases (requirements are evaluated on either)."""
+    return float(x) if np.ndim(x) == 0 else np.asarray(x, dtype=float)
+
+
+def largest(values: list):
+    """The largest of per-side values: ``max`` for one case, element-wise for a block."""
+    return max(values) if all(np.ndim(v) == 0 for v in values) else np.maximum.reduce(values)
+
+
+def truth(x):
+    """A bool for one case, a bool array for a block."""
+    return bool(x) if np.ndim(x) == 0 else np.asarray(x, dtype=bool)
 
 SOURCES_PARAM = Param(
     "sources", "str", "error sources checked: all (system, Faraday rotation, noise, error budget, regression) or "
@@ -33,6 +51,9 @@ class Requirement(Module):
     kind = "requirement"
     needs: ClassVar[tuple] = ("agb.error", "backscatter.error")
     uses: ClassVar[tuple] = ("instrument",)
+    batched: ClassVar[bool] = False
+    """``evaluate`` also takes a block of cases read through ``e2esim.block.BlockView`` (element-wise numpy
+    operations throughout, no ``float()`` of what it reads): the requirement set then evaluates whole blocks."""
 
     @property
     @abstractmethod
@@ -60,6 +81,9 @@ def checked_error(requirement: Requirement, case) -> AGBError:
         return agb
     model = error_model_of(case)
     m = model.current() if model.unavailable is None else None
+    if np.ndim(agb.exponent):  # a block of cases (e2esim.retrieval.agb_error_block): analytic only
+        return dataclasses.replace(agb, sigma_hv=np.asarray(model.value, dtype=float), error_mean=np.asarray(m.mean),
+                                   error_sd=np.asarray(m.sd), contributions=(), saturated_fraction=())
     return AGBError.from_sigma_errors(
         agb.exponent, model.value, None if m is None else float(m.mean), None if m is None else float(m.sd),
         model.relative_samples(), agb.mapping, error_model=agb.error_model,

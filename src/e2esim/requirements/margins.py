@@ -45,9 +45,11 @@ def level_margins(requirements, model, convention: str, stated_db: dict | None =
     residual after calibration; ``<level>.margin_db = limit_db - residual_db``. With ``stated_db`` (the
     specification as the scenario states it, ``stated_levels_db``) also ``<level>.spec_db`` and
     ``<level>.spec_margin_db = limit_db - spec_db``. The crosstalk and channel-imbalance levels are in the
-    instrument's ``convention``, the others (the noise power, as the NESZ) as 10 log10 of the level.
+    instrument's ``convention``, the others (the noise power, as the NESZ) as 10 log10 of the level. Numbers
+    for one case, arrays over the cases of a block (the error model's ``value`` has their shape).
     """
     stated_db = stated_db or {}
+    cases = np.shape(model.value)
     out = {}
     for level, current in model.levels.items():
         conv = convention if level in INSTRUMENT_LEVELS else "variance"
@@ -55,18 +57,28 @@ def level_margins(requirements, model, convention: str, stated_db: dict | None =
         for req in requirements:
             def violation(levels, req=req, level=level):
                 return requirement_violation(req, model, **{level: levels})
-            limits.append(float(first_failing_level(violation)))
-        limit = min(limits) if not any(np.isnan(limits)) else float("nan")
-        limit_db = float(level_db_from_variance(limit, conv)) if np.isfinite(limit) else limit
-        current_db = float(level_db_from_variance(current, conv)) if current > 0 else float("-inf")
-        out[f"{level}.limit_db"] = limit_db
-        out[f"{level}.margin_db"] = limit_db - current_db if np.isfinite(current_db) else float("inf")
-        out[f"{level}.residual_db"] = current_db
+            limits.append(first_failing_level(violation, cases))
+        limit = np.minimum.reduce(limits)
+        limit = np.where(np.any(np.isnan(limits), axis=0), np.nan, limit)
+        current = np.asarray(current, dtype=float)
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+            limit_db = np.where(np.isfinite(limit), level_db_from_variance(limit, conv), limit)
+            current_db = np.where(current > 0, level_db_from_variance(current, conv), -np.inf)
+            margin_db = np.where(np.isfinite(current_db), limit_db - current_db, np.inf)
+        out[f"{level}.limit_db"] = _plain(limit_db)
+        out[f"{level}.margin_db"] = _plain(margin_db)
+        out[f"{level}.residual_db"] = _plain(current_db)
         if level in stated_db:
-            spec_db = float(stated_db[level])
-            out[f"{level}.spec_db"] = spec_db
-            out[f"{level}.spec_margin_db"] = limit_db - spec_db if np.isfinite(spec_db) else float("inf")
+            spec_db = np.asarray(stated_db[level], dtype=float)
+            out[f"{level}.spec_db"] = _plain(spec_db)
+            with np.errstate(invalid="ignore"):
+                out[f"{level}.spec_margin_db"] = _plain(np.where(np.isfinite(spec_db), limit_db - spec_db, np.inf))
     return out
+
+
+def _plain(x):
+    """A float for one case, the array for a block."""
+    return float(x) if np.ndim(x) == 0 else np.asarray(x, dtype=float)
 
 
 def has_tradeoff_plane(model) -> bool:
@@ -80,8 +92,8 @@ def axis_crossings(requirements, model, convention: str) -> dict:
     for req in requirements:
         limits = axis_limits(req, model)
         with np.errstate(divide="ignore", invalid="ignore"):
-            out[f"{req.side}.imbalance_axis_db"] = float(level_db_from_variance(limits["imbalance_limit"], convention))
-            out[f"{req.side}.crosstalk_axis_db"] = float(level_db_from_variance(limits["crosstalk_limit"], convention))
+            out[f"{req.side}.imbalance_axis_db"] = _plain(level_db_from_variance(limits["imbalance_limit"], convention))
+            out[f"{req.side}.crosstalk_axis_db"] = _plain(level_db_from_variance(limits["crosstalk_limit"], convention))
     return out
 
 

@@ -11,6 +11,8 @@ propagation module that provides one.
 
 from __future__ import annotations
 
+import numpy as np
+
 from e2esim.module import fail
 from e2esim.params import Param
 from e2esim.requirements.attribution import attribution, dominant
@@ -22,6 +24,9 @@ from e2esim.requirements.base import (
     basis_of,
     checked_error,
     error_model_of,
+    largest,
+    plain,
+    truth,
 )
 from e2esim.requirements.margins import (
     axis_crossings,
@@ -40,6 +45,7 @@ class AGBErrorBound(Requirement):
 
     kind = "requirement"
     type_name = "agb_error_bound"
+    batched = True
     summary = "relative AGB error within +-bound with one-sided confidence (Men et al. 2021, eq. 19)"
     params = (
         Param("name", "str", "label in reports (null: generated)", default=None, nullable=True),
@@ -84,17 +90,17 @@ class AGBErrorBound(Requirement):
             prob = conf if side == "over" else 1 - conf
             for b in ("analytic", "montecarlo"):
                 if agb.has(b):
-                    details[f"{side}.{b}.quantile_percent"] = float(agb.quantile(prob, b)) * PERCENT
+                    details[f"{side}.{b}.quantile_percent"] = plain(agb.quantile(prob, b)) * PERCENT
                     details[f"{side}.{b}.exceedance_probability"] = agb.exceedance(bound, side, b)
-            q = float(agb.quantile(prob, basis)) * PERCENT
+            q = plain(agb.quantile(prob, basis)) * PERCENT
             values.append(q if side == "over" else -q)
-        value = max(values)
+        value = largest(values)
         verdict_curves = {}
         model = error_model_of(case)
         if (c["level_margins"] or c["tradeoff_curve"]) and model.unavailable is not None:
             notes.append(f"no level margins or trade-off curve: {model.unavailable}")
         elif c["level_margins"] or c["tradeoff_curve"]:
-            extra = max(agb.error_sd**2 - float(model.current().variance), 0.0)
+            extra = plain(np.maximum(np.asarray(agb.error_sd) ** 2 - np.asarray(model.current().variance), 0.0))
             reqs = [AGBRequirement(bound, conf, side, agb.exponent,
                                    relative_threshold=None if agb.mapping is None else agb.sigma_threshold(
                                        bound if side == "over" else -bound),
@@ -111,15 +117,15 @@ class AGBErrorBound(Requirement):
                 details.update(axis_crossings(reqs, model, convention))
         sides = self.sides()
 
-        def checked_value(agb_error) -> float:
-            qs = [float(agb_error.quantile(conf if side == "over" else 1 - conf)) * PERCENT for side in sides]
-            return max(q if side == "over" else -q for q, side in zip(qs, sides))
+        def checked_value(agb_error):
+            qs = [plain(agb_error.quantile(conf if side == "over" else 1 - conf)) * PERCENT for side in sides]
+            return largest([q if side == "over" else -q for q, side in zip(qs, sides)])
 
         contributions, why_not = attribution(case, checked_value, agb)
         details.update(contributions)
         return RequirementVerdict(
             name=self.label,
-            passed=bool(value <= c["bound_percent"]),
+            passed=truth(value <= c["bound_percent"]),
             value=value,
             limit=c["bound_percent"],
             margin=c["bound_percent"] - value,
@@ -137,6 +143,7 @@ class AGBRelativeRMSE(Requirement):
 
     kind = "requirement"
     type_name = "agb_rmse"
+    batched = True
     summary = "root-mean-square relative AGB error below a limit"
     params = (
         Param("name", "str", "label in reports (null: generated)", default=None, nullable=True),
@@ -159,7 +166,7 @@ class AGBRelativeRMSE(Requirement):
         limit = self.config["max_percent"]
         contributions, notes = attribution(case, lambda agb_error: agb_error.rmse("analytic") * PERCENT, agb)
         details.update(contributions)
-        return RequirementVerdict(self.label, bool(value <= limit), value, limit, limit - value, "%", basis,
+        return RequirementVerdict(self.label, truth(value <= limit), value, limit, limit - value, "%", basis,
                                   details, dominant=dominant(details), notes=notes)
 
 
@@ -169,6 +176,7 @@ class AGBAbsoluteRMSE(Requirement):
 
     kind = "requirement"
     type_name = "agb_rmse_absolute"
+    batched = True
     summary = "root-mean-square AGB error below a limit in t/ha (e.g. NISAR: 20 t/ha for AGB < 100 t/ha)"
     params = (
         Param("name", "str", "label in reports (null: generated)", default=None, nullable=True),
@@ -189,7 +197,7 @@ class AGBAbsoluteRMSE(Requirement):
 
     def evaluate(self, case):
         agb_true = case["scene.covariance"].agb_t_ha
-        if agb_true is None:
+        if agb_true is None or np.any(np.equal(agb_true, None)):
             raise fail(self, "needs a scene with an AGB (agb_t_ha)",
                        "use a scene type that states its AGB, or give scene.agb_t_ha")
         agb = checked_error(self, case)
@@ -200,7 +208,8 @@ class AGBAbsoluteRMSE(Requirement):
         contributions, notes = attribution(case, lambda a: a.rmse("analytic") * agb_true, agb, unit="t_ha")
         details.update(contributions)
         below = self.config["applies_below_t_ha"]
-        applies = below is None or agb_true < below
-        details["applies"] = float(applies)
-        return RequirementVerdict(self.label, bool(value <= limit or not applies), value, limit, limit - value,
-                                  "t/ha", basis, details, dominant=dominant(details, "t_ha"), notes=notes)
+        applies = np.ones(np.shape(value), bool) if below is None else np.asarray(agb_true) < below
+        details["applies"] = plain(np.asarray(applies, dtype=float))
+        return RequirementVerdict(self.label, truth((np.asarray(value) <= limit) | ~applies), value, limit,
+                                  limit - value, "t/ha", basis, details, dominant=dominant(details, "t_ha"),
+                                  notes=notes)

@@ -2,8 +2,13 @@
 
 from __future__ import annotations
 
+import numpy as np
+
 from e2esim import products as P
-from e2esim.requirements.verdict import RequirementVerdicts
+from e2esim.requirements.verdict import RequirementVerdicts, RequirementVerdictsBlock
+
+_CURVE_CASES = 32
+"""Cases whose trade-off curves are traced at once (a few tens of MB of temporaries)."""
 
 
 def _union(groups) -> tuple:
@@ -35,3 +40,25 @@ class RequirementSet:
 
     def forward(self, case) -> dict:
         return {"verdicts": RequirementVerdicts(tuple(r.evaluate(case) for r in self.requirements))}
+
+    def forward_block(self, block):
+        """The verdicts of a block at once, when every requirement evaluates blocks (``batched``) and the block's
+        AGB error is batched (analytic); None (case by case) otherwise, or when one of them cannot take the block
+        as a whole (the per-case run then says why, case by case)."""
+        from e2esim.block import Batched, BlockView, NotBatched
+        from e2esim.errors import ConfigError
+
+        if not isinstance(block.get("agb.error"), Batched) or not all(
+                getattr(r, "batched", False) and r.si.get("basis", "auto") != "montecarlo" for r in self.requirements):
+            return None
+        # a trade-off curve holds (cases x points x root-finding levels x quadrature nodes) numbers: in parts
+        size = _CURVE_CASES if any(r.config.get("tradeoff_curve") for r in self.requirements) else len(block)
+        parts = []
+        for start in range(0, len(block), size):
+            part = block if size >= len(block) else block.take(np.arange(start, min(start + size, len(block))))
+            try:
+                parts.append(RequirementVerdictsBlock(tuple(r.evaluate(BlockView(part)) for r in self.requirements),
+                                                      len(part)))
+            except (NotBatched, ConfigError):
+                return None
+        return {"verdicts": parts[0] if len(parts) == 1 else RequirementVerdictsBlock.concatenate(parts)}

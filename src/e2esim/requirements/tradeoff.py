@@ -70,20 +70,35 @@ class AGBRequirement:
         return float(standard_normal_quantile(self.confidence))
 
     @property
-    def f(self) -> float:
-        """f_max (> 0) or f_min (< 0): relative sigma_hv error at the AGB bound, eq. (16)."""
+    def f(self):
+        """f_max (> 0) or f_min (< 0): relative sigma_hv error at the AGB bound, eq. (16) (an array over cases
+        when the exponent is one)."""
         if self.relative_threshold is not None:
-            return float(self.relative_threshold)
+            return _plain(self.relative_threshold)
         level = self.bound if self.side == "over" else -self.bound
-        return float(sigma_relative_error(level, self.exponent))
+        return _plain(sigma_relative_error(level, self.exponent))
 
     def violation(self, mean, sd, sigma_hv):
-        """Signed distance from the limit of eq. (19) (m^2/m^2): <= 0 passes, > 0 fails."""
-        if self.extra_variance:
-            sd = np.sqrt(np.asarray(sd) ** 2 + self.extra_variance)
+        """Signed distance from the limit of eq. (19) (m^2/m^2): <= 0 passes, > 0 fails. ``mean`` and ``sd`` have
+        the shape of the levels; ``sigma_hv``, the exponent and the extra variance are per case (shape C, aligned
+        on the leading axes)."""
+        mean, sd = np.asarray(mean), np.asarray(sd)
+        extra = _aligned(self.extra_variance, sd)
+        sd = np.where(extra != 0, np.sqrt(sd**2 + extra), sd)
+        f_sigma = _aligned(self.f, mean) * _aligned(sigma_hv, mean)
         if self.side == "over":
-            return mean + self.z * sd - self.f * sigma_hv
-        return self.f * sigma_hv - (mean - self.z * sd)
+            return mean + self.z * sd - f_sigma
+        return f_sigma - (mean - self.z * sd)
+
+
+def _aligned(x, like):
+    """``x`` (per case, shape C) with trailing length-1 axes to broadcast against ``like`` (shape C + levels)."""
+    x = np.asarray(x, dtype=float)
+    return x.reshape(x.shape + (1,) * (np.ndim(like) - x.ndim)) if x.ndim and np.ndim(like) > x.ndim else x
+
+
+def _plain(x):
+    return float(x) if np.ndim(x) == 0 else np.asarray(x, dtype=float)
 
 
 def requirement_violation(requirement: AGBRequirement, model, **levels):
@@ -154,11 +169,13 @@ def tradeoff_curve(requirement: AGBRequirement, model, crosstalk_levels) -> np.n
     already breaks it; +inf where no channel-imbalance level up to 1 does.
     """
     x = np.atleast_1d(np.asarray(crosstalk_levels, dtype=float))
+    cases = np.shape(model.value)  # () for one case, (B,) for a block
+    levels = x.reshape((1,) * len(cases) + x.shape + (1,))
 
     def violation(v_eps):
-        return requirement_violation(requirement, model, crosstalk=x[:, None], channel_imbalance=v_eps)
+        return requirement_violation(requirement, model, crosstalk=levels, channel_imbalance=v_eps)
 
-    return first_failing_level(violation, x.shape)
+    return first_failing_level(violation, cases + x.shape)
 
 
 def axis_limits(requirement: AGBRequirement, model) -> dict:
@@ -171,9 +188,10 @@ def axis_limits(requirement: AGBRequirement, model) -> dict:
     def crosstalk_alone(v):
         return requirement_violation(requirement, model, crosstalk=v, channel_imbalance=0.0)
 
+    cases = np.shape(model.value)
     return {
-        "imbalance_limit": float(first_failing_level(imbalance_alone)),
-        "crosstalk_limit": float(first_failing_level(crosstalk_alone)),
+        "imbalance_limit": _plain(first_failing_level(imbalance_alone, cases)),
+        "crosstalk_limit": _plain(first_failing_level(crosstalk_alone, cases)),
     }
 
 

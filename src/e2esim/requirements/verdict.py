@@ -4,6 +4,10 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+import numpy as np
+
+from e2esim.block import Batched, object_array, repeated
+
 
 @dataclass(frozen=True)
 class RequirementVerdict:
@@ -53,3 +57,99 @@ class RequirementVerdicts:
             out[f"requirement{i}.value"] = v.value
             out[f"requirement{i}.margin"] = v.margin
         return out
+
+
+@dataclass(frozen=True, eq=False)
+class RequirementVerdictsBlock(Batched):
+    """The verdicts of a block of B cases (``e2esim.block.Batched``): ``RequirementVerdict``s whose numbers,
+    verdicts and dominant sources are arrays over the cases (or one value for all), in scenario order."""
+
+    verdicts: tuple
+    n: int
+
+    def __len__(self) -> int:
+        return self.n
+
+    def item(self, i: int) -> RequirementVerdicts:
+        return RequirementVerdicts(tuple(_verdict_at(v, i) for v in self.verdicts))
+
+    def take(self, positions) -> RequirementVerdictsBlock:
+        positions = np.asarray(positions)
+        return RequirementVerdictsBlock(tuple(_verdict_take(v, positions) for v in self.verdicts), len(positions))
+
+    @classmethod
+    def concatenate(cls, parts: list) -> RequirementVerdictsBlock:
+        n = sum(p.n for p in parts)
+        return RequirementVerdictsBlock(tuple(_verdict_join([p.verdicts[j] for p in parts], [p.n for p in parts])
+                                              for j in range(len(parts[0].verdicts))), n)
+
+    def scalar_columns(self) -> dict:
+        out = {}
+        for i, v in enumerate(self.verdicts):
+            out[f"requirement{i}.passed"] = np.broadcast_to(np.asarray(v.passed, dtype=float), (self.n,))
+            out[f"requirement{i}.value"] = np.broadcast_to(np.asarray(v.value, dtype=float), (self.n,))
+            out[f"requirement{i}.margin"] = np.broadcast_to(np.asarray(v.margin, dtype=float), (self.n,))
+        return out
+
+    def columns(self) -> list:
+        """``e2esim.runner.columns.RequirementColumns`` per requirement."""
+        from e2esim.runner.columns import Column, RequirementColumns
+
+        n, out = self.n, []
+        for v in self.verdicts:
+            curves = object_array([_curves_at(v.curves, i) for i in range(n)]) if v.curves else None
+            out.append(RequirementColumns(
+                name=repeated(v.name, n), passed=np.broadcast_to(np.asarray(v.passed, dtype=bool), (n,)),
+                value=_floats(v.value, n), limit=_floats(v.limit, n), margin=_floats(v.margin, n),
+                unit=repeated(v.unit, n), basis=repeated(v.basis, n),
+                dominant=v.dominant if isinstance(v.dominant, np.ndarray) else repeated(v.dominant, n),
+                notes=repeated(tuple(v.notes), n),
+                details={k: Column(_floats(x, n)) for k, x in v.details.items()}, curves=curves))
+        return out
+
+
+def _floats(x, n: int) -> np.ndarray:
+    return np.broadcast_to(np.asarray(x, dtype=float), (n,))
+
+
+def _at(x, i: int):
+    return x[i] if isinstance(x, np.ndarray) and x.ndim else x
+
+
+def _curves_at(curves: dict, i: int) -> dict:
+    return {name: (c[i] if c.ndim == 2 else c) for name, c in curves.items()}
+
+
+def _verdict_at(v: RequirementVerdict, i: int) -> RequirementVerdict:
+    return RequirementVerdict(
+        name=v.name, passed=bool(_at(v.passed, i)), value=float(_at(v.value, i)), limit=float(_at(v.limit, i)),
+        margin=float(_at(v.margin, i)), unit=v.unit, basis=v.basis,
+        details={k: float(_at(x, i)) for k, x in v.details.items()}, curves=_curves_at(v.curves, i),
+        dominant=str(_at(v.dominant, i)), notes=v.notes)
+
+
+def _verdict_take(v: RequirementVerdict, positions) -> RequirementVerdict:
+    def take(x):
+        return x[positions] if isinstance(x, np.ndarray) and x.ndim else x
+
+    return RequirementVerdict(v.name, take(v.passed), take(v.value), take(v.limit), take(v.margin), v.unit, v.basis,
+                              {k: take(x) for k, x in v.details.items()},
+                              {k: (c[positions] if c.ndim == 2 else c) for k, c in v.curves.items()},
+                              take(v.dominant), v.notes)
+
+
+def _verdict_join(parts: list, sizes: list) -> RequirementVerdict:
+    def join(get, dtype=None):
+        values = [get(p) for p in parts]
+        if all(not (isinstance(x, np.ndarray) and x.ndim) for x in values) and all(x == values[0] for x in values):
+            return values[0]
+        return np.concatenate([np.broadcast_to(np.asarray(x, dtype=dtype), (n,)) for x, n in zip(values, sizes)])
+
+    first = parts[0]
+    curves = {}
+    for name, c in first.curves.items():
+        curves[name] = np.concatenate([p.curves[name] for p in parts]) if c.ndim == 2 else c
+    return RequirementVerdict(first.name, join(lambda p: p.passed, bool), join(lambda p: p.value, float),
+                              join(lambda p: p.limit, float), join(lambda p: p.margin, float), first.unit, first.basis,
+                              {k: join(lambda p, k=k: p.details[k], float) for k in first.details}, curves,
+                              join(lambda p: p.dominant, object), first.notes)

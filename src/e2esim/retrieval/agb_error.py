@@ -155,53 +155,60 @@ class AGBError:
         return (self.error_mean is not None) if basis == "analytic" else (self.samples is not None)
 
     def relative_agb(self, sigma_relative):
-        """q for relative sigma errors x (the power law or the retrieval model's map)."""
+        """q for relative sigma errors x (the power law or the retrieval model's map). With a case axis (fields
+        of shape C), x has shape C + further axes."""
         if self.mapping is None:
-            return agb_relative_error(sigma_relative, self.exponent)
+            x = np.asarray(sigma_relative, dtype=float)
+            return agb_relative_error(x, _along(self.exponent, x.ndim - np.ndim(self.exponent)))
         return self.mapping(np.asarray(sigma_relative, dtype=float))
 
-    def sigma_threshold(self, level) -> float:
+    def sigma_threshold(self, level):
         """Relative sigma_hv error x at which the relative AGB error reaches ``level`` (eq. 16 or the map)."""
         if self.mapping is None:
-            return float(sigma_relative_error(level, self.exponent))
+            return _plain(sigma_relative_error(level, self.exponent))
         return self.mapping.threshold(level)
 
     # Quantiles, exceedance, RMSE ----------------------------------------------------------
+    # The analytic answers are element-wise in the fields, which may carry a leading case axis (a block of
+    # sweep cases, ``AGBErrorBlock``): a case gets the same numbers alone or in a block.
     def quantile(self, probability, basis: str = "analytic"):
-        """Relative AGB error q_P with P(q <= q_P) = probability."""
+        """Relative AGB error q_P with P(q <= q_P) = probability (shape C + the shape of ``probability``)."""
         probability = np.asarray(probability, dtype=float)
         if basis == "analytic":
-            e = self.error_mean + standard_normal_quantile(probability) * self.error_sd
-            return self.relative_agb(e / self.sigma_hv)
+            k = probability.ndim
+            e = _along(self.error_mean, k) + standard_normal_quantile(probability) * _along(self.error_sd, k)
+            return self.relative_agb(e / _along(self.sigma_hv, k))
         return np.quantile(self.samples, probability)
 
     def exceedance(self, bound, side: str = "over", basis: str = "analytic"):
         """P(q > bound) for side "over" (bound > 0), P(q < -bound) for side "under" (bound > 0)."""
         level = bound if side == "over" else -bound
         if basis == "analytic":
-            threshold = self.sigma_threshold(level) * self.sigma_hv  # f sigma_hv, eq. (19)
-            if not np.isfinite(threshold):
-                return 0.0 if side == "over" else 1.0
-            z = (threshold - self.error_mean) / self.error_sd if self.error_sd > 0 else np.inf * np.sign(
-                threshold - self.error_mean
-            )
-            return float(special.ndtr(-z) if side == "over" else special.ndtr(z))
+            threshold = self.sigma_threshold(level) * np.asarray(self.sigma_hv)  # f sigma_hv, eq. (19)
+            below = threshold - np.asarray(self.error_mean)
+            sd = np.asarray(self.error_sd)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                z = np.where(sd > 0, below / np.where(sd > 0, sd, 1.0), np.inf * np.sign(below))
+            p = special.ndtr(-z) if side == "over" else special.ndtr(z)
+            return _plain(np.where(np.isfinite(threshold), p, 0.0 if side == "over" else 1.0))
         return float(np.mean(self.samples > level) if side == "over" else np.mean(self.samples < level))
 
-    def rmse(self, basis: str = "analytic") -> float:
+    def rmse(self, basis: str = "analytic"):
         """Root-mean-square relative AGB error sqrt(E[q^2]) (bias and spread together)."""
         if basis == "analytic":
-            e = self.error_mean + self.error_sd * _HERMITE_NODES
-            q = self.relative_agb(e / self.sigma_hv)
-            return float(np.sqrt(np.dot(_HERMITE_WEIGHTS, q**2)))
+            return _plain(np.sqrt(hermite_average(self._q_at_nodes() ** 2)))
         return float(np.sqrt(np.mean(self.samples**2)))
 
-    def mean(self, basis: str = "analytic") -> float:
+    def mean(self, basis: str = "analytic"):
         """Mean relative AGB error E[q]."""
         if basis == "analytic":
-            e = self.error_mean + self.error_sd * _HERMITE_NODES
-            return float(np.dot(_HERMITE_WEIGHTS, self.relative_agb(e / self.sigma_hv)))
+            return _plain(hermite_average(self._q_at_nodes()))
         return float(np.mean(self.samples))
+
+    def _q_at_nodes(self):
+        """q at the Gauss-Hermite nodes of the Gaussian sigma error (shape C + (64,))."""
+        e = _along(self.error_mean, 1) + _along(self.error_sd, 1) * _HERMITE_NODES
+        return self.relative_agb(e / _along(self.sigma_hv, 1))
 
     # Contributions ---------------------------------------------------------------------------
     def contribution(self, name: str) -> AGBContribution:
@@ -214,26 +221,33 @@ class AGBError:
         """The relative AGB error a contribution causes on its own (Gaussian x, through the map):
         mean, SD and RMSE of q (fractions), and its share of the total sigma error variance."""
         c = self.contribution(name)
-        stats_ = _gaussian_q_stats(self.relative_agb, c.relative_mean, max(c.relative_variance, 0.0))
-        total = sum(max(k.relative_variance, 0.0) for k in self.contributions)
-        stats_["variance_share"] = max(c.relative_variance, 0.0) / total if total > 0 else 0.0
+        variance = np.maximum(c.relative_variance, 0.0)
+        stats_ = _gaussian_q_stats(self.relative_agb, c.relative_mean, variance)
+        total = sum(np.maximum(k.relative_variance, 0.0) for k in self.contributions)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            stats_["variance_share"] = _plain(np.where(total > 0, variance / np.where(total > 0, total, 1.0), 0.0))
         stats_["sigma_mean_percent"] = 100 * c.relative_mean
-        stats_["sigma_sd_percent"] = 100 * float(np.sign(c.relative_variance) * np.sqrt(abs(c.relative_variance)))
+        stats_["sigma_sd_percent"] = 100 * _plain(np.sign(c.relative_variance) * np.sqrt(np.abs(c.relative_variance)))
         return stats_
 
     def scalars(self) -> dict:
         """Output scalars (``agb.*``): the exponent; per basis the mean, RMSE and quantiles of the relative AGB
         error (percent) and the saturated fraction; per named contribution the relative AGB error it causes
         on its own (mean, SD, RMSE in percent), its share of the sigma error variance and its relative
-        sigma error (docs/output-format.md)."""
+        sigma error (docs/output-format.md). Arrays over cases for a block."""
         out = {"exponent": self.exponent}
         for basis in ("analytic", "montecarlo"):
             if self.has(basis):
-                out[f"{basis}.mean_percent"] = 100 * self.mean(basis)
-                out[f"{basis}.rmse_percent"] = 100 * self.rmse(basis)
+                if basis == "analytic":  # q at the nodes once for both
+                    q = self._q_at_nodes()
+                    out[f"{basis}.mean_percent"] = 100 * _plain(hermite_average(q))
+                    out[f"{basis}.rmse_percent"] = 100 * _plain(np.sqrt(hermite_average(q**2)))
+                else:
+                    out[f"{basis}.mean_percent"] = 100 * self.mean(basis)
+                    out[f"{basis}.rmse_percent"] = 100 * self.rmse(basis)
                 quantiles = self.quantile(np.array(list(REPORTED_QUANTILES.values())), basis)
-                for label, q in zip(REPORTED_QUANTILES, quantiles):
-                    out[f"{basis}.{label}_percent"] = 100 * float(q)
+                for k, label in enumerate(REPORTED_QUANTILES):
+                    out[f"{basis}.{label}_percent"] = 100 * quantiles[..., k]
         for basis, fraction in self.saturated_fraction:
             out[f"{basis}.saturated_fraction"] = fraction
         for c in self.contributions:
@@ -255,11 +269,29 @@ class AGBError:
 
 
 def _gaussian_q_stats(mapping, mean, variance) -> dict:
-    x = mean + np.sqrt(variance) * _HERMITE_NODES
+    x = _along(mean, 1) + np.sqrt(_along(variance, 1)) * _HERMITE_NODES
     q = mapping(x)
-    m = float(np.dot(_HERMITE_WEIGHTS, q))
-    ms = float(np.dot(_HERMITE_WEIGHTS, q**2))
-    return {"mean": m, "sd": float(np.sqrt(max(ms - m**2, 0.0))), "rmse": float(np.sqrt(ms))}
+    m = hermite_average(q)
+    ms = hermite_average(q**2)
+    return {"mean": _plain(m), "sd": _plain(np.sqrt(np.maximum(ms - np.square(m), 0.0))), "rmse": _plain(np.sqrt(ms))}
+
+
+def hermite_average(values):
+    """E[h(Z)], Z standard normal, from h at the 64 Gauss-Hermite nodes (last axis): an element-wise product
+    and numpy's sum, the same operations for one case as for a block of them."""
+    return (values * _HERMITE_WEIGHTS).sum(-1)
+
+
+def _along(x, extra: int):
+    """``x`` (a number, or an array over cases) with ``extra`` trailing length-1 axes, to broadcast against
+    arrays of shape case + ``extra`` further axes."""
+    x = np.asarray(x, dtype=float)
+    return x.reshape(x.shape + (1,) * extra) if extra > 0 else x
+
+
+def _plain(x):
+    """A float for a 0-d result (one case), the array otherwise (a block)."""
+    return float(x) if np.ndim(x) == 0 else np.asarray(x)
 
 
 def binomial_interval(successes: int, trials: int, confidence: float = 0.95) -> tuple[float, float]:

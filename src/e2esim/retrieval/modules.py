@@ -121,6 +121,25 @@ class PowerLawRetrieval(_Retrieval):
             regression = self.regression(case, PowerLaw.through(agb, model.value, p), agb)
         return self.combine(case, p, None, regression)
 
+    def forward_block(self, block):
+        """``forward`` for a block of cases at once when the error is the propagation's alone (no error budget,
+        no regression) and analytic for every case (``AGBErrorBlock``); None (case by case) otherwise."""
+        from e2esim.block import Batched, Factor
+        from e2esim.retrieval.agb_error_block import AGBErrorBlock
+
+        model, scene = block["backscatter.error"], block["scene.covariance"]
+        if ("backscatter.budget" in block or self.campaign.mode != "none" or not isinstance(model, Batched)
+                or model.unavailable is not None or not isinstance(scene, Factor)
+                or type(self).case_exponent is not PowerLawRetrieval.case_exponent):
+            return None
+        try:
+            p = scene.gather(self.exponent_for, name=f"power-law exponent {id(self)}")
+        except ConfigError:
+            return None  # case by case, where forward says which scene
+        m = model.current()
+        return {"agb.error": AGBErrorBlock(p, np.asarray(model.value, dtype=float), np.asarray(m.mean, dtype=float),
+                                           np.asarray(m.sd, dtype=float))}
+
 
 class SaturatingRetrieval(_Retrieval):
     """The saturating model of Ahmed et al. (2014), eq. (1), inverted numerically with explicit saturation.

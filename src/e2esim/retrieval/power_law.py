@@ -47,13 +47,16 @@ def sigma_relative_error(agb_relative_error, exponent):
 
 
 def agb_relative_error(sigma_relative, exponent):
-    """Relative AGB error from a relative sigma_hv error x: ``q = (1 + x)^p - 1`` (inverse of eq. 16).
+    """Relative AGB error from a relative sigma_hv error x: ``q = (1 + x)^p - 1`` (inverse of eq. 16),
+    computed as ``expm1(p log1p(x))``: exact to rounding also for small x, where ``(1 + x)^p - 1`` loses digits.
 
     A sigma_hv estimate at or below zero (x <= -1, possible in the tails of a Gaussian model of the
     error, never in the simulated power) means an AGB estimate of zero: q = -1.
     """
     x = np.asarray(sigma_relative, dtype=float)
-    return np.maximum(1.0 + x, 0.0) ** exponent - 1.0
+    with np.errstate(divide="ignore", invalid="ignore"):
+        q = np.expm1(exponent * np.log1p(x))
+    return np.where(x > -1.0, q, -1.0)
 
 
 @dataclass(frozen=True)

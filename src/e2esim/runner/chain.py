@@ -31,11 +31,20 @@ def assemble(modules: list, root: Location) -> list:
             requirements.append(module)
         else:
             stages.append(module)
-    where = calibration[0].location.parent() if calibration else root.child("calibration")
-    stages.append(CalibrationStrategy(calibration, where))
+    stages.append(calibration_stage(calibration, root))
     if requirements:
-        stages.append(RequirementSet(requirements, requirements[0].location.parent()))
+        stages.append(requirement_stage(requirements, root))
     return order(stages)
+
+
+def calibration_stage(modules: list, root: Location) -> CalibrationStrategy:
+    """The calibration strategy of a case's calibration modules (none: a strategy with no steps)."""
+    return CalibrationStrategy(modules, modules[0].location.parent() if modules else root.child("calibration"))
+
+
+def requirement_stage(modules: list, root: Location) -> RequirementSet:
+    """The requirement set of a case's requirement modules."""
+    return RequirementSet(modules, modules[0].location.parent() if modules else root.child("requirements"))
 
 
 def order(stages: list) -> list:

@@ -1,14 +1,13 @@
 """Where sweep cases run: in this process, on local worker processes, or on a dask.distributed cluster.
 
 Every case carries its own seed (``run.case_generator``), so the numbers are the same whichever executor
-runs it and in whatever order. Cases are sent in batches to keep the per-task overhead small; results
-come back as each batch finishes. Local worker processes end with the main process, however it ends
-(``exit_with_parent``).
+runs it and in whatever order. The unit of work is a block of cases (``e2esim.runner.run.block_tasks``); the
+resolved scenario goes to each worker once, and results come back as each block finishes. Local worker
+processes end with the main process, however it ends (``exit_with_parent``).
 """
 
 from __future__ import annotations
 
-import math
 import os
 import pickle
 import re
@@ -20,62 +19,71 @@ from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 
 from e2esim.errors import UserError
 
-_BATCHES_PER_WORKER = 8  # enough batches for load balancing and frequent journal writes
 _PR_SET_PDEATHSIG = 1  # linux/prctl.h
 _PARENT_POLL_S = 0.5
 
-
-def run_batch(specs: list) -> list:
-    from e2esim.runner.run import run_case
-
-    return [run_case(spec) for spec in specs]
+_WORKER: dict = {}  # in a worker process: the scenario it runs blocks of, and its stage memo
 
 
-def run_batch_remote(specs: list, packages: frozenset) -> list:
-    """``run_batch`` for another process: each result as (pickle, journal frame or None), both made here.
-    The pickle carries the result to the main process (memory to memory, never a file); the frame, plain
-    data (e2esim.runner.journal), is what the main process appends to the journal as it is."""
-    from e2esim.runner.journal import encode_case
-
-    return [(pickle.dumps(r, protocol=pickle.HIGHEST_PROTOCOL), encode_case(r, packages)) for r in run_batch(specs)]
-
-
-def _batches(specs: list, workers: int) -> list:
-    size = max(1, math.ceil(len(specs) / (workers * _BATCHES_PER_WORKER)))
-    return [specs[i:i + size] for i in range(0, len(specs), size)]
-
-
-def iter_results(specs: list, workers: int = 1, scheduler: str | None = None, packages: frozenset | None = None):
-    """Yield ``(CaseResult, journal frame or None)`` as cases finish (not necessarily in case order); frames
+def iter_blocks(resolved, tasks: list, workers: int = 1, scheduler: str | None = None, engine: str = "batched",
+                keep_products: bool = False, packages: frozenset | None = None):
+    """Yield ``(BlockResult, journal frame or None)`` as blocks finish (not necessarily in case order); frames
     come from other processes, made with ``packages`` (e2esim.runner.plaindata.allowed_packages)."""
-    if not specs:
+    from e2esim.runner.blocks import StageMemo
+    from e2esim.runner.run import default_services, run_block
+
+    if not tasks:
         return
     if scheduler:
         check_scheduler_address(scheduler)
+    if not scheduler and workers <= 1:
+        services, memo = default_services(), StageMemo()
+        for indices in tasks:
+            yield run_block(resolved, indices, engine, keep_products, services, memo), None
+        return
     if packages is None:
         from e2esim.runner.plaindata import allowed_packages
 
         packages = allowed_packages()
-    if scheduler:
-        remote = _dask(specs, scheduler, packages)
-    elif workers > 1:
-        remote = _processes(specs, workers, packages)
-    else:
-        for spec in specs:
-            yield run_batch([spec])[0], None
-        return
+    options = (engine, keep_products, packages)
+    remote = _dask(resolved, tasks, scheduler, options) if scheduler else _processes(resolved, tasks, workers,
+                                                                                        options)
     for data, frame in remote:
         yield pickle.loads(data), frame
 
 
-def _processes(specs: list, workers: int, packages: frozenset):
-    with ProcessPoolExecutor(max_workers=workers, initializer=exit_with_parent) as pool:
-        pending = {pool.submit(run_batch_remote, batch, packages) for batch in _batches(specs, workers)}
+def run_block_remote(indices, options: tuple, resolved=None) -> tuple:
+    """``run_block`` in another process: the result as (pickle, journal frame or None), both made here. The
+    pickle carries the result to the main process (memory to memory, never a file); the frame, plain data
+    (e2esim.runner.journal), is what the main process appends to the journal as it is. The scenario comes with
+    the call (dask) or was set once when the worker started (``_start_worker``)."""
+    from e2esim.runner.blocks import StageMemo
+    from e2esim.runner.journal import encode_block
+    from e2esim.runner.run import default_services, run_block
+
+    engine, keep_products, packages = options
+    if resolved is None:
+        resolved = _WORKER["resolved"]
+    if _WORKER.get("for") is not resolved:
+        _WORKER.update({"for": resolved, "memo": StageMemo(), "services": default_services()})
+    result = run_block(resolved, indices, engine, keep_products, _WORKER["services"], _WORKER["memo"])
+    return pickle.dumps(result, protocol=pickle.HIGHEST_PROTOCOL), encode_block(result, packages)
+
+
+def _start_worker(scenario: bytes) -> None:
+    exit_with_parent()
+    _WORKER["resolved"] = pickle.loads(scenario)
+
+
+def _processes(resolved, tasks: list, workers: int, options: tuple):
+    scenario = pickle.dumps(resolved, protocol=pickle.HIGHEST_PROTOCOL)  # sent once to each worker, not per block
+    with ProcessPoolExecutor(max_workers=workers, initializer=_start_worker, initargs=(scenario,)) as pool:
+        pending = {pool.submit(run_block_remote, indices, options) for indices in tasks}
         try:
             while pending:
                 done, pending = wait(pending, return_when=FIRST_COMPLETED)
                 for future in done:
-                    yield from future.result()
+                    yield future.result()
         except BaseException:
             for future in pending:
                 future.cancel()
@@ -127,7 +135,7 @@ def check_scheduler_address(address: str) -> None:
                         f"SCHEME one of {', '.join(_SCHEDULER_SCHEMES)} (e.g. tcp://10.0.0.5:8786), or HOST:PORT")
 
 
-def _dask(specs: list, address: str, packages: frozenset):
+def _dask(resolved, tasks: list, address: str, options: tuple):
     try:
         from distributed import Client, as_completed
     except ImportError as exc:  # pragma: no cover - dask.distributed is a dependency
@@ -138,11 +146,11 @@ def _dask(specs: list, address: str, packages: frozenset):
         reason = " ".join(str(exc).split())[:200]
         raise UserError(f"cannot connect to the dask scheduler at {address}: {reason}") from exc
     try:
-        workers = max(1, len(client.scheduler_info().get("workers", {})))
-        futures = client.map(run_batch_remote, _batches(specs, workers), packages=packages, pure=False)
+        scenario = client.scatter(resolved, broadcast=True)  # once per worker, not per block
+        futures = client.map(run_block_remote, tasks, options=options, resolved=scenario, pure=False)
         try:
             for future in as_completed(futures):
-                yield from future.result()
+                yield future.result()
         except BaseException:
             client.cancel(futures)
             raise

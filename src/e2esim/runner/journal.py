@@ -1,22 +1,23 @@
 """Incremental results of a run, so an interrupted sweep resumes without recomputing finished cases.
 
-While a run is going, every finished case is appended, as soon as it finishes, to
+While a run is going, every finished block of cases (``e2esim.runner.run.BlockResult``: the columns of its
+cases, and their products when the run keeps them) is appended, as soon as it finishes, to
 ``<output>/.e2esim-partial/cases.journal``, beside a ``manifest.json`` holding the journal format and
-the run's fingerprint: the resolved scenario, every case's inputs and seed, and the e2esim version.
+the run's fingerprint: the resolved scenario, the sweep, every seed, and the e2esim version.
 Both are plain data, never pickle (``e2esim.runner.plaindata``): each record is a frame
 
-    magic "E2J1" | case index, header length, payload length (little-endian u64) | CRC-32 | header | payload
+    magic "E2J2" | number of cases, header length, payload length (little-endian u64) | CRC-32 | header | payload
 
-with a JSON header and the case's numeric arrays as raw bytes. Reading a journal builds numbers, text,
+with a JSON header and the block's numeric arrays as raw bytes. Reading a journal builds numbers, text,
 arrays and e2esim's own result objects, and runs no code from the file; a record that does not check out
 (magic, lengths, CRC, JSON, dtypes and shapes, allowed classes, the case it claims to be) makes the
 journal corrupt: exit status 2, with ``--force`` as the way out. A process killed while writing leaves at
-most a torn last frame, shorter than it says, which ``--resume`` cuts off. A case whose result holds
+most a torn last frame, shorter than it says, which ``--resume`` cuts off. A block whose result holds
 something plain data cannot store (a plug-in's own object, say) is simply not journaled and runs again
 on resume. The files are created with the first finished case, so a run that fails before any case
 finishes (an unreachable scheduler) leaves no journal. ``e2esim run --resume`` loads the records when the
 fingerprint matches, runs the other cases and writes the final outputs; the journal is then removed.
-One appended file, not a file per case, keeps the bookkeeping cheap for sweeps of many thousand cases.
+One appended file of blocks keeps the bookkeeping cheap for sweeps of a million cases.
 """
 
 from __future__ import annotations
@@ -28,6 +29,8 @@ import struct
 import zlib
 from pathlib import Path
 
+import numpy as np
+
 import e2esim
 from e2esim.errors import JournalError, OutputExistsError, OutputFolderError
 from e2esim.io.atomic import write_text_atomic
@@ -37,30 +40,35 @@ JOURNAL = ".e2esim-partial"
 _RECORDS = "cases.journal"
 _MANIFEST = "manifest.json"
 FORMAT = "e2esim-journal"
-VERSION = 2  # 1 was the pickle journal of e2esim <= 0.x, which is never read
-_MAGIC = b"E2J1"
-_FRAME = struct.Struct("<4sQQQI")  # magic, case index, header length, payload length, CRC-32 of both
+VERSION = 3  # 1 was the pickle journal of e2esim <= 0.x, 2 a journal of single cases; neither is read
+_MAGIC = b"E2J2"
+_FRAME = struct.Struct("<4sQQQI")  # magic, number of cases, header length, payload length, CRC-32 of both
 
 
 def fingerprint(resolved) -> str:
-    """Hash of everything that determines the numbers of a run."""
+    """Hash of everything that determines the numbers of a run: the version, the resolved scenario, the sweep
+    (every case's inputs follow from it) and every seed."""
+    table = resolved.plan.table
     payload = {
         "version": e2esim.__version__,
         "resolved": resolved.resolved,
-        "cases": [[c.index, c.inputs, c.settings.seed] for c in resolved.cases],
+        "sweep": [table.layout, [[list(g.keys), [list(v) for v in g.values]] for g in table.groups]],
+        "seeds": [s.seed for s in resolved.plan.settings_slot.objects],
     }
-    text = json.dumps(payload, sort_keys=True, default=str)
-    return hashlib.sha256(text.encode()).hexdigest()
+    digest = hashlib.sha256(json.dumps(payload, sort_keys=True, default=str).encode())
+    if table.table is not None:
+        digest.update(np.ascontiguousarray(table.table).tobytes())
+    return digest.hexdigest()
 
 
-def encode_case(result, packages: frozenset) -> bytes | None:
-    """The journal frame of one finished case, or None if its result is not plain data."""
+def encode_block(result, packages: frozenset) -> bytes | None:
+    """The journal frame of one finished block, or None if its result is not plain data."""
     try:
         header, payload = encode(result, packages)
     except (NotPlainData, ValueError):
         return None
     crc = zlib.crc32(payload, zlib.crc32(header))
-    return _FRAME.pack(_MAGIC, result.index, len(header), len(payload), crc) + header + payload
+    return _FRAME.pack(_MAGIC, len(result), len(header), len(payload), crc) + header + payload
 
 
 class Journal:
@@ -80,10 +88,10 @@ class Journal:
     def finished_count(self) -> int:
         return self._count
 
-    def start(self, resume: bool) -> dict:
-        """Check an existing journal; with ``resume``, return the finished cases it holds ({index: CaseResult})."""
+    def start(self, resume: bool) -> list:
+        """Check an existing journal; with ``resume``, return the finished blocks it holds (``BlockResult``s)."""
         if not self.exists():
-            return {}
+            return []
         manifest = read_manifest(self.path)
         if not resume:
             raise OutputExistsError(
@@ -96,31 +104,37 @@ class Journal:
                 "version; use --force to start again"
             )
         frames, good_length = _frames(self.path / _RECORDS)
-        finished = {}
-        for number, (index, header, payload) in enumerate(frames):
-            finished[index] = self._case(number, index, header, payload)
+        finished = []
+        seen = np.zeros(len(self.resolved.cases), dtype=bool)
+        for number, (count, header, payload) in enumerate(frames):
+            block = self._block(number, count, header, payload)
+            if seen[block.indices].any():
+                raise _corrupt(self.path, f"record {number} repeats cases of an earlier record")
+            seen[block.indices] = True
+            finished.append(block)
         with open(self.path / _RECORDS, "r+b") as fh:  # cut a torn last frame off, so appends continue cleanly
             fh.truncate(good_length)
-        self._count = len(finished)
+        self._count = int(seen.sum())
         return finished
 
-    def _case(self, number: int, index: int, header: bytes, payload: bytes):
-        from e2esim.runner.run import CaseResult
+    def _block(self, number: int, count: int, header: bytes, payload: bytes):
+        from e2esim.runner.run import BlockResult
 
         try:
             result = decode(header, payload, self.packages)
         except BadPlainData as exc:
             raise _corrupt(self.path, f"record {number} is not valid: {exc}") from exc
-        cases = self.resolved.cases
-        if not isinstance(result, CaseResult) or result.index != index or not 0 <= index < len(cases):
-            raise _corrupt(self.path, f"record {number} is not a finished case of this run")
-        if result.inputs != cases[index].inputs:
-            raise _corrupt(self.path, f"record {number} holds other inputs than case {index}")
+        n = len(self.resolved.cases)
+        indices = getattr(result, "indices", None)
+        if (not isinstance(result, BlockResult) or not isinstance(indices, np.ndarray) or indices.ndim != 1
+                or indices.dtype.kind not in "iu" or len(indices) != count or count == 0
+                or indices.min() < 0 or indices.max() >= n or len(np.unique(indices)) != count):
+            raise _corrupt(self.path, f"record {number} is not a finished block of this run")
         return result
 
     def record(self, result, data: bytes | None = None) -> None:
-        """Append one finished case (``data``: its frame, when a worker already made it)."""
-        data = encode_case(result, self.packages) if data is None else data
+        """Append one finished block (``data``: its frame, when a worker already made it)."""
+        data = encode_block(result, self.packages) if data is None else data
         if data is None:
             return  # not plain data: it runs again on resume
         if self._file is None:
@@ -129,10 +143,10 @@ class Journal:
             self._file.write(data)
             self._file.flush()  # in the OS's hands at once: a killed process loses nothing it reported finished
         except OSError as exc:
-            raise OutputFolderError(f"{self.path}: cannot save a finished case: {exc.strerror or exc}; "
+            raise OutputFolderError(f"{self.path}: cannot save a finished block: {exc.strerror or exc}; "
                                     f"{self._count} cases are saved; free the space and run the same command "
                                     "with --resume") from exc
-        self._count += 1
+        self._count += len(result)
 
     def _create(self) -> None:
         try:
@@ -170,14 +184,14 @@ def read_manifest(path: Path) -> dict:
 
 
 def count_finished(folder: Path) -> int:
-    """Number of complete records in the journal of an output folder (checked, not decoded)."""
+    """Number of cases in the complete records of the journal of an output folder (checked, not decoded)."""
     path = Path(folder) / JOURNAL
     read_manifest(path)
-    return len(_frames(path / _RECORDS)[0])
+    return sum(count for count, _, _ in _frames(path / _RECORDS)[0])
 
 
 def _frames(path: Path) -> tuple[list, int]:
-    """The complete frames of a journal file [(index, header, payload)] and the length they span; a torn
+    """The complete frames of a journal file [(cases, header, payload)] and the length they span; a torn
     last frame is left out, anything else that does not check out is a JournalError."""
     if not path.exists():
         return [], 0
@@ -189,7 +203,7 @@ def _frames(path: Path) -> tuple[list, int]:
     while pos < len(data):
         if pos + _FRAME.size > len(data):
             break  # a torn frame head
-        magic, index, n_header, n_payload, crc = _FRAME.unpack_from(data, pos)
+        magic, count, n_header, n_payload, crc = _FRAME.unpack_from(data, pos)
         if magic != _MAGIC:
             raise _corrupt(path.parent, f"record {len(frames)} does not start with the journal's mark")
         start = pos + _FRAME.size
@@ -199,7 +213,7 @@ def _frames(path: Path) -> tuple[list, int]:
         header, payload = data[start:start + n_header], data[start + n_header:end]
         if zlib.crc32(payload, zlib.crc32(header)) != crc:
             raise _corrupt(path.parent, f"record {len(frames)} fails its checksum")
-        frames.append((index, header, payload))
+        frames.append((count, header, payload))
         pos = end
     return frames, pos
 

@@ -1,7 +1,7 @@
 """Plain-data encoding of case results for files: JSON for the structure, raw bytes for numeric arrays.
 
 The resume journal stores each finished case with this encoding, never with pickle: reading it builds only
-numbers, strings, lists, mappings, numpy arrays of plain dtypes (no object arrays) and instances of
+numbers, strings, lists, mappings, numpy arrays of plain dtypes, arrays of such values and instances of
 allowed classes, filled field by field without calling any of their code. So a crafted journal can give
 wrong numbers at worst; it cannot run code. The encoding is generic (any dataclass-like object of e2esim
 or of a registered plug-in), so it follows changes to the result types without a schema to maintain,
@@ -83,6 +83,10 @@ class _Encoder:
         ref = self.memo.get(id(v))
         if ref is not None:
             return {"$": "r", "r": ref}
+        if t is np.ndarray and v.dtype.kind == "O":  # an array of Python values: its items, one by one
+            node = self._remember(v, {"$": "oa", "s": list(v.shape), "i": []})
+            node["i"] = [self.encode(x) for x in v.ravel()]
+            return node
         if t is np.ndarray:
             return self._remember(v, {"$": "a", "a": self._array(v)})
         if t is list:
@@ -227,6 +231,19 @@ class _Decoder:
 
     def _a(self, node):
         return self._register(node, self.arrays[node["a"]])
+
+    def _oa(self, node):
+        shape = node["s"]
+        if type(shape) is not list or not all(type(n) is int and n >= 0 for n in shape):
+            raise BadPlainData("the shape of an array of values is malformed")
+        out = self._register(node, np.empty(shape, dtype=object))
+        items = [self.decode(x) for x in self._items(node)]
+        if len(items) != out.size:
+            raise BadPlainData("an array of values has the wrong number of items")
+        flat = out.ravel()
+        for k, item in enumerate(items):  # one by one: numpy would read tuples as rows
+            flat[k] = item
+        return out
 
     def _t(self, node):
         return tuple(self.decode(x) for x in self._items(node))

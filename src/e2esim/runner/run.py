@@ -1,14 +1,20 @@
-"""Run every sweep case of a resolved scenario through its chain of stages.
+"""Run every sweep case of a resolved scenario through its chain of stages, block by block.
 
 Each case gets its own generator, ``numpy.random.Generator(PCG64(SeedSequence(seed, spawn_key=(i,))))``,
-so its numbers depend only on the seed and its index, not on the order in which cases run or how many
-run at once (numpy's parallel random-number guide; Scientific Python SPEC 7).
+so its numbers depend only on the seed and its index, not on the order in which cases run, how many run at
+once, or which other cases share its block (numpy's parallel random-number guide; Scientific Python SPEC 7).
+
+Blocks of cases (``e2esim.runner.blocks``) are the unit of work: of the executors (serial, local processes,
+dask), of the resume journal and of the outputs. ``engine="per_case"`` runs the same blocks one case at a time
+through ``run_case``, the reference the batched engine is checked and timed against (``--per-case``).
 """
 
 from __future__ import annotations
 
+import math
 import platform
 import sys
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from datetime import datetime, timezone
 
@@ -19,14 +25,31 @@ import e2esim
 from e2esim.case import Case, Products, Services
 from e2esim.io.array_cache import open_cache
 from e2esim.io.provenance import dependency_versions, source_commit
-from e2esim.runner.executors import iter_results
+from e2esim.runner.columns import (
+    Column,
+    RequirementColumns,
+    case_notes,
+    requirement_columns,
+    scalar_columns,
+    source_group_column,
+)
 from e2esim.runner.records import case_scalars
-from e2esim.runner.scenario import CaseSpec, ResolvedScenario
+from e2esim.runner.scenario import ResolvedScenario
+
+ENGINES = ("batched", "per_case")
+BLOCK_CASES = 4096
+"""Cases per block of an analytic sweep: large enough that numpy's per-call overhead vanishes, small enough
+that a block's arrays stay in the CPU caches' neighbourhood (a few MB) and the progress bar moves."""
+MONTE_CARLO_BLOCK_CASES = 8
+"""Cases per block when cases run a Monte Carlo: each takes long on its own, and their samples are large."""
+KEEP_PRODUCTS_UP_TO = 2000
+"""Runs of at most this many cases keep every case's products (for the report's per-case plots and for
+``CaseResult.get``); larger runs keep their columns only."""
 
 
 @dataclass
 class CaseResult:
-    """Outcome of one case: its inputs, the products its stages made and the flattened scalars
+    """Outcome of one case: its inputs, the products its stages made (when kept) and the flattened scalars
     (``e2esim.runner.records``)."""
 
     index: int
@@ -34,6 +57,9 @@ class CaseResult:
     label: str
     products: Products
     scalars: dict
+    verdict_list: tuple | None = None
+    note_list: tuple | None = None
+    groups: dict | None = None
 
     def get(self, name: str, default=None):
         """The product ``name`` of this case, or ``default``."""
@@ -42,23 +68,114 @@ class CaseResult:
     @property
     def verdicts(self) -> tuple:
         """The requirement verdicts, in scenario order (empty without requirements)."""
+        if self.verdict_list is not None:
+            return self.verdict_list
         verdicts = self.products.get("verdicts")
         return tuple(verdicts) if verdicts is not None else ()
 
     @property
     def notes(self) -> tuple:
         """Remarks of the propagation's error model (e.g. why the analytic model was not used)."""
+        if self.note_list is not None:
+            return self.note_list
         model = self.products.get("backscatter.error")
         return tuple(getattr(model, "notes", ())) if model is not None else ()
 
 
 @dataclass
+class BlockResult:
+    """The results of a block of cases as columns (``e2esim.runner.columns``).
+
+    indices : the cases (B,). scalars : {name: Column}. requirements : ``RequirementColumns`` per requirement.
+    notes : the error model's notes per case. groups : {source: group} of the AGB error's contributions per
+    case. products : every case's ``Products`` when kept, else None.
+    """
+
+    indices: np.ndarray
+    scalars: dict
+    requirements: list
+    notes: np.ndarray
+    groups: np.ndarray
+    products: list | None = None
+
+    def __len__(self) -> int:
+        return len(self.indices)
+
+    def case(self, k: int, inputs: dict, label: str) -> CaseResult:
+        """The ``CaseResult`` of the block's k-th case."""
+        scalars = {name: float(c.values[k]) for name, c in self.scalars.items() if c.has(k)}
+        return CaseResult(int(self.indices[k]), inputs, label,
+                          self.products[k] if self.products is not None else Products(), scalars,
+                          tuple(r.verdict(k) for r in self.requirements), tuple(self.notes[k]), self.groups[k])
+
+    def without_products(self) -> BlockResult:
+        return BlockResult(self.indices, self.scalars, self.requirements, self.notes, self.groups)
+
+    @classmethod
+    def from_cases(cls, results: list) -> BlockResult:
+        """From one-case results of the per-case runner (``run_case``)."""
+        n = len(results)
+        names = list(dict.fromkeys(k for r in results for k in r.scalars))
+        scalars = {}
+        for name in names:
+            values = np.array([r.scalars.get(name, np.nan) for r in results], dtype=float)
+            present = np.array([name in r.scalars for r in results], dtype=bool)
+            scalars[name] = Column(values, None if present.all() else present)
+        count = len(results[0].verdicts) if results else 0
+        requirements = [RequirementColumns.from_verdicts([r.verdicts[j] for r in results]) for j in range(count)]
+        notes = np.empty(n, dtype=object)
+        groups = np.empty(n, dtype=object)
+        for k, r in enumerate(results):
+            notes[k] = r.notes
+            agb = r.products.get("agb.error")
+            groups[k] = {c.name: c.group for c in getattr(agb, "contributions", ())}
+        return cls(np.array([r.index for r in results], dtype=np.int64), scalars, requirements, notes, groups,
+                   [r.products for r in results])
+
+
+class ResultCases(Sequence):
+    """The cases of a run as ``CaseResult``s, made from the blocks when asked for."""
+
+    def __init__(self, scenario: ResolvedScenario, blocks: list):
+        self.scenario = scenario
+        self.blocks = blocks
+        n = len(scenario.cases)
+        self._block = np.empty(n, dtype=np.int32)
+        self._position = np.empty(n, dtype=np.int64)
+        for b, block in enumerate(blocks):
+            self._block[block.indices] = b
+            self._position[block.indices] = np.arange(len(block))
+
+    def __len__(self) -> int:
+        return len(self._block)
+
+    def __getitem__(self, index):
+        if isinstance(index, slice):
+            return [self[i] for i in range(*index.indices(len(self)))]
+        index = range(len(self))[index]
+        block = self.blocks[self._block[index]]
+        plan = self.scenario.plan
+        label = self.scenario.cases.labels[index] if plan is not None else self.scenario.cases[index].label
+        inputs = plan.table.inputs(index) if plan is not None else self.scenario.cases[index].inputs
+        return block.case(int(self._position[index]), inputs, label)
+
+
+@dataclass
 class ScenarioResult:
-    """All cases of a run, with provenance (package version, seed, time, resolved scenario)."""
+    """All cases of a run, with provenance (package version, seed, time, resolved scenario).
+
+    blocks : the ``BlockResult``s (columns of every case); ``cases``: the one-case view of them.
+    """
 
     scenario: ResolvedScenario
-    cases: list
+    blocks: list
     provenance: dict = field(default_factory=dict)
+
+    @property
+    def cases(self) -> ResultCases:
+        if "_cases" not in self.__dict__:
+            self.__dict__["_cases"] = ResultCases(self.scenario, self.blocks)
+        return self.__dict__["_cases"]
 
     @property
     def requirement_names(self) -> list:
@@ -80,7 +197,7 @@ def _progress_bar(iterable, total=None, description=""):
     return tqdm(iterable, total=total, desc=description, leave=False)
 
 
-def run_case(spec: CaseSpec, services: Services | None = None) -> CaseResult:
+def run_case(spec, services: Services | None = None) -> CaseResult:
     """Pass one case through its chain of stages (``e2esim.module.Stage``): each stage reads the products it
     needs and returns its own, which are added to the case (never overwritten)."""
     case = Case(index=spec.index, inputs=spec.inputs, settings=spec.settings,
@@ -102,6 +219,46 @@ def checked_products(stage, new) -> dict:
     return new
 
 
+def run_block(resolved: ResolvedScenario, indices, engine: str = "batched", keep_products: bool = False,
+              services: Services | None = None, memo=None) -> BlockResult:
+    """The results of the cases ``indices`` (one chain template) of ``resolved``."""
+    from e2esim.runner.blocks import BlockRun
+
+    services = services or default_services()
+    if engine == "per_case":
+        result = BlockResult.from_cases([run_case(resolved.cases[int(i)], services) for i in indices])
+        return result if keep_products else result.without_products()
+    run = BlockRun(resolved.plan, indices, services, memo)
+    products = run.run()
+    n = len(run.indices)
+    declared = {p.name: p for step in run.template.steps
+                for p in resolved.plan.stage(step, run.objects[0]).provides}
+    kept = None
+    if keep_products:
+        kept = [Products({name: value.item(k) for name, value in products.items()}) for k in range(n)]
+    return BlockResult(run.indices, scalar_columns(products, n, declared),
+                       requirement_columns(products.get("verdicts"), n),
+                       case_notes(products.get("backscatter.error"), n),
+                       source_group_column(products.get("agb.error"), n), kept)
+
+
+def block_tasks(resolved: ResolvedScenario, todo: np.ndarray, workers: int = 1) -> list:
+    """The blocks to run: the cases ``todo`` (sorted) split by chain template, in runs of at most the block
+    size, small enough that every worker gets several."""
+    plan = resolved.plan
+    montecarlo = any(getattr(s, "montecarlo", False) for s in plan.settings_slot.objects)
+    size = MONTE_CARLO_BLOCK_CASES if montecarlo else BLOCK_CASES
+    if workers > 1:
+        size = max(1, min(size, math.ceil(len(todo) / (workers * 8))))
+    tasks = []
+    templates = plan.template[todo]
+    for t in np.unique(templates):
+        cases = todo[templates == t]
+        tasks += [cases[i:i + size] for i in range(0, len(cases), size)]
+    tasks.sort(key=lambda c: int(c[0]))
+    return tasks
+
+
 def run_scenario(
     resolved: ResolvedScenario,
     progress: bool = True,
@@ -109,28 +266,41 @@ def run_scenario(
     workers: int = 1,
     scheduler: str | None = None,
     journal=None,
-    finished: dict | None = None,
+    finished: list | None = None,
+    engine: str = "batched",
+    keep_products: bool | None = None,
 ) -> ScenarioResult:
     """Run every case (serially, on ``workers`` local processes or on the dask cluster at ``scheduler``)
-    with a progress bar; return the results in case order with their provenance.
+    with a progress bar; return the results with their provenance.
 
-    journal : a ``Journal`` that records each case as it finishes; finished : cases already done
-        ({index: CaseResult}, from an interrupted run) that are not run again.
+    journal : a ``Journal`` that records each block as it finishes; finished : blocks already done (a list of
+        ``BlockResult``, from an interrupted run), whose cases are not run again. engine : "batched" or
+        "per_case" (the reference). keep_products : keep every case's products (default: for runs of at most
+        ``KEEP_PRODUCTS_UP_TO`` cases).
     """
-    done = dict(finished or {})
-    todo = [spec for spec in resolved.cases if spec.index not in done]
-    bar = tqdm(total=len(resolved.cases), initial=len(done), desc=resolved.name, unit="case",
-               disable=not progress, leave=False)
+    from e2esim.runner.executors import iter_blocks
+
+    if engine not in ENGINES:
+        raise ValueError(f"engine must be one of {ENGINES}, got {engine!r}")
+    n = len(resolved.cases)
+    keep = n <= KEEP_PRODUCTS_UP_TO if keep_products is None else keep_products
+    blocks = list(finished or [])
+    done = np.zeros(n, dtype=bool)
+    for block in blocks:
+        done[block.indices] = True
+    todo = np.flatnonzero(~done)
+    bar = tqdm(total=n, initial=int(done.sum()), desc=resolved.name, unit="case", disable=not progress, leave=False)
     try:
-        for result, data in iter_results(todo, workers, scheduler):
-            done[result.index] = result
+        for block, frame in iter_blocks(resolved, block_tasks(resolved, todo, workers if not scheduler else 8),
+                                        workers, scheduler, engine=engine, keep_products=keep):
+            blocks.append(block)
             if journal is not None:
-                journal.record(result, data)
-            bar.update(1)
+                journal.record(block, frame)
+            bar.update(len(block))
     finally:
         bar.close()
-    results = [done[spec.index] for spec in resolved.cases]
-    seeds = sorted({c.settings.seed for c in resolved.cases})
+    blocks.sort(key=lambda b: int(b.indices[0]))
+    seeds = sorted({s.seed for s in resolved.plan.settings_slot.objects})
     provenance = {
         "e2esim_version": e2esim.__version__,
         "created_utc": datetime.now(timezone.utc).isoformat(timespec="seconds"),
@@ -142,8 +312,14 @@ def run_scenario(
         "versions": dependency_versions(),
         "source_commit": source_commit(),
     }
+    if engine != "batched":
+        provenance["engine"] = engine
     if workers > 1 or scheduler:
         provenance["executor"] = f"dask {scheduler}" if scheduler else f"{workers} local processes"
     if finished:
-        provenance["resumed_cases"] = len(finished)
-    return ScenarioResult(resolved, results, provenance)
+        provenance["resumed_cases"] = int(sum(len(b) for b in finished))
+    return ScenarioResult(resolved, blocks, provenance)
+
+
+__all__ = ["BLOCK_CASES", "ENGINES", "BlockResult", "CaseResult", "ResultCases", "ScenarioResult",
+           "case_generator", "run_block", "run_case", "run_scenario"]

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import copy
 import json
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -18,11 +19,11 @@ from e2esim import registry
 from e2esim.errors import ConfigError, Location, ModuleLookupError, ScenarioFileError
 from e2esim.module import KIND_ORDER, Module, Stage
 from e2esim.params import Param, find_param, unknown_key_error, validate_section
-from e2esim.runner.chain import assemble
 from e2esim.runner.limits import check_monte_carlo, check_plain, shorten
 from e2esim.runner.overrides import check_not_swept, parse_value, remove_from_sweep, split_assignment
+from e2esim.runner.plan import CaseSpec, CaseSpecs, Slot, SweepPlan, combinations, number_shapes
 from e2esim.runner.plugins import plugin_list
-from e2esim.runner.sweep import case_labels, expand_sweep
+from e2esim.runner.sweep import _ABSENT, CaseLabels, sweep_table
 from e2esim.runner.yaml_loader import load_yaml, read_scenario_text
 from e2esim.settings import MODES, SimulationSettings
 
@@ -103,19 +104,6 @@ NOT_SWEEPABLE = ("name", "description", "plugins", "sweep", "output")
 
 
 @dataclass
-class CaseSpec:
-    """One sweep case, ready to run: its inputs, label, settings, its modules (in section order) and the
-    chain of stages they form (``e2esim.runner.chain``)."""
-
-    index: int
-    inputs: dict
-    label: str
-    settings: SimulationSettings
-    modules: list
-    chain: list
-
-
-@dataclass
 class ResolvedScenario:
     """A completely validated scenario: everything ``e2esim run`` needs."""
 
@@ -125,8 +113,9 @@ class ResolvedScenario:
     raw: dict
     resolved: dict
     output: dict
-    cases: list = field(default_factory=list)
+    cases: Sequence = field(default_factory=list)
     sweep_keys: tuple = ()
+    plan: SweepPlan | None = None
 
     @property
     def requirement_names(self) -> list:
@@ -216,16 +205,14 @@ class Scenario:
             if key in self.raw and not isinstance(self.raw[key], str):
                 raise ConfigError(root.child(key), f"{self.raw[key]!r} is not text", "expected a string")
         output = validate_section(OUTPUT_PARAMS, self.raw.get("output"), root.child("output"))
-        case_inputs, sweep_keys = expand_sweep(self.raw.get("sweep"), root.child("sweep"))
-        labels = case_labels(case_inputs)
+        table = sweep_table(self.raw.get("sweep"), root.child("sweep"))
+        sweep_keys = table.keys
         for key in ("plot_x", "plot_group_by"):
             if output[key] is not None and output[key] not in sweep_keys:
                 raise ConfigError(root.child("output").child(key), f"{output[key]!r} is not a sweep key",
                                   "sweep keys: " + (", ".join(sweep_keys) or "none (no sweep)"))
-        cache: dict = {_PRISTINE: _object_ids(self.raw)}
-        cases = []
-        for index, inputs in enumerate(case_inputs):
-            cases.append(self._build_case(index, inputs, cache, labels[index]))
+        plan = self._plan(table, root)
+        cases = CaseSpecs(plan, CaseLabels(table))
         return ResolvedScenario(
             name=str(name),
             description=str(self.raw.get("description", "")),
@@ -235,44 +222,104 @@ class Scenario:
             output=output,
             cases=cases,
             sweep_keys=sweep_keys,
+            plan=plan,
         )
 
-    def _build_case(self, index: int, inputs: dict, cache: dict, label: str = "") -> CaseSpec:
-        config = dict(self.raw)  # sections a case overrides are copied on the way down (_set_path, copy=True)
-        lines = dict(self.lines)
-        for key, value in inputs.items():
-            path = _dotted_to_path(key)
-            where = Location(self.source, path, lines)
-            if path[0] in NOT_SWEEPABLE or path[0] not in top_level_keys():
-                raise ConfigError(Location(self.source, ("sweep", key), lines), f"cannot sweep over {key!r}",
-                                  "sweep keys start with a module section, requirements or simulation")
-            _set_path(config, path, value, where, copy_on_write=True)
-            lines[path] = f"sweep case {index}: {key}={value!r}"
-        case_root = Location(self.source, (), lines)
-        settings = SimulationSettings(
-            **validate_section(SIMULATION_PARAMS, config.get("simulation"), case_root.child("simulation"))
-        )
-        check_monte_carlo(settings, case_root.child("simulation").describe())
-        modules = []
+    def _plan(self, table, root: Location) -> SweepPlan:
+        """Build every distinct module and settings of the sweep (``e2esim.runner.plan``), check every sweep
+        key, and find the chain of every case."""
+        keys = []  # (key, key path, group, position in the group)
+        for g, group in enumerate(table.groups):
+            for p, key in enumerate(group.keys):
+                path = _dotted_to_path(key)
+                if path[0] in NOT_SWEEPABLE or path[0] not in top_level_keys():
+                    raise ConfigError(Location(self.source, ("sweep", key), self.lines), f"cannot sweep over {key!r}",
+                                      "sweep keys start with a module section, requirements or simulation")
+                value = next((v[p] for v in group.values if v[p] is not _ABSENT), None)
+                _set_path(dict(self.raw), path, value, Location(self.source, path, self.lines), copy_on_write=True)
+                keys.append((key, path, g, p))
+        cache: dict = {_PRISTINE: _object_ids(self.raw)}
+        slots = []
+        for kind, path in self._slot_paths(keys, root):
+            mine = [k for k in keys if k[1][:len(path)] == path]
+            groups = tuple(sorted({k[2] for k in mine}))
+            slot = Slot(kind, path, tuple(k[0] for k in mine), groups, tuple(table.sizes[g] for g in groups))
+            combos, firsts, slot.index = combinations(table, groups)
+            for combo, first in zip(combos, firsts):
+                slot.objects.append(self._build_object(slot, mine, combo, int(first), table, cache))
+            slots.append(slot)
+        plan = SweepPlan(table, slots, root)
+        for slot in plan.module_slots:
+            number_shapes(slot)
+        for key, path, _, _ in keys:
+            slot = next(s for s in slots if path[:len(s.path)] == s.path)
+            self._check_key(key, path, slot, plan)
+        plan.find_templates()
+        return plan
+
+    def _slot_paths(self, keys: list, root: Location) -> list:
+        """(kind, section path) of every slot: the module sections present (or defaulted, or set by a sweep key),
+        the items of list sections, the requirements, and the simulation settings (last)."""
+        out = []
         for section in module_sections():
-            raw = config.get(section, DEFAULT_MODULES.get(section))
-            if raw is None:
+            raw = self.raw.get(section, DEFAULT_MODULES.get(section))
+            if raw is None and not any(k[1][0] == section for k in keys):
                 continue
             if isinstance(raw, list) and section not in SINGLE_SECTIONS:
-                for i, item in enumerate(raw):
-                    modules.append(_build_module(section, item, case_root.child(section).child(i), cache))
+                out += [(section, (section, i)) for i in range(len(raw))]
             else:
-                modules.append(_build_module(section, raw, case_root.child(section), cache))
-        reqs = config.get("requirements", [])
+                out.append((section, (section,)))
+        reqs = self.raw.get("requirements", [])
         if not isinstance(reqs, list):
-            raise ConfigError(case_root.child("requirements"), "is not a list",
+            raise ConfigError(root.child("requirements"), "is not a list",
                               "expected a list of requirement sections, each with a type")
-        for i, raw in enumerate(reqs):
-            modules.append(_build_module("requirement", raw, case_root.child("requirements").child(i), cache))
-        chain = assemble(modules, case_root)
-        for key in inputs:
-            _check_sweep_key(key, config, modules, Location(self.source, ("sweep", "parameters", key), lines))
-        return CaseSpec(index, dict(inputs), label, settings, modules, chain)
+        out += [("requirement", ("requirements", i)) for i in range(len(reqs))]
+        return out + [("simulation", ("simulation",))]
+
+    def _build_object(self, slot: Slot, keys: list, combo, first: int, table, cache: dict):
+        """The module (or settings) of ``slot`` for one combination of its sweep groups' positions; ``first`` is
+        the first case that has it (named in messages)."""
+        config = dict(self.raw)  # sections a case overrides are copied on the way down (_set_path, copy=True)
+        lines = dict(self.lines)
+        for key, path, g, p in keys:
+            value = table.groups[g].values[combo[slot.groups.index(g)]][p]
+            if value is _ABSENT:
+                continue
+            _set_path(config, path, value, Location(self.source, path, lines), copy_on_write=True)
+            lines[path] = f"sweep case {first}: {key}={value!r}"
+        case_root = Location(self.source, (), lines)
+        if slot.kind == "simulation":
+            settings = SimulationSettings(
+                **validate_section(SIMULATION_PARAMS, config.get("simulation"), case_root.child("simulation")))
+            check_monte_carlo(settings, case_root.child("simulation").describe())
+            return settings
+        section = slot.path[0]
+        if slot.kind == "requirement":
+            reqs = config.get("requirements", [])
+            if not isinstance(reqs, list):
+                raise ConfigError(case_root.child("requirements"), "is not a list",
+                                  "expected a list of requirement sections, each with a type")
+            return _build_module("requirement", reqs[slot.path[1]], case_root.child(section).child(slot.path[1]),
+                                 cache)
+        raw = config.get(section, DEFAULT_MODULES.get(section))
+        if len(slot.path) == 2:
+            return _build_module(section, raw[slot.path[1]], case_root.child(section).child(slot.path[1]), cache)
+        return _build_module(section, raw, case_root.child(section), cache)
+
+    def _check_key(self, key: str, path: tuple, slot: Slot, plan: SweepPlan) -> None:
+        """Every module a sweep key sets a value in has that parameter (each class once)."""
+        where = Location(self.source, ("sweep", "parameters", key), self.lines)
+        if slot.kind == "simulation":
+            _check_sweep_key(key, self.raw, [], where)
+            return
+        position = plan.slots.index(slot)
+        base = [s.objects[0] for s in plan.module_slots]
+        seen = set()
+        for module in slot.objects:
+            if type(module) in seen:
+                continue
+            seen.add(type(module))
+            _check_sweep_key(key, self.raw, base[:position] + [module] + base[position + 1:], where)
 
 
 _PRISTINE = "ids of the scenario's own mappings and lists"  # cache entry: sections no case has changed

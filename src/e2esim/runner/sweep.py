@@ -7,8 +7,9 @@ keys together. ``sweep.cases`` lists the cases explicitly.
 
 from __future__ import annotations
 
-import itertools
 import math
+from collections.abc import Sequence
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -27,10 +28,93 @@ or ``{logspace: [start_exp, stop_exp, num]}``; a key "a.b, c.d" with a list of [
 two keys together; ``sweep.cases``: list of mappings dotted key -> value."""
 
 
+ABSENT = "<absent>"
+"""Code text of a key a case of ``sweep.cases`` does not set (the scenario's own value applies)."""
+
+
+@dataclass(frozen=True)
+class KeyGroup:
+    """Sweep keys varied together and their values: ``values[k]`` holds one value per key, for position k."""
+
+    keys: tuple
+    values: tuple
+
+    @property
+    def size(self) -> int:
+        return len(self.values)
+
+
+@dataclass(frozen=True, eq=False)
+class SweepTable:
+    """A sweep in factored form: groups of keys and, per case, the position of each group. Nothing is stored per
+    case for a grid (case i is the C-order position ``unravel_index(i, sizes)``, the order of
+    ``itertools.product``); ``zip`` and ``cases`` sweeps keep a table of positions (n, groups).
+
+    layout : "none" (one case, no sweep), "grid", "zip" or "cases". groups : ``KeyGroup`` per parameter entry
+    (for ``cases``, one per key, its distinct values, ``ABSENT`` where a case does not set it). table : the
+    positions for "zip" and "cases", else None.
+    """
+
+    layout: str
+    groups: tuple
+    table: np.ndarray | None = None
+
+    @property
+    def keys(self) -> tuple:
+        return tuple(k for g in self.groups for k in g.keys)
+
+    @property
+    def sizes(self) -> tuple:
+        return tuple(g.size for g in self.groups)
+
+    @property
+    def n(self) -> int:
+        if self.layout == "none":
+            return 1
+        if self.table is not None:
+            return len(self.table)
+        return math.prod(self.sizes)
+
+    def codes(self, indices) -> np.ndarray:
+        """(len(indices), groups) positions of every group in the cases ``indices``."""
+        indices = np.asarray(indices, dtype=np.int64)
+        if not self.groups:
+            return np.zeros((indices.size, 0), dtype=np.int64)
+        if self.table is not None:
+            return self.table[indices]
+        return np.stack(np.unravel_index(indices, self.sizes), axis=-1).astype(np.int64)
+
+    def inputs(self, index: int) -> dict:
+        """The sweep values of case ``index``: dotted key -> value (keys the case does not set left out)."""
+        out = {}
+        for group, code in zip(self.groups, self.codes([index])[0]):
+            for key, value in zip(group.keys, group.values[code]):
+                if value is not _ABSENT:
+                    out[key] = value
+        return out
+
+    def all_inputs(self) -> list:
+        return [self.inputs(i) for i in range(self.n)]
+
+
+class _Absent:
+    def __repr__(self) -> str:
+        return ABSENT
+
+
+_ABSENT = _Absent()
+
+
 def expand_sweep(sweep: Any, where: Location) -> tuple[list, tuple]:
     """Sweep section -> (list of case input dicts, sweep keys). No sweep gives one case with no inputs."""
+    table = sweep_table(sweep, where)
+    return table.all_inputs(), table.keys
+
+
+def sweep_table(sweep: Any, where: Location) -> SweepTable:
+    """The ``SweepTable`` of a sweep section (validated; ``ConfigError`` names the bad key)."""
     if sweep is None:
-        return [{}], ()
+        return SweepTable("none", ())
     if not isinstance(sweep, dict):
         raise ConfigError(where, f"{shorten(repr(sweep))} is not a mapping",
                           "expected 'parameters:' and/or 'mode:', or 'cases:'")
@@ -42,19 +126,10 @@ def expand_sweep(sweep: Any, where: Location) -> tuple[list, tuple]:
     if params is not None and cases is not None:
         raise ConfigError(where, "has both 'parameters' and 'cases'", "give one of them")
     if cases is not None:
-        if not isinstance(cases, list) or not cases:
-            raise ConfigError(where.child("cases"), "is not a non-empty list", "expected a list of mappings")
-        out = []
-        for i, case in enumerate(cases):
-            if not isinstance(case, dict):
-                raise ConfigError(where.child("cases").child(i), f"{shorten(repr(case))} is not a mapping",
-                                  "expected dotted.key: value pairs")
-            out.append({str(k): _plain(v) for k, v in case.items()})
-        keys = tuple(dict.fromkeys(k for c in out for k in c))
-        return out, keys
+        return _cases_table(cases, where.child("cases"))
     if not isinstance(params, dict) or not params:
         raise ConfigError(where.child("parameters"), "is missing or empty", "expected dotted.key: [values]")
-    values = {}
+    groups = []
     for key, spec in params.items():
         here = where.child("parameters").child(key)
         subkeys = tuple(k.strip() for k in str(key).split(","))
@@ -64,19 +139,43 @@ def expand_sweep(sweep: Any, where: Location) -> tuple[list, tuple]:
                 if not isinstance(item, list) or len(item) != len(subkeys):
                     raise ConfigError(here.child(i), f"{shorten(repr(item))} is not a list of {len(subkeys)} values",
                                       f"each item gives one value for each of {', '.join(subkeys)}")
-        values[subkeys] = [tuple(item) if len(subkeys) > 1 else (item,) for item in items]
-    keys = tuple(k for sub in values for k in sub)
+        groups.append(KeyGroup(subkeys, tuple(tuple(item) if len(subkeys) > 1 else (item,) for item in items)))
     if mode == "zip":
-        lengths = {", ".join(k): len(v) for k, v in values.items()}
+        lengths = {", ".join(g.keys): g.size for g in groups}
         if len(set(lengths.values())) != 1:
             raise ConfigError(where.child("parameters"), f"lists of unequal length {lengths} in zip mode",
                               "give lists of the same length, or use mode: grid")
-        combos = zip(*values.values())
-    else:
-        check_count("sweep cases", math.prod(len(v) for v in values.values()), MAX_CASES,
-                    where.child("parameters").describe(), SPLIT_ADVICE)
-        combos = itertools.product(*values.values())
-    return [dict(zip(keys, (v for group in combo for v in group))) for combo in combos], keys
+        n = groups[0].size
+        return SweepTable("zip", tuple(groups), np.repeat(np.arange(n, dtype=np.int64)[:, None], len(groups), 1))
+    check_count("sweep cases", math.prod(g.size for g in groups), MAX_CASES, where.child("parameters").describe(),
+                SPLIT_ADVICE)
+    return SweepTable("grid", tuple(groups))
+
+
+def _cases_table(cases: Any, where: Location) -> SweepTable:
+    if not isinstance(cases, list) or not cases:
+        raise ConfigError(where, "is not a non-empty list", "expected a list of mappings")
+    check_count("sweep cases", len(cases), MAX_CASES, where.describe(), SPLIT_ADVICE)
+    rows = []
+    for i, case in enumerate(cases):
+        if not isinstance(case, dict):
+            raise ConfigError(where.child(i), f"{shorten(repr(case))} is not a mapping",
+                              "expected dotted.key: value pairs")
+        rows.append({str(k): _plain(v) for k, v in case.items()})
+    keys = tuple(dict.fromkeys(k for row in rows for k in row))
+    groups, table = [], np.zeros((len(rows), len(keys)), dtype=np.int64)
+    for g, key in enumerate(keys):
+        positions: dict = {}
+        values: list = []
+        for i, row in enumerate(rows):
+            value = row.get(key, _ABSENT)
+            text = _text(value)
+            if text not in positions:
+                positions[text] = len(values)
+                values.append((value,))
+            table[i, g] = positions[text]
+        groups.append(KeyGroup((key,), tuple(values)))
+    return SweepTable("cases", tuple(groups), table)
 
 
 def _sweep_values(spec: Any, where: Location) -> list:
@@ -117,6 +216,44 @@ def case_labels(case_inputs: list) -> list:
     for label in labels:
         counts[label] = counts.get(label, 0) + 1
     return [f"{label} (#{i})" if counts[label] > 1 else label for i, label in enumerate(labels)]
+
+
+class CaseLabels(Sequence):
+    """The labels of a ``SweepTable``'s cases (``case_labels``), made when asked for: a grid's label is the join of
+    one text per group, so nothing is stored per case."""
+
+    def __init__(self, table: SweepTable):
+        self.table = table
+        if table.layout != "grid":
+            self._labels = case_labels(table.all_inputs())
+            return
+        self._labels = None
+        shown: list = []
+        for group in table.groups:  # a grid's groups vary independently: a key is fixed only within its group
+            shown += differing_keys([dict(zip(group.keys, values)) for values in group.values])
+        names = _short_names(shown)
+        self._parts = [[", ".join(f"{names[k]}={_value_text(v)}" for k, v in zip(g.keys, values) if k in names)
+                        for values in g.values] for g in table.groups]
+        self._repeats = []
+        for parts in self._parts:
+            counts: dict = {}
+            for part in parts:
+                counts[part] = counts.get(part, 0) + 1
+            self._repeats.append([counts[part] for part in parts])
+
+    def __len__(self) -> int:
+        return self.table.n
+
+    def __getitem__(self, index):
+        if isinstance(index, slice):
+            return [self[i] for i in range(*index.indices(len(self)))]
+        if self._labels is not None:
+            return self._labels[index]
+        index = range(len(self))[index]
+        codes = self.table.codes([index])[0]
+        label = ", ".join(p for p in (parts[c] for parts, c in zip(self._parts, codes)) if p) or "base case"
+        repeated = math.prod(r[c] for r, c in zip(self._repeats, codes)) > 1
+        return f"{label} (#{index})" if repeated else label
 
 
 def differing_keys(case_inputs: list) -> list:

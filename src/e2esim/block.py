@@ -1,0 +1,303 @@
+"""A block of sweep cases passing along the chain together, and the two forms its products take.
+
+The runner evaluates sweeps block by block (``e2esim.runner.blocks``). A product of a block is one of:
+
+* ``Factor``: the block's distinct values (ordinary one-case products) and, per case, which one it has. Most
+  stages make few distinct values per block (the 100 scenes of a sweep over 100 AGB levels), so a stage without
+  a batched implementation runs once per distinct combination of what it reads, not once per case;
+* ``Batched``: one object holding arrays with a leading case axis, made by a stage's ``forward_block`` (the
+  error model, the AGB error and the verdicts of the analytic chain), so that the arithmetic of a whole block
+  is a few numpy operations.
+
+Either form gives any case's one-case product (``item``), which is what the per-case runner would have made;
+a stage with a batched implementation reads either form (``gather``). ``CaseRandom`` gives a case its own
+generator, created on first use, so that stages that draw nothing cost nothing and the runner can tell which
+stages drew (their results are per case; the others' are shared).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Mapping
+from dataclasses import dataclass
+
+import numpy as np
+
+
+class Catalog(list):
+    """The distinct values of a product over the blocks of a run (in this process), each once, with what has been
+    derived from them (``table``): blocks refer to them by number (``Factor``), so a value made for an earlier
+    block and what was read from it are not made again. ``volatile``: it holds values a stage made with random
+    draws (one case's own), so it is not kept beyond its block."""
+
+    def __init__(self):
+        super().__init__()
+        self._codes: dict = {}  # id -> number (the values are kept in the list, so their ids stay theirs)
+        self._tables: dict = {}
+        self.volatile = False
+
+    def add(self, value) -> int:
+        code = self._codes.get(id(value))
+        if code is None:
+            code = self._codes[id(value)] = len(self)
+            self.append(value)
+        return code
+
+    def table(self, name: str, get):
+        """``get(value)`` of every value, stacked into arrays (a tuple of them when ``get`` returns a tuple),
+        computed once per value: new values extend the arrays."""
+        done, arrays = self._tables.get(name, (0, None))
+        if done < len(self):
+            rows = [get(v) for v in self[done:]]
+            new = tuple(np.asarray(column) for column in zip(*rows)) if isinstance(rows[0], tuple) else np.asarray(rows)
+            if arrays is not None:
+                new = (tuple(np.concatenate([a, b]) for a, b in zip(arrays, new)) if isinstance(new, tuple)
+                       else np.concatenate([arrays, new]))
+            arrays = new
+            self._tables[name] = (len(self), arrays)
+        return arrays
+
+
+    def derived(self, name: str, build):
+        """``build(self)``, made again only when values have been added since."""
+        done, value = self._tables.get(("derived", name), (-1, None))
+        if done != len(self):
+            value = build(self)
+            self._tables[("derived", name)] = (len(self), value)
+        return value
+
+
+@dataclass(frozen=True, eq=False)
+class Factor:
+    """A product of a block as distinct values and, per case, the number of its value.
+
+    values : the distinct one-case products (a ``Catalog`` of the run, or a list). index : (B,) integer,
+    ``values[index[i]]`` is case i's.
+    """
+
+    values: list
+    index: np.ndarray
+
+    def __len__(self) -> int:
+        return len(self.index)
+
+    def item(self, i: int):
+        return self.values[self.index[i]]
+
+    def take(self, positions) -> Factor:
+        return Factor(self.values, self.index[positions])
+
+    def table(self, name: str, get):
+        """``get`` of every distinct value (``Catalog.table``, cached in a catalog), not yet indexed by case."""
+        if isinstance(self.values, Catalog):
+            return self.values.table(name, get)
+        rows = [get(v) for v in self.values]
+        return tuple(np.asarray(column) for column in zip(*rows)) if isinstance(rows[0], tuple) else np.asarray(rows)
+
+    def gather(self, get, dtype=float, name: str | None = None) -> np.ndarray:
+        """``get(value)`` of every case, computed once per distinct value: (B,) array (or (B, ...) for
+        array-valued ``get``); with a ``name``, kept in the catalog for later blocks (``table``)."""
+        if name is not None and isinstance(self.values, Catalog):
+            return np.asarray(self.values.table(name, get), dtype=dtype)[self.index]
+        return np.asarray([get(v) for v in self.values], dtype=dtype)[self.index]
+
+    @classmethod
+    def single(cls, value, n: int) -> Factor:
+        return cls([value], np.zeros(n, dtype=np.int64))
+
+    @staticmethod
+    def concatenate(parts: list) -> Factor:
+        if all(p.values is parts[0].values for p in parts):
+            return Factor(parts[0].values, np.concatenate([p.index for p in parts]))
+        values, indices, offset = [], [], 0
+        for part in parts:
+            values += list(part.values)
+            indices.append(part.index + offset)
+            offset += len(part.values)
+        return Factor(values, np.concatenate(indices))
+
+
+class Batched:
+    """Base class of products that hold a whole block as arrays with a leading case axis.
+
+    Subclasses are frozen dataclasses; ``take`` and ``concatenate`` work field by field (arrays with the case
+    axis are indexed, ``Factor`` and ``Batched`` fields recurse, anything else is shared), and subclasses give
+    ``item`` (the one-case product of case i) and ``scalar_columns`` (the output scalars of every case,
+    the names of the one-case product's ``scalars``).
+    """
+
+    def __len__(self) -> int:
+        raise NotImplementedError
+
+    def item(self, i: int):
+        raise NotImplementedError
+
+    def scalar_columns(self) -> dict:
+        """{name: (B,) float array}; NaN where a case has no such scalar (``present`` masks say which)."""
+        return {}
+
+    def take(self, positions):
+        n = len(self)
+        return dataclasses.replace(self, **{f.name: _take(getattr(self, f.name), positions, n)
+                                            for f in dataclasses.fields(self) if f.init})
+
+    @classmethod
+    def concatenate(cls, parts: list):
+        first = parts[0]
+        n = [len(p) for p in parts]
+        return dataclasses.replace(first, **{f.name: _concatenate([getattr(p, f.name) for p in parts], n)
+                                             for f in dataclasses.fields(first) if f.init})
+
+
+def _take(value, positions, n: int):
+    if isinstance(value, (Factor, Batched)):
+        return value.take(positions)
+    if isinstance(value, np.ndarray) and value.ndim and value.shape[0] == n:
+        return value[positions]
+    if isinstance(value, dict):
+        return {k: _take(v, positions, n) for k, v in value.items()}
+    if isinstance(value, tuple) and value and all(isinstance(v, np.ndarray) for v in value):
+        return tuple(_take(v, positions, n) for v in value)
+    return value
+
+
+def _concatenate(values: list, n: list):
+    first = values[0]
+    if isinstance(first, Factor):
+        return Factor.concatenate(values)
+    if isinstance(first, Batched):
+        return type(first).concatenate(values)
+    if isinstance(first, np.ndarray) and first.ndim and first.shape[0] == n[0]:
+        return np.concatenate(values)
+    if isinstance(first, dict):
+        return {k: _concatenate([v[k] for v in values], n) for k in first}
+    if isinstance(first, tuple) and first and all(isinstance(v, np.ndarray) for v in first):
+        return tuple(_concatenate([v[i] for v in values], n) for i in range(len(first)))
+    return first
+
+
+def object_array(values: list) -> np.ndarray:
+    """A 1-D object array of ``values`` (set one by one: numpy would read tuples as rows)."""
+    out = np.empty(len(values), dtype=object)
+    for k, value in enumerate(values):
+        out[k] = value
+    return out
+
+
+def repeated(value, n: int) -> np.ndarray:
+    """A 1-D object array holding ``value`` n times (the same object)."""
+    out = np.empty(n, dtype=object)
+    out.fill(value)
+    return out
+
+
+def item(product, i: int):
+    """Case i's one-case value of a block product."""
+    return product.item(i)
+
+
+def gather(product, get, dtype=float) -> np.ndarray:
+    """``get`` of every case's one-case value of a ``Factor`` (once per distinct value), (B,) array."""
+    if isinstance(product, Factor):
+        return product.gather(get, dtype)
+    return np.asarray([get(product.item(i)) for i in range(len(product))], dtype=dtype)
+
+
+@dataclass(frozen=True, eq=False)
+class Block:
+    """Cases that pass a stage together: their indices, the settings they share, their products so far, and the
+    runner's services. ``block[name]`` is a ``Factor`` or a ``Batched`` product."""
+
+    indices: np.ndarray
+    settings: object
+    products: Mapping
+    services: object = None
+
+    def __len__(self) -> int:
+        return len(self.indices)
+
+    def __getitem__(self, name: str):
+        try:
+            return self.products[name]
+        except KeyError:
+            have = ", ".join(self.products) or "none"
+            raise KeyError(f"product {name!r} is not in the block (products so far: {have})") from None
+
+    def __contains__(self, name: str) -> bool:
+        return name in self.products
+
+    def get(self, name: str, default=None):
+        return self.products.get(name, default)
+
+    def take(self, positions) -> Block:
+        """The block of the cases at ``positions``."""
+        return Block(self.indices[positions], self.settings,
+                     {name: value.take(positions) for name, value in self.products.items()}, self.services)
+
+
+class NotBatched(Exception):
+    """A batched implementation cannot take this block as a whole (it then runs case by case)."""
+
+
+class FactorView:
+    """A ``Factor`` read like one product whose attributes are arrays over the block's cases: numbers become (B,)
+    arrays (each read once per distinct value); text or None must be the same in every case (else
+    ``NotBatched``)."""
+
+    def __init__(self, factor: Factor):
+        self._factor = factor
+
+    def __getattr__(self, name):
+        values = [getattr(v, name) for v in self._factor.values]
+        if all(isinstance(v, (int, float, np.integer, np.floating)) and not isinstance(v, bool) for v in values):
+            return np.asarray(values, dtype=float)[self._factor.index]
+        first = values[0]
+        if all(v == first for v in values[1:]) if isinstance(first, (str, bool, type(None))) else False:
+            return first
+        raise NotBatched(f"{name} differs between the block's cases")
+
+
+class BlockView:
+    """A block read the way a stage reads one case (``block[name]``, ``get``, ``in``, ``settings``): batched
+    products as they are, the others as ``FactorView``s. Code written with element-wise numpy operations then
+    answers for every case at once."""
+
+    def __init__(self, block: Block):
+        self.block = block
+        self.settings = block.settings
+
+    def __getitem__(self, name):
+        value = self.block[name]
+        return FactorView(value) if isinstance(value, Factor) else value
+
+    def __contains__(self, name) -> bool:
+        return name in self.block
+
+    def get(self, name, default=None):
+        return self[name] if name in self.block else default
+
+    @property
+    def index(self) -> str:
+        return f"{int(self.block.indices[0])} (and others of its block)"
+
+
+class CaseRandom:
+    """The generator of one case, ``numpy.random.Generator(PCG64(SeedSequence(seed, spawn_key=(index,))))``,
+    created when a stage first uses it; ``uses`` counts attribute look-ups, so the runner can tell whether a
+    stage drew (``e2esim.runner.run.case_generator`` gives the same generator to the per-case runner)."""
+
+    __slots__ = ("_generator", "index", "seed", "uses")
+
+    def __init__(self, seed: int, index: int):
+        self.seed, self.index, self.uses, self._generator = seed, int(index), 0, None
+
+    def __getattr__(self, name):
+        self.uses += 1
+        if self._generator is None:
+            self._generator = np.random.Generator(
+                np.random.PCG64(np.random.SeedSequence(self.seed, spawn_key=(self.index,))))
+        return getattr(self._generator, name)
+
+
+__all__ = ["Batched", "Block", "BlockView", "CaseRandom", "Catalog", "Factor", "FactorView", "NotBatched", "gather",
+           "item", "object_array", "repeated"]

@@ -1,0 +1,190 @@
+"""The results of a block of cases as columns: the output scalars, the requirement verdicts, the notes.
+
+What a run writes (summary.json, results.h5, the report) is read from these columns, one array per quantity
+over the block's cases, whatever form the products had (``e2esim.block``): one-case products give their
+``scalars()`` once per distinct value, batched products their ``scalar_columns()``. The names are those of the
+per-case runner (``e2esim.runner.records``): a case's scalars and verdicts are the same either way. A column
+may be missing in some cases (a Monte Carlo scalar of a case that ran none): ``present`` says where it is.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from e2esim.block import Batched, Catalog, Factor, object_array, repeated
+from e2esim.requirements.verdict import RequirementVerdict
+from e2esim.runner.records import DECLARATIONS
+
+
+@dataclass
+class Column:
+    """Values of one output scalar over cases; ``present`` (bool) where they exist, None: everywhere."""
+
+    values: np.ndarray
+    present: np.ndarray | None = None
+
+    def take(self, positions) -> Column:
+        return Column(self.values[positions], None if self.present is None else self.present[positions])
+
+    def has(self, k: int) -> bool:
+        return self.present is None or bool(self.present[k])
+
+    @staticmethod
+    def concatenate(columns: list, sizes: list) -> Column:
+        """Columns of consecutive blocks (None where a block lacks the scalar)."""
+        values = np.concatenate([c.values if c is not None else np.full(n, np.nan) for c, n in zip(columns, sizes)])
+        if all(c is not None and c.present is None for c in columns):
+            return Column(values)
+        present = np.concatenate([np.zeros(n, bool) if c is None else (np.ones(n, bool) if c.present is None
+                                                                        else c.present)
+                                  for c, n in zip(columns, sizes)])
+        return Column(values, present)
+
+
+@dataclass
+class RequirementColumns:
+    """The verdicts of one requirement over cases: text fields as object arrays, numbers as float arrays,
+    ``details`` as ``Column``s, ``curves`` as an object array of {name: array} per case."""
+
+    name: np.ndarray
+    passed: np.ndarray
+    value: np.ndarray
+    limit: np.ndarray
+    margin: np.ndarray
+    unit: np.ndarray
+    basis: np.ndarray
+    dominant: np.ndarray
+    notes: np.ndarray
+    details: dict = field(default_factory=dict)
+    curves: np.ndarray | None = None
+
+    def verdict(self, k: int) -> RequirementVerdict:
+        return RequirementVerdict(
+            name=self.name[k], passed=bool(self.passed[k]), value=float(self.value[k]), limit=float(self.limit[k]),
+            margin=float(self.margin[k]), unit=self.unit[k], basis=self.basis[k],
+            details={key: float(c.values[k]) for key, c in self.details.items() if c.has(k)},
+            curves=dict(self.curves[k]) if self.curves is not None else {}, dominant=self.dominant[k],
+            notes=tuple(self.notes[k]))
+
+    def take(self, positions) -> RequirementColumns:
+        return RequirementColumns(
+            *(getattr(self, f)[positions] for f in _ARRAYS),
+            details={k: c.take(positions) for k, c in self.details.items()},
+            curves=None if self.curves is None else self.curves[positions])
+
+    @classmethod
+    def from_verdicts(cls, verdicts: list) -> RequirementColumns:
+        """From one-case ``RequirementVerdict``s."""
+        keys = list(dict.fromkeys(k for v in verdicts for k in v.details))
+        details = {}
+        for key in keys:
+            values = np.array([v.details.get(key, np.nan) for v in verdicts], dtype=float)
+            present = np.array([key in v.details for v in verdicts], dtype=bool)
+            details[key] = Column(values, None if present.all() else present)
+        curves = None
+        if any(v.curves for v in verdicts):
+            curves = object_array([v.curves for v in verdicts])
+        return cls(
+            name=object_array([v.name for v in verdicts]), passed=np.array([v.passed for v in verdicts], dtype=bool),
+            value=np.array([v.value for v in verdicts], dtype=float),
+            limit=np.array([v.limit for v in verdicts], dtype=float),
+            margin=np.array([v.margin for v in verdicts], dtype=float),
+            unit=object_array([v.unit for v in verdicts]), basis=object_array([v.basis for v in verdicts]),
+            dominant=object_array([v.dominant for v in verdicts]),
+            notes=object_array([tuple(v.notes) for v in verdicts]),
+            details=details, curves=curves)
+
+    @staticmethod
+    def concatenate(parts: list) -> RequirementColumns:
+        sizes = [len(p.passed) for p in parts]
+        keys = list(dict.fromkeys(k for p in parts for k in p.details))
+        curves = None
+        if any(p.curves is not None for p in parts):
+            curves = object_array([c for p, n in zip(parts, sizes) for c in (p.curves if p.curves is not None
+                                                                        else [{}] * n)])
+        return RequirementColumns(
+            *(np.concatenate([getattr(p, f) for p in parts]) for f in _ARRAYS),
+            details={k: Column.concatenate([p.details.get(k) for p in parts], sizes) for k in keys}, curves=curves)
+
+
+_ARRAYS = ("name", "passed", "value", "limit", "margin", "unit", "basis", "dominant", "notes")
+
+
+def scalar_columns(products: dict, n: int, declarations: dict | None = None) -> dict:
+    """{name: Column} of every product with outputs, in chain order (``e2esim.runner.records.case_scalars``,
+    case by case: a product that is the very object of an earlier one in a case is not written there)."""
+    declared = dict(DECLARATIONS, **(declarations or {}))
+    out: dict = {}
+    written: list = []  # per earlier one-case product: the id of every case's object
+    for name, value in products.items():
+        product = declared.get(name)
+        if product is None or product.scalars is None:
+            continue
+        prefix = f"{product.scalars}." if product.scalars else ""
+        if isinstance(value, Batched):
+            columns = {k: Column(np.real(np.asarray(v)).astype(float)) for k, v in value.scalar_columns().items()}
+        else:
+            ids = np.array([id(v) for v in value.values], dtype=np.int64)[value.index]
+            repeated = np.zeros(n, dtype=bool)
+            for earlier in written:
+                repeated |= earlier == ids
+            written.append(ids)
+            columns = _factor_columns(value, None if not repeated.any() else ~repeated)
+        for key, column in columns.items():
+            out[prefix + key] = column
+    return out
+
+
+def _factor_columns(factor: Factor, keep: np.ndarray | None) -> dict:
+    values = factor.values
+    table = values.derived("scalar columns", _scalar_table) if isinstance(values, Catalog) else _scalar_table(values)
+    columns = {}
+    for key, (per_value, has) in table.items():
+        present = has[factor.index]
+        if keep is not None:
+            present &= keep
+        columns[key] = Column(per_value[factor.index], None if present.all() else present)
+    return columns
+
+
+def _scalar_table(values) -> dict:
+    """{scalar name: (value of every distinct product, whether it has it)}."""
+    per_value = [{k: float(np.real(v)) for k, v in value.scalars().items()} for value in values]
+    keys = list(dict.fromkeys(k for s in per_value for k in s))
+    return {key: (np.array([s.get(key, np.nan) for s in per_value], dtype=float),
+                  np.array([key in s for s in per_value], dtype=bool)) for key in keys}
+
+
+def requirement_columns(verdicts, n: int) -> list:
+    """``RequirementColumns`` per requirement from the block's ``verdicts`` product."""
+    if verdicts is None:
+        return []
+    if isinstance(verdicts, Batched):
+        return verdicts.columns()
+    count = len(verdicts.values[0]) if verdicts.values else 0
+    return [RequirementColumns.from_verdicts([v[j] for v in verdicts.values]).take(verdicts.index)
+            for j in range(count)]
+
+
+def case_notes(model, n: int) -> np.ndarray:
+    """The notes of the propagation's error model per case (object array of tuples)."""
+    if model is None:
+        return repeated((), n)
+    if isinstance(model, Batched):
+        return model.note_column()
+    return object_array([tuple(getattr(v, "notes", ())) for v in model.values])[model.index]
+
+
+def source_group_column(agb, n: int) -> np.ndarray:
+    """{source: group} of the AGB error's contributions per case (object array of dicts)."""
+    if agb is None:
+        return repeated({}, n)
+    if isinstance(agb, Batched):
+        return repeated(agb.source_groups(), n)
+    return object_array([{c.name: c.group for c in getattr(v, "contributions", ())} for v in agb.values])[agb.index]
+
+
+__all__ = ["Column", "RequirementColumns", "case_notes", "requirement_columns", "scalar_columns",
+           "source_group_column"]
