@@ -17,7 +17,7 @@ from e2esim.cli import main
 from e2esim.errors import JournalError
 from e2esim.runner import plaindata
 from e2esim.runner.journal import JOURNAL, Journal, count_finished
-from e2esim.runner.run import run_case, run_scenario
+from e2esim.runner.run import run_block, run_scenario
 from e2esim.runner.scenario import Scenario
 
 
@@ -67,16 +67,16 @@ def _valid_journal(scenario, out) -> tuple:
     resolved = Scenario.load(scenario).resolve()
     journal = Journal(out, resolved)
     journal.start(resume=False)
-    results = [run_case(spec) for spec in resolved.cases[:2]]
-    for r in results:
-        journal.record(r)
+    blocks = [run_block(resolved, [0, 1], keep_products=True), run_block(resolved, [2], keep_products=True)]
+    for block in blocks:
+        journal.record(block)
     journal.close()
-    return resolved, results
+    return resolved, blocks
 
 
-def _frame(index: int, header: bytes, payload: bytes = b"") -> bytes:
+def _frame(cases: int, header: bytes, payload: bytes = b"") -> bytes:
     crc = zlib.crc32(payload, zlib.crc32(header))
-    return struct.pack("<4sQQQI", b"E2J1", index, len(header), len(payload), crc) + header + payload
+    return struct.pack("<4sQQQI", b"E2J2", cases, len(header), len(payload), crc) + header + payload
 
 
 @pytest.mark.parametrize("record", ["pickle", "foreign class", "bad json", "bad checksum", "wrong case", "bad dtype"])
@@ -91,13 +91,13 @@ def test_a_corrupt_record_in_a_valid_journal_is_exit_2(scenario, tmp_path, capsy
         "foreign class": _frame(2, json.dumps(header).encode()),
         "bad json": _frame(2, b"{not json"),
         "bad checksum": _frame(2, b"{}")[:-2] + b"}}",
-        "wrong case": good[: len(good) // 2][:4] + good[4:len(good) // 2],  # the first frame, claiming the index
+        "wrong case": b"",  # below: the first block again, claiming another number of cases
         "bad dtype": _frame(2, json.dumps({"tree": {"$": "a", "a": 0, "id": 0}, "arrays": [["|O", [1]]]}).encode(),
                             b"\0" * 8),
     }[record]
-    if record == "wrong case":  # a valid record of case 0 presented as case 2
+    if record == "wrong case":  # a valid record of cases 0 and 1 presented as a block of 3 cases
         first = good[: struct.calcsize("<4sQQQI") + sum(struct.unpack_from("<4sQQQI", good)[2:4])]
-        planted = first[:4] + struct.pack("<Q", 2) + first[12:]
+        planted = first[:4] + struct.pack("<Q", 3) + first[12:]
     records.write_bytes(good + planted)
     status, err = _run(scenario, out, "--resume", capsys=capsys)
     assert status == 2 and "the resume journal is corrupt or foreign" in err, err
@@ -117,25 +117,25 @@ def test_foreign_manifest_is_exit_2(scenario, tmp_path, capsys):
 
 def test_journal_records_come_back_exactly(scenario, tmp_path):
     out = tmp_path / "out"
-    resolved, results = _valid_journal(scenario, out)
+    resolved, blocks = _valid_journal(scenario, out)
     finished = Journal(out, resolved).start(resume=True)
-    assert sorted(finished) == [0, 1]
-    for r in results:
-        back = finished[r.index]
-        assert back.scalars == r.scalars and back.inputs == r.inputs and back.label == r.label
-        assert list(back.products) == list(r.products)
-        samples = back.get("backscatter.error").samples()
-        assert samples.size > 100 and np.array_equal(samples, r.get("backscatter.error").samples())
-        assert back.verdicts == r.verdicts
+    assert [list(b.indices) for b in finished] == [[0, 1], [2]]
+    for block, back in zip(blocks, finished):
+        for k in range(len(block)):
+            r, got = block.case(k, {}, ""), back.case(k, {}, "")
+            assert got.scalars == r.scalars and got.verdicts == r.verdicts and got.notes == r.notes
+            assert list(got.products) == list(r.products)
+            samples = got.get("backscatter.error").samples()
+            assert samples.size > 100 and np.array_equal(samples, r.get("backscatter.error").samples())
     resumed = run_scenario(resolved, progress=False, finished=finished)
     fresh = run_scenario(resolved, progress=False)
     assert [c.scalars for c in resumed.cases] == [c.scalars for c in fresh.cases]
 
 
-def test_journal_is_created_with_the_first_finished_case(scenario, tmp_path):
+def test_journal_is_created_with_the_first_finished_block(scenario, tmp_path):
     resolved = Scenario.load(scenario).resolve()
     journal = Journal(tmp_path / "out", resolved)
-    assert journal.start(resume=False) == {}
+    assert journal.start(resume=False) == []
     assert not (tmp_path / "out" / JOURNAL).exists()
 
 

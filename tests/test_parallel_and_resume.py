@@ -119,11 +119,11 @@ def test_resume_refuses_a_different_scenario(tmp_path):
     out = tmp_path / "out"
     resolved = Scenario.load(scenario).resolve()
     from e2esim.runner.journal import Journal
-    from e2esim.runner.run import run_case
+    from e2esim.runner.run import run_block
 
     journal = Journal(out, resolved)
     journal.start(resume=False)
-    journal.record(run_case(resolved.cases[0]))  # the journal is created with its first case
+    journal.record(run_block(resolved, [0]))  # the journal is created with its first block
     journal.close()
     proc = _cli("run", str(scenario), "-o", str(out), "--no-progress", "--resume", "--set", "simulation.seed=12")
     assert proc.wait(60) == 2 and "different scenario, seed or e2esim version" in proc.stderr.read()
@@ -131,17 +131,18 @@ def test_resume_refuses_a_different_scenario(tmp_path):
 
 def test_a_torn_last_record_is_cut_off(tmp_path):
     from e2esim.runner.journal import Journal
+    from e2esim.runner.run import run_block
 
     resolved = Scenario.load(_scenario(tmp_path)).resolve()
-    results = run_scenario(resolved, progress=False).cases
+    blocks = [run_block(resolved, [i]) for i in range(4)]
     journal = Journal(tmp_path / "out", resolved)
     journal.start(resume=False)
-    for r in results[:3]:
-        journal.record(r)
+    for block in blocks[:3]:
+        journal.record(block)
     journal.close()
     path = tmp_path / "out" / ".e2esim-partial" / "cases.journal"
     with open(path, "ab") as fh:  # half of a fourth record, as a killed process may leave it
         fh.write(path.read_bytes()[: len(path.read_bytes()) // 5])
     finished = Journal(tmp_path / "out", resolved).start(resume=True)
-    assert sorted(finished) == [0, 1, 2]
-    assert finished[1].scalars == results[1].scalars
+    assert [list(b.indices) for b in finished] == [[0], [1], [2]]
+    assert finished[1].case(0, {}, "").scalars == blocks[1].case(0, {}, "").scalars

@@ -20,7 +20,7 @@ from e2esim.results import Results
 
 
 def run(scenario, set: dict | None = None, output=None, force: bool = False, progress: bool = False,
-        workers: int = 1, **overrides) -> Results:
+        workers: int = 1, engine: str = "batched", **overrides) -> Results:
     """Run every case of ``scenario`` and return its ``Results``; write no file unless ``output`` names a
     folder (then results.h5, summary.json, the report and its plots go there, as ``e2esim run -o`` writes them;
     an existing non-empty folder needs ``force``).
@@ -28,13 +28,16 @@ def run(scenario, set: dict | None = None, output=None, force: bool = False, pro
     scenario : a scenario file (path), a scenario as a dict (the YAML's content), or a ``Scenario``.
     set, overrides : dotted key -> value, e.g. ``set={"instrument.crosstalk.level_db": -28}`` or
         ``**{"simulation.realisations": 500}``; both may be given.
+    engine : "batched" (blocks of cases at once) or "per_case" (one case at a time, the reference); the
+        same numbers either way.
     """
     from e2esim.runner.outputs import prepare_folder
     from e2esim.runner.run import run_scenario
 
     assignments = {**(set or {}), **overrides}
     resolved = load_scenario(scenario, assignments).resolve()
-    result = run_scenario(resolved, progress=progress, command=f"e2esim.run({_describe(scenario)})", workers=workers)
+    result = run_scenario(resolved, progress=progress, command=f"e2esim.run({_describe(scenario)})", workers=workers,
+                          engine=engine)
     results = Results.from_run(result)
     if output is not None:
         folder = Path(output)

@@ -176,19 +176,55 @@ def _concatenate(values: list, n: list):
     return first
 
 
-def object_array(values: list) -> np.ndarray:
-    """A 1-D object array of ``values`` (set one by one: numpy would read tuples as rows)."""
-    out = np.empty(len(values), dtype=object)
-    for k, value in enumerate(values):
-        out[k] = value
-    return out
+@dataclass(frozen=True, eq=False)
+class Values:
+    """A column of Python values over cases (text, tuples, mappings) that repeat: each distinct value stored
+    once, ``values[index[k]]`` is case k's. Cheap to keep, to send and to journal for a million cases."""
 
+    values: list
+    index: np.ndarray
 
-def repeated(value, n: int) -> np.ndarray:
-    """A 1-D object array holding ``value`` n times (the same object)."""
-    out = np.empty(n, dtype=object)
-    out.fill(value)
-    return out
+    def __len__(self) -> int:
+        return len(self.index)
+
+    def __getitem__(self, k):
+        return self.values[int(self.index[k])]
+
+    def take(self, positions) -> Values:
+        return Values(self.values, self.index[positions])
+
+    def tolist(self) -> list:
+        return [self.values[i] for i in self.index]
+
+    @classmethod
+    def of(cls, values: list) -> Values:
+        """From one value per case (equal hashable values stored once)."""
+        codes: dict = {}
+        distinct, index = [], np.empty(len(values), dtype=np.int64)
+        for k, value in enumerate(values):
+            try:
+                key = ("=", value) if value.__hash__ is not None else ("id", id(value))
+                code = codes.get(key)
+            except TypeError:  # a tuple holding a mapping, say
+                key, code = ("id", id(value)), codes.get(("id", id(value)))
+            if code is None:
+                code = codes[key] = len(distinct)
+                distinct.append(value)
+            index[k] = code
+        return cls(distinct, index)
+
+    @classmethod
+    def repeated(cls, value, n: int) -> Values:
+        return cls([value], np.zeros(n, dtype=np.int64))
+
+    @staticmethod
+    def concatenate(parts: list) -> Values:
+        values, indices, offset = [], [], 0
+        for part in parts:
+            values += list(part.values)
+            indices.append(part.index + offset)
+            offset += len(part.values)
+        return Values(values, np.concatenate(indices) if indices else np.zeros(0, dtype=np.int64))
 
 
 def item(product, i: int):
@@ -299,5 +335,5 @@ class CaseRandom:
         return getattr(self._generator, name)
 
 
-__all__ = ["Batched", "Block", "BlockView", "CaseRandom", "Catalog", "Factor", "FactorView", "NotBatched", "gather",
-           "item", "object_array", "repeated"]
+__all__ = ["Batched", "Block", "BlockView", "CaseRandom", "Catalog", "Factor", "FactorView", "NotBatched", "Values",
+           "gather", "item"]

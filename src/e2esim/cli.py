@@ -61,6 +61,9 @@ def _build_parser() -> argparse.ArgumentParser:
                      help="run sweep cases on the dask.distributed cluster at ADDRESS (e.g. tcp://host:8786)")
     run.add_argument("--resume", action="store_true",
                      help="continue an interrupted run in the output folder without recomputing finished cases")
+    run.add_argument("--per-case", action="store_true",
+                     help="run the cases one at a time (the per-case runner: the reference the batched engine is "
+                          "checked and timed against; the same numbers, much slower for large sweeps)")
 
     val = sub.add_parser("validate", help="check a scenario completely without running it",
                          description="Read and check a scenario: every section, key, value, module type and sweep "
@@ -166,7 +169,8 @@ def cmd_run(args) -> int:
         try:
             result = run_scenario(resolved, progress=not args.no_progress,
                                   command=" ".join(["e2esim"] + sys.argv[1:]), workers=args.workers,
-                                  scheduler=args.scheduler, journal=journal, finished=finished)
+                                  scheduler=args.scheduler, journal=journal, finished=finished,
+                                  engine="per_case" if args.per_case else "batched")
         except KeyboardInterrupt:
             journal.close()
             print(f"e2esim: interrupted; {journal.finished_count()} of {len(resolved.cases)} cases are saved in "

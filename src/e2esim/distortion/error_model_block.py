@@ -14,7 +14,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from e2esim.block import Batched, Factor, repeated
+from e2esim.block import Batched, Factor, Values
 from e2esim.distortion.analytic import HVErrorMoments, MomentInputs, moments_of
 from e2esim.distortion.error_model import (
     LEVELS,
@@ -164,8 +164,8 @@ class HVErrorModelBlock(Batched, ErrorModel):
     def scalar_columns(self) -> dict:
         return dict(analytic_scalars(self.current()))
 
-    def note_column(self) -> np.ndarray:
-        return repeated((), len(self))
+    def note_column(self) -> Values:
+        return Values.repeated((), len(self))
 
 
 def _row_block(moments: HVErrorMoments, k: int) -> HVErrorMoments:

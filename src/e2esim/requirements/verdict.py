@@ -6,7 +6,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from e2esim.block import Batched, object_array, repeated
+from e2esim.block import Batched, Values
 
 
 @dataclass(frozen=True)
@@ -97,15 +97,22 @@ class RequirementVerdictsBlock(Batched):
 
         n, out = self.n, []
         for v in self.verdicts:
-            curves = object_array([_curves_at(v.curves, i) for i in range(n)]) if v.curves else None
+            curves = Values([_curves_at(v.curves, i) for i in range(n)], np.arange(n)) if v.curves else None
             out.append(RequirementColumns(
-                name=repeated(v.name, n), passed=np.broadcast_to(np.asarray(v.passed, dtype=bool), (n,)),
+                name=Values.repeated(v.name, n), passed=np.broadcast_to(np.asarray(v.passed, dtype=bool), (n,)),
                 value=_floats(v.value, n), limit=_floats(v.limit, n), margin=_floats(v.margin, n),
-                unit=repeated(v.unit, n), basis=repeated(v.basis, n),
-                dominant=v.dominant if isinstance(v.dominant, np.ndarray) else repeated(v.dominant, n),
-                notes=repeated(tuple(v.notes), n),
+                unit=Values.repeated(v.unit, n), basis=Values.repeated(v.basis, n),
+                dominant=_names(v.dominant, n), notes=Values.repeated(tuple(v.notes), n),
                 details={k: Column(_floats(x, n)) for k, x in v.details.items()}, curves=curves))
         return out
+
+
+def _names(dominant, n: int) -> Values:
+    """The dominant source of every case: one name, or an array of names (``attribution.dominant``)."""
+    if isinstance(dominant, np.ndarray):
+        names, index = np.unique(dominant.astype(str), return_inverse=True)
+        return Values(names.tolist(), np.ravel(index))
+    return Values.repeated(dominant, n)
 
 
 def _floats(x, n: int) -> np.ndarray:

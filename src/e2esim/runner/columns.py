@@ -13,7 +13,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from e2esim.block import Batched, Catalog, Factor, object_array, repeated
+from e2esim.block import Batched, Catalog, Factor, Values
 from e2esim.requirements.verdict import RequirementVerdict
 from e2esim.runner.records import DECLARATIONS
 
@@ -45,20 +45,20 @@ class Column:
 
 @dataclass
 class RequirementColumns:
-    """The verdicts of one requirement over cases: text fields as object arrays, numbers as float arrays,
-    ``details`` as ``Column``s, ``curves`` as an object array of {name: array} per case."""
+    """The verdicts of one requirement over cases: text fields as ``Values``, numbers as float arrays,
+    ``details`` as ``Column``s, ``curves`` as ``Values`` of {name: array} per case (None: no curves)."""
 
-    name: np.ndarray
+    name: Values
     passed: np.ndarray
     value: np.ndarray
     limit: np.ndarray
     margin: np.ndarray
-    unit: np.ndarray
-    basis: np.ndarray
-    dominant: np.ndarray
-    notes: np.ndarray
+    unit: Values
+    basis: Values
+    dominant: Values
+    notes: Values
     details: dict = field(default_factory=dict)
-    curves: np.ndarray | None = None
+    curves: Values | None = None
 
     def verdict(self, k: int) -> RequirementVerdict:
         return RequirementVerdict(
@@ -70,9 +70,9 @@ class RequirementColumns:
 
     def take(self, positions) -> RequirementColumns:
         return RequirementColumns(
-            *(getattr(self, f)[positions] for f in _ARRAYS),
+            *(_pick(getattr(self, f), positions) for f in _ARRAYS),
             details={k: c.take(positions) for k, c in self.details.items()},
-            curves=None if self.curves is None else self.curves[positions])
+            curves=None if self.curves is None else self.curves.take(positions))
 
     @classmethod
     def from_verdicts(cls, verdicts: list) -> RequirementColumns:
@@ -85,15 +85,14 @@ class RequirementColumns:
             details[key] = Column(values, None if present.all() else present)
         curves = None
         if any(v.curves for v in verdicts):
-            curves = object_array([v.curves for v in verdicts])
+            curves = Values([v.curves for v in verdicts], np.arange(len(verdicts)))
         return cls(
-            name=object_array([v.name for v in verdicts]), passed=np.array([v.passed for v in verdicts], dtype=bool),
+            name=Values.of([v.name for v in verdicts]), passed=np.array([v.passed for v in verdicts], dtype=bool),
             value=np.array([v.value for v in verdicts], dtype=float),
             limit=np.array([v.limit for v in verdicts], dtype=float),
             margin=np.array([v.margin for v in verdicts], dtype=float),
-            unit=object_array([v.unit for v in verdicts]), basis=object_array([v.basis for v in verdicts]),
-            dominant=object_array([v.dominant for v in verdicts]),
-            notes=object_array([tuple(v.notes) for v in verdicts]),
+            unit=Values.of([v.unit for v in verdicts]), basis=Values.of([v.basis for v in verdicts]),
+            dominant=Values.of([v.dominant for v in verdicts]), notes=Values.of([tuple(v.notes) for v in verdicts]),
             details=details, curves=curves)
 
     @staticmethod
@@ -102,14 +101,22 @@ class RequirementColumns:
         keys = list(dict.fromkeys(k for p in parts for k in p.details))
         curves = None
         if any(p.curves is not None for p in parts):
-            curves = object_array([c for p, n in zip(parts, sizes) for c in (p.curves if p.curves is not None
-                                                                        else [{}] * n)])
+            curves = Values.concatenate([p.curves if p.curves is not None else Values.repeated({}, n)
+                                         for p, n in zip(parts, sizes)])
         return RequirementColumns(
-            *(np.concatenate([getattr(p, f) for p in parts]) for f in _ARRAYS),
+            *(_join([getattr(p, f) for p in parts]) for f in _ARRAYS),
             details={k: Column.concatenate([p.details.get(k) for p in parts], sizes) for k in keys}, curves=curves)
 
 
 _ARRAYS = ("name", "passed", "value", "limit", "margin", "unit", "basis", "dominant", "notes")
+
+
+def _pick(column, positions):
+    return column.take(positions) if isinstance(column, Values) else column[positions]
+
+
+def _join(parts: list):
+    return Values.concatenate(parts) if isinstance(parts[0], Values) else np.concatenate(parts)
 
 
 def scalar_columns(products: dict, n: int, declarations: dict | None = None) -> dict:
@@ -168,22 +175,22 @@ def requirement_columns(verdicts, n: int) -> list:
             for j in range(count)]
 
 
-def case_notes(model, n: int) -> np.ndarray:
-    """The notes of the propagation's error model per case (object array of tuples)."""
+def case_notes(model, n: int) -> Values:
+    """The notes of the propagation's error model per case (``Values`` of tuples)."""
     if model is None:
-        return repeated((), n)
+        return Values.repeated((), n)
     if isinstance(model, Batched):
         return model.note_column()
-    return object_array([tuple(getattr(v, "notes", ())) for v in model.values])[model.index]
+    return Values([tuple(getattr(v, "notes", ())) for v in model.values], model.index)
 
 
-def source_group_column(agb, n: int) -> np.ndarray:
-    """{source: group} of the AGB error's contributions per case (object array of dicts)."""
+def source_group_column(agb, n: int) -> Values:
+    """{source: group} of the AGB error's contributions per case (``Values`` of dicts)."""
     if agb is None:
-        return repeated({}, n)
+        return Values.repeated({}, n)
     if isinstance(agb, Batched):
-        return repeated(agb.source_groups(), n)
-    return object_array([{c.name: c.group for c in getattr(v, "contributions", ())} for v in agb.values])[agb.index]
+        return Values.repeated(agb.source_groups(), n)
+    return Values([{c.name: c.group for c in getattr(v, "contributions", ())} for v in agb.values], agb.index)
 
 
 __all__ = ["Column", "RequirementColumns", "case_notes", "requirement_columns", "scalar_columns",

@@ -159,6 +159,10 @@ class SweepPlan:
         """Give every case its chain template; assemble each template once (``ConfigError`` for a chain that
         cannot be built: a product nobody provides, a cycle)."""
         found: dict = {}
+        if all(int(slot.shapes.max()) == 0 for slot in self.module_slots):  # one chain for every case
+            self.templates.append(self._assemble(self.object_codes([0])[0]))
+            self.template = np.zeros(self.n, dtype=np.int32)
+            return
         self.template = np.empty(self.n, dtype=np.int32)
         for start in range(0, self.n, _CHUNK):
             indices = np.arange(start, min(start + _CHUNK, self.n))

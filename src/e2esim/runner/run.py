@@ -22,7 +22,9 @@ import numpy as np
 from tqdm.auto import tqdm
 
 import e2esim
+from e2esim.block import Values
 from e2esim.case import Case, Products, Services
+from e2esim.errors import UserError
 from e2esim.io.array_cache import open_cache
 from e2esim.io.provenance import dependency_versions, source_commit
 from e2esim.runner.columns import (
@@ -40,7 +42,7 @@ ENGINES = ("batched", "per_case")
 BLOCK_CASES = 4096
 """Cases per block of an analytic sweep: large enough that numpy's per-call overhead vanishes, small enough
 that a block's arrays stay in the CPU caches' neighbourhood (a few MB) and the progress bar moves."""
-MONTE_CARLO_BLOCK_CASES = 8
+MONTE_CARLO_BLOCK_CASES = 4
 """Cases per block when cases run a Monte Carlo: each takes long on its own, and their samples are large."""
 KEEP_PRODUCTS_UP_TO = 2000
 """Runs of at most this many cases keep every case's products (for the report's per-case plots and for
@@ -88,14 +90,14 @@ class BlockResult:
 
     indices : the cases (B,). scalars : {name: Column}. requirements : ``RequirementColumns`` per requirement.
     notes : the error model's notes per case. groups : {source: group} of the AGB error's contributions per
-    case. products : every case's ``Products`` when kept, else None.
+    case (``Values``). products : every case's ``Products`` when kept, else None.
     """
 
     indices: np.ndarray
     scalars: dict
     requirements: list
-    notes: np.ndarray
-    groups: np.ndarray
+    notes: Values
+    groups: Values
     products: list | None = None
 
     def __len__(self) -> int:
@@ -123,13 +125,10 @@ class BlockResult:
             scalars[name] = Column(values, None if present.all() else present)
         count = len(results[0].verdicts) if results else 0
         requirements = [RequirementColumns.from_verdicts([r.verdicts[j] for r in results]) for j in range(count)]
-        notes = np.empty(n, dtype=object)
-        groups = np.empty(n, dtype=object)
-        for k, r in enumerate(results):
-            notes[k] = r.notes
-            agb = r.products.get("agb.error")
-            groups[k] = {c.name: c.group for c in getattr(agb, "contributions", ())}
-        return cls(np.array([r.index for r in results], dtype=np.int64), scalars, requirements, notes, groups,
+        groups = [{c.name: c.group for c in getattr(r.products.get("agb.error"), "contributions", ())}
+                  for r in results]
+        return cls(np.array([r.index for r in results], dtype=np.int64), scalars, requirements,
+                   Values.of([tuple(r.notes) for r in results]), Values(groups, np.arange(n)),
                    [r.products for r in results])
 
 
@@ -281,7 +280,7 @@ def run_scenario(
     from e2esim.runner.executors import iter_blocks
 
     if engine not in ENGINES:
-        raise ValueError(f"engine must be one of {ENGINES}, got {engine!r}")
+        raise UserError(f"engine {engine!r}: expected one of {', '.join(ENGINES)}")
     n = len(resolved.cases)
     keep = n <= KEEP_PRODUCTS_UP_TO if keep_products is None else keep_products
     blocks = list(finished or [])

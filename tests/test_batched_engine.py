@@ -1,0 +1,168 @@
+"""The batched engine gives the per-case runner's numbers (issue 14): analytic results to 1e-12, Monte Carlo
+results identical, for every shipped scenario; blocks, catalogs and the sweep plan behave as documented.
+
+The default suite checks a few cases of each shipped scenario at the quick sizes against the per-case runner
+(the batched run is the session's quick run); the slow suite checks every case at the scenarios' own sizes.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+import yaml
+
+from e2esim.block import Catalog, Factor
+from e2esim.faraday.distribution import EmpiricalFaraday, GaussianFaraday
+from e2esim.runner.run import run_block, run_scenario
+from e2esim.runner.scenario import Scenario
+from quick_runs import SCENARIOS, scenario_names
+
+RTOL = 1e-12  # issue 14: batched and per-case numbers agree to 1e-12
+
+
+def _close(a: float, b: float, scale: float = 0.0) -> bool:
+    if math.isnan(a) or math.isnan(b):
+        return math.isnan(a) and math.isnan(b)
+    return a == b or abs(a - b) <= RTOL * max(abs(a), abs(b), scale)
+
+
+def assert_same_case(got, expected) -> None:
+    """Scalars and verdicts of two ``CaseResult``s: Monte Carlo numbers identical, analytic ones to 1e-12 (a
+    contribution, a difference of two checked values, relative to the checked value)."""
+    assert list(got.scalars) == list(expected.scalars), set(got.scalars) ^ set(expected.scalars)
+    for name, value in expected.scalars.items():
+        if "montecarlo" in name:
+            assert got.scalars[name] == value or (math.isnan(value) and math.isnan(got.scalars[name])), name
+        else:
+            assert _close(got.scalars[name], value), (name, got.scalars[name], value)
+    assert got.notes == expected.notes
+    assert len(got.verdicts) == len(expected.verdicts)
+    for v, w in zip(got.verdicts, expected.verdicts):
+        assert (v.name, v.passed, v.unit, v.basis, v.dominant, v.notes) == (w.name, w.passed, w.unit, w.basis,
+                                                                              w.dominant, w.notes)
+        assert _close(v.value, w.value) and _close(v.limit, w.limit) and _close(v.margin, w.margin, abs(w.limit))
+        assert list(v.details) == list(w.details)
+        for key, x in w.details.items():
+            assert _close(v.details[key], x, abs(w.value) if key.startswith("contribution.") else 0.0), (key, x)
+        assert list(v.curves) == list(w.curves)
+        for key, x in w.curves.items():
+            assert np.allclose(v.curves[key], x, rtol=RTOL, atol=0.0, equal_nan=True), key
+
+
+@pytest.mark.parametrize("name", scenario_names())
+def test_batched_runs_give_the_per_case_numbers(quick_run, name):
+    result, _ = quick_run(name)  # the batched engine
+    resolved = result.scenario
+    n = len(resolved.cases)
+    picks = sorted({0, n // 2, n - 1})
+    reference = run_block(resolved, picks, engine="per_case")
+    for k, index in enumerate(picks):
+        assert_same_case(result.cases[index], reference.case(k, {}, ""))
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", scenario_names())
+def test_batched_runs_give_the_per_case_numbers_in_every_case(name):
+    resolved = Scenario.load(SCENARIOS / f"{name}.yaml").resolve()
+    batched = run_scenario(resolved, progress=False)
+    per_case = run_scenario(resolved, progress=False, engine="per_case")
+    for got, expected in zip(batched.cases, per_case.cases):
+        assert_same_case(got, expected)
+
+
+SWEEP = """
+name: blocks
+scene: {type: forest_agb_model, biome: boreal}
+instrument: {type: biomass}
+ionosphere: {type: gaussian_faraday, mean_deg: 40, sd_deg: 5}
+requirements:
+  - {type: agb_error_bound, sources: systematic, level_margins: true, tradeoff_curve: true, curve_points: 7}
+  - {type: agb_rmse}
+  - {type: agb_rmse_absolute, applies_below_t_ha: 150}
+simulation: {mode: analytic}
+sweep:
+  parameters:
+    scene.agb_t_ha: [60, 200, 330]
+    instrument.crosstalk.level_db: [-34, -26]
+    instrument.channel_imbalance.level_db: [-36, -28]
+    ionosphere.sd_deg: [0, 5]
+"""
+
+
+def test_every_case_of_an_analytic_sweep_agrees_in_blocks_of_any_size():
+    resolved = Scenario(yaml.safe_load(SWEEP), "blocks.yaml").resolve()
+    per_case = run_scenario(resolved, progress=False, engine="per_case")
+    for size in (1, 5, 24):  # blocks of one case, ragged blocks, one block
+        blocks = [run_block(resolved, np.arange(i, min(i + size, 24))) for i in range(0, 24, size)]
+        for block in blocks:
+            for k, index in enumerate(block.indices):
+                assert_same_case(block.case(k, {}, ""), per_case.cases[int(index)])
+
+
+def test_batched_stages_are_used_for_the_analytic_chain():
+    from e2esim.runner.blocks import BlockRun
+    from e2esim.runner.run import default_services
+
+    resolved = Scenario(yaml.safe_load(SWEEP), "blocks.yaml").resolve()
+    products = BlockRun(resolved.plan, np.arange(24), default_services()).run()
+    kinds = {name: type(value).__name__ for name, value in products.items()}
+    assert kinds["backscatter.error"] == "HVErrorModelBlock" and kinds["agb.error"] == "AGBErrorBlock"
+    assert kinds["verdicts"] == "RequirementVerdictsBlock"
+    assert kinds["instrument"] == "Factor" and len(products["instrument"].values) == 4  # once per distinct one
+
+
+def test_monte_carlo_cases_keep_their_own_generator_in_blocks():
+    data = yaml.safe_load(SWEEP)
+    data["simulation"] = {"mode": "both", "looks": 500, "realisations": 60, "seed": 5}
+    data["requirements"] = [{"type": "agb_error_bound"}]
+    resolved = Scenario(data, "mc.yaml").resolve()
+    per_case = run_scenario(resolved, progress=False, engine="per_case", keep_products=True)
+    shuffled = run_block(resolved, np.array([7, 3, 19, 0]), keep_products=True)  # any order, any company
+    for k, index in enumerate(shuffled.indices):
+        got, expected = shuffled.case(k, {}, ""), per_case.cases[int(index)]
+        assert np.array_equal(got.get("backscatter.error").samples(), expected.get("backscatter.error").samples())
+        assert_same_case(got, expected)
+
+
+def test_a_grid_plan_builds_each_distinct_module_once():
+    resolved = Scenario(yaml.safe_load(SWEEP), "blocks.yaml").resolve()
+    slots = {s.path: s for s in resolved.plan.slots}
+    assert len(slots[("scene",)].objects) == 3 and len(slots[("instrument",)].objects) == 4
+    assert len(slots[("ionosphere",)].objects) == 2 and len(slots[("retrieval",)].objects) == 1
+    case = resolved.cases[13]  # C order: agb 1, crosstalk 1, imbalance 0, sd 1
+    assert case.inputs == {"scene.agb_t_ha": 200, "instrument.crosstalk.level_db": -26,
+                           "instrument.channel_imbalance.level_db": -36, "ionosphere.sd_deg": 5}
+    assert [m.config.get("agb_t_ha") for m in case.modules if m.kind == "scene"] == [200]
+
+
+def test_a_catalog_keeps_each_value_once_and_extends_its_tables():
+    catalog = Catalog()
+    a, b = GaussianFaraday(0.1, 0.0), GaussianFaraday(0.2, 0.0)
+    assert [catalog.add(a), catalog.add(b), catalog.add(a)] == [0, 1, 0]
+    calls = []
+
+    def mean(v):
+        calls.append(v)
+        return v.mean_rad
+
+    factor = Factor(catalog, np.array([1, 0, 1]))
+    assert np.array_equal(factor.gather(mean, name="mean"), [0.2, 0.1, 0.2]) and len(calls) == 2
+    catalog.add(GaussianFaraday(0.3, 0.0))
+    assert np.array_equal(catalog.table("mean", mean), [0.1, 0.2, 0.3]) and len(calls) == 3  # the new one only
+
+
+def test_the_five_node_average_is_exact_for_polynomials_of_degree_4_in_cos_2_omega(rng):
+    samples = rng.normal(0.7, 0.4, 50)
+    dist = EmpiricalFaraday(samples, rng.uniform(0.1, 1.0, 50))
+    nodes, weights = dist.even_quadrature()
+    coefficients = rng.normal(size=5)
+    exact = np.dot(dist.probabilities, np.polynomial.polynomial.polyval(np.cos(2 * dist.samples), coefficients))
+    assert np.dot(weights, np.polynomial.polynomial.polyval(np.cos(2 * nodes), coefficients)) == pytest.approx(
+        exact, rel=1e-13, abs=1e-14)
+    # and the HV error moments averaged with it agree with the 17-node average of any trigonometric polynomial
+    # of degree 8 (FaradayDistribution.quadrature)
+    nodes17, weights17 = dist.quadrature()
+    h = lambda w: np.cos(w) ** 4 * np.sin(w) ** 4 + 0.3 * np.cos(w) ** 2  # noqa: E731
+    assert np.dot(weights, h(nodes)) == pytest.approx(np.dot(weights17, h(nodes17)), rel=1e-13)
