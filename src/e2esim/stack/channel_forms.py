@@ -36,7 +36,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from e2esim.distortion.expansion import RECEIVE, TRANSMIT, expansion
+from e2esim.distortion.expansion import RECEIVE, TRANSMIT, expansion_at
 
 MONOMIALS = ("1", "d", "e", "dd", "de", "ee")
 """Monomials of the levels (V_delta, V_epsilon), as ``quadratic_form.MONOMIALS``."""
@@ -54,6 +54,13 @@ def pair_structures(gammas: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     xi = (np.einsum("aik,bjl->abijkl", g_rr, g_tt) + np.einsum("ail,bjk->abijkl", g_rt, g_tr)).reshape(2, 2, 9, 9)
     xi_c = (np.einsum("aki,blj->abijkl", g_rr, g_tt) + np.einsum("akj,bli->abijkl", g_rt, g_tr)).reshape(2, 2, 9, 9)
     return xi, xi_c
+
+
+def _expansion(omega: np.ndarray, omega_hat: np.ndarray | None):
+    """Issue 12's expansion at the nodes, cached (the variants of a case share their Faraday-rotation nodes)."""
+    om = np.ascontiguousarray(omega, dtype=float)
+    oh = None if omega_hat is None else np.ascontiguousarray(omega_hat, dtype=float).tobytes()
+    return expansion_at(om.tobytes(), oh, om.shape)
 
 
 def _symmetric_pairs(x: np.ndarray) -> np.ndarray:
@@ -75,64 +82,80 @@ def channel_node_polynomials(blocks: np.ndarray, q: np.ndarray, omega: np.ndarra
     Returns complex ``y0`` (6, G, N, N, 3, 3) (coefficients of Y_nm, no gain factors) and ``mean`` (6, G, 3, 3)
     (of sum_nm Q_mn E[eta_n eta_m] Y_nm); real ``cov`` (6, G, 3, 3) (Cov(q_p, q_q), constant coefficient 0),
     ``trq2y`` (6, G, 3) (of tr(Q^2 Y^pp) with the gain factors) and ``csys`` (6, G, 3) (zeros unless asked).
+
+    Every product is a batch of small matrix products (sides of at most 9N), so that a threaded BLAS never
+    takes over: on a shared machine its threads cost far more than the work.
     """
     n = q.shape[0]
     g = omega.shape[0]
     pair = np.ones((n, n)) if gain_pair is None else np.asarray(gain_pair, float)
     c = np.asarray(blocks, complex)
-    exp = expansion(omega, omega_hat)
+    exp = _expansion(omega, omega_hat)
     a0, u = exp.a0, exp.u  # (G, N, p, c), (G, N, 6, p, c)
     w = exp.w.reshape(g, n, 9, 3, 3)  # (G, N, (ij), p, c)
     gm = np.asarray(gammas, complex)
     xi, xi_c = pair_structures(gm)
+    weight = q.T * pair  # Q_mn E[eta_n eta_m] at [n, m]
+    rows = c.transpose(0, 2, 1, 3).reshape(n, 3, 3 * n)  # C_n. as (c, (m, d)) per n
+    mflat = (weight[:, :, None, None] * c).transpose(0, 2, 1, 3).reshape(3 * n, 3 * n)  # M[(n, c), (m, d)]
 
     # eq. (21): Y_nm per monomial
     y0 = np.zeros((6, g, n, n, 3, 3), complex)
-    a0c = np.einsum("gnpc,nmcd->gnmpd", a0, c)
-    y0[0] = np.einsum("gnmpd,gmqd->gnmpq", a0c, a0.conj())
-    uc = np.einsum("gnipc,nmcd->gnmipd", u, c)
-    ug = np.einsum("aij,gmjqd->agmiqd", gm, u.conj())  # sum_j Gamma_a[i, j] u_m,j^*
-    y0[_LIN] = r[None, None, :, :, None, None] * np.einsum("gnmipd,agmiqd->agnmpq", uc, ug)
-    wc = np.einsum("gnxpc,nmcd->gnmxpd", w, c)
-    wg = np.einsum("abxy,gmyqd->abgmxqd", xi, w.conj())
-    quad = np.einsum("gnmxpd,abgmxqd->abgnmpq", wc, wg)
-    y0[_QUAD] = (r**2)[None, None, :, :, None, None] * _symmetric_pairs(quad)
-    weight = q.T * pair  # Q_mn E[eta_n eta_m] at [n, m]
+    a0c = (a0 @ rows[None]).reshape(g, n, 3, n, 3)  # a0_n C_nm [g, n, p, m, d]
+    y0[0] = np.einsum("gnpmd,gmqd->gnmpq", a0c, a0.conj())
+    uc = (u.reshape(g, n, 18, 3) @ rows[None]).reshape(g, n, 6, 3, n, 3)  # u_n,i C_nm [g, n, i, p, m, d]
+    uc = uc.transpose(0, 4, 1, 3, 2, 5).reshape(g, n, 3 * n, 18)  # [g, m, (n, p), (i, d)]
+    ug = np.einsum("aij,gmjqd->gmidaq", gm, u.conj()).reshape(g, n, 18, 6)  # sum_j Gamma_a[i, j] u_m,j^* per (a, q)
+    lin = (uc @ ug).reshape(g, n, n, 3, 2, 3).transpose(4, 0, 2, 1, 3, 5)  # [a, g, n, m, p, q]
+    y0[_LIN] = r[None, None, :, :, None, None] * lin
+    wc = (w.reshape(g, n, 27, 3) @ rows[None]).reshape(g, n, 9, 3, n, 3)
+    wc = wc.transpose(0, 4, 1, 3, 2, 5).reshape(g, n, 3 * n, 27)  # [g, m, (n, p), (x, d)]
+    wg = (_symmetric_pairs(xi)[None, None] @ w.conj().reshape(g, n, 1, 9, 9))  # [g, m, k, x, (q, d)]
+    wg = wg.reshape(g, n, 3, 9, 3, 3).transpose(0, 1, 3, 5, 2, 4).reshape(g, n, 27, 9)
+    quad = (wc @ wg).reshape(g, n, n, 3, 3, 3).transpose(4, 0, 2, 1, 3, 5)  # [k, g, n, m, p, q]
+    y0[_QUAD] = (r**2)[None, None, :, :, None, None] * quad
     mean = np.einsum("nm,kgnmpq->kgpq", weight, y0)
     trq2y = np.real(np.einsum("nm,kgnmpp->kgp", (q @ q).T * pair, y0))
 
     # eq. (22): Cov(q_p, q_q)
-    mm = weight[:, :, None, None] * c  # M_nm
-    r0 = np.einsum("gnpc,nmcd->gmpd", a0, mm)  # R0_p,m
-    gvec = np.einsum("gmpd,gmipd->gmip", r0, u.conj()).reshape(g, 6 * n, 3)  # G_p[(m, i)]
-    big = np.stack([np.kron(r, gm[0]), np.kron(r, gm[1])])  # Gamma_big per component (2, 6N, 6N)
     cov = np.zeros((6, g, 3, 3))
-    cov[_LIN] = 2 * np.real(np.einsum("gxp,axy,gyq->agpq", gvec.conj(), big, gvec))
-    um = np.einsum("gnipc,nmcd->gnmipd", u, mm)
-    beta = np.einsum("gnmipd,gmjpd->gpnimj", um, u.conj()).reshape(g, 3, 6 * n, 6 * n)
-    x = beta[:, None] @ np.swapaxes(big, -1, -2)[None, :, None]  # beta_p Gamma_a^T, (G, 2, 3, 6N, 6N)
-    flat = x.reshape(g, 6, -1)
-    q2 = np.real(flat @ np.swapaxes(np.swapaxes(x, -1, -2).reshape(g, 6, -1), -1, -2))  # tr(X_pa X_qb)
-    q2 = q2.reshape(g, 2, 3, 2, 3).transpose(1, 3, 0, 2, 4)  # (a, b, G, p, q)
-    gam = np.einsum("gmpd,gmxpd->gmxp", r0, w.conj()).reshape(g, 9 * n, 3)  # gamma_p[(m, ij)]
-    xbig = np.einsum("mk,abxy->abmxky", r**2, xi_c).reshape(2, 2, 9 * n, 9 * n)
-    p2 = 2 * np.real(np.einsum("gxp,abxy,gyq->abgpq", gam, xbig, gam.conj()))
-    tau = np.einsum("gnmaqd,gmxqd->gqnamx", um, w.conj())  # u_n,a,q M_nm w_m,x,q^H
-    hvec = np.einsum("gkcp,km,ace->agmep", gvec.reshape(g, n, 6, 3).conj(), r, gm)
-    kvec = np.einsum("gqnamx,nm,bae->bgqmex", tau, r, gm).reshape(2, g, 3, n, 6, 3, 3)
-    # Cov(T1_p, T3_q): sum conj(G_p[k, c]) tau_q[n, a; m, i, j] (r_km Gamma_c,i r_nm Gamma_a,3+j + r_km Gamma_c,3+j
-    # r_nm Gamma_a,i), as H_p[m, e] = sum_kc conj(G_p[k, c]) r_km Gamma[c, e] and K_q[m, e, ij] = sum_na tau r_nm
-    # Gamma[a, e] (co-pol eq. 3.5d with the passes)
-    t13 = 2 * np.real(np.einsum("agmip,bgqmeij,ej->abgpq", hvec[:, :, :, :3], kvec, _SELECT_T)
-                      + np.einsum("agmjp,bgqmeij,ei->abgpq", hvec[:, :, :, 3:], kvec, _SELECT_R))
+    r0 = (a0.transpose(0, 2, 1, 3).reshape(g, 3, 3 * n) @ mflat).reshape(g, 3, n, 3)  # R0_p,m [g, p, m, d]
+    gvec = np.einsum("gpmd,gmipd->gmip", r0, u.conj())  # G_p[(m, i)]
+    gg = np.einsum("mk,agkiq->agmiq", r, np.einsum("aij,gkjq->agkiq", gm, gvec))  # Gamma_big G
+    cov[_LIN] = 2 * np.real(np.einsum("gmip,agmiq->agpq", gvec.conj(), gg))
+    # tr(beta_p Gamma_a^T beta_q Gamma_b^T) = tr(M F_pq^a M F_qp^b), F_pq^a = U_p^H Gamma_big,a^T U_q (3N x 3N)
+    uh = u.conj().transpose(0, 1, 3, 4, 2).reshape(g, 9 * n, 6)  # [g, (n, p, c), i]
+    gtu = np.einsum("aji,gmjqd->agimqd", gm, u).reshape(2, g, 6, 9 * n)
+    f = (uh[None] @ gtu).reshape(2, g, n, 3, 3, n, 3, 3)  # [a, g, n, p, c, m, q, d]
+    f = (f * r[None, None, :, None, None, :, None, None]).transpose(0, 1, 3, 6, 2, 4, 5, 7).reshape(
+        2, g, 3, 3, 3 * n, 3 * n)
+    x = mflat @ f  # M F_pq^a
+    q2 = np.real(np.einsum("agpqxy,bgqpyx->abgpq", x, x))
+    # Cov(2 Re P_p, 2 Re P_q) (co-pol eq. 3.5c with the passes, r^2 between them)
+    gam = np.einsum("gpmd,gmxpd->gmxp", r0, w.conj())  # gamma_p[m, (ij)]
+    s = np.einsum("mk,gkyq->gmyq", r**2, gam.conj())
+    p2 = 2 * np.real(np.einsum("gmxp,abgmxq->abgpq", gam, xi_c[:, :, None, None] @ s))
+    # Cov(T1_p, T3_q) + Cov(T3_p, T1_q) (co-pol eq. 3.5d): with H_p[m, e] = sum_kc conj(G_p[k, c]) r_km
+    # Gamma_a[c, e] and K_q[m, e, (ij)] = sum_n r_nm (Gamma_b^T u_n)_e,q M_nm w_m,ij,q^H
+    hvec = np.einsum("km,agkep->agmep", r, np.einsum("ace,gkcp->agkep", gm, gvec.conj()))
+    ut = np.einsum("bae,gnaqc->bgeqnc", gm, u).reshape(2, g, 18, 3 * n)
+    ut = (ut @ (np.kron(r, np.ones((3, 3))) * mflat)).reshape(2, g, 6, 3, n, 3)  # [b, g, e, q, m, d]
+    kvec = np.einsum("bgeqmd,gmxqd->bgqmex", ut, w.conj()).reshape(2, g, 3, n, 6, 3, 3)
+    k_t = np.diagonal(kvec[:, :, :, :, 3:], axis1=-3, axis2=-1)  # K[m, 3 + j, i, j]: [b, g, q, m, i, j]
+    k_r = np.diagonal(kvec[:, :, :, :, :3], axis1=-3, axis2=-2).sum(-1)  # sum_i K[m, i, i, j]: [b, g, q, m, j]
+    t13 = 2 * np.real(np.einsum("agmip,bgqmij->abgpq", hvec[:, :, :, :3], k_t)
+                      + np.einsum("agmjp,bgqmj->abgpq", hvec[:, :, :, 3:], k_r))
     t13 = t13 + np.swapaxes(t13, -1, -2)
     cov[_QUAD] = _symmetric_pairs(q2 + p2 + t13)
 
     csys = np.zeros((6, g, 3))
-    if population_cross:  # eq. (23): sum_abcd Q_ab Q_cd (x_bc^T P_ba y_da + x_da^T P_dc y_bc) per channel
-        plin = np.einsum("ba,gbepi,cef,gafpj->cgbapij", r, u, gm, u.conj())  # E[l_b,p,i l_a,p,j*]
-        xv = np.einsum("bcik,gcpk->gbcpi", c, a0.conj())  # C_bc a0_c,p^H
-        yv = np.einsum("gdpk,dakj->gdapj", a0, c)  # a0_d,p C_da
-        csys[_LIN] = np.real(np.einsum("ab,cd,gbcpi,kgbapij,gdapj->kgp", q, q, xv, plin, yv, optimize=True)
-                             + np.einsum("ab,cd,gdapi,kgdcpij,gbcpj->kgp", q, q, xv, plin, yv, optimize=True))
+    if population_cross:  # eq. (23): 2 Re sum_abcd Q_ab Q_cd x_bc^T P_ba y_da per channel (the two terms are equal)
+        ub = u.transpose(0, 3, 1, 4, 2).reshape(g, 3, 3 * n, 6)  # [g, p, (b, i), e]
+        ua = np.einsum("cef,gafpj->cgpeaj", gm, u.conj()).reshape(2, g, 3, 6, 3 * n)
+        plin = (ub[None] @ ua) * np.kron(r, np.ones((3, 3)))  # E[l_b,p,i l_a,p,j^*], [c, g, p, (b, i), (a, j)]
+        xv = np.einsum("bcik,gcpk->gpbic", c, a0.conj()).reshape(g, 3, 3 * n, n)  # C_bc a0_c,p^H
+        ycd = np.einsum("cd,gdpaj->gpcaj", q, a0c.transpose(0, 1, 2, 3, 4)).reshape(g, 3, n, 3 * n)
+        z = xv @ ycd  # sum_c x_bc Q_cd y_da, [g, p, (b, i), (a, j)]
+        qb = np.kron(q.T, np.ones((3, 3)))  # Q_ab at [(b, i), (a, j)]
+        csys[_LIN] = 2 * np.real(np.einsum("xy,cgpxy,gpxy->cgp", qb, plin, z))
     return {"y0": y0, "mean": mean, "cov": cov, "trq2y": trq2y, "csys": csys}
