@@ -72,9 +72,17 @@ def test_the_ground_cancellation_scenario_answers_its_question(quick_run):
     by = {}
     for case in summary["cases"]:
         i = case["inputs"]
-        by[(i["scene.site"], i["propagation.0.estimator"], i["orbit.passes"],
-            i["propagation.0.faraday_difference_sd_deg"])] = case
+        estimator = i["propagation.0.estimator"] + ("_multichannel" if i["propagation.0.channels"] == "all" else "")
+        by[(i["scene.site"], estimator, i["orbit.passes"], i["propagation.0.faraday_difference_sd_deg"])] = case
     for site in ("tropical", "boreal"):
+        # the 20 % goal (RMS of every source): only ground-cancelled HH, HV and VV together meet it, and it has the
+        # smallest error of the four estimators
+        rmse = {e: by[(site, e, "dawn", None)]["requirements"][1] for e in
+                ("single_date", "multi_date", "ground_cancelled", "ground_cancelled_multichannel")}
+        assert [e for e, v in rmse.items() if v["passed"]] == ["ground_cancelled_multichannel"]
+        assert rmse["ground_cancelled_multichannel"]["value"] == min(v["value"] for v in rmse.values())
+        joint = by[(site, "ground_cancelled_multichannel", "dawn", None)]["results"]
+        assert joint["cancellation.hh.ground_suppression_db"] < -15.0  # HH's large ground is cancelled too
         looks = {e: by[(site, e, "dawn", None)]["results"]["estimator.speckle_diversity"]
                  for e in ("single_date", "multi_date", "ground_cancelled")}
         assert looks["single_date"] == 1.0 < looks["ground_cancelled"] < looks["multi_date"] < 3.0

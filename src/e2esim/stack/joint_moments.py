@@ -23,14 +23,13 @@ For HV every part equals ``stack_hv_moments`` (tested to 1e-12).
 
 from __future__ import annotations
 
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
 
 import numpy as np
 
 from e2esim.distortion.channel_moments import unit_covariances
 from e2esim.distortion.polarimetric_moments import NOISE_FACTORS
-from e2esim.polarimetry.system_model import RECIPROCAL_CHANNELS
-from e2esim.stack.analytic import REFERENCES, _pass_gain_products
+from e2esim.stack.analytic import evaluation_levels, pass_nodes, speckle_form
 from e2esim.stack.channel_forms import channel_node_polynomials
 from e2esim.stack.combination import PassCombination
 from e2esim.stack.faraday import StackFaraday
@@ -41,7 +40,8 @@ from e2esim.stack.system import StackSystemErrors
 
 @dataclass(frozen=True)
 class StackJointMoments:
-    """Mean vectors (..., 3) and covariance matrices (..., 3, 3) of the errors of (hh, hv, vv), with their parts
+    """Mean vectors (..., 3) and covariance matrices (..., 3, 3) of the errors of (hh, hv, vv) (channels in that
+    order, ``RECIPROCAL_CHANNELS``), with their parts
     (m^2/m^2, (m^2/m^2)^2). Bias parts add up to ``mean``, covariance parts to ``covariance``.
 
     values : (3,) sigma_p. bias_distortion : E q - sigma (system errors, Faraday rotation, the passes' own gains).
@@ -64,18 +64,6 @@ class StackJointMoments:
     cov_gain: np.ndarray
     cov_finite_looks: np.ndarray
     expected_covariance: np.ndarray
-    channels: tuple = RECIPROCAL_CHANNELS
-
-    @property
-    def variance(self) -> np.ndarray:
-        return np.diagonal(self.covariance, axis1=-2, axis2=-1)
-
-    @property
-    def sd(self) -> np.ndarray:
-        return np.sqrt(np.clip(self.variance, 0.0, None))
-
-    def as_dict(self) -> dict:
-        return {f.name: getattr(self, f.name) for f in fields(self) if f.name != "channels"}
 
 
 def joint_node_terms(scene: StackScene, errors: StackSystemErrors, faraday: StackFaraday,
@@ -84,14 +72,12 @@ def joint_node_terms(scene: StackScene, errors: StackSystemErrors, faraday: Stac
     """The kernel's coefficients at the Faraday-rotation nodes of one difference SD (rad), with the nodes'
     weights and the passes' gain products: what ``stack_joint_moments`` evaluates at any level (cached by the
     error model per difference SD)."""
-    n = scene.passes
-    omega, weights = faraday.nodes(n, difference_sd)
-    beta = errors.pass_gain_log_sd
-    pair, cov4 = _pass_gain_products(n, beta) if beta > 0 else (None, None)
+    nodes = pass_nodes(scene, errors, faraday, difference_sd)
+    omega = nodes.pop("omega")
     out = channel_node_polynomials(scene.blocks(), combination.matrix, omega, omega if correct_copol else None,
-                                   errors.pass_correlation(n), unit_covariances(errors.system), pair,
-                                   population_cross)
-    out.update(weights=weights, pair=pair, cov4=cov4)
+                                   errors.pass_correlation(scene.passes), unit_covariances(errors.system),
+                                   nodes["pair"], population_cross)
+    out.update(nodes)
     return out
 
 
@@ -105,18 +91,11 @@ def stack_joint_moments(scene: StackScene, errors: StackSystemErrors, faraday: S
     own Faraday rotation before the passes are combined (the operational order), else not corrected.
     cache : a dict kept by the caller for the node terms of each sigma_D. totals_only : return (mean,
     covariance) only."""
-    if reference not in REFERENCES:
-        raise ValueError(f"reference must be one of {REFERENCES}, got {reference!r}")
-    system = errors.system
-    xs, es, ns, dv = np.broadcast_arrays(
-        np.asarray(system.crosstalk_level if crosstalk_level is None else crosstalk_level, float),
-        np.asarray(system.imbalance_level if imbalance_level is None else imbalance_level, float),
-        np.asarray(system.noise_power if noise_power is None else noise_power, float),
-        np.asarray(faraday.difference_sd**2 if difference_variance is None else difference_variance, float))
+    xs, es, ns, dv = evaluation_levels(errors, faraday, reference, crosstalk_level, imbalance_level, noise_power,
+                                       difference_variance)
     shape = xs.shape
     q = combination.matrix
-    rank_one = combination.weights.shape[0] == 1
-    need_cross = reference == "population" and looks is not None and not rank_one
+    rank_one, need_cross = speckle_form(combination, reference, looks)
     cache = {} if cache is None else cache
     vec, mat = shape + (3,), shape + (3, 3)
     mu, spread_m, v, veta, expected = (np.zeros(vec), np.zeros(mat), np.zeros(mat), np.zeros(mat),
