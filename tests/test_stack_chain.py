@@ -38,6 +38,7 @@ def _run(tmp_path, *overrides, text=BASE):
     ("scene.ground_to_volume_db=[-20, -3, -20]", "scene: the ground part of .* is not a covariance"),
     ("propagation.0.system_error_correlation=1.5", r"propagation\[0\]\.system_error_correlation: 1\.5 is out of "
                                                    "range"),
+    ("propagation.0.channels=both", r"propagation\[0\]\.channels: 'both' is not allowed; expected one of 'hv', 'all'"),
 ])
 def test_bad_stack_input_names_its_key(tmp_path, override, message):
     with pytest.raises(ConfigError, match=message):
@@ -55,6 +56,17 @@ def test_errors_met_while_running_name_the_parameter(tmp_path):
     assert "stack_error_budget" in text
     with pytest.raises(ConfigError, match="needs the error model of stack_backscatter_error, got a HVErrorModel"):
         _run(tmp_path, text=text)
+
+
+def test_bad_multichannel_input_names_its_key(tmp_path):
+    joint = ("retrieval.type=stack_multichannel_power_law", "propagation.0.channels=all")
+    with pytest.raises(ConfigError, match=r"retrieval\.ground_cancelled_exponents\[1\]: 'linear' is not allowed; "
+                       "expected a list of 3 items, each one of 'rvog', 'same'"):
+        _run(tmp_path, *joint, "retrieval.ground_cancelled_exponents=[same, linear, rvog]")
+    with pytest.raises(ConfigError, match=r"retrieval: needs the errors of all channels, but backscatter\.error is a "
+                       "single-channel StackHVErrorModel.*channels: all"):
+        _run(tmp_path, joint[0])
+    assert _run(tmp_path, *joint).cases[0].scalars["agb.exponent"] == 1.0  # the joint estimate's log error
 
 
 def test_ground_cancelled_retrieval_uses_the_rvog_exponent(tmp_path):

@@ -92,7 +92,8 @@ class MultiChannelRetrieval(Stage):
         scene, model = case["scene.covariance"], case["backscatter.error"]
         if not isinstance(model, MultiChannelErrorModel):
             raise fail(self, f"needs the errors of all channels, but backscatter.error is a single-channel "
-                       f"{type(model).__name__}", "use propagation type polarimetric_error")
+                       f"{type(model).__name__}",
+                       "use propagation type polarimetric_error, or stack_backscatter_error with channels: all")
         agb = scene.agb_t_ha
         if agb is None or not agb > 0:
             raise fail(self, f"case {case.index}: the scene states no AGB", "use a scene that states its AGB")
