@@ -123,7 +123,7 @@ def stack_joint_moments(scene: StackScene, errors: StackSystemErrors, faraday: S
                 kappa = np.diagonal(q.T[None, None, :, :, None, None] * y0, axis1=-2, axis2=-1)  # (S, G, N, N, 3)
                 kappa = kappa.reshape(kappa.shape[:2] + (-1, 3))
                 cov4 = t["cov4"].reshape(kappa.shape[2], kappa.shape[2])
-                veta[sel] = np.einsum("sgxp,xy,sgyq,g->spq", kappa, cov4, kappa, w).real
+                veta[sel] = np.einsum("sgxp,sgxq,g->spq", kappa, cov4 @ kappa, w).real
             ybar = y0 if t["pair"] is None else y0 * t["pair"][None, None, :, :, None, None]
             if need_cross:
                 qy = np.einsum("mn,sgnkp->sgmkp", q, np.diagonal(ybar, axis1=-2, axis2=-1))
