@@ -139,7 +139,7 @@ def test_analytic_joint_moments_agree_with_the_monte_carlo(rng):
 @pytest.mark.parametrize("site, reference, looks, rho, diff_deg, correct", [
     ("tropical", "scene", 10**6, 0.0, 15.0, True),
     ("boreal", "scene", 10**6, 1.0, 0.0, True),
-    ("boreal", "scene", 10**6, 0.5, 10.0, False),
+    ("boreal", "scene", 10**6, 0.5, 2.0, False),  # uncorrected: the rotation difference cubature is O((4 s_D)^6)
     ("tropical", "population", 200, 0.7, 30.0, True),
 ])
 def test_analytic_joint_moments_agree_with_a_large_monte_carlo(rng, site, reference, looks, rho, diff_deg, correct):
