@@ -110,3 +110,12 @@ def test_the_ground_cancellation_scenario_answers_its_question(quick_run):
             assert abs(quiet["requirements"][0]["value"] - swept["requirements"][0]["value"]) < 0.5
             for verdict in quiet["requirements"]:
                 assert verdict["dominant"], verdict["name"]
+
+
+def test_the_joint_estimate_refuses_a_linear_budget(tmp_path):
+    text = BASE.replace("  - {type: stack_backscatter_error}",
+                        "  - {type: stack_backscatter_error, channels: all}\n"
+                        "  - {type: stack_error_budget, combination: linear}")
+    with pytest.raises(ConfigError, match=r"retrieval: case 0: the joint multi-channel estimate combines independent "
+                       "budget terms only, got combination 'linear'.*combination: independent"):
+        _run(tmp_path, "retrieval.type=stack_multichannel_power_law", text=text)

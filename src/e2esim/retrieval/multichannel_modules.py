@@ -144,7 +144,8 @@ class MultiChannelRetrieval(Stage):
                 combined = budget_log_agb_error(view, budget, self.speckle_correlation(case, model), contributions,
                                                 case.rng, rel)
             except PhysicsInputError as exc:
-                raise fail(self, f"case {case.index}: {exc}") from exc
+                raise fail(self, f"case {case.index}: {exc}", "give the error budget combination: independent, or "
+                           "use a single-channel estimator") from exc
             m, contributions, rel = combined
         y = None
         if rel is not None:
