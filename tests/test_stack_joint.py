@@ -182,7 +182,7 @@ def test_ground_cancelled_exponents():
                                rtol=1e-14)
 
 
-def _stack_retrieval_case(seed, realisations=4000, **stage):
+def _stack_retrieval_case(seed, realisations=2500, **stage):
     """A case through the stack stages (tropical site, the BIOMASS instrument): scene, joint error model with its
     Monte Carlo, the 200 m error budget with the stack's effective looks."""
     from e2esim.settings import SimulationSettings
