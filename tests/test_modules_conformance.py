@@ -36,15 +36,18 @@ def _multichannel_case():
     return case.adding(stage.forward(case))
 
 
-def _stack_case(with_model: bool):
-    """A reference case with the multi-pass scene (and the stack error model) that the default chain lacks."""
-    from e2esim.stack.modules import RVoGStackScene, StackBackscatterError
+def _stack_case(with_model: bool, channels: str = "hv", budget: bool = False):
+    """A reference case with the multi-pass scene (and the stack error model of ``channels``, and its error
+    budget) that the default chain lacks."""
+    from e2esim.stack.modules import RVoGStackScene, StackBackscatterError, StackErrorBudget
     from e2esim.testing import reference_case
 
     case = reference_case(("scene.covariance", "system.residual", "faraday.residual", "instrument"))
     case = case.adding({"scene.stack": RVoGStackScene().forward(case)["scene.stack"]})
     if with_model:
-        case = case.adding(StackBackscatterError(system_error_correlation=0.5).forward(case))
+        case = case.adding(StackBackscatterError(system_error_correlation=0.5, channels=channels).forward(case))
+    if budget:
+        case = case.adding(StackErrorBudget().forward(case))
     return case
 
 
@@ -53,6 +56,7 @@ CASES = {
     ("propagation", "stack_backscatter_error"): lambda: _stack_case(False),
     ("propagation", "stack_error_budget"): lambda: _stack_case(True),
     ("retrieval", "stack_power_law"): lambda: _stack_case(True),
+    ("retrieval", "stack_multichannel_power_law"): lambda: _stack_case(True, "all", budget=True),
 }
 """Reference cases for modules that need products the default chain does not make."""
 

@@ -156,6 +156,7 @@ class MultiChannelErrorModel(ErrorModel):
       (..., C, C)) at other levels, broadcast like ``moments``; ``current_joint()`` at the model's own;
     * ``joint_contributions()``: {name: ``JointContribution``}, adding up to the joint mean and covariance;
     * ``joint_relative_samples()``: Monte Carlo samples of e_p / sigma_p, shape (M, N, C), or None;
+    * ``speckle_correlation()``: how the channels' speckle correlates over the looks, or None (the scene's);
     * ``channel_view(name)``: one channel as a single-channel ``ErrorModel`` (verdicts, margins, trade-off
       curves through the single-channel requirement code);
     * ``without(source)`` returns a ``MultiChannelErrorModel``.
@@ -185,6 +186,11 @@ class MultiChannelErrorModel(ErrorModel):
 
     def joint_relative_samples(self) -> np.ndarray | None:
         """Monte Carlo samples of e_p / sigma_p, shape (M, N, C), or None."""
+        return None
+
+    def speckle_correlation(self) -> np.ndarray | None:
+        """(C, C) correlation of the channels' speckle over the looks when the estimate is not a single image
+        (e.g. a combination of passes), or None: then the intensity correlation of the scene's covariance."""
         return None
 
     def index(self, channel: str) -> int:

@@ -113,13 +113,26 @@ def _fast(scene, a, sigma_nu, rng, looks, n_noise, reference, scene_vectors):
     # K = A F with F F^H = L C_hat, so K K^H = A L C_hat A^H (co-pol eq. 7.1); entry by entry over M
     k = np.array([[sum(a[p, c] * factor[c, j] for c in range(3)) for j in range(3)] for p in range(3)])
     sd = np.sqrt(sigma_nu)
-    scale = np.outer(sd, sd)[:, :, None]
     out = np.empty((m, n_noise, 3, 3), dtype=complex)
     for j in range(n_noise):
-        v = k + sd[:, None, None] * _complex_normal(rng, (3, 3, m))  # columns m_j + w_j
-        total = _gram(v) + scale * _bartlett_gram(rng, looks - 3, m)
-        out[:, j] = np.moveaxis(total, -1, 0) / looks
+        out[:, j] = np.moveaxis(noncentral_wishart(rng, k, sd, looks), -1, 0)
     return out, ref, looks
+
+
+def noncentral_wishart(rng: np.random.Generator, factor: np.ndarray, noise_sd: np.ndarray, looks: int) -> np.ndarray:
+    """(1/L) sum_k y_k y_k^H over L looks of y_k = x_k + nu_k, nu_k ~ CN(0, diag(noise_sd^2)) independent of the
+    signal, given the signal's scatter factor: co-pol eq. (7.1) in any dimension p, exact and at a cost
+    independent of L.
+
+    factor : K (p, p, M) with K K^H = sum_k x_k x_k^H (e.g. A F with F F^H = L C_hat). noise_sd : (p,).
+    looks : L >= p. A unitary rotation of the look axis puts the signal into p rows:
+    sum_j (k_j + w_j)(k_j + w_j)^H + D^1/2 B B^H D^1/2, w_j ~ CN(0, D), B B^H ~ CW_p(L - p, I). Returns (p, p, M).
+    """
+    p, m = factor.shape[0], factor.shape[-1]
+    sd = np.asarray(noise_sd, dtype=float)
+    v = factor + sd[:, None, None] * _complex_normal(rng, (p, p, m))  # columns m_j + w_j
+    total = _gram(v) + np.outer(sd, sd)[:, :, None] * _bartlett_gram(rng, looks - p, m, p)
+    return total / looks
 
 
 def _small_window(s, a, sigma_nu, rng, n_noise, reference, scene):
@@ -167,32 +180,35 @@ def _complex_normal(rng, shape, unit: bool = True) -> np.ndarray:
     return z / np.sqrt(2) if unit else z
 
 
-def _bartlett_gram(rng, dof: int, size: int) -> np.ndarray:
-    """B B^H ~ CW_3(dof, I), shape (3, 3, size), by the Bartlett decomposition: B lower triangular,
-    |B_ii|^2 ~ Gamma(dof - i), B_ij ~ CN(0, 1) below the diagonal (as ``ScatteringCovariance.sample_covariance``)."""
-    d = [np.sqrt(rng.gamma(dof - i, 1.0, size)) for i in range(3)]
-    b10, b20, b21 = _complex_normal(rng, (3, size))
-    g = np.empty((3, 3, size), dtype=complex)
-    g[0, 0] = d[0] ** 2
-    g[1, 1] = np.abs(b10) ** 2 + d[1] ** 2
-    g[2, 2] = np.abs(b20) ** 2 + np.abs(b21) ** 2 + d[2] ** 2
-    g[1, 0] = b10 * d[0]
-    g[2, 0] = b20 * d[0]
-    g[2, 1] = b20 * b10.conj() + b21 * d[1]
-    for p, q in ((0, 1), (0, 2), (1, 2)):
-        g[p, q] = g[q, p].conj()
+def _bartlett_gram(rng, dof: int, size: int, p: int = 3) -> np.ndarray:
+    """B B^H ~ CW_p(dof, I), shape (p, p, size), by the Bartlett decomposition: B lower triangular,
+    |B_ii|^2 ~ Gamma(dof - i), B_ij ~ CN(0, 1) below the diagonal, row by row (as
+    ``ScatteringCovariance.sample_covariance``); for dof < p, the gram of dof CN(0, I) vectors."""
+    if dof < p:
+        z = _complex_normal(rng, (p, max(dof, 0), size))
+        return _gram(z)
+    d = [np.sqrt(rng.gamma(dof - i, 1.0, size)) for i in range(p)]
+    below = iter(_complex_normal(rng, (p * (p - 1) // 2, size)))
+    b = [[next(below) for _ in range(i)] + [d[i]] for i in range(p)]  # row i: B_i0 .. B_ii
+    g = np.empty((p, p, size), dtype=complex)
+    for i in range(p):
+        g[i, i] = sum(np.abs(b[i][k]) ** 2 for k in range(i)) + d[i] ** 2
+        for j in range(i):
+            g[i, j] = sum(b[i][k] * b[j][k].conj() for k in range(j)) + b[i][j] * d[j]
+            g[j, i] = g[i, j].conj()
     return g
 
 
 def _gram(x: np.ndarray) -> np.ndarray:
-    """x x^H for x of shape (3, J, size), entry by entry over contiguous vectors: (3, 3, size)."""
+    """x x^H for x of shape (p, J, size), entry by entry over contiguous vectors: (p, p, size)."""
     xc = x.conj()
-    g = np.empty((3, 3, x.shape[-1]), dtype=complex)
-    for p in range(3):
-        for q in range(p, 3):
-            g[p, q] = (x[p] * xc[q]).sum(0)
-            if q != p:
-                g[q, p] = g[p, q].conj()
+    p = x.shape[0]
+    g = np.empty((p, p, x.shape[-1]), dtype=complex)
+    for i in range(p):
+        for j in range(i, p):
+            g[i, j] = (x[i] * xc[j]).sum(0)
+            if j != i:
+                g[j, i] = g[i, j].conj()
     return g
 
 

@@ -167,7 +167,7 @@ class PolarimetricErrorModel(SystemLevels, MultiChannelErrorModel):
                 out[f"{ch}.analytic.sd"] = float(m.sd[i])
                 out[f"{ch}.analytic.relative_mean_percent"] = 100 * float(m.mean[i]) / sigma[i]
                 out[f"{ch}.analytic.relative_sd_percent"] = 100 * float(m.sd[i]) / sigma[i]
-            out.update(_correlations(m.covariance, "analytic"))
+            out.update(correlation_scalars(m.covariance, "analytic"))
         mc = self.montecarlo
         if mc is not None:
             s = sample_covariance_moments(mc.errors)
@@ -182,7 +182,7 @@ class PolarimetricErrorModel(SystemLevels, MultiChannelErrorModel):
                     out[f"{ch}.comparison.mean_z"] = _z(s["mean"][i] - expected.mean[i], s["mean_se"][i])
                     out[f"{ch}.comparison.variance_z"] = _z(s["covariance"][i, i] - expected.covariance[i, i],
                                                             s["covariance_se"][i, i])
-            out.update(_correlations(s["covariance"], "montecarlo"))
+            out.update(correlation_scalars(s["covariance"], "montecarlo"))
             for name, value in (self.gaussianity or {}).items():
                 out[f"hv.montecarlo.{name}"] = value
         return out
@@ -201,7 +201,8 @@ def _z(difference, se) -> float:
     return float(difference / se) if se > 0 else 0.0
 
 
-def _correlations(cov, basis: str) -> dict:
+def correlation_scalars(cov, basis: str) -> dict:
+    """``correlation.<p>_<q>.<basis>``: the correlation coefficients of the channel errors of a covariance matrix."""
     out = {}
     for p in range(3):
         for q in range(p + 1, 3):

@@ -48,32 +48,46 @@ def systematic_contributions(model) -> tuple:
                  for name, c in model.contributions().items())
 
 
-def budget_contributions(budget, channel_weights=None, scene=None) -> tuple:
-    """The budget's terms of eq. (20) as relative HV errors (HV-equivalent for a multi-channel model)."""
+def budget_contributions(budget, channel_weights=None, scene=None, channel: str = "hv") -> tuple:
+    """The budget's terms of eq. (20) as relative errors of ``channel`` (HV-equivalent for a multi-channel
+    model)."""
     if budget is None:
         return ()
     out = []
     for g in budget.groups:
         if channel_weights is None:
             var = float(
-                np.squeeze(budget.channel("hv").group_sd(g) ** 2 if budget.channels else budget.group_sd(g) ** 2)
+                np.squeeze(budget.channel(channel).group_sd(g) ** 2 if budget.channels else budget.group_sd(g) ** 2)
             )
         else:
-            var = float(_channel_covariance(budget, g, scene).dot(channel_weights).dot(channel_weights)
-                        / channel_weights[1] ** 2)
+            var = float(channel_covariance(budget, g, intensity_correlation(scene.matrix)).dot(channel_weights)
+                        .dot(channel_weights) / channel_weights[1] ** 2)
         out.append(AGBContribution(g, "random", 0.0, var, BUDGET_DESCRIPTIONS[g]))
     return tuple(out)
 
 
-def _channel_covariance(budget, group, scene):
-    """3x3 covariance of the relative errors of (hh, hv, vv) for one term of eq. (20)."""
+def intensity_correlation(matrix) -> np.ndarray:
+    """|rho_ij|^2 of a covariance matrix: the correlation of the speckle of its channels' intensities (circular
+    Gaussian scattering)."""
+    c = np.asarray(matrix)
+    d = np.sqrt(np.real(np.diag(c)))
+    return np.abs(c) ** 2 / np.outer(d, d) ** 2
+
+
+def channel_covariance(budget, group, speckle_correlation) -> np.ndarray:
+    """3x3 covariance of the relative errors of (hh, hv, vv) for one term of eq. (20): speckle and noise
+    correlated between channels by ``speckle_correlation`` (3x3), the other terms common to all channels."""
     sd = np.array([float(np.squeeze(budget.channel(ch).group_sd(group))) for ch in ("hh", "hv", "vv")])
     if group in _COMMON_MODE:
         return np.outer(sd, sd)
-    c = np.asarray(scene.matrix)
-    d = np.sqrt(np.real(np.diag(c)))
-    gamma = np.abs(c) ** 2 / np.outer(d, d) ** 2  # intensity correlation |rho_ij|^2
-    return gamma * np.outer(sd, sd)
+    return np.asarray(speckle_correlation) * np.outer(sd, sd)
+
+
+def correlated_normal(rng: np.random.Generator, shape, cov) -> np.ndarray:
+    """Draws of N(0, cov) (cov C x C, positive semi-definite), shape ``shape + (C,)``."""
+    w, v = np.linalg.eigh(cov)
+    root = v * np.sqrt(np.clip(w, 0.0, None))
+    return rng.standard_normal(tuple(shape) + (cov.shape[0],)) @ root.T
 
 
 def random_total_variance(budget, contributions) -> float:
@@ -120,10 +134,8 @@ def draw_random_errors(rng: np.random.Generator, shape, budget, contributions, r
 
 
 def _draw_multichannel(rng, shape, budget, weights, scene):
-    cov = sum(_channel_covariance(budget, g, scene) for g in budget.groups)
-    w, v = np.linalg.eigh(cov)
-    root = v * np.sqrt(np.clip(w, 0.0, None))
-    r = rng.standard_normal(tuple(shape) + (3,)) @ root.T  # relative errors of hh, hv, vv
+    gamma = intensity_correlation(scene.matrix)
+    r = correlated_normal(rng, shape, sum(channel_covariance(budget, g, gamma) for g in budget.groups))
     others = np.ones(shape)
     for i in (0, 2):
         others = others * np.clip(1.0 + r[..., i], 1e-12, None) ** (weights[i] / weights[1])

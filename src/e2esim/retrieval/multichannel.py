@@ -23,6 +23,12 @@ errors by the delta method around the mean, for jointly Gaussian x with mean mu 
                             + (g_p g_q^3 S_qq + g_p^3 g_q S_pp) S_pq]            (to second order in S)
 
 The Monte Carlo applies the actual inversion to simulated powers.
+
+A random-error budget (speckle and noise, temporal, calibration, area projection; Ahmed et al. 2014, eq. 20)
+adds zero-mean relative errors r_p independent of the systematic ones, with covariance R = sum_g R_g
+(``combine.channel_covariance``: speckle correlated between channels as the estimate's speckle correlation, the
+other terms common to all channels), so y = sum c_p ln(1 + x_p + r_p) has the moments of eq. (8.3) with the
+covariance S + R (co-pol eq. 8.4); the Monte Carlo adds correlated Gaussian draws of r to the simulated x.
 """
 
 from __future__ import annotations
@@ -32,6 +38,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from e2esim.error_model import Contribution, DerivedErrorModel, Moments, MultiChannelErrorModel
+from e2esim.errors import PhysicsInputError
+from e2esim.retrieval.agb_error import AGBContribution
+from e2esim.retrieval.combine import BUDGET_DESCRIPTIONS, channel_covariance, correlated_normal
 
 CHANNELS = ("hh", "hv", "vv")
 
@@ -132,3 +141,38 @@ class CombinedChannelsError(DerivedErrorModel):
         out["nonlinearity"] = Contribution(float(total.mean) - mean_sum, float(total.variance) - var_sum,
                                            "second-order terms of the logarithm (delta method, co-pol eq. 8.3)")
         return out
+
+
+def budget_log_agb_error(view: CombinedChannelsError, budget, speckle_correlation, contributions, rng, relative):
+    """The log-AGB error of the joint estimate with the random-error budget (module docstring, co-pol eq. 8.4).
+
+    view : the systematic log-AGB error. budget : the case's ``BackscatterBudget`` (independent terms).
+    speckle_correlation : (3, 3). contributions : the systematic ``AGBContribution``s of ``view``. rng : the
+    case's generator. relative : simulated relative channel errors (M, N, 3) or None.
+    Returns (moments or None, contributions with the budget's terms, relative errors with the budget's draws):
+    each term's share is its linear part c^T R_g c, and ``nonlinearity`` takes the rest so that they add up.
+    """
+    if budget.combination != "independent":
+        raise PhysicsInputError(f"the joint multi-channel estimate combines independent budget terms only, got "
+                                f"combination {budget.combination!r}")
+    c = view.weights
+    covs = {g: channel_covariance(budget, g, speckle_correlation) for g in budget.groups}
+    total_r = sum(covs.values())
+    random_ = tuple(AGBContribution(g, "random", 0.0, float(c @ r @ c), BUDGET_DESCRIPTIONS[g])
+                    for g, r in covs.items())
+    moments = None
+    if view.unavailable is None:
+        joint = view.source.current_joint()
+        sigma = np.asarray(view.source.values, dtype=float)
+        cov = np.asarray(joint.covariance) / np.outer(sigma, sigma) + total_r
+        mean, var = log_agb_moments(c, np.asarray(joint.mean) / sigma, cov)
+        moments = Moments(mean, np.clip(var, 0.0, None))
+    parts = [x for x in contributions if x.name != "nonlinearity"] + list(random_)
+    if moments is not None:
+        rest = AGBContribution("nonlinearity", "systematic", float(moments.mean) - sum(x.relative_mean for x in parts),
+                               float(moments.variance) - sum(x.relative_variance for x in parts),
+                               "second-order terms of the logarithm (delta method, co-pol eq. 8.3)")
+        parts.append(rest)
+    if relative is not None:
+        relative = relative + correlated_normal(rng, relative.shape[:-1], total_r)
+    return moments, tuple(parts), relative

@@ -1,5 +1,7 @@
 """Retrieval module (kind ``retrieval``) ``multichannel_power_law``: AGB from HH, HV and VV together, as the
-BIOMASS level-2 processor estimates it (``e2esim.retrieval.multichannel``), or from one channel alone."""
+BIOMASS level-2 processor estimates it (``e2esim.retrieval.multichannel``), or from one channel alone; with the
+random-error budget of the case (``backscatter.budget``) when there is one (``e2esim.retrieval.multichannel``,
+``budget_log_agb_error``)."""
 
 from __future__ import annotations
 
@@ -11,7 +13,13 @@ from e2esim.errors import PhysicsInputError
 from e2esim.module import Stage, fail
 from e2esim.params import Param
 from e2esim.retrieval.agb_error import AGBError
-from e2esim.retrieval.combine import systematic_contributions
+from e2esim.retrieval.combine import (
+    budget_contributions,
+    draw_random_errors,
+    intensity_correlation,
+    random_total_variance,
+    systematic_contributions,
+)
 from e2esim.retrieval.loglinear import LogLinearModel
 from e2esim.retrieval.multichannel import (
     CHANNELS,
@@ -19,6 +27,7 @@ from e2esim.retrieval.multichannel import (
     TABLE1_ALPHA,
     CombinedChannelsError,
     LogErrorMap,
+    budget_log_agb_error,
 )
 
 ESTIMATORS = ("joint", "hh", "hv", "vv")
@@ -31,7 +40,9 @@ class MultiChannelRetrieval(Stage):
     L_pq passes through the case's scene at its AGB (so the estimate is exact without errors). The AGB error:
     analytic from the joint moments of the channel errors (delta method, co-pol eq. 8.3), Monte Carlo by
     inverting every simulated (sigma_hh, sigma_hv, sigma_vv). Only the propagation's (systematic) error is
-    carried; a random-error budget or regression uncertainty is not combined here.
+    carried, with the random-error budget (``backscatter.budget``) when the case has one: for one channel as the
+    power-law chain combines it (``e2esim.retrieval.combine``), for the joint estimate in the log-AGB error
+    (``budget_log_agb_error``). Regression uncertainty is not combined here.
     """
 
     kind = "retrieval"
@@ -52,6 +63,7 @@ class MultiChannelRetrieval(Stage):
               default=PROTOTYPE_AGB_RANGE_T_HA[1], unit="t/ha", exclusive_minimum=0.0),
     )
     needs = ("scene.covariance", "backscatter.error")
+    uses = ("backscatter.budget",)
     provides = (P.AGB_ERROR,)
 
     def alpha_for(self, scene) -> np.ndarray:
@@ -62,10 +74,15 @@ class MultiChannelRetrieval(Stage):
                        f"give three exponents, or a scene of biome {' or '.join(TABLE1_ALPHA)}", key="alpha")
         return np.asarray(TABLE1_ALPHA[scene.biome])
 
-    def model_for(self, scene, agb: float) -> LogLinearModel:
+    def case_alpha(self, case) -> np.ndarray:
+        """The exponents of a case (a subclass may read more of the case than the scene)."""
+        return self.alpha_for(case["scene.covariance"])
+
+    def model_for(self, scene, agb: float, alpha=None) -> LogLinearModel:
         """The per-channel power laws through the scene's powers at ``agb`` (identity residual covariance: the
-        equal-weight cost)."""
-        alpha, n = self.alpha_for(scene), np.asarray(self.si["n"], dtype=float)
+        equal-weight cost); exponents ``alpha`` (None: ``alpha_for``)."""
+        alpha = self.alpha_for(scene) if alpha is None else np.asarray(alpha, dtype=float)
+        n = np.asarray(self.si["n"], dtype=float)
         ln_cos = np.log(np.cos(self.si["incidence_rad"]))
         sigma = np.real(np.diag(scene.matrix))
         ln_l = np.log(sigma) - alpha * np.log(agb) - n * ln_cos
@@ -75,32 +92,62 @@ class MultiChannelRetrieval(Stage):
         scene, model = case["scene.covariance"], case["backscatter.error"]
         if not isinstance(model, MultiChannelErrorModel):
             raise fail(self, f"needs the errors of all channels, but backscatter.error is a single-channel "
-                       f"{type(model).__name__}", "use propagation type polarimetric_error")
+                       f"{type(model).__name__}",
+                       "use propagation type polarimetric_error, or stack_backscatter_error with channels: all")
         agb = scene.agb_t_ha
         if agb is None or not agb > 0:
             raise fail(self, f"case {case.index}: the scene states no AGB", "use a scene that states its AGB")
         estimator = self.si["estimator"]
-        forward_model = self.model_for(scene, agb)
+        forward_model = self.model_for(scene, agb, self.case_alpha(case))
+        budget = case.get("backscatter.budget")
         if estimator != "joint":
-            return {"agb.error": self._single_channel(model, forward_model, estimator)}
-        return {"agb.error": self._joint(model, forward_model, agb)}
+            return {"agb.error": self._single_channel(case, model, forward_model, estimator, budget)}
+        return {"agb.error": self._joint(case, model, forward_model, agb, budget)}
 
-    def _single_channel(self, model, forward_model, channel) -> AGBError:
-        """One channel's power law: AGB_hat / AGB = (1 + x)^(1/alpha) (Men et al. 2021, eqs. 15-16)."""
+    def _single_channel(self, case, model, forward_model, channel, budget) -> AGBError:
+        """One channel's power law: AGB_hat / AGB = (1 + x)^(1/alpha) (Men et al. 2021, eqs. 15-16), plus the
+        channel's random-error budget as the power-law chain adds it (``e2esim.retrieval.combine``)."""
         view = model.channel_view(channel)
         exponent = 1.0 / forward_model.a[CHANNELS.index(channel)]
         m = view.current() if view.unavailable is None else None
-        return AGBError.from_sigma_errors(exponent, view.value, None if m is None else float(m.mean),
-                                          None if m is None else float(m.sd), view.relative_samples(),
-                                          contributions=systematic_contributions(view), error_model=view)
+        contributions = systematic_contributions(view)
+        rel = view.relative_samples()
+        mean = sd = None
+        if m is not None:
+            mean, sd = float(m.mean), float(m.sd)
+        if budget is not None:
+            random_ = budget_contributions(budget, channel=channel)
+            contributions = contributions + random_
+            if m is not None:
+                sd = float(np.sqrt(sd**2 + view.value**2 * random_total_variance(budget, random_)))
+            if rel is not None:
+                rel = rel + draw_random_errors(case.rng, rel.shape, budget, random_)
+        return AGBError.from_sigma_errors(exponent, view.value, mean, sd, rel, contributions=contributions,
+                                          error_model=view)
 
-    def _joint(self, model, forward_model, agb) -> AGBError:
-        """HH, HV and VV by the ATBD's equal-weight cost: y = ln(AGB_hat / AGB) (co-pol eqs. 8.2-8.3); the Monte
-        Carlo inverts every simulated triple (``LogLinearModel.invert``, capped at ``agb_max_t_ha``)."""
+    def speckle_correlation(self, case, model) -> np.ndarray:
+        """The correlation of the channels' speckle over the looks: the error model's, else the intensity
+        correlation |rho_pq|^2 of the case's scene."""
+        own = model.speckle_correlation()
+        return own if own is not None else intensity_correlation(case["scene.covariance"].matrix)
+
+    def _joint(self, case, model, forward_model, agb, budget) -> AGBError:
+        """HH, HV and VV by the ATBD's equal-weight cost: y = ln(AGB_hat / AGB) (co-pol eqs. 8.2-8.3), with the
+        random-error budget when the case has one (``budget_log_agb_error``); the Monte Carlo inverts every
+        simulated triple (``LogLinearModel.invert``, capped at ``agb_max_t_ha``)."""
         view = CombinedChannelsError(model, forward_model.channel_weights())
         m = view.current() if view.unavailable is None else None
-        y = None
+        contributions = systematic_contributions(view)
         rel = model.joint_relative_samples()
+        if budget is not None:
+            try:
+                combined = budget_log_agb_error(view, budget, self.speckle_correlation(case, model), contributions,
+                                                case.rng, rel)
+            except PhysicsInputError as exc:
+                raise fail(self, f"case {case.index}: {exc}", "give the error budget combination: independent, or "
+                           "use a single-channel estimator") from exc
+            m, contributions, rel = combined
+        y = None
         if rel is not None:
             try:
                 q, _ = forward_model.relative_agb_error(agb, rel, self.si["agb_max_t_ha"], channel=None,
@@ -110,5 +157,5 @@ class MultiChannelRetrieval(Stage):
             with np.errstate(divide="ignore"):
                 y = np.log1p(q)  # log AGB error of the actual estimate (-inf where it is 0)
         return AGBError.from_sigma_errors(1.0, 1.0, None if m is None else float(m.mean),
-                                          None if m is None else float(m.sd), y, LogErrorMap(),
-                                          systematic_contributions(view), error_model=view)
+                                          None if m is None else float(m.sd), y, LogErrorMap(), contributions,
+                                          error_model=view)

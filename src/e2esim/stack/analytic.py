@@ -67,7 +67,7 @@ class StackHVMoments:
         return {f.name: getattr(self, f.name) for f in fields(self)}
 
 
-def _pass_gain_products(passes: int, beta: float) -> tuple[np.ndarray, np.ndarray]:
+def pass_gain_products(passes: int, beta: float) -> tuple[np.ndarray, np.ndarray]:
     """E[eta_n eta_m] (N x N) and Cov(eta_n eta_m, eta_k eta_l) (N^4) for eta_n = exp(beta z_n), z iid N(0, 1):
     E[prod eta] = exp(beta^2 / 2 sum_p count_p^2)."""
     idx = np.arange(passes)
@@ -78,19 +78,48 @@ def _pass_gain_products(passes: int, beta: float) -> tuple[np.ndarray, np.ndarra
     return pair, quad - pair[:, :, None, None] * pair[None, None, :, :]
 
 
+def evaluation_levels(errors: StackSystemErrors, faraday: StackFaraday, reference: str, crosstalk_level=None,
+                      imbalance_level=None, noise_power=None, difference_variance=None) -> tuple:
+    """(V_delta, V_epsilon, sigma_n, sigma_D^2) broadcast together, the case's own where None; checks the
+    reference."""
+    if reference not in REFERENCES:
+        raise ValueError(f"reference must be one of {REFERENCES}, got {reference!r}")
+    system = errors.system
+    return np.broadcast_arrays(
+        np.asarray(system.crosstalk_level if crosstalk_level is None else crosstalk_level, float),
+        np.asarray(system.imbalance_level if imbalance_level is None else imbalance_level, float),
+        np.asarray(system.noise_power if noise_power is None else noise_power, float),
+        np.asarray(faraday.difference_sd**2 if difference_variance is None else difference_variance, float))
+
+
+def speckle_form(combination: PassCombination, reference: str, looks: int | None) -> tuple[bool, bool]:
+    """(rank one, first-order speckle cross term needed) of eq. (16): a single combination has the exact
+    E[q^2]; a combination of rank > 1 against the population needs the kernel's ``csys``."""
+    rank_one = combination.weights.shape[0] == 1
+    return rank_one, reference == "population" and looks is not None and not rank_one
+
+
 def node_terms(scene: StackScene, errors: StackSystemErrors, faraday: StackFaraday, combination: PassCombination,
                difference_sd: float, population_cross: bool = False) -> dict:
     """The kernel's coefficients at the Faraday-rotation nodes of one difference SD (rad), with the nodes'
     weights: what ``stack_hv_moments`` evaluates at any crosstalk, channel-imbalance and noise levels. Cached
     by the error model per difference SD."""
+    nodes = pass_nodes(scene, errors, faraday, difference_sd)
+    out = node_polynomials(scene.blocks(), combination.matrix, nodes.pop("omega"),
+                           errors.pass_correlation(scene.passes), errors.kernel_structure, nodes["pair"],
+                           population_cross, full_signal=nodes["pair"] is not None or population_cross)
+    out.update(nodes)
+    return out
+
+
+def pass_nodes(scene: StackScene, errors: StackSystemErrors, faraday: StackFaraday, difference_sd: float) -> dict:
+    """``omega`` (K, N) and ``weights`` (K,): the Faraday-rotation nodes of one difference SD (rad); ``pair`` and
+    ``cov4``: E[eta_n eta_m] and Cov(eta_n eta_m, eta_k eta_l) of the passes' own gain factors (None without)."""
     n = scene.passes
     omega, weights = faraday.nodes(n, difference_sd)
     beta = errors.pass_gain_log_sd
-    pair, cov4 = _pass_gain_products(n, beta) if beta > 0 else (None, None)
-    out = node_polynomials(scene.blocks(), combination.matrix, omega, errors.pass_correlation(n),
-                           errors.kernel_structure, pair, population_cross, full_signal=beta > 0 or population_cross)
-    out.update(weights=weights, pair=pair, cov4=cov4)
-    return out
+    pair, cov4 = pass_gain_products(n, beta) if beta > 0 else (None, None)
+    return {"omega": omega, "weights": weights, "pair": pair, "cov4": cov4}
 
 
 def stack_hv_moments(scene: StackScene, errors: StackSystemErrors, faraday: StackFaraday,
@@ -103,18 +132,11 @@ def stack_hv_moments(scene: StackScene, errors: StackSystemErrors, faraday: Stac
     difference_variance : sigma_D^2 (rad^2), the variance of the Faraday-rotation difference of two passes.
     All broadcast together. cache : a dict kept by the caller for the node terms of each sigma_D.
     """
-    if reference not in REFERENCES:
-        raise ValueError(f"reference must be one of {REFERENCES}, got {reference!r}")
-    system = errors.system
-    xs, es, ns, dv = np.broadcast_arrays(
-        np.asarray(system.crosstalk_level if crosstalk_level is None else crosstalk_level, float),
-        np.asarray(system.imbalance_level if imbalance_level is None else imbalance_level, float),
-        np.asarray(system.noise_power if noise_power is None else noise_power, float),
-        np.asarray(faraday.difference_sd**2 if difference_variance is None else difference_variance, float))
+    xs, es, ns, dv = evaluation_levels(errors, faraday, reference, crosstalk_level, imbalance_level, noise_power,
+                                       difference_variance)
     shape = xs.shape
     q = combination.matrix
-    rank_one = combination.weights.shape[0] == 1
-    need_cross = reference == "population" and looks is not None and not rank_one
+    rank_one, need_cross = speckle_form(combination, reference, looks)
     cache = {} if cache is None else cache
     parts = {k: np.zeros(shape) for k in ("mu", "mu2", "v", "veta", "tr_q2y", "tr_qyqy", "csys")}
     for value in np.unique(dv):
@@ -168,4 +190,5 @@ def stack_hv_moments(scene: StackScene, errors: StackSystemErrors, faraday: Stac
         var_finite_looks=finite + z)
 
 
-__all__ = ["MONOMIALS", "REFERENCES", "StackHVMoments", "node_terms", "stack_hv_moments"]
+__all__ = ["MONOMIALS", "REFERENCES", "StackHVMoments", "evaluation_levels", "node_terms", "pass_nodes", "speckle_form",
+           "stack_hv_moments"]

@@ -31,6 +31,8 @@ from e2esim.stack.acquisitions import (
 from e2esim.stack.analytic import REFERENCES
 from e2esim.stack.error_model import StackHVErrorModel
 from e2esim.stack.faraday import StackFaraday, tec_difference_sd
+from e2esim.stack.joint_model import StackJointErrorModel
+from e2esim.stack.model_base import StackModelBase
 from e2esim.stack.montecarlo import simulate_stack
 from e2esim.stack.rvog import ForestStructure
 from e2esim.stack.scene import StackScene
@@ -153,15 +155,21 @@ class RVoGStackScene(Stage):
         return {"scene.covariance": self.covariance, "scene.stack": self._memo[key]}
 
 
+CHANNELS = ("hv", "all")
+
+
 class StackBackscatterError(Stage):
-    """Error of a multi-pass HV estimate: single date, multi-date average without cancellation, or ground
+    """Error of a multi-pass estimate: single date, multi-date average without cancellation, or ground
     cancelled as the BIOMASS processor does; per-pass system errors, Faraday rotation and noise, analytic and
-    Monte Carlo (ground-cancellation.md)."""
+    Monte Carlo (ground-cancellation.md). ``channels: hv`` provides the HV error model (``StackHVErrorModel``),
+    ``all`` the joint model of HH, HV and VV (``StackJointErrorModel``, the same HV) for a multi-channel
+    retrieval."""
 
     kind = "propagation"
     type_name = "stack_backscatter_error"
-    summary = ("sigma_hv error of single-date, multi-date or ground-cancelled estimates of a stack: per-pass system "
-               "errors, Faraday rotation, temporal decorrelation, noise")
+    summary = ("sigma_hv (or sigma_hh, sigma_hv, sigma_vv jointly) error of single-date, multi-date or ground-"
+               "cancelled estimates of a stack: per-pass system errors, Faraday rotation, temporal decorrelation, "
+               "noise")
     params = (
         Param("estimator", "str", "single_date, multi_date (average without cancellation) or ground_cancelled",
               default="ground_cancelled", choices=combos.ESTIMATORS),
@@ -182,8 +190,11 @@ class StackBackscatterError(Stage):
               default=0.0, minimum=-1.0, maximum=1.0),
         Param("reference", "str", "'scene': one scene, error against its own value (speckle in a budget); "
               "'population': a new scene per realisation (speckle included)", default="scene", choices=REFERENCES),
-        Param("correct_copol_faraday", "bool", "Monte Carlo: correct each pass's co-polarised channels for its Faraday "
-              "rotation (HV is unchanged by it)", default=True),
+        Param("channels", "str", "hv: the HV error model; all: HH, HV and VV jointly (their covariance, for "
+              "multichannel retrieval; HV the same)", default="hv", choices=CHANNELS),
+        Param("correct_copol_faraday", "bool", "correct each pass's co-polarised channels for its own Faraday rotation "
+              "before the passes are combined, as the processor does at level 1 (Monte Carlo, and the analytic moments "
+              "of channels: all; HV is unchanged by it)", default=True),
         Param("gaussianity", "bool", "test the simulated HV errors for Gaussianity", default=True),
     )
     needs = ("scene.stack", "system.residual", "faraday.residual")
@@ -233,9 +244,12 @@ class StackBackscatterError(Stage):
             notes = (analytic_caveat(system),)
         unavailable = (f"the analytic moments are not computed in simulation mode {s.mode!r}" if not s.analytic
                        else problem)
-        model = StackHVErrorModel(scene, errors, stack_faraday, combination, s.looks, c["reference"], notes=notes,
-                                  unavailable=unavailable)
-        if unavailable is None:
+        joint = c["channels"] == "all"
+        extra = {"correct_copol": c["correct_copol_faraday"]} if joint else {}
+        kind = StackJointErrorModel if joint else StackHVErrorModel
+        model = kind(scene, errors, stack_faraday, combination, s.looks, c["reference"], notes=notes,
+                     unavailable=unavailable, **extra)
+        if unavailable is None:  # evaluated here, once: every later stage reads it
             model.current()
         if s.montecarlo:
             if c["reference"] == "scene" and s.looks < 3 * scene.passes:
@@ -244,8 +258,8 @@ class StackBackscatterError(Stage):
             mc = simulate_stack(scene, errors, stack_faraday, combination, case.rng, s.looks, s.realisations,
                                 s.noise_realisations, c["reference"], c["correct_copol_faraday"])
             gauss = gaussianity(mc.hv) if c["gaussianity"] and np.ravel(mc.hv).size >= 20 else None
-            model = StackHVErrorModel(scene, errors, stack_faraday, combination, s.looks, c["reference"], mc, gauss,
-                                      notes, unavailable, model._memo)
+            model = kind(scene, errors, stack_faraday, combination, s.looks, c["reference"], mc, gauss, notes,
+                         unavailable, model._memo, **extra)
         return {"backscatter.error": model}
 
 
@@ -262,7 +276,7 @@ class StackErrorBudget(BackscatterErrorBudget):
 
     def forward(self, case):
         model = case["backscatter.error"]
-        if not isinstance(model, StackHVErrorModel):
+        if not isinstance(model, StackModelBase):
             raise fail(self, f"needs the error model of stack_backscatter_error, got a {type(model).__name__}",
                        "list stack_backscatter_error before this module in propagation")
         include = tuple(self.si["include"])

@@ -11,10 +11,9 @@ Fast path, exact in distribution (cost independent of the looks L), as ``e2esim.
 
 * reference "population": the sample covariance W of L vectors z is complex Wishart with covariance
   A C A^H + D (D = sigma_n diag(1, 1/2, 1) per pass), drawn directly;
-* reference "scene": one scene, its sample covariance C_hat drawn once; given it, with G G^H = L A C_hat A^H,
-  L W = L A C_hat A^H + G Z^H D^1/2 + D^1/2 Z G^H + D^1/2 (Z Z^H + W') D^1/2 with Z a 3N x 3N matrix of iid
-  CN(0, 1) and W' ~ CW(L - 3N, I) independent (the noise projected on the signal's row space and the rest;
-  ground-cancellation.md, eq. 18).
+* reference "scene": one scene, its sample covariance C_hat drawn once; given it, the noisy sample covariance
+  is the noncentral complex Wishart of co-pol eq. (7.1) in 3N dimensions (ground-cancellation.md, eq. 18), drawn
+  by issue 12's ``covariance_montecarlo.noncentral_wishart`` with the factor K = A F, F F^H = L C_hat.
 
 Every estimate is then sum_r c_r sum_nm w_rn w_rm^* W_nm: the combined (for ground cancellation the
 ground-cancelled) 3 x 3 covariance of (hh, hv, vv), kept for a multi-channel estimator; its diagonal are the
@@ -28,6 +27,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from e2esim.distortion.covariance_montecarlo import noncentral_wishart
 from e2esim.distortion.montecarlo import MonteCarloErrors
 from e2esim.errors import PhysicsInputError
 from e2esim.polarimetry.simulate import SystemState, complex_wishart, matrix_root
@@ -109,7 +109,8 @@ def simulate_stack(scene: StackScene, errors: StackSystemErrors, faraday: StackF
         else:
             x = np.asarray(scene_vectors).reshape(looks, 3 * n)
             c_ref = x.T @ x.conj() / looks
-        w = _noisy_sample_covariance(rng, big @ c_ref @ np.swapaxes(big.conj(), -1, -2), d, looks)
+        factor = np.moveaxis(big @ matrix_root(looks * c_ref), 0, -1)  # K = A F, F F^H = L C_hat: (3N, 3N, M)
+        w = np.moveaxis(noncentral_wishart(rng, factor, np.sqrt(d), looks), -1, 0)
     combined = _combine(combination, w.reshape(-1, n, 3, n, 3))
     ideal = _combine(combination, c_ref.reshape(n, 3, n, 3)[None])[0]
     combined = combined.reshape(realisations, noise_realisations, 3, 3)
@@ -123,20 +124,3 @@ def _combine(combination: PassCombination, w: np.ndarray) -> np.ndarray:
     cw = combination.weights
     return np.einsum("r,rn,rm,...nimj->...ij", combination.coefficients, cw, cw.conj(), w)
 
-
-def _noisy_sample_covariance(rng, signal: np.ndarray, noise: np.ndarray, looks: int) -> np.ndarray:
-    """Sample covariance of z_k = x_k + D^1/2 n_k over the looks given the signal's sample covariance ``signal``
-    (..., p, p) (eq. 18); D = diag(noise)."""
-    p = signal.shape[-1]
-    batch = signal.shape[:-2]
-    root = matrix_root(looks * signal)
-    z = (rng.standard_normal(batch + (p, p)) + 1j * rng.standard_normal(batch + (p, p))) / np.sqrt(2)
-    dh = np.sqrt(noise)
-    cross = root @ np.swapaxes(z.conj(), -1, -2) * dh[None, :]  # G Z^H D^1/2
-    rest = looks - p  # >= 0: checked by the caller
-    w_rest = np.zeros(batch + (p, p), complex)
-    if rest > 0:
-        w_rest = rest * complex_wishart(rng, np.broadcast_to(np.eye(p, dtype=complex), batch + (p, p)), rest)
-    nn = z @ np.swapaxes(z.conj(), -1, -2) + w_rest
-    total = looks * signal + cross + np.swapaxes(cross.conj(), -1, -2) + dh[:, None] * nn * dh[None, :]
-    return total / looks
