@@ -21,7 +21,7 @@ from e2esim.report.budget_plots import plot_error_budget
 from e2esim.report.faraday_plots import plot_faraday_climatology, plot_faraday_distributions
 from e2esim.report.map_plots import SITE_KEYS, plot_site_map
 from e2esim.report.multichannel_plots import plot_estimator_comparison
-from e2esim.report.plot_base import PlotSkipped, save
+from e2esim.report.plot_base import PlotSkipped, figure_settings, save
 from e2esim.report.stack_plots import plot_agb_error_vs_faraday_difference
 from e2esim.report.sweep_layout import legend, sweep_layout
 from e2esim.report.sweep_plots import plot_agb_error_vs_sweep, plot_backscatter_vs_sweep, plot_verdicts
@@ -46,7 +46,7 @@ def plot_error_histograms(result, folder: Path, options: dict) -> list:
     for ax, c in zip(axes.ravel(), cases):
         model = c.get("backscatter.error")
         e = np.ravel(model.samples())
-        ax.hist(e, bins=60, density=True, color="0.7")
+        ax.hist(e, bins=60, density=True, color="0.7", histtype="stepfilled")
         mu, sd = e.mean(), e.std(ddof=1)
         x = np.linspace(e.min(), e.max(), 300)
         ax.plot(x, _gaussian_pdf(x, mu, sd), "r-", lw=1.2, label="Gaussian fit")
@@ -195,7 +195,8 @@ def make_plots(result, folder: Path, warnings: list | None = None) -> list:
     out = []
     for name in requested_plots(result):
         try:
-            made = PLOTTERS[name](result, folder, options)
+            with figure_settings():
+                made = PLOTTERS[name](result, folder, options)
         except PlotSkipped as why:
             made, reason = [], str(why)
         else:
