@@ -151,9 +151,13 @@ def calibrator_responses(rng: np.random.Generator, calibrators: Calibrators, sta
 def response_covariance(calibrators: Calibrators, state: SystemState) -> np.ndarray:
     """Covariance of the measured vector vec(M_k) about its mean, (batch..., K, 4, 4): clutter through the
     system, plus noise. Used to weight the least-squares fit and to predict its uncertainty."""
-    kop = state.operator()  # (batch, 4, 4)
+    return operator_covariance(calibrators, state.operator())
+
+
+def operator_covariance(calibrators: Calibrators, operator: np.ndarray) -> np.ndarray:
+    """``response_covariance`` for the system's 4x4 operator (batch..., 4, 4), ``A (T^T kron R)(F^T kron F)``."""
     # every calibrator's clutter has the same shape, scaled to its SCR (clutter_covariances): map it once
-    mapped = kop @ reciprocal_covariance4(calibrators.clutter) @ np.swapaxes(kop.conj(), -1, -2)
+    mapped = operator @ reciprocal_covariance4(calibrators.clutter) @ np.swapaxes(operator.conj(), -1, -2)
     cov = mapped[..., None, :, :] * calibrators.clutter_scales()[:, None, None]
     return cov + calibrators.noise_to_signal * np.eye(4)
 

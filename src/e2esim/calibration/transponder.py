@@ -38,11 +38,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from e2esim.calibration.targets import Calibrators, response_covariance
+from e2esim.calibration.targets import Calibrators, operator_covariance
 from e2esim.errors import PhysicsInputError
 from e2esim.polarimetry.simulate import SystemState
 from e2esim.polarimetry.small_matrices import hermitian_inverse_factor
-from e2esim.polarimetry.system_model import _kron, faraday_matrix, to_vector
+from e2esim.polarimetry.system_model import _kron, distortion_rows, faraday_matrix, to_vector
 
 GAUGES = ("min_crosstalk", "reciprocal", "faraday_prior")
 _START_ANGLES = np.pi * np.arange(-8, 8) / 16  # coarse Omega grid over one period (F(pi) = -I leaves M unchanged)
@@ -131,10 +131,11 @@ def _whiten(x, whitener) -> np.ndarray:
     return w.reshape(w.shape[:-3] + (-1, w.shape[-1]))
 
 
-def _whitener(z, omega, calibrators) -> np.ndarray:
+def _whitener(z, faraday_kron, calibrators) -> np.ndarray:
     """``W = L^-1``, L the Cholesky factor of the clutter-plus-noise covariance of each response at the current
-    estimate (``W Sigma W^H = I``), (..., K, 4, 4)."""
-    cov = response_covariance(calibrators, SystemState(z[..., 0:4], z[..., 4:6], omega, z[..., 6]))
+    estimate (``W Sigma W^H = I``), (..., K, 4, 4). faraday_kron : ``F^T kron F`` at the Omega held."""
+    operator = z[..., 6, None, None] * (distortion_rows(z[..., 0:4], z[..., 4:6]) @ faraday_kron)
+    cov = operator_covariance(calibrators, operator)
     loading = _LOADING * np.real(np.trace(cov, axis1=-2, axis2=-1))[..., None, None] / 4
     cov = cov + loading * np.eye(4)  # reciprocal clutter without noise is singular in the HV - VH direction
     return hermitian_inverse_factor(cov)
@@ -181,17 +182,19 @@ def solve_transponder(
     batch = responses.shape[:-3]
     y = to_vector(responses)  # (..., K, 4)
     omega0, u = _start_angle(y, svec, batch)
+    rot = faraday_matrix(omega0)
+    faraday_kron = _kron(np.swapaxes(rot, -1, -2), rot)  # the operator's Faraday factor, fixed with Omega
     z = np.zeros(batch + (7,), complex)
     z[..., 4:6] = 1.0
     z[..., 6] = _gain_ls(y, u)
     for i in range(_GN_ITERATIONS):
         if i in _REWEIGHT_AT:  # iteratively re-weighted: the clutter maps through the current estimate
-            whitener = _whitener(z, omega0, calibrators)
+            whitener = _whitener(z, faraday_kron, calibrators)
         r, g = _whitened_system(y, z, u, whitener)
         gh = np.conj(np.swapaxes(g, -1, -2))
         # holomorphic model: the real Gauss-Newton step is the complex one, (G^H G) dz = G^H r
         z = z + np.linalg.solve(gh @ g, gh @ r[..., None])[..., 0]
-    r, g = _whitened_system(y, z, u, _whitener(z, omega0, calibrators))
+    r, g = _whitened_system(y, z, u, _whitener(z, faraday_kron, calibrators))
     chi2 = 2 * np.sum(np.abs(r) ** 2, -1)  # whitened: E|w|^2 = 1, i.e. variance 1/2 per real component
     covariance = np.linalg.inv(np.conj(np.swapaxes(g, -1, -2)) @ g)
     delta, f, omega, gain = fix_gauge(z[..., 0:4], z[..., 4:6], omega0, z[..., 6], gauge, faraday_prior,
