@@ -16,7 +16,8 @@ Every figure is the best and the median of ``--repeats`` runs (default 3). The r
 empty cache (cold), the others reuse what it stored (warm). The machine's load is printed first: on a shared
 machine, compare figures taken in the same run only.
 
-Run with ``python benchmarks/bench_end_to_end.py`` (``--quick``: smaller sweeps, one repeat of each).
+Run with ``python benchmarks/bench_end_to_end.py`` (``--quick``: smaller sweeps, one repeat of each;
+``--default-only``: figures 1 and 2 only).
 """
 
 from __future__ import annotations
@@ -157,6 +158,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="smaller sweeps, one run of each")
     parser.add_argument("--repeats", type=int, default=None, help="runs per figure (default 3; --quick: 1)")
+    parser.add_argument("--default-only", action="store_true", help="only the start-up and default-scenario figures")
     args = parser.parse_args()
     repeats = args.repeats or (1 if args.quick else 3)
     load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
@@ -164,6 +166,8 @@ def main() -> None:
     with tempfile.TemporaryDirectory() as tmp:
         runner = Runner(Path(tmp), repeats)
         startup_and_default(runner)
+        if args.default_only:
+            return
         analytic_sweep(runner, args.quick)
         monte_carlo_sweep(runner, args.quick)
         batched_vs_per_case(runner, args.quick)

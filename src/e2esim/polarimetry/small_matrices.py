@@ -1,11 +1,12 @@
 """Closed-form algebra of stacks of small matrices: 2x2 inverse, Cholesky factor, triangular inverse.
 
-The calibration pipeline works on stacks of thousands of 2x2, 4x4 and 7x7 matrices (one per Monte Carlo
-realisation and calibrator). ``numpy.linalg`` calls LAPACK once per matrix (``inv`` and ``solve`` through an
-LU factorisation), so for such stacks its per-matrix overhead dominates; written element by element, with
-the loops over the matrix entries (never over the stack), the same algebra is several times faster.
-Products of the results are left to ``@``, which is fast for stacks. tests/test_small_matrices.py checks
-every function against ``numpy.linalg``.
+The calibration pipeline works on stacks of thousands of 2x2 and 4x4 matrices (one per Monte Carlo
+realisation and calibrator). ``numpy.linalg`` calls LAPACK once per matrix (``inv`` through an LU
+factorisation), so for such stacks its per-matrix overhead dominates; written element by element, with the
+loops over the matrix entries (never over the stack), the same algebra is several times faster (for the
+transponder whitening, the inverse Cholesky factor of 16,000 4x4 matrices: 9 ms against 35 ms). For 7x7 and
+larger, or for a Cholesky factor alone, ``numpy.linalg`` is as fast. Products of the results are left to
+``@``, which is fast for stacks. tests/test_small_matrices.py checks every function against ``numpy.linalg``.
 """
 
 from __future__ import annotations
