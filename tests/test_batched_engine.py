@@ -57,9 +57,8 @@ def test_batched_runs_give_the_per_case_numbers(quick_run, name):
     resolved = result.scenario
     n = len(resolved.cases)
     picks = sorted({0, n // 2, n - 1})
-    reference = run_block(resolved, picks, engine="per_case")
-    for k, index in enumerate(picks):
-        assert_same_case(result.cases[index], reference.case(k, {}, ""))
+    for index in picks:
+        assert_same_case(result.cases[index], run_block(resolved, [index], engine="per_case").case(0, {}, ""))
 
 
 @pytest.mark.slow

@@ -43,10 +43,14 @@ def _load() -> dict[tuple[str, str], Registration]:
     if _cache is not None:
         return _cache
     found: dict[tuple[str, str], Registration] = {}
+    names: dict = {}  # distribution name by distribution object: reading it parses its metadata file
     for ep in entry_points(group=ENTRY_POINT_GROUP):
         kind, _, type_name = ep.name.partition(".")
         cls = ep.load()
-        dist = ep.dist.name if getattr(ep, "dist", None) is not None else "?"
+        source = getattr(ep, "dist", None)
+        if source is not None and id(source) not in names:
+            names[id(source)] = source.name
+        dist = names[id(source)] if source is not None else "?"
         _check_class(cls, f"entry point {ep.name!r} of {dist}", kind, type_name)
         key = (kind, type_name)
         if key in found and found[key].cls is not cls:

@@ -6,11 +6,11 @@ import numpy as np
 import pytest
 
 from cal_helpers import Z_ACCEPT, biomass_system, z_mean, z_variance
-from e2esim.calibration.targets import Calibrators, calibrator_responses, mean_response
+from e2esim.calibration.targets import Calibrators, calibrator_responses, mean_response, response_covariance
 from e2esim.calibration.transponder import gauge_transform, solve_transponder
 from e2esim.errors import PhysicsInputError
 from e2esim.polarimetry.simulate import SystemState
-from e2esim.polarimetry.system_model import to_matrix
+from e2esim.polarimetry.system_model import faraday_matrix, receive_distortion, to_matrix, transmit_distortion
 
 CLUTTER = np.array([[1.0, 0, 0.6], [0, 0.1, 0], [0.6, 0, 1.0]], dtype=complex)
 TRANSPONDERS = ("transponder_hh", "transponder_hv", "transponder_vh", "transponder_vv")
@@ -46,6 +46,32 @@ def test_faraday_rotation_and_crosstalk_trade_exactly():
     truth = _truth(np.random.default_rng(2), 5, 20.0)
     moved = SystemState(*gauge_transform(truth.delta, truth.f, truth.omega, truth.gain, 0.3))
     np.testing.assert_allclose(mean_response(cal, moved), mean_response(cal, truth), atol=1e-12)
+
+
+def test_gauge_transform_equals_the_matrix_products(rng):
+    """The closed form of gauge_transform against R F(eps) and F(eps) T formed by numpy, renormalised."""
+    truth = _truth(rng, 300, 20.0, crosstalk_db=-15.0)
+    eps = rng.uniform(-0.5, 0.5, 300)
+    delta, f, omega, gain = gauge_transform(truth.delta, truth.f, truth.omega, truth.gain, eps)
+    rot = faraday_matrix(eps)
+    r = receive_distortion(truth.delta, truth.f) @ rot
+    t = rot @ transmit_distortion(truth.delta, truth.f)
+    gr, gt = r[:, 0, 0], t[:, 0, 0]
+    r, t = r / gr[:, None, None], t / gt[:, None, None]
+    np.testing.assert_allclose(delta, np.stack([r[:, 1, 0], r[:, 0, 1], t[:, 0, 1], t[:, 1, 0]], -1), rtol=1e-13,
+                               atol=1e-15)
+    np.testing.assert_allclose(f, np.stack([r[:, 1, 1], t[:, 1, 1]], -1), rtol=1e-13)
+    np.testing.assert_allclose(gain, truth.gain * gr * gt, rtol=1e-13)
+    np.testing.assert_allclose(omega, truth.omega - eps, rtol=1e-15)
+
+
+def test_response_covariance_equals_the_per_calibrator_product(rng):
+    """The clutter shape mapped once and scaled per calibrator equals K C_k K^H + noise for each calibrator."""
+    cal = Calibrators.named(TRANSPONDERS, [25.0, 30.0, 35.0, 40.0], CLUTTER, -40.0)
+    truth = _truth(rng, 50, 35.0, crosstalk_db=-20.0)
+    kop = truth.operator()[:, None]
+    expected = kop @ cal.clutter_covariances() @ np.conj(np.swapaxes(kop, -1, -2)) + cal.noise_to_signal * np.eye(4)
+    np.testing.assert_allclose(response_covariance(cal, truth), expected, rtol=1e-12, atol=1e-18)
 
 
 def test_min_crosstalk_gauge():

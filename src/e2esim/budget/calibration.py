@@ -8,7 +8,6 @@ the half-power edge theta_1/2 / 2 maps to x = pi / (2k), where sinc^2 = 0.505 (-
 from __future__ import annotations
 
 import numpy as np
-from scipy import special
 
 BEAM_SHAPING_UNIFORM = 1.0 / 0.88  # k for a uniformly weighted array (Ahmed et al. 2014, Table III)
 
@@ -19,6 +18,8 @@ def _ln_sinc(x):
 
 def sinc_squared_integral(upper):
     """``int_0^a sinc^2(x) dx = Si(2a) - sin^2(a) / a`` (closed form; the denominator of eq. 34)."""
+    from scipy import special  # imported here: it costs a tenth of a second at start-up
+
     a = np.asarray(upper, dtype=float)
     si, _ = special.sici(2.0 * a)
     return si - np.sin(a) ** 2 / a

@@ -6,9 +6,9 @@ All functions are vectorised numpy kernels in SI units (m, Hz, rad).
 from __future__ import annotations
 
 import numpy as np
-from scipy import constants
 
-SPEED_OF_LIGHT = constants.c  # m/s, exact (SI definition)
+from e2esim.ionosphere.constants import SPEED_OF_LIGHT  # m/s, exact (SI definition)
+
 EARTH_RADIUS_M = 6_371_008.8  # m: mean Earth radius (IUGG), for the spherical-Earth slant range
 
 _BROADENING_A = 1.6363  # eq. (25): kappa = A - B sqrt(eta)

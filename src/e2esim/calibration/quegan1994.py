@@ -43,6 +43,7 @@ import numpy as np
 from e2esim.errors import PhysicsInputError
 from e2esim.faraday.estimators import _check_window, block_mean
 from e2esim.polarimetry.simulate import QuadPolImage
+from e2esim.polarimetry.small_matrices import inverse2
 from e2esim.polarimetry.system_model import _kron
 
 
@@ -151,7 +152,7 @@ def quegan_calibrate(
             first = ratios
         receive = receive @ r_i
         transmit = t_i @ transmit
-        current = transform_covariance(cov, np.linalg.inv(receive), np.linalg.inv(transmit))
+        current = transform_covariance(cov, inverse2(receive), inverse2(transmit))
     receive, transmit = _normalise(receive), _normalise(transmit)
     return QueganEstimate(
         first["u"], first["v"], first["w"], first["z"], first["alpha"],

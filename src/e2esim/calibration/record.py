@@ -1,7 +1,7 @@
 """What a calibration strategy did and the residual errors it leaves (product ``calibration``).
 
 The calibration stage (``e2esim.calibration.stage``) appends each calibration module's steps to a
-``CalibrationRecord`` and simulates the whole strategy so far on calibration data (``pipeline.ResidualSampler``),
+``CalibrationRecord`` and then simulates the whole strategy once on calibration data (``pipeline.ResidualSampler``),
 so that steps that depend on each other (e.g. Faraday rotation estimated on data a transponder calibration
 has corrected) are simulated together. The record then gives the residual products the propagation applies,
 beside the raw ``system`` and ``faraday.geophysical``, which stay as they are:

@@ -40,15 +40,10 @@ class CalibrationStrategy:
     def forward(self, case) -> dict:
         system, faraday = case["system"], case["faraday.geophysical"]
         record = CalibrationRecord(system, faraday, case.get("scene.covariance"), declared=bool(self.modules))
-        residual_system, residual_faraday = system, faraday
         for module in self.modules:
-            steps = module.steps(case)
-            if not steps:
-                continue
-            for name, step in steps:
+            for name, step in module.steps(case):
                 record = record.extended(name, step)
-            # The strategy so far is simulated after every module that adds steps; only the last simulation
-            # is kept. (The earlier ones draw from the case's generator, which keeps the numbers of earlier
-            # e2esim versions; the batched-sweeps work removes them.)
-            record, residual_system, residual_faraday = record.simulate(case.rng, case.settings.realisations)
+        # The whole strategy is simulated once: steps depend on each other (a Faraday-rotation estimate on data
+        # a transponder calibration has corrected), and the record keeps a summary of every step.
+        record, residual_system, residual_faraday = record.simulate(case.rng, case.settings.realisations)
         return {"calibration": record, "system.residual": residual_system, "faraday.residual": residual_faraday}

@@ -26,6 +26,7 @@ from e2esim.calibration.transponder import solve_transponder
 from e2esim.faraday.estimators import AMBIGUITY_PERIOD, resolve_ambiguity
 from e2esim.faraday.theory import ambiguity_error_probability
 from e2esim.polarimetry.simulate import SystemState
+from e2esim.polarimetry.small_matrices import inverse2
 from e2esim.polarimetry.system_model import faraday_matrix
 from e2esim.units import linear_to_db
 
@@ -155,7 +156,7 @@ class QueganStep(CalibrationStep):
     def apply(self, ctx: PipelineContext) -> QueganStepResult:
         cov = ctx.corrected(ctx.window(self.looks))
         q = quegan_calibrate(cov, self.iterations, ctx.noise_power if self.subtract_noise else None)
-        ctx.apply_outer(np.linalg.inv(q.receive), np.linalg.inv(q.transmit))
+        ctx.apply_outer(inverse2(q.receive), inverse2(q.transmit))
         return QueganStepResult(q.delta, q.alpha)
 
 
@@ -250,7 +251,7 @@ class TransponderStep(CalibrationStep):
             prior = (site + self.prior_sd_rad * ctx.rng.standard_normal(ctx.size), self.prior_sd_rad)
         sol = solve_transponder(responses, self.calibrators, self.gauge, faraday_prior=prior)
         receive = sol.receive_matrix() if self.absolute_gain else sol.receive_matrix() / sol.gain[:, None, None]
-        ctx.apply_inner(np.linalg.inv(receive), np.linalg.inv(sol.transmit_matrix()))
+        ctx.apply_inner(inverse2(receive), inverse2(sol.transmit_matrix()))
         if self.correct_faraday and self.site_faraday is None:
             rot = faraday_matrix(-sol.omega)
             ctx.apply_outer(rot, rot)

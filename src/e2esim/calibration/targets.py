@@ -111,11 +111,14 @@ class Calibrators:
     def count(self) -> int:
         return len(self.names)
 
+    def clutter_scales(self) -> np.ndarray:
+        """(K,) factor from the clutter shape to each cell's clutter: ``1 / (SCR (C_hh + C_vv) / 2)``."""
+        co = 0.5 * float(np.real(self.clutter[0, 0] + self.clutter[2, 2]))
+        return 1.0 / (co * self.scr)
+
     def clutter_covariances(self) -> np.ndarray:
         """(K, 4, 4) covariance of the clutter scattering vector (hh, hv, vh, vv) in each cell."""
-        c4 = reciprocal_covariance4(self.clutter)
-        co = 0.5 * float(np.real(self.clutter[0, 0] + self.clutter[2, 2]))
-        return c4[None] / (co * self.scr[:, None, None])
+        return reciprocal_covariance4(self.clutter)[None] * self.clutter_scales()[:, None, None]
 
 
 def calibrator_responses(rng: np.random.Generator, calibrators: Calibrators, state: SystemState) -> np.ndarray:
@@ -148,9 +151,14 @@ def calibrator_responses(rng: np.random.Generator, calibrators: Calibrators, sta
 def response_covariance(calibrators: Calibrators, state: SystemState) -> np.ndarray:
     """Covariance of the measured vector vec(M_k) about its mean, (batch..., K, 4, 4): clutter through the
     system, plus noise. Used to weight the least-squares fit and to predict its uncertainty."""
-    kop = state.operator()[..., None, :, :]  # (batch, 1, 4, 4)
-    cc = calibrators.clutter_covariances()
-    cov = kop @ cc @ np.swapaxes(kop.conj(), -1, -2)
+    return operator_covariance(calibrators, state.operator())
+
+
+def operator_covariance(calibrators: Calibrators, operator: np.ndarray) -> np.ndarray:
+    """``response_covariance`` for the system's 4x4 operator (batch..., 4, 4), ``A (T^T kron R)(F^T kron F)``."""
+    # every calibrator's clutter has the same shape, scaled to its SCR (clutter_covariances): map it once
+    mapped = operator @ reciprocal_covariance4(calibrators.clutter) @ np.swapaxes(operator.conj(), -1, -2)
+    cov = mapped[..., None, :, :] * calibrators.clutter_scales()[:, None, None]
     return cov + calibrators.noise_to_signal * np.eye(4)
 
 

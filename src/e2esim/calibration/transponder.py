@@ -38,10 +38,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from e2esim.calibration.targets import Calibrators, response_covariance
+from e2esim.calibration.targets import Calibrators, operator_covariance
 from e2esim.errors import PhysicsInputError
 from e2esim.polarimetry.simulate import SystemState
-from e2esim.polarimetry.system_model import _kron, faraday_matrix, to_vector
+from e2esim.polarimetry.small_matrices import hermitian_inverse_factor
+from e2esim.polarimetry.system_model import _kron, distortion_rows, faraday_matrix, to_vector
 
 GAUGES = ("min_crosstalk", "reciprocal", "faraday_prior")
 _START_ANGLES = np.pi * np.arange(-8, 8) / 16  # coarse Omega grid over one period (F(pi) = -I leaves M unchanged)
@@ -108,34 +109,43 @@ def _model_and_derivatives(z, u):
         d3 * u0 + d2 * d3 * u1 + f2 * u2 + f2 * d2 * u3,
         d1 * d3 * u0 + f1 * d3 * u1 + f2 * d1 * u2 + f1 * f2 * u3,
     ], -1)
-    zero = np.zeros_like(u0 * d1)
-    grads = [
-        (zero, u0 + d4 * u2, zero, d3 * u0 + f2 * u2),  # delta1
-        (u1 + d4 * u3, zero, d3 * u1 + f2 * u3, zero),  # delta2
-        (zero, zero, u0 + d2 * u1, d1 * u0 + f1 * u1),  # delta3
-        (u2 + d2 * u3, d1 * u2 + f1 * u3, zero, zero),  # delta4
-        (zero, u1 + d4 * u3, zero, d3 * u1 + f2 * u3),  # f1
-        (zero, zero, u2 + d2 * u3, d1 * u2 + f1 * u3),  # f2
-    ]
-    jac = np.stack([a[..., None] * np.stack(g, -1) for g in grads] + [du], -1)
+    # d vec(M) / d z: (row, parameter) -> entry; the other entries are zero (D is multilinear)
+    entries = {
+        (1, 0): u0 + d4 * u2, (3, 0): d3 * u0 + f2 * u2,  # delta1
+        (0, 1): u1 + d4 * u3, (2, 1): d3 * u1 + f2 * u3,  # delta2
+        (2, 2): u0 + d2 * u1, (3, 2): d1 * u0 + f1 * u1,  # delta3
+        (0, 3): u2 + d2 * u3, (1, 3): d1 * u2 + f1 * u3,  # delta4
+        (1, 4): u1 + d4 * u3, (3, 4): d3 * u1 + f2 * u3,  # f1
+        (2, 5): u2 + d2 * u3, (3, 5): d1 * u2 + f1 * u3,  # f2
+    }
+    jac = np.zeros(du.shape + (7,), complex)
+    for (row, col), value in entries.items():
+        jac[..., row, col] = a * value
+    jac[..., 6] = du
     return a[..., None] * du, jac
 
 
-def _whiten(x, chol_inv) -> np.ndarray:
-    """Apply L^-1 (..., K, 4, 4) to (..., K, 4[, p]) and flatten the K responses: (..., 4K[, p])."""
-    if x.ndim == chol_inv.ndim - 1:
-        w = np.einsum("...kij,...kj->...ki", chol_inv, x)
-        return w.reshape(w.shape[:-2] + (-1,))
-    w = np.einsum("...kij,...kjp->...kip", chol_inv, x)
+def _whiten(x, whitener) -> np.ndarray:
+    """Apply ``W = L^-1`` (..., K, 4, 4) to (..., K, 4, p) and flatten the K responses: (..., 4K, p)."""
+    w = whitener @ x
     return w.reshape(w.shape[:-3] + (-1, w.shape[-1]))
 
 
-def _whitener(z, omega, calibrators) -> np.ndarray:
-    """L^-1 of the clutter-plus-noise covariance of each response at the current estimate."""
-    cov = response_covariance(calibrators, SystemState(z[..., 0:4], z[..., 4:6], omega, z[..., 6]))
+def _whitener(z, faraday_kron, calibrators) -> np.ndarray:
+    """``W = L^-1``, L the Cholesky factor of the clutter-plus-noise covariance of each response at the current
+    estimate (``W Sigma W^H = I``), (..., K, 4, 4). faraday_kron : ``F^T kron F`` at the Omega held."""
+    operator = z[..., 6, None, None] * (distortion_rows(z[..., 0:4], z[..., 4:6]) @ faraday_kron)
+    cov = operator_covariance(calibrators, operator)
     loading = _LOADING * np.real(np.trace(cov, axis1=-2, axis2=-1))[..., None, None] / 4
     cov = cov + loading * np.eye(4)  # reciprocal clutter without noise is singular in the HV - VH direction
-    return np.linalg.inv(np.linalg.cholesky(cov))
+    return hermitian_inverse_factor(cov)
+
+
+def _whitened_system(y, z, u, whitener) -> tuple:
+    """Whitened residuals r (..., 4K) and Jacobian G (..., 4K, 7) at z (one product for both)."""
+    model, jac = _model_and_derivatives(z, u)
+    w = _whiten(np.concatenate([jac, (y - model)[..., None]], -1), whitener)
+    return w[..., 7], w[..., :7]
 
 
 def _gain_ls(y, u) -> np.ndarray:
@@ -171,22 +181,20 @@ def solve_transponder(
         )
     batch = responses.shape[:-3]
     y = to_vector(responses)  # (..., K, 4)
-    omega0 = _start_angle(y, svec, batch)
-    u = _faraday_part(omega0, svec)
+    omega0, u = _start_angle(y, svec, batch)
+    rot = faraday_matrix(omega0)
+    faraday_kron = _kron(np.swapaxes(rot, -1, -2), rot)  # the operator's Faraday factor, fixed with Omega
     z = np.zeros(batch + (7,), complex)
     z[..., 4:6] = 1.0
     z[..., 6] = _gain_ls(y, u)
     for i in range(_GN_ITERATIONS):
         if i in _REWEIGHT_AT:  # iteratively re-weighted: the clutter maps through the current estimate
-            chol_inv = _whitener(z, omega0, calibrators)
-        model, jac = _model_and_derivatives(z, u)
-        r, g = _whiten(y - model, chol_inv), _whiten(jac, chol_inv)
+            whitener = _whitener(z, faraday_kron, calibrators)
+        r, g = _whitened_system(y, z, u, whitener)
         gh = np.conj(np.swapaxes(g, -1, -2))
         # holomorphic model: the real Gauss-Newton step is the complex one, (G^H G) dz = G^H r
         z = z + np.linalg.solve(gh @ g, gh @ r[..., None])[..., 0]
-    chol_inv = _whitener(z, omega0, calibrators)
-    model, jac = _model_and_derivatives(z, u)
-    r, g = _whiten(y - model, chol_inv), _whiten(jac, chol_inv)
+    r, g = _whitened_system(y, z, u, _whitener(z, faraday_kron, calibrators))
     chi2 = 2 * np.sum(np.abs(r) ** 2, -1)  # whitened: E|w|^2 = 1, i.e. variance 1/2 per real component
     covariance = np.linalg.inv(np.conj(np.swapaxes(g, -1, -2)) @ g)
     delta, f, omega, gain = fix_gauge(z[..., 0:4], z[..., 4:6], omega0, z[..., 6], gauge, faraday_prior,
@@ -194,32 +202,35 @@ def solve_transponder(
     return TransponderSolution(delta, f, omega, gain, covariance, chi2, gauge)
 
 
-def _start_angle(y, svec, batch) -> np.ndarray:
-    """Coarse Omega start: the grid angle whose crosstalk-free model fits best (any angle is an exact
-    fit with suitable crosstalk, so this only keeps the Gauss-Newton in its linear regime)."""
+def _start_angle(y, svec, batch) -> tuple:
+    """Coarse Omega start and its ``u`` (``_faraday_part``): the grid angle whose crosstalk-free model fits best
+    (any angle is an exact fit with suitable crosstalk, so this only keeps the Gauss-Newton in its linear
+    regime). The grid's ``u`` are computed once, not per realisation."""
     best = np.full(batch, np.inf)
-    omega0 = np.zeros(batch)
-    for angle in _START_ANGLES:
-        u = _faraday_part(np.full(batch, angle), svec)
+    index = np.zeros(batch, int)
+    grid = [_faraday_part(angle, svec) for angle in _START_ANGLES]  # (K, 4) each
+    for i, u in enumerate(grid):
         cost = np.sum(np.abs(y - _gain_ls(y, u)[..., None, None] * u) ** 2, axis=(-2, -1))
         better = cost < best
         best = np.where(better, cost, best)
-        omega0 = np.where(better, angle, omega0)
-    return omega0
+        index = np.where(better, i, index)
+    return _START_ANGLES[index], np.stack(grid)[index]
 
 
 def gauge_transform(delta, f, omega, gain, eps):
-    """The equivalent parameters ``R F(eps)``, ``Omega - eps``, ``F(eps) T`` (renormalised), exact."""
-    one = np.ones_like(gain)
-    r = np.stack([np.stack([one, delta[..., 1]], -1), np.stack([delta[..., 0], f[..., 0]], -1)], -2)
-    t = np.stack([np.stack([one, delta[..., 2]], -1), np.stack([delta[..., 3], f[..., 1]], -1)], -2)
-    rot = faraday_matrix(eps)
-    r2, t2 = r @ rot, rot @ t
-    gr, gt = r2[..., 0, 0], t2[..., 0, 0]
-    r2, t2 = r2 / gr[..., None, None], t2 / gt[..., None, None]
-    delta2 = np.stack([r2[..., 1, 0], r2[..., 0, 1], t2[..., 0, 1], t2[..., 1, 0]], -1)
-    f2 = np.stack([r2[..., 1, 1], t2[..., 1, 1]], -1)
-    return delta2, f2, np.asarray(omega) - eps, gain * gr * gt
+    """The equivalent parameters ``R F(eps)``, ``Omega - eps``, ``F(eps) T`` (renormalised), exact.
+
+    With ``R = [[1, d2], [d1, f1]]``, ``T = [[1, d3], [d4, f2]]`` and ``F(eps) = [[c, s], [-s, c]]``:
+    ``R F = [[c - s d2, s + c d2], [c d1 - s f1, s d1 + c f1]]`` and
+    ``F T = [[c + s d4, c d3 + s f2], [c d4 - s, c f2 - s d3]]``, each divided by its (0, 0) element.
+    """
+    c, s = np.cos(eps), np.sin(eps)
+    d1, d2, d3, d4 = (delta[..., i] for i in range(4))
+    f1, f2 = f[..., 0], f[..., 1]
+    gr, gt = c - s * d2, c + s * d4
+    delta2 = np.stack([(c * d1 - s * f1) / gr, (s + c * d2) / gr, (c * d3 + s * f2) / gt, (c * d4 - s) / gt], -1)
+    f2_new = np.stack([(s * d1 + c * f1) / gr, (c * f2 - s * d3) / gt], -1)
+    return delta2, f2_new, np.asarray(omega) - eps, gain * gr * gt
 
 
 def _gauge_cost(delta, f, omega, gauge, prior, crosstalk_variance):

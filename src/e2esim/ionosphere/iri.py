@@ -30,13 +30,15 @@ import functools
 
 import numpy as np
 
+from e2esim.ionosphere.pyiri_import import import_pyiri
+
 _F1_MULTIPLIER_MAX = 10.0  # clip value of the F1 weight in PyIRI's Probability_F1
 FOF2_MODELS = ("ursi", "ccir")
 _SOLAR_IG12 = np.array([0.0, 100.0])  # IG12 of the two solar levels of the CCIR/URSI maps
 
 
 def _pyiri():
-    import PyIRI
+    PyIRI = import_pyiri()  # without PyIRI's plotting (matplotlib), also in climatology worker processes
     import PyIRI.igrf_library as igrf
     import PyIRI.main_library as ml
 

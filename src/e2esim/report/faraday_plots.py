@@ -16,18 +16,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from e2esim.faraday.distribution import EmpiricalFaraday
-from e2esim.io.atomic import atomic_path
-from e2esim.report.plot_base import PlotSkipped
-
-_DPI = 110
-
-
-def _save(fig, path: Path) -> str:
-    path = Path(path)
-    with atomic_path(path) as tmp:
-        fig.savefig(tmp, dpi=_DPI, bbox_inches="tight", format="png")
-    plt.close(fig)
-    return path.name
+from e2esim.report.plot_base import PlotSkipped, save_png
 
 
 def plot_global_maps(fr_map, path, quantity: str = "mean_abs_deg", title: str | None = None) -> str:
@@ -62,7 +51,7 @@ def plot_global_maps(fr_map, path, quantity: str = "mean_abs_deg", title: str | 
     for ax in axes[:, 0]:
         ax.set_ylabel("latitude (deg)", fontsize=8)
     fig.suptitle(title or f"One-way Faraday rotation at {fr_map.frequency_hz / 1e6:g} MHz: {label}", fontsize=10)
-    return _save(fig, path)
+    return save_png(fig, path)
 
 
 def plot_latitude_profiles(fr_map, path) -> str:
@@ -87,7 +76,7 @@ def plot_latitude_profiles(fr_map, path) -> str:
     fig.suptitle(f"Faraday rotation at {fr_map.frequency_hz / 1e6:g} MHz by latitude (months, swath positions and "
                  f"{fr_map.variability:.0%} TEC variability pooled)", fontsize=10)
     fig.tight_layout()
-    return _save(fig, path)
+    return save_png(fig, path)
 
 
 def plot_faraday_distributions(result, folder: Path, options: dict) -> list:
@@ -104,9 +93,10 @@ def plot_faraday_distributions(result, folder: Path, options: dict) -> list:
     for ax, c in zip(axes.ravel(), cases):
         fr = c.get("faraday.geophysical")
         if isinstance(fr, EmpiricalFaraday):
-            ax.hist(np.degrees(fr.samples), bins=40, weights=fr.probabilities, color="0.6")
+            ax.hist(np.degrees(fr.samples), bins=40, weights=fr.probabilities, color="0.6", histtype="stepfilled")
         else:  # a parametric distribution: draw it from its quantiles
-            ax.hist(np.degrees(fr.sample(np.random.default_rng(0), 20_000)), bins=40, density=True, color="0.6")
+            ax.hist(np.degrees(fr.sample(np.random.default_rng(0), 20_000)), bins=40, density=True, color="0.6",
+                    histtype="stepfilled")
         ax.axvline(np.degrees(fr.mean_rad), color="r", lw=1.2, label="mean")
         lo, hi = _interval_deg(fr)
         ax.axvspan(lo, hi, color="r", alpha=0.1, label="95.45 %")
@@ -117,7 +107,7 @@ def plot_faraday_distributions(result, folder: Path, options: dict) -> list:
         ax.axis("off")
     axes.ravel()[0].legend(fontsize=6)
     fig.tight_layout()
-    return [(_save(fig, Path(folder) / "faraday_distributions.png"),
+    return [(save_png(fig, Path(folder) / "faraday_distributions.png"),
              "Distribution of the one-way Faraday rotation of each case before any correction (all acquisitions, "
              "swath positions and day-to-day TEC variability): mean (red line) and the 2.275-97.725 % interval "
              "(shaded).")]
@@ -156,7 +146,7 @@ def _faraday_against_sweep(result, folder, options, cases) -> list:
         ax.tick_params(labelsize=7)
     legend(axes[0][0], len(layout.facets[0].series))
     fig.tight_layout()
-    return [(_save(fig, Path(folder) / "faraday_distributions.png"),
+    return [(save_png(fig, Path(folder) / "faraday_distributions.png"),
              f"One-way Faraday rotation before any correction against {layout.x_label}, every case: mean (marker) "
              "and the 2.275-97.725 % interval (bar) over all acquisitions, swath positions and day-to-day TEC "
              "variability.")]

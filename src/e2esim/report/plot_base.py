@@ -3,6 +3,12 @@
 A plot type is a function ``(result, folder, options) -> [(file name, caption)]`` registered in
 ``e2esim.report.plots.PLOTTERS``. One that cannot draw anything for a run raises ``PlotSkipped`` with the
 reason; the report and standard error show it (``make_plots``).
+
+Drawing speed: matplotlib lays out text (tick labels above all) on every pass over a figure. Report figures
+are made at the resolution they are saved at (``figure_settings``), so the layout pass (``tight_layout``) and
+the drawing share one renderer and its cache of text sizes; and a figure is cropped to its artists
+(``bbox_inches="tight"``, a further layout pass) only when it has artists that ``tight_layout`` does not
+place (see ``save_png``).
 """
 
 from __future__ import annotations
@@ -13,6 +19,7 @@ import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt
+from matplotlib.layout_engine import PlaceHolderLayoutEngine
 
 from e2esim.io.atomic import atomic_path
 
@@ -23,9 +30,28 @@ class PlotSkipped(Exception):
     """A requested plot that cannot be drawn for this run; the message says why."""
 
 
-def save(fig, folder: Path, name: str, tight: bool = True) -> str:
-    """Write ``fig`` as ``folder/name.png`` (atomically); return the file name."""
-    path = Path(folder) / f"{name}.png"
+def figure_settings():
+    """Context for drawing report figures: new figures are made at the resolution they are saved at."""
+    return matplotlib.rc_context({"figure.dpi": DPI})
+
+
+def save(fig, folder: Path, name: str, tight: bool | None = None) -> str:
+    """Write ``fig`` as ``folder/name.png`` (atomically); return the file name (``save_png``)."""
+    return save_png(fig, Path(folder) / f"{name}.png", tight)
+
+
+def save_png(fig, path: Path, tight: bool | None = None) -> str:
+    """Write ``fig`` as the PNG ``path`` (atomically), close it and return the file name.
+
+    tight : crop to the drawn artists (``bbox_inches="tight"``); None: only when the figure has a legend, title
+    or text of its own, which ``tight_layout`` does not place (a figure legend below the axes, a suptitle):
+    the axes of a figure laid out by ``tight_layout`` already fit.
+    """
+    if tight is None:
+        tight = bool(fig.legends or fig.texts or getattr(fig, "_suptitle", None) is not None)
+    if not tight and isinstance(fig.get_layout_engine(), PlaceHolderLayoutEngine):
+        fig.set_layout_engine(None)  # tight_layout has run: no layout left for savefig's extra pass
+    path = Path(path)
     with atomic_path(path) as tmp:
         fig.savefig(tmp, dpi=DPI, format="png", bbox_inches="tight" if tight else None)
     plt.close(fig)

@@ -18,7 +18,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import special
 
 from e2esim.errors import PhysicsInputError
 from e2esim.retrieval.power_law import agb_relative_error, sigma_relative_error
@@ -32,6 +31,8 @@ REPORTED_QUANTILES = {"q00135": 0.00135, "q02275": 0.02275, "q50": 0.5, "q97725"
 
 def standard_normal_quantile(probability):
     """z with P(Z <= z) = probability (e.g. 0.99865 -> 3.00, Men et al. 2021, Table III)."""
+    from scipy import special  # imported here: scipy.special costs a third of a second at start-up
+
     return special.ndtri(probability)
 
 
@@ -189,6 +190,8 @@ class AGBError:
             sd = np.asarray(self.error_sd)
             with np.errstate(divide="ignore", invalid="ignore"):
                 z = np.where(sd > 0, below / np.where(sd > 0, sd, 1.0), np.inf * np.sign(below))
+            from scipy import special  # imported here, as above
+
             p = special.ndtr(-z) if side == "over" else special.ndtr(z)
             return _plain(np.where(np.isfinite(threshold), p, 0.0 if side == "over" else 1.0))
         return float(np.mean(self.samples > level) if side == "over" else np.mean(self.samples < level))

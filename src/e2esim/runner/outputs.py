@@ -19,8 +19,6 @@ from e2esim.errors import OutputExistsError, OutputFolderError
 from e2esim.io.atomic import write_text_atomic
 from e2esim.io.results_h5 import write_results
 from e2esim.io.summary import write_summary
-from e2esim.report.plots import make_plots
-from e2esim.report.render import write_report
 from e2esim.runner.journal import JOURNAL, count_finished
 from e2esim.runner.lock import LOCK_NAME, FolderLock
 
@@ -126,6 +124,9 @@ def write_outputs(result, folder: Path) -> dict:
         before = {p.name for p in folder.iterdir()}
     except OSError as exc:
         raise OutputFolderError(f"{folder}: cannot create the output folder: {_reason(folder, exc)}") from exc
+    from e2esim.report.plots import make_plots  # imported here: matplotlib costs a second at start-up
+    from e2esim.report.render import write_report
+
     try:
         warnings: list = []
         plots = make_plots(result, folder, warnings)

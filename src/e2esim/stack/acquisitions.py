@@ -23,9 +23,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import constants
 
 from e2esim.errors import PhysicsInputError
+from e2esim.ionosphere.constants import SPEED_OF_LIGHT
 
 DAY_S = 86_400.0
 
@@ -105,4 +105,4 @@ def preset_stack(phase: str, incidence_rad: float, repeat_days: float | None = N
 
 def radar_wavelength(frequency_hz: float) -> float:
     """lambda = c / f (m)."""
-    return constants.c / frequency_hz
+    return SPEED_OF_LIGHT / frequency_hz
