@@ -68,6 +68,8 @@ PLOT_TYPES = (
     "error_budget",
     "site_map",
     "estimator_comparison",
+    "global_maps",
+    "map_fraction",
 )
 
 SIMULATION_PARAMS = (
@@ -215,7 +217,7 @@ class Scenario:
             if key in self.raw and not isinstance(self.raw[key], str):
                 raise ConfigError(root.child(key), f"{self.raw[key]!r} is not text", "expected a string")
         output = validate_section(OUTPUT_PARAMS, self.raw.get("output"), root.child("output"))
-        case_inputs, sweep_keys = expand_sweep(self.raw.get("sweep"), root.child("sweep"))
+        case_inputs, sweep_keys = expand_sweep(self.raw.get("sweep"), root.child("sweep"), self.raw)
         labels = case_labels(case_inputs)
         for key in ("plot_x", "plot_group_by"):
             if output[key] is not None and output[key] not in sweep_keys:

@@ -2,7 +2,8 @@
 
 ``sweep.parameters`` maps dotted keys to value lists (or ``{linspace: [start, stop, n]}``,
 ``{logspace: [...]}``), combined as a grid or side by side (``mode: zip``); a key "a.b, c.d" varies several
-keys together. ``sweep.cases`` lists the cases explicitly.
+keys together. ``sweep.cases`` lists the cases explicitly. ``sweep.map`` sweeps the forest cells of a
+latitude-longitude grid over months, passes and solar levels (e2esim.runner.map_sweep).
 """
 
 from __future__ import annotations
@@ -21,14 +22,15 @@ SWEEP_PARAMS = (
     Param("mode", "str", "grid: every combination of the parameter lists; zip: the lists side by side",
           default="grid", choices=("grid", "zip")),
 )
-SWEEP_KEYS = ("mode", "parameters", "cases")
+SWEEP_KEYS = ("mode", "parameters", "cases", "map")
 """``sweep.parameters``: mapping of dotted key -> list of values, or ``{linspace: [start, stop, num]}``
 or ``{logspace: [start_exp, stop_exp, num]}``; a key "a.b, c.d" with a list of [a, c] pairs varies
 two keys together; ``sweep.cases``: list of mappings dotted key -> value."""
 
 
-def expand_sweep(sweep: Any, where: Location) -> tuple[list, tuple]:
-    """Sweep section -> (list of case input dicts, sweep keys). No sweep gives one case with no inputs."""
+def expand_sweep(sweep: Any, where: Location, scenario: dict | None = None) -> tuple[list, tuple]:
+    """Sweep section -> (list of case input dicts, sweep keys). No sweep gives one case with no inputs.
+    ``scenario`` (the raw scenario) lets a map sweep check its sections and leave out cells without forest."""
     if sweep is None:
         return [{}], ()
     if not isinstance(sweep, dict):
@@ -37,6 +39,13 @@ def expand_sweep(sweep: Any, where: Location) -> tuple[list, tuple]:
     for key in sweep:
         if key not in SWEEP_KEYS:
             raise unknown_key_error(where.child(key), key, SWEEP_KEYS)
+    if "map" in sweep:
+        from e2esim.runner.map_sweep import expand_map_sweep
+
+        if len(sweep) > 1:
+            raise ConfigError(where, "has 'map' beside " + ", ".join(repr(k) for k in sweep if k != "map"),
+                              "a map sweep stands alone")
+        return expand_map_sweep(sweep["map"], where.child("map"), scenario)
     mode = validate_section(SWEEP_PARAMS, {k: v for k, v in sweep.items() if k == "mode"}, where)["mode"]
     params, cases = sweep.get("parameters"), sweep.get("cases")
     if params is not None and cases is not None:
