@@ -13,6 +13,8 @@ The product is the ``FaradayClimatology`` of those samples, as the site climatol
 
 from __future__ import annotations
 
+from functools import lru_cache
+
 import numpy as np
 
 from e2esim import products as P
@@ -112,17 +114,16 @@ class GlobalClimatologyLookup(Stage):
         if not o["incidence_near_rad"] < o["incidence_far_rad"]:
             raise PhysicsInputError("the near-range incidence must be below the far-range incidence",
                                     key="orbit.incidence_near_deg")
-        self.orbit = SunSynchronousOrbit(o["altitude_m"], o["ltan_hours"], o["look_side"], o["earth_rotation"])
-        self.incidence_deg = tuple(np.degrees(swath_incidences(self.orbit, o["incidence_near_rad"],
-                                                               o["incidence_far_rad"], o["swath_samples"])))
+        self.orbit, self.incidence_deg = _orbit_and_swath(o["altitude_m"], o["ltan_hours"], o["look_side"],
+                                                          o["earth_rotation"], o["incidence_near_rad"],
+                                                          o["incidence_far_rad"], o["swath_samples"])
         name = c["pass"]
         self.pass_name = name if name in PASSES else self.orbit.pass_for_label(name)
         self.pass_label = self.orbit.pass_label(self.pass_name)
         self.f107 = c["f107_sfu"] if c["solar"] == "f107" else SOLAR_PRESETS[c["solar"]]
         f = c["field"]
-        self.settings = SlantSettings(method=c["method"], shell_height_m=c["shell_height_m"],
-                                      bottom_height_m=c["bottom_height_m"], layer_step_m=c["layer_step_m"],
-                                      field=FieldModel(f["model"], f["epoch"], f["coefficients"]))
+        self.settings = _slant_settings(c["method"], c["shell_height_m"], c["bottom_height_m"], c["layer_step_m"],
+                                        f["model"], f["epoch"], f["coefficients"])
 
     def table(self, services):
         """The climatology table of this case's month and solar level (shared by every case of them)."""
@@ -151,3 +152,17 @@ class GlobalClimatologyLookup(Stage):
             None, [self.pass_label] * n, where, label=f"global climatology {where}, month {c['month']}, "
             f"{self.pass_label}, F10.7 {self.f107:g} sfu")
         return {"faraday.geophysical": clim}
+
+
+@lru_cache(maxsize=64)
+def _orbit_and_swath(altitude_m, ltan_hours, look_side, earth_rotation, near_rad, far_rad, samples) -> tuple:
+    """The orbit and its swath positions (incidence, deg), made once for all cells of a map."""
+    orbit = SunSynchronousOrbit(altitude_m, ltan_hours, look_side, earth_rotation)
+    return orbit, tuple(float(x) for x in np.degrees(swath_incidences(orbit, near_rad, far_rad, samples)))
+
+
+@lru_cache(maxsize=64)
+def _slant_settings(method, shell_height_m, bottom_height_m, layer_step_m, field_kind, epoch, coefficients):
+    """The slant-integration settings, made once for all cells of a map."""
+    return SlantSettings(method=method, shell_height_m=shell_height_m, bottom_height_m=bottom_height_m,
+                         layer_step_m=layer_step_m, field=FieldModel(field_kind, epoch, coefficients))

@@ -50,9 +50,7 @@ class AGBMap:
         lat, lon = np.broadcast_arrays(np.asarray(lat_deg, float), _wrap(np.asarray(lon_deg, float)))
         i, inside_i = _pixel(self.lat_deg, lat, periodic=False)
         j, inside_j = _pixel(self.lon_deg, lon, periodic=_is_global(self.lon_deg))
-        out = self.agb_t_ha[i, j].astype(float)
-        out[~(inside_i & inside_j)] = np.nan
-        return out
+        return np.where(inside_i & inside_j, self.agb_t_ha[i, j].astype(float), np.nan)
 
     def covers(self, lat_deg, lon_deg) -> np.ndarray:
         """True where the points (deg) are inside the map's extent (forest or not)."""
