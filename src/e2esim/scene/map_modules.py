@@ -48,7 +48,7 @@ class AGBMapScene(Stage):
         where = f"at {c['lat_deg']:g}N {c['lon_deg']:g}E"
         if source.agb_map is None:
             name = source.forest_name(self.biome)
-            biome, agb, hh, hv, vv, r, theta = TABLE1_FORESTS[name]
+            _, agb, hh, hv, vv, r, theta = TABLE1_FORESTS[name]
             self.covariance = ScatteringCovariance.from_powers(
                 hh, hv, vv, r, np.radians(theta), agb_t_ha=agb, biome=self.biome,
                 label=f"{name} {where} (latitude band; Men et al. 2021, Table I)")
