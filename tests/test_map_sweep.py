@@ -174,6 +174,21 @@ def test_map_sweep_expands_to_forest_land_cells_months_passes_and_solar_levels()
     assert [c["ionosphere.solar"] for c in cases[:: cells * 4]] == ["min", "max"]
 
 
+def test_map_sweep_over_an_agb_map_keeps_its_forest_land_cells(tmp_path):
+    lat, lon, agb = _write_netcdf(tmp_path / "agb.nc")
+    raw = _map_scenario(step_deg=1, lat_range_deg=[-6, 6], lon_range_deg=[9, 17], months=[4], passes=["dusk"])
+    raw["scene"]["file"] = str(tmp_path / "agb.nc")
+    resolved = Scenario(raw, "map.yaml").resolve()
+    cells = {(c.inputs["scene.lat_deg"], c.inputs["scene.lon_deg"]) for c in resolved.cases}
+    land = land_fraction(lat, lon, 1.0) >= 0.5
+    expected = {(a, b) for i, a in enumerate(lat) for j, b in enumerate(lon) if land[i, j] and np.isfinite(agb[i, j])
+                and agb[i, j] > 0}
+    assert cells == expected and 0 < len(cells) < lat.size * lon.size  # the map's edge, no-forest pixels, ocean
+    case = next(c for c in resolved.cases if c.inputs["scene.lat_deg"] == -1.5 and c.inputs["scene.lon_deg"] == 12.5)
+    scene = next(m for m in case.modules if m.kind == "scene")
+    assert scene.covariance.agb_t_ha == 132.0
+
+
 def test_map_sweep_errors_name_the_key():
     def resolve(raw):
         return Scenario(raw, "map.yaml").resolve()
@@ -228,6 +243,17 @@ def test_results_nc_holds_the_map_with_cf_attributes(quick_run):
         assert float(ds["requirement0_value"].sel(where)) == case["results"]["requirement0.value"]
         assert np.isnan(float(fr.sel(solar="max", month=1, lat=35.0, lon=-15.0, **{"pass": "dawn"})))  # Atlantic
         assert int(np.isfinite(fr.values).sum()) == summary["n_cases"]
+
+
+def test_results_to_xarray_of_a_map_is_its_grid(quick_run):
+    import e2esim
+
+    result, folder = quick_run("biomass_global_map")
+    for results in (e2esim.Results.from_run(result), e2esim.open_results(folder)):
+        ds = results.to_xarray()
+        assert ds["faraday_omega_mean_abs_deg"].dims == ("solar", "pass", "month", "lat", "lon")
+        with xr.open_dataset(folder / "results.nc") as written:
+            np.testing.assert_array_equal(ds["requirement0_value"].values, written["requirement0_value"].values)
 
 
 def test_fraction_of_forest_area_meeting_the_requirement(quick_run):

@@ -180,7 +180,7 @@ def _forest_cells(scenario: dict, lat, lon, where: Location) -> np.ndarray:
     here = Location(where.source, ("scene",), where.lines)
     config = validate_section(FOREST_PARAMS, raw, here, ignore=("type", "lat_deg", "lon_deg"))
     try:
-        source = ForestSource.from_si(to_si(FOREST_PARAMS, config))
+        source = ForestSource.from_si(to_si(FOREST_PARAMS, config), where.source)
     except PhysicsInputError as exc:
         raise ConfigError(exc.location(here), str(exc)) from exc
     biome, _ = source.forest(lat[:, None], lon[None, :])

@@ -9,6 +9,7 @@ agree on which cells are forest.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
@@ -23,8 +24,9 @@ _TROPICAL = tuple(k for k, v in TABLE1_FORESTS.items() if v[0] == "tropical")
 _BOREAL = tuple(k for k, v in TABLE1_FORESTS.items() if v[0] == "boreal")
 
 FOREST_PARAMS = (
-    Param("file", "str", "AGB map (NetCDF or GeoTIFF on a lat/lon grid, t/ha; e2esim.scene.agb_map); null: the "
-          "default forest of each latitude band (its Table I forest)", default=None, nullable=True),
+    Param("file", "str", "AGB map (NetCDF or GeoTIFF on a lat/lon grid, t/ha; e2esim.scene.agb_map), relative to the "
+          "scenario file; null: the default forest of each latitude band (its Table I forest)", default=None,
+          nullable=True),
     Param("variable", "str", "the AGB variable of a NetCDF map", default="agb"),
     Param("tropical_lat_deg", "float", "tropical band: |latitude| up to this (the Tropics, 23.44 deg)",
           default=TROPIC_LAT_DEG, unit="deg", minimum=0.0, maximum=90.0, convert=False),
@@ -54,9 +56,15 @@ class ForestSource:
     agb_map: AGBMap | None = None
 
     @classmethod
-    def from_si(cls, si) -> ForestSource:
-        """From the SI values of ``FOREST_PARAMS`` (reads the AGB map, once per file version)."""
-        agb_map = read_agb_map(si["file"], si["variable"]) if si["file"] else None
+    def from_si(cls, si, scenario_file: str = "") -> ForestSource:
+        """From the SI values of ``FOREST_PARAMS`` (reads the AGB map, once per file version; a relative path is
+        relative to ``scenario_file``'s folder when that file exists)."""
+        agb_map = None
+        if si["file"]:
+            path = Path(si["file"]).expanduser()
+            if not path.is_absolute() and scenario_file and Path(scenario_file).is_file():
+                path = Path(scenario_file).parent / path
+            agb_map = read_agb_map(path, si["variable"])
         return cls(float(si["tropical_lat_deg"]), tuple(si["boreal_lat_range_deg"]),
                    (("tropical", si["tropical_forest"]), ("boreal", si["boreal_forest"])), si["temperate_biome"],
                    agb_map)

@@ -43,7 +43,7 @@ class AGBMapScene(Stage):
 
     def setup(self):
         c = self.si
-        source = ForestSource.from_si(c)
+        source = ForestSource.from_si(c, self.location.source)
         self.biome, self.agb_t_ha = check_forest_point(source, c["lat_deg"], c["lon_deg"])
         where = f"at {c['lat_deg']:g}N {c['lon_deg']:g}E"
         if source.agb_map is None:
