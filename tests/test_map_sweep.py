@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from e2esim.errors import ConfigError, LimitError
+from e2esim.errors import ConfigError, LimitError, Location
 from e2esim.faraday.cell_lookup import cell_index, month_table
 from e2esim.faraday.global_lookup import GlobalClimatologyLookup
 from e2esim.io.map_netcdf import area_fraction
@@ -158,8 +158,6 @@ def _map_scenario(**sweep_map):
 def test_map_sweep_expands_to_forest_land_cells_months_passes_and_solar_levels():
     raw = _map_scenario(step_deg=10, lat_range_deg=[-30, 70], lon_range_deg=[-20, 60], months=[1, 7],
                         passes=["dawn", "dusk"], solar=["min", "max"])
-    from e2esim.errors import Location
-
     cases, keys = expand_map_sweep(raw["sweep"]["map"], Location("t.yaml", ("sweep", "map")), raw)
     assert keys == MAP_KEYS
     lat = np.arange(-25.0, 70.0, 10.0)
@@ -189,6 +187,20 @@ def test_map_sweep_over_an_agb_map_keeps_its_forest_land_cells(tmp_path):
     assert scene.covariance.agb_t_ha == 132.0
 
 
+def test_cells_beyond_the_orbits_reach_are_left_out():
+    from e2esim.faraday.global_lookup import _ORBIT, visible_latitudes
+    from e2esim.params import to_si, validate_section
+
+    orbit = to_si((_ORBIT,), validate_section((_ORBIT,), {}, Location()))["orbit"]  # BIOMASS
+    for pass_name in ("dawn", "dusk"):  # left-looking from 98 deg inclination: 78.5 N to 84.5 S at 1 deg
+        assert visible_latitudes(orbit, [-85.5, -84.5, 0.5, 78.5, 79.5], pass_name).tolist() == [
+            False, True, True, True, False]
+    raw = _map_scenario(step_deg=10, lat_range_deg=[70, 90], lon_range_deg=[0, 20], land_only=False, months=[1])
+    raw["scene"]["tropical_lat_deg"] = 90  # every latitude forest
+    cases = Scenario(raw, "map.yaml").resolve().cases
+    assert sorted({c.inputs["scene.lat_deg"] for c in cases}) == [75.0] and len(cases) == 2 * 2
+
+
 def test_map_sweep_errors_name_the_key():
     def resolve(raw):
         return Scenario(raw, "map.yaml").resolve()
@@ -196,6 +208,10 @@ def test_map_sweep_errors_name_the_key():
     raw = _map_scenario(step_deg=10, lat_range_deg=[-30, 70], lon_range_deg=[-20, 60])
     raw["ionosphere"]["grid_step_deg"] = 5
     with pytest.raises(ConfigError, match=r"ionosphere.grid_step_deg: 5 differs from the map's step_deg 10"):
+        resolve(raw)
+    raw = _map_scenario(step_deg=10, lat_range_deg=[-30, 70], lon_range_deg=[-20, 60])
+    raw["ionosphere"]["table_lat_range_deg"] = [-30, 60]
+    with pytest.raises(ConfigError, match=r"ionosphere.table_lat_range_deg: \[-30, 60\] does not cover the map's "):
         resolve(raw)
     raw = _map_scenario(step_deg=10, lat_range_deg=[30, 40], lon_range_deg=[-40, -30])  # mid-Atlantic
     with pytest.raises(ConfigError, match=r"sweep.map: no cell of the grid is swept"):

@@ -28,6 +28,7 @@ from e2esim.ionosphere.slant import METHODS, PathIntegrals, SlantSettings
 from e2esim.ionosphere.variability import DEFAULT_TEC_VARIABILITY
 from e2esim.module import Stage, fail
 from e2esim.orbit.acquisition import swath_incidences
+from e2esim.orbit.geometry import view_geometry
 from e2esim.orbit.sunsync import PASSES, SunSynchronousOrbit
 from e2esim.params import Ordered, Param, ParamGroup, Requires
 
@@ -166,3 +167,15 @@ def _slant_settings(method, shell_height_m, bottom_height_m, layer_step_m, field
     """The slant-integration settings, made once for all cells of a map."""
     return SlantSettings(method=method, shell_height_m=shell_height_m, bottom_height_m=bottom_height_m,
                          layer_step_m=layer_step_m, field=FieldModel(field_kind, epoch, coefficients))
+
+
+def visible_latitudes(orbit_config: dict, lat_deg, pass_name: str) -> np.ndarray:
+    """True where ``pass_name`` (dawn, dusk, ascending, descending) of the orbit of a ``global_climatology``
+    section's ``orbit`` group (its SI values) sees latitude ``lat_deg`` (deg) at some swath position."""
+    o = orbit_config
+    orbit, incidence_deg = _orbit_and_swath(o["altitude_m"], o["ltan_hours"], o["look_side"], o["earth_rotation"],
+                                            o["incidence_near_rad"], o["incidence_far_rad"], o["swath_samples"])
+    name = pass_name if pass_name in PASSES else orbit.pass_for_label(pass_name)
+    view = view_geometry(orbit, np.radians(np.asarray(lat_deg, float))[None, :], 0.0,
+                         np.radians(np.asarray(incidence_deg))[:, None], name)
+    return np.any(view.valid, axis=0)

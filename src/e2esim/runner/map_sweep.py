@@ -60,7 +60,8 @@ MAP_KEYS = (LAT_KEYS[0], LON_KEYS[0], LAT_KEYS[1], LON_KEYS[1], MONTH_KEY, PASS_
 @dataclass(frozen=True)
 class MapGrid:
     """The grid of a map sweep: cell-centre axes (deg), the land fraction of each cell (n_lat, n_lon), which
-    cells are swept (bool, n_lat x n_lon), and the months, passes and solar levels."""
+    cells are swept (bool, n_lat x n_lon), and the months, passes and solar levels; ``seen`` (pass -> bool per
+    latitude): the latitudes each pass of the ionosphere's orbit sees (all, without a global_climatology)."""
 
     lat_deg: np.ndarray
     lon_deg: np.ndarray
@@ -70,6 +71,7 @@ class MapGrid:
     months: tuple
     passes: tuple
     solar: tuple
+    seen: dict
 
 
 def map_section(sweep) -> dict | None:
@@ -104,12 +106,15 @@ def map_grid(section, where: Location, scenario: dict | None = None) -> MapGrid:
     else:
         land = np.full((lat.size, lon.size), np.nan)
         swept = np.ones((lat.size, lon.size), bool)
+    passes = tuple(dict.fromkeys(m["passes"]))
+    seen = {p: np.ones(lat.size, bool) for p in passes}
     if scenario is not None:
         _check_sections(scenario, m, where)
         if m["forest_only"]:
             swept &= _forest_cells(scenario, lat, lon, where)
-    return MapGrid(lat, lon, float(m["step_deg"]), land, swept, tuple(dict.fromkeys(m["months"])),
-                   tuple(dict.fromkeys(m["passes"])), tuple(dict.fromkeys(m["solar"])))
+        seen = _seen_latitudes(scenario, lat, passes, where) or seen
+    return MapGrid(lat, lon, float(m["step_deg"]), land, swept, tuple(dict.fromkeys(m["months"])), passes,
+                   tuple(dict.fromkeys(m["solar"])), seen)
 
 
 def expand_map_sweep(section, where: Location, scenario: dict | None = None) -> tuple[list, tuple]:
@@ -121,14 +126,18 @@ def expand_map_sweep(section, where: Location, scenario: dict | None = None) -> 
         raise ConfigError(where, "no cell of the grid is swept (no land, or no forest, in the region)",
                           "widen lat_range_deg / lon_range_deg, or set land_only or forest_only to false")
     check_count("map sweep cases", n, MAX_MAP_CASES, where.describe())
-    cells = [(float(grid.lat_deg[a]), float(grid.lon_deg[b])) for a, b in zip(i, j)]
+    cells = {p: [(float(grid.lat_deg[a]), float(grid.lon_deg[b])) for a, b in zip(i, j) if grid.seen[p][a]]
+             for p in grid.passes}
     cases = []
     for solar in grid.solar:
         for month in grid.months:
             for pass_name in grid.passes:
-                for la, lo in cells:
+                for la, lo in cells[pass_name]:
                     cases.append({LAT_KEYS[0]: la, LON_KEYS[0]: lo, LAT_KEYS[1]: la, LON_KEYS[1]: lo,
                                   MONTH_KEY: month, PASS_KEY: pass_name, SOLAR_KEY: solar})
+    if not cases:
+        raise ConfigError(where, "no swept cell is seen by the passes of the ionosphere's orbit",
+                          "restrict lat_range_deg to latitudes the orbit reaches")
     return cases, MAP_KEYS
 
 
@@ -167,6 +176,33 @@ def _check_sections(scenario: dict, m: dict, where: Location) -> None:
             raise ConfigError(Location(where.source, ("ionosphere", "grid_step_deg"), where.lines),
                               f"{step!r} differs from the map's step_deg {m['step_deg']:g}",
                               "set them equal, so that each map cell is one cell of the climatology table")
+        for key, default, full in (("lat", (-90.0, 90.0), 180.0), ("lon", (-180.0, 180.0), 360.0)):
+            table = raw.get(f"table_{key}_range_deg", default)
+            want = m[f"{key}_range_deg"]
+            if _pair(table) and table[1] - table[0] < full and (want[0] < table[0] or want[1] > table[1]):
+                raise ConfigError(Location(where.source, ("ionosphere", f"table_{key}_range_deg"), where.lines),
+                                  f"{list(table)} does not cover the map's {key}_range_deg {list(want)}",
+                                  "let the climatology table cover the map (or leave the table global)")
+
+
+def _pair(value) -> bool:
+    return isinstance(value, (list, tuple)) and len(value) == 2 and all(
+        isinstance(v, (int, float)) and not isinstance(v, bool) for v in value)
+
+
+def _seen_latitudes(scenario: dict, lat, passes, where: Location) -> dict | None:
+    """pass -> latitudes (bool) the ionosphere's orbit sees; None unless the ionosphere is global_climatology."""
+    from e2esim.faraday.global_lookup import _ORBIT, GlobalClimatologyLookup, visible_latitudes
+
+    cls, raw = _section_class(scenario, "ionosphere", where)
+    if cls is None or not issubclass(cls, GlobalClimatologyLookup):
+        return None
+    here = Location(where.source, ("ionosphere",), where.lines)
+    orbit = to_si((_ORBIT,), validate_section((_ORBIT,), {"orbit": raw.get("orbit") or {}}, here))["orbit"]
+    try:
+        return {p: visible_latitudes(orbit, lat, p) for p in passes}
+    except PhysicsInputError as exc:  # an orbit without such a pass, impossible incidences
+        raise ConfigError(here.child("orbit"), str(exc)) from exc
 
 
 def _forest_cells(scenario: dict, lat, lon, where: Location) -> np.ndarray:
