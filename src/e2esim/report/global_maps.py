@@ -101,14 +101,14 @@ def plot_map_sweep(result, folder: Path, options: dict) -> list:
     nrow = math.ceil(len(months) / ncol)
     panel_w = 3.6
     panel_h = panel_w * (ylim[1] - ylim[0]) / max(lon_edges[-1] - lon_edges[0], 1e-9)
-    size = (panel_w * ncol + 1.4, (panel_h + 0.45) * nrow + 0.9)
+    size = (panel_w * ncol + 1.4, (panel_h + 0.4) * nrow + 1.0)
     out = []
     for stem, title, values, cmap, vmin, vmax, limit in quantities:
         for s, solar in enumerate(ds["solar"].values):
             for p, pass_name in enumerate(ds["pass"].values):
                 fig = plt.figure(figsize=size)
                 grid = fig.add_gridspec(nrow, ncol, left=0.9 / size[0], right=1 - 1.1 / size[0], bottom=0.45 / size[1],
-                                        top=1 - 0.75 / size[1], wspace=0.08, hspace=0.45 * nrow / size[1] * 2)
+                                        top=1 - 0.75 / size[1], wspace=0.08, hspace=0.4 / panel_h)
                 for k, month in enumerate(months):
                     ax = fig.add_subplot(grid[k // ncol, k % ncol])
                     ax.pcolormesh(lon_edges, lat_edges, np.where(land, 1.0, np.nan), cmap=ListedColormap([LAND_GREY]),
