@@ -132,8 +132,8 @@ def _scalar_attrs(name: str, unit: str | None) -> dict:
     attrs = {"long_name": scalar_description(name), "e2esim_name": name, "e2esim_units": unit}
     if name.endswith(".passed"):
         attrs.update(units="1", flag_values=np.array([0.0, 1.0]), flag_meanings="fails passes")
-    else:
-        attrs["units"] = CF_UNITS.get(unit, "1")
+    elif unit in CF_UNITS:
+        attrs["units"] = CF_UNITS[unit]  # a unit e2esim does not know (a plug-in's output) gets none
     if STANDARD_NAMES.get(name):
         attrs["standard_name"] = STANDARD_NAMES[name]
     return attrs
