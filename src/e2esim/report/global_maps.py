@@ -62,8 +62,11 @@ def _quantities(ds, result) -> list:
         if f"requirement{j}_value" in ds:
             v = ds[f"requirement{j}_value"].values
             limit = float(verdict.limit)
+            low, high = _range(v, limit)
+            shown = bool(low <= limit <= high)
             out.append((f"map_agb_error{j if j else ''}", f"AGB error checked by '{name}' ({verdict.unit}; limit "
-                        f"{limit:g}, the black line)", v, "YlOrRd", *_range(v, limit), limit))
+                        f"{limit:g}{', the black line' if shown else ''})", v, "YlOrRd", low, high,
+                        limit if shown else None))
         if f"requirement{j}_passed" in ds:
             out.append((f"map_verdict{j if j else ''}", f"verdict of '{name}': green passes, red fails",
                         ds[f"requirement{j}_passed"].values, PASS_FAIL, -0.5, 1.5, None))
