@@ -163,5 +163,5 @@ def test_the_five_node_average_is_exact_for_polynomials_of_degree_4_in_cos_2_ome
     # and the HV error moments averaged with it agree with the 17-node average of any trigonometric polynomial
     # of degree 8 (FaradayDistribution.quadrature)
     nodes17, weights17 = dist.quadrature()
-    h = lambda w: np.cos(w) ** 4 * np.sin(w) ** 4 + 0.3 * np.cos(w) ** 2  # noqa: E731
+    h = lambda w: np.cos(w) ** 4 * np.sin(w) ** 4 + 0.3 * np.cos(w) ** 2
     assert np.dot(weights, h(nodes)) == pytest.approx(np.dot(weights17, h(nodes17)), rel=1e-13)

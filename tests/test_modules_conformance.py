@@ -21,6 +21,10 @@ CONFIGS = {
     ("orbit", "biomass_orbit"): {"site": {"lat_deg": 60.0, "lon_deg": 92.0}, "acquisitions": {"step_days": 90}},
     ("ionosphere", "user_tec"): {"vtec_tecu": 20.0},
     ("ionosphere", "iri_climatology"): {"cache_dir": "off", "method": "thin_shell", "variability_nodes": 3},
+    ("ionosphere", "global_climatology"): {"lat_deg": 5.0, "lon_deg": 15.0, "month": 3, "grid_step_deg": 10.0,
+                                           "table_lat_range_deg": [-10, 20], "table_lon_range_deg": [0, 30],
+                                           "variability_nodes": 3, "cache_dir": "off"},
+    ("scene", "agb_map"): {"lat_deg": 60.5, "lon_deg": 92.5},
 }
 
 BUILTIN = [r for r in registry.available() if r.distribution.lower() == "e2esim"]

@@ -19,7 +19,8 @@ def test_builtins_register_through_the_entry_point_group():
 
 
 def test_unknown_type_lists_the_valid_names():
-    with pytest.raises(ModuleLookupError, match="unknown scene type 'forest'; registered scene types: covariance"):
+    with pytest.raises(ModuleLookupError,
+                       match="unknown scene type 'forest'; registered scene types: agb_map, covariance"):
         registry.lookup("scene", "forest")
 
 

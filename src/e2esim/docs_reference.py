@@ -62,6 +62,8 @@ def _yaml(value) -> str:
 
 
 def render() -> str:
+    from e2esim.runner.limits import MAX_MAP_CASES
+    from e2esim.runner.map_sweep import MAP_PARAMS
     from e2esim.runner.scenario import (
         DEFAULT_MODULES,
         OUTPUT_PARAMS,
@@ -122,6 +124,23 @@ def render() -> str:
         "A key that names no parameter of the module in use is an error.",
         "",
         *_table(SWEEP_PARAMS),
+        "",
+        "### `sweep.map`: global maps",
+        "",
+        "Every forest cell of a latitude-longitude grid (global or a region) x months x passes x solar levels "
+        "(e2esim.runner.map_sweep; docs/user-guide.md, \"Global maps\"). It needs `scene: {type: agb_map}` and "
+        "`ionosphere: {type: global_climatology}`, whose cell, month, pass and solar level it sets in each case "
+        "(`scene.lat_deg`, `scene.lon_deg`, `ionosphere.lat_deg`, `ionosphere.lon_deg`, `ionosphere.month`, "
+        "`ionosphere.pass`, `ionosphere.solar`), and stands alone in the `sweep` section. At most "
+        f"{MAX_MAP_CASES:,} cases.",
+        "",
+        "```yaml",
+        "sweep:",
+        "  map: {step_deg: 1, lat_range_deg: [-90, 90], lon_range_deg: [-180, 180], months: [1, 7],",
+        "        passes: [dawn, dusk], solar: [max]}",
+        "```",
+        "",
+        *_table(MAP_PARAMS),
         "",
         "## `output`",
         "",

@@ -113,8 +113,16 @@ class Results:
 
     def to_xarray(self):
         """xarray Dataset: every output scalar as a variable (attributes ``units``, ``description``) over the
-        sweep's dimensions, the sweep keys as coordinates (module docstring)."""
+        sweep's dimensions, the sweep keys as coordinates (module docstring); a map sweep's map on its grid, as in
+        its results.nc (``e2esim.io.map_netcdf``)."""
         import xarray as xr
+
+        from e2esim.runner.map_sweep import map_section
+
+        if map_section(self.resolved_scenario.get("sweep")) is not None:
+            from e2esim.io.map_netcdf import map_dataset
+
+            return map_dataset(self)
 
         dims, shape = self.sweep_dimensions()
         dim_of = grid_coordinate_keys(self.resolved_scenario.get("sweep")) if dims != ("case",) else {}

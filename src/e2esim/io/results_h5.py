@@ -15,6 +15,7 @@ import yaml
 from e2esim.io.atomic import atomic_path
 from e2esim.io.scalar_units import TEXT, detail_unit, scalar_description, scalar_unit
 from e2esim.io.summary import requirement_sources
+from e2esim.runner.map_sweep import is_map_sweep
 
 _STR = h5py.string_dtype("utf-8")
 FORMAT_VERSION = 2  # 2: units and descriptions on every dataset, acquisitions, requirement sources
@@ -69,7 +70,9 @@ def write_results(result, path) -> None:
                 scalar_unit(name, req_units), scalar_description(name) + "; NaN where a case lacks it")
         _write_requirements(f.create_group("requirements"), result)
         _write_arrays(f.create_group("arrays"), result)
-        _write_acquisitions(f.create_group("acquisitions"), cases)
+        acquisitions = f.create_group("acquisitions")
+        if not is_map_sweep(result.scenario):  # a map's cells: their swath samples would be 200 000 groups
+            _write_acquisitions(acquisitions, cases)
 
 
 def _input_unit(key: str) -> str:

@@ -15,6 +15,7 @@ from e2esim.report import tables
 from e2esim.report.assumptions import assumption_rows
 from e2esim.report.blocks import Badge, Details, Heading, Image, Paragraph, Table, Warning, fmt, table_blocks
 from e2esim.report.conclusions import conclusions
+from e2esim.runner.map_sweep import is_map_sweep
 
 __all__ = [
     "Badge",
@@ -55,6 +56,9 @@ def build_report(result, plots: list, warnings: list = ()) -> list:
         blocks += [Paragraph("The scenario states no requirements.")]
     if sc.description:
         blocks += [Heading(2, "Scenario"), Paragraph(sc.description.strip())]
+    if is_map_sweep(sc):  # thousands of cells: the maps and results.nc instead of per-case tables
+        return blocks + _assumptions_section(result) + _plots_section(plots, warnings) + [
+            Heading(2, "Cases"), Paragraph(MAP_CASES_NOTE.format(n=len(result.cases)))] + _provenance_section(result)
     margins = tables.margin_table(result)
     if margins is not None:
         blocks += [Heading(2, "Level margins")] + table_blocks("Margins of each error level", margins, (
@@ -80,10 +84,18 @@ def build_report(result, plots: list, warnings: list = ()) -> list:
         note_blocks = tuple(Paragraph(n) for n in notes)
         blocks += [Heading(2, "Notes")] + (list(note_blocks) if len(notes) <= 5 else
                                            [Details(f"{len(notes)} notes on the cases", note_blocks)])
-    blocks += [Heading(2, "Provenance"),
-               Table(("item", "value"), tuple((k, _provenance_text(v)) for k, v in result.provenance.items())),
-               Paragraph("The resolved scenario is stored in results.h5 (`/provenance/resolved_scenario`).")]
-    return blocks
+    return blocks + _provenance_section(result)
+
+
+MAP_CASES_NOTE = ("This map sweep has {n} cases (cells x months x passes x solar levels): their numbers are in "
+                  "results.nc, one variable per output on the map's grid (docs/output-format.md), and in results.h5; "
+                  "the per-case tables are left out of the report.")
+
+
+def _provenance_section(result) -> list:
+    return [Heading(2, "Provenance"),
+            Table(("item", "value"), tuple((k, _provenance_text(v)) for k, v in result.provenance.items())),
+            Paragraph("The resolved scenario is stored in results.h5 (`/provenance/resolved_scenario`).")]
 
 
 def _scope_note(result) -> str:
@@ -100,6 +112,8 @@ def _budget_section(result, plots) -> list:
         "(speckle and noise, temporal variability, calibration, area projection); regression: the retrieval "
         "model's uncertainty.")]
     out += [Image(name, caption) for name, caption in plots if name == "error_budget.png"]
+    if is_map_sweep(result.scenario):
+        return out
     for j, name in enumerate(result.requirement_names):
         table = tables.budget_table(result, j)
         if table is not None:

@@ -19,12 +19,14 @@ import numpy as np
 
 from e2esim.report.budget_plots import plot_error_budget
 from e2esim.report.faraday_plots import plot_faraday_climatology, plot_faraday_distributions
+from e2esim.report.global_maps import plot_map_fraction, plot_map_sweep
 from e2esim.report.map_plots import SITE_KEYS, plot_site_map
 from e2esim.report.multichannel_plots import plot_estimator_comparison
 from e2esim.report.plot_base import PlotSkipped, figure_settings, save
 from e2esim.report.stack_plots import plot_agb_error_vs_faraday_difference
 from e2esim.report.sweep_layout import legend, sweep_layout
 from e2esim.report.sweep_plots import plot_agb_error_vs_sweep, plot_backscatter_vs_sweep, plot_verdicts
+from e2esim.runner.map_sweep import is_map_sweep
 from e2esim.units import level_db_from_variance
 
 
@@ -166,10 +168,14 @@ PLOTTERS = {
     "site_map": plot_site_map,
     "estimator_comparison": plot_estimator_comparison,
     "agb_error_vs_faraday_difference": plot_agb_error_vs_faraday_difference,
+    "global_maps": plot_map_sweep,
+    "map_fraction": plot_map_fraction,
 }
 """Plot types by name: function(result, folder, options) -> [(file name, caption)]; ``PlotSkipped`` says why
 one draws nothing."""
 AUTO_PLOTS = ("verdicts", "backscatter_vs_sweep", "agb_error_vs_sweep", "error_histograms", "tradeoff")
+MAP_AUTO_PLOTS = ("global_maps", "map_fraction")
+"""``auto`` of a map sweep: its maps instead of per-case plots."""
 ALWAYS_PLOTS = ("error_budget",)
 """Drawn in every report that has requirements: the error budget is what a review asks first."""
 
@@ -178,8 +184,9 @@ def requested_plots(result) -> list:
     """The plot types of a run: ``output.plots`` (``auto`` expanded), the site map of a site sweep, and the
     error budget."""
     wanted = []
+    auto = MAP_AUTO_PLOTS if is_map_sweep(result.scenario) else AUTO_PLOTS
     for name in result.scenario.output["plots"]:
-        wanted.extend(AUTO_PLOTS if name == "auto" else [name])
+        wanted.extend(auto if name == "auto" else [name])
     if any(k in result.scenario.sweep_keys for k in SITE_KEYS):
         wanted.append("site_map")
     if result.requirement_names:

@@ -28,6 +28,14 @@ MAX_CASES = 200_000
 memory while the scenario is checked and its outputs written (about 3 kB per case for the lightest
 chain, 0.6 GB at the limit)."""
 
+MAX_MAP_CASES = 1_000_000
+"""Cases of a map sweep (``sweep: {map: ...}``, e2esim.runner.map_sweep), and cells of its grid: 1 000 000. A
+1 deg global map of the forest cells of the default latitude bands over 12 months and 2 passes has about
+210 000 cases, and every land cell over 12 months, 2 passes and 2 solar levels about 1 070 000 (split it by
+solar level). A map sweep is one sweep of plain values per case, meant to be evaluated in blocks; the per-case
+runner keeps every case's products in memory, about 45 kB a case (9 GB for the global map): run large maps with
+the batched engine, or in regions."""
+
 MAX_DATES = 100_000
 """Acquisition dates of an orbit module: 100 000 (274 years at one date a day)."""
 

@@ -17,10 +17,12 @@ from pathlib import Path
 
 from e2esim.errors import OutputExistsError, OutputFolderError
 from e2esim.io.atomic import write_text_atomic
+from e2esim.io.map_netcdf import write_map_netcdf
 from e2esim.io.results_h5 import write_results
 from e2esim.io.summary import write_summary
 from e2esim.runner.journal import JOURNAL, count_finished
 from e2esim.runner.lock import LOCK_NAME, FolderLock
+from e2esim.runner.map_sweep import is_map_sweep
 
 OUTPUT_FILES = ("results.h5", "summary.json", "report.md", "report.html")
 OUTPUT_LIST = ".e2esim-outputs.json"
@@ -124,6 +126,7 @@ def write_outputs(result, folder: Path) -> dict:
         before = {p.name for p in folder.iterdir()}
     except OSError as exc:
         raise OutputFolderError(f"{folder}: cannot create the output folder: {_reason(folder, exc)}") from exc
+    from e2esim.report.global_maps import map_dataset_of
     from e2esim.report.plots import make_plots  # imported here: matplotlib costs a second at start-up
     from e2esim.report.render import write_report
 
@@ -131,6 +134,8 @@ def write_outputs(result, folder: Path) -> dict:
         warnings: list = []
         plots = make_plots(result, folder, warnings)
         write_results(result, folder / "results.h5")
+        if is_map_sweep(result.scenario):
+            write_map_netcdf(map_dataset_of(result), folder / "results.nc")
         write_summary(result, folder / "summary.json")
         write_report(result, folder, plots, warnings)
         written = sorted({p.name for p in folder.iterdir()} - before - {JOURNAL, LOCK_NAME})

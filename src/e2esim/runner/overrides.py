@@ -56,6 +56,10 @@ def swept_keys(sweep) -> dict:
     out: dict = {}
     if not isinstance(sweep, dict):
         return out
+    if isinstance(sweep.get("map"), dict):
+        from e2esim.runner.map_sweep import MAP_KEYS
+
+        out.update(dict.fromkeys(MAP_KEYS, "sweep.map"))
     params, cases = sweep.get("parameters"), sweep.get("cases")
     if isinstance(params, dict):
         for key in params:
@@ -83,8 +87,10 @@ def check_not_swept(raw: dict, set_keys: list, source: str) -> None:
                     Location(f"{source} (--set)", path),
                     f"the sweep sets {skey} in its cases ({section}), so this --set would never be used",
                     f"change the sweep instead: --set {section}."
-                    + ("KEY=[values]" if section == "sweep.parameters" else "I.KEY=VALUE for case I")
-                    + f", or --replace-sweep {skey}=VALUE to give it one value in every case")
+                    + {"sweep.parameters": "KEY=[values]", "sweep.map": "KEY=VALUE (its ranges, months, passes, "
+                       "solar levels)"}.get(section, "I.KEY=VALUE for case I")
+                    + ("" if section == "sweep.map" else
+                       f", or --replace-sweep {skey}=VALUE to give it one value in every case"))
 
 
 def remove_from_sweep(raw: dict, key: str, where: Location) -> None:
@@ -96,6 +102,10 @@ def remove_from_sweep(raw: dict, key: str, where: Location) -> None:
         hint = ", ".join(sorted(swept)) or "the scenario has no sweep"
         raise ConfigError(where, f"--replace-sweep {shorten(key)}: the sweep does not set this key",
                           f"swept keys: {hint}; use --set for other keys")
+    if swept[key] == "sweep.map":
+        raise ConfigError(where, f"--replace-sweep {shorten(key)}: a map sweep sets it for every cell",
+                          "narrow the map instead: --set sweep.map.KEY=VALUE (lat_range_deg, lon_range_deg, months, "
+                          "passes, solar)")
     params, cases = sweep.get("parameters"), sweep.get("cases")
     if isinstance(params, dict):
         new: dict = {}

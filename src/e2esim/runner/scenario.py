@@ -70,6 +70,8 @@ PLOT_TYPES = (
     "site_map",
     "estimator_comparison",
     "agb_error_vs_faraday_difference",
+    "global_maps",
+    "map_fraction",
 )
 
 SIMULATION_PARAMS = (
@@ -205,7 +207,7 @@ class Scenario:
             if key in self.raw and not isinstance(self.raw[key], str):
                 raise ConfigError(root.child(key), f"{self.raw[key]!r} is not text", "expected a string")
         output = validate_section(OUTPUT_PARAMS, self.raw.get("output"), root.child("output"))
-        table = sweep_table(self.raw.get("sweep"), root.child("sweep"))
+        table = sweep_table(self.raw.get("sweep"), root.child("sweep"), self.raw)
         sweep_keys = table.keys
         for key in ("plot_x", "plot_group_by"):
             if output[key] is not None and output[key] not in sweep_keys:

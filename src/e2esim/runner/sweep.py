@@ -2,7 +2,8 @@
 
 ``sweep.parameters`` maps dotted keys to value lists (or ``{linspace: [start, stop, n]}``,
 ``{logspace: [...]}``), combined as a grid or side by side (``mode: zip``); a key "a.b, c.d" varies several
-keys together. ``sweep.cases`` lists the cases explicitly.
+keys together. ``sweep.cases`` lists the cases explicitly. ``sweep.map`` sweeps the forest cells of a
+latitude-longitude grid over months, passes and solar levels (e2esim.runner.map_sweep).
 """
 
 from __future__ import annotations
@@ -22,7 +23,7 @@ SWEEP_PARAMS = (
     Param("mode", "str", "grid: every combination of the parameter lists; zip: the lists side by side",
           default="grid", choices=("grid", "zip")),
 )
-SWEEP_KEYS = ("mode", "parameters", "cases")
+SWEEP_KEYS = ("mode", "parameters", "cases", "map")
 """``sweep.parameters``: mapping of dotted key -> list of values, or ``{linspace: [start, stop, num]}``
 or ``{logspace: [start_exp, stop_exp, num]}``; a key "a.b, c.d" with a list of [a, c] pairs varies
 two keys together; ``sweep.cases``: list of mappings dotted key -> value."""
@@ -48,11 +49,11 @@ class KeyGroup:
 class SweepTable:
     """A sweep in factored form: groups of keys and, per case, the position of each group. Nothing is stored per
     case for a grid (case i is the C-order position ``unravel_index(i, sizes)``, the order of
-    ``itertools.product``); ``zip`` and ``cases`` sweeps keep a table of positions (n, groups).
+    ``itertools.product``); ``zip``, ``cases`` and map sweeps keep a table of positions (n, groups).
 
-    layout : "none" (one case, no sweep), "grid", "zip" or "cases". groups : ``KeyGroup`` per parameter entry
-    (for ``cases``, one per key, its distinct values, ``ABSENT`` where a case does not set it). table : the
-    positions for "zip" and "cases", else None.
+    layout : "none" (one case, no sweep), "grid", "zip", "cases" or "map" (``e2esim.runner.map_sweep``).
+    groups : ``KeyGroup`` per parameter entry (for ``cases``, one per key, its distinct values, ``ABSENT`` where
+    a case does not set it; for a map: cell, month, pass, solar level). table : the positions, None for a grid.
     """
 
     layout: str
@@ -105,14 +106,15 @@ class _Absent:
 _ABSENT = _Absent()
 
 
-def expand_sweep(sweep: Any, where: Location) -> tuple[list, tuple]:
+def expand_sweep(sweep: Any, where: Location, scenario: dict | None = None) -> tuple[list, tuple]:
     """Sweep section -> (list of case input dicts, sweep keys). No sweep gives one case with no inputs."""
-    table = sweep_table(sweep, where)
+    table = sweep_table(sweep, where, scenario)
     return table.all_inputs(), table.keys
 
 
-def sweep_table(sweep: Any, where: Location) -> SweepTable:
-    """The ``SweepTable`` of a sweep section (validated; ``ConfigError`` names the bad key)."""
+def sweep_table(sweep: Any, where: Location, scenario: dict | None = None) -> SweepTable:
+    """The ``SweepTable`` of a sweep section (validated; ``ConfigError`` names the bad key). ``scenario`` (the raw
+    scenario) lets a map sweep check its sections and leave out cells without forest."""
     if sweep is None:
         return SweepTable("none", ())
     if not isinstance(sweep, dict):
@@ -121,6 +123,13 @@ def sweep_table(sweep: Any, where: Location) -> SweepTable:
     for key in sweep:
         if key not in SWEEP_KEYS:
             raise unknown_key_error(where.child(key), key, SWEEP_KEYS)
+    if "map" in sweep:
+        from e2esim.runner.map_sweep import map_table
+
+        if len(sweep) > 1:
+            raise ConfigError(where, "has 'map' beside " + ", ".join(repr(k) for k in sweep if k != "map"),
+                              "a map sweep stands alone")
+        return map_table(sweep["map"], where.child("map"), scenario)
     mode = validate_section(SWEEP_PARAMS, {k: v for k, v in sweep.items() if k == "mode"}, where)["mode"]
     params, cases = sweep.get("parameters"), sweep.get("cases")
     if params is not None and cases is not None:
@@ -224,12 +233,12 @@ class CaseLabels(Sequence):
 
     def __init__(self, table: SweepTable):
         self.table = table
-        if table.layout != "grid":
+        if table.layout not in ("grid", "map"):
             self._labels = case_labels(table.all_inputs())
             return
         self._labels = None
         shown: list = []
-        for group in table.groups:  # a grid's groups vary independently: a key is fixed only within its group
+        for group in table.groups:  # a grid's (a map's) groups vary independently: a key is fixed only within its group
             shown += differing_keys([dict(zip(group.keys, values)) for values in group.values])
         names = _short_names(shown)
         self._parts = [[", ".join(f"{names[k]}={_value_text(v)}" for k, v in zip(g.keys, values) if k in names)

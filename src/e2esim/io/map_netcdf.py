@@ -1,0 +1,166 @@
+"""results.nc: the results of a map sweep as a CF-1.8 NetCDF dataset on its grid (docs/output-format.md).
+
+Every output scalar of the cases becomes a variable over (solar, pass, month, lat, lon), NaN where a cell is not
+swept (ocean, no forest) or a case lacks it, with ``units`` (UDUNITS), ``long_name``, ``standard_name`` where CF
+has one, and ``e2esim_name``/``e2esim_units`` (the name and unit of results.h5). Besides them: the land fraction
+of each cell, its area weight (cos latitude) and, per requirement, the share of the swept (forest) area that
+meets it in each month, pass and solar level. The dataset is built from the ``Results`` of a run
+(``map_dataset``), which the report's maps also draw, and written atomically (``write_map_netcdf``).
+"""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+
+from e2esim.io.atomic import atomic_path
+from e2esim.io.scalar_units import scalar_description
+from e2esim.runner.map_sweep import LAT_KEYS, LON_KEYS, MONTH_KEY, PASS_KEY, SOLAR_KEY, map_section
+
+DIMS = ("solar", "pass", "month", "lat", "lon")
+"""Dimensions of every per-case variable, in order."""
+
+CF_UNITS = {"deg": "degree", "%": "percent", "m^2/m^2": "1", "(m^2/m^2)^2": "1", "t/ha": "t ha-1",
+            "TECU": "1e16 m-2", "uT": "uT", "sfu": "1e-22 W m-2 Hz-1", "count": "1", "MHz": "MHz", "Hz": "Hz",
+            "m": "m", "1": "1", "dB": "1"}
+"""e2esim units -> UDUNITS strings (dB values are logarithmic ratios: "1", with ``e2esim_units: dB``)."""
+
+STANDARD_NAMES = {"scene.agb_t_ha": None}
+"""CF standard names of output scalars; none of e2esim's quantities has one (AGB, Faraday rotation and the
+error statistics are not in the CF standard name table), so only the coordinates and the land fraction carry
+one. Kept as a table so that a name added to CF is added here."""
+
+
+def map_dataset(results):
+    """The map of ``results`` (a ``e2esim.results.Results`` of a map sweep) as an xarray Dataset."""
+    import xarray as xr
+
+    from e2esim.faraday.global_climatology import grid_axes
+
+    section = map_section(results.resolved_scenario.get("sweep"))
+    if section is None:
+        raise ValueError("not a map sweep: its sweep section has no 'map'")
+    step = float(section.get("step_deg", 1.0))
+    lat, lon = (np.round(a, 9) for a in grid_axes(step, tuple(section.get("lat_range_deg", (-90.0, 90.0))),
+                                                  tuple(section.get("lon_range_deg", (-180.0, 180.0)))))
+    inputs = results.inputs
+    solar = list(dict.fromkeys(inputs[SOLAR_KEY]))
+    passes = list(dict.fromkeys(inputs[PASS_KEY]))
+    months = sorted(dict.fromkeys(int(m) for m in inputs[MONTH_KEY]))
+    index = (_positions(solar, inputs[SOLAR_KEY]), _positions(passes, inputs[PASS_KEY]),
+             _positions(months, [int(m) for m in inputs[MONTH_KEY]]),
+             _grid_positions(lat, inputs[LAT_KEYS[0]], step), _grid_positions(lon, inputs[LON_KEYS[0]], step))
+    shape = (len(solar), len(passes), len(months), lat.size, lon.size)
+    data = {}
+    for name, values in results.scalars.items():
+        grid = np.full(shape, np.nan)
+        grid[index] = values
+        data[_var_name(name, data)] = xr.Variable(DIMS, grid, attrs=_scalar_attrs(name, results.units.get(name)))
+    swept = np.zeros((lat.size, lon.size), bool)
+    swept[index[3], index[4]] = True
+    weight = np.where(swept, np.cos(np.radians(lat))[:, None], 0.0)
+    data["cell_area_weight"] = xr.Variable(("lat", "lon"), weight, attrs={
+        "units": "1", "long_name": "area weight of each swept cell: cos(latitude), 0 where not swept",
+        "comment": "cells are equal in latitude and longitude, so their areas are proportional to cos(latitude)"})
+    data["land_area_fraction"] = xr.Variable(("lat", "lon"), _land(lat, lon, step, section), attrs={
+        "units": "1", "standard_name": "land_area_fraction",
+        "long_name": "share of the cell that is land (GSHHG shoreline, roaring-landmask)"})
+    for j, name in enumerate(results.requirements):
+        key = _var_name(f"requirement{j}.passed", {})
+        if key in data:
+            data[f"requirement{j}_area_fraction"] = xr.Variable(
+                DIMS[:3], area_fraction(data[key].values, weight), attrs={
+                    "units": "1", "long_name": f"share of the swept (forest) area meeting requirement {j}: {name}",
+                    "comment": "sum of cos(latitude) over cells that pass / over cells with a verdict"})
+    coords = {
+        "solar": ("solar", np.array(solar, dtype=object), {"long_name": "solar activity level"}),
+        "pass": ("pass", np.array(passes, dtype=object), {"long_name": "satellite pass (by its equator crossing)"}),
+        "month": ("month", np.array(months, np.int32), {"long_name": "month of the year", "units": "1"}),
+        "lat": ("lat", lat, {"units": "degrees_north", "standard_name": "latitude", "long_name": "latitude of the "
+                             "cell centre", "axis": "Y"}),
+        "lon": ("lon", lon, {"units": "degrees_east", "standard_name": "longitude", "long_name": "longitude of the "
+                             "cell centre", "axis": "X"}),
+    }
+    f107 = results.scalars.get("faraday.f107_sfu")
+    if f107 is not None:
+        coords["f107"] = ("solar", np.array([np.nanmean(np.where(index[0] == k, f107, np.nan)) for k in
+                                             range(len(solar))]), {"units": "1e-22 W m-2 Hz-1",
+                                                                   "long_name": "F10.7 solar radio flux"})
+    ds = xr.Dataset(data, coords=coords)
+    ds.attrs.update(_global_attrs(results, step))
+    return ds
+
+
+def area_fraction(passed, weight) -> np.ndarray:
+    """Share of the area weight (lat, lon) of the cells with a verdict that pass, for every leading index of
+    ``passed`` (..., lat, lon: 1 pass, 0 fail, NaN no verdict)."""
+    has = np.isfinite(passed)
+    total = np.sum(np.where(has, weight, 0.0), axis=(-2, -1))
+    good = np.sum(np.where(has & (passed > 0.5), weight, 0.0), axis=(-2, -1))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(total > 0, good / total, np.nan)
+
+
+def write_map_netcdf(ds, path) -> None:
+    """Write a map dataset (``map_dataset``) to ``path`` (NetCDF-4, compressed), atomically."""
+    encoding = {name: {"zlib": True, "complevel": 1} for name in ds.data_vars}
+    with atomic_path(path) as tmp:
+        ds.to_netcdf(tmp, engine="netcdf4", encoding=encoding)
+
+
+def _positions(values: list, per_case) -> np.ndarray:
+    where = {v: k for k, v in enumerate(values)}
+    return np.array([where[v] for v in per_case], int)
+
+
+def _grid_positions(axis, per_case, step) -> np.ndarray:
+    k = np.rint((np.asarray(per_case, float) - axis[0]) / step).astype(int)
+    if np.any(k < 0) or np.any(k >= axis.size) or not np.allclose(axis[np.clip(k, 0, axis.size - 1)], per_case):
+        raise ValueError("a case's cell is not a cell of the map's grid")
+    return k
+
+
+def _var_name(name: str, taken) -> str:
+    """A CF variable name (letters, digits, underscores): dots become underscores (two on a clash)."""
+    simple = name.replace(".", "_")
+    return simple if simple not in taken else name.replace(".", "__")
+
+
+def _scalar_attrs(name: str, unit: str | None) -> dict:
+    unit = unit or "unknown"
+    attrs = {"long_name": scalar_description(name), "e2esim_name": name, "e2esim_units": unit}
+    if name.endswith(".passed"):
+        attrs.update(units="1", flag_values=np.array([0.0, 1.0]), flag_meanings="fails passes")
+    elif unit in CF_UNITS:
+        attrs["units"] = CF_UNITS[unit]  # a unit e2esim does not know (a plug-in's output) gets none
+    if STANDARD_NAMES.get(name):
+        attrs["standard_name"] = STANDARD_NAMES[name]
+    return attrs
+
+
+def _land(lat, lon, step, section) -> np.ndarray:
+    if not section.get("land_only", True):
+        return np.full((lat.size, lon.size), np.nan)
+    from e2esim.scene.land_mask import land_fraction
+
+    return land_fraction(lat, lon, step)
+
+
+def _global_attrs(results, step) -> dict:
+    prov = {k: v for k, v in results.provenance.items() if v is not None}
+    attrs = {
+        "Conventions": "CF-1.8",
+        "title": f"e2esim map sweep: {results.scenario_name}",
+        "source": f"e2esim {prov.get('e2esim_version', '')}".strip(),
+        "history": f"{prov.get('created_utc', '')}: e2esim run ({prov.get('command', '')})",
+        "references": "Men, Quegan, Riembauer & Chen (2021), IEEE JSTARS 14, 4089-4100; Quegan et al. (2018), "
+                      "IGARSS; Wessel & Smith (1996), J. Geophys. Res. 101(B4), 8741-8743 (GSHHG)",
+        "comment": "NaN where a cell is not swept (ocean, no forest class) or a case lacks the quantity",
+        "scenario": results.scenario_name,
+        "grid_step_deg": step,
+        "requirements": json.dumps(list(results.requirements)),
+    }
+    for key, value in prov.items():
+        attrs[f"provenance_{key}"] = json.dumps(value) if isinstance(value, (list, dict)) else str(value)
+    return attrs

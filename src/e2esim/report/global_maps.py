@@ -1,0 +1,175 @@
+"""Report plots of map sweeps (``e2esim.runner.map_sweep``): ``global_maps``, filled latitude-longitude maps of
+the Faraday rotation, the sigma_hv error, the AGB error and the verdict for every month (panels), pass and solar
+level (one figure each); ``map_fraction``, the share of the forest area that meets each requirement, by month.
+
+Both draw the map dataset of the run (``e2esim.io.map_netcdf.map_dataset``, the content of results.nc): the
+report computes nothing physical (an area weight is bookkeeping; the sigma_hv error is shown relative to sigma_hv).
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt
+import numpy as np
+from matplotlib.colors import ListedColormap
+from matplotlib.ticker import MultipleLocator
+
+from e2esim.report.plot_base import PlotSkipped, save
+from e2esim.runner.map_sweep import is_map_sweep
+
+MONTH_NAMES = ("Jan", "Feb", "Mar", "Apr", "May", "Jun", "Jul", "Aug", "Sep", "Oct", "Nov", "Dec")
+PASS_FAIL = ListedColormap(["#d7301f", "#1a9850"])
+LAND_GREY = "0.86"
+
+
+def map_dataset_of(result):
+    """The map dataset of a run (a ``ScenarioResult`` of a map sweep), built once and kept with the run."""
+    if not is_map_sweep(result.scenario):
+        raise PlotSkipped("the sweep is not a map sweep (sweep: {map: ...})")
+    cached = result.__dict__.get("_map_dataset")
+    if cached is None:
+        from e2esim.io.map_netcdf import map_dataset
+        from e2esim.results import Results
+
+        cached = map_dataset(Results.from_run(result))
+        result.__dict__["_map_dataset"] = cached
+    return cached
+
+
+def _quantities(ds, result) -> list:
+    """(file stem, title, values (solar, pass, month, lat, lon), colour map, vmin, vmax, limit) to draw."""
+    out = []
+    if "faraday_omega_mean_abs_deg" in ds:
+        v = ds["faraday_omega_mean_abs_deg"].values
+        out.append(("map_faraday", "one-way Faraday rotation before correction: mean |Ω| (deg)", v, "viridis",
+                    *_range(v), None))
+    mean = next((k for k in ("analytic_mean", "montecarlo_mean") if k in ds), None)
+    if mean is not None and "scene_sigma_hv" in ds:
+        v = 100.0 * ds[mean].values / ds["scene_sigma_hv"].values
+        low, high = _range(v)
+        cmap = "RdBu_r" if low < 0 < high else "magma"
+        if low < 0 < high:
+            low, high = -max(-low, high), max(-low, high)
+        out.append(("map_sigma_hv_error", f"bias of σ_hv, systematic ({mean.split('_')[0]}), % of σ_hv", v, cmap,
+                    low, high, None))
+    for j, name in enumerate(result.requirement_names):
+        verdict = result.cases[0].verdicts[j]
+        if f"requirement{j}_value" in ds:
+            v = ds[f"requirement{j}_value"].values
+            limit = float(verdict.limit)
+            low, high = _range(v, limit)
+            shown = bool(low <= limit <= high)
+            out.append((f"map_agb_error{j if j else ''}", f"AGB error checked by '{name}' ({verdict.unit}; limit "
+                        f"{limit:g}{', the black line' if shown else ''})", v, "YlOrRd", low, high,
+                        limit if shown else None))
+        if f"requirement{j}_passed" in ds:
+            out.append((f"map_verdict{j if j else ''}", f"verdict of '{name}': green passes, red fails",
+                        ds[f"requirement{j}_passed"].values, PASS_FAIL, -0.5, 1.5, None))
+    return out
+
+
+def _range(values, limit=None) -> tuple:
+    """Colour range of ``values``: their finite extremes, stretched to show ``limit`` when it is near them."""
+    finite = np.asarray(values)[np.isfinite(values)]
+    if not finite.size:
+        return 0.0, 1.0
+    low, high = float(finite.min()), float(finite.max())
+    if limit is not None and np.isfinite(limit) and low - 0.25 * abs(low) <= limit <= high + 0.25 * abs(high):
+        low, high = min(low, limit), max(high, limit)
+    if high - low < 1e-12 * max(abs(high), 1.0):
+        low, high = low - 0.5, high + 0.5
+    return low, high
+
+
+def plot_map_sweep(result, folder: Path, options: dict) -> list:
+    ds = map_dataset_of(result)
+    quantities = _quantities(ds, result)
+    if not quantities:
+        raise PlotSkipped("the cases have no Faraday rotation, sigma_hv error or verdict to map")
+    lat, lon = ds["lat"].values, ds["lon"].values
+    step = float(ds.attrs.get("grid_step_deg", lat[1] - lat[0] if lat.size > 1 else 1.0))
+    lat_edges = np.r_[lat - step / 2, lat[-1] + step / 2]
+    lon_edges = np.r_[lon - step / 2, lon[-1] + step / 2]
+    land = ds["land_area_fraction"].values >= 0.5
+    swept = ds["cell_area_weight"].values > 0
+    rows = np.nonzero(np.any(land | swept, axis=1))[0]
+    ylim = (lat_edges[rows[0]], lat_edges[rows[-1] + 1]) if rows.size else (lat_edges[0], lat_edges[-1])
+    months = [int(m) for m in ds["month"].values]
+    ncol = min(4, len(months))
+    nrow = math.ceil(len(months) / ncol)
+    panel_w = 3.6
+    panel_h = panel_w * (ylim[1] - ylim[0]) / max(lon_edges[-1] - lon_edges[0], 1e-9)
+    size = (panel_w * ncol + 1.4, (panel_h + 0.4) * nrow + 1.0)
+    out = []
+    for stem, title, values, cmap, vmin, vmax, limit in quantities:
+        for s, solar in enumerate(ds["solar"].values):
+            for p, pass_name in enumerate(ds["pass"].values):
+                fig = plt.figure(figsize=size)
+                grid = fig.add_gridspec(nrow, ncol, left=0.9 / size[0], right=1 - 1.1 / size[0], bottom=0.45 / size[1],
+                                        top=1 - 0.75 / size[1], wspace=0.08, hspace=0.4 / panel_h)
+                for k, month in enumerate(months):
+                    ax = fig.add_subplot(grid[k // ncol, k % ncol])
+                    ax.pcolormesh(lon_edges, lat_edges, np.where(land, 1.0, np.nan), cmap=ListedColormap([LAND_GREY]),
+                                  shading="flat")
+                    mesh = ax.pcolormesh(lon_edges, lat_edges, values[s, p, k], cmap=cmap, vmin=vmin, vmax=vmax,
+                                         shading="flat")
+                    _frame(ax, lon_edges, ylim, first_column=k % ncol == 0, last_row=k // ncol == nrow - 1)
+                    ax.set_title(MONTH_NAMES[month - 1], fontsize=8, pad=2)
+                cax = fig.add_axes((1 - 0.95 / size[0], 0.45 / size[1], 0.14 / size[0], 1 - 1.2 / size[1]))
+                bar = fig.colorbar(mesh, cax=cax)
+                if cmap is PASS_FAIL:
+                    bar.set_ticks([0, 1], labels=["fails", "passes"])
+                if limit is not None and np.isfinite(limit):
+                    bar.ax.axhline(limit, color="k", lw=1.5)
+                bar.ax.tick_params(labelsize=7)
+                fig.suptitle(f"{title}\n{pass_name} pass, solar {solar}", fontsize=9, y=1 - 0.08 / size[1], va="top")
+                name = save(fig, folder, f"{stem}_{pass_name}_{solar}", tight=False)
+                out.append((name, f"Map of the {title}, {pass_name} pass, solar {solar}, one panel per month; grey: "
+                            "land left out of the sweep (no forest class), white: ocean. Cells of "
+                            f"{step:g} deg."))
+    return out
+
+
+def _frame(ax, lon_edges, ylim, first_column: bool, last_row: bool) -> None:
+    """Limits, equal scales, and degree ticks labelled on the outer panels only."""
+    ax.set_xlim(lon_edges[0], lon_edges[-1])
+    ax.set_ylim(*ylim)
+    ax.set_aspect("equal", adjustable="box")
+    ax.xaxis.set_major_locator(MultipleLocator(60 if lon_edges[-1] - lon_edges[0] > 120 else 20))
+    ax.yaxis.set_major_locator(MultipleLocator(30 if ylim[1] - ylim[0] > 60 else 10))
+    ax.tick_params(labelsize=6, labelleft=first_column, labelbottom=last_row, length=2)
+    ax.grid(alpha=0.3, lw=0.4)
+
+
+def plot_map_fraction(result, folder: Path, options: dict) -> list:
+    ds = map_dataset_of(result)
+    names = result.requirement_names
+    keys = [(j, f"requirement{j}_area_fraction") for j in range(len(names))]
+    keys = [(j, k) for j, k in keys if k in ds]
+    if not keys:
+        raise PlotSkipped("the scenario states no requirements")
+    months = ds["month"].values
+    fig, axes = plt.subplots(len(keys), 1, figsize=(7.5, 3.6 * len(keys)), squeeze=False)
+    styles = ["-", "--", ":", "-."]
+    for ax, (j, key) in zip(axes[:, 0], keys):
+        frac = ds[key].values
+        for s, solar in enumerate(ds["solar"].values):
+            for p, pass_name in enumerate(ds["pass"].values):
+                ax.plot(months, 100.0 * frac[s, p], styles[s % 4], marker="o", color=plt.get_cmap("tab10")(p),
+                        label=f"{pass_name}, solar {solar}")
+        ax.set_ylim(-3, 103)
+        ax.set_xticks(range(1, 13), MONTH_NAMES, fontsize=8)
+        ax.set_xlim(0.5, 12.5)
+        ax.set_ylabel("forest area meeting it (%)")
+        ax.set_title(names[j], fontsize=9)
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=7)
+    fig.tight_layout()
+    return [(save(fig, folder, "map_fraction"),
+             "Share of the forest area of the map that meets each requirement, by month: the cells' areas (cos "
+             "latitude) of the passing cells over those of every swept cell, for each pass and solar level.")]

@@ -1,0 +1,231 @@
+"""Map sweeps: ``sweep: {map: ...}``, every forest cell of a latitude-longitude grid x months x passes x solar
+levels, as sweep cases of plain values (docs/user-guide.md, "Global maps").
+
+The grid is that of the global climatology (``e2esim.faraday.global_climatology.grid_axes``): square cells of
+``step_deg`` over ``lat_range_deg`` x ``lon_range_deg``. A cell is kept when it is land (at least
+``min_land_percent`` of it, GSHHG shoreline: ``e2esim.scene.land_mask``) and, with ``forest_only``, when the
+scenario's scene (type ``agb_map``) gives it a forest class (``e2esim.scene.map_forest``). Each case sets
+
+    scene.lat_deg, scene.lon_deg, ionosphere.lat_deg, ionosphere.lon_deg    the cell centre (deg)
+    ionosphere.month, ionosphere.pass, ionosphere.solar                        when
+
+so the scene looks up the cell's forest and the ionosphere (type ``global_climatology``) its Faraday rotation in
+the climatology table: everything that scales with the globe is computed once, before or outside the cases.
+Cases run solar level by solar level, month by month, pass by pass, cells in rows of latitude (south to north)
+and longitude (west to east), so that the cases of one climatology table follow each other.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from e2esim import registry
+from e2esim.errors import ConfigError, Location, ModuleLookupError, PhysicsInputError
+from e2esim.faraday.global_climatology import grid_axes
+from e2esim.params import Ordered, Param, find_param, to_si, validate_section
+from e2esim.runner.limits import MAX_MAP_CASES, check_count
+
+MONTHS = tuple(range(1, 13))
+
+MAP_PARAMS = (
+    Param("step_deg", "float", "cell size of the grid (square cells; the ionosphere's grid_step_deg must equal it)",
+          default=1.0, unit="deg", minimum=0.1, maximum=30.0, convert=False),
+    Param("lat_range_deg", "float", "latitudes of the grid: [south, north]", default=(-90.0, 90.0), unit="deg",
+          length=2, minimum=-90.0, maximum=90.0, convert=False),
+    Param("lon_range_deg", "float", "longitudes of the grid: [west, east]", default=(-180.0, 180.0), unit="deg",
+          length=2, minimum=-180.0, maximum=360.0, convert=False),
+    Param("land_only", "bool", "keep land cells only (GSHHG shoreline)", default=True),
+    Param("min_land_percent", "float", "share of a cell that must be land for it to count as land", default=50.0,
+          unit="%", exclusive_minimum=0.0, maximum=100.0, convert=False),
+    Param("forest_only", "bool", "keep only cells the scene (type agb_map) gives a forest class: in its latitude "
+          "bands, and forest in its AGB map", default=True),
+    Param("months", "int", "months of the year", default=MONTHS, variable_length=True, minimum=1, maximum=12),
+    Param("passes", "str", "passes", default=("dawn", "dusk"), variable_length=True,
+          choices=("dawn", "dusk", "ascending", "descending")),
+    Param("solar", "str", "solar activity levels (min: F10.7 70 sfu, max: 180 sfu, f107: the ionosphere's f107_sfu)",
+          default=("max",), variable_length=True, choices=("min", "max", "f107")),
+    Ordered("lat_range_deg"),
+    Ordered("lon_range_deg"),
+)
+
+LAT_KEYS = ("scene.lat_deg", "ionosphere.lat_deg")
+LON_KEYS = ("scene.lon_deg", "ionosphere.lon_deg")
+MONTH_KEY, PASS_KEY, SOLAR_KEY = "ionosphere.month", "ionosphere.pass", "ionosphere.solar"
+MAP_KEYS = (LAT_KEYS[0], LON_KEYS[0], LAT_KEYS[1], LON_KEYS[1], MONTH_KEY, PASS_KEY, SOLAR_KEY)
+"""The sweep keys of a map sweep, in order."""
+
+
+@dataclass(frozen=True)
+class MapGrid:
+    """The grid of a map sweep: cell-centre axes (deg), the land fraction of each cell (n_lat, n_lon), which
+    cells are swept (bool, n_lat x n_lon), and the months, passes and solar levels; ``seen`` (pass -> bool per
+    latitude): the latitudes each pass of the ionosphere's orbit sees (all, without a global_climatology)."""
+
+    lat_deg: np.ndarray
+    lon_deg: np.ndarray
+    step_deg: float
+    land_fraction: np.ndarray
+    swept: np.ndarray
+    months: tuple
+    passes: tuple
+    solar: tuple
+    seen: dict
+
+
+def map_section(sweep) -> dict | None:
+    """The ``map`` mapping of a sweep section, or None when the sweep is not a map sweep."""
+    if isinstance(sweep, dict) and isinstance(sweep.get("map"), dict):
+        return sweep["map"]
+    return None
+
+
+def is_map_sweep(scenario) -> bool:
+    """True for a resolved scenario (or its raw dict) whose sweep is a map sweep."""
+    raw = getattr(scenario, "raw", scenario)
+    return isinstance(raw, dict) and map_section(raw.get("sweep")) is not None
+
+
+def map_grid(section, where: Location, scenario: dict | None = None) -> MapGrid:
+    """Validate ``sweep.map`` and build its grid; ``scenario`` (the raw scenario) gives the scene's forest."""
+    if not isinstance(section, dict):
+        raise ConfigError(where, f"{section!r} is not a mapping", "expected step_deg, lat_range_deg, months, ...")
+    m = validate_section(MAP_PARAMS, section, where)
+    lat, lon = grid_axes(m["step_deg"], tuple(m["lat_range_deg"]), tuple(m["lon_range_deg"]))
+    if lat.size == 0 or lon.size == 0:
+        raise ConfigError(where.child("step_deg"), f"{m['step_deg']:g} deg is larger than the grid's ranges",
+                          "give a step that fits lat_range_deg and lon_range_deg")
+    lat, lon = np.round(lat, 9), np.round(lon, 9)
+    check_count("grid cells", lat.size * lon.size, MAX_MAP_CASES, where.describe())
+    if m["land_only"]:
+        from e2esim.scene.land_mask import land_fraction
+
+        land = land_fraction(lat, lon, m["step_deg"])
+        swept = land >= m["min_land_percent"] / 100.0
+    else:
+        land = np.full((lat.size, lon.size), np.nan)
+        swept = np.ones((lat.size, lon.size), bool)
+    passes = tuple(dict.fromkeys(m["passes"]))
+    seen = {p: np.ones(lat.size, bool) for p in passes}
+    if scenario is not None:
+        _check_sections(scenario, m, where)
+        if m["forest_only"]:
+            swept &= _forest_cells(scenario, lat, lon, where)
+        seen = _seen_latitudes(scenario, lat, passes, where) or seen
+    return MapGrid(lat, lon, float(m["step_deg"]), land, swept, tuple(dict.fromkeys(m["months"])), passes,
+                   tuple(dict.fromkeys(m["solar"])), seen)
+
+
+def map_table(section, where: Location, scenario: dict | None = None):
+    """``sweep.map`` -> its ``SweepTable`` (layout "map"): module docstring. Four groups of keys (the cell, the
+    month, the pass, the solar level) and per case the position of each; nothing else is stored per case."""
+    from e2esim.runner.sweep import KeyGroup, SweepTable
+
+    grid = map_grid(section, where, scenario)
+    i, j = np.nonzero(grid.swept)
+    n = i.size * len(grid.months) * len(grid.passes) * len(grid.solar)
+    if n == 0:
+        raise ConfigError(where, "no cell of the grid is swept (no land, or no forest, in the region)",
+                          "widen lat_range_deg / lon_range_deg, or set land_only or forest_only to false")
+    check_count("map sweep cases", n, MAX_MAP_CASES, where.describe())
+    lat, lon = grid.lat_deg[i].tolist(), grid.lon_deg[j].tolist()
+    cells = KeyGroup(LAT_KEYS[:1] + LON_KEYS[:1] + LAT_KEYS[1:] + LON_KEYS[1:],
+                     tuple((la, lo, la, lo) for la, lo in zip(lat, lon)))
+    seen = {p: np.nonzero(grid.seen[p][i])[0] for p in grid.passes}  # cell positions each pass sees
+    parts = []
+    for s, _ in enumerate(grid.solar):
+        for m, _ in enumerate(grid.months):
+            for p, pass_name in enumerate(grid.passes):
+                c = seen[pass_name]
+                parts.append(np.stack([c, np.full(c.size, m), np.full(c.size, p), np.full(c.size, s)], axis=-1))
+    table = np.concatenate(parts).astype(np.int64)
+    if not len(table):
+        raise ConfigError(where, "no swept cell is seen by the passes of the ionosphere's orbit",
+                          "restrict lat_range_deg to latitudes the orbit reaches")
+    groups = (cells, KeyGroup((MONTH_KEY,), tuple((m,) for m in grid.months)),
+              KeyGroup((PASS_KEY,), tuple((p,) for p in grid.passes)),
+              KeyGroup((SOLAR_KEY,), tuple((s,) for s in grid.solar)))
+    return SweepTable("map", groups, table)
+
+
+def _section_class(scenario: dict, kind: str, where: Location):
+    raw = scenario.get(kind)
+    type_name = raw.get("type") if isinstance(raw, dict) else None
+    if not isinstance(type_name, str):
+        return None, {}
+    try:
+        return registry.lookup(kind, type_name), raw
+    except ModuleLookupError:
+        return None, raw  # reported where the section is resolved
+
+
+def _check_sections(scenario: dict, m: dict, where: Location) -> None:
+    """The scene and ionosphere must take the cell (and the ionosphere the month, pass and solar level), and
+    the climatology table must have the map's cells."""
+    for kind, keys, advice in (("scene", LAT_KEYS[:1] + LON_KEYS[:1], "agb_map"),
+                               ("ionosphere", (LAT_KEYS[1], LON_KEYS[1], MONTH_KEY, PASS_KEY, SOLAR_KEY),
+                                "global_climatology")):
+        cls, _ = _section_class(scenario, kind, where)
+        if cls is None:
+            if kind not in scenario:
+                raise ConfigError(Location(where.source, (kind,), where.lines), "section is missing",
+                                  f"a map sweep needs a '{kind}:' section of type {advice}")
+            continue
+        missing = [k for k in keys if find_param(cls.params, k.split(".", 1)[1]) is None]
+        if missing:
+            raise ConfigError(Location(where.source, (kind, "type"), where.lines),
+                              f"{cls.type_name!r} has no parameter {missing[0].split('.', 1)[1]!r}, which a map sweep "
+                              f"sets ({', '.join(keys)})", f"use {kind} type {advice}")
+    cls, raw = _section_class(scenario, "ionosphere", where)
+    if cls is not None and cls.type_name == "global_climatology":
+        step = raw.get("grid_step_deg", 1.0)
+        if isinstance(step, (int, float)) and not np.isclose(step, m["step_deg"]):
+            raise ConfigError(Location(where.source, ("ionosphere", "grid_step_deg"), where.lines),
+                              f"{step!r} differs from the map's step_deg {m['step_deg']:g}",
+                              "set them equal, so that each map cell is one cell of the climatology table")
+        for key, default, full in (("lat", (-90.0, 90.0), 180.0), ("lon", (-180.0, 180.0), 360.0)):
+            table = raw.get(f"table_{key}_range_deg", default)
+            want = m[f"{key}_range_deg"]
+            if _pair(table) and table[1] - table[0] < full and (want[0] < table[0] or want[1] > table[1]):
+                raise ConfigError(Location(where.source, ("ionosphere", f"table_{key}_range_deg"), where.lines),
+                                  f"{list(table)} does not cover the map's {key}_range_deg {list(want)}",
+                                  "let the climatology table cover the map (or leave the table global)")
+
+
+def _pair(value) -> bool:
+    return isinstance(value, (list, tuple)) and len(value) == 2 and all(
+        isinstance(v, (int, float)) and not isinstance(v, bool) for v in value)
+
+
+def _seen_latitudes(scenario: dict, lat, passes, where: Location) -> dict | None:
+    """pass -> latitudes (bool) the ionosphere's orbit sees; None unless the ionosphere is global_climatology."""
+    from e2esim.faraday.global_lookup import _ORBIT, GlobalClimatologyLookup, visible_latitudes
+
+    cls, raw = _section_class(scenario, "ionosphere", where)
+    if cls is None or not issubclass(cls, GlobalClimatologyLookup):
+        return None
+    here = Location(where.source, ("ionosphere",), where.lines)
+    orbit = to_si((_ORBIT,), validate_section((_ORBIT,), {"orbit": raw.get("orbit") or {}}, here))["orbit"]
+    try:
+        return {p: visible_latitudes(orbit, lat, p) for p in passes}
+    except PhysicsInputError as exc:  # an orbit without such a pass, impossible incidences
+        raise ConfigError(here.child("orbit"), str(exc)) from exc
+
+
+def _forest_cells(scenario: dict, lat, lon, where: Location) -> np.ndarray:
+    """Cells (n_lat, n_lon) the scenario's ``agb_map`` scene gives a forest class (all, for another scene)."""
+    from e2esim.scene.map_forest import FOREST_PARAMS, ForestSource
+    from e2esim.scene.map_modules import AGBMapScene
+
+    cls, raw = _section_class(scenario, "scene", where)
+    if cls is None or not issubclass(cls, AGBMapScene):
+        return np.ones((lat.size, lon.size), bool)
+    here = Location(where.source, ("scene",), where.lines)
+    config = validate_section(FOREST_PARAMS, raw, here, ignore=("type", "lat_deg", "lon_deg"))
+    try:
+        source = ForestSource.from_si(to_si(FOREST_PARAMS, config), where.source)
+    except PhysicsInputError as exc:
+        raise ConfigError(exc.location(here), str(exc)) from exc
+    biome, _ = source.forest(lat[:, None], lon[None, :])
+    return biome != ""
