@@ -66,9 +66,9 @@ def test_dev_zero_as_scenario(capsys):
     ("  parameters:\n" + "".join(f"    instrument.{k}: {{linspace: [-40, -20, 100]}}\n" for k in
                                  ("crosstalk.level_db", "channel_imbalance.level_db", "nesz_db"))
      + "    instrument.gain_sd_db: [0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9, 1.0]\n",
-     ["sweep.parameters: 10,000,000 sweep cases exceed the limit of 200,000", "split the sweep", "--workers"]),
+     ["sweep.parameters: 10,000,000 sweep cases exceed the limit of 5,000,000", "split the sweep", "--workers"]),
     ("  parameters:\n    instrument.nesz_db: {linspace: [-40, -20, 1e9]}\n",
-     ["sweep.parameters.instrument.nesz_db.linspace: 1,000,000,000 sweep values exceed the limit of 200,000"]),
+     ["sweep.parameters.instrument.nesz_db.linspace: 1,000,000,000 sweep values exceed the limit of 5,000,000"]),
     ("  parameters:\n    instrument.nesz_db: {logspace: [1, 2, 1e300]}\n", ["1e+300 sweep values exceed the limit"]),
 ])
 def test_huge_sweeps(tmp_path, capsys, sweep, expect):

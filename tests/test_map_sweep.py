@@ -227,7 +227,7 @@ def test_map_sweep_errors_name_the_key():
         resolve(raw)
     raw = _map_scenario(step_deg=0.1, months=list(range(1, 13)), passes=["dawn", "dusk"], land_only=False,
                         forest_only=False)
-    with pytest.raises(LimitError, match=r"grid cells exceed the limit of 1,000,000"):
+    with pytest.raises(LimitError, match=r"grid cells exceed the limit of 5,000,000"):
         resolve(raw)
 
 

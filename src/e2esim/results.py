@@ -56,40 +56,35 @@ class Results:
     def from_run(cls, result) -> Results:
         """From a ``ScenarioResult`` (``e2esim.runner.run.run_scenario``)."""
         from e2esim.io.summary import requirement_sources
+        from e2esim.runner.result_table import text_column
 
-        cases = result.cases
-        names = sorted({k for c in cases for k in c.scalars})
-        req_units = [v.unit for v in cases[0].verdicts] if cases else []
-        scalars = {k: np.array([c.scalars.get(k, np.nan) for c in cases], dtype=float) for k in names}
-        n_req = len(result.requirement_names)
-        verdicts = [list(c.verdicts) for c in cases]
+        table = result.table  # columns of every case, in case order
+        n, n_req = table.n, len(result.requirement_names)
+        names = sorted(table.scalars)
+        req_units = [r.unit[0] for r in table.requirements] if n else []
+        labels = result.labels
+        labels = labels.tolist() if hasattr(labels, "tolist") else list(labels)
 
-        def table(attr, dtype=float):
-            return np.array([[getattr(v, attr) for v in row] for row in verdicts], dtype=dtype).reshape(
-                len(cases), n_req
-            )
+        def stacked(attr, convert=np.asarray):
+            columns = [convert(getattr(r, attr)) for r in table.requirements]
+            return np.stack(columns, axis=1) if columns else np.zeros((n, 0), dtype=object)
 
-        details = []
-        for j in range(n_req):
-            keys = list(dict.fromkeys(k for row in verdicts for k in row[j].details))
-            details.append(
-                {k: np.array([row[j].details.get(k, np.nan) for row in verdicts], dtype=float) for k in keys})
         return cls(
             scenario_name=result.scenario.name,
             sweep_keys=tuple(result.scenario.sweep_keys),
-            labels=[c.label for c in cases],
-            inputs={k: [c.inputs.get(k) for c in cases] for k in result.scenario.sweep_keys},
-            scalars=scalars,
+            labels=labels,
+            inputs=result.input_columns(),
+            scalars={k: table.scalar(k).astype(float, copy=True) for k in names},
             units={k: scalar_unit(k, tuple(req_units)) for k in names},
             requirements=list(result.requirement_names),
             requirement_units=req_units,
             requirement_sources=requirement_sources(result.scenario),
-            passed=table("passed", bool),
-            value=table("value"),
-            limit=table("limit"),
-            margin=table("margin"),
-            dominant=table("dominant", object),
-            details=details,
+            passed=stacked("passed").astype(bool).reshape(n, n_req),
+            value=stacked("value").astype(float).reshape(n, n_req),
+            limit=stacked("limit").astype(float).reshape(n, n_req),
+            margin=stacked("margin").astype(float).reshape(n, n_req),
+            dominant=stacked("dominant", text_column).reshape(n, n_req),
+            details=[{k: table.detail(j, k) for k in r.details} for j, r in enumerate(table.requirements)],
             provenance=dict(result.provenance),
             resolved_scenario=result.scenario.resolved,
             run=result,
@@ -173,6 +168,14 @@ class Results:
         return write_outputs(self.run, folder)
 
 
+def results_of(result) -> Results:
+    """The ``Results`` of a ``ScenarioResult``, made once and kept with it (the writers all read them)."""
+    cached = result.__dict__.get("_results")
+    if cached is None:
+        cached = result.__dict__["_results"] = Results.from_run(result)
+    return cached
+
+
 def _is_text(values) -> bool:
     return not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in values)
 
@@ -196,4 +199,4 @@ def grid_coordinate_keys(sweep) -> dict:
     return {k: keys[0] for keys, _ in _grid_groups(sweep) for k in keys}
 
 
-__all__ = ["Results", "grid_coordinate_keys"]
+__all__ = ["Results", "grid_coordinate_keys", "results_of"]

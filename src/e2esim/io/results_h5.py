@@ -14,8 +14,8 @@ import yaml
 
 from e2esim.io.atomic import atomic_path
 from e2esim.io.scalar_units import TEXT, detail_unit, scalar_description, scalar_unit
-from e2esim.io.summary import requirement_sources
 from e2esim.runner.map_sweep import is_map_sweep
+from e2esim.runner.result_table import text_column
 
 _STR = h5py.string_dtype("utf-8")
 FORMAT_VERSION = 2  # 2: units and descriptions on every dataset, acquisitions, requirement sources
@@ -34,9 +34,12 @@ def _text(group, name, values, description):
 
 
 def write_results(result, path) -> None:
-    """Write all cases of ``result`` (a ScenarioResult) to ``path`` atomically."""
-    cases = result.cases
-    n = len(cases)
+    """Write all cases of ``result`` (a ScenarioResult) to ``path`` atomically, column by column
+    (``e2esim.results.Results``); per-case arrays and acquisitions only where the run kept its products."""
+    from e2esim.results import results_of
+
+    columns = results_of(result)
+    n = columns.n_cases
     with atomic_path(path) as tmp, h5py.File(tmp, "w") as f:
         for key, value in result.provenance.items():
             if value is None:
@@ -52,27 +55,29 @@ def write_results(result, path) -> None:
               "the scenario as read, after --set overrides, YAML")
 
         g = f.create_group("cases")
-        put(g, "index", np.array([c.index for c in cases], dtype=np.int64), "1", "case number")
-        _text(g, "label", [c.label for c in cases], "case label: the sweep keys that differ between cases")
+        put(g, "index", np.arange(n, dtype=np.int64), "1", "case number")
+        _text(g, "label", columns.labels, "case label: the sweep keys that differ between cases")
         inputs = g.create_group("inputs")
         for key in result.scenario.sweep_keys:
-            values = [c.inputs.get(key) for c in cases]
+            values = columns.inputs[key]
             about = f"sweep value of {key} in each case"
-            if all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in values):
+            if all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in set(values)):
                 put(inputs, key, np.array(values, dtype=float), _input_unit(key), about)
             else:
                 _text(inputs, key, [json.dumps(v) if not isinstance(v, str) else v for v in values],
                       about + " (JSON for values that are not text)")
         res = g.create_group("results")
-        req_units = tuple(v.unit for v in cases[0].verdicts) if cases else ()
-        for name in sorted({k for c in cases for k in c.scalars}):
-            put(res, name, np.array([c.scalars.get(name, np.nan) for c in cases], dtype=float),
-                scalar_unit(name, req_units), scalar_description(name) + "; NaN where a case lacks it")
-        _write_requirements(f.create_group("requirements"), result)
-        _write_arrays(f.create_group("arrays"), result)
-        acquisitions = f.create_group("acquisitions")
-        if not is_map_sweep(result.scenario):  # a map's cells: their swath samples would be 200 000 groups
-            _write_acquisitions(acquisitions, cases)
+        req_units = tuple(columns.requirement_units)
+        for name in sorted(columns.scalars):
+            put(res, name, columns.scalars[name], scalar_unit(name, req_units),
+                scalar_description(name) + "; NaN where a case lacks it")
+        _write_requirements(f.create_group("requirements"), columns)
+        arrays, acquisitions = f.create_group("arrays"), f.create_group("acquisitions")
+        _write_curves(arrays, result.table)
+        if result.keeps_products:
+            _write_samples(arrays, result)
+            if not is_map_sweep(result.scenario):  # a map's cells: their swath samples would be 200 000 groups
+                _write_acquisitions(acquisitions, result.cases)
 
 
 def _input_unit(key: str) -> str:
@@ -80,54 +85,59 @@ def _input_unit(key: str) -> str:
     return unit if unit != "unknown" else "as the scenario key (docs/scenario-reference.md)"
 
 
-def _write_requirements(req, result) -> None:
-    cases = result.cases
-    names = result.requirement_names
+def _write_requirements(req, columns) -> None:
+    names = columns.requirements
     _text(req, "names", names, "requirement labels in scenario order")
     if not names:
         return
-    verdicts = [[c.verdicts[j] for j in range(len(names))] for c in cases]
-    units = [v.unit for v in verdicts[0]]
-    _text(req, "sources", requirement_sources(result.scenario),
+    units = columns.requirement_units
+    _text(req, "sources", columns.requirement_sources,
           "error sources each requirement covers: all, or systematic (system distortions, Faraday rotation, noise)")
-    put(req, "passed", np.array([[v.passed for v in row] for row in verdicts], dtype=bool), "1",
-        "verdict of requirement j (column) in case i (row): true passes")
+    put(req, "passed", columns.passed, "1", "verdict of requirement j (column) in case i (row): true passes")
     about = {
         "value": "the checked quantity",
         "limit": "the requirement's bound",
         "margin": "limit - value; positive passes",
     }
     for attr in ("value", "limit", "margin"):
-        put(req, attr, np.array([[getattr(v, attr) for v in row] for row in verdicts], dtype=float),
-            "see /requirements/unit", f"{about[attr]} (case, requirement), in /requirements/unit")
+        put(req, attr, getattr(columns, attr), "see /requirements/unit",
+            f"{about[attr]} (case, requirement), in /requirements/unit")
     _text(req, "unit", units, "unit of each requirement's value, limit and margin")
-    put(req, "basis", [[v.basis for v in row] for row in verdicts], TEXT, "analytic or montecarlo", _STR)
-    put(req, "dominant", [[v.dominant for v in row] for row in verdicts], TEXT,
+    basis = np.stack([text_column(r.basis) for r in columns.run.table.requirements], axis=1)
+    put(req, "basis", basis.tolist(), TEXT, "analytic or montecarlo", _STR)
+    put(req, "dominant", columns.dominant.tolist(), TEXT,
         "the error source whose removal would reduce the checked value most", _STR)
     det = req.create_group("details")
-    keys = sorted({(j, k) for row in verdicts for j, v in enumerate(row) for k in v.details})
-    for j, k in keys:
-        put(det, f"{j}/{k}", np.array([row[j].details.get(k, np.nan) for row in verdicts], dtype=float),
-            detail_unit(k, units[j]), f"requirement {j}: {k} (docs/output-format.md, summary.json details)")
+    for j, k in sorted((j, k) for j, details in enumerate(columns.details) for k in details):
+        put(det, f"{j}/{k}", columns.details[j][k], detail_unit(k, units[j]),
+            f"requirement {j}: {k} (docs/output-format.md, summary.json details)")
 
 
-def _write_arrays(arrays, result) -> None:
+def _write_curves(arrays, table) -> None:
+    """The trade-off curves of every case that has them."""
+    for j, req in enumerate(table.requirements):
+        if req.curves is None:
+            continue
+        drawn = np.array([bool(v) for v in req.curves.values], dtype=bool)
+        for i in np.nonzero(drawn[req.curves.index])[0]:
+            cg = arrays.require_group(f"case{i:06d}")
+            for name, values in req.curves[i].items():
+                what = ("crosstalk level (abscissa of the trade-off curve)" if name == "crosstalk_db" else
+                        "largest channel imbalance meeting the requirement at each crosstalk level (NaN: crosstalk "
+                        "alone breaks it)" if name.endswith("imbalance_db") else name)
+                put(cg, f"requirement{j}/{name}", np.asarray(values, dtype=float),
+                    "dB (instrument convention)" if name.endswith("_db") else "unknown", f"requirement {j}: {what}")
+
+
+def _write_samples(arrays, result) -> None:
+    """The Monte Carlo errors of the cases that keep them (``simulation.keep_samples``)."""
     for c in result.cases:
-        cg = None
         model = c.get("backscatter.error")
         samples = model.samples() if model is not None else None
         if samples is not None and result.scenario.cases[c.index].settings.keep_samples:
             cg = arrays.require_group(f"case{c.index:06d}")
             put(cg, f"{model.channel}_errors", samples, "m^2/m^2",  # random doubles barely compress: no filter
                 f"Monte Carlo errors of sigma_{model.channel} (realisations, noise realisations)")
-        for j, v in enumerate(c.verdicts):
-            for name, values in v.curves.items():
-                cg = cg or arrays.require_group(f"case{c.index:06d}")
-                what = ("crosstalk level (abscissa of the trade-off curve)" if name == "crosstalk_db" else
-                        "largest channel imbalance meeting the requirement at each crosstalk level (NaN: crosstalk "
-                        "alone breaks it)" if name.endswith("imbalance_db") else name)
-                put(cg, f"requirement{j}/{name}", np.asarray(values, dtype=float),
-                    "dB (instrument convention)" if name.endswith("_db") else "unknown", f"requirement {j}: {what}")
 
 
 _GEOMETRY = (  # (attribute, dataset, scale, units, description)

@@ -9,6 +9,8 @@ from __future__ import annotations
 import json
 import math
 
+import numpy as np
+
 from e2esim.io.atomic import write_text_atomic
 from e2esim.io.error_budget import agb_budget, source_groups, verdict_budget
 
@@ -24,29 +26,46 @@ def requirement_sources(resolved) -> list:
 
 
 def requirement_overview(result) -> list:
-    """Per requirement: how many cases pass, the worst margin and where it occurs."""
+    """Per requirement: how many cases pass, the worst margin and where it occurs (from the run's columns)."""
     rows = []
     sources = requirement_sources(result.scenario)
+    table = result.table
+    labels = result.labels
     for j, name in enumerate(result.requirement_names):
-        every = [(c.index, c.label, c.verdicts[j]) for c in result.cases]
-        verdicts = [t for t in every if t[2].details.get("applies", 1.0) != 0.0]  # cases the requirement covers
-        worst = min(verdicts or every, key=lambda t: t[2].margin if math.isfinite(t[2].margin) else math.inf)
+        r = table.requirements[j]
+        applies = table.applies(j)  # the cases the requirement covers
+        candidates = np.nonzero(applies)[0] if applies.any() else np.arange(table.n)
+        margins = r.margin[candidates]
+        worst = int(candidates[np.argmin(np.where(np.isfinite(margins), margins, np.inf))])  # the first of equals
+        passed = r.passed[applies]
         rows.append({
             "name": name,
             "sources": sources[j] if j < len(sources) else "all",
-            "passed_cases": sum(v.passed for _, _, v in verdicts),
-            "failed_cases": sum(not v.passed for _, _, v in verdicts),
-            "not_applicable_cases": len(every) - len(verdicts),
-            "all_passed": all(v.passed for _, _, v in verdicts),
-            "worst_margin": worst[2].margin if verdicts else float("nan"),
-            "unit": worst[2].unit,
-            "worst_case": worst[0],
-            "worst_case_label": worst[1],
+            "passed_cases": int(passed.sum()),
+            "failed_cases": int((~passed).sum()),
+            "not_applicable_cases": int(table.n - applies.sum()),
+            "all_passed": bool(passed.all()),
+            "worst_margin": float(r.margin[worst]) if applies.any() else float("nan"),
+            "unit": r.unit[worst],
+            "worst_case": worst,
+            "worst_case_label": labels[worst],
         })
     return rows
 
 
+LARGE_RUN_CASES = 10_000
+"""Runs with more cases leave the per-case entries out of summary.json and the per-case tables and plots out
+of the report: every case is in results.h5 (docs/output-format.md). A per-case JSON entry and table row take
+about 2 kB and 0.2 ms each; past ten thousand cases nobody reads them, and a million would take minutes."""
+
+
 def summary_dict(result) -> dict:
+    n = len(result.scenario.cases)
+    head = {"scenario": result.scenario.name, **result.provenance, "n_cases": n,
+            "requirements": requirement_overview(result)}
+    if n > LARGE_RUN_CASES:
+        return _clean({**head, "cases_omitted": f"{n} cases, more than {LARGE_RUN_CASES}: every case's inputs, "
+                       "results and verdicts are in results.h5", "cases": []})
     cases = []
     for c in result.cases:
         groups = source_groups(c)
@@ -64,20 +83,14 @@ def summary_dict(result) -> dict:
                 for v in c.verdicts
             ],
         })
-    return _clean({
-        "scenario": result.scenario.name,
-        **result.provenance,
-        "n_cases": len(result.cases),
-        "requirements": requirement_overview(result),
-        "cases": cases,
-    })
+    return _clean({**head, "cases": cases})
 
 
 _INDENT_UP_TO_CASES = 500  # larger sweeps are written compact: the indenting encoder is ten times slower
 
 
 def summary_json(result) -> str:
-    indent = 2 if len(result.cases) <= _INDENT_UP_TO_CASES else None
+    indent = 2 if len(result.scenario.cases) <= _INDENT_UP_TO_CASES else None
     return json.dumps(summary_dict(result), indent=indent, allow_nan=False)
 
 

@@ -39,9 +39,10 @@ PRESET_FIELDS = {  # budget setting -> (preset field, factor to the setting's un
 }
 
 
-def assumption_rows(resolved, scalars_of_cases) -> tuple[list, list]:
+def assumption_rows(resolved, looks_of_cases=()) -> tuple[list, list]:
     """(key rows, other rows): (setting, value, source) of every module setting of the first case; key rows
-    are those of ``KEY_SETTINGS``, the budget's preset values and derived looks."""
+    are those of ``KEY_SETTINGS``, the budget's preset values and derived looks (``looks_of_cases``: the scalar
+    budget.looks of the cases that have it)."""
     raw = resolved.raw
     swept = set(resolved.sweep_keys)
     key_rows, other_rows = [], []
@@ -73,7 +74,7 @@ def assumption_rows(resolved, scalars_of_cases) -> tuple[list, list]:
             row = (f"`{dotted}`", shown, source)
             (key_rows if keys is None or name in keys else other_rows).append(row)
         if module.type_name == "backscatter_error_budget":
-            looks = sorted(s["budget.looks"] for s in scalars_of_cases if "budget.looks" in s)
+            looks = sorted(float(x) for x in (min(looks_of_cases), max(looks_of_cases))) if len(looks_of_cases) else []
             if looks:
                 span = fmt(looks[0], 3) if looks[0] == looks[-1] else f"{fmt(looks[0], 3)} to {fmt(looks[-1], 3)}"
                 key_rows.append(("looks of the product (speckle)", span, "computed from the product area, the "

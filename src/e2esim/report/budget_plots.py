@@ -20,12 +20,14 @@ GROUP_HATCH = {"systematic": "", "random": "//", "regression": ".."}
 
 def budget_cases(result, j: int) -> tuple[list, str]:
     """The cases whose budget is drawn for requirement j, and a phrase saying which."""
-    cases = [c for c in result.cases if c.verdicts[j].details.get("applies", 1.0) != 0.0] or list(result.cases)
-    if len(cases) <= MAX_BAR_CASES:
-        return cases, "every case"
-    ordered = sorted(cases, key=lambda c: c.verdicts[j].margin)
-    picked = {id(c): c for c in (ordered[0], ordered[len(ordered) // 2], ordered[-1])}
-    return sorted(picked.values(), key=lambda c: c.index), "the worst, the median and the best case"
+    table = result.table
+    applies = table.applies(j)
+    indices = np.nonzero(applies)[0] if applies.any() else np.arange(table.n)
+    if len(indices) <= MAX_BAR_CASES:
+        return [result.cases[int(i)] for i in indices], "every case"
+    ordered = indices[np.argsort(table.requirements[j].margin[indices], kind="stable")]
+    picked = sorted({int(ordered[0]), int(ordered[len(ordered) // 2]), int(ordered[-1])})
+    return [result.cases[i] for i in picked], "the worst, the median and the best case"
 
 
 def plot_error_budget(result, folder: Path, options: dict) -> list:

@@ -10,7 +10,9 @@ from __future__ import annotations
 
 import inspect
 
-from e2esim.io.summary import SOURCE_SCOPES, requirement_overview, requirement_sources
+import numpy as np
+
+from e2esim.io.summary import LARGE_RUN_CASES, SOURCE_SCOPES, requirement_overview, requirement_sources
 from e2esim.report import tables
 from e2esim.report.assumptions import assumption_rows
 from e2esim.report.blocks import Badge, Details, Heading, Image, Paragraph, Table, Warning, fmt, table_blocks
@@ -58,7 +60,12 @@ def build_report(result, plots: list, warnings: list = ()) -> list:
         blocks += [Heading(2, "Scenario"), Paragraph(sc.description.strip())]
     if is_map_sweep(sc):  # thousands of cells: the maps and results.nc instead of per-case tables
         return blocks + _assumptions_section(result) + _plots_section(plots, warnings) + [
-            Heading(2, "Cases"), Paragraph(MAP_CASES_NOTE.format(n=len(result.cases)))] + _provenance_section(result)
+            Heading(2, "Cases"), Paragraph(MAP_CASES_NOTE.format(n=len(result.cases)))] + _note_counts(result) \
+            + _provenance_section(result)
+    if _large(result):
+        return blocks + _assumptions_section(result) + _plots_section(plots, warnings) + [
+            Heading(2, "Cases"), Paragraph(LARGE_CASES_NOTE.format(n=len(result.cases), most=LARGE_RUN_CASES))] \
+            + _note_counts(result) + _provenance_section(result)
     margins = tables.margin_table(result)
     if margins is not None:
         blocks += [Heading(2, "Level margins")] + table_blocks("Margins of each error level", margins, (
@@ -92,6 +99,29 @@ MAP_CASES_NOTE = ("This map sweep has {n} cases (cells x months x passes x solar
                   "the per-case tables are left out of the report.")
 
 
+LARGE_CASES_NOTE = ("This run has {n} cases, more than {most}: the per-case tables and plots are left out of the "
+                    "report and summary.json; every case's inputs, results and verdicts are in results.h5 "
+                    "(`e2esim.open_results`, then `to_dataframe()` or `to_xarray()`).")
+
+
+def _large(result) -> bool:
+    return len(result.scenario.cases) > LARGE_RUN_CASES
+
+
+def _note_counts(result) -> list:
+    """The error model's notes of a large run, each with the number of cases it concerns."""
+    notes = result.table.notes
+    counts = np.bincount(notes.index, minlength=len(notes.values))
+    per_note: dict = {}
+    for value, count in zip(notes.values, counts):
+        for note in value:
+            per_note[note] = per_note.get(note, 0) + int(count)
+    if not per_note:
+        return []
+    paragraphs = tuple(Paragraph(f"{count} cases: {note}") for note, count in per_note.items())
+    return [Heading(2, "Notes"), Details(f"{len(per_note)} notes on the cases", paragraphs)]
+
+
 def _provenance_section(result) -> list:
     return [Heading(2, "Provenance"),
             Table(("item", "value"), tuple((k, _provenance_text(v)) for k, v in result.provenance.items())),
@@ -112,7 +142,7 @@ def _budget_section(result, plots) -> list:
         "(speckle and noise, temporal variability, calibration, area projection); regression: the retrieval "
         "model's uncertainty.")]
     out += [Image(name, caption) for name, caption in plots if name == "error_budget.png"]
-    if is_map_sweep(result.scenario):
+    if is_map_sweep(result.scenario) or _large(result):
         return out
     for j, name in enumerate(result.requirement_names):
         table = tables.budget_table(result, j)
@@ -127,7 +157,9 @@ def _budget_section(result, plots) -> list:
 
 
 def _assumptions_section(result) -> list:
-    key_rows, other_rows = assumption_rows(result.scenario, [c.scalars for c in result.cases])
+    table = result.table
+    key_rows, other_rows = assumption_rows(result.scenario, table.scalar("budget.looks")[table.has("budget.looks")]
+                                           if "budget.looks" in table.scalars else ())
     if not key_rows and not other_rows:
         return []
     out = [Heading(2, "Assumptions"), Paragraph(

@@ -34,9 +34,9 @@ def map_dataset_of(result):
     cached = result.__dict__.get("_map_dataset")
     if cached is None:
         from e2esim.io.map_netcdf import map_dataset
-        from e2esim.results import Results
+        from e2esim.results import results_of
 
-        cached = map_dataset(Results.from_run(result))
+        cached = map_dataset(results_of(result))
         result.__dict__["_map_dataset"] = cached
     return cached
 

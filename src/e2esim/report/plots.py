@@ -17,6 +17,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 
+from e2esim.io.summary import LARGE_RUN_CASES
 from e2esim.report.budget_plots import plot_error_budget
 from e2esim.report.faraday_plots import plot_faraday_climatology, plot_faraday_distributions
 from e2esim.report.global_maps import plot_map_fraction, plot_map_sweep
@@ -178,13 +179,17 @@ MAP_AUTO_PLOTS = ("global_maps", "map_fraction")
 """``auto`` of a map sweep: its maps instead of per-case plots."""
 ALWAYS_PLOTS = ("error_budget",)
 """Drawn in every report that has requirements: the error budget is what a review asks first."""
+COLUMN_PLOTS = ("error_budget", "global_maps", "map_fraction")
+"""The plots of a run with more than ``LARGE_RUN_CASES`` cases: those that read the run's columns. The others
+draw every case as a point, a bar or a histogram, which neither reads nor scales; ``auto`` adds none of them."""
 
 
 def requested_plots(result) -> list:
     """The plot types of a run: ``output.plots`` (``auto`` expanded), the site map of a site sweep, and the
     error budget."""
     wanted = []
-    auto = MAP_AUTO_PLOTS if is_map_sweep(result.scenario) else AUTO_PLOTS
+    large = len(result.scenario.cases) > LARGE_RUN_CASES
+    auto = MAP_AUTO_PLOTS if is_map_sweep(result.scenario) else () if large else AUTO_PLOTS
     for name in result.scenario.output["plots"]:
         wanted.extend(auto if name == "auto" else [name])
     if any(k in result.scenario.sweep_keys for k in SITE_KEYS):
@@ -200,8 +205,12 @@ def make_plots(result, folder: Path, warnings: list | None = None) -> list:
     options = result.scenario.output
     requested = set(options["plots"]) - {"auto"}
     out = []
+    large = len(result.scenario.cases) > LARGE_RUN_CASES
     for name in requested_plots(result):
         try:
+            if large and name not in COLUMN_PLOTS:
+                raise PlotSkipped(f"the run has {len(result.scenario.cases)} cases, more than {LARGE_RUN_CASES}: "
+                                  "draw from results.h5 (e2esim.open_results, Results.to_xarray)")
             with figure_settings():
                 made = PLOTTERS[name](result, folder, options)
         except PlotSkipped as why:

@@ -23,18 +23,18 @@ MAX_DEPTH = 100
 """Nesting of mappings and lists: 100 levels (a scenario needs about 5). Deeper documents would exhaust
 Python's recursion limit in the YAML composer."""
 
-MAX_CASES = 200_000
-"""Sweep cases in one run: 200 000. Each case's configuration, modules and results take a few kB in
-memory while the scenario is checked and its outputs written (about 3 kB per case for the lightest
-chain, 0.6 GB at the limit)."""
+MAX_CASES = 5_000_000
+"""Sweep cases in one run: 5 million (a global 1-degree map over 12 months, 2 passes and 2 solar levels is
+about 3 million). A sweep is kept in factored form (``e2esim.runner.sweep.SweepTable``) and its modules are
+built once per distinct configuration; what grows with the cases is their results as columns, about 0.5 kB
+per case for the lightest chain (2.5 GB at the limit)."""
 
-MAX_MAP_CASES = 1_000_000
-"""Cases of a map sweep (``sweep: {map: ...}``, e2esim.runner.map_sweep), and cells of its grid: 1 000 000. A
-1 deg global map of the forest cells of the default latitude bands over 12 months and 2 passes has about
-210 000 cases, and every land cell over 12 months, 2 passes and 2 solar levels about 1 070 000 (split it by
-solar level). A map sweep is one sweep of plain values per case, meant to be evaluated in blocks; the per-case
-runner keeps every case's products in memory, about 45 kB a case (9 GB for the global map): run large maps with
-the batched engine, or in regions."""
+MAX_MAP_CASES = 5_000_000
+"""Cases of a map sweep (``sweep: {map: ...}``, e2esim.runner.map_sweep), and cells of its grid: 5 000 000, as
+``MAX_CASES``. A 1 deg global map of the forest cells of the default latitude bands over 12 months and 2 passes
+has about 210 000 cases, and every land cell over 12 months, 2 passes and 2 solar levels about 1 070 000. The
+batched engine keeps each case's results as columns (about 0.5 kB a case); the per-case runner (``--per-case``)
+would keep every case's products, about 45 kB a case: run large maps with the batched engine."""
 
 MAX_DATES = 100_000
 """Acquisition dates of an orbit module: 100 000 (274 years at one date a day)."""

@@ -36,6 +36,7 @@ from e2esim.runner.columns import (
     source_group_column,
 )
 from e2esim.runner.records import case_scalars
+from e2esim.runner.result_table import ResultTable
 from e2esim.runner.scenario import ResolvedScenario
 
 ENGINES = ("batched", "per_case")
@@ -179,6 +180,31 @@ class ScenarioResult:
     @property
     def requirement_names(self) -> list:
         return self.scenario.requirement_names
+
+    @property
+    def table(self) -> ResultTable:
+        """Every case's scalars and verdicts as columns in case order (``e2esim.runner.result_table``)."""
+        if "_table" not in self.__dict__:
+            self.__dict__["_table"] = ResultTable.of(self.blocks, len(self.scenario.cases))
+        return self.__dict__["_table"]
+
+    @property
+    def keeps_products(self) -> bool:
+        """Whether the cases' products (Monte Carlo samples, acquisitions, distributions) were kept."""
+        return bool(self.blocks) and all(b.products is not None for b in self.blocks)
+
+    @property
+    def labels(self):
+        """One label per case (``e2esim.runner.sweep.CaseLabels``: made when asked for)."""
+        if self.scenario.plan is not None:
+            return self.scenario.cases.labels
+        return [c.label for c in self.scenario.cases]
+
+    def input_columns(self) -> dict:
+        """{sweep key: [value in every case]}."""
+        if self.scenario.plan is not None:
+            return self.scenario.plan.table.input_columns()
+        return {k: [c.inputs.get(k) for c in self.scenario.cases] for k in self.scenario.sweep_keys}
 
 
 def case_generator(seed: int, index: int) -> np.random.Generator:

@@ -97,6 +97,19 @@ class SweepTable:
     def all_inputs(self) -> list:
         return [self.inputs(i) for i in range(self.n)]
 
+    def input_columns(self) -> dict:
+        """{sweep key: list of its value in every case} (None where a case of ``cases`` does not set it), made
+        per group of keys rather than per case."""
+        codes = self.codes(np.arange(self.n)) if self.layout != "none" else np.zeros((1, 0), dtype=np.int64)
+        out = {}
+        for g, group in enumerate(self.groups):
+            for k, key in enumerate(group.keys):
+                distinct = np.empty(group.size, dtype=object)
+                for p, values in enumerate(group.values):
+                    distinct[p] = None if values[k] is _ABSENT else values[k]
+                out[key] = distinct[codes[:, g]].tolist()
+        return out
+
 
 class _Absent:
     def __repr__(self) -> str:
@@ -263,6 +276,27 @@ class CaseLabels(Sequence):
         label = ", ".join(p for p in (parts[c] for parts, c in zip(self._parts, codes)) if p) or "base case"
         repeated = math.prod(r[c] for r, c in zip(self._repeats, codes)) > 1
         return f"{label} (#{index})" if repeated else label
+
+    def tolist(self) -> list:
+        """Every label, made group by group (a million labels in about a second)."""
+        if self._labels is not None:
+            return list(self._labels)
+        n = len(self)
+        codes = self.table.codes(np.arange(n))
+        shown = [g for g, parts in enumerate(self._parts) if any(parts)]
+        columns = []
+        for g in shown:
+            parts = np.empty(len(self._parts[g]), dtype=object)
+            parts[:] = self._parts[g]
+            columns.append(parts[codes[:, g]])
+        labels = [", ".join(p for p in row if p) or "base case" for row in zip(*columns)] if columns \
+            else ["base case"] * n
+        repeats = np.ones(n, dtype=np.int64)
+        for g, r in enumerate(self._repeats):
+            repeats *= np.asarray(r, dtype=np.int64)[codes[:, g]]
+        for i in np.nonzero(repeats > 1)[0]:
+            labels[i] = f"{labels[i]} (#{i})"
+        return labels
 
 
 def differing_keys(case_inputs: list) -> list:

@@ -1,0 +1,86 @@
+"""Every case of a run as columns in case order: what the writers (results.h5, summary.json, results.nc) and
+the large-run report read, instead of one ``CaseResult`` per case.
+
+The blocks of a run (``e2esim.runner.run.BlockResult``) hold their cases' scalars and verdicts as columns
+(``e2esim.runner.columns``); this joins them and puts them in case order. Nothing here is per case in Python:
+a million cases join in about the time numpy copies their numbers.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from e2esim.block import Values
+from e2esim.runner.columns import Column, RequirementColumns
+
+
+@dataclass
+class ResultTable:
+    """The columns of every case, in case order.
+
+    n : number of cases. scalars : {name: ``Column``} in the order of first appearance. requirements :
+    ``RequirementColumns`` per requirement. notes : the error model's notes per case (``Values`` of tuples).
+    groups : {source: group} of each case's AGB-error contributions (``Values``).
+    """
+
+    n: int
+    scalars: dict
+    requirements: list
+    notes: Values
+    groups: Values
+
+    @classmethod
+    def of(cls, blocks: list, n: int) -> ResultTable:
+        """Join ``blocks`` (``BlockResult``s covering cases 0..n-1 once each)."""
+        if not blocks:
+            return cls(n, {}, [], Values.repeated((), n), Values.repeated({}, n))
+        indices = np.concatenate([b.indices for b in blocks])
+        order = None if np.array_equal(indices, np.arange(n)) else np.argsort(indices, kind="stable")
+        sizes = [len(b) for b in blocks]
+        names = dict.fromkeys(k for b in blocks for k in b.scalars)
+        scalars = {name: Column.concatenate([b.scalars.get(name) for b in blocks], sizes) for name in names}
+        count = len(blocks[0].requirements)
+        requirements = [RequirementColumns.concatenate([b.requirements[j] for b in blocks]) for j in range(count)]
+        notes = Values.concatenate([b.notes for b in blocks])
+        groups = Values.concatenate([b.groups for b in blocks])
+        if order is not None:
+            scalars = {name: c.take(order) for name, c in scalars.items()}
+            requirements = [r.take(order) for r in requirements]
+            notes, groups = notes.take(order), groups.take(order)
+        return cls(n, scalars, requirements, notes, groups)
+
+    def scalar(self, name: str) -> np.ndarray:
+        """The values of output scalar ``name``, NaN in cases that lack it."""
+        column = self.scalars[name]
+        if column.present is None:
+            return column.values
+        return np.where(column.present, column.values, np.nan)
+
+    def has(self, name: str) -> np.ndarray:
+        """Where output scalar ``name`` exists (bool per case)."""
+        column = self.scalars.get(name)
+        if column is None:
+            return np.zeros(self.n, dtype=bool)
+        return np.ones(self.n, dtype=bool) if column.present is None else column.present
+
+    def applies(self, j: int) -> np.ndarray:
+        """Cases requirement ``j`` covers (its ``applies`` detail is not 0; bool per case)."""
+        detail = self.requirements[j].details.get("applies")
+        if detail is None:
+            return np.ones(self.n, dtype=bool)
+        return ~(detail.values == 0.0) | (~detail.present if detail.present is not None else False)
+
+    def detail(self, j: int, key: str) -> np.ndarray:
+        """Detail ``key`` of requirement ``j``, NaN where a case lacks it."""
+        column = self.requirements[j].details[key]
+        return column.values if column.present is None else np.where(column.present, column.values, np.nan)
+
+
+def text_column(values: Values) -> np.ndarray:
+    """A ``Values`` column as a numpy object array of its values (one Python object per distinct value)."""
+    distinct = np.empty(len(values.values), dtype=object)
+    for i, value in enumerate(values.values):  # item by item: a tuple must stay one object
+        distinct[i] = value
+    return distinct[values.index]
