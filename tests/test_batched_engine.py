@@ -15,6 +15,7 @@ import yaml
 
 from e2esim.block import Catalog, Factor
 from e2esim.faraday.distribution import EmpiricalFaraday, GaussianFaraday
+from e2esim.results import Results
 from e2esim.runner.run import run_block, run_scenario
 from e2esim.runner.scenario import Scenario
 from quick_runs import SCENARIOS, scenario_names
@@ -165,3 +166,78 @@ def test_the_five_node_average_is_exact_for_polynomials_of_degree_4_in_cos_2_ome
     nodes17, weights17 = dist.quadrature()
     h = lambda w: np.cos(w) ** 4 * np.sin(w) ** 4 + 0.3 * np.cos(w) ** 2
     assert np.dot(weights, h(nodes)) == pytest.approx(np.dot(weights17, h(nodes17)), rel=1e-13)
+
+
+@pytest.mark.parametrize("name", ["biomass_calibration", "biomass_latitude_sweep"])
+def test_the_run_columns_are_the_cases(quick_run, name):
+    """``Results.from_run`` reads the joined block columns: they must be what the one-case view gives."""
+    result, _ = quick_run(name)
+    columns = Results.from_run(result)
+    cases = list(result.cases)
+    assert columns.labels == [c.label for c in cases]
+    for key in result.scenario.sweep_keys:
+        assert columns.inputs[key] == [c.inputs.get(key) for c in cases]
+    assert sorted(columns.scalars) == sorted({k for c in cases for k in c.scalars})
+    for name_, values in columns.scalars.items():
+        np.testing.assert_array_equal(values, [c.scalars.get(name_, np.nan) for c in cases])
+    for j in range(len(result.requirement_names)):
+        assert columns.passed[:, j].tolist() == [c.verdicts[j].passed for c in cases]
+        np.testing.assert_array_equal(columns.margin[:, j], [c.verdicts[j].margin for c in cases])
+        assert columns.dominant[:, j].tolist() == [c.verdicts[j].dominant for c in cases]
+        for key, values in columns.details[j].items():
+            np.testing.assert_array_equal(values, [c.verdicts[j].details.get(key, np.nan) for c in cases])
+
+
+def test_grid_labels_made_group_by_group_are_those_made_one_by_one():
+    data = yaml.safe_load(SWEEP)
+    data["sweep"]["parameters"]["ionosphere.sd_deg"] = [5, 5]  # a repeated value: labels get the case number
+    labels = Scenario(data, "blocks.yaml").resolve().cases.labels
+    assert labels.tolist() == [labels[i] for i in range(len(labels))]
+    assert labels[1].endswith("(#1)")
+
+
+LARGE = """
+name: large
+scene: {type: forest_agb_model, biome: boreal}
+instrument: {type: biomass}
+ionosphere: {type: gaussian_faraday, mean_deg: 60, sd_deg: 5}
+requirements: [{type: agb_error_bound, sources: systematic}, {type: agb_rmse}]
+simulation: {mode: analytic}
+sweep:
+  parameters:
+    scene.agb_t_ha: {linspace: [20, 400, 25]}
+    instrument.crosstalk.level_db: {linspace: [-40, -20, 21]}
+    instrument.channel_imbalance.level_db: {linspace: [-40, -25, 21]}
+output: {plots: [auto, verdicts]}
+"""
+
+
+def test_a_large_run_writes_every_case_to_results_h5_and_leaves_the_per_case_report_out(tmp_path):
+    import json
+
+    from e2esim import open_results
+    from e2esim.io.summary import LARGE_RUN_CASES
+    from e2esim.runner.outputs import write_outputs
+
+    resolved = Scenario(yaml.safe_load(LARGE), "large.yaml").resolve()
+    n = len(resolved.cases)
+    assert n == 25 * 21 * 21 > LARGE_RUN_CASES
+    result = run_scenario(resolved, progress=False)
+    warnings = write_outputs(result, tmp_path)["warnings"]
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    assert summary["n_cases"] == n and summary["cases"] == [] and "results.h5" in summary["cases_omitted"]
+    overview = summary["requirements"][1]
+    passed = result.table.requirements[1].passed
+    assert overview["passed_cases"] == int(passed.sum()) and overview["failed_cases"] == n - int(passed.sum())
+    worst = int(np.argmin(result.table.requirements[1].margin))
+    assert overview["worst_case"] == worst and overview["worst_case_label"] == result.cases[worst].label
+    assert any(w.startswith("verdicts: not drawn") and "more than 10000" in w for w in warnings)
+    report = (tmp_path / "report.md").read_text()
+    assert "per-case tables and plots are left out" in report and "error_budget.png" in report
+    back = open_results(tmp_path)
+    for index in (0, n // 3, n - 1):  # the columns hold the one-case numbers
+        case = result.cases[index]
+        for name, value in case.scalars.items():
+            assert back.scalars[name][index] == value, name
+        assert back.margin[index, 0] == case.verdicts[0].margin
+        assert back.labels[index] == case.label

@@ -152,6 +152,8 @@ def _factor_columns(factor: Factor, keep: np.ndarray | None) -> dict:
         present = has[factor.index]
         if keep is not None:
             present &= keep
+        if not present.any():
+            continue  # no case writes it (the product is an earlier one's in every case)
         columns[key] = Column(per_value[factor.index], None if present.all() else present)
     return columns
 
