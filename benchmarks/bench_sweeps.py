@@ -162,6 +162,10 @@ def verdict(value: float, target: float, unit: str = " s", at_least: bool = Fals
     return f"target {'>=' if at_least else '<='} {target:g}{unit}: {'PASS' if met else 'MISS'}"
 
 
+def times(ratio: float) -> str:
+    return f"{ratio:.0f}x" if ratio >= 10 else f"{ratio:.1f}x"
+
+
 def say(text: str) -> None:
     print(text, flush=True)
 
@@ -206,12 +210,12 @@ def batched_sweep(cases: int, repeats: int, folder: Path) -> list:
         say(f"   run {i + 1}: {parts(runs[-1])}; total {runs[-1]['total']:.2f} s")
         gc.collect()
     best = min(runs, key=lambda r: r["total"])
-    scaled = f" (scaled to {TARGET_SWEEP_CASES:,} cases: {best['total'] * TARGET_SWEEP_CASES / cases:.2f} s)" \
-        if cases != TARGET_SWEEP_CASES else ""
-    say(f"   total: {summary([r['total'] for r in runs])}; "
-        f"{verdict(best['total'], TARGET_SWEEP_S * cases / TARGET_SWEEP_CASES)}"
-        + (f" (the target of {TARGET_SWEEP_S:g} s for {TARGET_SWEEP_CASES:,} cases, pro rata)" if scaled else "")
-        + scaled)
+    if cases == TARGET_SWEEP_CASES:
+        judged = verdict(best["total"], TARGET_SWEEP_S)
+    else:  # fixed costs (imports, plots) do not scale: a smaller sweep is not judged against the target
+        judged = (f"target ({TARGET_SWEEP_CASES:,} cases in <= {TARGET_SWEEP_S:g} s) not judged at {cases:,} cases; "
+                  f"scaled linearly to {TARGET_SWEEP_CASES:,}: {best['total'] * TARGET_SWEEP_CASES / cases:.1f} s")
+    say(f"   total: {summary([r['total'] for r in runs])}; {judged}")
     for name in ("resolve", "run", "outputs"):
         times = [r[name] for r in runs]
         say(f"   {name}: {summary(times)}; {min(times) / cases * 1e6:.2f} us per case (best)")
@@ -223,6 +227,7 @@ def reference(runs: list, cases: int, reference_cases: int, repeats: int) -> Non
     cases, the numbers compared case by case, and the speed-ups."""
     from e2esim.runner.run import run_scenario
 
+    run_scenario(resolve_sweep(8), progress=False, engine="per_case")  # warm-up: what only the per-case runner imports
     resolved = resolve_sweep(reference_cases)
     per_case, batched = [], []
     for _ in range(repeats):
@@ -237,7 +242,7 @@ def reference(runs: list, cases: int, reference_cases: int, repeats: int) -> Non
     say(f"2. reference: the per-case runner on {reference_cases} cases ({sweep_shape(reference_cases)}): "
         f"{summary(per_case)}; {per_case_s * 1e3:.3f} ms per case (best)")
     say(f"   the batched engine on the same cases: {summary(batched)}; "
-        f"{min(batched) / reference_cases * 1e6:.1f} us per case; {per_case_s * reference_cases / min(batched):.1f}x "
+        f"{min(batched) / reference_cases * 1e6:.1f} us per case; {times(per_case_s * reference_cases / min(batched))} "
         f"the per-case runner")
     say(f"   same numbers: the {checked:,} scalars of the {reference_cases} cases agree to a relative {RTOL:g} "
         "(checked)")
@@ -245,11 +250,13 @@ def reference(runs: list, cases: int, reference_cases: int, repeats: int) -> Non
         run_s = min(r["run"] for r in runs) / cases
         total_s = min(r["total"] for r in runs) / cases
         speedup = per_case_s / run_s
-        say(f"   speed-up per case of the batched run of figure 1 ({cases:,} cases), the run alone: {speedup:.0f}x "
+        say(f"   speed-up per case of the batched run of figure 1 ({cases:,} cases), the run alone: {times(speedup)} "
             f"({run_s * 1e6:.2f} us against {per_case_s * 1e6:.0f} us per case); "
-            f"{verdict(speedup, TARGET_SPEEDUP, 'x', at_least=True)}")
+            f"{verdict(speedup, TARGET_SPEEDUP, 'x', at_least=True)}"
+            + (f" (at {cases:,} cases, where fixed costs weigh more than at {TARGET_SWEEP_CASES:,})"
+               if cases < TARGET_SWEEP_CASES else ""))
         say(f"   end to end (resolution and outputs per case included, the per-case runner's run alone): "
-            f"{per_case_s / total_s:.0f}x ({total_s * 1e6:.2f} us per case)")
+            f"{times(per_case_s / total_s)} ({total_s * 1e6:.2f} us per case)")
 
 
 def compare_cases(batched, per_case) -> int:
