@@ -13,7 +13,11 @@ Prints, in one run:
    case's scalars must equal the per-case runner's to a relative 1e-12: the script stops (AssertionError)
    if one does not;
 3. peak memory (``ru_maxrss``) of the sweep of figure 1 end to end at a quarter of its cases and at all of them
-   (250,000 and 1,000,000), each in a fresh process (target <= 4 GiB), and how the peak grows with the size;
+   (250,000 and 1,000,000), each in a fresh process (target <= 4 GiB), and how the peak grows with the size.
+   Measured first, while this process is still small: on Linux a child's ``ru_maxrss`` starts from its parent's
+   peak at the fork (it survives ``exec``), so children of a parent that ran figure 1 would report at least that
+   parent's 2 GiB. ``VmHWM`` of /proc/self/status, the high-water mark of the child's own memory, is printed
+   beside it;
 4. the global map ``scenarios/biomass_global_map.yaml`` (1 deg forest cells, 12 months x 2 passes x solar
    maximum; docs/user-guide.md, "Global maps"), each run in a fresh process, so that the climatology table
    kept in memory does not carry over: first with the benchmark's own empty climatology cache (cold: the
@@ -137,13 +141,30 @@ def end_to_end(resolve, folder: Path) -> dict:
     write_outputs(result, folder)
     t3 = time.perf_counter()
     return {"cases": len(resolved.cases), "resolve": t1 - t0, "run": t2 - t1, "outputs": t3 - t2, "total": t3 - t0,
-            "peak_run_gib": peak_run, "peak_gib": peak_gib()}
+            "peak_run_gib": peak_run, "peak_gib": peak_gib(), "hwm_gib": high_water_gib()}
 
 
 def peak_gib() -> float:
     """Peak resident memory of this process so far (ru_maxrss: KiB on Linux, bytes on macOS), in GiB."""
     peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
     return peak / 2**30 if sys.platform == "darwin" else peak / 2**20
+
+
+def high_water_gib() -> float | None:
+    """``VmHWM`` (peak resident memory of this process's own address space) in GiB; None where there is no
+    /proc (not Linux)."""
+    try:
+        for line in Path("/proc/self/status").read_text().splitlines():
+            if line.startswith("VmHWM:"):
+                return int(line.split()[1]) / 2**20  # kB
+    except OSError:
+        pass
+    return None
+
+
+def own_peak(run: dict) -> str:
+    """A child's peak memory as its own high-water mark (``ru_maxrss`` inherits the parent's peak on Linux)."""
+    return f"{run['peak_gib'] if run['hwm_gib'] is None else run['hwm_gib']:.2f} GiB"
 
 
 def summary(times: list) -> str:
@@ -284,15 +305,21 @@ def compare_cases(batched, per_case) -> int:
     return count
 
 
-def memory(cases: int) -> None:
-    """Figure 3: peak memory of the sweep end to end at a quarter of ``cases`` and at ``cases``, each in a fresh
-    process."""
-    small, large = (in_child("sweep", n) for n in (cases // 4, cases))
-    say("3. peak memory (ru_maxrss) of the sweep end to end, each in a fresh process; "
+def memory_runs(cases: int) -> list:
+    """Figure 3, measured: the sweep end to end at a quarter of ``cases`` and at ``cases``, each in a fresh
+    process (started before this process has run anything: module docstring)."""
+    return [in_child("sweep", n) for n in (cases // 4, cases)]
+
+
+def memory(runs: list) -> None:
+    """Figure 3, printed."""
+    small, large = runs
+    say("3. peak memory (ru_maxrss) of the sweep end to end, each in a fresh process (measured before figure 1); "
         f"{verdict(large['peak_gib'], TARGET_MEMORY_GIB, ' GiB')}:")
-    for run in (small, large):
-        say(f"   {run['cases']:>9,} cases: {run['peak_gib']:.2f} GiB (after the run {run['peak_run_gib']:.2f} GiB); "
-            f"{parts(run)}, total {run['total']:.2f} s (process {run['process']:.2f} s)")
+    for run in runs:
+        hwm = "" if run["hwm_gib"] is None else f", VmHWM {run['hwm_gib']:.2f} GiB"
+        say(f"   {run['cases']:>9,} cases: {run['peak_gib']:.2f} GiB{hwm} (after the run {run['peak_run_gib']:.2f} "
+            f"GiB); {parts(run)}, total {run['total']:.2f} s (process {run['process']:.2f} s)")
     growth = (large["peak_gib"] - small["peak_gib"]) * 2**30 / (large["cases"] - small["cases"])
     say(f"   grows with the sweep: {large['peak_gib'] / small['peak_gib']:.2f}x the peak for "
         f"{large['cases'] / small['cases']:.0f}x the cases; {growth:.0f} bytes per further case")
@@ -317,7 +344,7 @@ def global_map(quick: bool, repeats: int, cache: str | None) -> None:
     judged = "target not judged (a region, not the global map)" if quick else verdict(best["total"], TARGET_MAP_S)
     say(f"   warm cache: total {summary([r['total'] for r in warm])}; {judged}")
     say(f"   best warm run: {parts(best)}; process {best['process']:.2f} s (start-up and imports included); "
-        f"peak memory {best['peak_gib']:.2f} GiB")
+        f"peak memory {own_peak(best)} (VmHWM)")
 
 
 def main() -> None:
@@ -344,11 +371,12 @@ def main() -> None:
     repeats = args.repeats or (1 if args.quick else 3)
     load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
     say(f"machine: {os.cpu_count()} cores, load average {load:.2f} at the start")
+    measured = None if args.skip_memory or args.quick else memory_runs(cases)  # first: module docstring
     with tempfile.TemporaryDirectory() as tmp:
         runs = batched_sweep(cases, repeats, Path(tmp))
     reference(runs, cases, args.reference_cases, repeats)
-    if not (args.skip_memory or args.quick):
-        memory(cases)
+    if measured:
+        memory(measured)
     if not args.skip_map:
         global_map(args.map_quick or args.quick, repeats, args.map_cache)
 
