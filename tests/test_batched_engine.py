@@ -1,8 +1,9 @@
 """The batched engine gives the per-case runner's numbers (issue 14): analytic results to 1e-12, Monte Carlo
 results identical, for every shipped scenario; blocks, catalogs and the sweep plan behave as documented.
 
-The default suite checks the first and the last case of each shipped scenario at the quick sizes against the per-case runner
-(the batched run is the session's quick run); the slow suite checks every case at the scenarios' own sizes.
+The default suite checks the first and the last case of each shipped scenario at the quick sizes against the
+per-case runner (the batched run is the session's quick run); the slow suite checks every case at the scenarios'
+own sizes.
 """
 
 from __future__ import annotations
