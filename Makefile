@@ -18,7 +18,7 @@ demo: $(STAMP)  ## install and run the default BIOMASS scenario
 
 test: $(STAMP)  ## install and run the linter and the test suite (slow tests excluded)
 	$(BIN)/ruff check src tests benchmarks examples docs
-	$(BIN)/python -m pytest
+	$(BIN)/python -m pytest -n 2 --dist loadgroup
 
 test-slow: $(STAMP)  ## the slow statistical and end-to-end tests only
 	$(BIN)/python -m pytest -m slow

@@ -19,9 +19,20 @@ from quick_runs import SCENARIOS, quick_overrides
 
 
 def pytest_configure(config):
-    # Keep climatology caches out of the user's home during the tests (subprocesses inherit it).
+    # Keep climatology caches out of the user's home during the tests (subprocesses and the pytest-xdist
+    # workers inherit it, and the workers share the seed the controller drew).
     if "E2ESIM_CACHE" not in os.environ:
         os.environ["E2ESIM_CACHE"] = tempfile.mkdtemp(prefix="e2esim-test-cache-")
+    os.environ["E2ESIM_TEST_SEED"] = str(TEST_SEED)
+
+
+@pytest.hookimpl(tryfirst=True)  # before pytest-xdist reads the groups
+def pytest_collection_modifyitems(config, items):
+    # pytest-xdist (-n, --dist loadgroup): the tests that share the session's quick runs of the shipped
+    # scenarios run on one worker, so each scenario is run once; the other tests spread over the workers.
+    for item in items:
+        if "quick_run" in getattr(item, "fixturenames", ()):
+            item.add_marker(pytest.mark.xdist_group("quick_runs"))
 
 
 def pytest_report_header(config):
@@ -61,3 +72,4 @@ def quick_run(tmp_path_factory):
         return done[name]
 
     return run
+
