@@ -126,27 +126,35 @@ def map_overrides(quick: bool) -> list:
 
 
 # Timing -------------------------------------------------------------------------------------------------------
-def end_to_end(resolve, folder: Path) -> dict:
-    """Resolve, run (batched engine) and write the outputs into ``folder``; the seconds of each, the total, the
-    case count and the peak resident memory (GiB) after the run and after the outputs."""
+def end_to_end(resolve, folder: Path, workers: int = 1) -> dict:
+    """Resolve, run (batched engine, on ``workers`` local processes) and write the outputs into ``folder``; the
+    seconds of each, the total, the case count, the peak resident memory (GiB) after the run and after the
+    outputs, and the largest peak of a worker process (0 for a serial run)."""
     from e2esim.runner.outputs import write_outputs
     from e2esim.runner.run import run_scenario
 
     t0 = time.perf_counter()
     resolved = resolve()
     t1 = time.perf_counter()
-    result = run_scenario(resolved, progress=False)
+    result = run_scenario(resolved, progress=False, workers=workers)
     t2 = time.perf_counter()
     peak_run = peak_gib()
     write_outputs(result, folder)
     t3 = time.perf_counter()
     return {"cases": len(resolved.cases), "resolve": t1 - t0, "run": t2 - t1, "outputs": t3 - t2, "total": t3 - t0,
-            "peak_run_gib": peak_run, "peak_gib": peak_gib(), "hwm_gib": high_water_gib()}
+            "workers": workers, "peak_run_gib": peak_run, "peak_gib": peak_gib(), "hwm_gib": high_water_gib(),
+            "worker_peak_gib": children_peak_gib() if workers > 1 else 0.0}
 
 
 def peak_gib() -> float:
     """Peak resident memory of this process so far (ru_maxrss: KiB on Linux, bytes on macOS), in GiB."""
     peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    return peak / 2**30 if sys.platform == "darwin" else peak / 2**20
+
+
+def children_peak_gib() -> float:
+    """The largest peak resident memory of a finished child process (the run's workers), in GiB."""
+    peak = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss
     return peak / 2**30 if sys.platform == "darwin" else peak / 2**20
 
 
@@ -192,24 +200,24 @@ def say(text: str) -> None:
 
 
 # Children: one measurement in a fresh process -----------------------------------------------------------------
-def child(kind: str, cases: int, quick_map: bool) -> None:
+def child(kind: str, cases: int, quick_map: bool, workers: int) -> None:
     """Run one measurement and print its figures as one JSON line (``RESULT``)."""
     with tempfile.TemporaryDirectory() as tmp:
         if kind == "sweep":
-            figures = end_to_end(lambda: resolve_sweep(cases), Path(tmp) / "out")
+            figures = end_to_end(lambda: resolve_sweep(cases), Path(tmp) / "out", workers)
         else:
             from e2esim.runner.scenario import Scenario
 
             figures = end_to_end(lambda: Scenario.load(GLOBAL_MAP, overrides=map_overrides(quick_map)).resolve(),
-                                 Path(tmp) / "out")
+                                 Path(tmp) / "out", workers)
     print(RESULT + json.dumps(figures), flush=True)
 
 
-def in_child(kind: str, cases: int = 0, quick_map: bool = False, env: dict | None = None) -> dict:
+def in_child(kind: str, cases: int = 0, quick_map: bool = False, env: dict | None = None, workers: int = 1) -> dict:
     """The figures of ``child`` run in a fresh Python process, with its wall time (start-up and imports included)
     as ``process``."""
-    command = [sys.executable, __file__, "--child", kind, "--cases", str(cases)] + (["--map-quick"] if quick_map
-                                                                                     else [])
+    command = [sys.executable, __file__, "--child", kind, "--cases", str(cases), "--workers", str(workers)]
+    command += ["--map-quick"] if quick_map else []
     t0 = time.perf_counter()
     proc = subprocess.run(command, capture_output=True, text=True, cwd=ROOT, env={**os.environ, **(env or {})})
     elapsed = time.perf_counter() - t0
@@ -221,13 +229,13 @@ def in_child(kind: str, cases: int = 0, quick_map: bool = False, env: dict | Non
 
 
 # The figures --------------------------------------------------------------------------------------------------
-def batched_sweep(cases: int, repeats: int, folder: Path) -> list:
-    """Figure 1: the sweep end to end, ``repeats`` times in this process."""
-    say(f"1. analytic sweep of {cases:,} cases ({sweep_shape(cases)}), batched engine, end to end "
-        "(outputs included):")
+def batched_sweep(cases: int, repeats: int, folder: Path, workers: int) -> list:
+    """Figure 1: the sweep end to end, ``repeats`` times in this process, on ``workers`` local processes."""
+    say(f"1. analytic sweep of {cases:,} cases ({sweep_shape(cases)}), batched engine on {workers} worker "
+        f"process{'es' if workers > 1 else ''} (--workers), end to end (outputs included):")
     runs = []
     for i in range(repeats):
-        runs.append(end_to_end(lambda: resolve_sweep(cases), folder / f"sweep{i}"))
+        runs.append(end_to_end(lambda: resolve_sweep(cases), folder / f"sweep{i}", workers))
         say(f"   run {i + 1}: {parts(runs[-1])}; total {runs[-1]['total']:.2f} s")
         gc.collect()
     best = min(runs, key=lambda r: r["total"])
@@ -243,7 +251,17 @@ def batched_sweep(cases: int, repeats: int, folder: Path) -> list:
     return runs
 
 
-def reference(runs: list, cases: int, reference_cases: int, repeats: int) -> None:
+def serial_run(cases: int) -> float:
+    """Seconds of the run alone of figure 1's sweep on one process (the per-core speed-up of figure 2)."""
+    from e2esim.runner.run import run_scenario
+
+    resolved = resolve_sweep(cases)
+    t0 = time.perf_counter()
+    run_scenario(resolved, progress=False)
+    return time.perf_counter() - t0
+
+
+def reference(runs: list, cases: int, reference_cases: int, repeats: int, serial_s: float | None = None) -> None:
     """Figure 2: the per-case runner on ``reference_cases`` cases of the same axes, the batched engine on the same
     cases, the numbers compared case by case, and the speed-ups."""
     from e2esim.runner.run import run_scenario
@@ -270,12 +288,18 @@ def reference(runs: list, cases: int, reference_cases: int, repeats: int) -> Non
     if runs:
         run_s = min(r["run"] for r in runs) / cases
         total_s = min(r["total"] for r in runs) / cases
+        workers = runs[0].get("workers", 1)
         speedup = per_case_s / run_s
-        say(f"   speed-up per case of the batched run of figure 1 ({cases:,} cases), the run alone: {times(speedup)} "
+        small = (f" (at {cases:,} cases, where fixed costs weigh more than at {TARGET_SWEEP_CASES:,})"
+                 if cases < TARGET_SWEEP_CASES else "")
+        say(f"   speed-up per case of the batched run of figure 1 ({cases:,} cases, {workers} process"
+            f"{'es' if workers > 1 else ''}), the run alone: {times(speedup)} "
             f"({run_s * 1e6:.2f} us against {per_case_s * 1e6:.0f} us per case); "
-            f"{verdict(speedup, TARGET_SPEEDUP, 'x', at_least=True)}"
-            + (f" (at {cases:,} cases, where fixed costs weigh more than at {TARGET_SWEEP_CASES:,})"
-               if cases < TARGET_SWEEP_CASES else ""))
+            f"{verdict(speedup, TARGET_SPEEDUP, 'x', at_least=True)}{small}")
+        if serial_s is not None:
+            say(f"   per core: the same sweep's run alone on one process took {serial_s:.2f} s "
+                f"({serial_s / cases * 1e6:.2f} us per case): {times(per_case_s * cases / serial_s)} the per-case "
+                f"runner, process for process")
         say(f"   end to end (resolution and outputs per case included, the per-case runner's run alone): "
             f"{times(per_case_s / total_s)} ({total_s * 1e6:.2f} us per case)")
 
@@ -305,10 +329,10 @@ def compare_cases(batched, per_case) -> int:
     return count
 
 
-def memory_runs(cases: int) -> list:
+def memory_runs(cases: int, workers: int) -> list:
     """Figure 3, measured: the sweep end to end at a quarter of ``cases`` and at ``cases``, each in a fresh
     process (started before this process has run anything: module docstring)."""
-    return [in_child("sweep", n) for n in (cases // 4, cases)]
+    return [in_child("sweep", n, workers=workers) for n in (cases // 4, cases)]
 
 
 def memory(runs: list) -> None:
@@ -318,21 +342,23 @@ def memory(runs: list) -> None:
         f"{verdict(large['peak_gib'], TARGET_MEMORY_GIB, ' GiB')}:")
     for run in runs:
         hwm = "" if run["hwm_gib"] is None else f", VmHWM {run['hwm_gib']:.2f} GiB"
+        workers = (f"; largest worker process {run['worker_peak_gib']:.2f} GiB" if run.get("workers", 1) > 1
+                   else "")
         say(f"   {run['cases']:>9,} cases: {run['peak_gib']:.2f} GiB{hwm} (after the run {run['peak_run_gib']:.2f} "
-            f"GiB); {parts(run)}, total {run['total']:.2f} s (process {run['process']:.2f} s)")
+            f"GiB){workers}; {parts(run)}, total {run['total']:.2f} s (process {run['process']:.2f} s)")
     growth = (large["peak_gib"] - small["peak_gib"]) * 2**30 / (large["cases"] - small["cases"])
     say(f"   grows with the sweep: {large['peak_gib'] / small['peak_gib']:.2f}x the peak for "
         f"{large['cases'] / small['cases']:.0f}x the cases; {growth:.0f} bytes per further case")
 
 
-def global_map(quick: bool, repeats: int, cache: str | None) -> None:
+def global_map(quick: bool, repeats: int, cache: str | None, workers: int) -> None:
     """Figure 4: the global map (or the region of ``--map-quick``), cold once and warm ``repeats`` times."""
     with tempfile.TemporaryDirectory() as tmp:
         folder = cache or str(Path(tmp) / "cache")
         env = {"E2ESIM_CACHE": folder}
         found = len(list(Path(folder).glob("*.h5"))) if Path(folder).is_dir() else 0
-        cold = in_child("map", quick_map=quick, env=env)
-        warm = [in_child("map", quick_map=quick, env=env) for _ in range(repeats)]
+        cold = in_child("map", quick_map=quick, env=env, workers=workers)
+        warm = [in_child("map", quick_map=quick, env=env, workers=workers) for _ in range(repeats)]
     what = (f"REGION ONLY (--map-quick): lat {MAP_REGION['lat']}, lon {MAP_REGION['lon']} deg, not the global map"
             if quick else "the whole globe")
     say(f"4. map {GLOBAL_MAP.relative_to(ROOT)}: {what}; 1 deg, 12 months x 2 passes x solar max, "
@@ -362,23 +388,26 @@ def main() -> None:
                         help=f"a region (lat {MAP_REGION['lat']}, lon {MAP_REGION['lon']} deg) instead of the globe")
     parser.add_argument("--map-cache", default=None,
                         help="climatology cache folder of the map runs (default: an empty temporary one)")
+    parser.add_argument("--workers", type=int, default=2,
+                        help="worker processes of the sweep and map runs (default 2: the target's two cores)")
     parser.add_argument("--child", choices=("sweep", "map"), help=argparse.SUPPRESS)
     args = parser.parse_args()
     cases = args.cases or (QUICK_CASES if args.quick else TARGET_SWEEP_CASES)
     if args.child:
-        child(args.child, cases, args.map_quick)
+        child(args.child, cases, args.map_quick, args.workers)
         return
     repeats = args.repeats or (1 if args.quick else 3)
     load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
     say(f"machine: {os.cpu_count()} cores, load average {load:.2f} at the start")
-    measured = None if args.skip_memory or args.quick else memory_runs(cases)  # first: module docstring
+    measured = None if args.skip_memory or args.quick else memory_runs(cases, args.workers)  # first: docstring
     with tempfile.TemporaryDirectory() as tmp:
-        runs = batched_sweep(cases, repeats, Path(tmp))
-    reference(runs, cases, args.reference_cases, repeats)
+        runs = batched_sweep(cases, repeats, Path(tmp), args.workers)
+    serial_s = serial_run(cases) if args.workers > 1 else None
+    reference(runs, cases, args.reference_cases, repeats, serial_s)
     if measured:
         memory(measured)
     if not args.skip_map:
-        global_map(args.map_quick or args.quick, repeats, args.map_cache)
+        global_map(args.map_quick or args.quick, repeats, args.map_cache, args.workers)
 
 
 if __name__ == "__main__":

@@ -20,6 +20,7 @@ import numpy as np
 
 from e2esim.block import Batched, Block, CaseRandom, Catalog, Factor
 from e2esim.case import Case, Products
+from e2esim.runner.distinct import distinct_rows
 
 CATALOG_ENTRIES = 1 << 16
 """Distinct values a product's catalog holds before the run's catalogs start afresh (module docstring)."""
@@ -134,8 +135,7 @@ class BlockRun:
         results, positions = [], []
         by_case = np.ones(len(self.indices), dtype=bool)  # cases left for forward
         if any(getattr(stage, "forward_block", None) is not None for stage in stages.values()):
-            parts = np.ravel(np.unique(np.stack([stage_codes, self.settings_codes], -1), axis=0,
-                                       return_inverse=True)[1])
+            parts = distinct_rows(np.stack([stage_codes, self.settings_codes], -1))[2]
             for part in range(parts.max() + 1):
                 where = np.flatnonzero(parts == part)
                 new = self._run_batched(stages[int(stage_codes[where[0]])], self._settings(where[0]), where)
@@ -180,10 +180,11 @@ class BlockRun:
         columns += [products[n].index[where] if _cataloged(products[n]) else where for n in names]
         keys = _packed(columns, all(_cataloged(products[n]) for n in names))
         if keys is None:  # not comparable across blocks: this block's distinct combinations only
-            _, first, inverse = np.unique(np.stack(columns, -1), axis=0, return_index=True, return_inverse=True)
+            _, first, inverse = distinct_rows(np.stack(columns, -1))
             keys, known_keys, known_codes = None, np.zeros(0, np.int64), np.zeros((0, len(provided)), np.int64)
         else:
-            keys, first, inverse = np.unique(keys, return_index=True, return_inverse=True)
+            keys, first, inverse = distinct_rows(keys[:, None])
+            keys = keys[:, 0]
             known_keys, known_codes = self.memo.made.get(id(step), (np.zeros(0, np.int64),
                                                                      np.zeros((0, len(provided)), np.int64)))
         inverse = np.ravel(inverse)

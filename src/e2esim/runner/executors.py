@@ -26,9 +26,10 @@ _WORKER: dict = {}  # in a worker process: the scenario it runs blocks of, and i
 
 
 def iter_blocks(resolved, tasks: list, workers: int = 1, scheduler: str | None = None, engine: str = "batched",
-                keep_products: bool = False, packages: frozenset | None = None):
+                keep_products: bool = False, packages: frozenset | None = None, frames: bool = True):
     """Yield ``(BlockResult, journal frame or None)`` as blocks finish (not necessarily in case order); frames
-    come from other processes, made with ``packages`` (e2esim.runner.plaindata.allowed_packages)."""
+    come from other processes, made with ``packages`` (e2esim.runner.plaindata.allowed_packages), and only
+    when ``frames`` (a run with a journal)."""
     from e2esim.runner.blocks import StageMemo
     from e2esim.runner.run import default_services, run_block
 
@@ -41,7 +42,7 @@ def iter_blocks(resolved, tasks: list, workers: int = 1, scheduler: str | None =
         for indices in tasks:
             yield run_block(resolved, indices, engine, keep_products, services, memo), None
         return
-    if packages is None:
+    if packages is None and frames:
         from e2esim.runner.plaindata import allowed_packages
 
         packages = allowed_packages()
@@ -56,7 +57,8 @@ def run_block_remote(indices, options: tuple, resolved=None) -> tuple:
     """``run_block`` in another process: the result as (pickle, journal frame or None), both made here. The
     pickle carries the result to the main process (memory to memory, never a file); the frame, plain data
     (e2esim.runner.journal), is what the main process appends to the journal as it is. The scenario comes with
-    the call (dask) or was set once when the worker started (``_start_worker``)."""
+    the call (dask) or was set once when the worker started (``_start_worker``). No frame when ``packages`` is
+    None (no journal)."""
     from e2esim.runner.blocks import StageMemo
     from e2esim.runner.journal import encode_block
     from e2esim.runner.run import default_services, run_block
@@ -67,7 +69,8 @@ def run_block_remote(indices, options: tuple, resolved=None) -> tuple:
     if _WORKER.get("for") is not resolved:
         _WORKER.update({"for": resolved, "memo": StageMemo(), "services": default_services()})
     result = run_block(resolved, indices, engine, keep_products, _WORKER["services"], _WORKER["memo"])
-    return pickle.dumps(result, protocol=pickle.HIGHEST_PROTOCOL), encode_block(result, packages)
+    frame = None if packages is None else encode_block(result, packages)
+    return pickle.dumps(result, protocol=pickle.HIGHEST_PROTOCOL), frame
 
 
 def _start_worker(scenario: bytes) -> None:

@@ -25,6 +25,7 @@ import numpy as np
 
 from e2esim.errors import Location
 from e2esim.runner.chain import calibration_stage, order, requirement_stage
+from e2esim.runner.distinct import distinct_rows
 
 SETTINGS = "simulation"
 _CHUNK = 1 << 20  # cases whose template is found in one vectorised pass
@@ -140,15 +141,15 @@ class SweepPlan:
         if step.composite is None:
             slot = self.slots[step.slots[0]]
             codes = objects[:, step.slots[0]]
-            return codes, {int(c): slot.objects[int(c)] for c in np.unique(codes)}
-        rows, inverse = np.unique(objects[:, list(step.slots)], axis=0, return_inverse=True)
+            return codes, {int(c): slot.objects[int(c)] for c in distinct_rows(codes[:, None])[0][:, 0]}
+        rows, _, inverse = distinct_rows(objects[:, list(step.slots)])
         stages, numbers = {}, []
         for row in rows:
             members = tuple(self.slots[s].objects[int(o)] for s, o in zip(step.slots, row))
             stage, number = self._composite(step, members)
             stages[number] = stage
             numbers.append(number)
-        return np.asarray(numbers, dtype=np.int64)[np.ravel(inverse)], stages
+        return np.asarray(numbers, dtype=np.int64)[inverse], stages
 
     def chain(self, index: int) -> list:
         objects = self.object_codes([index])[0]
@@ -169,14 +170,14 @@ class SweepPlan:
             objects = self.object_codes(indices)
             shapes = np.stack([s.shapes[objects[:, j]] for j, s in enumerate(self.module_slots)], axis=-1) \
                 if self.module_slots else np.zeros((len(indices), 0), dtype=np.int64)
-            keys, first, inverse = np.unique(shapes, axis=0, return_index=True, return_inverse=True)
+            keys, first, inverse = distinct_rows(shapes)
             numbers = []
             for key, i in zip(map(tuple, keys), first):
                 if key not in found:
                     found[key] = len(self.templates)
                     self.templates.append(self._assemble(objects[i]))
                 numbers.append(found[key])
-            self.template[indices] = np.asarray(numbers, dtype=np.int32)[np.ravel(inverse)]
+            self.template[indices] = np.asarray(numbers, dtype=np.int32)[inverse]
 
     def _assemble(self, objects) -> Template:
         modules = self.modules_of(objects)
@@ -265,8 +266,8 @@ def combinations(table, groups: tuple):
         return combos, first_cases(table, groups, sizes), None
     if not groups:
         return np.zeros((1, 0), dtype=np.int64), np.zeros(1, dtype=np.int64), None
-    combos, first, inverse = np.unique(table.table[:, list(groups)], axis=0, return_index=True, return_inverse=True)
-    return combos, first, np.ravel(inverse).astype(np.int64)
+    combos, first, inverse = distinct_rows(table.table[:, list(groups)])
+    return combos, first, inverse.astype(np.int64)
 
 
 __all__ = ["CaseSpec", "CaseSpecs", "ChainStep", "Slot", "SweepPlan", "Template"]

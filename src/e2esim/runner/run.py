@@ -317,7 +317,8 @@ def run_scenario(
     bar = tqdm(total=n, initial=int(done.sum()), desc=resolved.name, unit="case", disable=not progress, leave=False)
     try:
         for block, frame in iter_blocks(resolved, block_tasks(resolved, todo, workers if not scheduler else 8),
-                                        workers, scheduler, engine=engine, keep_products=keep):
+                                        workers, scheduler, engine=engine, keep_products=keep,
+                                        frames=journal is not None):
             blocks.append(block)
             if journal is not None:
                 journal.record(block, frame)
