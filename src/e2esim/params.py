@@ -187,34 +187,33 @@ class Param:
         return self._validate_item(value, where)
 
     def _validate_item(self, value: Any, where: Location) -> Any:
-        allowed = self.describe_allowed()
         if self.type == "module":
             return _validate_component(self, value, where)
         if self.type == "bool":
             if not isinstance(value, bool):
-                raise ConfigError(where, f"{_show(value)} has the wrong type", allowed)
+                raise ConfigError(where, f"{_show(value)} has the wrong type", self.describe_allowed())
             return value
         if self.type == "str":
             if not isinstance(value, str):
-                raise ConfigError(where, f"{_show(value)} has the wrong type", allowed)
+                raise ConfigError(where, f"{_show(value)} has the wrong type", self.describe_allowed())
             if self.choices is not None and value not in self.choices:
                 hint = difflib.get_close_matches(value, [str(c) for c in self.choices], n=1)
                 problem = f"{_show(value)} is not allowed"
                 if hint:
                     problem += f" (did you mean {hint[0]!r}?)"
-                raise ConfigError(where, problem, allowed)
+                raise ConfigError(where, problem, self.describe_allowed())
             return value
         # numbers
         if isinstance(value, bool) or not isinstance(value, (int, float)):
-            raise ConfigError(where, f"{_show(value)} has the wrong type", allowed)
+            raise ConfigError(where, f"{_show(value)} has the wrong type", self.describe_allowed())
         if isinstance(value, float) and not math.isfinite(value):
-            raise ConfigError(where, f"{_show(value)} is not a finite number", allowed)
+            raise ConfigError(where, f"{_show(value)} is not a finite number", self.describe_allowed())
         if isinstance(value, int) and not -_LARGEST < value < _LARGEST:
-            raise ConfigError(where, f"{_show(value)} is too large", allowed)
+            raise ConfigError(where, f"{_show(value)} is too large", self.describe_allowed())
         if self.type == "int":
             if isinstance(value, float):
                 if not value.is_integer():
-                    raise ConfigError(where, f"{_show(value)} is not an integer", allowed)
+                    raise ConfigError(where, f"{_show(value)} is not an integer", self.describe_allowed())
                 value = int(value)
         else:
             value = float(value)
@@ -224,9 +223,9 @@ class Param:
             or (self.exclusive_minimum is not None and value <= self.exclusive_minimum)
             or (self.exclusive_maximum is not None and value >= self.exclusive_maximum)
         ):
-            raise ConfigError(where, f"{_show(value)} is out of range", allowed)
+            raise ConfigError(where, f"{_show(value)} is out of range", self.describe_allowed())
         if self.choices is not None and value not in self.choices:
-            raise ConfigError(where, f"{_show(value)} is not allowed", allowed)
+            raise ConfigError(where, f"{_show(value)} is not allowed", self.describe_allowed())
         return value
 
 

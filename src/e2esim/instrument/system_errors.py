@@ -9,7 +9,9 @@ Variances and covariances here may take any values (unequal variances, complex c
 
 from __future__ import annotations
 
+import cmath
 import functools
+import math
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -64,24 +66,24 @@ class SystemErrorModel:
     gain_sd_db: float = 0.0
 
     def __post_init__(self):
-        rel = np.asarray(self.crosstalk_relative, dtype=float)
-        rel_e = np.asarray(self.imbalance_relative, dtype=float)
-        if rel.shape != (4,) or rel_e.shape != (2,):
+        # plain Python on a dozen numbers: a sweep builds one model per distinct instrument (thousands)
+        rel = _floats(self.crosstalk_relative, 4)
+        rel_e = _floats(self.imbalance_relative, 2)
+        if rel is None or rel_e is None:
             raise PhysicsInputError("need 4 relative crosstalk variances and 2 relative channel-imbalance variances")
-        numbers = np.concatenate(
-            [rel, rel_e, [self.crosstalk_level, self.imbalance_level, self.noise_power, self.gain_sd_db]]
-        )
-        if not np.all(np.isfinite(numbers)) or np.any(numbers < 0):
+        numbers = (*rel, *rel_e, *(float(x) for x in (self.crosstalk_level, self.imbalance_level, self.noise_power,
+                                                         self.gain_sd_db)))
+        if not all(math.isfinite(x) and x >= 0 for x in numbers):
             raise PhysicsInputError(
                 "system-error levels, relative variances, noise power and gain SD must be finite and >= 0"
             )
         for name in ("crosstalk_rho13", "crosstalk_rho24", "imbalance_rho"):
             rho = complex(getattr(self, name))
-            if not np.isfinite(rho) or abs(rho) > 1 + 1e-12:
+            if not cmath.isfinite(rho) or abs(rho) > 1 + 1e-12:
                 raise PhysicsInputError(f"{name}: correlation coefficient magnitude {abs(rho):.4g} is above 1")
             object.__setattr__(self, name, rho)
-        object.__setattr__(self, "crosstalk_relative", tuple(float(x) for x in rel))
-        object.__setattr__(self, "imbalance_relative", tuple(float(x) for x in rel_e))
+        object.__setattr__(self, "crosstalk_relative", rel)
+        object.__setattr__(self, "imbalance_relative", rel_e)
 
     # Variances and covariances as in eqs. (7)-(8) -------------------------------------------
     @property
@@ -164,3 +166,12 @@ def _correlated_pair(rng, n, var_a, var_b, cov_ab):
     else:
         b = np.sqrt(var_b) * xi[1]
     return a, b
+
+
+def _floats(values, count: int) -> tuple | None:
+    """``values`` as a tuple of ``count`` floats, None if it is not a flat sequence of that many numbers."""
+    try:
+        out = tuple(float(x) for x in values)
+    except (TypeError, ValueError):
+        return None
+    return out if len(out) == count else None
