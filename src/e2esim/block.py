@@ -58,13 +58,14 @@ class Catalog(list):
         return arrays
 
 
-    def derived(self, name: str, build):
-        """``build(self)``, made again only when values have been added since."""
-        done, value = self._tables.get(("derived", name), (-1, None))
-        if done != len(self):
-            value = build(self)
-            self._tables[("derived", name)] = (len(self), value)
-        return value
+    def extended(self, name: str, extend):
+        """What ``extend(state, new values)`` made of every value, applied only to the values added since its
+        last call (``state`` None at the first): work per value, not per value and block."""
+        done, state = self._tables.get(("extended", name), (0, None))
+        if done < len(self):
+            state = extend(state, self[done:])
+            self._tables[("extended", name)] = (len(self), state)
+        return state
 
 
 @dataclass(frozen=True, eq=False)

@@ -133,7 +133,7 @@ def scalar_columns(products: dict, n: int, declarations: dict | None = None) -> 
         if isinstance(value, Batched):
             columns = {k: Column(np.real(np.asarray(v)).astype(float)) for k, v in value.scalar_columns().items()}
         else:
-            ids = np.array([id(v) for v in value.values], dtype=np.int64)[value.index]
+            ids = _object_ids(value.values)[value.index]
             repeated = np.zeros(n, dtype=bool)
             for earlier in written:
                 repeated |= earlier == ids
@@ -146,7 +146,8 @@ def scalar_columns(products: dict, n: int, declarations: dict | None = None) -> 
 
 def _factor_columns(factor: Factor, keep: np.ndarray | None) -> dict:
     values = factor.values
-    table = values.derived("scalar columns", _scalar_table) if isinstance(values, Catalog) else _scalar_table(values)
+    _, table = (values.extended("scalar columns", _scalar_table) if isinstance(values, Catalog)
+                else _scalar_table(None, values))
     columns = {}
     for key, (per_value, has) in table.items():
         present = has[factor.index]
@@ -158,12 +159,24 @@ def _factor_columns(factor: Factor, keep: np.ndarray | None) -> dict:
     return columns
 
 
-def _scalar_table(values) -> dict:
-    """{scalar name: (value of every distinct product, whether it has it)}."""
+def _object_ids(values) -> np.ndarray:
+    """id of every distinct value (kept in a catalog, extended as values are added)."""
+    if isinstance(values, Catalog):
+        return values.table("object ids", id)
+    return np.array([id(v) for v in values], dtype=np.int64)
+
+
+def _scalar_table(state: tuple | None, values) -> tuple:
+    """(count, {scalar name: (value of every distinct product, whether it has it)}) of ``count`` values: ``state``
+    (of the values before these, None for none) extended by ``values``."""
+    before, table = state or (0, {})
     per_value = [{k: float(np.real(v)) for k, v in value.scalars().items()} for value in values]
-    keys = list(dict.fromkeys(k for s in per_value for k in s))
-    return {key: (np.array([s.get(key, np.nan) for s in per_value], dtype=float),
-                  np.array([key in s for s in per_value], dtype=bool)) for key in keys}
+    table = dict(table)
+    for key in dict.fromkeys([*table, *(k for s in per_value for k in s)]):
+        old_values, old_has = table.get(key, (np.full(before, np.nan), np.zeros(before, dtype=bool)))
+        table[key] = (np.concatenate([old_values, np.array([s.get(key, np.nan) for s in per_value], dtype=float)]),
+                      np.concatenate([old_has, np.array([key in s for s in per_value], dtype=bool)]))
+    return before + len(per_value), table
 
 
 def requirement_columns(verdicts, n: int) -> list:
