@@ -26,6 +26,9 @@ Prints, in one run:
    ``--map-cache DIR`` uses that climatology cache instead of an empty one (e.g. ~/.cache/e2esim, where
    ``e2esim run`` keeps it by default), so that the first run is cold only if DIR lacks the tables.
 
+The sweep and map runs use ``--workers`` local processes (default 2: the target is stated for two cores); the
+per-case speed-up is also printed process for process, from one serial run of the same sweep.
+
 Every figure is the best and the median of ``--repeats`` runs (default 3); the verdicts (PASS or MISS) are
 judged on the best. Nothing here asserts a time: the figures are printed for a person to read. The machine's
 load is printed first: on a shared machine, compare figures taken in the same run only.
