@@ -3,11 +3,14 @@ the large-run report read, instead of one ``CaseResult`` per case.
 
 The blocks of a run (``e2esim.runner.run.BlockResult``) hold their cases' scalars and verdicts as columns
 (``e2esim.runner.columns``); this joins them and puts them in case order. Nothing here is per case in Python:
-a million cases join in about the time numpy copies their numbers.
+a million cases join in about the time numpy copies their numbers. The output scalars are joined one at a
+time, when asked for, and not kept: the blocks already hold them, and a million cases' hundred scalars
+joined at once would double the run's memory.
 """
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
 
 import numpy as np
@@ -20,13 +23,14 @@ from e2esim.runner.columns import Column, RequirementColumns
 class ResultTable:
     """The columns of every case, in case order.
 
-    n : number of cases. scalars : {name: ``Column``} in the order of first appearance. requirements :
+    n : number of cases. scalars : {name: ``Column``} in the order of first appearance (a ``JoinedScalars``:
+    each column joined from the blocks when read). requirements :
     ``RequirementColumns`` per requirement. notes : the error model's notes per case (``Values`` of tuples).
     groups : {source: group} of each case's AGB-error contributions (``Values``).
     """
 
     n: int
-    scalars: dict
+    scalars: Mapping
     requirements: list
     notes: Values
     groups: Values
@@ -38,15 +42,12 @@ class ResultTable:
             return cls(n, {}, [], Values.repeated((), n), Values.repeated({}, n))
         indices = np.concatenate([b.indices for b in blocks])
         order = None if np.array_equal(indices, np.arange(n)) else np.argsort(indices, kind="stable")
-        sizes = [len(b) for b in blocks]
-        names = dict.fromkeys(k for b in blocks for k in b.scalars)
-        scalars = {name: Column.concatenate([b.scalars.get(name) for b in blocks], sizes) for name in names}
+        scalars = JoinedScalars(blocks, order)
         count = len(blocks[0].requirements)
         requirements = [RequirementColumns.concatenate([b.requirements[j] for b in blocks]) for j in range(count)]
         notes = Values.concatenate([b.notes for b in blocks])
         groups = Values.concatenate([b.groups for b in blocks])
         if order is not None:
-            scalars = {name: c.take(order) for name, c in scalars.items()}
             requirements = [r.take(order) for r in requirements]
             notes, groups = notes.take(order), groups.take(order)
         return cls(n, scalars, requirements, notes, groups)
@@ -76,6 +77,32 @@ class ResultTable:
         """Detail ``key`` of requirement ``j``, NaN where a case lacks it."""
         column = self.requirements[j].details[key]
         return column.values if column.present is None else np.where(column.present, column.values, np.nan)
+
+
+class JoinedScalars(Mapping):
+    """{name: ``Column``} of the output scalars of ``blocks``, each joined in case order when read (not kept).
+
+    order : the positions that put the joined blocks' cases in case order, None when they already are."""
+
+    def __init__(self, blocks: list, order: np.ndarray | None):
+        self.blocks = blocks
+        self.order = order
+        self.names = list(dict.fromkeys(k for b in blocks for k in b.scalars))
+
+    def __getitem__(self, name: str) -> Column:
+        if name not in self.names:
+            raise KeyError(name)
+        column = Column.concatenate([b.scalars.get(name) for b in self.blocks], [len(b) for b in self.blocks])
+        return column if self.order is None else column.take(self.order)
+
+    def __iter__(self):
+        return iter(self.names)
+
+    def __len__(self) -> int:
+        return len(self.names)
+
+    def __contains__(self, name) -> bool:
+        return name in self.names
 
 
 def text_column(values: Values) -> np.ndarray:
