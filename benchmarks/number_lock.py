@@ -7,14 +7,16 @@ Before a restructuring, save the numbers of the code as it is; afterwards, save 
     python benchmarks/number_lock.py save /tmp/numbers-after
     python benchmarks/number_lock.py compare /tmp/numbers-before /tmp/numbers-after
 
-``save`` writes ``reproduce.json`` (``e2esim reproduce --json``) and ``summaries/<scenario>.json`` (the
-summary.json of every shipped scenario, run at its own sizes). ``compare`` checks every number of the first
-save against the second: reproduce records by id (computed value and status), and in each summary every
-per-case scalar, every requirement verdict (passed, value, limit, margin, dominant contributor, details)
-and the requirement overview. Numbers must agree to a relative 1e-12 (floating-point reordering); text
-and booleans exactly. Provenance (time, command line, versions) is not compared. Keys that exist only in
-the second save are listed but are not failures (a refactor may add outputs); keys that disappear are.
-Exit status 0 when everything matches, 1 otherwise.
+``save`` writes ``reproduce.json`` (``e2esim reproduce --json``), ``summaries/<scenario>.json`` (the
+summary.json of every shipped scenario, run at its own sizes) and ``results/<scenario>.json`` (the content of
+its results.h5: the labels as ``e2esim.open_results`` reads them, and every dataset, text given as codes
+read back as its text; ``results_h5_content``). ``compare`` checks every number of the first save against
+the second: reproduce records by id (computed value and status), in each summary every per-case scalar,
+every requirement verdict (passed, value, limit, margin, dominant contributor, details) and the requirement
+overview, and in each results.h5 every label and dataset value (not the attributes). Numbers must agree to a
+relative 1e-12 (floating-point reordering); text and booleans exactly. Provenance (time, command line,
+versions) is not compared. Keys that exist only in the second save are listed but are not failures (a
+refactor may add outputs); keys that disappear are. Exit status 0 when everything matches, 1 otherwise.
 """
 
 from __future__ import annotations
@@ -54,7 +56,42 @@ def save(folder: Path, scenarios: list | None = None) -> None:
             if run.returncode != 0:
                 raise SystemExit(f"{path.name} failed:\n{run.stderr}")
             (folder / "summaries" / f"{path.stem}.json").write_text((Path(tmp) / "summary.json").read_text())
+            (folder / "results").mkdir(exist_ok=True)
+            (folder / "results" / f"{path.stem}.json").write_text(json.dumps(results_h5_content(Path(tmp))))
         print(f"saved {path.stem}", file=sys.stderr)
+
+
+def results_h5_content(run_folder: Path) -> dict:
+    """{"labels": [...], "datasets": {path: value}} of a run's results.h5, in a form that does not depend on how
+    text is stored: a dataset of integer codes with a ``text`` attribute (format 3) reads as the text of its
+    codes, so files written before and after that change compare like with like. The label datasets
+    (``/cases/label*``) are compared through ``e2esim.open_results``."""
+    import h5py
+    import numpy as np
+
+    from e2esim.io.results_reader import read_results
+
+    out: dict = {}
+
+    def text(x):
+        return x.decode() if isinstance(x, bytes) else x
+
+    def visit(name, obj):
+        if not isinstance(obj, h5py.Dataset) or name.startswith("cases/label") or name in tables:
+            return
+        data = obj[()]
+        if "text" in obj.attrs:  # codes into the sibling table of distinct texts
+            table = np.array([text(t) for t in obj.parent[text(obj.attrs["text"])][()]], dtype=object)
+            data = table[data]
+        data = np.asarray(data)
+        out[name] = np.vectorize(text, otypes=[object])(data).tolist() if data.dtype.kind in "OS" else data.tolist()
+
+    with h5py.File(run_folder / "results.h5", "r") as f:
+        tables = set()
+        f.visititems(lambda name, obj: tables.add(f"{name.rpartition('/')[0]}/{text(obj.attrs['text'])}")
+                     if isinstance(obj, h5py.Dataset) and "text" in obj.attrs else None)
+        f.visititems(visit)
+    return {"labels": list(read_results(run_folder).labels), "datasets": out}
 
 
 class Comparison:
@@ -117,6 +154,12 @@ def compare(old: Path, new: Path, rtol: float) -> int:
         for key in a:
             if key not in PROVENANCE:
                 cmp.value(f"{path.stem}.{key}", a[key], b.get(key))
+    for path in sorted((old / "results").glob("*.json")):
+        other = new / "results" / path.name
+        if not other.exists():
+            cmp.failures.append(f"{path.stem}: no results.h5 content in the new numbers")
+            continue
+        cmp.value(f"{path.stem} results.h5", json.loads(path.read_text()), json.loads(other.read_text()))
     for line in cmp.failures:
         print("DIFFERS  " + line)
     if cmp.added:

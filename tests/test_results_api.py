@@ -11,6 +11,7 @@ import pytest
 
 import e2esim
 from e2esim.cli import main
+from e2esim.io.h5_datasets import read_text
 from e2esim.io.results_h5 import write_results
 from e2esim.runner.scenario import Scenario
 from e2esim.runner.sweep import case_labels
@@ -79,6 +80,53 @@ def test_open_results_reads_back_the_same_numbers(small):
     assert again.to_xarray()["agb.analytic.rmse_percent"].shape == (2, 3)
     with pytest.raises(ValueError, match="read from a file"):
         again.write(folder / "again")
+
+
+def test_text_over_cases_is_written_as_codes_and_reads_back_the_same(small):
+    results, folder = small
+    table = results.run.table
+    with h5py.File(folder / "results.h5") as f:
+        assert f.attrs["format_version"] == 3
+        for name in ("dominant", "basis"):
+            assert f[f"requirements/{name}"].dtype.kind == "u" and f[f"requirements/{name}"].shape == (6, 1)
+        assert read_text(f["requirements/dominant"]).tolist() == results.dominant.tolist()
+        assert read_text(f["requirements/basis"])[:, 0].tolist() == table.requirements[0].basis.tolist()
+        assert read_text(f["cases/inputs/scene.forest"]).tolist() == ["boreal_50"] * 3 + ["boreal_200"] * 3
+        labels = f["cases/label"]  # factored: one part per group of sweep keys
+        assert labels["codes"].shape == (6, 2) and len(labels["parts"]) == 5 and not labels["numbered"][()].any()
+    again = e2esim.open_results(folder)
+    assert again.labels.tolist() == results.labels.tolist() == [
+        f"forest={f}, crosstalk.level_db={x}" for f in ("boreal_50", "boreal_200") for x in (-34, -30, -26)]
+    assert again.dominant.tolist() == results.dominant.tolist()
+
+
+def test_case_sweeps_with_repeats_and_missing_keys_read_back_the_same(tmp_path):
+    cases = [{"scene.forest": "boreal_50"}, {"scene.forest": "boreal_200", "instrument.crosstalk.level_db": -30.0},
+             {"scene.forest": "boreal_50"}]
+    results = e2esim.run({**SMALL, "sweep": {"cases": cases}})
+    write_results(results.run, tmp_path / "results.h5")
+    again = e2esim.open_results(tmp_path)
+    assert list(again.labels) == list(results.labels) == [  # the crosstalk goes with the forest: not named
+        "forest=boreal_50 (#0)", "forest=boreal_200", "forest=boreal_50 (#2)"]
+    assert again.inputs == results.inputs == {"scene.forest": ["boreal_50", "boreal_200", "boreal_50"],
+                                              "instrument.crosstalk.level_db": [None, -30.0, None]}
+
+
+def test_results_h5_of_format_2_text_as_strings_still_reads(small, tmp_path):
+    results, folder = small
+    old = tmp_path / "results.h5"
+    old.write_bytes((folder / "results.h5").read_bytes())
+    string = h5py.string_dtype("utf-8")
+    with h5py.File(old, "r+") as f:  # the layout before format 3: every text column as strings
+        for path, values in (("cases/label", results.labels.tolist()),
+                             ("cases/inputs/scene.forest", results.inputs["scene.forest"]),
+                             ("requirements/dominant", results.dominant.tolist())):
+            del f[path]
+            f.create_dataset(path, data=values, dtype=string)
+        f.attrs["format_version"] = 2
+    again = e2esim.open_results(old)
+    assert again.labels == results.labels.tolist() and again.inputs == results.inputs
+    assert again.dominant.tolist() == results.dominant.tolist()
 
 
 def test_results_h5_every_dataset_has_units_and_description(small):

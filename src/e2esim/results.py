@@ -8,6 +8,7 @@ varied together share one dimension), any other sweep one dimension ``case``.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -20,7 +21,8 @@ from e2esim.io.scalar_units import scalar_description, scalar_unit
 class Results:
     """All cases of a run.
 
-    scenario_name, sweep_keys, labels (one per case), inputs ({sweep key: [value per case]}), scalars
+    scenario_name, sweep_keys, labels (one per case: a sequence of text that makes each label when read; compares
+    equal to the list of them), inputs ({sweep key: [value per case]}), scalars
     ({name: (n,) float array}, every output scalar, docs/output-format.md), units ({name: unit}),
     requirements (names), requirement_units, requirement_sources ("all"/"systematic"), passed, value, limit,
     margin ((n, R) arrays), dominant ((n, R) strings), details ([{key: (n,) array}] per requirement),
@@ -30,7 +32,7 @@ class Results:
 
     scenario_name: str
     sweep_keys: tuple
-    labels: list
+    labels: Sequence
     inputs: dict
     scalars: dict
     units: dict
@@ -51,6 +53,10 @@ class Results:
     def n_cases(self) -> int:
         return len(self.labels)
 
+    def label_list(self) -> list:
+        """Every case's label, as a list."""
+        return self.labels.tolist() if hasattr(self.labels, "tolist") else list(self.labels)
+
     # Construction -----------------------------------------------------------------------------------
     @classmethod
     def from_run(cls, result) -> Results:
@@ -62,8 +68,7 @@ class Results:
         n, n_req = table.n, len(result.requirement_names)
         names = sorted(table.scalars)
         req_units = [r.unit[0] for r in table.requirements] if n else []
-        labels = result.labels
-        labels = labels.tolist() if hasattr(labels, "tolist") else list(labels)
+        labels = result.labels  # a sweep's labels are joined when read (e2esim.runner.sweep.CaseLabels)
 
         def stacked(attr, convert=np.asarray):
             columns = [convert(getattr(r, attr)) for r in table.requirements]
@@ -74,7 +79,7 @@ class Results:
             sweep_keys=tuple(result.scenario.sweep_keys),
             labels=labels,
             inputs=result.input_columns(),
-            scalars={k: table.scalar(k).astype(float, copy=True) for k in names},
+            scalars={k: table.scalar(k).astype(float, copy=False) for k in names},  # each joined anew: not shared
             units={k: scalar_unit(k, tuple(req_units)) for k in names},
             requirements=list(result.requirement_names),
             requirement_units=req_units,
@@ -96,7 +101,7 @@ class Results:
         and per requirement j ``requirement<j>.dominant``. ``df.attrs["units"]`` gives each column's unit."""
         import pandas as pd
 
-        columns = {"label": self.labels}
+        columns = {"label": self.label_list()}
         columns.update({k: self.inputs[k] for k in self.sweep_keys})
         columns.update(self.scalars)
         for j in range(len(self.requirements)):
@@ -131,7 +136,7 @@ class Results:
                 coords[key] = (dim, grid[index])
             else:
                 coords[key] = (tuple(dims), grid)
-        coords["label"] = (tuple(dims), np.asarray(self.labels, dtype=object).reshape(shape))
+        coords["label"] = (tuple(dims), np.asarray(self.label_list(), dtype=object).reshape(shape))
         data = {}
         for name, values in self.scalars.items():
             data[name] = xr.Variable(tuple(dims), values.reshape(shape),
@@ -152,7 +157,7 @@ class Results:
         """pandas DataFrame of requirement j per case: passed, value, limit, margin, dominant."""
         import pandas as pd
 
-        return pd.DataFrame({"label": self.labels, "passed": self.passed[:, j], "value": self.value[:, j],
+        return pd.DataFrame({"label": self.label_list(), "passed": self.passed[:, j], "value": self.value[:, j],
                              "limit": self.limit[:, j], "margin": self.margin[:, j], "dominant": self.dominant[:, j]},
                             index=pd.RangeIndex(self.n_cases, name="case"))
 

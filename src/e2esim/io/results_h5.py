@@ -12,34 +12,25 @@ import h5py
 import numpy as np
 import yaml
 
+from e2esim.block import Values
 from e2esim.io.atomic import atomic_path
-from e2esim.io.scalar_units import TEXT, detail_unit, scalar_description, scalar_unit
+from e2esim.io.h5_datasets import code_dtype, coded_values, put, put_coded, put_text
+from e2esim.io.scalar_units import detail_unit, scalar_description, scalar_unit
+from e2esim.io.summary import requirement_sources
+from e2esim.runner.joined_labels import JoinedLabels
 from e2esim.runner.map_sweep import is_map_sweep
-from e2esim.runner.result_table import text_column
 
-_STR = h5py.string_dtype("utf-8")
-FORMAT_VERSION = 2  # 2: units and descriptions on every dataset, acquisitions, requirement sources
-
-
-def put(group, name: str, data, units: str, description: str, dtype=None):
-    """Create dataset ``name`` with its ``units`` and ``description`` attributes."""
-    ds = group.create_dataset(name, data=data, dtype=dtype)
-    ds.attrs["units"] = units
-    ds.attrs["description"] = description
-    return ds
-
-
-def _text(group, name, values, description):
-    return put(group, name, list(values) if not isinstance(values, str) else values, TEXT, description, _STR)
+FORMAT_VERSION = 3
+"""2: units and descriptions on every dataset, acquisitions, requirement sources; 3: text over cases (labels,
+basis, dominant source, text sweep values) as integer codes into tables of distinct texts."""
 
 
 def write_results(result, path) -> None:
-    """Write all cases of ``result`` (a ScenarioResult) to ``path`` atomically, column by column
-    (``e2esim.results.Results``); per-case arrays and acquisitions only where the run kept its products."""
-    from e2esim.results import results_of
-
-    columns = results_of(result)
-    n = columns.n_cases
+    """Write all cases of ``result`` (a ScenarioResult) to ``path`` atomically, column by column from the run's
+    columns (``e2esim.runner.result_table``: one output scalar in memory at a time); per-case arrays and
+    acquisitions only where the run kept its products."""
+    table = result.table
+    n = table.n
     with atomic_path(path) as tmp, h5py.File(tmp, "w") as f:
         for key, value in result.provenance.items():
             if value is None:
@@ -49,35 +40,59 @@ def write_results(result, path) -> None:
         f.attrs["n_cases"] = n
         f.attrs["format_version"] = FORMAT_VERSION
         prov = f.create_group("provenance")
-        _text(prov, "resolved_scenario", yaml.safe_dump(result.scenario.resolved, sort_keys=False),
-              "the scenario with every module's defaults filled in (first case) and the sweep, YAML")
-        _text(prov, "scenario_as_given", yaml.safe_dump(result.scenario.raw, sort_keys=False),
-              "the scenario as read, after --set overrides, YAML")
+        put_text(prov, "resolved_scenario", yaml.safe_dump(result.scenario.resolved, sort_keys=False),
+                 "the scenario with every module's defaults filled in (first case) and the sweep, YAML")
+        put_text(prov, "scenario_as_given", yaml.safe_dump(result.scenario.raw, sort_keys=False),
+                 "the scenario as read, after --set overrides, YAML")
 
         g = f.create_group("cases")
         put(g, "index", np.arange(n, dtype=np.int64), "1", "case number")
-        _text(g, "label", columns.labels, "case label: the sweep keys that differ between cases")
+        _write_labels(g.create_group("label"), result.labels)
         inputs = g.create_group("inputs")
-        for key in result.scenario.sweep_keys:
-            values = columns.inputs[key]
+        for key, (distinct, codes) in _input_codes(result).items():
             about = f"sweep value of {key} in each case"
-            if all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in set(values)):
-                put(inputs, key, np.array(values, dtype=float), _input_unit(key), about)
+            if all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in distinct):
+                put(inputs, key, np.array(distinct, dtype=float)[codes], _input_unit(key), about)
             else:
-                _text(inputs, key, [json.dumps(v) if not isinstance(v, str) else v for v in values],
-                      about + " (JSON for values that are not text)")
+                put_coded(inputs, key, [v if isinstance(v, str) else json.dumps(v) for v in distinct], codes,
+                          about + " (JSON for values that are not text)")
         res = g.create_group("results")
-        req_units = tuple(columns.requirement_units)
-        for name in sorted(columns.scalars):
-            put(res, name, columns.scalars[name], scalar_unit(name, req_units),
+        req_units = tuple(r.unit[0] for r in table.requirements) if n else ()
+        for name in sorted(table.scalars):
+            put(res, name, table.scalar(name), scalar_unit(name, req_units),
                 scalar_description(name) + "; NaN where a case lacks it")
-        _write_requirements(f.create_group("requirements"), columns)
+        _write_requirements(f.create_group("requirements"), result, list(req_units))
         arrays, acquisitions = f.create_group("arrays"), f.create_group("acquisitions")
-        _write_curves(arrays, result.table)
+        _write_curves(arrays, table)
         if result.keeps_products:
             _write_samples(arrays, result)
             if not is_map_sweep(result.scenario):  # a map's cells: their swath samples would be 200 000 groups
                 _write_acquisitions(acquisitions, result.cases)
+
+
+def _write_labels(group, labels) -> None:
+    """The case labels in factored form (``e2esim.runner.joined_labels``): parts, codes, numbered cases."""
+    joined = labels.joined() if hasattr(labels, "joined") else JoinedLabels.of(labels)
+    group.attrs["description"] = ('case label: the sweep keys that differ between cases; label i is ", ".join of '
+                                  'the non-empty parts[codes[i, :]] ("base case" if none), followed by " (#i)" where '
+                                  "numbered[i]")
+    put_text(group, "parts", joined.parts.tolist(), "the distinct parts of the labels (one or more per group of "
+             "sweep keys)")
+    put(group, "codes", joined.codes.astype(code_dtype(len(joined.parts))), "1",
+        "per case and group of sweep keys: the position of its part in parts")
+    put(group, "numbered", joined.numbered, "1", "cases whose label another case shares: their number is appended")
+
+
+def _input_codes(result) -> dict:
+    """{sweep key: (its distinct values, the position of each case's value among them)}: made group by group of the
+    sweep's table, not case by case (None where a case of ``sweep.cases`` does not set the key)."""
+    if result.scenario.plan is not None:
+        return result.scenario.plan.table.input_codes()
+    out = {}
+    for key, values in result.input_columns().items():
+        column = Values.of(values)
+        out[key] = (column.values, column.index)
+    return out
 
 
 def _input_unit(key: str) -> str:
@@ -85,32 +100,37 @@ def _input_unit(key: str) -> str:
     return unit if unit != "unknown" else "as the scenario key (docs/scenario-reference.md)"
 
 
-def _write_requirements(req, columns) -> None:
-    names = columns.requirements
-    _text(req, "names", names, "requirement labels in scenario order")
+def _write_requirements(req, result, units: list) -> None:
+    names = list(result.requirement_names)
+    put_text(req, "names", names, "requirement labels in scenario order")
     if not names:
         return
-    units = columns.requirement_units
-    _text(req, "sources", columns.requirement_sources,
-          "error sources each requirement covers: all, or systematic (system distortions, Faraday rotation, noise)")
-    put(req, "passed", columns.passed, "1", "verdict of requirement j (column) in case i (row): true passes")
+    table = result.table
+    n = table.n
+    put_text(req, "sources", requirement_sources(result.scenario),
+             "error sources each requirement covers: all, or systematic (system distortions, Faraday rotation, noise)")
+
+    def stacked(attr, dtype):
+        return np.stack([getattr(r, attr) for r in table.requirements], axis=1).astype(dtype).reshape(n, len(names))
+
+    put(req, "passed", stacked("passed", bool), "1", "verdict of requirement j (column) in case i (row): true passes")
     about = {
         "value": "the checked quantity",
         "limit": "the requirement's bound",
         "margin": "limit - value; positive passes",
     }
     for attr in ("value", "limit", "margin"):
-        put(req, attr, getattr(columns, attr), "see /requirements/unit",
+        put(req, attr, stacked(attr, float), "see /requirements/unit",
             f"{about[attr]} (case, requirement), in /requirements/unit")
-    _text(req, "unit", units, "unit of each requirement's value, limit and margin")
-    basis = np.stack([text_column(r.basis) for r in columns.run.table.requirements], axis=1)
-    put(req, "basis", basis.tolist(), TEXT, "analytic or montecarlo", _STR)
-    put(req, "dominant", columns.dominant.tolist(), TEXT,
-        "the error source whose removal would reduce the checked value most", _STR)
+    put_text(req, "unit", units, "unit of each requirement's value, limit and margin")
+    put_coded(req, "basis", *coded_values([r.basis for r in table.requirements]), "analytic or montecarlo")
+    put_coded(req, "dominant", *coded_values([r.dominant for r in table.requirements]),
+              "the error source whose removal would reduce the checked value most")
     det = req.create_group("details")
-    for j, k in sorted((j, k) for j, details in enumerate(columns.details) for k in details):
-        put(det, f"{j}/{k}", columns.details[j][k], detail_unit(k, units[j]),
-            f"requirement {j}: {k} (docs/output-format.md, summary.json details)")
+    for j, r in enumerate(table.requirements):
+        for k in sorted(r.details):
+            put(det, f"{j}/{k}", table.detail(j, k), detail_unit(k, units[j]),
+                f"requirement {j}: {k} (docs/output-format.md, summary.json details)")
 
 
 def _write_curves(arrays, table) -> None:
@@ -168,13 +188,13 @@ def _write_acquisitions(acq, cases) -> None:
             continue
         cg = acq.create_group(f"case{c.index:06d}")
         if geom is not None:
-            _text(cg, "time_utc", np.datetime_as_string(geom.time_utc, unit="s"), "time of the acquisition (UTC)")
-            _text(cg, "pass_label", [str(p) for p in geom.pass_label], "pass of the acquisition (e.g. dawn, dusk)")
+            put_text(cg, "time_utc", np.datetime_as_string(geom.time_utc, unit="s"), "time of the acquisition (UTC)")
+            put_text(cg, "pass_label", [str(p) for p in geom.pass_label], "pass of the acquisition (e.g. dawn, dusk)")
             for attr, name, scale, units, about in _GEOMETRY:
                 _put_array(cg, name, getattr(geom, attr), scale, units, about)
         if omega is not None:
             if geom is None and fr.pass_label is not None:
-                _text(cg, "pass_label", [str(p) for p in fr.pass_label], "pass of the acquisition")
+                put_text(cg, "pass_label", [str(p) for p in fr.pass_label], "pass of the acquisition")
             for attr, name, scale, units, about in _FARADAY:
                 _put_array(cg, name, getattr(fr, attr), scale, units, about)
 

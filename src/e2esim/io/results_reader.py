@@ -12,8 +12,10 @@ import numpy as np
 import yaml
 
 from e2esim.errors import UserError
+from e2esim.io.h5_datasets import TABLE_ATTR, read_text
 from e2esim.io.scalar_units import scalar_unit
 from e2esim.results import Results
+from e2esim.runner.joined_labels import JoinedLabels
 
 
 def results_path(path) -> Path:
@@ -40,7 +42,7 @@ def read_results(path) -> Results:
         }
         resolved = yaml.safe_load(_str(f["provenance/resolved_scenario"][()]))
         cases = f["cases"]
-        labels = [_str(x) for x in cases["label"][()]]
+        labels = _labels(cases["label"])
         sweep_keys = tuple(_sweep_keys(cases["inputs"], resolved))
         inputs = {k: _input_values(cases["inputs"][k]) for k in sweep_keys if k in cases["inputs"]}
         req_units_ds = f["requirements"].get("unit")
@@ -61,7 +63,7 @@ def read_results(path) -> Results:
         if r:
             out.passed = req["passed"][()].astype(bool)
             out.value, out.limit, out.margin = (req[k][()].astype(float) for k in ("value", "limit", "margin"))
-            out.dominant = np.array([[_str(x) for x in row] for row in req["dominant"][()]], dtype=object)
+            out.dominant = read_text(req["dominant"])
             out.details = [{k: ds[()].astype(float) for k, ds in req["details"][str(j)].items()}
                            if str(j) in req.get("details", {}) else {} for j in range(r)]
         else:
@@ -74,27 +76,38 @@ def read_results(path) -> Results:
 def _sweep_keys(inputs, resolved) -> list:
     """The sweep keys in the scenario's order (HDF5 lists a group's members alphabetically)."""
     from e2esim.errors import Location
-    from e2esim.runner.sweep import expand_sweep
+    from e2esim.runner.sweep import sweep_table
 
     try:
-        _, keys = expand_sweep(resolved.get("sweep"), Location("<results.h5>", ("sweep",)))
+        keys = sweep_table(resolved.get("sweep"), Location("<results.h5>", ("sweep",))).keys
     except UserError:
         keys = ()
-    return [k for k in keys if k in inputs] or sorted(inputs)
+    tables = {_str(ds.attrs[TABLE_ATTR]) for ds in inputs.values() if TABLE_ATTR in ds.attrs}
+    return [k for k in keys if k in inputs] or sorted(k for k in inputs if k not in tables)
+
+
+def _labels(ds):
+    """The case labels: joined from their parts when read (format 3, ``JoinedLabels``), or a list of text."""
+    if isinstance(ds, h5py.Group):
+        return JoinedLabels(read_text(ds["parts"]), ds["codes"][()], ds["numbered"][()])
+    return [_str(x) for x in ds[()]]
 
 
 def _input_values(ds) -> list:
-    data = ds[()]
-    if data.dtype.kind == "f":
-        return [float(x) for x in data]
-    values = []
-    for x in data:
+    if ds.dtype.kind == "f":
+        return ds[()].tolist()
+    if TABLE_ATTR in ds.attrs:  # format 3: codes into the distinct texts
+        distinct, codes = ds.parent[_str(ds.attrs[TABLE_ATTR])][()], ds[()]
+    else:
+        distinct, codes = ds[()], None
+    values = np.empty(len(distinct), dtype=object)
+    for i, x in enumerate(distinct):
         text = _str(x)
         try:  # values that are not text were written as JSON (e2esim.io.results_h5)
-            values.append(json.loads(text))
+            values[i] = json.loads(text)
         except ValueError:
-            values.append(text)
-    return values
+            values[i] = text
+    return (values if codes is None else values[codes]).tolist()
 
 
 def _str(x) -> str:

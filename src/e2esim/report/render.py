@@ -9,6 +9,7 @@ same way everywhere.
 from __future__ import annotations
 
 import base64
+import re
 from pathlib import Path
 
 from jinja2 import Environment, PackageLoader, select_autoescape
@@ -49,8 +50,18 @@ def _md_cell(cell) -> str:
     return str(cell).replace("|", "\\|").replace("\n", " ")
 
 
+_PLAIN = re.compile(r"[^\\`*_\[\]!<>&\n\r\0]*")
+"""Text with no character that CommonMark's inline rules act on: markdown-it would only escape its quotes."""
+_INWORD_UNDERSCORE = re.compile(r"(?<=[0-9A-Za-z])_(?=[0-9A-Za-z])")
+"""An underscore between letters or digits (``agb_t_ha``) neither opens nor closes emphasis (CommonMark 0.31,
+6.2, rules 2 and 4: it is both left- and right-flanking, with no punctuation beside it)."""
+
+
 def _inline(text: str) -> Markup:
-    return Markup(_MD.renderInline(str(text)))
+    text = str(text)
+    if _PLAIN.fullmatch(_INWORD_UNDERSCORE.sub("", text)):  # most cells (numbers, names): skip the 0.1 ms parse
+        return Markup(text.replace('"', "&quot;"))
+    return Markup(_MD.renderInline(text))
 
 
 def _cell(cell) -> Markup:

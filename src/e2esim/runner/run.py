@@ -133,13 +133,20 @@ class BlockResult:
                    [r.products for r in results])
 
 
+REMEMBER_CASES_UP_TO = 10_000
+"""Runs of at most this many cases keep each ``CaseResult`` once made: the report and summary.json of such a run
+read every case some twenty times (e2esim.io.summary.LARGE_RUN_CASES), larger runs not at all."""
+
+
 class ResultCases(Sequence):
-    """The cases of a run as ``CaseResult``s, made from the blocks when asked for."""
+    """The cases of a run as ``CaseResult``s, made from the blocks when asked for (and kept in a run of at most
+    ``REMEMBER_CASES_UP_TO`` cases)."""
 
     def __init__(self, scenario: ResolvedScenario, blocks: list):
         self.scenario = scenario
         self.blocks = blocks
         n = len(scenario.cases)
+        self._made: dict | None = {} if n <= REMEMBER_CASES_UP_TO else None
         self._block = np.empty(n, dtype=np.int32)
         self._position = np.empty(n, dtype=np.int64)
         for b, block in enumerate(blocks):
@@ -153,11 +160,16 @@ class ResultCases(Sequence):
         if isinstance(index, slice):
             return [self[i] for i in range(*index.indices(len(self)))]
         index = range(len(self))[index]
+        if self._made is not None and index in self._made:
+            return self._made[index]
         block = self.blocks[self._block[index]]
         plan = self.scenario.plan
         label = self.scenario.cases.labels[index] if plan is not None else self.scenario.cases[index].label
         inputs = plan.table.inputs(index) if plan is not None else self.scenario.cases[index].inputs
-        return block.case(int(self._position[index]), inputs, label)
+        case = block.case(int(self._position[index]), inputs, label)
+        if self._made is not None:
+            self._made[index] = case
+        return case
 
 
 @dataclass

@@ -17,6 +17,7 @@ import numpy as np
 
 from e2esim.errors import ConfigError, Location
 from e2esim.params import Param, unknown_key_error, validate_section
+from e2esim.runner.joined_labels import NO_PART, SEPARATOR, JoinedLabels, numbered
 from e2esim.runner.limits import MAX_CASES, SPLIT_ADVICE, check_count, shorten
 
 SWEEP_PARAMS = (
@@ -100,15 +101,20 @@ class SweepTable:
     def input_columns(self) -> dict:
         """{sweep key: list of its value in every case} (None where a case of ``cases`` does not set it), made
         per group of keys rather than per case."""
-        codes = self.codes(np.arange(self.n)) if self.layout != "none" else np.zeros((1, 0), dtype=np.int64)
         out = {}
-        for g, group in enumerate(self.groups):
-            for k, key in enumerate(group.keys):
-                distinct = np.empty(group.size, dtype=object)
-                for p, values in enumerate(group.values):
-                    distinct[p] = None if values[k] is _ABSENT else values[k]
-                out[key] = distinct[codes[:, g]].tolist()
+        for key, (distinct, codes) in self.input_codes().items():
+            values = np.empty(len(distinct), dtype=object)
+            for p, value in enumerate(distinct):  # one by one: a list value must stay one object
+                values[p] = value
+            out[key] = values[codes].tolist()
         return out
+
+    def input_codes(self) -> dict:
+        """{sweep key: (its distinct values, (n,) position of every case's value among them)}, None for a case of
+        ``cases`` that does not set the key."""
+        codes = self.codes(np.arange(self.n)) if self.layout != "none" else np.zeros((1, 0), dtype=np.int64)
+        return {key: ([None if values[k] is _ABSENT else values[k] for values in group.values], codes[:, g])
+                for g, group in enumerate(self.groups) for k, key in enumerate(group.keys)}
 
 
 class _Absent:
@@ -232,12 +238,12 @@ def case_labels(case_inputs: list) -> list:
     """
     shown = differing_keys(case_inputs)
     names = _short_names(shown)
-    labels = [", ".join(f"{names[k]}={_value_text(inputs.get(k))}" for k in shown) or "base case"
+    labels = [SEPARATOR.join(f"{names[k]}={_value_text(inputs.get(k))}" for k in shown) or NO_PART
               for inputs in case_inputs]
     counts: dict = {}
     for label in labels:
         counts[label] = counts.get(label, 0) + 1
-    return [f"{label} (#{i})" if counts[label] > 1 else label for i, label in enumerate(labels)]
+    return [numbered(label, i) if counts[label] > 1 else label for i, label in enumerate(labels)]
 
 
 class CaseLabels(Sequence):
@@ -273,30 +279,31 @@ class CaseLabels(Sequence):
             return self._labels[index]
         index = range(len(self))[index]
         codes = self.table.codes([index])[0]
-        label = ", ".join(p for p in (parts[c] for parts, c in zip(self._parts, codes)) if p) or "base case"
+        label = SEPARATOR.join(p for p in (parts[c] for parts, c in zip(self._parts, codes)) if p) or NO_PART
         repeated = math.prod(r[c] for r, c in zip(self._repeats, codes)) > 1
-        return f"{label} (#{index})" if repeated else label
+        return numbered(label, index) if repeated else label
+
+    def __eq__(self, other) -> bool:
+        return isinstance(other, Sequence) and not isinstance(other, str) and list(self) == list(other)
+
+    __hash__ = None
 
     def tolist(self) -> list:
         """Every label, made group by group (a million labels in about a second)."""
+        return self.joined().tolist()
+
+    def joined(self) -> JoinedLabels:
+        """The labels in factored form (``JoinedLabels``: the parts of every group in one table, a code per case
+        and group), as results.h5 stores them."""
         if self._labels is not None:
-            return list(self._labels)
+            return JoinedLabels.of(self._labels)
         n = len(self)
         codes = self.table.codes(np.arange(n))
-        shown = [g for g, parts in enumerate(self._parts) if any(parts)]
-        columns = []
-        for g in shown:
-            parts = np.empty(len(self._parts[g]), dtype=object)
-            parts[:] = self._parts[g]
-            columns.append(parts[codes[:, g]])
-        labels = [", ".join(p for p in row if p) or "base case" for row in zip(*columns)] if columns \
-            else ["base case"] * n
+        offsets = np.cumsum([0] + [len(parts) for parts in self._parts[:-1]], dtype=np.int64)
         repeats = np.ones(n, dtype=np.int64)
         for g, r in enumerate(self._repeats):
             repeats *= np.asarray(r, dtype=np.int64)[codes[:, g]]
-        for i in np.nonzero(repeats > 1)[0]:
-            labels[i] = f"{labels[i]} (#{i})"
-        return labels
+        return JoinedLabels([p for parts in self._parts for p in parts], codes + offsets, repeats > 1)
 
 
 def differing_keys(case_inputs: list) -> list:

@@ -1,0 +1,80 @@
+"""Datasets of results.h5: each with its ``units`` and ``description``; text columns over cases as integer codes.
+
+A column of text that repeats over cases (the dominant error source of a verdict, the basis, a text sweep value)
+is stored as the integer code of each case into a table of its distinct texts: the dataset ``<name>`` (codes,
+attribute ``text`` naming the table) beside ``<name>_text`` (strings). HDF5 writes and reads a million small
+integers in milliseconds, a million variable-length strings in seconds (docs/output-format.md, format 3).
+``read_text`` reads either form back as text.
+"""
+
+from __future__ import annotations
+
+import h5py
+import numpy as np
+
+from e2esim.io.scalar_units import TEXT
+
+STRING = h5py.string_dtype("utf-8")
+TABLE_ATTR = "text"
+"""Attribute of a dataset of codes: the name of the sibling dataset holding its distinct texts."""
+
+
+def put(group, name: str, data, units: str, description: str, dtype=None):
+    """Create dataset ``name`` with its ``units`` and ``description`` attributes."""
+    ds = group.create_dataset(name, data=data, dtype=dtype)
+    ds.attrs["units"] = units
+    ds.attrs["description"] = description
+    return ds
+
+
+def put_text(group, name: str, values, description: str):
+    """A string, or a short list of strings, as variable-length UTF-8 text."""
+    return put(group, name, values if isinstance(values, str) else list(values), TEXT, description, STRING)
+
+
+def put_coded(group, name: str, texts, codes, description: str):
+    """Text per case as ``codes`` (integers, any shape) into ``texts`` (the distinct texts), ``<name>_text``."""
+    table = f"{name}_text"
+    put_text(group, table, texts, f"the distinct texts of {name}")
+    codes = np.asarray(codes).astype(code_dtype(len(texts)))
+    ds = put(group, name, codes, TEXT, f"{description} (codes into {table})")
+    ds.attrs[TABLE_ATTR] = table
+    return ds
+
+
+def code_dtype(count: int) -> np.dtype:
+    """The smallest unsigned integer type that numbers ``count`` texts."""
+    for dtype in (np.uint8, np.uint16, np.uint32):
+        if count <= np.iinfo(dtype).max + 1:
+            return np.dtype(dtype)
+    return np.dtype(np.uint64)
+
+
+def coded_values(columns: list) -> tuple:
+    """(texts, codes (n, len(columns))) of ``Values`` columns of text (``e2esim.block.Values``), one table for all."""
+    lookup: dict = {}
+    per_column = []
+    for column in columns:
+        codes = np.array([lookup.setdefault(str(v), len(lookup)) for v in column.values], dtype=np.int64)
+        per_column.append(codes[column.index] if len(codes) else np.zeros(len(column.index), dtype=np.int64))
+    n = len(columns[0].index) if columns else 0
+    return list(lookup), (np.stack(per_column, axis=1) if per_column else np.zeros((n, 0), dtype=np.int64))
+
+
+def read_text(ds) -> np.ndarray:
+    """A text dataset as an object array of ``str``, whether written as codes (format 3) or as strings."""
+    if TABLE_ATTR in ds.attrs:
+        table = np.array([as_str(t) for t in ds.parent[as_str(ds.attrs[TABLE_ATTR])][()]], dtype=object)
+        return table[ds[()]]
+    data = np.asarray(ds[()], dtype=object)
+    out = np.empty(data.shape, dtype=object)
+    out.flat[:] = [as_str(x) for x in data.flat]
+    return out
+
+
+def as_str(x) -> str:
+    return x.decode() if isinstance(x, bytes) else str(x)
+
+
+__all__ = ["STRING", "TABLE_ATTR", "as_str", "code_dtype", "coded_values", "put", "put_coded", "put_text",
+           "read_text"]
