@@ -105,6 +105,8 @@ def plot_map_sweep(result, folder: Path, options: dict) -> list:
     panel_w = 3.6
     panel_h = panel_w * (ylim[1] - ylim[0]) / max(lon_edges[-1] - lon_edges[0], 1e-9)
     size = (panel_w * ncol + 1.4, (panel_h + 0.4) * nrow + 1.0)
+    cells = {"extent": (lon_edges[0], lon_edges[-1], lat_edges[0], lat_edges[-1]), "origin": "lower",
+             "interpolation": "nearest"}
     out = []
     for stem, title, values, cmap, vmin, vmax, limit in quantities:
         for s, solar in enumerate(ds["solar"].values):
@@ -114,10 +116,9 @@ def plot_map_sweep(result, folder: Path, options: dict) -> list:
                                         top=1 - 0.75 / size[1], wspace=0.08, hspace=0.4 / panel_h)
                 for k, month in enumerate(months):
                     ax = fig.add_subplot(grid[k // ncol, k % ncol])
-                    ax.pcolormesh(lon_edges, lat_edges, np.where(land, 1.0, np.nan), cmap=ListedColormap([LAND_GREY]),
-                                  shading="flat")
-                    mesh = ax.pcolormesh(lon_edges, lat_edges, values[s, p, k], cmap=cmap, vmin=vmin, vmax=vmax,
-                                         shading="flat")
+                    # cells of a regular grid: images, which draw far faster than meshes of 65 000 cells
+                    ax.imshow(np.where(land, 1.0, np.nan), cmap=ListedColormap([LAND_GREY]), **cells)
+                    mesh = ax.imshow(values[s, p, k], cmap=cmap, vmin=vmin, vmax=vmax, **cells)
                     _frame(ax, lon_edges, ylim, first_column=k % ncol == 0, last_row=k // ncol == nrow - 1)
                     ax.set_title(MONTH_NAMES[month - 1], fontsize=8, pad=2)
                 cax = fig.add_axes((1 - 0.95 / size[0], 0.45 / size[1], 0.14 / size[0], 1 - 1.2 / size[1]))
