@@ -104,7 +104,7 @@ class FaradayClimatologyBlock(Batched):
     def trig_moments(self) -> dict:
         """``FaradayDistribution.trig_moments`` of every case, Men et al. (2021), eq. (9a-d): {name: (B,)}."""
         s = self._statistics()
-        cos2, cos4, sin2 = s["phi"][:, 0], s["phi"][:, 1], s["sin2"]
+        cos2, cos4, sin2 = s["phi2"].real, s["phi4"].real, s["phi2"].imag
         return {"c4": (3 + 4 * cos2 + cos4) / 8, "s4": (3 - 4 * cos2 + cos4) / 8, "c2s2": (1 - cos4) / 8,
                 "cs": sin2 / 2}
 
@@ -121,13 +121,15 @@ class FaradayClimatologyBlock(Batched):
 
     def _compute(self) -> dict:
         """Per case: mean, SD and mean |Omega| (rad), the acquisition means of vertical and slant TEC (el/m^2),
-        range delay (m) and B.k (T), the ``PERCENTILES`` of Omega (rad), Re phi_k for k = 2, 4, 6, 8 and
-        Im phi_2, with the operations of ``climatology_from_integrals`` and ``EmpiricalFaraday``."""
+        range delay (m) and B.k (T), the ``PERCENTILES`` of Omega (rad), Re phi_k for k = 2, 4, 6, 8 evaluated
+        together (``even_quadrature``) and phi_2, phi_4 each alone (``trig_moments``), with the operations of
+        ``climatology_from_integrals`` and ``EmpiricalFaraday``."""
         n_cases = len(self)
         out = {name: np.full(n_cases, np.nan) for name in ("mean", "sd", "mean_abs", "vtec", "stec", "range_delay",
-                                                           "b_dot_k", "sin2")}
+                                                           "b_dot_k")}
         out["percentiles"] = np.full((n_cases, len(PERCENTILES)), np.nan)
         out["phi"] = np.full((n_cases, _EVEN_HARMONICS.size), np.nan)
+        out["phi2"], out["phi4"] = np.full(n_cases, np.nan, complex), np.full(n_cases, np.nan, complex)
         x = lognormal_nodes(self.variability, self.nodes)
         seen = np.isfinite(self.faraday)
         count = seen.sum(-1)
@@ -150,9 +152,11 @@ class FaradayClimatologyBlock(Batched):
             out["vtec"][rows], out["stec"][rows] = _row_dot(vtec, acq), _row_dot(stec, acq)
             out["range_delay"][rows], out["b_dot_k"][rows] = _row_dot(range_delay(stec, f), acq), _row_dot(b_dot_k, acq)
             out["percentiles"][rows] = _percentiles(np.sort(samples, axis=-1), w)
-            # circular moments as EmpiricalFaraday.circular_moment: k = 2, 4, 6, 8 together, k = 2 alone
-            out["phi"][rows] = (np.exp(1j * _EVEN_HARMONICS[:, None] * samples[:, None, :]) @ w.astype(complex)).real
-            out["sin2"][rows] = _row_dot(np.exp(1j * np.asarray(2.0)[..., None] * samples), w.astype(complex)).imag
+            # circular moments as EmpiricalFaraday.circular_moment: k = 2, 4, 6, 8 together; k = 2 and 4 alone
+            wc = w.astype(complex)
+            out["phi"][rows] = (np.exp(1j * _EVEN_HARMONICS[:, None] * samples[:, None, :]) @ wc).real
+            for k in (2, 4):
+                out[f"phi{k}"][rows] = _row_dot(np.exp(1j * np.asarray(float(k))[..., None] * samples), wc)
         return out
 
 

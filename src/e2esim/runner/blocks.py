@@ -134,8 +134,7 @@ class BlockRun:
         results, positions = [], []
         by_case = np.ones(len(self.indices), dtype=bool)  # cases left for forward
         if any(getattr(stage, "forward_block", None) is not None for stage in stages.values()):
-            parts = np.ravel(np.unique(np.stack([stage_codes, self.settings_codes], -1), axis=0,
-                                       return_inverse=True)[1])
+            parts = _parts(stage_codes, self.settings_codes)
             for part in range(parts.max() + 1):
                 where = np.flatnonzero(parts == part)
                 new = self._run_batched(stages[int(stage_codes[where[0]])], self._settings(where[0]), where)
@@ -234,6 +233,13 @@ class BlockRun:
         case = Case(index=index, inputs=_LazyInputs(self.plan.table, index), settings=settings, rng=random,
                     products=_CaseProducts(self.products, position), services=self.services)
         return checked_products(stage, stage.forward(case))
+
+
+def _parts(stage_codes: np.ndarray, settings_codes: np.ndarray) -> np.ndarray:
+    """The number of each case's (stage object, settings) combination, 0 to m-1 (usually all 0)."""
+    if (stage_codes == stage_codes[0]).all() and (settings_codes == settings_codes[0]).all():
+        return np.zeros(len(stage_codes), dtype=np.int64)
+    return np.ravel(np.unique(np.stack([stage_codes, settings_codes], -1), axis=0, return_inverse=True)[1])
 
 
 _READ_BITS = 17  # a catalog holds at most CATALOG_ENTRIES + a block's cases values while a block runs
