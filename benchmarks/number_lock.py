@@ -8,7 +8,8 @@ Before a restructuring, save the numbers of the code as it is; afterwards, save 
     python benchmarks/number_lock.py compare /tmp/numbers-before /tmp/numbers-after
 
 ``save`` writes ``reproduce.json`` (``e2esim reproduce --json``), ``summaries/<scenario>.json`` (the
-summary.json of every shipped scenario, run at its own sizes) and ``results/<scenario>.json`` (the content of
+summary.json of every shipped scenario, run at its own sizes, or with the overrides of ``--set``: a smaller
+map, say) and ``results/<scenario>.json`` (the content of
 its results.h5: the labels as ``e2esim.open_results`` reads them, and every dataset, text given as codes
 read back as its text; ``results_h5_content``). ``compare`` checks every number of the first save against
 the second: reproduce records by id (computed value and status), in each summary every per-case scalar,
@@ -39,7 +40,7 @@ def _e2esim() -> list:
     return [sys.executable, "-m", "e2esim"]
 
 
-def save(folder: Path, scenarios: list | None = None) -> None:
+def save(folder: Path, scenarios: list | None = None, overrides: list | None = None) -> None:
     folder.mkdir(parents=True, exist_ok=True)
     (folder / "summaries").mkdir(exist_ok=True)
     out = subprocess.run(_e2esim() + ["reproduce", "--json"], capture_output=True, text=True, cwd=ROOT)
@@ -51,7 +52,8 @@ def save(folder: Path, scenarios: list | None = None) -> None:
         if scenarios and path.stem not in scenarios:
             continue
         with tempfile.TemporaryDirectory() as tmp:
-            run = subprocess.run(_e2esim() + ["run", str(path), "-o", tmp, "--force", "--no-progress"],
+            sets = [arg for value in overrides or () for arg in ("--set", value)]
+            run = subprocess.run(_e2esim() + ["run", str(path), "-o", tmp, "--force", "--no-progress", *sets],
                                  capture_output=True, text=True, cwd=ROOT)
             if run.returncode != 0:
                 raise SystemExit(f"{path.name} failed:\n{run.stderr}")
@@ -174,13 +176,15 @@ def main(argv=None) -> int:
     s = sub.add_parser("save", help="save every number into FOLDER")
     s.add_argument("folder", type=Path)
     s.add_argument("--scenario", action="append", help="only this scenario (repeatable)")
+    s.add_argument("--set", action="append", metavar="KEY=VALUE",
+                   help="run the scenarios with this override (repeatable; e2esim run --set), e.g. a smaller map")
     c = sub.add_parser("compare", help="compare two saves")
     c.add_argument("old", type=Path)
     c.add_argument("new", type=Path)
     c.add_argument("--rtol", type=float, default=1e-12)
     args = parser.parse_args(argv)
     if args.command == "save":
-        save(args.folder, args.scenario)
+        save(args.folder, args.scenario, args.set)
         return 0
     return compare(args.old, args.new, args.rtol)
 

@@ -184,8 +184,9 @@ def test_map_sweep_over_an_agb_map_keeps_its_forest_land_cells(tmp_path):
                 and agb[i, j] > 0}
     assert cells == expected and 0 < len(cells) < lat.size * lon.size  # the map's edge, no-forest pixels, ocean
     case = next(c for c in resolved.cases if c.inputs["scene.lat_deg"] == -1.5 and c.inputs["scene.lon_deg"] == 12.5)
-    scene = next(m for m in case.modules if m.kind == "scene")
-    assert scene.covariance.agb_t_ha == 132.0
+    scene = next(m for m in case.modules if m.kind == "scene")  # one module for every cell: it reads the case's
+    slot = next(s for s in resolved.plan.slots if s.kind == "scene")
+    assert len(slot.objects) == 1 and scene.scene_at(-1.5, 12.5).agb_t_ha == 132.0
 
 
 def test_cells_beyond_the_orbits_reach_are_left_out():

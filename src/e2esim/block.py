@@ -36,6 +36,10 @@ class Catalog(list):
         self._tables: dict = {}
         self.volatile = False
 
+    def __reduce__(self):
+        # the numbers are keyed by this process's ids: a copy numbers the same values afresh, in the same order
+        return _catalog_of, (list(self), self.volatile)
+
     def add(self, value) -> int:
         code = self._codes.get(id(value))
         if code is None:
@@ -66,6 +70,14 @@ class Catalog(list):
             state = extend(state, self[done:])
             self._tables[("extended", name)] = (len(self), state)
         return state
+
+
+def _catalog_of(values: list, volatile: bool) -> Catalog:
+    catalog = Catalog()
+    for value in values:
+        catalog.add(value)
+    catalog.volatile = volatile
+    return catalog
 
 
 @dataclass(frozen=True, eq=False)
@@ -233,6 +245,11 @@ def item(product, i: int):
     return product.item(i)
 
 
+def join(parts: list):
+    """Block products of consecutive parts (all ``Factor``s or all of one ``Batched`` type) as one."""
+    return _concatenate(parts, [len(p) for p in parts])
+
+
 def gather(product, get, dtype=float) -> np.ndarray:
     """``get`` of every case's one-case value of a ``Factor`` (once per distinct value), (B,) array."""
     if isinstance(product, Factor):
@@ -242,13 +259,21 @@ def gather(product, get, dtype=float) -> np.ndarray:
 
 @dataclass(frozen=True, eq=False)
 class Block:
-    """Cases that pass a stage together: their indices, the settings they share, their products so far, and the
-    runner's services. ``block[name]`` is a ``Factor`` or a ``Batched`` product."""
+    """Cases that pass a stage together: their indices, the settings they share, their products so far, the
+    runner's services and the sweep (``e2esim.runner.sweep.SweepTable``, None outside a run). ``block[name]``
+    is a ``Factor`` or a ``Batched`` product."""
 
     indices: np.ndarray
     settings: object
     products: Mapping
     services: object = None
+    sweep: object = None
+
+    def sweep_values(self, key: str) -> np.ndarray | None:
+        """The sweep value of ``key`` in every case, (B,) array; None when the sweep does not set it."""
+        if self.sweep is None or key not in self.sweep.keys:
+            return None
+        return self.sweep.column(key, self.indices)
 
     def __len__(self) -> int:
         return len(self.indices)
@@ -269,7 +294,8 @@ class Block:
     def take(self, positions) -> Block:
         """The block of the cases at ``positions``."""
         return Block(self.indices[positions], self.settings,
-                     {name: value.take(positions) for name, value in self.products.items()}, self.services)
+                     {name: value.take(positions) for name, value in self.products.items()}, self.services,
+                     self.sweep)
 
 
 class NotBatched(Exception):
@@ -337,4 +363,4 @@ class CaseRandom:
 
 
 __all__ = ["Batched", "Block", "BlockView", "CaseRandom", "Catalog", "Factor", "FactorView", "NotBatched", "Values",
-           "gather", "item"]
+           "gather", "item", "join"]

@@ -17,6 +17,8 @@ from collections.abc import Mapping
 from types import MappingProxyType
 from typing import Any, ClassVar
 
+import numpy as np
+
 from e2esim.errors import ConfigError, Location, PhysicsInputError
 from e2esim.params import to_si, validate_section
 
@@ -159,10 +161,33 @@ class Stage(Module, ABC):
     needs: ClassVar[tuple] = ()
     uses: ClassVar[tuple] = ()
     provides: ClassVar[tuple] = ()
+    case_params: ClassVar[tuple] = ()
+    """Parameters a sweep may set without a module per value (the cell, month and pass of a map sweep): the
+    runner builds one module, with the first case's values, and the stage reads each case's own value with
+    ``case_values`` (one case) or ``block_values`` (a block), so a sweep over 200 000 cells builds no 200 000
+    modules. Their values are checked against the parameters when the scenario is resolved."""
 
     @abstractmethod
     def forward(self, case) -> dict:
         """The products this stage adds to ``case``."""
+
+    def sweep_key(self, name: str) -> str:
+        """The dotted sweep key of parameter ``name`` of this stage's section (``ionosphere.month``)."""
+        return ".".join(str(p) for p in (*self.location.key_path, name))
+
+    def case_values(self, case) -> dict:
+        """``{name: value}`` of every ``case_params`` entry in ``case``: its sweep value, else the configured one
+        (values as configured, in the parameter's own unit)."""
+        return {name: case.inputs.get(self.sweep_key(name), self.config[name]) for name in self.case_params}
+
+    def block_values(self, block) -> dict:
+        """``{name: (B,) array}`` of every ``case_params`` entry over the cases of ``block`` (``case_values``
+        of each case)."""
+        out = {}
+        for name in self.case_params:
+            values = block.sweep_values(self.sweep_key(name))
+            out[name] = np.full(len(block), self.config[name]) if values is None else values
+        return out
 
 
 def fail(module: Module, problem: str, allowed: str | None = None, key: str | None = None) -> ConfigError:

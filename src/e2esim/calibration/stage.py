@@ -47,3 +47,14 @@ class CalibrationStrategy:
         # a transponder calibration has corrected), and the record keeps a summary of every step.
         record, residual_system, residual_faraday = record.simulate(case.rng, case.settings.realisations)
         return {"calibration": record, "system.residual": residual_system, "faraday.residual": residual_faraday}
+
+    def forward_block(self, block):
+        """``forward`` for a block of cases when there is no calibration section: the residual products are the
+        raw ones themselves (``UncalibratedBlock``); None (case by case) when there are steps to simulate."""
+        if self.modules:
+            return None
+        from e2esim.calibration.record_block import UncalibratedBlock
+
+        system, faraday = block["system"], block["faraday.geophysical"]
+        record = UncalibratedBlock(system, faraday, block.get("scene.covariance"))
+        return {"calibration": record, "system.residual": system, "faraday.residual": faraday}

@@ -26,6 +26,7 @@ from dataclasses import dataclass, fields
 
 import numpy as np
 
+from e2esim.block import Batched
 from e2esim.distortion.first_order import (
     SceneTerms,
     bias_terms,
@@ -149,11 +150,15 @@ class MomentInputs:
     @classmethod
     def gather(cls, scene, system, faraday, form: str) -> MomentInputs:
         """The inputs of a block of cases from its scene, system and Faraday-rotation products (``Factor``s of
-        ``e2esim.block``), each distinct value read once (and once per run when they come from a catalog)."""
+        ``e2esim.block``), each distinct value read once (and once per run when they come from a catalog); the
+        Faraday rotation may be a batched product that gives ``even_quadrature_weights`` and ``trig_moments``
+        of every case."""
         terms = scene.table("moment terms", lambda v: dataclasses.astuple(SceneTerms.from_covariance(v)))
         parts = system.table("moment system", lambda v: (*v.unit_structure, v.crosstalk_level, v.imbalance_level,
                                                          v.noise_power, *v.gain_power_moments))
-        if form == "paper":
+        if isinstance(faraday, Batched):  # a block of distributions (FaradayClimatologyBlock)
+            averaging = faraday.trig_moments() if form == "paper" else faraday.even_quadrature_weights()
+        elif form == "paper":
             trig = faraday.table("moment trig", lambda v: tuple(v.trig_moments().values()))
             averaging = dict(zip(("c4", "s4", "c2s2", "cs"), (x[faraday.index] for x in trig)))
         else:

@@ -14,7 +14,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from e2esim.block import Batched, Factor, Values
+from e2esim.block import Batched, Factor, Values, join
 from e2esim.distortion.analytic import HVErrorMoments, MomentInputs, moments_of
 from e2esim.distortion.error_model import (
     LEVELS,
@@ -30,7 +30,7 @@ from e2esim.faraday.distribution import ConstantFaraday
 _NO_ROTATION = ConstantFaraday(0.0)
 
 
-def block_inputs(scene: Factor, system: Factor, faraday: Factor, form: str) -> MomentInputs:
+def block_inputs(scene: Factor, system: Factor, faraday, form: str) -> MomentInputs:
     """``MomentInputs`` of every case of a block from its scene, residual system and Faraday-rotation products,
     each distinct value read once."""
     return MomentInputs.gather(scene, system, faraday, form)
@@ -40,15 +40,15 @@ def block_inputs(scene: Factor, system: Factor, faraday: Factor, form: str) -> M
 class HVErrorModelBlock(Batched, ErrorModel):
     """The ``HVErrorModel`` of B cases (``e2esim.block.Batched``).
 
-    scene, system, faraday : the block's products (``Factor``), for ``item``. inputs : their ``MomentInputs``
-    with case axis (B,). form, looks, reference : as ``HVErrorModel``. removed : the source this model lacks
-    relative to the block's model ("" for the model itself). inactive : (B,) where that source was not active
-    (the one-case model is then its own variant: ``without`` returns it).
+    scene, system, faraday : the block's products (``Factor``s; the Faraday rotation may be batched), for
+    ``item``. inputs : their ``MomentInputs`` with case axis (B,). form, looks, reference : as ``HVErrorModel``.
+    removed : the source this model lacks relative to the block's model ("" for the model itself). inactive :
+    (B,) where that source was not active (the one-case model is then its own variant: ``without`` returns it).
     """
 
     scene: Factor
     system: Factor
-    faraday: Factor
+    faraday: Factor | Batched
     inputs: MomentInputs
     form: str = "complete"
     looks: int | None = None
@@ -107,11 +107,12 @@ class HVErrorModelBlock(Batched, ErrorModel):
         inp = self.inputs
         n = len(self)
         if source == "faraday_rotation":
-            inactive = self.faraday.table("no rotation", lambda fr: fr.mean_rad == 0.0 and fr.sd_rad == 0.0)
+            inactive = self.faraday.no_rotation() if isinstance(self.faraday, Batched) else self.faraday.table(
+                "no rotation", lambda fr: fr.mean_rad == 0.0 and fr.sd_rad == 0.0)[self.faraday.index]
             rotation = _NO_ROTATION.trig_moments() if self.form == "paper" else _NO_ROTATION.even_quadrature()[1]
             averaging = ({k: np.full(n, v) for k, v in rotation.items()} if self.form == "paper"
                          else np.broadcast_to(rotation, (n, rotation.size)))
-            return self._variant(source, inactive[self.faraday.index], dataclasses.replace(inp, averaging=averaging))
+            return self._variant(source, inactive, dataclasses.replace(inp, averaging=averaging))
         if source == "gain":
             inactive = self.system.table("no gain error", lambda sy: not sy.has_gain_error)[self.system.index]
             return self._variant(source, inactive, dataclasses.replace(inp, gain=(np.ones(n), np.ones(n))))
@@ -157,7 +158,7 @@ class HVErrorModelBlock(Batched, ErrorModel):
         inputs = MomentInputs.concatenate([p.inputs for p in parts])
         return dataclasses.replace(first, scene=Factor.concatenate([p.scene for p in parts]),
                                    system=Factor.concatenate([p.system for p in parts]),
-                                   faraday=Factor.concatenate([p.faraday for p in parts]), inputs=inputs,
+                                   faraday=join([p.faraday for p in parts]), inputs=inputs,
                                    inactive=None if first.inactive is None else np.concatenate(
                                        [p.inactive for p in parts]), _memo={})
 

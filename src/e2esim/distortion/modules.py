@@ -101,7 +101,9 @@ class HVBackscatterErrorPropagation(Stage):
 
         c, s = self.si, block.settings
         scene, system, faraday = block["scene.covariance"], block["system.residual"], block["faraday.residual"]
-        if s.montecarlo or not s.analytic or not all(isinstance(p, Factor) for p in (scene, system, faraday)):
+        batched_faraday = hasattr(faraday, "even_quadrature_weights")  # FaradayClimatologyBlock
+        if s.montecarlo or not s.analytic or not all(isinstance(p, Factor) for p in (scene, system)) or not (
+                isinstance(faraday, Factor) or batched_faraday):
             return None
         plain = system.table("plain analytic", lambda v: not (analytic_problem(v) or analytic_caveat(v)))
         symmetric = scene.table("reflection symmetric", lambda v: v.is_reflection_symmetric())

@@ -18,13 +18,14 @@ from functools import lru_cache
 import numpy as np
 
 from e2esim import products as P
+from e2esim.block import Values, gather
 from e2esim.errors import PhysicsInputError
 from e2esim.faraday.cell_lookup import cell_integrals, month_table
-from e2esim.faraday.climatology import climatology_from_integrals
+from e2esim.faraday.climatology_block import FaradayClimatologyBlock, cell_climatology
 from e2esim.faraday.climatology_modules import SOLAR_PRESETS
 from e2esim.geomag.field import FIELD_KINDS, FieldModel
 from e2esim.geomag.igrf import IGRF_MODELS
-from e2esim.ionosphere.slant import METHODS, PathIntegrals, SlantSettings
+from e2esim.ionosphere.slant import METHODS, SlantSettings
 from e2esim.ionosphere.variability import DEFAULT_TEC_VARIABILITY
 from e2esim.module import Stage, fail
 from e2esim.orbit.acquisition import swath_incidences
@@ -109,6 +110,8 @@ class GlobalClimatologyLookup(Stage):
         Ordered("bottom_height_km", "shell_height_km"),
     )
 
+    case_params = ("lat_deg", "lon_deg", "month", "pass", "solar")  # a map sweep's cells, months and passes
+
     def setup(self):
         c = self.si
         o = c["orbit"]
@@ -118,41 +121,77 @@ class GlobalClimatologyLookup(Stage):
         self.orbit, self.incidence_deg = _orbit_and_swath(o["altitude_m"], o["ltan_hours"], o["look_side"],
                                                           o["earth_rotation"], o["incidence_near_rad"],
                                                           o["incidence_far_rad"], o["swath_samples"])
-        name = c["pass"]
-        self.pass_name = name if name in PASSES else self.orbit.pass_for_label(name)
-        self.pass_label = self.orbit.pass_label(self.pass_name)
-        self.f107 = c["f107_sfu"] if c["solar"] == "f107" else SOLAR_PRESETS[c["solar"]]
+        self.pass_name, self.pass_label, self.f107 = self.when(c["pass"], c["solar"])
         f = c["field"]
         self.settings = _slant_settings(c["method"], c["shell_height_m"], c["bottom_height_m"], c["layer_step_m"],
                                         f["model"], f["epoch"], f["coefficients"])
 
-    def table(self, services):
-        """The climatology table of this case's month and solar level (shared by every case of them)."""
+    def when(self, pass_name: str, solar: str) -> tuple:
+        """(the pass's name in ``PASSES``, its label, F10.7 (sfu)) of a pass (dawn, dusk, ascending,
+        descending) and a solar level (min, max, f107). Raises ``PhysicsInputError``."""
+        name = pass_name if pass_name in PASSES else self.orbit.pass_for_label(pass_name)
+        f107 = self.si["f107_sfu"] if solar == "f107" else SOLAR_PRESETS[solar]
+        if f107 is None:
+            raise PhysicsInputError("solar level f107 needs f107_sfu", key="f107_sfu")
+        return name, self.orbit.pass_label(name), f107
+
+    def table(self, services, month: int | None = None, f107: float | None = None):
+        """The climatology table of a month and solar level (F10.7, sfu), shared by every case of them
+        (default: the configured ones)."""
         c = self.si
-        return month_table(self.orbit, c["grid_step_deg"], c["month"], self.f107, self.incidence_deg, self.settings,
+        return month_table(self.orbit, c["grid_step_deg"], c["month"] if month is None else month,
+                           self.f107 if f107 is None else f107, self.incidence_deg, self.settings,
                            c["table_lat_range_deg"], c["table_lon_range_deg"], cache=services.cache_for(c["cache_dir"]),
                            executor=services.executor, progress=services.progress)
 
     def forward(self, case):
-        c = self.si
+        c, v = self.si, self.case_values(case)
         try:
-            table = self.table(case.services)
-            found = cell_integrals(table, PASSES.index(self.pass_name), c["lat_deg"], c["lon_deg"])
+            pass_name, pass_label, f107 = self.when(v["pass"], v["solar"])
+            found = cell_integrals(self.table(case.services, v["month"], f107), PASSES.index(pass_name),
+                                   v["lat_deg"], v["lon_deg"])
         except PhysicsInputError as exc:
             raise fail(self, str(exc), key=exc.key) from exc
-        seen = np.isfinite(found["faraday"])
-        if not np.any(seen):
-            raise fail(self, f"the {self.pass_label} pass of this orbit cannot see latitude {c['lat_deg']:g} deg at "
-                       "any swath position", "restrict the map's latitudes (sweep.map.lat_range_deg)", key="lat_deg")
-        n = int(seen.sum())
-        integrals = PathIntegrals(found["vtec"][seen][None], found["stec"][seen][None], found["faraday"][seen][None],
-                                  np.full(n, np.nan), np.full(n, np.nan), (self.f107,), c["method"])
-        where = f"{c['lat_deg']:g}N {c['lon_deg']:g}E"
-        clim = climatology_from_integrals(
-            integrals, 0, case["instrument"].centre_frequency_hz, c["tec_variability"], c["variability_nodes"],
-            None, [self.pass_label] * n, where, label=f"global climatology {where}, month {c['month']}, "
-            f"{self.pass_label}, F10.7 {self.f107:g} sfu")
+        self._check_seen(found["faraday"][None], [v["lat_deg"]], [pass_label])
+        clim = cell_climatology(found["faraday"], found["stec"], found["vtec"], case["instrument"].centre_frequency_hz,
+                                f107, c["tec_variability"], c["variability_nodes"], c["method"], pass_label,
+                                v["lat_deg"], v["lon_deg"], v["month"])
         return {"faraday.geophysical": clim}
+
+    def forward_block(self, block):
+        """``forward`` for a block of cases at once: each month, pass and solar level's table read for all of
+        its cells in one look-up (``FaradayClimatologyBlock``)."""
+        c, v = self.si, self.block_values(block)
+        n = len(block)
+        arrays = {name: np.full((n, len(self.incidence_deg)), np.nan) for name in ("faraday", "stec", "vtec")}
+        f107, labels = np.empty(n), np.empty(n, dtype=object)
+        when = Values.of(list(zip(v["month"].tolist(), v["pass"].tolist(), v["solar"].tolist())))
+        for code, (month, pass_given, solar) in enumerate(when.values):
+            rows = np.flatnonzero(when.index == code)
+            try:
+                pass_name, labels[rows], f107[rows] = self.when(pass_given, solar)
+                found = cell_integrals(self.table(block.services, month, f107[rows[0]]), PASSES.index(pass_name),
+                                       v["lat_deg"][rows].astype(float), v["lon_deg"][rows].astype(float))
+            except PhysicsInputError as exc:
+                raise fail(self, str(exc), key=exc.key) from exc
+            for name, values in arrays.items():
+                values[rows] = found[name]
+        self._check_seen(arrays["faraday"], v["lat_deg"], labels)
+        frequency = gather(block["instrument"], lambda instrument: instrument.centre_frequency_hz)
+        return {"faraday.geophysical": FaradayClimatologyBlock(
+            arrays["faraday"], arrays["stec"], arrays["vtec"], frequency, f107, v["lat_deg"].astype(float),
+            v["lon_deg"].astype(float), v["month"].astype(int), labels, c["tec_variability"], c["variability_nodes"],
+            c["method"])}
+
+    def _check_seen(self, faraday, lat_deg, pass_label) -> None:
+        """Refuse a case whose pass sees its cell at no swath position (faraday: (cases, positions), NaN where
+        not seen)."""
+        blind = np.flatnonzero(~np.any(np.isfinite(faraday), axis=-1))
+        if blind.size:
+            k = blind[0]
+            raise fail(self, f"the {pass_label[k]} pass of this orbit cannot see latitude {float(lat_deg[k]):g} deg "
+                       "at any swath position", "restrict the map's latitudes (sweep.map.lat_range_deg)",
+                       key="lat_deg")
 
 
 @lru_cache(maxsize=64)

@@ -5,7 +5,8 @@ swept (ocean, no forest) or a case lacks it, with ``units`` (UDUNITS), ``long_na
 has one, and ``e2esim_name``/``e2esim_units`` (the name and unit of results.h5). Besides them: the land fraction
 of each cell, its area weight (cos latitude) and, per requirement, the share of the swept (forest) area that
 meets it in each month, pass and solar level. The dataset is built from the ``Results`` of a run
-(``map_dataset``), which the report's maps also draw, and written atomically (``write_map_netcdf``).
+(``map_dataset``; ``map_dataset_of`` keeps it with the run), which the report's maps also draw, and written
+atomically (``write_map_netcdf``).
 """
 
 from __future__ import annotations
@@ -30,6 +31,17 @@ STANDARD_NAMES = {"scene.agb_t_ha": None}
 """CF standard names of output scalars; none of e2esim's quantities has one (AGB, Faraday rotation and the
 error statistics are not in the CF standard name table), so only the coordinates and the land fraction carry
 one. Kept as a table so that a name added to CF is added here."""
+
+
+def map_dataset_of(result):
+    """The map dataset of a run (a ``ScenarioResult`` of a map sweep), built once and kept with the run: the
+    writer of results.nc and the report's maps read the same one."""
+    cached = result.__dict__.get("_map_dataset")
+    if cached is None:
+        from e2esim.results import results_of
+
+        cached = result.__dict__["_map_dataset"] = map_dataset(results_of(result))
+    return cached
 
 
 def map_dataset(results):

@@ -35,13 +35,14 @@ def figure_settings():
     return matplotlib.rc_context({"figure.dpi": DPI})
 
 
-def save(fig, folder: Path, name: str, tight: bool | None = None) -> str:
+def save(fig, folder: Path, name: str, tight: bool | None = None, close: bool = True) -> str:
     """Write ``fig`` as ``folder/name.png`` (atomically); return the file name (``save_png``)."""
-    return save_png(fig, Path(folder) / f"{name}.png", tight)
+    return save_png(fig, Path(folder) / f"{name}.png", tight, close)
 
 
-def save_png(fig, path: Path, tight: bool | None = None) -> str:
-    """Write ``fig`` as the PNG ``path`` (atomically), close it and return the file name.
+def save_png(fig, path: Path, tight: bool | None = None, close: bool = True) -> str:
+    """Write ``fig`` as the PNG ``path`` (atomically), close it (unless ``close`` is false: a figure drawn again
+    with other data) and return the file name.
 
     tight : crop to the drawn artists (``bbox_inches="tight"``); None: only when the figure has a legend, title
     or text of its own, which ``tight_layout`` does not place (a figure legend below the axes, a suptitle):
@@ -54,5 +55,6 @@ def save_png(fig, path: Path, tight: bool | None = None) -> str:
     path = Path(path)
     with atomic_path(path) as tmp:
         fig.savefig(tmp, dpi=DPI, format="png", bbox_inches="tight" if tight else None)
-    plt.close(fig)
+    if close:
+        plt.close(fig)
     return path.name

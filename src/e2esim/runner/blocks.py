@@ -164,7 +164,7 @@ class BlockRun:
             return None
         products = self.products if len(where) == len(self.indices) else {
             name: value.take(where) for name, value in self.products.items()}
-        new = batched(Block(self.indices[where], settings, MappingProxyType(products), self.services))
+        new = batched(Block(self.indices[where], settings, MappingProxyType(products), self.services, self.plan.table))
         return None if new is None else _checked_block(stage, new, len(where))
 
     def _run_cases(self, step, stages: dict, stage_codes: np.ndarray, where: np.ndarray) -> dict:

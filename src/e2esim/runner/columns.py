@@ -125,12 +125,16 @@ def scalar_columns(products: dict, n: int, declarations: dict | None = None) -> 
     declared = dict(DECLARATIONS, **(declarations or {}))
     out: dict = {}
     written: list = []  # per earlier one-case product: the id of every case's object
+    batched: list = []  # earlier batched products
     for name, value in products.items():
         product = declared.get(name)
         if product is None or product.scalars is None:
             continue
         prefix = f"{product.scalars}." if product.scalars else ""
         if isinstance(value, Batched):
+            if any(value is earlier for earlier in batched):
+                continue  # the residual Faraday rotation when nothing corrected it: the same product
+            batched.append(value)
             columns = {k: Column(np.real(np.asarray(v)).astype(float)) for k, v in value.scalar_columns().items()}
         else:
             ids = _object_ids(value.values)[value.index]

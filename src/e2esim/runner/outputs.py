@@ -17,7 +17,7 @@ from pathlib import Path
 
 from e2esim.errors import OutputExistsError, OutputFolderError
 from e2esim.io.atomic import write_text_atomic
-from e2esim.io.map_netcdf import write_map_netcdf
+from e2esim.io.map_netcdf import map_dataset_of, write_map_netcdf
 from e2esim.io.results_h5 import write_results
 from e2esim.io.summary import write_summary
 from e2esim.runner.journal import JOURNAL, count_finished
@@ -126,7 +126,6 @@ def write_outputs(result, folder: Path) -> dict:
         before = {p.name for p in folder.iterdir()}
     except OSError as exc:
         raise OutputFolderError(f"{folder}: cannot create the output folder: {_reason(folder, exc)}") from exc
-    from e2esim.report.global_maps import map_dataset_of
     from e2esim.report.plots import make_plots  # imported here: matplotlib costs a second at start-up
     from e2esim.report.render import write_report
 

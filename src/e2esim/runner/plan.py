@@ -37,7 +37,8 @@ class Slot:
 
     kind : the module kind ("scene", "calibration", "requirement", ...) or "simulation". path : the key path
     of its section in the scenario (("scene",), ("calibration", 1), ("requirements", 0)). keys : the sweep keys
-    that set values in it. groups : indices of their sweep groups. objects : the distinct modules (or
+    that set values in it. case_keys : those of them its module reads per case (``Stage.case_params``), which
+    make no module per value. groups : indices of the sweep groups of the other keys. objects : the distinct modules (or
     ``SimulationSettings``), one per combination of the groups' positions. index : for a table sweep (zip or
     cases), the object number of every case; None for a grid, where it is the C-order position of the
     groups' positions in ``sizes`` (every combination occurs).
@@ -51,6 +52,7 @@ class Slot:
     objects: list = field(default_factory=list)
     index: np.ndarray | None = None
     shapes: np.ndarray | None = None  # chain-shape number of every object (modules only)
+    case_keys: tuple = ()
 
     def object_codes(self, codes: np.ndarray, indices: np.ndarray) -> np.ndarray:
         """Object number of each case, from the sweep positions ``codes`` of the cases ``indices``."""

@@ -244,11 +244,14 @@ class Scenario:
         slots = []
         for kind, path in self._slot_paths(keys, root):
             mine = [k for k in keys if k[1][:len(path)] == path]
-            groups = tuple(sorted({k[2] for k in mine}))
-            slot = Slot(kind, path, tuple(k[0] for k in mine), groups, tuple(table.sizes[g] for g in groups))
+            per_case = self._case_keys(kind, path, mine, table)
+            built = [k for k in mine if k not in per_case]  # keys that make a module per value
+            groups = tuple(sorted({k[2] for k in built}))
+            slot = Slot(kind, path, tuple(k[0] for k in mine), groups, tuple(table.sizes[g] for g in groups),
+                        case_keys=tuple(k[0] for k in per_case))
             combos, firsts, slot.index = combinations(table, groups)
             for combo, first in zip(combos, firsts):
-                slot.objects.append(self._build_object(slot, mine, combo, int(first), table, cache))
+                slot.objects.append(self._build_object(slot, built, combo, int(first), table, cache, per_case))
             slots.append(slot)
         plan = SweepPlan(table, slots, root)
         for slot in plan.module_slots:
@@ -278,13 +281,36 @@ class Scenario:
         out += [("requirement", ("requirements", i)) for i in range(len(reqs))]
         return out + [("simulation", ("simulation",))]
 
-    def _build_object(self, slot: Slot, keys: list, combo, first: int, table, cache: dict):
+    def _case_keys(self, kind: str, path: tuple, mine: list, table) -> list:
+        """The keys of ``mine`` that the slot's module reads per case (``Stage.case_params``; none when a key
+        sets the module's type), each distinct value checked against its parameter."""
+        rest = [k[1][len(path):] for k in mine]
+        raw = self.raw.get(path[0])
+        if len(path) == 2:
+            raw = raw[path[1]] if isinstance(raw, list) and path[1] < len(raw) else None
+        if not mine or ("type",) in rest or not isinstance(raw, dict) or not isinstance(raw.get("type"), str):
+            return []
+        try:
+            cls = registry.lookup(kind, raw["type"])
+        except ModuleLookupError:
+            return []  # reported where the section is built
+        per_case = [k for k, r in zip(mine, rest) if len(r) == 1 and r[0] in getattr(cls, "case_params", ())]
+        for _, key_path, g, p in per_case:
+            param = find_param(cls.params, key_path[-1])
+            where = Location(self.source, key_path[:-1], self.lines)
+            for value in dict.fromkeys(v[p] for v in table.groups[g].values if v[p] is not _ABSENT):
+                validate_section((param,), {param.name: value}, where)
+        return per_case
+
+    def _build_object(self, slot: Slot, keys: list, combo, first: int, table, cache: dict, per_case=()):
         """The module (or settings) of ``slot`` for one combination of its sweep groups' positions; ``first`` is
-        the first case that has it (named in messages)."""
+        the first case that has it (named in messages) and gives the values of the keys read ``per_case``."""
         config = dict(self.raw)  # sections a case overrides are copied on the way down (_set_path, copy=True)
         lines = dict(self.lines)
-        for key, path, g, p in keys:
-            value = table.groups[g].values[combo[slot.groups.index(g)]][p]
+        codes = table.codes([first])[0] if per_case else None
+        for key, path, g, p in [*keys, *per_case]:
+            position = combo[slot.groups.index(g)] if g in slot.groups else codes[g]
+            value = table.groups[g].values[position][p]
             if value is _ABSENT:
                 continue
             _set_path(config, path, value, Location(self.source, path, lines), copy_on_write=True)

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -60,6 +60,7 @@ class SweepTable:
     layout: str
     groups: tuple
     table: np.ndarray | None = None
+    _distinct: dict = field(default_factory=dict, repr=False)  # sweep key -> its group's values (``column``)
 
     @property
     def keys(self) -> tuple:
@@ -94,6 +95,15 @@ class SweepTable:
                 if value is not _ABSENT:
                     out[key] = value
         return out
+
+    def column(self, key: str, indices) -> np.ndarray:
+        """The value of sweep key ``key`` in the cases ``indices``, (len(indices),) array (None where a case of
+        ``cases`` does not set it), made from the distinct values of its group."""
+        g, k = next((g, group.keys.index(key)) for g, group in enumerate(self.groups) if key in group.keys)
+        if key not in self._distinct:
+            distinct = [None if values[k] is _ABSENT else values[k] for values in self.groups[g].values]
+            self._distinct[key] = np.asarray(distinct, dtype=None if None not in distinct else object)
+        return self._distinct[key][self.codes(indices)[:, g]]
 
     def all_inputs(self) -> list:
         return [self.inputs(i) for i in range(self.n)]

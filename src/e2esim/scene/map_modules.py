@@ -16,11 +16,13 @@ from dataclasses import replace
 import numpy as np
 
 from e2esim import products as P
-from e2esim.module import Stage
+from e2esim.block import Catalog, Factor, Values
+from e2esim.errors import PhysicsInputError
+from e2esim.module import Stage, fail
 from e2esim.params import Param
 from e2esim.scene.agb_model import forest_covariance
 from e2esim.scene.covariance import ScatteringCovariance
-from e2esim.scene.map_forest import FOREST_PARAMS, ForestSource, check_forest_point
+from e2esim.scene.map_forest import FOREST_PARAMS, NO_FOREST, ForestSource, check_forest_point
 from e2esim.scene.table1 import TABLE1_FORESTS
 
 
@@ -41,20 +43,55 @@ class AGBMapScene(Stage):
     )
     provides = (P.SCENE,)
 
+    case_params = ("lat_deg", "lon_deg")  # a map sweep's cells
+
     def setup(self):
         c = self.si
-        source = ForestSource.from_si(c, self.location.source)
-        self.biome, self.agb_t_ha = check_forest_point(source, c["lat_deg"], c["lon_deg"])
-        where = f"at {c['lat_deg']:g}N {c['lon_deg']:g}E"
-        if source.agb_map is None:
-            name = source.forest_name(self.biome)
+        self.source = ForestSource.from_si(c, self.location.source)
+        self._scenes, self._codes = Catalog(), {}  # the scene of every forest met so far, and its number there
+        self.covariance = self.scene_at(c["lat_deg"], c["lon_deg"])
+
+    def scene_at(self, lat_deg: float, lon_deg: float) -> ScatteringCovariance:
+        """The covariance of the cell at (lat, lon) (deg). Raises ``PhysicsInputError`` for a cell without
+        forest."""
+        return self._scenes[self._code(*check_forest_point(self.source, lat_deg, lon_deg))]
+
+    def _code(self, biome: str, agb_t_ha: float) -> int:
+        """The number of the scene of a biome and AGB (t/ha) in ``_scenes``, made once: cells of the same
+        forest share it."""
+        code = self._codes.get((biome, agb_t_ha))
+        if code is None:
+            code = self._codes[(biome, agb_t_ha)] = self._scenes.add(self._covariance(biome, agb_t_ha))
+        return code
+
+    def _covariance(self, biome: str, agb_t_ha: float) -> ScatteringCovariance:
+        if self.source.agb_map is None:
+            name = self.source.forest_name(biome)
             _, agb, hh, hv, vv, r, theta = TABLE1_FORESTS[name]
-            self.covariance = ScatteringCovariance.from_powers(
-                hh, hv, vv, r, np.radians(theta), agb_t_ha=agb, biome=self.biome,
-                label=f"{name} {where} (latitude band; Men et al. 2021, Table I)")
-        else:
-            self.covariance = replace(forest_covariance(self.biome, self.agb_t_ha, c["exponent"]),
-                                      label=f"{self.biome} {self.agb_t_ha:.4g} t/ha {where} (AGB map)")
+            return ScatteringCovariance.from_powers(hh, hv, vv, r, np.radians(theta), agb_t_ha=agb, biome=biome,
+                                                    label=f"{name} (latitude band; Men et al. 2021, Table I)")
+        return replace(forest_covariance(biome, agb_t_ha, self.si["exponent"]),
+                       label=f"{biome} {agb_t_ha:.4g} t/ha (AGB map)")
 
     def forward(self, case):
-        return {"scene.covariance": self.covariance}
+        v = self.case_values(case)
+        try:
+            return {"scene.covariance": self.scene_at(v["lat_deg"], v["lon_deg"])}
+        except PhysicsInputError as exc:
+            raise fail(self, str(exc), key=exc.key) from exc
+
+    def forward_block(self, block):
+        """``forward`` for a block of cases: the forest of every cell looked up at once, each forest's scene
+        made once per run (a ``Factor``)."""
+        v = self.block_values(block)
+        lat, lon = v["lat_deg"].astype(float), v["lon_deg"].astype(float)
+        biome, agb = self.source.forest(lat, lon)
+        none = np.flatnonzero(biome == NO_FOREST)
+        if none.size:  # the message of the first such cell
+            try:
+                check_forest_point(self.source, lat[none[0]], lon[none[0]])
+            except PhysicsInputError as exc:
+                raise fail(self, str(exc), key=exc.key) from exc
+        forests = Values.of(list(zip(biome.tolist(), agb.tolist())))
+        codes = np.array([self._code(b, a) for b, a in forests.values], dtype=np.int64)
+        return {"scene.covariance": Factor(self._scenes, codes[forests.index])}

@@ -1,0 +1,52 @@
+"""Map sweeps run block by block (issue 14): one scene and one ionosphere module for every cell, month and pass
+(``Stage.case_params``), and block products that give each case exactly its one-case products."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from e2esim.errors import ConfigError
+from e2esim.faraday.climatology_block import FaradayClimatologyBlock
+from e2esim.runner.blocks import BlockRun
+from e2esim.runner.run import default_services, run_case
+from e2esim.runner.scenario import Scenario
+
+
+def test_a_block_of_map_cases_gets_each_cases_own_climatology_and_scene(quick_run):
+    result, _ = quick_run("biomass_global_map")
+    resolved = result.scenario
+    plan = resolved.plan
+    slots = {s.kind: s for s in plan.slots}
+    assert len(slots["scene"].objects) == 1 and slots["scene"].case_keys == ("scene.lat_deg", "scene.lon_deg")
+    assert len(slots["ionosphere"].objects) == 1 and len(slots["ionosphere"].case_keys) == 5
+    indices = np.arange(len(resolved.cases))
+    products = BlockRun(plan, indices, default_services()).run()
+    faraday = products["faraday.geophysical"]
+    assert isinstance(faraday, FaradayClimatologyBlock) and products["faraday.residual"] is faraday
+    columns, weights, trig = faraday.scalar_columns(), faraday.even_quadrature_weights(), faraday.trig_moments()
+    seen = np.isfinite(faraday.faraday).sum(-1)
+    picks = {0, len(indices) - 1, int(np.argmin(seen)), int(np.argmax(seen))}  # cells seen at fewer positions
+    for k in sorted(picks):
+        case = run_case(resolved.cases[k], default_services())
+        one = case.products["faraday.geophysical"]
+        item = faraday.item(k)
+        assert item.label == one.label and one.label.startswith("global climatology ")
+        assert np.array_equal(item.samples, one.samples) and np.array_equal(item.weights, one.weights)
+        for name, value in one.scalars().items():  # bit for bit, not to a tolerance
+            assert columns[name][k] == value or (np.isnan(value) and np.isnan(columns[name][k])), name
+        assert np.array_equal(weights[k], one.even_quadrature()[1])
+        assert all(trig[name][k] == value for name, value in one.trig_moments().items())
+        assert products["scene.covariance"].item(k) is case.products["scene.covariance"]
+    assert len(products["scene.covariance"].values) == 2  # the tropical and the boreal forest, not one per cell
+
+
+def test_values_a_sweep_gives_a_case_parameter_are_each_validated():
+    raw = {"scene": {"type": "forest_agb_model", "biome": "tropical"}, "instrument": {"type": "biomass"},
+           "ionosphere": {"type": "global_climatology", "lat_deg": 0.5, "lon_deg": 20.5, "month": 1},
+           "sweep": {"parameters": {"ionosphere.month": [1, 13]}}}
+    with pytest.raises(ConfigError, match="month"):
+        Scenario(raw, "months.yaml").resolve()
+    raw["sweep"]["parameters"]["ionosphere.month"] = [1, 7]
+    plan = Scenario(raw, "months.yaml").resolve().plan
+    assert len(next(s for s in plan.slots if s.kind == "ionosphere").objects) == 1
