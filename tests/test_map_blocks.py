@@ -50,3 +50,12 @@ def test_values_a_sweep_gives_a_case_parameter_are_each_validated():
     raw["sweep"]["parameters"]["ionosphere.month"] = [1, 7]
     plan = Scenario(raw, "months.yaml").resolve().plan
     assert len(next(s for s in plan.slots if s.kind == "ionosphere").objects) == 1
+
+
+def test_a_case_parameter_some_cases_leave_unset_makes_modules_as_any_key():
+    raw = {"scene": {"type": "forest_agb_model", "biome": "tropical"}, "instrument": {"type": "biomass"},
+           "ionosphere": {"type": "global_climatology", "lat_deg": 0.5, "lon_deg": 20.5, "month": 1},
+           "sweep": {"cases": [{"ionosphere.month": 3}, {"scene.agb_t_ha": 100}]}}
+    resolved = Scenario(raw, "cases.yaml").resolve()
+    months = [next(m for m in resolved.cases[i].modules if m.kind == "ionosphere").config["month"] for i in (0, 1)]
+    assert months == [3, 1]  # the second case has the scenario's own month, not the first case's

@@ -58,7 +58,15 @@ class FaradayClimatology(EmpiricalFaraday):
         return {**super().scalars(), **self.summary()}
 
     def summary(self) -> dict:
-        """Scalars for reports: Omega mean, SD, mean |Omega|, percentiles (deg); TEC (TECU); delays."""
+        """Scalars for reports: Omega mean, SD, mean |Omega|, percentiles (deg); TEC (TECU); delays. Computed once
+        per climatology (the writers ask for every product's scalars, and a climatology is shared by many cases);
+        a copy each time."""
+        memo = self.__dict__.setdefault("_summary_memo", {})
+        if "summary" not in memo:
+            memo["summary"] = self._summary()
+        return dict(memo["summary"])
+
+    def _summary(self) -> dict:
         w = self.acquisition_weight / self.acquisition_weight.sum()
         out = {
             "omega_mean_deg": np.degrees(self.mean_rad), "omega_sd_deg": np.degrees(self.sd_rad),

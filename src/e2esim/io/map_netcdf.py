@@ -116,7 +116,9 @@ def area_fraction(passed, weight) -> np.ndarray:
 
 def write_map_netcdf(ds, path) -> None:
     """Write a map dataset (``map_dataset``) to ``path`` (NetCDF-4, compressed), atomically."""
-    encoding = {name: {"zlib": True, "complevel": 1} for name in ds.data_vars}
+    # no shuffle filter: the variables are mostly NaN (unswept cells), which zlib packs as well without it, and
+    # the filter costs a tenth of the writing time of a global map
+    encoding = {name: {"zlib": True, "complevel": 1, "shuffle": False} for name in ds.data_vars}
     with atomic_path(path) as tmp:
         ds.to_netcdf(tmp, engine="netcdf4", encoding=encoding)
 

@@ -16,11 +16,12 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
-from matplotlib.colors import ListedColormap
+from matplotlib.cm import ScalarMappable
+from matplotlib.colors import ListedColormap, Normalize
 from matplotlib.ticker import MultipleLocator
 
 from e2esim.io.map_netcdf import map_dataset_of
-from e2esim.report.plot_base import PlotSkipped, save
+from e2esim.report.plot_base import PlotSkipped, save, save_drawn
 from e2esim.runner.map_sweep import is_map_sweep
 
 MONTH_NAMES = ("Jan", "Feb", "Mar", "Apr", "May", "Jun", "Jul", "Aug", "Sep", "Oct", "Nov", "Dec")
@@ -92,7 +93,7 @@ def plot_map_sweep(result, folder: Path, options: dict) -> list:
             for s, solar in enumerate(ds["solar"].values):
                 for p, pass_name in enumerate(ds["pass"].values):
                     panels.show(values[s, p], cmap, vmin, vmax, limit, f"{title}\n{pass_name} pass, solar {solar}")
-                    name = save(panels.fig, folder, f"{stem}_{pass_name}_{solar}", tight=False, close=False)
+                    name = save_drawn(panels.fig, folder, f"{stem}_{pass_name}_{solar}")
                     out.append((name, f"Map of the {title}, {pass_name} pass, solar {solar}, one panel per month; "
                                 "grey: land left out of the sweep (no forest class), white: ocean. Cells of "
                                 f"{panels.step:g} deg."))
@@ -102,8 +103,10 @@ def plot_map_sweep(result, folder: Path, options: dict) -> list:
 
 
 class MonthPanels:
-    """A figure of one map panel per month of a map dataset, made once and shown again for every quantity, pass
-    and solar level: making the panels (axes, ticks, the land underneath) costs more than drawing them."""
+    """A figure of one map panel per month of a map dataset, made and drawn once, then shown again for every
+    quantity, pass and solar level: the panels (axes, ticks, grid lines, the land underneath) are drawn once into
+    a background, and each figure redraws only its values (images over that background, so the grid lines show
+    over land and ocean, not over the swept cells), the panels' frames, its colour bar and its title."""
 
     def __init__(self, ds):
         lat, lon = ds["lat"].values, ds["lon"].values
@@ -130,10 +133,13 @@ class MonthPanels:
         for k, month in enumerate(months):
             ax = self.fig.add_subplot(grid[k // ncol, k % ncol])
             ax.imshow(np.where(land, 1.0, np.nan), cmap=ListedColormap([LAND_GREY]), **cells)
-            self.images.append(ax.imshow(np.full(land.shape, np.nan), **cells))
+            self.images.append(ax.imshow(np.full(land.shape, np.nan), animated=True, **cells))  # not in the background
             _frame(ax, lon_edges, ylim, first_column=k % ncol == 0, last_row=k // ncol == nrow - 1)
-            ax.set_title(MONTH_NAMES[month - 1], fontsize=8, pad=2, y=1.0)  # y: placed once, not at every draw
+            ax.set_title(MONTH_NAMES[month - 1], fontsize=8, pad=2)
         self.bar = None
+        self.title = self.fig.text(0.5, 1 - 0.08 / size[1], "", fontsize=9, ha="center", va="top", animated=True)
+        self.fig.canvas.draw()
+        self.background = self.fig.canvas.copy_from_bbox(self.fig.bbox)
 
     def show(self, values, cmap, vmin, vmax, limit, title: str) -> None:
         """Show ``values`` (month, lat, lon) with a colour bar from ``vmin`` to ``vmax`` (a black line at
@@ -146,13 +152,22 @@ class MonthPanels:
             self.bar.remove()
         size = self.size
         cax = self.fig.add_axes((1 - 0.95 / size[0], 0.45 / size[1], 0.14 / size[0], 1 - 1.2 / size[1]))
-        self.bar = bar = self.fig.colorbar(self.images[-1], cax=cax)
+        # a mappable of its own: a colour bar of a panel's image would reset that panel's position when removed
+        self.bar = bar = self.fig.colorbar(ScalarMappable(Normalize(vmin, vmax), cmap), cax=cax)
         if cmap is PASS_FAIL:
             bar.set_ticks([0, 1], labels=["fails", "passes"])
         if limit is not None and np.isfinite(limit):
             bar.ax.axhline(limit, color="k", lw=1.5)
         bar.ax.tick_params(labelsize=7)
-        self.fig.suptitle(title, fontsize=9, y=1 - 0.08 / size[1], va="top")
+        self.title.set_text(title)
+        canvas = self.fig.canvas
+        canvas.restore_region(self.background)
+        for image in self.images:
+            image.axes.draw_artist(image)
+            for spine in image.axes.spines.values():
+                image.axes.draw_artist(spine)
+        self.fig.draw_artist(cax)
+        self.fig.draw_artist(self.title)
 
 
 def _frame(ax, lon_edges, ylim, first_column: bool, last_row: bool) -> None:

@@ -16,6 +16,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import matplotlib
+import matplotlib.image
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt
@@ -35,14 +36,22 @@ def figure_settings():
     return matplotlib.rc_context({"figure.dpi": DPI})
 
 
-def save(fig, folder: Path, name: str, tight: bool | None = None, close: bool = True) -> str:
+def save(fig, folder: Path, name: str, tight: bool | None = None) -> str:
     """Write ``fig`` as ``folder/name.png`` (atomically); return the file name (``save_png``)."""
-    return save_png(fig, Path(folder) / f"{name}.png", tight, close)
+    return save_png(fig, Path(folder) / f"{name}.png", tight)
 
 
-def save_png(fig, path: Path, tight: bool | None = None, close: bool = True) -> str:
-    """Write ``fig`` as the PNG ``path`` (atomically), close it (unless ``close`` is false: a figure drawn again
-    with other data) and return the file name.
+def save_drawn(fig, folder: Path, name: str) -> str:
+    """Write the canvas of ``fig`` as it was last drawn, with no new drawing pass (a figure redrawn in parts,
+    ``e2esim.report.global_maps.MonthPanels``), as ``folder/name.png`` (atomically); return the file name."""
+    path = Path(folder) / f"{name}.png"
+    with atomic_path(path) as tmp:
+        matplotlib.image.imsave(tmp, fig.canvas.buffer_rgba(), format="png", origin="upper", dpi=fig.dpi)
+    return path.name
+
+
+def save_png(fig, path: Path, tight: bool | None = None) -> str:
+    """Write ``fig`` as the PNG ``path`` (atomically), close it and return the file name.
 
     tight : crop to the drawn artists (``bbox_inches="tight"``); None: only when the figure has a legend, title
     or text of its own, which ``tight_layout`` does not place (a figure legend below the axes, a suptitle):
@@ -55,6 +64,5 @@ def save_png(fig, path: Path, tight: bool | None = None, close: bool = True) -> 
     path = Path(path)
     with atomic_path(path) as tmp:
         fig.savefig(tmp, dpi=DPI, format="png", bbox_inches="tight" if tight else None)
-    if close:
-        plt.close(fig)
+    plt.close(fig)
     return path.name

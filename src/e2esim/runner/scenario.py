@@ -283,7 +283,8 @@ class Scenario:
 
     def _case_keys(self, kind: str, path: tuple, mine: list, table) -> list:
         """The keys of ``mine`` that the slot's module reads per case (``Stage.case_params``; none when a key
-        sets the module's type), each distinct value checked against its parameter."""
+        sets the module's type; not a key some case of ``cases`` leaves unset, whose value would then be the first
+        case's), each distinct value checked against its parameter."""
         rest = [k[1][len(path):] for k in mine]
         raw = self.raw.get(path[0])
         if len(path) == 2:
@@ -294,11 +295,12 @@ class Scenario:
             cls = registry.lookup(kind, raw["type"])
         except ModuleLookupError:
             return []  # reported where the section is built
-        per_case = [k for k, r in zip(mine, rest) if len(r) == 1 and r[0] in getattr(cls, "case_params", ())]
+        per_case = [k for k, r in zip(mine, rest) if len(r) == 1 and r[0] in getattr(cls, "case_params", ())
+                    and all(v[k[3]] is not _ABSENT for v in table.groups[k[2]].values)]
         for _, key_path, g, p in per_case:
             param = find_param(cls.params, key_path[-1])
             where = Location(self.source, key_path[:-1], self.lines)
-            for value in dict.fromkeys(v[p] for v in table.groups[g].values if v[p] is not _ABSENT):
+            for value in {repr(v[p]): v[p] for v in table.groups[g].values}.values():  # each distinct value once
                 validate_section((param,), {param.name: value}, where)
         return per_case
 
