@@ -17,9 +17,10 @@ import numpy as np
 from e2esim.block import Batched, Factor, Values, join
 from e2esim.distortion.analytic import HVErrorMoments, MomentInputs, moments_of
 from e2esim.distortion.error_model import (
+    _LEVEL_SOURCES,
     LEVELS,
-    SOURCES,
     HVErrorModel,
+    SystemLevels,
     _row,
     analytic_scalars,
     split_contributions,
@@ -37,7 +38,7 @@ def block_inputs(scene: Factor, system: Factor, faraday, form: str) -> MomentInp
 
 
 @dataclass(frozen=True, eq=False)
-class HVErrorModelBlock(Batched, ErrorModel):
+class HVErrorModelBlock(Batched, SystemLevels, ErrorModel):
     """The ``HVErrorModel`` of B cases (``e2esim.block.Batched``).
 
     scene, system, faraday : the block's products (``Factor``s; the Faraday rotation may be batched), for
@@ -65,21 +66,13 @@ class HVErrorModelBlock(Batched, ErrorModel):
         return len(self.inputs.levels[0])
 
     @property
-    def includes_speckle(self) -> bool:
-        return self.reference == "population"
-
-    @property
     def value(self) -> np.ndarray:
         return self.inputs.terms.sigma_hv
 
     @property
-    def levels(self) -> dict:
+    def levels(self) -> dict:  # the block's arrays, not its system products'
         xs, es, ns = self.inputs.levels
         return {"crosstalk": xs, "channel_imbalance": es, "nesz": ns}
-
-    @property
-    def sources(self) -> tuple:
-        return SOURCES
 
     def moments(self, crosstalk=None, channel_imbalance=None, nesz=None, **unknown) -> HVErrorMoments:
         if unknown:
@@ -92,18 +85,10 @@ class HVErrorModelBlock(Batched, ErrorModel):
             self._memo["current"] = self.moments()
         return self._memo["current"]
 
-    # Sources removed ----------------------------------------------------------------------------------------
-    def without(self, source: str) -> HVErrorModelBlock:
+    # Sources removed (``SystemLevels.without`` memoises each) ---------------------------------------------
+    def _without(self, source: str) -> HVErrorModelBlock:
         """The block's models with ``source`` removed; ``inactive`` marks the cases where it was not active
         (their one-case ``without`` is the model itself)."""
-        if source not in SOURCES:
-            raise KeyError(f"unknown error source {source!r}; sources: {', '.join(SOURCES)}")
-        key = f"without {source}"
-        if key not in self._memo:
-            self._memo[key] = self._without(source)
-        return self._memo[key]
-
-    def _without(self, source: str) -> HVErrorModelBlock:
         inp = self.inputs
         n = len(self)
         if source == "faraday_rotation":
@@ -122,7 +107,7 @@ class HVErrorModelBlock(Batched, ErrorModel):
             self._memo["level variants"] = self.moments(crosstalk=np.stack([z, xs, xs], -1),
                                                         channel_imbalance=np.stack([es, z, es], -1),
                                                         nesz=np.stack([ns, ns, z], -1))
-        row = {"crosstalk": 0, "channel_imbalance": 1, "noise": 2}[source]
+        row = _LEVEL_SOURCES[source]
         levels = [xs, es, ns]
         levels[row] = np.zeros(n)
         variant = self._variant(source, np.zeros(n, dtype=bool), dataclasses.replace(inp, levels=tuple(levels)))

@@ -341,7 +341,7 @@ def _power_law_moments_at(mean, sd, exponent, sigma, nodes, weights) -> tuple:
         q *= exponent[:, None]
         np.expm1(q, out=q)
     q[~(x > -1.0)] = -1.0  # an estimate at or below zero: q = -1 (agb_relative_error)
-    first = (q * weights).sum(-1)  # hermite_average
+    first = (q * weights).sum(-1)  # hermite_average, with this rule's weights
     np.square(q, out=q)
     return first, (q * weights).sum(-1)
 

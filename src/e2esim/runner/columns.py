@@ -43,6 +43,17 @@ class Column:
         return Column(values, present)
 
 
+def dict_columns(rows: list) -> dict:
+    """{key: Column} of one-case {key: number} mappings, keys in first-seen order, NaN and not present where a
+    mapping lacks the key."""
+    columns = {}
+    for key in dict.fromkeys(k for row in rows for k in row):
+        values = np.array([row.get(key, np.nan) for row in rows], dtype=float)
+        present = np.array([key in row for row in rows], dtype=bool)
+        columns[key] = Column(values, None if present.all() else present)
+    return columns
+
+
 @dataclass
 class RequirementColumns:
     """The verdicts of one requirement over cases: text fields as ``Values``, numbers as float arrays,
@@ -77,12 +88,7 @@ class RequirementColumns:
     @classmethod
     def from_verdicts(cls, verdicts: list) -> RequirementColumns:
         """From one-case ``RequirementVerdict``s."""
-        keys = list(dict.fromkeys(k for v in verdicts for k in v.details))
-        details = {}
-        for key in keys:
-            values = np.array([v.details.get(key, np.nan) for v in verdicts], dtype=float)
-            present = np.array([key in v.details for v in verdicts], dtype=bool)
-            details[key] = Column(values, None if present.all() else present)
+        details = dict_columns([v.details for v in verdicts])
         curves = None
         if any(v.curves for v in verdicts):
             curves = Values([v.curves for v in verdicts], np.arange(len(verdicts)))

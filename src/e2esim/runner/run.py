@@ -28,9 +28,9 @@ from e2esim.errors import UserError
 from e2esim.io.array_cache import open_cache
 from e2esim.io.provenance import dependency_versions, source_commit
 from e2esim.runner.columns import (
-    Column,
     RequirementColumns,
     case_notes,
+    dict_columns,
     requirement_columns,
     scalar_columns,
     source_group_column,
@@ -118,12 +118,7 @@ class BlockResult:
     def from_cases(cls, results: list) -> BlockResult:
         """From one-case results of the per-case runner (``run_case``)."""
         n = len(results)
-        names = list(dict.fromkeys(k for r in results for k in r.scalars))
-        scalars = {}
-        for name in names:
-            values = np.array([r.scalars.get(name, np.nan) for r in results], dtype=float)
-            present = np.array([name in r.scalars for r in results], dtype=bool)
-            scalars[name] = Column(values, None if present.all() else present)
+        scalars = dict_columns([r.scalars for r in results])
         count = len(results[0].verdicts) if results else 0
         requirements = [RequirementColumns.from_verdicts([r.verdicts[j] for r in results]) for j in range(count)]
         groups = [{c.name: c.group for c in getattr(r.products.get("agb.error"), "contributions", ())}
