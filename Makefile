@@ -11,6 +11,7 @@ $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
 	$(BIN)/python -m pip install --quiet -e ".[test]"
+	$(BIN)/python -m compileall -q src  # bytecode, as a regular install has (PYTHONDONTWRITEBYTECODE may be set)
 	@touch $(STAMP)
 
 demo: $(STAMP)  ## install and run the default BIOMASS scenario

@@ -139,7 +139,7 @@ def end_to_end(resolve, folder: Path, workers: int = 1) -> dict:
     t0 = time.perf_counter()
     resolved = resolve()
     t1 = time.perf_counter()
-    result = run_scenario(resolved, progress=False, workers=workers)
+    result = run_scenario(resolved, progress=False, workers=workers, spill_folder=folder)  # as e2esim run does
     t2 = time.perf_counter()
     peak_run = peak_gib()
     write_outputs(result, folder)

@@ -170,7 +170,7 @@ def cmd_run(args) -> int:
             result = run_scenario(resolved, progress=not args.no_progress,
                                   command=" ".join(["e2esim"] + sys.argv[1:]), workers=args.workers,
                                   scheduler=args.scheduler, journal=journal, finished=finished,
-                                  engine="per_case" if args.per_case else "batched")
+                                  engine="per_case" if args.per_case else "batched", spill_folder=folder)
         except KeyboardInterrupt:
             journal.close()
             print(f"e2esim: interrupted; {journal.finished_count()} of {len(resolved.cases)} cases are saved in "

@@ -154,11 +154,16 @@ def response_covariance(calibrators: Calibrators, state: SystemState) -> np.ndar
     return operator_covariance(calibrators, state.operator())
 
 
-def operator_covariance(calibrators: Calibrators, operator: np.ndarray) -> np.ndarray:
-    """``response_covariance`` for the system's 4x4 operator (batch..., 4, 4), ``A (T^T kron R)(F^T kron F)``."""
+def operator_covariance(calibrators: Calibrators, operator: np.ndarray, scales: np.ndarray | None = None) -> np.ndarray:
+    """``response_covariance`` for the system's 4x4 operator (batch..., 4, 4), ``A (T^T kron R)(F^T kron F)``.
+
+    scales : the calibrators' ``clutter_scales`` (default); a single one when they are all equal gives the one
+    covariance every cell shares, (batch..., 1, 4, 4).
+    """
     # every calibrator's clutter has the same shape, scaled to its SCR (clutter_covariances): map it once
     mapped = operator @ reciprocal_covariance4(calibrators.clutter) @ np.swapaxes(operator.conj(), -1, -2)
-    cov = mapped[..., None, :, :] * calibrators.clutter_scales()[:, None, None]
+    scales = calibrators.clutter_scales() if scales is None else scales
+    cov = mapped[..., None, :, :] * scales[:, None, None]
     return cov + calibrators.noise_to_signal * np.eye(4)
 
 

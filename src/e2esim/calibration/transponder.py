@@ -94,9 +94,10 @@ def _faraday_part(omega, svec) -> np.ndarray:
     return np.einsum("...ij,kj->...ki", k0, svec)
 
 
-def _model_and_derivatives(z, u):
-    """``vec(M_k) = A D(delta, f) u_k`` and its derivatives in the 7 complex parameters
-    z = (delta1..4, f1, f2, A), shapes (..., K, 4) and (..., K, 4, 7).
+def _jacobian_and_residual(z, u, y) -> np.ndarray:
+    """The derivatives of the model ``vec(M_k) = A D(delta, f) u_k`` in the 7 complex parameters
+    z = (delta1..4, f1, f2, A), with the residual ``y - model`` beside them as an eighth column, (..., K, 4, 8):
+    ready to be whitened in one product (``_whitened_system``). y : measured vec(M_k), (..., K, 4).
 
     D = T^T kron R has rows [1, d2, d4, d2 d4], [d1, f1, d1 d4, f1 d4], [d3, d2 d3, f2, f2 d2],
     [d1 d3, f1 d3, f2 d1, f1 f2] (Men et al. 2021, eq. 1): multilinear, so the derivatives are exact.
@@ -109,33 +110,37 @@ def _model_and_derivatives(z, u):
         d3 * u0 + d2 * d3 * u1 + f2 * u2 + f2 * d2 * u3,
         d1 * d3 * u0 + f1 * d3 * u1 + f2 * d1 * u2 + f1 * f2 * u3,
     ], -1)
-    # d vec(M) / d z: (row, parameter) -> entry; the other entries are zero (D is multilinear)
-    entries = {
-        (1, 0): u0 + d4 * u2, (3, 0): d3 * u0 + f2 * u2,  # delta1
-        (0, 1): u1 + d4 * u3, (2, 1): d3 * u1 + f2 * u3,  # delta2
-        (2, 2): u0 + d2 * u1, (3, 2): d1 * u0 + f1 * u1,  # delta3
-        (0, 3): u2 + d2 * u3, (1, 3): d1 * u2 + f1 * u3,  # delta4
-        (1, 4): u1 + d4 * u3, (3, 4): d3 * u1 + f2 * u3,  # f1
-        (2, 5): u2 + d2 * u3, (3, 5): d1 * u2 + f1 * u3,  # f2
-    }
-    jac = np.zeros(du.shape + (7,), complex)
-    for (row, col), value in entries.items():
-        jac[..., row, col] = a * value
+    # d vec(M) / d z: the cells (row, parameter) of each non-zero entry; the others are zero (D is multilinear).
+    # delta2 and f1 share their factors (both multiply u1 and u3), as do delta4 and f2 (u2 and u3).
+    entries = (
+        (((1, 0),), u0 + d4 * u2), (((3, 0),), d3 * u0 + f2 * u2),  # delta1
+        (((0, 1), (1, 4)), u1 + d4 * u3), (((2, 1), (3, 4)), d3 * u1 + f2 * u3),  # delta2, f1
+        (((2, 2),), u0 + d2 * u1), (((3, 2),), d1 * u0 + f1 * u1),  # delta3
+        (((0, 3), (2, 5)), u2 + d2 * u3), (((1, 3), (3, 5)), d1 * u2 + f1 * u3),  # delta4, f2
+    )
+    jac = np.zeros(du.shape + (8,), complex)
+    for cells, value in entries:
+        scaled = a * value
+        for row, col in cells:
+            jac[..., row, col] = scaled
     jac[..., 6] = du
-    return a[..., None] * du, jac
+    jac[..., 7] = y - a[..., None] * du
+    return jac
 
 
 def _whiten(x, whitener) -> np.ndarray:
-    """Apply ``W = L^-1`` (..., K, 4, 4) to (..., K, 4, p) and flatten the K responses: (..., 4K, p)."""
+    """Apply ``W = L^-1`` (..., K or 1, 4, 4) to (..., K, 4, p) and flatten the K responses: (..., 4K, p)."""
     w = whitener @ x
     return w.reshape(w.shape[:-3] + (-1, w.shape[-1]))
 
 
 def _whitener(z, faraday_kron, calibrators) -> np.ndarray:
     """``W = L^-1``, L the Cholesky factor of the clutter-plus-noise covariance of each response at the current
-    estimate (``W Sigma W^H = I``), (..., K, 4, 4). faraday_kron : ``F^T kron F`` at the Omega held."""
+    estimate (``W Sigma W^H = I``), (..., K, 4, 4); (..., 1, 4, 4) when every calibrator's cell has the same
+    covariance (same SCR: one factor serves all). faraday_kron : ``F^T kron F`` at the Omega held."""
     operator = z[..., 6, None, None] * (distortion_rows(z[..., 0:4], z[..., 4:6]) @ faraday_kron)
-    cov = operator_covariance(calibrators, operator)
+    scales = calibrators.clutter_scales()
+    cov = operator_covariance(calibrators, operator, scales[:1] if np.all(scales == scales[0]) else scales)
     loading = _LOADING * np.real(np.trace(cov, axis1=-2, axis2=-1))[..., None, None] / 4
     cov = cov + loading * np.eye(4)  # reciprocal clutter without noise is singular in the HV - VH direction
     return hermitian_inverse_factor(cov)
@@ -143,8 +148,7 @@ def _whitener(z, faraday_kron, calibrators) -> np.ndarray:
 
 def _whitened_system(y, z, u, whitener) -> tuple:
     """Whitened residuals r (..., 4K) and Jacobian G (..., 4K, 7) at z (one product for both)."""
-    model, jac = _model_and_derivatives(z, u)
-    w = _whiten(np.concatenate([jac, (y - model)[..., None]], -1), whitener)
+    w = _whiten(_jacobian_and_residual(z, u, y), whitener)
     return w[..., 7], w[..., :7]
 
 

@@ -110,8 +110,11 @@ def _write_requirements(req, result, units: list) -> None:
     put_text(req, "sources", requirement_sources(result.scenario),
              "error sources each requirement covers: all, or systematic (system distortions, Faraday rotation, noise)")
 
-    def stacked(attr, dtype):
-        return np.stack([getattr(r, attr) for r in table.requirements], axis=1).astype(dtype).reshape(n, len(names))
+    def stacked(attr, dtype):  # (case, requirement), one requirement's column joined at a time
+        out = np.empty((n, len(names)), dtype=dtype)
+        for j, r in enumerate(table.requirements):
+            out[:, j] = getattr(r, attr)
+        return out
 
     put(req, "passed", stacked("passed", bool), "1", "verdict of requirement j (column) in case i (row): true passes")
     about = {
@@ -136,12 +139,13 @@ def _write_requirements(req, result, units: list) -> None:
 def _write_curves(arrays, table) -> None:
     """The trade-off curves of every case that has them."""
     for j, req in enumerate(table.requirements):
-        if req.curves is None:
+        curves = req.curves  # joined from the blocks when read: once
+        if curves is None:
             continue
-        drawn = np.array([bool(v) for v in req.curves.values], dtype=bool)
-        for i in np.nonzero(drawn[req.curves.index])[0]:
+        drawn = np.array([bool(v) for v in curves.values], dtype=bool)
+        for i in np.nonzero(drawn[curves.index])[0]:
             cg = arrays.require_group(f"case{i:06d}")
-            for name, values in req.curves[i].items():
+            for name, values in curves[i].items():
                 what = ("crosstalk level (abscissa of the trade-off curve)" if name == "crosstalk_db" else
                         "largest channel imbalance meeting the requirement at each crosstalk level (NaN: crosstalk "
                         "alone breaks it)" if name.endswith("imbalance_db") else name)

@@ -81,7 +81,7 @@ class RequirementColumns:
 
     def take(self, positions) -> RequirementColumns:
         return RequirementColumns(
-            *(_pick(getattr(self, f), positions) for f in _ARRAYS),
+            *(take_field(getattr(self, f), positions) for f in _ARRAYS),
             details={k: c.take(positions) for k, c in self.details.items()},
             curves=None if self.curves is None else self.curves.take(positions))
 
@@ -110,18 +110,20 @@ class RequirementColumns:
             curves = Values.concatenate([p.curves if p.curves is not None else Values.repeated({}, n)
                                          for p, n in zip(parts, sizes)])
         return RequirementColumns(
-            *(_join([getattr(p, f) for p in parts]) for f in _ARRAYS),
+            *(join_field([getattr(p, f) for p in parts]) for f in _ARRAYS),
             details={k: Column.concatenate([p.details.get(k) for p in parts], sizes) for k in keys}, curves=curves)
 
 
 _ARRAYS = ("name", "passed", "value", "limit", "margin", "unit", "basis", "dominant", "notes")
 
 
-def _pick(column, positions):
+def take_field(column, positions):
+    """A field of ``RequirementColumns`` (``Values`` or array) at ``positions``."""
     return column.take(positions) if isinstance(column, Values) else column[positions]
 
 
-def _join(parts: list):
+def join_field(parts: list):
+    """A field of ``RequirementColumns`` over consecutive blocks (``Values`` or arrays) as one."""
     return Values.concatenate(parts) if isinstance(parts[0], Values) else np.concatenate(parts)
 
 

@@ -5,18 +5,20 @@ The blocks of a run (``e2esim.runner.run.BlockResult``) hold their cases' scalar
 (``e2esim.runner.columns``); this joins them and puts them in case order. Nothing here is per case in Python:
 a million cases join in about the time numpy copies their numbers. The output scalars are joined one at a
 time, when asked for, and not kept: the blocks already hold them, and a million cases' hundred scalars
-joined at once would double the run's memory.
+joined at once would double the run's memory. So are the requirements' verdicts and the notes: each field is
+joined when read. With the blocks of a large run on disk (``e2esim.runner.spill``), the table then holds no
+per-case numbers at all; reading one column holds that column.
 """
 
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from e2esim.block import Values
-from e2esim.runner.columns import Column, RequirementColumns
+from e2esim.runner.columns import Column, join_field, take_field
 
 
 @dataclass
@@ -24,33 +26,45 @@ class ResultTable:
     """The columns of every case, in case order.
 
     n : number of cases. scalars : {name: ``Column``} in the order of first appearance (a ``JoinedColumns``:
-    each column joined from the blocks when read). requirements :
-    ``RequirementColumns`` per requirement. notes : the error model's notes per case (``Values`` of tuples).
-    groups : {source: group} of each case's AGB-error contributions (``Values``).
+    each column joined from the blocks when read). requirements : per requirement, its verdicts with the fields
+    of ``RequirementColumns`` (a ``JoinedRequirement``: each field joined when read). ``notes``: the error
+    model's notes per case (``Values`` of tuples); ``groups``: {source: group} of each case's AGB-error
+    contributions (``Values``); both joined when read.
     """
 
     n: int
     scalars: Mapping
     requirements: list
-    notes: Values
-    groups: Values
+    text_parts: dict = field(default_factory=dict, repr=False)  # "notes"/"groups" -> (blocks' Values getters)
+    order: np.ndarray | None = field(default=None, repr=False)
 
     @classmethod
     def of(cls, blocks: list, n: int) -> ResultTable:
         """Join ``blocks`` (``BlockResult``s covering cases 0..n-1 once each)."""
         if not blocks:
-            return cls(n, {}, [], Values.repeated((), n), Values.repeated({}, n))
+            return cls(n, {}, [])
         indices = np.concatenate([b.indices for b in blocks])
         order = None if np.array_equal(indices, np.arange(n)) else np.argsort(indices, kind="stable")
         sizes = [len(b) for b in blocks]
         scalars = JoinedColumns([b.scalars for b in blocks], sizes, order)
         count = len(blocks[0].requirements)
-        requirements = [_joined_requirement([b.requirements[j] for b in blocks], sizes, order) for j in range(count)]
-        notes = Values.concatenate([b.notes for b in blocks])
-        groups = Values.concatenate([b.groups for b in blocks])
-        if order is not None:
-            notes, groups = notes.take(order), groups.take(order)
-        return cls(n, scalars, requirements, notes, groups)
+        requirements = [JoinedRequirement([b.requirements[j] for b in blocks], sizes, order) for j in range(count)]
+        return cls(n, scalars, requirements, {"notes": blocks, "groups": blocks}, order)
+
+    @property
+    def notes(self) -> Values:
+        return self._texts("notes", ())
+
+    @property
+    def groups(self) -> Values:
+        return self._texts("groups", {})
+
+    def _texts(self, name: str, empty) -> Values:
+        blocks = self.text_parts.get(name)
+        if not blocks:
+            return Values.repeated(empty, self.n)
+        joined = Values.concatenate([getattr(b, name) for b in blocks])
+        return joined if self.order is None else joined.take(self.order)
 
     def scalar(self, name: str) -> np.ndarray:
         """The values of output scalar ``name``, NaN in cases that lack it."""
@@ -79,12 +93,37 @@ class ResultTable:
         return column.values if column.present is None else np.where(column.present, column.values, np.nan)
 
 
-def _joined_requirement(parts: list, sizes: list, order: np.ndarray | None) -> RequirementColumns:
-    """The verdicts of one requirement over the blocks (``parts``), in case order; details joined when read."""
-    joined = RequirementColumns.concatenate([replace(p, details={}) for p in parts])
-    if order is not None:
-        joined = joined.take(order)
-    return replace(joined, details=JoinedColumns([p.details for p in parts], sizes, order))
+class JoinedRequirement:
+    """The verdicts of one requirement over the blocks (``parts``: each a ``RequirementColumns`` or one read back
+    from disk), in case order, with the fields of ``RequirementColumns``; each field joined when read, not kept.
+    ``details`` is a ``JoinedColumns``."""
+
+    def __init__(self, parts: list, sizes: list, order: np.ndarray | None):
+        self.parts, self.order = parts, order
+        self.details = JoinedColumns([p.details for p in parts], sizes, order)
+
+    def _joined(self, name: str):
+        joined = join_field([getattr(p, name) for p in self.parts])
+        return joined if self.order is None else take_field(joined, self.order)
+
+    name = property(lambda self: self._joined("name"))
+    passed = property(lambda self: self._joined("passed"))
+    value = property(lambda self: self._joined("value"))
+    limit = property(lambda self: self._joined("limit"))
+    margin = property(lambda self: self._joined("margin"))
+    unit = property(lambda self: self._joined("unit"))
+    basis = property(lambda self: self._joined("basis"))
+    dominant = property(lambda self: self._joined("dominant"))
+    notes = property(lambda self: self._joined("notes"))
+
+    @property
+    def curves(self) -> Values | None:
+        """The trade-off curves per case, None when no block has any."""
+        if all(p.curves is None for p in self.parts):
+            return None
+        joined = Values.concatenate([p.curves if p.curves is not None else Values.repeated({}, len(p.passed))
+                                     for p in self.parts])
+        return joined if self.order is None else joined.take(self.order)
 
 
 class JoinedColumns(Mapping):

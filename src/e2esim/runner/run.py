@@ -38,6 +38,7 @@ from e2esim.runner.columns import (
 from e2esim.runner.records import case_scalars
 from e2esim.runner.result_table import ResultTable
 from e2esim.runner.scenario import ResolvedScenario
+from e2esim.runner.spill import SPILL_ABOVE_CASES, SpilledBlock, SpillFile, spill_block
 
 ENGINES = ("batched", "per_case")
 BLOCK_CASES = 4096
@@ -142,6 +143,13 @@ class ResultCases(Sequence):
         self.blocks = blocks
         n = len(scenario.cases)
         self._made: dict | None = {} if n <= REMEMBER_CASES_UP_TO else None
+        self._last: tuple = (None, None)  # (number, BlockResult) of the spilled block read back last
+        starts = np.array([int(b.indices[0]) for b in blocks], dtype=np.int64)
+        ranges = all(int(b.indices[-1]) - int(b.indices[0]) == len(b) - 1 for b in blocks)
+        if ranges and np.all(np.diff(starts) > 0):  # blocks of consecutive cases (the rule): found by their start
+            self._starts, self._block, self._position = starts, None, None
+            return
+        self._starts = None
         self._block = np.empty(n, dtype=np.int32)
         self._position = np.empty(n, dtype=np.int64)
         for b, block in enumerate(blocks):
@@ -149,7 +157,14 @@ class ResultCases(Sequence):
             self._position[block.indices] = np.arange(len(block))
 
     def __len__(self) -> int:
-        return len(self._block)
+        return len(self.scenario.cases)
+
+    def _locate(self, index: int) -> tuple:
+        """(block number, position in the block) of case ``index``."""
+        if self._starts is None:
+            return int(self._block[index]), int(self._position[index])
+        b = int(np.searchsorted(self._starts, index, side="right")) - 1
+        return b, index - int(self._starts[b])
 
     def __getitem__(self, index):
         if isinstance(index, slice):
@@ -157,14 +172,25 @@ class ResultCases(Sequence):
         index = range(len(self))[index]
         if self._made is not None and index in self._made:
             return self._made[index]
-        block = self.blocks[self._block[index]]
+        number, position = self._locate(index)
+        block = self._in_memory(number)
         plan = self.scenario.plan
         label = self.scenario.cases.labels[index] if plan is not None else self.scenario.cases[index].label
         inputs = plan.table.inputs(index) if plan is not None else self.scenario.cases[index].inputs
-        case = block.case(int(self._position[index]), inputs, label)
+        case = block.case(position, inputs, label)
         if self._made is not None:
             self._made[index] = case
         return case
+
+    def _in_memory(self, number: int):
+        """Block ``number``, read back from disk if it was spilled (``e2esim.runner.spill``; the last one kept, as
+        cases are mostly asked for in order)."""
+        block = self.blocks[number]
+        if not isinstance(block, SpilledBlock):
+            return block
+        if self._last[0] != number:
+            self._last = (number, block.load())
+        return self._last[1]
 
 
 @dataclass
@@ -301,6 +327,8 @@ def run_scenario(
     finished: list | None = None,
     engine: str = "batched",
     keep_products: bool | None = None,
+    spill: bool | None = None,
+    spill_folder=None,
 ) -> ScenarioResult:
     """Run every case (serially, on ``workers`` local processes or on the dask cluster at ``scheduler``)
     with a progress bar; return the results with their provenance.
@@ -308,7 +336,9 @@ def run_scenario(
     journal : a ``Journal`` that records each block as it finishes; finished : blocks already done (a list of
         ``BlockResult``, from an interrupted run), whose cases are not run again. engine : "batched" or
         "per_case" (the reference). keep_products : keep every case's products (default: for runs of at most
-        ``KEEP_PRODUCTS_UP_TO`` cases).
+        ``KEEP_PRODUCTS_UP_TO`` cases). spill : keep the finished blocks on disk (``e2esim.runner.spill``;
+        default: for runs of more than ``SPILL_ABOVE_CASES`` cases that keep no products), in a temporary file
+        in ``spill_folder`` (default: the system's temporary folder).
     """
     from e2esim.runner.executors import iter_blocks
 
@@ -316,7 +346,11 @@ def run_scenario(
         raise UserError(f"engine {engine!r}: expected one of {', '.join(ENGINES)}")
     n = len(resolved.cases)
     keep = n <= KEEP_PRODUCTS_UP_TO if keep_products is None else keep_products
-    blocks = list(finished or [])
+    if keep and spill:
+        raise ValueError("a run that keeps its cases' products keeps its blocks in memory (spill=False)")
+    spill_file = SpillFile(spill_folder) if (n > SPILL_ABOVE_CASES and not keep if spill is None else spill) else None
+    kept = (lambda block: block) if spill_file is None else (lambda block: spill_block(block, spill_file))
+    blocks = [kept(block) for block in finished or []]
     done = np.zeros(n, dtype=bool)
     for block in blocks:
         done[block.indices] = True
@@ -326,9 +360,9 @@ def run_scenario(
         for block, frame in iter_blocks(resolved, block_tasks(resolved, todo, workers if not scheduler else 8),
                                         workers, scheduler, engine=engine, keep_products=keep,
                                         frames=journal is not None):
-            blocks.append(block)
             if journal is not None:
                 journal.record(block, frame)
+            blocks.append(kept(block))
             bar.update(len(block))
     finally:
         bar.close()

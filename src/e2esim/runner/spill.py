@@ -1,0 +1,200 @@
+"""Finished blocks of a large run kept on disk, so that a run's memory is bounded by its blocks, not its size.
+
+A block's results (``e2esim.runner.run.BlockResult``) take about 0.6 kB per case, nearly all of it numbers:
+the output scalars, the requirement verdicts and their details. A sweep of a million cases that kept them would
+hold 0.6 GB until its outputs are written. Runs of more than ``SPILL_ABOVE_CASES`` cases therefore write every
+finished block's arrays to one temporary file (``SpillFile``) and keep only a ``SpilledBlock``: the block's case
+indices and, per array, where it lies in the file. The writers read the run column by column
+(``e2esim.runner.result_table``), so reading back one column of every block at a time keeps the memory of the
+outputs at one column of the sweep (8 bytes per case) beside the blocks in flight.
+
+The file holds plain arrays only, is read only by the process that wrote it, and is removed when the run's
+result is (on POSIX it has no name at all: a killed run leaves nothing behind). It is created in the output
+folder when there is one, not in the system's temporary folder, which is memory on some systems (tmpfs).
+"""
+
+from __future__ import annotations
+
+import os
+import tempfile
+from collections.abc import Mapping
+from dataclasses import dataclass
+
+import numpy as np
+
+from e2esim.block import Values
+from e2esim.runner.columns import Column, RequirementColumns
+
+SPILL_ABOVE_CASES = 10_000
+"""Runs with more cases keep their finished blocks on disk. Smaller ones keep them in memory (at most about
+6 MB): their report reads every case some twenty times (``e2esim.runner.run.REMEMBER_CASES_UP_TO``)."""
+
+
+@dataclass(frozen=True)
+class Spilled:
+    """Where one array lies in a ``SpillFile``: byte offset, dtype (numpy's text form) and shape."""
+
+    offset: int
+    dtype: str
+    shape: tuple
+
+
+class SpillFile:
+    """An append-only temporary file of plain numeric arrays, read back one array at a time.
+
+    folder : where to create it (None: the system's temporary folder)."""
+
+    def __init__(self, folder=None):
+        if folder is not None:
+            os.makedirs(folder, exist_ok=True)
+        self._file = tempfile.TemporaryFile(prefix="e2esim-spill-", dir=folder)
+        self._end = 0
+
+    def put(self, array: np.ndarray) -> Spilled:
+        array = np.ascontiguousarray(array)
+        if array.dtype.kind not in "biuf":
+            raise TypeError(f"only numeric arrays are spilled, not {array.dtype}")
+        self._file.seek(self._end)
+        self._file.write(array.data)
+        ref = Spilled(self._end, array.dtype.str, array.shape)
+        self._end += array.nbytes
+        return ref
+
+    def get(self, ref: Spilled) -> np.ndarray:
+        dtype = np.dtype(ref.dtype)
+        out = np.empty(ref.shape, dtype=dtype)
+        self._file.seek(ref.offset)
+        if self._file.readinto(memoryview(out).cast("B")) != out.nbytes:
+            raise OSError(f"the spill file {self._file.name} is shorter than expected")
+        return out
+
+    def close(self) -> None:
+        self._file.close()
+
+
+def spill_block(block, spill: SpillFile) -> SpilledBlock:
+    """The ``SpilledBlock`` of ``block`` (a ``BlockResult`` without products): its arrays written to ``spill``."""
+    if block.products is not None:
+        raise ValueError("a block that keeps its cases' products is not spilled")
+    return SpilledBlock(spill, block.indices, SpilledColumns.of(block.scalars, spill),
+                        [SpilledRequirement.of(r, spill) for r in block.requirements],
+                        SpilledValues.of(block.notes, spill), SpilledValues.of(block.groups, spill))
+
+
+class SpilledBlock:
+    """A ``BlockResult`` whose arrays are in a ``SpillFile``, with the same attributes (each read back when asked
+    for, not kept): ``indices`` (in memory), ``scalars``, ``requirements``, ``notes``, ``groups``; ``products``
+    is None (only blocks that keep no products are spilled)."""
+
+    products = None
+
+    def __init__(self, spill: SpillFile, indices: np.ndarray, scalars: SpilledColumns, requirements: list,
+                 notes: SpilledValues, groups: SpilledValues):
+        self._spill = spill
+        self.indices = indices
+        self.scalars = scalars
+        self.requirements = requirements
+        self._notes, self._groups = notes, groups
+
+    def __len__(self) -> int:
+        return len(self.indices)
+
+    @property
+    def notes(self) -> Values:
+        return self._notes.load()
+
+    @property
+    def groups(self) -> Values:
+        return self._groups.load()
+
+    def load(self):
+        """The whole block in memory, a ``BlockResult``."""
+        from e2esim.runner.run import BlockResult
+
+        return BlockResult(self.indices, dict(self.scalars.items()), [r.load() for r in self.requirements],
+                           self.notes, self.groups)
+
+    def case(self, k: int, inputs: dict, label: str):
+        return self.load().case(k, inputs, label)
+
+    def without_products(self) -> SpilledBlock:
+        return self
+
+
+class SpilledColumns(Mapping):
+    """{name: ``Column``} of a spilled block, each read back when asked for."""
+
+    def __init__(self, spill: SpillFile, refs: dict):
+        self._spill = spill
+        self._refs = refs  # name -> (values, present or None)
+
+    @classmethod
+    def of(cls, columns: Mapping, spill: SpillFile) -> SpilledColumns:
+        return cls(spill, {name: (spill.put(c.values), None if c.present is None else spill.put(c.present))
+                           for name, c in columns.items()})
+
+    def __getitem__(self, name: str) -> Column:
+        values, present = self._refs[name]
+        return Column(self._spill.get(values), None if present is None else self._spill.get(present))
+
+    def __iter__(self):
+        return iter(self._refs)
+
+    def __len__(self) -> int:
+        return len(self._refs)
+
+    def __contains__(self, name) -> bool:
+        return name in self._refs
+
+
+class SpilledValues:
+    """A ``Values`` column of a spilled block: its distinct values in memory, the index on disk."""
+
+    def __init__(self, spill: SpillFile, values: list, index: Spilled):
+        self._spill, self.values, self._index = spill, values, index
+
+    @classmethod
+    def of(cls, values: Values, spill: SpillFile) -> SpilledValues:
+        return cls(spill, values.values, spill.put(values.index))
+
+    def load(self) -> Values:
+        return Values(self.values, self._spill.get(self._index))
+
+
+_NUMBERS = ("passed", "value", "limit", "margin")
+_TEXTS = ("name", "unit", "basis", "dominant", "notes")
+
+
+class SpilledRequirement:
+    """The ``RequirementColumns`` of one requirement in a spilled block: every field read back when asked for;
+    the trade-off curves (arrays of their own per case) stay in memory."""
+
+    def __init__(self, spill: SpillFile, numbers: dict, texts: dict, details: SpilledColumns, curves):
+        self._spill, self._numbers, self._texts = spill, numbers, texts
+        self.details, self.curves = details, curves
+
+    @classmethod
+    def of(cls, r: RequirementColumns, spill: SpillFile) -> SpilledRequirement:
+        return cls(spill, {f: spill.put(getattr(r, f)) for f in _NUMBERS},
+                   {f: SpilledValues.of(getattr(r, f), spill) for f in _TEXTS},
+                   SpilledColumns.of(r.details, spill), r.curves)
+
+    def _number(self, field: str) -> np.ndarray:
+        return self._spill.get(self._numbers[field])
+
+    def _text(self, field: str) -> Values:
+        return self._texts[field].load()
+
+    passed = property(lambda self: self._number("passed"))
+    value = property(lambda self: self._number("value"))
+    limit = property(lambda self: self._number("limit"))
+    margin = property(lambda self: self._number("margin"))
+    name = property(lambda self: self._text("name"))
+    unit = property(lambda self: self._text("unit"))
+    basis = property(lambda self: self._text("basis"))
+    dominant = property(lambda self: self._text("dominant"))
+    notes = property(lambda self: self._text("notes"))
+
+    def load(self) -> RequirementColumns:
+        return RequirementColumns(self.name, self.passed, self.value, self.limit, self.margin, self.unit, self.basis,
+                                  self.dominant, self.notes, details=dict(self.details.items()), curves=self.curves)
