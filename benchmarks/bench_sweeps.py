@@ -13,7 +13,9 @@ Prints, in one run:
    case's scalars must equal the per-case runner's to a relative 1e-12: the script stops (AssertionError)
    if one does not;
 3. peak memory (``ru_maxrss``) of the sweep of figure 1 end to end at a quarter of its cases and at all of them
-   (250,000 and 1,000,000), each in a fresh process (target <= 4 GiB), and how the peak grows with the size.
+   (250,000 and 1,000,000), each in a fresh process (target <= 4 GiB), and how the peak grows with the size
+   (target: bounded by the block size, not by the sweep size). The reference: the full sweep with its finished
+   blocks kept in memory (``spill=False``, ``e2esim.runner.spill``), as the runner did before they were spilled.
    Measured first, while this process is still small: on Linux a child's ``ru_maxrss`` starts from its parent's
    peak at the fork (it survives ``exec``), so children of a parent that ran figure 1 would report at least that
    parent's 2 GiB. ``VmHWM`` of /proc/self/status, the high-water mark of the child's own memory, is printed
@@ -129,17 +131,17 @@ def map_overrides(quick: bool) -> list:
 
 
 # Timing -------------------------------------------------------------------------------------------------------
-def end_to_end(resolve, folder: Path, workers: int = 1) -> dict:
+def end_to_end(resolve, folder: Path, workers: int = 1, spill: bool | None = None) -> dict:
     """Resolve, run (batched engine, on ``workers`` local processes) and write the outputs into ``folder``; the
     seconds of each, the total, the case count, the peak resident memory (GiB) after the run and after the
-    outputs, and the largest peak of a worker process (0 for a serial run)."""
+    outputs, and the largest peak of a worker process (0 for a serial run). spill : as ``run_scenario``."""
     from e2esim.runner.outputs import write_outputs
     from e2esim.runner.run import run_scenario
 
     t0 = time.perf_counter()
     resolved = resolve()
     t1 = time.perf_counter()
-    result = run_scenario(resolved, progress=False, workers=workers, spill_folder=folder)  # as e2esim run does
+    result = run_scenario(resolved, progress=False, workers=workers, spill=spill, spill_folder=folder)  # as e2esim run
     t2 = time.perf_counter()
     peak_run = peak_gib()
     write_outputs(result, folder)
@@ -206,8 +208,9 @@ def say(text: str) -> None:
 def child(kind: str, cases: int, quick_map: bool, workers: int) -> None:
     """Run one measurement and print its figures as one JSON line (``RESULT``)."""
     with tempfile.TemporaryDirectory() as tmp:
-        if kind == "sweep":
-            figures = end_to_end(lambda: resolve_sweep(cases), Path(tmp) / "out", workers)
+        if kind in ("sweep", "sweep_in_memory"):
+            figures = end_to_end(lambda: resolve_sweep(cases), Path(tmp) / "out", workers,
+                                 spill=False if kind == "sweep_in_memory" else None)
         else:
             from e2esim.runner.scenario import Scenario
 
@@ -333,25 +336,34 @@ def compare_cases(batched, per_case) -> int:
 
 
 def memory_runs(cases: int, workers: int) -> list:
-    """Figure 3, measured: the sweep end to end at a quarter of ``cases`` and at ``cases``, each in a fresh
-    process (started before this process has run anything: module docstring)."""
-    return [in_child("sweep", n, workers=workers) for n in (cases // 4, cases)]
+    """Figure 3, measured: the sweep end to end at a quarter of ``cases`` and at ``cases``, and the reference (all
+    cases, blocks kept in memory), each in a fresh process (started before this process has run anything:
+    module docstring)."""
+    return [in_child("sweep", n, workers=workers) for n in (cases // 4, cases)] + [
+        in_child("sweep_in_memory", cases, workers=workers)]
 
 
 def memory(runs: list) -> None:
     """Figure 3, printed."""
-    small, large = runs
+    small, large, kept = runs
     say("3. peak memory (ru_maxrss) of the sweep end to end, each in a fresh process (measured before figure 1); "
         f"{verdict(large['peak_gib'], TARGET_MEMORY_GIB, ' GiB')}:")
-    for run in runs:
+    for run in (small, large):
         hwm = "" if run["hwm_gib"] is None else f", VmHWM {run['hwm_gib']:.2f} GiB"
         workers = (f"; largest worker process {run['worker_peak_gib']:.2f} GiB" if run.get("workers", 1) > 1
                    else "")
         say(f"   {run['cases']:>9,} cases: {run['peak_gib']:.2f} GiB{hwm} (after the run {run['peak_run_gib']:.2f} "
             f"GiB){workers}; {parts(run)}, total {run['total']:.2f} s (process {run['process']:.2f} s)")
-    growth = (large["peak_gib"] - small["peak_gib"]) * 2**30 / (large["cases"] - small["cases"])
+    def growth(key):  # bytes per further case, from the quarter to the whole sweep
+        return (large[key] - small[key]) * 2**30 / (large["cases"] - small["cases"])
+
     say(f"   grows with the sweep: {large['peak_gib'] / small['peak_gib']:.2f}x the peak for "
-        f"{large['cases'] / small['cases']:.0f}x the cases; {growth:.0f} bytes per further case")
+        f"{large['cases'] / small['cases']:.0f}x the cases; {growth('peak_gib'):.0f} bytes per further case "
+        f"({growth('peak_run_gib'):.0f} by the end of the run: case indices and the distinct modules of the larger "
+        "grid; the rest while the outputs read one column at a time)")
+    say(f"   reference, the {kept['cases']:,} cases with their finished blocks kept in memory: {kept['peak_gib']:.2f} "
+        f"GiB (after the run {kept['peak_run_gib']:.2f} GiB); spilled, the peak is "
+        f"{large['peak_gib'] / kept['peak_gib']:.2f}x of it")
 
 
 def global_map(quick: bool, repeats: int, cache: str | None, workers: int) -> None:
@@ -393,7 +405,7 @@ def main() -> None:
                         help="climatology cache folder of the map runs (default: an empty temporary one)")
     parser.add_argument("--workers", type=int, default=2,
                         help="worker processes of the sweep and map runs (default 2: the target's two cores)")
-    parser.add_argument("--child", choices=("sweep", "map"), help=argparse.SUPPRESS)
+    parser.add_argument("--child", choices=("sweep", "sweep_in_memory", "map"), help=argparse.SUPPRESS)
     args = parser.parse_args()
     cases = args.cases or (QUICK_CASES if args.quick else TARGET_SWEEP_CASES)
     if args.child:
