@@ -13,9 +13,10 @@ Prints, in one run:
    case's scalars must equal the per-case runner's to a relative 1e-12: the script stops (AssertionError)
    if one does not;
 3. peak memory (``ru_maxrss``) of the sweep of figure 1 end to end at a quarter of its cases and at all of them
-   (250,000 and 1,000,000), each in a fresh process (target <= 4 GiB), and how the peak grows with the size
-   (target: bounded by the block size, not by the sweep size). The reference: the full sweep with its finished
-   blocks kept in memory (``spill=False``, ``e2esim.runner.spill``), as the runner did before they were spilled.
+   (250,000 and 1,000,000: a quarter of the AGB values, the same instruments), each in a fresh process (target
+   <= 4 GiB), and how the peak grows with the size (target: bounded by the block size, not by the sweep size).
+   The reference: the full sweep with its finished blocks kept in memory (``spill=False``,
+   ``e2esim.runner.spill``), as the runner did before they were spilled.
    Measured first, while this process is still small: on Linux a child's ``ru_maxrss`` starts from its parent's
    peak at the fork (it survives ``exec``), so children of a parent that ran figure 1 would report at least that
    parent's 2 GiB. ``VmHWM`` of /proc/self/status, the high-water mark of the child's own memory, is printed
@@ -103,23 +104,32 @@ def grid_sizes(cases: int) -> tuple:
     return best
 
 
-def sweep_raw(cases: int) -> dict:
-    """The analytic sweep scenario (module docstring, figure 1) with ``cases`` cases, as a dict."""
+def sweep_sizes(cases: int, instruments_of: int | None = None) -> tuple:
+    """The grid of ``cases`` cases (``grid_sizes``); with ``instruments_of``, the crosstalk and imbalance axes of
+    that sweep's grid and an AGB axis as long as ``cases`` needs: the same distinct modules, fewer cases."""
+    if instruments_of is None:
+        return grid_sizes(cases)
+    _, n_xt, n_imb = grid_sizes(instruments_of)
+    return cases // (n_xt * n_imb), n_xt, n_imb
+
+
+def sweep_raw(cases: int, instruments_of: int | None = None) -> dict:
+    """The analytic sweep scenario (module docstring, figure 1) with ``cases`` cases (``sweep_sizes``), a dict."""
     raw = copy.deepcopy(SWEEP)
     raw["sweep"]["parameters"] = {key: {"linspace": [start, stop, n]}
-                                  for (key, start, stop), n in zip(AXES, grid_sizes(cases))}
+                                  for (key, start, stop), n in zip(AXES, sweep_sizes(cases, instruments_of))}
     return raw
 
 
-def sweep_shape(cases: int) -> str:
+def sweep_shape(cases: int, instruments_of: int | None = None) -> str:
     return " x ".join(f"{n} {key.split('.')[-2] if key.endswith('level_db') else 'AGB'}"
-                      for (key, _, _), n in zip(AXES, grid_sizes(cases)))
+                      for (key, _, _), n in zip(AXES, sweep_sizes(cases, instruments_of)))
 
 
-def resolve_sweep(cases: int):
+def resolve_sweep(cases: int, instruments_of: int | None = None):
     from e2esim.runner.scenario import Scenario
 
-    return Scenario(sweep_raw(cases), "bench_sweeps.yaml").resolve()
+    return Scenario(sweep_raw(cases, instruments_of), "bench_sweeps.yaml").resolve()
 
 
 def map_overrides(quick: bool) -> list:
@@ -205,11 +215,11 @@ def say(text: str) -> None:
 
 
 # Children: one measurement in a fresh process -----------------------------------------------------------------
-def child(kind: str, cases: int, quick_map: bool, workers: int) -> None:
+def child(kind: str, cases: int, quick_map: bool, workers: int, instruments_of: int | None = None) -> None:
     """Run one measurement and print its figures as one JSON line (``RESULT``)."""
     with tempfile.TemporaryDirectory() as tmp:
         if kind in ("sweep", "sweep_in_memory"):
-            figures = end_to_end(lambda: resolve_sweep(cases), Path(tmp) / "out", workers,
+            figures = end_to_end(lambda: resolve_sweep(cases, instruments_of), Path(tmp) / "out", workers,
                                  spill=False if kind == "sweep_in_memory" else None)
         else:
             from e2esim.runner.scenario import Scenario
@@ -219,11 +229,13 @@ def child(kind: str, cases: int, quick_map: bool, workers: int) -> None:
     print(RESULT + json.dumps(figures), flush=True)
 
 
-def in_child(kind: str, cases: int = 0, quick_map: bool = False, env: dict | None = None, workers: int = 1) -> dict:
+def in_child(kind: str, cases: int = 0, quick_map: bool = False, env: dict | None = None, workers: int = 1,
+             instruments_of: int | None = None) -> dict:
     """The figures of ``child`` run in a fresh Python process, with its wall time (start-up and imports included)
     as ``process``."""
     command = [sys.executable, __file__, "--child", kind, "--cases", str(cases), "--workers", str(workers)]
     command += ["--map-quick"] if quick_map else []
+    command += ["--instruments-of", str(instruments_of)] if instruments_of else []
     t0 = time.perf_counter()
     proc = subprocess.run(command, capture_output=True, text=True, cwd=ROOT, env={**os.environ, **(env or {})})
     elapsed = time.perf_counter() - t0
@@ -339,8 +351,8 @@ def memory_runs(cases: int, workers: int) -> list:
     """Figure 3, measured: the sweep end to end at a quarter of ``cases`` and at ``cases``, and the reference (all
     cases, blocks kept in memory), each in a fresh process (started before this process has run anything:
     module docstring)."""
-    return [in_child("sweep", n, workers=workers) for n in (cases // 4, cases)] + [
-        in_child("sweep_in_memory", cases, workers=workers)]
+    return [in_child("sweep", cases // 4, workers=workers, instruments_of=cases),
+            in_child("sweep", cases, workers=workers), in_child("sweep_in_memory", cases, workers=workers)]
 
 
 def memory(runs: list) -> None:
@@ -348,19 +360,22 @@ def memory(runs: list) -> None:
     small, large, kept = runs
     say("3. peak memory (ru_maxrss) of the sweep end to end, each in a fresh process (measured before figure 1); "
         f"{verdict(large['peak_gib'], TARGET_MEMORY_GIB, ' GiB')}:")
-    for run in (small, large):
+    shapes = (sweep_shape(small["cases"], large["cases"]), sweep_shape(large["cases"]))
+    for run, shape in zip((small, large), shapes):
         hwm = "" if run["hwm_gib"] is None else f", VmHWM {run['hwm_gib']:.2f} GiB"
         workers = (f"; largest worker process {run['worker_peak_gib']:.2f} GiB" if run.get("workers", 1) > 1
                    else "")
-        say(f"   {run['cases']:>9,} cases: {run['peak_gib']:.2f} GiB{hwm} (after the run {run['peak_run_gib']:.2f} "
-            f"GiB){workers}; {parts(run)}, total {run['total']:.2f} s (process {run['process']:.2f} s)")
+        say(f"   {run['cases']:>9,} cases ({shape}): {run['peak_gib']:.2f} GiB{hwm} (after the run "
+            f"{run['peak_run_gib']:.2f} GiB){workers}; {parts(run)}, total {run['total']:.2f} s "
+            f"(process {run['process']:.2f} s)")
+
     def growth(key):  # bytes per further case, from the quarter to the whole sweep
         return (large[key] - small[key]) * 2**30 / (large["cases"] - small["cases"])
 
     say(f"   grows with the sweep: {large['peak_gib'] / small['peak_gib']:.2f}x the peak for "
-        f"{large['cases'] / small['cases']:.0f}x the cases; {growth('peak_gib'):.0f} bytes per further case "
-        f"({growth('peak_run_gib'):.0f} by the end of the run: case indices and the distinct modules of the larger "
-        "grid; the rest while the outputs read one column at a time)")
+        f"{large['cases'] / small['cases']:.0f}x the cases (the same instruments); {growth('peak_gib'):.0f} bytes per "
+        f"further case ({growth('peak_run_gib'):.0f} by the end of the run; the rest while the outputs read one "
+        "column at a time)")
     say(f"   reference, the {kept['cases']:,} cases with their finished blocks kept in memory: {kept['peak_gib']:.2f} "
         f"GiB (after the run {kept['peak_run_gib']:.2f} GiB); spilled, the peak is "
         f"{large['peak_gib'] / kept['peak_gib']:.2f}x of it")
@@ -406,10 +421,11 @@ def main() -> None:
     parser.add_argument("--workers", type=int, default=2,
                         help="worker processes of the sweep and map runs (default 2: the target's two cores)")
     parser.add_argument("--child", choices=("sweep", "sweep_in_memory", "map"), help=argparse.SUPPRESS)
+    parser.add_argument("--instruments-of", type=int, default=None, help=argparse.SUPPRESS)
     args = parser.parse_args()
     cases = args.cases or (QUICK_CASES if args.quick else TARGET_SWEEP_CASES)
     if args.child:
-        child(args.child, cases, args.map_quick, args.workers)
+        child(args.child, cases, args.map_quick, args.workers, args.instruments_of)
         return
     repeats = args.repeats or (1 if args.quick else 3)
     load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
