@@ -2,14 +2,17 @@
 
 Prints, in one run:
 
-1. start-up: ``e2esim validate`` on the default scenario (imports, scenario resolution; target <= 1 s);
+1. start-up: ``e2esim validate`` on the default scenario (imports, scenario resolution; target <= 1 s), against
+   the floor of any command: the interpreter starting and importing numpy;
 2. the default scenario end to end, with a cold array cache (the IRI climatology computed) and with a warm one
-   (target <= 8 s on 2 cores, warm);
+   (target <= 8 s on 2 cores, warm), against the reference: the same run through the per-case runner
+   (``--per-case``), warm;
 3. an analytic sweep of 10,000 cases, serially and on 2 local worker processes: the fixed cost (a one-case run
    of the same scenario: start-up, outputs) and the cost per case beyond it, ``(t_N - t_1) / (N - 1)``;
 4. a Monte Carlo sweep (12 cases of 10^6 realisations, samples not stored) on 1 and on 2 local workers, and
-   the speed-up of the per-case part (target >= 1.6x);
-5. the batched against the per-case sweep engine (``batched_vs_per_case``: added with the batched engine).
+   the speed-up of the per-case part (target >= 1.6x).
+
+The million-case sweep and the global map against the per-case runner are in benchmarks/bench_sweeps.py.
 
 Start-up is measured as an installed package starts: from compiled bytecode. ``pip install`` compiles it, and
 Python writes it on a first import, but not where ``PYTHONDONTWRITEBYTECODE`` is set (some CI and sandboxes);
@@ -117,13 +120,25 @@ def compile_bytecode() -> None:
     print(f"bytecode of {package} compiled first, as an installation does{written}")
 
 
+def interpreter_with_numpy(runner: Runner) -> float:
+    t0 = time.perf_counter()
+    subprocess.run([sys.executable, "-c", "import numpy"], check=True, env=runner.env)
+    return time.perf_counter() - t0
+
+
 def startup_and_default(runner: Runner) -> None:
     validate = runner.repeat(lambda: runner.once("validate", DEFAULT), max(runner.repeats, 5))
+    floor = runner.repeat(lambda: interpreter_with_numpy(runner), max(runner.repeats, 5))
     print(f"1. start-up, e2esim validate {DEFAULT.name}: {summary(validate)}; "
           f"{verdict(min(validate), TARGET_VALIDATE_S)}")
+    print(f"   the floor, python -c 'import numpy': {summary(floor)}")
     cold = runner.run(DEFAULT, "default")  # the benchmark's cache is empty: the IRI climatology is computed
     warm = runner.repeat(lambda: runner.run(DEFAULT, "default"))
+    per_case = runner.repeat(lambda: runner.run(DEFAULT, "default_per_case", "--per-case"))
     print(f"2. default scenario end to end, warm cache: {summary(warm)}; {verdict(min(warm), TARGET_DEFAULT_S)}")
+    print(f"   reference, the per-case runner (--per-case), warm: {summary(per_case)}; the batched run takes "
+          f"{min(warm) / min(per_case):.2f}x its time (a Monte Carlo scenario of 5 cases: the Monte Carlo, the "
+          "calibration and the plots dominate both)")
     print(f"   cold cache (first run, IRI climatology computed and stored): {cold:.2f} s (1 run)")
 
 
@@ -163,12 +178,6 @@ def monte_carlo_sweep(runner: Runner, quick: bool) -> None:
           f"of the whole runs {min(one_worker) / min(two_workers):.2f}x")
 
 
-def batched_vs_per_case(runner: Runner, quick: bool) -> None:
-    """Issue 14, item 4: the analytic sweep (and map) through the batched engine against the per-case runner,
-    the reference kept behind a flag, in this same run. To be written with the batched engine."""
-    print("5. batched against per-case sweeps: not measured in this version (no batched engine yet)")
-
-
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="smaller sweeps, one run of each")
@@ -186,7 +195,6 @@ def main() -> None:
             return
         analytic_sweep(runner, args.quick)
         monte_carlo_sweep(runner, args.quick)
-        batched_vs_per_case(runner, args.quick)
 
 
 if __name__ == "__main__":

@@ -242,3 +242,14 @@ def test_a_large_run_writes_every_case_to_results_h5_and_leaves_the_per_case_rep
             assert back.scalars[name][index] == value, name
         assert back.margin[index, 0] == case.verdicts[0].margin
         assert back.labels[index] == case.label
+
+
+def test_scalars_only_some_cases_have_keep_their_place_among_the_others():
+    from e2esim.runner.columns import dict_columns, merged_order
+
+    # the contribution "nonlinearity" of biomass_multichannel: the first case of a block lacks it
+    first = {"agb.contribution.noise.mean": 1.0, "requirement0.passed": 1.0}
+    second = {"agb.contribution.noise.mean": 2.0, "agb.contribution.nonlinearity.mean": 0.1, "requirement0.passed": 0.0}
+    assert list(dict_columns([first, second])) == list(second)
+    assert merged_order([["b", "c"], ["a", "b", "x", "c", "y"], ["z"]]) == ["z", "a", "b", "x", "c", "y"]
+    assert merged_order([[], ["a", "b"], ["b", "a"]]) == ["a", "b"]  # the first order met stands

@@ -70,6 +70,11 @@ CASES = {
                              ["sweep.parameters.scene.forest", "is not a list of values"]),
     "bad value in a sweep case": (GOOD + "sweep:\n  parameters:\n    instrument.nesz_db: [-27, 30]\n",
                                   ["instrument.nesz_db", "30 is out of range", "sweep case 1"]),
+    "sweep over an item of a section the scenario lacks": (  # found by the fuzz test (a StopIteration before)
+        GOOD.replace("requirements:\n  - type: agb_error_bound\n", "")
+        + "sweep:\n  parameters:\n    requirements.0.side: [over, under]\n",
+        ["sweep.requirements.0.side", "sets an item of 'requirements' that the scenario does not have",
+         "the scenario has no requirements"]),
     "requirements not a list": (GOOD.replace("  - type: agb_error_bound", "  type: agb_error_bound"),
                                 ["requirements", "is not a list"]),
     "bad simulation mode": (GOOD.replace("mode: analytic", "mode: fast"),

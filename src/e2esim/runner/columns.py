@@ -43,11 +43,28 @@ class Column:
         return Column(values, present)
 
 
+def merged_order(sequences) -> list:
+    """The keys of ``sequences`` (each an ordered collection of keys) in one order that keeps each sequence's
+    order where they agree: a key first met in a later sequence goes right after the key before it there, not at
+    the end. So a case's scalars keep their product's place (the contribution ``nonlinearity`` that only some cases
+    have stays among the other contributions), whatever case of the block has them first."""
+    order: list = []
+    seen: set = set()
+    for sequence in sequences:
+        previous = None
+        for key in sequence:
+            if key not in seen:
+                order.insert(0 if previous is None else order.index(previous) + 1, key)
+                seen.add(key)
+            previous = key
+    return order
+
+
 def dict_columns(rows: list) -> dict:
-    """{key: Column} of one-case {key: number} mappings, keys in first-seen order, NaN and not present where a
-    mapping lacks the key."""
+    """{key: Column} of one-case {key: number} mappings, keys in their merged order (``merged_order``), NaN and
+    not present where a mapping lacks the key."""
     columns = {}
-    for key in dict.fromkeys(k for row in rows for k in row):
+    for key in merged_order(rows):
         values = np.array([row.get(key, np.nan) for row in rows], dtype=float)
         present = np.array([key in row for row in rows], dtype=bool)
         columns[key] = Column(values, None if present.all() else present)
@@ -184,7 +201,7 @@ def _scalar_table(state: tuple | None, values) -> tuple:
     before, table = state or (0, {})
     per_value = [{k: float(np.real(v)) for k, v in value.scalars().items()} for value in values]
     table = dict(table)
-    for key in dict.fromkeys([*table, *(k for s in per_value for k in s)]):
+    for key in merged_order([list(table), *per_value]):
         old_values, old_has = table.get(key, (np.full(before, np.nan), np.zeros(before, dtype=bool)))
         table[key] = (np.concatenate([old_values, np.array([s.get(key, np.nan) for s in per_value], dtype=float)]),
                       np.concatenate([old_has, np.array([key in s for s in per_value], dtype=bool)]))

@@ -257,7 +257,11 @@ class Scenario:
         for slot in plan.module_slots:
             number_shapes(slot)
         for key, path, _, _ in keys:
-            slot = next(s for s in slots if path[:len(s.path)] == s.path)
+            slot = next((s for s in slots if path[:len(s.path)] == s.path), None)
+            if slot is None:  # an item of a list section the scenario does not have (requirements.2 of one)
+                raise ConfigError(Location(self.source, ("sweep", key), self.lines),
+                                  f"sweep key {key!r} sets an item of {path[0]!r} that the scenario does not have",
+                                  _items_allowed(self.raw.get(path[0]), path[0]))
             self._check_key(key, path, slot, plan)
         plan.find_templates()
         return plan
@@ -494,4 +498,13 @@ def _jsonable(value: Any) -> Any:
     return value
 
 
+def _items_allowed(items, section: str) -> str:
+    """What a sweep key may name in the list section ``section`` (its items ``items``)."""
+    count = len(items) if isinstance(items, list) else 0
+    if count == 0:
+        return f"the scenario has no {section}: add them to the scenario before sweeping their settings"
+    return f"{section}.0 to {section}.{count - 1} (the scenario has {count})"
+
+
 __all__ = ["CaseSpec", "ResolvedScenario", "Scenario"]
+
