@@ -35,7 +35,7 @@ class ResultTable:
     n: int
     scalars: Mapping
     requirements: list
-    text_parts: dict = field(default_factory=dict, repr=False)  # "notes"/"groups" -> (blocks' Values getters)
+    blocks: list = field(default_factory=list, repr=False)  # what notes and groups are joined from
     order: np.ndarray | None = field(default=None, repr=False)
 
     @classmethod
@@ -49,7 +49,7 @@ class ResultTable:
         scalars = JoinedColumns([b.scalars for b in blocks], sizes, order)
         count = len(blocks[0].requirements)
         requirements = [JoinedRequirement([b.requirements[j] for b in blocks], sizes, order) for j in range(count)]
-        return cls(n, scalars, requirements, {"notes": blocks, "groups": blocks}, order)
+        return cls(n, scalars, requirements, blocks, order)
 
     @property
     def notes(self) -> Values:
@@ -60,10 +60,9 @@ class ResultTable:
         return self._texts("groups", {})
 
     def _texts(self, name: str, empty) -> Values:
-        blocks = self.text_parts.get(name)
-        if not blocks:
+        if not self.blocks:
             return Values.repeated(empty, self.n)
-        joined = Values.concatenate([getattr(b, name) for b in blocks])
+        joined = Values.concatenate([getattr(b, name) for b in self.blocks])
         return joined if self.order is None else joined.take(self.order)
 
     def scalar(self, name: str) -> np.ndarray:
