@@ -114,12 +114,6 @@ class SpilledBlock:
         return BlockResult(self.indices, dict(self.scalars.items()), [r.load() for r in self.requirements],
                            self.notes, self.groups)
 
-    def case(self, k: int, inputs: dict, label: str):
-        return self.load().case(k, inputs, label)
-
-    def without_products(self) -> SpilledBlock:
-        return self
-
 
 class SpilledColumns(Mapping):
     """{name: ``Column``} of a spilled block, each read back when asked for."""
