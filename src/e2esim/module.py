@@ -161,6 +161,10 @@ class Stage(Module, ABC):
     needs: ClassVar[tuple] = ()
     uses: ClassVar[tuple] = ()
     provides: ClassVar[tuple] = ()
+    fast_path_hooks: ClassVar[tuple] = ()
+    """Methods besides ``forward`` that an optional ``forward_block`` (a batched ``forward`` over a block of
+    cases) relies on: a subclass that overrides one of them, or ``forward``, without its own ``forward_block``
+    runs case by case (``fast_path``)."""
     case_params: ClassVar[tuple] = ()
     """Parameters a sweep may set without a module per value (the cell, month and pass of a map sweep): the
     runner builds one module, with the first case's values, and the stage reads each case's own value with
@@ -188,6 +192,32 @@ class Stage(Module, ABC):
             values = block.sweep_values(self.sweep_key(name))
             out[name] = np.full(len(block), self.config[name]) if values is None else values
         return out
+
+
+def _owner(cls: type, name: str) -> type | None:
+    """The class of ``cls``'s method resolution order that defines ``name``, or None."""
+    return next((c for c in cls.__mro__ if name in vars(c)), None)
+
+
+def fast_path(obj, fast: str = "forward_block", reference: str = "forward"):
+    """``obj``'s fast (batched) member ``fast`` when it describes the ``reference`` in force, else None.
+
+    A batched method is only the one-case method evaluated over a block when the class that defines the
+    ``reference`` in force also defines the fast member (or a subclass of it does). A subclass that overrides
+    ``forward`` but inherits its parent's ``forward_block`` would otherwise get the parent's numbers from the
+    batched engine. A class also names, in ``fast_path_hooks``, the methods its fast member relies on as
+    ``reference`` does (``PowerLawRetrieval.case_exponent``, say): overriding one of them below the fast
+    member's class turns the fast path off too. The case then runs per case (``reference``), which is the
+    reference path."""
+    cls = type(obj)
+    fast_class = _owner(cls, fast)
+    if fast_class is None or getattr(obj, fast, None) in (None, False):
+        return None
+    for name in (reference, *getattr(cls, "fast_path_hooks", ())):
+        owner = _owner(cls, name)
+        if owner is not None and not issubclass(fast_class, owner):
+            return None
+    return getattr(obj, fast)
 
 
 def fail(module: Module, problem: str, allowed: str | None = None, key: str | None = None) -> ConfigError:

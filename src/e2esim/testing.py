@@ -9,6 +9,10 @@ and pickles; and what the module does on a representative case made by e2esim's 
 * a ``Stage``: ``forward`` returns exactly the products it declares, each of its declared type, and is
   deterministic for a given random generator (compared through the products' output scalars);
 * a ``Requirement``: ``evaluate`` returns a ``RequirementVerdict``, deterministically;
+* block invariance (stages and requirements, in the spirit of scikit-learn's subset-invariance check): where the
+  batched engine would use a fast path (``forward_block``, a requirement's ``batched`` evaluation; see
+  ``e2esim.module.fast_path``), every case of a block of varied cases (``BLOCK_VARIANTS``) gets bit for bit the
+  output scalars and verdicts it gets alone;
 * a ``CalibrationModule``: its steps are ``CalibrationStep`` objects and the strategy made of it is
   deterministic;
 * a Faraday-rotation estimator: its predicted SD is a positive number.
@@ -48,15 +52,42 @@ DEFAULT_CHAIN = (
 """Built-in modules whose chain makes the products a module under test needs."""
 
 
-def reference_case(needs=(), uses=(), settings: SimulationSettings = SMALL, seed: int = 0) -> Case:
-    """A case holding the products ``needs`` names (and those of ``uses`` the default chain makes), made by
-    the default chain (``DEFAULT_CHAIN``, no calibration) and stopped as soon as it has them."""
+ANALYTIC = SimulationSettings(mode="analytic", seed=1, looks=500, realisations=400, noise_realisations=1)
+"""Settings under which the batched engine takes its fast paths (they decline Monte Carlo cases)."""
+
+BLOCK_VARIANTS = (
+    {},
+    {"scene": {"forest": "tropical_338"}, "ionosphere": {"mean_deg": 5.0, "sd_deg": 0.0}},
+    {"scene": {"forest": "boreal_50"}, "instrument": {"crosstalk": {"level_db": -25.0}, "nesz_db": -30.0}},
+    {"scene": {"forest": "tropical_341"}, "instrument": {"channel_imbalance": {"level_db": None}},
+     "ionosphere": {"mean_deg": 30.0, "sd_deg": 20.0}},
+)
+"""Changes to ``DEFAULT_CHAIN``'s configurations that make the cases of the block invariance check differ."""
+
+
+def _chain_modules(variant: dict | None = None) -> list:
     from e2esim import registry
+
+    variant = variant or {}
+    return [registry.lookup(kind, name)(**_merged(config, variant.get(kind, {}))) for kind, name, config in DEFAULT_CHAIN]
+
+
+def _merged(config: dict, change: dict) -> dict:
+    out = dict(config)
+    for key, value in change.items():
+        out[key] = _merged(out.get(key, {}), value) if isinstance(value, dict) else value
+    return out
+
+
+def reference_case(needs=(), uses=(), settings: SimulationSettings = SMALL, seed: int = 0,
+                   variant: dict | None = None) -> Case:
+    """A case holding the products ``needs`` names (and those of ``uses`` the default chain makes), made by
+    the default chain (``DEFAULT_CHAIN``, no calibration; ``variant``: changes to its configurations, as in
+    ``BLOCK_VARIANTS``) and stopped as soon as it has them."""
     from e2esim.runner.chain import assemble
     from e2esim.runner.run import checked_products
 
-    modules = [registry.lookup(kind, name)(**config) for kind, name, config in DEFAULT_CHAIN]
-    chain = assemble(modules, Location("reference chain"))
+    chain = assemble(_chain_modules(variant), Location("reference chain"))
     makeable = {p.name for stage in chain for p in stage.provides}
     wanted = set(needs) | (set(uses) & makeable)
     case = Case(index=0, inputs={}, settings=settings, rng=np.random.default_rng(seed))
@@ -67,6 +98,91 @@ def reference_case(needs=(), uses=(), settings: SimulationSettings = SMALL, seed
     missing = wanted - set(case.products)
     assert not missing, f"the default chain cannot make {sorted(missing)}; give check_module a case"
     return case
+
+
+def reference_block(needs=(), uses=(), case: Case | None = None, variants=BLOCK_VARIANTS,
+                    settings: SimulationSettings = ANALYTIC):
+    """A block of ``len(variants)`` cases of the default chain (``reference_case`` of each variant) holding what
+    ``needs`` names, made the way the batched engine makes it: each stage through its fast path where it has
+    one, else case by case (a ``Factor``); and the same cases one by one. Products of ``case`` that the default
+    chain does not make are added to every case. Returns ``(block, cases)``."""
+    from e2esim.block import Block, Factor
+    from e2esim.module import fast_path
+    from e2esim.runner.chain import assemble
+
+    chains = [assemble(_chain_modules(v), Location("reference chain")) for v in variants]
+    n = len(variants)
+    makeable = {p.name for stage in chains[0] for p in stage.provides}
+    wanted = set(needs) | (set(uses) & makeable)
+    cases = [Case(index=k, inputs={}, settings=settings, rng=np.random.default_rng(k)) for k in range(n)]
+    products: dict = {}
+    for stages in zip(*chains):
+        if wanted <= set(products):
+            break
+        fast = fast_path(stages[0]) if all(s == stages[0] for s in stages) else None
+        new = fast(Block(np.arange(n), settings, dict(products), cases[0].services)) if fast else None
+        if new is None:
+            made = [stage.forward(c) for stage, c in zip(stages, cases)]
+            new = {name: Factor([m[name] for m in made], np.arange(n)) for name in made[0]}
+        products.update(new)
+        cases = [c.adding({name: value.item(k) for name, value in new.items()}) for k, c in enumerate(cases)]
+    extra = {} if case is None else {name: case[name] for name in case.products if name not in products}
+    products.update({name: Factor.single(value, n) for name, value in extra.items()})
+    cases = [c.adding(extra) for c in cases]
+    missing = wanted - set(products)
+    assert not missing, f"the default chain cannot make {sorted(missing)}; give check_module a case"
+    return Block(np.arange(n), settings, products, cases[0].services), cases
+
+
+def check_block_invariance(stage, case: Case | None = None, variants=BLOCK_VARIANTS) -> bool:
+    """Assert that ``stage``'s fast path (``e2esim.module.fast_path``) gives every case of a block of varied cases
+    (``reference_block``) bit for bit the output scalars, and verdicts, that ``forward`` gives the case alone.
+    ``stage`` is a ``Stage``, or a requirement set (``e2esim.requirements.stage.RequirementSet``). Returns whether a
+    fast path was checked (False: the stage has none, or it declined these cases)."""
+    from e2esim.case import Products
+    from e2esim.module import fast_path
+    from e2esim.runner.columns import scalar_columns
+    from e2esim.runner.records import case_scalars
+
+    fast = fast_path(stage)
+    if fast is None:
+        return False
+    block, cases = reference_block(stage.needs, stage.uses, case, variants)
+    got = fast(block)
+    if got is None:
+        return False
+    declared = {p.name: p for p in stage.provides}
+    name = getattr(stage, "identity", type(stage).__name__)
+    columns = scalar_columns(got, len(cases), declared)
+    for k, one in enumerate(cases):
+        alone = stage.forward(one)
+        assert set(got) == set(alone), f"{name}: the fast path gives {sorted(got)}, forward {sorted(alone)}"
+        expected = case_scalars(Products(alone), declared)
+        in_block = {key: float(column.values[k]) for key, column in columns.items()
+                    if column.present is None or column.present[k]}
+        differ = sorted(key for key in expected.keys() | in_block.keys()
+                        if not _identical(expected.get(key), in_block.get(key)))
+        assert not differ, (f"{name}: case {k} of a block differs from the case run alone in {differ[:5]} "
+                            f"(block {[in_block.get(d) for d in differ[:3]]}, alone {[expected.get(d) for d in differ[:3]]})")
+        if "verdicts" in alone:
+            for v, w in zip(got["verdicts"].item(k), alone["verdicts"]):
+                assert _same_verdict(v, w), f"{name}: verdict {w.name!r} of case {k} differs in a block:\n{v}\n{w}"
+    return True
+
+
+def _identical(a, b) -> bool:
+    if a is None or b is None:
+        return a is b
+    return a == b or (a != a and b != b)
+
+
+def _same_verdict(v, w) -> bool:
+    plain = ("name", "passed", "unit", "basis", "dominant", "notes", "value", "limit", "margin")
+    return (all(_identical(getattr(v, f), getattr(w, f)) if isinstance(getattr(w, f), float)
+                else getattr(v, f) == getattr(w, f) for f in plain)
+            and list(v.details) == list(w.details) and all(_identical(v.details[k], w.details[k]) for k in w.details)
+            and list(v.curves) == list(w.curves)
+            and all(np.array_equal(v.curves[k], w.curves[k], equal_nan=True) for k in w.curves))
 
 
 def check_declaration(cls) -> None:
@@ -107,8 +223,12 @@ def check_module(cls, config: dict | None = None, case: Case | None = None) -> M
 
     if isinstance(module, Stage):
         _check_stage(module, copy, case)
+        check_block_invariance(module, case)
     elif isinstance(module, Requirement):
         _check_requirement(module, copy, case)
+        from e2esim.requirements.stage import RequirementSet
+
+        check_block_invariance(RequirementSet([module], Location("check")), case)
     elif isinstance(module, CalibrationModule):
         _check_calibration(module, copy, case)
     elif isinstance(module, FaradayEstimatorModule):

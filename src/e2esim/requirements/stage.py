@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from e2esim import products as P
+from e2esim.module import fast_path
 from e2esim.requirements.verdict import RequirementVerdicts, RequirementVerdictsBlock
 
 _CURVE_CASES = 32
@@ -49,7 +50,8 @@ class RequirementSet:
         from e2esim.errors import ConfigError
 
         if not isinstance(block.get("agb.error"), Batched) or not all(
-                getattr(r, "batched", False) and r.si.get("basis", "auto") != "montecarlo" for r in self.requirements):
+                fast_path(r, "batched", "evaluate") and r.si.get("basis", "auto") != "montecarlo"
+                for r in self.requirements):
             return None
         # a trade-off curve holds (cases x points x root-finding levels x quadrature nodes) numbers: in parts
         size = _CURVE_CASES if any(r.config.get("tradeoff_curve") for r in self.requirements) else len(block)

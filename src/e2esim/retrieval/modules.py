@@ -94,6 +94,7 @@ class PowerLawRetrieval(_Retrieval):
               default=None, exclusive_minimum=0.0, maximum=10.0, nullable=True),
         _REGRESSION,
     )
+    fast_path_hooks = ("case_exponent",)  # forward_block reads the scene's exponent (exponent_for) alone
 
     def exponent_for(self, scene) -> float:
         if self.si["exponent"] is not None:
@@ -129,8 +130,7 @@ class PowerLawRetrieval(_Retrieval):
 
         model, scene = block["backscatter.error"], block["scene.covariance"]
         if ("backscatter.budget" in block or self.campaign.mode != "none" or not isinstance(model, Batched)
-                or model.unavailable is not None or not isinstance(scene, Factor)
-                or type(self).case_exponent is not PowerLawRetrieval.case_exponent):
+                or model.unavailable is not None or not isinstance(scene, Factor)):
             return None
         try:
             p = scene.gather(self.exponent_for, name=f"power-law exponent {id(self)}")

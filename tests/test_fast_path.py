@@ -1,0 +1,100 @@
+"""The fast path is the reference path (issue 21, item 1): a batched method is used only where it describes the
+one-case method in force, and ``check_module`` proves block invariance for any module it is given."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from e2esim.block import Batched
+from e2esim.distortion.modules import HVBackscatterErrorPropagation
+from e2esim.errors import Location
+from e2esim.module import fast_path
+from e2esim.requirements.modules import AGBErrorBound
+from e2esim.requirements.stage import RequirementSet
+from e2esim.retrieval.modules import PowerLawRetrieval
+from e2esim.testing import check_block_invariance, check_module
+
+
+class OwnForward(HVBackscatterErrorPropagation):
+    """A plug-in that follows docs/writing-a-module.md §3: its own forward, the parent's forward_block."""
+
+    type_name = "own_forward"
+
+    def forward(self, case):
+        return super().forward(case)
+
+
+class OwnForwardAndBlock(OwnForward):
+    type_name = "own_forward_and_block"
+
+    def forward_block(self, block):
+        return super().forward_block(block)
+
+
+class WrongBlock(HVBackscatterErrorPropagation):
+    """A fast path that does not describe ``forward`` (it gives the cases in reverse order): check_module must
+    say so."""
+
+    type_name = "wrong_block"
+
+    def forward_block(self, block):
+        out = super().forward_block(block)
+        reverse = np.arange(len(block))[::-1]
+        return None if out is None else {name: value.take(reverse) for name, value in out.items()}
+
+
+class OwnExponent(PowerLawRetrieval):
+    type_name = "own_exponent"
+
+    def case_exponent(self, case):
+        return 1.5
+
+
+class OwnEvaluate(AGBErrorBound):
+    type_name = "own_evaluate"
+
+    def evaluate(self, case):
+        return super().evaluate(case)
+
+
+def test_a_subclass_that_overrides_forward_does_not_inherit_the_fast_path():
+    assert fast_path(HVBackscatterErrorPropagation()) is not None
+    assert fast_path(OwnForward()) is None
+    assert fast_path(OwnForwardAndBlock()) is not None  # it says its forward_block describes its forward
+
+
+def test_overriding_a_hook_of_the_fast_path_turns_it_off():
+    assert fast_path(PowerLawRetrieval()) is not None
+    assert fast_path(OwnExponent()) is None
+
+
+def test_a_requirement_that_overrides_evaluate_is_evaluated_case_by_case():
+    assert fast_path(AGBErrorBound(), "batched", "evaluate")
+    assert fast_path(OwnEvaluate(), "batched", "evaluate") is None
+    assert check_block_invariance(RequirementSet([AGBErrorBound(level_margins=True)], Location("t")))
+    assert not check_block_invariance(RequirementSet([OwnEvaluate()], Location("t")))
+
+
+@pytest.mark.parametrize("cls, config", [
+    (HVBackscatterErrorPropagation, {}), (PowerLawRetrieval, {}), (OwnForwardAndBlock, {}),
+    (AGBErrorBound, {"level_margins": True, "tradeoff_curve": True, "curve_points": 5}),
+])
+def test_built_in_fast_paths_are_block_invariant(cls, config):
+    module = check_module(cls, config)
+    stage = RequirementSet([module], Location("t")) if isinstance(module, AGBErrorBound) else module
+    assert check_block_invariance(stage)  # checked, not skipped
+
+
+def test_check_module_finds_a_fast_path_that_differs_from_forward():
+    with pytest.raises(AssertionError, match="differs from the case run alone"):
+        check_module(WrongBlock)
+
+
+def test_the_block_of_the_check_is_batched_where_the_engine_batches():
+    from e2esim.testing import reference_block
+
+    block, cases = reference_block(("agb.error",))
+    assert isinstance(block["backscatter.error"], Batched) and isinstance(block["agb.error"], Batched)
+    assert len(cases) == len(block) == 4
+    assert len({float(c["agb.error"].rmse()) for c in cases}) == 4  # the cases differ
