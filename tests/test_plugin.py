@@ -165,7 +165,8 @@ def test_the_plugin_examples_give_the_per_case_numbers_on_the_batched_engine(plu
     to inherit its ``forward_block``, so the batched engine dropped the scintillation (AGB error 11.91 % against
     16.21 % per case, analytic mode). Every mode of both examples must give the per-case runner's numbers exactly."""
     scenario = (SCINTILLATION if example == "scintillation" else PLUGIN) / "scenario.yaml"
-    sets = ["--set", f"simulation.mode={mode}", "--set", "simulation.realisations=300", "--set", "simulation.looks=2000"]
+    sets = ["--set", f"simulation.mode={mode}", "--set", "simulation.realisations=300",
+            "--set", "simulation.looks=2000"]
     summaries = []
     for engine in ([], ["--per-case"]):
         out = tmp_path / f"run{len(summaries)}"

@@ -69,7 +69,8 @@ def _chain_modules(variant: dict | None = None) -> list:
     from e2esim import registry
 
     variant = variant or {}
-    return [registry.lookup(kind, name)(**_merged(config, variant.get(kind, {}))) for kind, name, config in DEFAULT_CHAIN]
+    return [registry.lookup(kind, name)(**_merged(config, variant.get(kind, {})))
+            for kind, name, config in DEFAULT_CHAIN]
 
 
 def _merged(config: dict, change: dict) -> dict:
@@ -162,8 +163,9 @@ def check_block_invariance(stage, case: Case | None = None, variants=BLOCK_VARIA
                     if column.present is None or column.present[k]}
         differ = sorted(key for key in expected.keys() | in_block.keys()
                         if not _identical(expected.get(key), in_block.get(key)))
+        shown = differ[:3]
         assert not differ, (f"{name}: case {k} of a block differs from the case run alone in {differ[:5]} "
-                            f"(block {[in_block.get(d) for d in differ[:3]]}, alone {[expected.get(d) for d in differ[:3]]})")
+                            f"(block {[in_block.get(d) for d in shown]}, alone {[expected.get(d) for d in shown]})")
         if "verdicts" in alone:
             for v, w in zip(got["verdicts"].item(k), alone["verdicts"]):
                 assert _same_verdict(v, w), f"{name}: verdict {w.name!r} of case {k} differs in a block:\n{v}\n{w}"
