@@ -36,7 +36,7 @@ def test_verification_doc_lists_every_check_with_its_current_status():
 
 def test_verification_doc_explains_low_power_and_states_effect_and_power():
     text = DOC.read_text()
-    assert "`low_power` (consistent" in text and "not counted as reproduced" in text
+    assert "`low_power` (consistent, within tolerance" in text and "not counted as reproduced" in text
     assert "| status | effect | power |" in text
     row = next(line for line in text.splitlines() if "`men2021.table2.pooled.bias_rel_diff`" in line)
     assert "| low_power | 0.622 |" in row and "LOW POWER" in row

@@ -145,9 +145,9 @@ def run_checks(sources=()) -> list:
 STATUS_MEANINGS = {
     "reproduced": "within tolerance, and the tolerance is smaller than the effect the record measures, so a "
                   "computation without the effect would fail",
-    "low_power": "consistent (within tolerance, or under a published bound) but not discriminating: the tolerance is "
-                 "not smaller than the effect (or the bound is met by the null value too), so the check cannot tell "
-                 "the published value from the null; its power against the null is stated; not counted as reproduced",
+    "low_power": "consistent, within tolerance or under a published bound, but not discriminating: the tolerance is "
+                 "not smaller than the effect, or the null value meets the bound too, so the check cannot tell the "
+                 "published value from the null; its power against the null is stated; not counted as reproduced",
     "discrepancy": "a correct computation cannot reproduce the printed value; explained in the note and in errata.md",
     "failed": "unexpected: outside tolerance, a pinned value that moved, or a computation that raised",
 }
@@ -178,5 +178,10 @@ def render_report(records) -> str:
     ]
     for r in records:
         lines.append(f"| `{r.id}` | {r.published:g} | {r.computed:.5g} | {r.tolerance:.3g} | {r.status} | "
-                     f"{r.effect:.3g} | {r.power:.2f} | {r.citation} | {r.note} |")
+                     f"{r.effect:.3g} | {r.power:.2f} | {_cell(r.citation)} | {_cell(r.note)} |")
     return "\n".join(lines) + "\n"
+
+
+def _cell(text: str) -> str:
+    """Text for a Markdown table cell: a bare '|' (as in |x|) would end the cell."""
+    return text.replace("|", "\\|")
