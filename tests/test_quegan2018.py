@@ -28,7 +28,11 @@ def test_reproduce_records_and_status():
     assert round(sc.e / sc.m_e / 3e8, 1) == 586.3
     for rid, rec in records.items():
         if rid.startswith("quegan2018.table1"):
-            assert rec.status == "reproduced", (rid, rec.computed, rec.published)
+            # the L = 10^4 zones are 0.32 and 0.10 deg wide: their edges lie within the 0.3 deg tolerance of the
+            # zone's centre, so those checks cannot tell the zone from one of zero width (issue 21, item 10)
+            expected = "low_power" if "_L10000." in rid else "reproduced"
+            assert rec.status == expected, (rid, rec.computed, rec.published)
+            assert rec.null_value == pytest.approx(1.86, abs=0.005)  # the printed zones' common centre
 
 
 def test_table1_assumptions_reproduce_the_printed_table_with_printed_eq5():

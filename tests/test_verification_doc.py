@@ -32,3 +32,11 @@ def test_verification_doc_lists_every_check_with_its_current_status():
         assert row["published"] == pytest.approx(p.published, rel=1e-4)
         if record.tolerance == p.tolerance:  # deterministic checks: the computed value itself must match
             assert row["computed"] == pytest.approx(record.computed, rel=1e-4, abs=1e-12)
+
+
+def test_verification_doc_explains_low_power_and_states_effect_and_power():
+    text = DOC.read_text()
+    assert "`low_power` (consistent, within tolerance" in text and "not counted as reproduced" in text
+    assert "| status | effect | power |" in text
+    row = next(line for line in text.splitlines() if "`men2021.table2.pooled.bias_rel_diff`" in line)
+    assert "| low_power | 0.622 |" in row and "LOW POWER" in row

@@ -79,8 +79,10 @@ def _build_parser() -> argparse.ArgumentParser:
 
     rep = sub.add_parser("reproduce", help="check e2esim against published results",
                          description="Recompute published numbers from the seed papers and compare. Each record "
-                                     "has id, quantity, published, computed, tolerance, status (reproduced, "
-                                     "discrepancy, failed), citation and note.")
+                                     "has id, quantity, published, computed, tolerance, status (reproduced; "
+                                     "low_power: consistent, but the tolerance is not smaller than the effect "
+                                     "measured, so not counted as reproduced; discrepancy; failed), effect, "
+                                     "power, citation and note.")
     rep.add_argument("sources", nargs="*", metavar="SOURCE", help="only these sources or ids (e.g. men2021)")
     rep.add_argument("--json", action="store_true", help="print the records as a JSON list")
     rep.add_argument("--report", metavar="FILE", help="write a markdown verification report to FILE")
@@ -221,7 +223,7 @@ def cmd_modules(args) -> int:
 
 
 def cmd_reproduce(args) -> int:
-    from e2esim.verification.reproduce import render_report, run_checks
+    from e2esim.verification.reproduce import render_report, run_checks, status_counts
 
     records = run_checks(args.sources)
     if args.report:
@@ -234,7 +236,10 @@ def cmd_reproduce(args) -> int:
         width = max((len(r.id) for r in records), default=10)
         for r in records:
             print(f"{r.status:12s} {r.id:{width}s} published {r.published:<10g} computed {r.computed:<12.5g} "
-                  f"tol {r.tolerance:g}")
+                  f"tol {r.tolerance:<9.3g} effect {r.effect:<9.3g} power {r.power:.2f}")
+        print(f"{len(records)} checks: {status_counts(records)} (low_power: consistent, but the tolerance is not "
+              "smaller than the effect, so the check cannot tell the published value from the null; see the note "
+              "in --json)")
     return 0 if all(r.status != "failed" for r in records) else 1
 
 

@@ -93,5 +93,7 @@ def table1_edge(record):
             f"{a.b0_tesla:g} T, z = {a.confidence_z:g} (99 %) on the {a.requirement_m:g} m slant-range error; so "
             f"agreement within the tolerance is partly by construction. Plausible alternatives, one at a time "
             f"({', '.join(TABLE1_ALTERNATIVES)}), put this edge between {min(edges):.2f} and {max(edges):.2f} deg N "
-            f"(spread {max(edges) - min(edges):.2f} deg)")
+            f"(spread {max(edges) - min(edges):.2f} deg). The effect measured is the distance from the zone's printed "
+            f"centre ({record.null_value:.3f} deg N, where a computation without the delay error puts a zone of "
+            f"zero width): {abs(record.published - record.null_value):.2f} deg")
     return float(value), None, note

@@ -35,10 +35,13 @@ TABLE1 = {
 }
 """Quegan et al. (2018), Table 1: latitudes where the 25 m geolocation accuracy in range cannot be met."""
 
+# The null of an edge is the centre of its printed zone, not 0 deg N: a computation without the delay error
+# (eqs. 5-8) gives a zone of zero width on the line B.k = 0 (1.86 deg N under TABLE1_ASSUMPTIONS), while the
+# geographic equator has no role. So the effect an edge measures is the zone's half-width, what SNR and L set.
 for (_snr, _looks), _edges in TABLE1.items():
     for _side, _value in zip(("south", "north"), _edges):
         PUBLISHED.append(Published(
             f"quegan2018.table1.snr{_snr}_L{_looks}.{_side}",
             f"{_side} edge of the excluded latitude zone (deg N), SNR {_snr} dB, L = {_looks}",
-            _value, _TABLE1_TOL, _TABLE1, f"{_Q}:table1_edge",
+            _value, _TABLE1_TOL, _TABLE1, f"{_Q}:table1_edge", null_value=round(sum(_edges) / 2, 6),
         ))
