@@ -140,7 +140,8 @@ def _budget_section(result, plots) -> list:
         "source removed (analytic model; the parts interact and quantiles are not additive, so they need not add "
         "up). Systematic: system distortions, Faraday rotation, noise; random: the error budget of the product "
         "(speckle and noise, temporal variability, calibration, area projection); regression: the retrieval "
-        "model's uncertainty.")]
+        "model's calibration uncertainty; model: the uncertainty of the retrieval's exponents and coefficients away "
+        "from their calibration.")]
     out += [Image(name, caption) for name, caption in plots if name == "error_budget.png"]
     if is_map_sweep(result.scenario) or _large(result):
         return out
