@@ -3,9 +3,12 @@ and coefficients into the log-AGB error (eqs. 7.1-7.2) against a Monte Carlo ove
 the retrieval chain (analytic and Monte Carlo), and the joint estimate's sensitivity to its exponents."""
 
 import dataclasses
+import html
+import json
 
 import numpy as np
 import pytest
+from test_stack_joint import _stack_retrieval_case
 
 from e2esim.retrieval import model_error
 from e2esim.retrieval.exponent_sensitivity import joint_rmse
@@ -13,7 +16,6 @@ from e2esim.stack.multichannel_retrieval import StackMultiChannelRetrieval, grou
 from e2esim.stack.retrieval import StackPowerLawRetrieval
 from e2esim.stack.sites import SITES
 from helpers import Z_ACCEPT, mean_and_variance_z
-from test_stack_joint import _stack_retrieval_case
 
 
 def _simulate_retrieval(rng, alpha_r, exponent_sd, level_sd, agb, reference, correlation, n):
@@ -165,3 +167,23 @@ def _relative_cov(case, model):
     gamma = model.speckle_correlation()
     return (np.asarray(model.current_joint().covariance) / np.outer(sigma, sigma)
             + sum(channel_covariance(budget, g, gamma) for g in budget.groups))
+
+
+def test_all_sources_verdicts_include_the_model_term_and_systematic_ones_do_not(quick_run):
+    """The ground-cancelled scenario: every case's AGB error has the model contribution; the verdict on every source
+    attributes to it, the one on the systematic error (Men et al. 2021) does not; the joint estimate reports its
+    sensitivity to the HH exponent, which the report shows."""
+    _, folder = quick_run("biomass_ground_cancelled")
+    summary = json.loads((folder / "summary.json").read_text())
+    for case in summary["cases"]:
+        systematic, every = case["requirements"]
+        assert "contribution.model_percent" in every["details"], case["label"]
+        assert "contribution.model_percent" not in systematic["details"], case["label"]
+        assert "model" in {row["source"] for row in case["agb_budget"]}
+        if case["inputs"]["propagation.0.channels"] == "all":
+            r = case["results"]
+            assert r["agb.exponent_sensitivity.hh.high_exponent"] == pytest.approx(0.8039, rel=1e-12)  # same rule
+            assert (r["agb.exponent_sensitivity.hh.low_rmse_percent"] > r["agb.analytic.rmse_percent"]
+                    > r["agb.exponent_sensitivity.hh.high_rmse_percent"])
+    report = html.unescape((folder / "report.html").read_text())
+    assert "Sensitivity of the AGB error to the retrieval's exponents" in report
