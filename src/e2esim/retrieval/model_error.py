@@ -72,12 +72,13 @@ def model_uncertainty_group(default_mode: str, channels: int) -> ParamGroup:
     vv), stated by default (``default_mode`` "stated") or not propagated ("none")."""
     length = channels if channels > 1 else None
     names = " for (hh, hv, vv)" if channels > 1 else ""
+    stated = source_of(("hh", "hv", "vv") if channels > 1 else ("hv",), cancelled=channels > 1)
     params = (
-        Param("mode", "str", "none; stated: the exponents' and coefficients' uncertainty is propagated as the AGB "
-              "error's 'model' term (docs/theory/retrieval.md, Section 7)", default=default_mode, choices=MODEL_MODES),
-        Param("exponent_sd_percent", "float", f"relative SD of the exponent{names} (null: the stated values of "
-              "e2esim.retrieval.model_error, published spread or stated assumption)", default=None, unit="%",
-              length=length, minimum=0.0, maximum=100.0, nullable=True),
+        Param("mode", "str", "stated: the uncertainty of the exponents and coefficients is propagated as the AGB "
+              "error's 'model' term (docs/theory/retrieval.md, Section 7); none: it is not", default=default_mode,
+              choices=MODEL_MODES),
+        Param("exponent_sd_percent", "float", f"relative SD of the exponent{names} (null: {stated})", default=None,
+              unit="%", length=length, minimum=0.0, maximum=100.0, nullable=True),
         Param("coefficient_sd_percent", "float", f"relative SD of the calibrated coefficient{names} at the reference "
               "AGB, as a backscatter error (0: calibrated where it is anchored; its statistical error is the "
               "regression term)", default=(0.0,) * channels if channels > 1 else 0.0, unit="%", length=length,
@@ -148,14 +149,15 @@ def stated_exponent_sd(alpha, channels=("hh", "hv", "vv"), cancelled_hh_spread: 
 
 
 def source_of(channels=("hh", "hv", "vv"), cancelled: bool = False, given: bool = False) -> str:
-    """Where the exponents' SDs come from, in words (for the report's assumptions)."""
+    """Where the exponents' SDs come from, in words (the parameter's doc, which the report's assumptions show)."""
     if given:
         return "given in the scenario"
-    text = ("HV: spread between the published fits p = 2.2 and 1.9 (Schlund et al. 2018, Men et al. 2021 Sec. III-D)")
+    text = ("HV 7.3 %, the spread between the published fits p = 2.2 and 1.9 (Schlund et al. 2018, Men et al. 2021 "
+            "Sec. III-D)")
     if len(channels) > 1:
-        text += "; HH, VV: the same relative SD, assumed (no second published fit)"
+        text += "; HH, VV the same, assumed (no second published fit)"
     if cancelled and "hh" in channels:
-        text += ("; ground-cancelled HH: the distance between the volume and same rules, assumed")
+        text += "; ground-cancelled HH the distance between its volume and same exponents, assumed"
     return text
 
 
