@@ -187,3 +187,31 @@ def test_all_sources_verdicts_include_the_model_term_and_systematic_ones_do_not(
                     > r["agb.exponent_sensitivity.hh.high_rmse_percent"])
     report = html.unescape((folder / "report.html").read_text())
     assert "Sensitivity of the AGB error to the retrieval's exponents" in report
+
+
+def test_a_biome_without_a_reference_agb_is_named():
+    """A scene of another biome with given exponents: the model term needs its calibration centre, and says so."""
+    from e2esim.case import Case, Products
+    from e2esim.distortion.faraday_correction import FaradayCorrection
+    from e2esim.distortion.polarimetric_model import PolarimetricErrorModel
+    from e2esim.errors import ConfigError
+    from e2esim.faraday.distribution import GaussianFaraday
+    from e2esim.retrieval.multichannel_modules import MultiChannelRetrieval
+    from e2esim.scene.covariance import ScatteringCovariance
+    from e2esim.settings import SimulationSettings
+    from helpers import system
+
+    scene = ScatteringCovariance.from_powers(0.3, 0.05, 0.2, 0.1, 0.0, agb_t_ha=150.0, biome="temperate")
+    model = PolarimetricErrorModel(scene, system(), GaussianFaraday(0.0, 0.05), FaradayCorrection(), 100_000)
+    case = Case(0, {}, SimulationSettings(), np.random.default_rng(0),
+                products=Products({"scene.covariance": scene, "backscatter.error": model}))
+    stage = MultiChannelRetrieval(alpha=(0.8, 0.5, 0.1))
+    with pytest.raises(ConfigError, match=r"model_uncertainty: case 0: no reference AGB for the scene's "
+                       r"biome 'temperate'.*give model_uncertainty\.reference_agb_t_ha"):
+        stage.forward(case)
+    given = MultiChannelRetrieval(alpha=(0.8, 0.5, 0.1), model_uncertainty={"reference_agb_t_ha": 100.0})
+    term = given.forward(case)["agb.error"].contribution("model")
+    variance = model_error.model_log_variance([0.8, 0.5, 0.1] / np.dot([0.8, 0.5, 0.1], [0.8, 0.5, 0.1]),
+                                              model_error.HV_EXPONENT_RELATIVE_SD * np.array([0.8, 0.5, 0.1]),
+                                              np.zeros(3), np.log(1.5))
+    assert term.relative_variance == pytest.approx(variance, rel=1e-12)
