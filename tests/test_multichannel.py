@@ -145,8 +145,9 @@ def test_hv_only_estimator_is_the_power_law_of_men_et_al():
     from e2esim.retrieval.agb_error import AGBError
 
     model = _model()
-    agb = MultiChannelRetrieval(estimator="hv")._single_channel(None, model, MultiChannelRetrieval().model_for(
-        forest("boreal_200"), 200.0), "hv", None)  # no case needed without a random-error budget
+    stage = MultiChannelRetrieval(estimator="hv", model_uncertainty={"mode": "none"})  # the chain of Men et al.
+    agb = stage._single_channel(None, model, MultiChannelRetrieval().model_for(
+        forest("boreal_200"), 200.0), "hv", None)  # no case needed without a random-error budget or model term
     m = model.current()
     reference = AGBError.from_sigma_errors(2.2, model.value, float(m.mean), float(m.sd))
     assert agb.exponent == pytest.approx(2.2)

@@ -61,7 +61,7 @@ def test_errors_met_while_running_name_the_parameter(tmp_path):
 def test_bad_multichannel_input_names_its_key(tmp_path):
     joint = ("retrieval.type=stack_multichannel_power_law", "propagation.0.channels=all")
     with pytest.raises(ConfigError, match=r"retrieval\.ground_cancelled_exponents\[1\]: 'linear' is not allowed; "
-                       "expected a list of 3 items, each one of 'rvog', 'same'"):
+                       "expected a list of 3 items, each one of 'rvog', 'volume', 'same'"):
         _run(tmp_path, *joint, "retrieval.ground_cancelled_exponents=[same, linear, rvog]")
     with pytest.raises(ConfigError, match=r"retrieval: needs the errors of all channels, but backscatter\.error is a "
                        "single-channel StackHVErrorModel.*channels: all"):

@@ -174,9 +174,12 @@ def test_speckle_correlation_of_one_combination_is_the_intensity_correlation():
 
 
 def test_ground_cancelled_exponents():
-    """alpha (1 + mu) for rvog (eq. 24, the HV exponent of stack_power_law), the biome's for same."""
+    """alpha (1 + mu) for rvog (eq. 24, the HV exponent of stack_power_law), the ground-cancelled HV's for volume (the
+    default of HH), the biome's for same."""
     tropical = ground_cancelled_alphas(TABLE1_ALPHA["tropical"], SITES["tropical"].ground_to_volume_db)
-    np.testing.assert_allclose(tropical, [0.8039, 1.1 / 1.9, 0.0612 * (1 + 10**-0.6)], rtol=1e-14)
+    np.testing.assert_allclose(tropical, [1.1 / 1.9, 1.1 / 1.9, 0.0612 * (1 + 10**-0.6)], rtol=1e-14)
+    same = ground_cancelled_alphas(TABLE1_ALPHA["tropical"], SITES["tropical"].ground_to_volume_db, ("same",) * 3)
+    np.testing.assert_allclose(same, TABLE1_ALPHA["tropical"], rtol=0)
     boreal = ground_cancelled_alphas(TABLE1_ALPHA["boreal"], SITES["boreal"].ground_to_volume_db, ("rvog",) * 3)
     np.testing.assert_allclose(boreal, np.array(TABLE1_ALPHA["boreal"]) * (1 + 10 ** (np.array([3, -3, 0]) / 10)),
                                rtol=1e-14)

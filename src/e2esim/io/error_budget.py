@@ -5,7 +5,7 @@ Nothing physical is computed here; the rows are read from what the chain wrote:
 * per verdict, from its attribution (``contribution.<source>_<unit>`` in the details,
   ``e2esim.requirements.attribution``): how much the checked value falls when the source is removed, in the
   requirement's unit. A requirement on the systematic error lists only the error model's sources;
-  one on every source also the random-error budget's terms and the regression uncertainty;
+  one on every source also the random-error budget's terms, the regression uncertainty and the model term;
 * per case, from the named contributions of the AGB error (``AGBError.contribution_stats``, written as the
   ``agb.contribution.<source>.*`` scalars): the relative AGB error each source causes on its own (mean, SD,
   RMSE in percent) and its share of the variance of the relative sigma error.
@@ -14,7 +14,7 @@ Nothing physical is computed here; the rows are read from what the chain wrote:
 from __future__ import annotations
 
 SYSTEMATIC = "systematic"
-GROUP_ORDER = ("systematic", "random", "regression")
+GROUP_ORDER = ("systematic", "random", "regression", "model")
 UNIT_KEYS = {"%": "percent", "t/ha": "t_ha"}
 """The ending of a contribution key for a requirement unit (``e2esim.requirements.attribution``)."""
 
@@ -23,6 +23,7 @@ SOURCE_NAMES = {
     "faraday_rotation": "Faraday rotation", "gain": "gain error", "speckle_noise": "speckle and noise",
     "temporal": "temporal variability", "calibration": "radiometric calibration",
     "area_projection": "area projection", "regression": "regression (retrieval model)",
+    "model": "model (retrieval exponents and coefficients)",
     "system_distortions": "system distortions", "noise_bias": "noise bias",
 }
 """Words for the source names of the built-in models; another source is shown by its name."""

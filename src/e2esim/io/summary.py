@@ -14,7 +14,8 @@ import numpy as np
 from e2esim.io.atomic import write_text_atomic
 from e2esim.io.error_budget import agb_budget, source_groups, verdict_budget
 
-SOURCE_SCOPES = {"all": "the systematic errors, the product's random-error budget and the regression uncertainty",
+SOURCE_SCOPES = {"all": "the systematic errors, the product's random-error budget, the regression uncertainty and the "
+                        "model term (the retrieval's exponents), where the chain has them",
                  "systematic": "system distortions, Faraday rotation and noise (the criterion of Men et al. 2021)"}
 """What a requirement's ``sources`` setting covers, in words."""
 

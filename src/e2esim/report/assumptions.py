@@ -25,7 +25,9 @@ KEY_SETTINGS = {
                     "variance_form", "reference"),
     "ionosphere": None,  # every setting
     "calibration": None,
-    "retrieval": ("exponent", "regression.mode"),
+    "retrieval": ("exponent", "regression.mode", "alpha", "ground_cancelled_exponent", "ground_cancelled_exponents",
+                  "model_uncertainty.mode", "model_uncertainty.exponent_sd_percent",
+                  "model_uncertainty.reference_agb_t_ha"),
     "scene": None,
 }
 """Settings a verdict depends on most, per module kind (None: all of the kind's settings)."""

@@ -15,7 +15,7 @@ from e2esim.report.plot_base import PlotSkipped, save
 from e2esim.report.sweep_layout import case_ticks
 
 MAX_BAR_CASES = 30
-GROUP_HATCH = {"systematic": "", "random": "//", "regression": ".."}
+GROUP_HATCH = {"systematic": "", "random": "//", "regression": "..", "model": "xx"}
 
 
 def budget_cases(result, j: int) -> tuple[list, str]:

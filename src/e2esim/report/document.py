@@ -17,6 +17,7 @@ from e2esim.report import tables
 from e2esim.report.assumptions import assumption_rows
 from e2esim.report.blocks import Badge, Details, Heading, Image, Paragraph, Table, Warning, fmt, table_blocks
 from e2esim.report.conclusions import conclusions
+from e2esim.report.sensitivity_table import SENSITIVITY_NOTE, exponent_sensitivity_table
 from e2esim.runner.map_sweep import is_map_sweep
 
 __all__ = [
@@ -140,7 +141,8 @@ def _budget_section(result, plots) -> list:
         "source removed (analytic model; the parts interact and quantiles are not additive, so they need not add "
         "up). Systematic: system distortions, Faraday rotation, noise; random: the error budget of the product "
         "(speckle and noise, temporal variability, calibration, area projection); regression: the retrieval "
-        "model's uncertainty.")]
+        "model's calibration uncertainty; model: the uncertainty of the retrieval's exponents and coefficients away "
+        "from their calibration.")]
     out += [Image(name, caption) for name, caption in plots if name == "error_budget.png"]
     if is_map_sweep(result.scenario) or _large(result):
         return out
@@ -153,6 +155,9 @@ def _budget_section(result, plots) -> list:
         out += table_blocks("Relative AGB error each source causes on its own", agb, (
             "RMSE of the relative AGB error from the source alone, and its share of the variance of the relative "
             "σ_hv error (scalars `agb.contribution.<source>.*`)."))
+    sensitivity = exponent_sensitivity_table(result)
+    if sensitivity is not None:
+        out += table_blocks("Sensitivity of the AGB error to the retrieval's exponents", sensitivity, SENSITIVITY_NOTE)
     return out
 
 

@@ -33,8 +33,8 @@ def truth(x):
     return bool(x) if np.ndim(x) == 0 else np.asarray(x, dtype=bool)
 
 SOURCES_PARAM = Param(
-    "sources", "str", "error sources checked: all (system, Faraday rotation, noise, error budget, regression) or "
-    "systematic (system distortions, Faraday rotation and noise only: the criterion of Men et al. 2021)",
+    "sources", "str", "error sources checked: all (system, Faraday rotation, noise, error budget, regression, model) "
+    "or systematic (system distortions, Faraday rotation and noise only: the criterion of Men et al. 2021)",
     default="all", choices=SOURCE_CHOICES)
 BASIS_PARAM = Param("basis", "str", "analytic Gaussian model or Monte Carlo samples (auto: analytic when computed)",
                     default="auto", choices=BASES)
@@ -75,7 +75,8 @@ def error_model_of(case):
 def checked_error(requirement: Requirement, case) -> AGBError:
     """The AGB error a requirement checks: from every source (``all``), or only from the systematic error of
     the propagation's error model, system distortions, Faraday rotation and noise (``systematic``, the
-    criterion of Men et al. 2021), leaving out the random-error budget and the regression uncertainty."""
+    criterion of Men et al. 2021), leaving out the random-error budget, the regression uncertainty and the model term
+    (the uncertainty of the retrieval's exponents and coefficients)."""
     agb = case["agb.error"]
     if requirement.si["sources"] == "all" or not agb.contributions:
         return agb

@@ -130,6 +130,8 @@ class AGBError:
     error_model : the single-channel ``ErrorModel`` this error maps (a channel or a channel combination of a
         multi-channel model), for the requirements' margins, attribution and trade-off curves; None: the
         case's ``backscatter.error``.
+    sensitivity : (name, value) pairs of the exponent sensitivity of the analytic RMSE (the joint multi-channel
+        estimate, ``e2esim.retrieval.exponent_sensitivity``), written as ``agb.exponent_sensitivity.<name>``.
     """
 
     exponent: float
@@ -141,6 +143,7 @@ class AGBError:
     contributions: tuple = ()
     saturated_fraction: tuple = ()
     error_model: object = None
+    sensitivity: tuple = ()
 
     @classmethod
     def from_sigma_errors(cls, exponent, sigma_hv, error_mean=None, error_sd=None, relative_samples=None,
@@ -249,7 +252,7 @@ class AGBError:
         """Output scalars (``agb.*``): the exponent; per basis the mean, RMSE and quantiles of the relative AGB
         error (percent) and the saturated fraction; per named contribution the relative AGB error it causes
         on its own (mean, SD, RMSE in percent), its share of the sigma error variance and its relative
-        sigma error (docs/output-format.md). Arrays over cases for a block."""
+        sigma error; the exponent sensitivity (docs/output-format.md). Arrays over cases for a block."""
         out = {"exponent": self.exponent}
         for basis in ("analytic", "montecarlo"):
             if self.has(basis):
@@ -269,6 +272,8 @@ class AGBError:
             out[f"{key}.variance_share"] = stats["variance_share"]
             out[f"{key}.sigma_mean_percent"] = stats["sigma_mean_percent"]
             out[f"{key}.sigma_sd_percent"] = stats["sigma_sd_percent"]
+        for name, value in self.sensitivity:
+            out[f"exponent_sensitivity.{name}"] = value
         return out
 
     def dominant_contribution(self) -> str | None:

@@ -11,14 +11,17 @@ x = e / sigma_hv, mean and variance):
 * random (``backscatter_error_budget``; Ahmed et al. 2014): ``speckle_noise``, ``temporal``,
   ``calibration``, ``area_projection`` at the product's scale, zero mean;
 * regression: the uncertainty of the retrieval model's calibration (confidence or prediction band at the
-  case's AGB), zero mean.
+  case's AGB), zero mean;
+* model: the uncertainty of the retrieval's exponents and coefficients away from its calibration
+  (``e2esim.retrieval.model_error``, docs/theory/retrieval.md eq. 7.2), zero mean.
 
 The sources are independent, so the analytic total has the sum of the means and of the variances (for a
 budget with ``combination: linear``, the budget's own total); its Monte Carlo adds to every systematic
 sample one draw of the random and regression errors from the case's generator (the speckle-and-noise term
-from a gamma law when the budget asks for it). For the multi-channel log-linear model the budget enters
-as an HV-equivalent error: the joint inversion weights channel errors by c_pq, speckle is correlated
-between channels as |rho_pq|^2 (the intensity correlation of Gaussian scattering), and temporal,
+from a gamma law when the budget asks for it), and then applies one draw of the model error exactly, as the
+factor e^(m / p) on the estimate's sigma (``model_error.scale_factors``). For the multi-channel log-linear model
+the budget enters as an HV-equivalent error: the joint inversion weights channel errors by c_pq, speckle is
+correlated between channels as |rho_pq|^2 (the intensity correlation of Gaussian scattering), and temporal,
 calibration and area-projection errors are common to all channels.
 """
 
@@ -27,6 +30,7 @@ from __future__ import annotations
 import numpy as np
 
 from e2esim.retrieval.agb_error import AGBContribution, AGBError, RelativeErrorMap
+from e2esim.retrieval.model_error import draw_log_errors, scale_factors
 
 BUDGET_DESCRIPTIONS = {
     "speckle_noise": "speckle, thermal and multiplicative noise at the product's looks (Ahmed et al. 2014, eq. 21)",
@@ -151,12 +155,14 @@ def systematic_agb_error(model, exponent: float) -> AGBError:
 
 
 def combined_agb_error(case, exponent: float, mapping: RelativeErrorMap | None = None,
-                       regression: AGBContribution | None = None, channel_weights=None) -> AGBError:
+                       regression: AGBContribution | None = None, channel_weights=None,
+                       model_term: AGBContribution | None = None) -> AGBError:
     """The relative AGB error of a case from all its sources (module docstring).
 
     exponent : power-law exponent (or local exponent of another model). mapping : the model's map from
     relative sigma errors to relative AGB errors (None: the power law). regression : the regression
     contribution, or None. channel_weights : (3,) joint-inversion weights of a multi-channel model.
+    model_term : the model contribution of a power law (``model_error.sigma_contribution``), or None.
     """
     model = case["backscatter.error"]
     budget = case.get("backscatter.budget")
@@ -165,14 +171,15 @@ def combined_agb_error(case, exponent: float, mapping: RelativeErrorMap | None =
     systematic = systematic_contributions(model)
     random_ = budget_contributions(budget, channel_weights, scene)
     reg = (regression,) if regression is not None else ()
-    contributions = systematic + random_ + reg
+    contributions = systematic + random_ + reg + ((model_term,) if model_term is not None else ())
     reg_var = regression.relative_variance if regression is not None else 0.0
+    model_var = model_term.relative_variance if model_term is not None else 0.0
     rand_var = random_total_variance(budget, random_)
     mean = sd = None
     if model.unavailable is None:
         m = model.current()
         mean = float(m.mean)
-        var = float(m.variance) + s**2 * (rand_var + reg_var)
+        var = float(m.variance) + s**2 * (rand_var + reg_var + model_var)
         sd = float(np.sqrt(max(var, 0.0)))
     relative = None
     sys_rel = model.relative_samples()
@@ -183,6 +190,9 @@ def combined_agb_error(case, exponent: float, mapping: RelativeErrorMap | None =
             relative = (1.0 + sys_rel + r_hv) * others - 1.0
         else:
             relative = sys_rel + drawn
+        if model_term is not None:  # exact: the estimate's sigma scaled by e^(m / p), m = p x_model (eq. 7.1)
+            m = draw_log_errors(case.rng, relative.shape, model_var * exponent**2)
+            relative = (1.0 + relative) * scale_factors(m, 1.0 / exponent) - 1.0
     saturated = ()
     if mapping is not None:
         saturated = _saturation(mapping, mean, sd, s, relative)

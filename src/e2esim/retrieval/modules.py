@@ -80,8 +80,8 @@ class _Retrieval(Stage):
         except PhysicsInputError as exc:
             raise fail(self, f"case {case.index}: {exc}", key="regression") from exc
 
-    def combine(self, case, exponent, mapping=None, regression=None, channel_weights=None):
-        return {"agb.error": combined_agb_error(case, exponent, mapping, regression, channel_weights)}
+    def combine(self, case, exponent, mapping=None, regression=None, channel_weights=None, model_term=None):
+        return {"agb.error": combined_agb_error(case, exponent, mapping, regression, channel_weights, model_term)}
 
 
 class PowerLawRetrieval(_Retrieval):
@@ -94,7 +94,7 @@ class PowerLawRetrieval(_Retrieval):
               default=None, exclusive_minimum=0.0, maximum=10.0, nullable=True),
         _REGRESSION,
     )
-    fast_path_hooks = ("case_exponent",)  # forward_block reads the scene's exponent (exponent_for) alone
+    fast_path_hooks = ("case_exponent", "model_term")  # forward_block: the scene's exponent alone, no model term
 
     def exponent_for(self, scene) -> float:
         if self.si["exponent"] is not None:
@@ -111,16 +111,22 @@ class PowerLawRetrieval(_Retrieval):
         """The exponent of a case (a subclass may read more of the case than the scene)."""
         return self.exponent_for(case["scene.covariance"])
 
+    def model_term(self, case, exponent):
+        """The model-error contribution of a case (``e2esim.retrieval.model_error``), or None: the plain power law
+        of Men et al. (2021) does not propagate the uncertainty of its exponent (``stack_power_law`` does)."""
+        return None
+
     def forward(self, case):
         model = case["backscatter.error"]
         p = self.case_exponent(case)
-        if "backscatter.budget" not in case and self.campaign.mode == "none":
+        model_term = self.model_term(case, p)
+        if "backscatter.budget" not in case and self.campaign.mode == "none" and model_term is None:
             return {"agb.error": systematic_agb_error(model, p)}
         regression = None
         if self.campaign.mode != "none":
             agb = self.case_agb(case)
             regression = self.regression(case, PowerLaw.through(agb, model.value, p), agb)
-        return self.combine(case, p, None, regression)
+        return self.combine(case, p, None, regression, model_term=model_term)
 
     def forward_block(self, block):
         """``forward`` for a block of cases at once when the error is the propagation's alone (no error budget,

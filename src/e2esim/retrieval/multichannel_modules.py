@@ -1,25 +1,31 @@
 """Retrieval module (kind ``retrieval``) ``multichannel_power_law``: AGB from HH, HV and VV together, as the
 BIOMASS level-2 processor estimates it (``e2esim.retrieval.multichannel``), or from one channel alone; with the
 random-error budget of the case (``backscatter.budget``) when there is one (``e2esim.retrieval.multichannel``,
-``budget_log_agb_error``)."""
+``budget_log_agb_error``), and the uncertainty of the exponents as the model term (``e2esim.retrieval.model_error``)
+with the joint estimate's sensitivity to them (``e2esim.retrieval.exponent_sensitivity``)."""
 
 from __future__ import annotations
+
+import dataclasses
 
 import numpy as np
 
 from e2esim import products as P
-from e2esim.error_model import MultiChannelErrorModel
+from e2esim.error_model import Moments, MultiChannelErrorModel
 from e2esim.errors import PhysicsInputError
 from e2esim.module import Stage, fail
 from e2esim.params import Param
+from e2esim.retrieval import model_error
 from e2esim.retrieval.agb_error import AGBError
 from e2esim.retrieval.combine import (
     budget_contributions,
+    channel_covariance,
     draw_random_errors,
     intensity_correlation,
     random_total_variance,
     systematic_contributions,
 )
+from e2esim.retrieval.exponent_sensitivity import exponent_sensitivity
 from e2esim.retrieval.loglinear import LogLinearModel
 from e2esim.retrieval.multichannel import (
     CHANNELS,
@@ -61,6 +67,7 @@ class MultiChannelRetrieval(Stage):
               exclusive_maximum=90.0),
         Param("agb_max_t_ha", "float", "largest AGB the estimator returns (BIOMASS prototype bound)",
               default=PROTOTYPE_AGB_RANGE_T_HA[1], unit="t/ha", exclusive_minimum=0.0),
+        model_error.model_uncertainty_group("stated", 3),
     )
     needs = ("scene.covariance", "backscatter.error")
     uses = ("backscatter.budget",)
@@ -77,6 +84,30 @@ class MultiChannelRetrieval(Stage):
     def case_alpha(self, case) -> np.ndarray:
         """The exponents of a case (a subclass may read more of the case than the scene)."""
         return self.alpha_for(case["scene.covariance"])
+
+    def case_hh_spread(self, case) -> float | None:
+        """The SD of a ground-cancelled HH exponent (the distance between its rules), None when the data are not
+        ground cancelled (a subclass for multi-pass estimates says)."""
+        return None
+
+    def model_variance(self, case, alpha, weights, channels=CHANNELS) -> float | None:
+        """Var m of the model term (``model_error``, eq. 7.2) for exponents ``alpha`` and weights ``weights`` of
+        ``channels``; None when the mode is none."""
+        si = dict(self.si["model_uncertainty"])
+        if si["mode"] == "none":
+            return None
+        scene = case["scene.covariance"]
+        idx = [CHANNELS.index(ch) for ch in channels]
+        for key in ("exponent_sd_fraction", "coefficient_sd_fraction"):
+            if si[key] is not None:
+                si[key] = [si[key][i] for i in idx]
+        try:
+            term = model_error.case_model_variance(si, np.asarray(alpha)[idx], weights, scene.agb_t_ha, scene.biome,
+                                                   channels, self.case_hh_spread(case))
+        except KeyError:
+            raise fail(self, f"case {case.index}: no reference AGB for the scene's biome {scene.biome!r}",
+                       "give model_uncertainty.reference_agb_t_ha", key="model_uncertainty") from None
+        return None if term is None else term[0]
 
     def model_for(self, scene, agb: float, alpha=None) -> LogLinearModel:
         """The per-channel power laws through the scene's powers at ``agb`` (identity residual covariance: the
@@ -122,6 +153,15 @@ class MultiChannelRetrieval(Stage):
                 sd = float(np.sqrt(sd**2 + view.value**2 * random_total_variance(budget, random_)))
             if rel is not None:
                 rel = rel + draw_random_errors(case.rng, rel.shape, budget, random_)
+        variance = self.model_variance(case, forward_model.a, [exponent], (channel,))
+        if variance is not None:  # eqs. 7.1-7.2 with c = p: an equivalent sigma error; exact in the Monte Carlo
+            term = model_error.sigma_contribution(variance, exponent)
+            contributions = contributions + (term,)
+            if m is not None:
+                sd = float(np.sqrt(sd**2 + view.value**2 * term.relative_variance))
+            if rel is not None:
+                draws = model_error.draw_log_errors(case.rng, rel.shape, variance)
+                rel = (1.0 + rel) * model_error.scale_factors(draws, 1.0 / exponent) - 1.0
         return AGBError.from_sigma_errors(exponent, view.value, mean, sd, rel, contributions=contributions,
                                           error_model=view)
 
@@ -147,6 +187,17 @@ class MultiChannelRetrieval(Stage):
                 raise fail(self, f"case {case.index}: {exc}", "give the error budget combination: independent, or "
                            "use a single-channel estimator") from exc
             m, contributions, rel = combined
+        weights = forward_model.channel_weights()
+        variance = self.model_variance(case, forward_model.a, weights)
+        sensitivity = ()
+        if variance is not None:  # eqs. 7.1-7.2: y gains m, independent of the channel errors
+            contributions = contributions + (model_error.log_contribution(variance),)
+            if m is not None:
+                sensitivity = self._sensitivity(case, model, forward_model, budget)
+                m = Moments(m.mean, m.variance + variance)
+            if rel is not None:  # exact: every channel's power scaled by e^(m alpha_p) before the inversion
+                draws = model_error.draw_log_errors(case.rng, rel.shape[:-1], variance)
+                rel = (1.0 + rel) * model_error.scale_factors(draws, forward_model.a) - 1.0
         y = None
         if rel is not None:
             try:
@@ -156,6 +207,23 @@ class MultiChannelRetrieval(Stage):
                 raise fail(self, str(exc)) from exc
             with np.errstate(divide="ignore"):
                 y = np.log1p(q)  # log AGB error of the actual estimate (-inf where it is 0)
-        return AGBError.from_sigma_errors(1.0, 1.0, None if m is None else float(m.mean),
-                                          None if m is None else float(m.sd), y, LogErrorMap(), contributions,
-                                          error_model=view)
+        agb_error = AGBError.from_sigma_errors(1.0, 1.0, None if m is None else float(m.mean),
+                                               None if m is None else float(m.sd), y, LogErrorMap(), contributions,
+                                               error_model=view)
+        return dataclasses.replace(agb_error, sensitivity=sensitivity) if sensitivity else agb_error
+
+    def _sensitivity(self, case, model, forward_model, budget) -> tuple:
+        """The analytic RMSE with each exponent at the ends of its stated range (``exponent_sensitivity``)."""
+        joint = model.current_joint()
+        sigma = np.asarray(model.values, dtype=float)
+        cov = np.asarray(joint.covariance) / np.outer(sigma, sigma)
+        if budget is not None:
+            gamma = self.speckle_correlation(case, model)
+            cov = cov + sum(channel_covariance(budget, g, gamma) for g in budget.groups)
+        alpha = np.asarray(forward_model.a, dtype=float)
+        spread = model_error.stated_exponent_sd(alpha, CHANNELS, self.case_hh_spread(case))
+        given = self.si["model_uncertainty"]["exponent_sd_fraction"]
+        if given is not None:
+            spread = np.asarray(given, dtype=float) * alpha
+        return exponent_sensitivity(alpha, spread, np.asarray(joint.mean) / sigma, cov,
+                                    lambda a, w: self.model_variance(case, a, w) or 0.0)
