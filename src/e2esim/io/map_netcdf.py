@@ -5,9 +5,9 @@ swept (ocean, no forest) or a case lacks it, with ``units`` (UDUNITS), ``long_na
 has one, and ``e2esim_name``/``e2esim_units`` (the name and unit of results.h5). Besides them: the land and
 forest fractions of each cell (``e2esim.scene.land_mask``, ``e2esim.scene.forest_cover``), its area weight (cos
 latitude), its forest-area weight (area weight times forest fraction) and, per requirement, the share of the
-swept forest area that meets it in each month, pass and solar level: a cell counts by its forest area. The dataset is built from the ``Results`` of a run
-(``map_dataset``; ``map_dataset_of`` keeps it with the run), which the report's maps also draw, and written
-atomically (``write_map_netcdf``).
+swept forest area that meets it in each month, pass and solar level: a cell counts by its forest area. The
+dataset is built from the ``Results`` of a run (``map_dataset``; ``map_dataset_of`` keeps it with the run), which
+the report's maps also draw, and written atomically (``write_map_netcdf``).
 """
 
 from __future__ import annotations
