@@ -21,11 +21,15 @@ def block_budgets(block, made: dict, budget_of) -> Factor | None:
 
     made : the stage's memory across blocks, {(id(scene), id(instrument)): (number, scene, instrument)} and
     the catalog of its budgets under "catalog" (the products are kept with their numbers, so that their ids
-    stay theirs). budget_of : (scene, instrument or None) -> budget.
+    stay theirs; started afresh beyond ``CATALOG_ENTRIES`` budgets). budget_of : (scene, instrument or None) -> budget.
     """
     scene, inst = block["scene.covariance"], block.get("instrument")
     if not isinstance(scene, Factor) or (inst is not None and not isinstance(inst, Factor)):
         return None
+    from e2esim.runner.blocks import CATALOG_ENTRIES
+
+    if len(made.get("catalog", ())) > CATALOG_ENTRIES:  # start afresh, as the runner's catalogs do
+        made.clear()
     catalog = made.setdefault("catalog", Catalog())
     inst_index = np.zeros(len(scene), dtype=np.int64) if inst is None else inst.index
     pairs, first, inverse = distinct_rows(np.stack([scene.index, inst_index], -1))
@@ -35,7 +39,7 @@ def block_budgets(block, made: dict, budget_of) -> Factor | None:
         inst_value = None if inst is None else inst.values[int(i)]
         key = (id(scene_value), id(inst_value))
         known = made.get(key)
-        if known is None:
+        if known is None or known[1] is not scene_value or known[2] is not inst_value:  # (ids of another process)
             try:
                 budget = budget_of(scene_value, inst_value)
             except PhysicsInputError:
