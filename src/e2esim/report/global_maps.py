@@ -96,8 +96,8 @@ def plot_map_sweep(result, folder: Path, options: dict) -> list:
                     panels.show(values[s, p], cmap, vmin, vmax, limit, f"{title}\n{pass_name} pass, solar {solar}")
                     name = save_drawn(panels.fig, folder, f"{stem}_{pass_name}_{solar}")
                     out.append((name, f"Map of the {title}, {pass_name} pass, solar {solar}, one panel per month; "
-                                "grey: land left out of the sweep (no forest, or no forest class), white: ocean. Cells of "
-                                f"{panels.step:g} deg."))
+                                "grey: land left out of the sweep (no forest, or no forest class), white: ocean. "
+                                f"Cells of {panels.step:g} deg."))
     finally:
         plt.close(panels.fig)
     return out
