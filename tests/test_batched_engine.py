@@ -253,3 +253,92 @@ def test_scalars_only_some_cases_have_keep_their_place_among_the_others():
     assert list(dict_columns([first, second])) == list(second)
     assert merged_order([["b", "c"], ["a", "b", "x", "c", "y"], ["z"]]) == ["z", "a", "b", "x", "c", "y"]
     assert merged_order([[], ["a", "b"], ["b", "a"]]) == ["a", "b"]  # the first order met stands
+
+
+BUDGET_SWEEP = """
+name: budget_blocks
+scene: {type: forest_agb_model, biome: boreal}
+instrument: {type: biomass}
+ionosphere: {type: gaussian_faraday, mean_deg: 40, sd_deg: 5}
+propagation:
+  - {type: hv_backscatter_error}
+  - {type: backscatter_error_budget, preset: biomass_200m, temporal: {sd_percent: 5}}
+retrieval: {type: power_law}
+requirements:
+  - {type: agb_rmse, sources: all, max_percent: 30}
+  - {type: agb_error_bound, sources: all, level_margins: true}
+  - {type: agb_error_bound, sources: systematic}
+simulation: {mode: analytic, seed: 3}
+sweep:
+  parameters:
+    scene.agb_t_ha: [60, 200, 330]
+    instrument.nesz_db: [-30, -24]
+    ionosphere.sd_deg: [0, 20]
+"""
+
+
+def _bitwise_same(got, expected) -> None:
+    """Two ``CaseResult``s with the same numbers bit for bit (the fast path is the reference path)."""
+    assert list(got.scalars) == list(expected.scalars)
+    for name, value in expected.scalars.items():
+        assert got.scalars[name] == value or (math.isnan(value) and math.isnan(got.scalars[name])), name
+    for v, w in zip(got.verdicts, expected.verdicts, strict=True):
+        assert (v.name, v.passed, v.value, v.margin, v.dominant, v.notes) == (w.name, w.passed, w.value, w.margin,
+                                                                              w.dominant, w.notes)
+        assert list(v.details) == list(w.details)
+        for key, x in w.details.items():
+            assert v.details[key] == x or (math.isnan(x) and math.isnan(v.details[key])), key
+
+
+def _budget_products(resolved):
+    from e2esim.runner.blocks import BlockRun
+    from e2esim.runner.run import default_services
+
+    return BlockRun(resolved.plan, np.arange(len(resolved.cases)), default_services()).run()
+
+
+def test_the_error_budget_and_the_agb_error_it_enters_run_batched_with_the_per_case_numbers():
+    resolved = Scenario(yaml.safe_load(BUDGET_SWEEP), "budget.yaml").resolve()
+    products = _budget_products(resolved)
+    kinds = {name: type(value).__name__ for name, value in products.items()}
+    assert kinds["backscatter.budget"] == "Factor" and kinds["agb.error"] == "AGBErrorBlock"
+    assert kinds["verdicts"] == "RequirementVerdictsBlock"
+    assert len(set(products["backscatter.budget"].index.tolist())) == 6  # one per scene and instrument, not per case
+    groups = products["agb.error"].source_groups()
+    assert [g for g in groups.values()] == ["systematic"] * 3 + ["random"] * 4
+    per_case = run_scenario(resolved, progress=False, engine="per_case")
+    for size in (1, 5, 12):  # blocks of one case, ragged blocks, one block
+        for start in range(0, 12, size):
+            block = run_block(resolved, np.arange(start, min(start + size, 12)))
+            for k, index in enumerate(block.indices):
+                _bitwise_same(block.case(k, {}, ""), per_case.cases[int(index)])
+
+
+def _with_regression(monkeypatch, draws: bool):
+    """The power law with a regression term that draws from the case's generator, or one the same for every case
+    of a scene (a term that draws nothing: the expectation over campaigns, issue 21 item 5)."""
+    from e2esim.retrieval import modules
+    from e2esim.retrieval.regression_campaign import regression_contribution
+
+    def regression(self, case, model, agb, covariates=None):
+        rng = case.rng if draws else np.random.default_rng(case.settings.seed)
+        return regression_contribution(model, agb, self.campaign, rng, covariates)
+
+    monkeypatch.setattr(modules._Retrieval, "regression", regression)
+    data = yaml.safe_load(BUDGET_SWEEP)
+    data["retrieval"]["regression"] = {"mode": "confidence"}
+    return Scenario(data, "regression.yaml").resolve()
+
+
+@pytest.mark.parametrize("draws", [False, True])
+def test_a_regression_term_runs_batched_unless_it_draws_from_the_cases_generator(monkeypatch, draws):
+    resolved = _with_regression(monkeypatch, draws)
+    products = _budget_products(resolved)
+    assert type(products["agb.error"]).__name__ == ("Factor" if draws else "AGBErrorBlock")
+    regression = [c.relative_variance for c in (products["agb.error"].item(k).contributions for k in range(12))
+                  for c in c if c.name == "regression"]
+    assert len(set(regression)) == (12 if draws else 3)  # a draw per case, or one per scene
+    batched = run_scenario(resolved, progress=False)
+    per_case = run_scenario(resolved, progress=False, engine="per_case")
+    for got, expected in zip(batched.cases, per_case.cases, strict=True):
+        _bitwise_same(got, expected)

@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 from e2esim.block import Batched
+from e2esim.budget.modules import BackscatterErrorBudget
 from e2esim.distortion.modules import HVBackscatterErrorPropagation
 from e2esim.errors import Location
 from e2esim.module import fast_path
@@ -78,6 +79,7 @@ def test_a_requirement_that_overrides_evaluate_is_evaluated_case_by_case():
 
 @pytest.mark.parametrize("cls, config", [
     (HVBackscatterErrorPropagation, {}), (PowerLawRetrieval, {}), (OwnForwardAndBlock, {}),
+    (BackscatterErrorBudget, {"temporal": {"sd_percent": 5.0}}),
     (AGBErrorBound, {"level_margins": True, "tradeoff_curve": True, "curve_points": 5}),
 ])
 def test_built_in_fast_paths_are_block_invariant(cls, config):
@@ -98,3 +100,11 @@ def test_the_block_of_the_check_is_batched_where_the_engine_batches():
     assert isinstance(block["backscatter.error"], Batched) and isinstance(block["agb.error"], Batched)
     assert len(cases) == len(block) == 4
     assert len({float(c["agb.error"].rmse()) for c in cases}) == 4  # the cases differ
+
+
+def test_the_power_law_with_an_error_budget_is_block_invariant():
+    from e2esim.testing import reference_case
+
+    case = reference_case(("scene.covariance", "backscatter.error", "instrument"))
+    case = case.adding(BackscatterErrorBudget(temporal={"sd_percent": 5.0}).forward(case))
+    assert check_block_invariance(PowerLawRetrieval(), case)

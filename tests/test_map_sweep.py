@@ -14,6 +14,7 @@ from e2esim.io.map_netcdf import area_fraction
 from e2esim.runner.map_sweep import MAP_KEYS, map_table
 from e2esim.runner.scenario import Scenario
 from e2esim.scene.agb_map import read_agb_map
+from e2esim.scene.forest_cover import forest_fraction
 from e2esim.scene.land_mask import is_land, land_fraction
 from e2esim.scene.map_forest import ForestSource
 from e2esim.scene.map_modules import AGBMapScene
@@ -164,9 +165,10 @@ def test_map_sweep_expands_to_forest_land_cells_months_passes_and_solar_levels()
     lat = np.arange(-25.0, 70.0, 10.0)
     lon = np.arange(-15.0, 60.0, 10.0)
     land = land_fraction(lat, lon, 10.0) >= 0.5
-    forest = ForestSource().forest(lat[:, None], lon[None, :])[0] != ""
-    cells = int((land & forest).sum())
-    assert cells == 28 and len(cases) == cells * 2 * 2 * 2
+    band = ForestSource().forest(lat[:, None], lon[None, :])[0] != ""
+    forest = forest_fraction(lat, lon, 10.0) >= 0.01  # MODIS 2019: forests and woody savannas, 1 % or more
+    cells = int((land & band & forest).sum())
+    assert int((land & band).sum()) == 28 and cells == 20 and len(cases) == cells * 2 * 2 * 2
     assert cases[0] == {"scene.lat_deg": -15.0, "scene.lon_deg": 15.0, "ionosphere.lat_deg": -15.0,
                         "ionosphere.lon_deg": 15.0, "ionosphere.month": 1, "ionosphere.pass": "dawn",
                         "ionosphere.solar": "min"}
@@ -197,7 +199,8 @@ def test_cells_beyond_the_orbits_reach_are_left_out():
     for pass_name in ("dawn", "dusk"):  # left-looking from 98 deg inclination: 78.5 N to 84.5 S at 1 deg
         assert visible_latitudes(orbit, [-85.5, -84.5, 0.5, 78.5, 79.5], pass_name).tolist() == [
             False, True, True, True, False]
-    raw = _map_scenario(step_deg=10, lat_range_deg=[70, 90], lon_range_deg=[0, 20], land_only=False, months=[1])
+    raw = _map_scenario(step_deg=10, lat_range_deg=[70, 90], lon_range_deg=[0, 20], land_only=False,
+                        forest_cover="none", months=[1])
     raw["scene"]["tropical_lat_deg"] = 90  # every latitude forest
     cases = Scenario(raw, "map.yaml").resolve().cases
     assert sorted({c.inputs["scene.lat_deg"] for c in cases}) == [75.0] and len(cases) == 2 * 2
@@ -285,7 +288,11 @@ def test_fraction_of_forest_area_meeting_the_requirement(quick_run):
             for pass_name in ("dawn", "dusk"):
                 mine = [c for c in cases if c["inputs"]["ionosphere.month"] == month
                         and c["inputs"]["ionosphere.pass"] == pass_name]
-                w = np.array([np.cos(np.radians(c["inputs"]["scene.lat_deg"])) for c in mine])
+                lat = np.array([c["inputs"]["scene.lat_deg"] for c in mine])
+                lon = np.array([c["inputs"]["scene.lon_deg"] for c in mine])
+                forest = np.array([forest_fraction([a], [b], 10.0)[0, 0] for a, b in zip(lat, lon)])
+                w = np.cos(np.radians(lat)) * forest
+                assert np.all(w > 0) and np.ptp(w / np.cos(np.radians(lat))) > 0.1  # forest shares that differ
                 ok = np.array([c["results"]["requirement0.passed"] for c in mine])
                 expected = float(np.sum(w * ok) / np.sum(w))
                 assert float(fraction.sel(solar="max", month=month, **{"pass": pass_name})) == pytest.approx(

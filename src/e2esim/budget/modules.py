@@ -114,8 +114,10 @@ class BackscatterErrorBudget(Stage):
     needs = ("scene.covariance",)
     uses = ("backscatter.error", "instrument")
     provides = (P.BACKSCATTER_BUDGET,)
+    fast_path_hooks = ("inputs_for",)  # forward_block reads the instrument alone, through _inputs_with
 
     def setup(self):
+        self._made = {}  # the budgets made by forward_block, by scene and instrument (e2esim.budget.block)
         self.base = self._base_inputs()
         try:
             self.base.check()
@@ -174,8 +176,11 @@ class BackscatterErrorBudget(Stage):
 
     def inputs_for(self, case) -> BudgetInputs:
         """The budget inputs of a case: the instrument's NESZ and bandwidth unless the scenario gives them."""
+        return self._inputs_with(case.get("instrument"))
+
+    def _inputs_with(self, inst) -> BudgetInputs:
+        """The budget inputs with the instrument ``inst`` (None: the scenario's and the preset's values)."""
         changes = {}
-        inst = case.get("instrument")
         ins = self.si["instrument"]
         if inst is not None:
             if ins["nesz_linear"] is None and np.isfinite(inst.nesz_db):
@@ -186,18 +191,40 @@ class BackscatterErrorBudget(Stage):
         return self.base.replace(**changes) if changes else self.base
 
     def forward(self, case):
-        include = tuple(self.si["include"])
         model = case.get("backscatter.error")
-        if model is not None and model.includes_speckle and "speckle_noise" in include:
+        if model is not None and model.includes_speckle and "speckle_noise" in self.si["include"]:
             raise fail(self, "speckle would be counted twice: the propagation's error model already draws a new "
                        "speckle pattern per realisation (hv_backscatter_error with reference 'population')",
                        "use reference: scene in hv_backscatter_error, or leave speckle_noise out of include",
                        key="include")
-        scene = case["scene.covariance"]
-        sigma = np.array([scene.sigma_hh, scene.sigma_hv, scene.sigma_vv])
         try:
-            budget = backscatter_budget(self.inputs_for(case), sigma)
+            return {"backscatter.budget": self.budget_of(case["scene.covariance"], self.inputs_for(case))}
         except PhysicsInputError as exc:
             raise fail(self, f"case {case.index}: {exc}") from exc
-        budget = budget.with_(channels=_CHANNELS, groups=include, speckle_distribution=self.si["speckle_distribution"])
-        return {"backscatter.budget": budget}
+
+    def budget_of(self, scene, inputs: BudgetInputs):
+        """The budget of ``scene``'s HH, HV and VV backscatter with ``inputs``."""
+        sigma = np.array([scene.sigma_hh, scene.sigma_hv, scene.sigma_vv])
+        return backscatter_budget(inputs, sigma).with_(channels=_CHANNELS, groups=tuple(self.si["include"]),
+                                                       speckle_distribution=self.si["speckle_distribution"])
+
+    def forward_block(self, block):
+        """``forward`` for a block at once: the budget depends on the scene and the instrument alone, so it is made
+        once per distinct pair of them in the run (``block_budgets``); None (case by case, where ``forward`` says
+        why) when the error model already counts speckle or a budget cannot be made."""
+        from e2esim.budget.block import block_budgets
+
+        model = block.get("backscatter.error")
+        if model is not None and "speckle_noise" in self.si["include"] and _any_speckle(model):
+            return None
+        made = block_budgets(block, self._made, lambda scene, inst: self.budget_of(scene, self._inputs_with(inst)))
+        return None if made is None else {"backscatter.budget": made}
+
+
+def _any_speckle(model) -> bool:
+    """Whether any case's error model (a block product) already counts speckle."""
+    from e2esim.block import Factor
+
+    if isinstance(model, Factor):
+        return bool(model.gather(lambda m: m.includes_speckle, dtype=bool).any())
+    return bool(np.any(model.includes_speckle))

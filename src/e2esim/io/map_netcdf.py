@@ -2,11 +2,12 @@
 
 Every output scalar of the cases becomes a variable over (solar, pass, month, lat, lon), NaN where a cell is not
 swept (ocean, no forest) or a case lacks it, with ``units`` (UDUNITS), ``long_name``, ``standard_name`` where CF
-has one, and ``e2esim_name``/``e2esim_units`` (the name and unit of results.h5). Besides them: the land fraction
-of each cell, its area weight (cos latitude) and, per requirement, the share of the swept (forest) area that
-meets it in each month, pass and solar level. The dataset is built from the ``Results`` of a run
-(``map_dataset``; ``map_dataset_of`` keeps it with the run), which the report's maps also draw, and written
-atomically (``write_map_netcdf``).
+has one, and ``e2esim_name``/``e2esim_units`` (the name and unit of results.h5). Besides them: the land and
+forest fractions of each cell (``e2esim.scene.land_mask``, ``e2esim.scene.forest_cover``), its area weight (cos
+latitude), its forest-area weight (area weight times forest fraction) and, per requirement, the share of the
+swept forest area that meets it in each month, pass and solar level: a cell counts by its forest area. The
+dataset is built from the ``Results`` of a run (``map_dataset``; ``map_dataset_of`` keeps it with the run), which
+the report's maps also draw, and written atomically (``write_map_netcdf``).
 """
 
 from __future__ import annotations
@@ -17,7 +18,16 @@ import numpy as np
 
 from e2esim.io.atomic import atomic_path
 from e2esim.io.scalar_units import scalar_description
-from e2esim.runner.map_sweep import LAT_KEYS, LON_KEYS, MONTH_KEY, PASS_KEY, SOLAR_KEY, map_section
+from e2esim.runner.map_sweep import (
+    LAT_KEYS,
+    LON_KEYS,
+    MONTH_KEY,
+    PASS_KEY,
+    SOLAR_KEY,
+    cell_forest_fraction,
+    map_section,
+    map_settings,
+)
 
 DIMS = ("solar", "pass", "month", "lat", "lon")
 """Dimensions of every per-case variable, in order."""
@@ -78,13 +88,26 @@ def map_dataset(results):
     data["land_area_fraction"] = xr.Variable(("lat", "lon"), _land(lat, lon, step, section), attrs={
         "units": "1", "standard_name": "land_area_fraction",
         "long_name": "share of the cell that is land (GSHHG shoreline, roaring-landmask)"})
+    settings = map_settings(section)
+    forest = cell_forest_fraction(settings, lat, lon)
+    cover = settings["forest_cover"]
+    if cover != "none":
+        from e2esim.scene.forest_cover import citation
+
+        data["forest_area_fraction"] = xr.Variable(("lat", "lon"), forest, attrs={
+            "units": "1", "long_name": "share of the cell that is forest (IGBP groups "
+            f"{', '.join(dict.fromkeys(settings['forest_classes']))} of {cover})", "source": citation()})
+    forest_weight = weight * forest
+    data["forest_area_weight"] = xr.Variable(("lat", "lon"), forest_weight, attrs={
+        "units": "1", "long_name": "forest area of each swept cell: cos(latitude) times its forest fraction, 0 where "
+        "not swept" + (" (forest_cover none: every swept cell wholly forest)" if cover == "none" else "")})
     for j, name in enumerate(results.requirements):
         key = _var_name(f"requirement{j}.passed", {})
         if key in data:
             data[f"requirement{j}_area_fraction"] = xr.Variable(
-                DIMS[:3], area_fraction(data[key].values, weight), attrs={
-                    "units": "1", "long_name": f"share of the swept (forest) area meeting requirement {j}: {name}",
-                    "comment": "sum of cos(latitude) over cells that pass / over cells with a verdict"})
+                DIMS[:3], area_fraction(data[key].values, forest_weight), attrs={
+                    "units": "1", "long_name": f"share of the swept forest area meeting requirement {j}: {name}",
+                    "comment": "sum of forest_area_weight over cells that pass / over cells with a verdict"})
     coords = {
         "solar": ("solar", np.array(solar, dtype=object), {"long_name": "solar activity level"}),
         "pass": ("pass", np.array(passes, dtype=object), {"long_name": "satellite pass (by its equator crossing)"}),
@@ -105,8 +128,8 @@ def map_dataset(results):
 
 
 def area_fraction(passed, weight) -> np.ndarray:
-    """Share of the area weight (lat, lon) of the cells with a verdict that pass, for every leading index of
-    ``passed`` (..., lat, lon: 1 pass, 0 fail, NaN no verdict)."""
+    """Share of the weight (lat, lon; the forest area) of the cells with a verdict that pass, for every leading
+    index of ``passed`` (..., lat, lon: 1 pass, 0 fail, NaN no verdict)."""
     has = np.isfinite(passed)
     total = np.sum(np.where(has, weight, 0.0), axis=(-2, -1))
     good = np.sum(np.where(has & (passed > 0.5), weight, 0.0), axis=(-2, -1))
@@ -169,7 +192,9 @@ def _global_attrs(results, step) -> dict:
         "source": f"e2esim {prov.get('e2esim_version', '')}".strip(),
         "history": f"{prov.get('created_utc', '')}: e2esim run ({prov.get('command', '')})",
         "references": "Men, Quegan, Riembauer & Chen (2021), IEEE JSTARS 14, 4089-4100; Quegan et al. (2018), "
-                      "IGARSS; Wessel & Smith (1996), J. Geophys. Res. 101(B4), 8741-8743 (GSHHG)",
+                      "IGARSS; Wessel & Smith (1996), J. Geophys. Res. 101(B4), 8741-8743 (GSHHG); Friedl & "
+                      "Sulla-Menashe (2015), MCD12C1 MODIS/Terra+Aqua Land Cover Type Yearly L3 Global 0.05Deg CMG "
+                      "V006, NASA LP DAAC, doi:10.5067/MODIS/MCD12C1.006",
         "comment": "NaN where a cell is not swept (ocean, no forest class) or a case lacks the quantity",
         "scenario": results.scenario_name,
         "grid_step_deg": step,

@@ -1,6 +1,7 @@
 """Report plots of map sweeps (``e2esim.runner.map_sweep``): ``global_maps``, filled latitude-longitude maps of
 the Faraday rotation, the sigma_hv error, the AGB error and the verdict for every month (panels), pass and solar
-level (one figure each); ``map_fraction``, the share of the forest area that meets each requirement, by month.
+level (one figure each); ``map_fraction``, the share of the forest area that meets each requirement, by month
+(each cell weighted by its forest area, ``forest_area_weight`` of the map dataset).
 
 Both draw the map dataset of the run (``e2esim.io.map_netcdf.map_dataset_of``, the content of results.nc): the
 report computes nothing physical (an area weight is bookkeeping; the sigma_hv error is shown relative to sigma_hv).
@@ -95,8 +96,8 @@ def plot_map_sweep(result, folder: Path, options: dict) -> list:
                     panels.show(values[s, p], cmap, vmin, vmax, limit, f"{title}\n{pass_name} pass, solar {solar}")
                     name = save_drawn(panels.fig, folder, f"{stem}_{pass_name}_{solar}")
                     out.append((name, f"Map of the {title}, {pass_name} pass, solar {solar}, one panel per month; "
-                                "grey: land left out of the sweep (no forest class), white: ocean. Cells of "
-                                f"{panels.step:g} deg."))
+                                "grey: land left out of the sweep (no forest, or no forest class), white: ocean. "
+                                f"Cells of {panels.step:g} deg."))
     finally:
         plt.close(panels.fig)
     return out
@@ -206,5 +207,6 @@ def plot_map_fraction(result, folder: Path, options: dict) -> list:
         ax.legend(fontsize=7)
     fig.tight_layout()
     return [(save(fig, folder, "map_fraction"),
-             "Share of the forest area of the map that meets each requirement, by month: the cells' areas (cos "
-             "latitude) of the passing cells over those of every swept cell, for each pass and solar level.")]
+             "Share of the forest area of the map that meets each requirement, by month: the forest areas (cell "
+             "area, cos latitude, times forest fraction) of the passing cells over those of every swept cell, for "
+             "each pass and solar level.")]

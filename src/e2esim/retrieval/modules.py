@@ -94,7 +94,8 @@ class PowerLawRetrieval(_Retrieval):
               default=None, exclusive_minimum=0.0, maximum=10.0, nullable=True),
         _REGRESSION,
     )
-    fast_path_hooks = ("case_exponent", "model_term")  # forward_block: the scene's exponent alone, no model term
+    # forward_block reads the scene's exponent and AGB alone, and adds no model term
+    fast_path_hooks = ("case_exponent", "case_agb", "model_term")
 
     def exponent_for(self, scene) -> float:
         if self.si["exponent"] is not None:
@@ -129,22 +130,35 @@ class PowerLawRetrieval(_Retrieval):
         return self.combine(case, p, None, regression, model_term=model_term)
 
     def forward_block(self, block):
-        """``forward`` for a block of cases at once when the error is the propagation's alone (no error budget,
-        no regression) and analytic for every case (``AGBErrorBlock``); None (case by case) otherwise."""
+        """``forward`` for a block of cases at once when the error is analytic for every case (``AGBErrorBlock``):
+        the propagation's error alone, or combined with the error budget (``combine_block``) and a regression
+        term that draws nothing from the case's generator (the same for every case of a scene); None (case by
+        case) otherwise."""
         from e2esim.block import Batched, Factor
+        from e2esim.retrieval import combine_block
         from e2esim.retrieval.agb_error_block import AGBErrorBlock
 
-        model, scene = block["backscatter.error"], block["scene.covariance"]
-        if ("backscatter.budget" in block or self.campaign.mode != "none" or not isinstance(model, Batched)
-                or model.unavailable is not None or not isinstance(scene, Factor)):
+        model, scene, budget = block["backscatter.error"], block["scene.covariance"], block.get("backscatter.budget")
+        if (not isinstance(model, Batched) or model.unavailable is not None or not isinstance(scene, Factor)
+                or not (budget is None or isinstance(budget, Factor))):
             return None
         try:
             p = scene.gather(self.exponent_for, name=f"power-law exponent {id(self)}")
         except ConfigError:
             return None  # case by case, where forward says which scene
-        m = model.current()
-        return {"agb.error": AGBErrorBlock(p, np.asarray(model.value, dtype=float), np.asarray(m.mean, dtype=float),
-                                           np.asarray(m.sd, dtype=float))}
+        s = np.asarray(model.value, dtype=float)
+        if budget is None and self.campaign.mode == "none":
+            m = model.current()
+            return {"agb.error": AGBErrorBlock(p, s, np.asarray(m.mean, dtype=float), np.asarray(m.sd, dtype=float))}
+        regression = None
+        if self.campaign.mode != "none":
+            agb = combine_block.gather_agb(self, scene)
+            regression = None if agb is None else combine_block.stable_regression(
+                self, block, s, agb, p, lambda a, sigma, exponent: PowerLaw.through(a, sigma, exponent))
+            if regression is None:
+                return None
+        error = combine_block.combined_agb_error_block(model, budget, p, regression)
+        return None if error is None else {"agb.error": error}
 
 
 class SaturatingRetrieval(_Retrieval):

@@ -3,8 +3,12 @@ levels, as sweep cases of plain values (docs/user-guide.md, "Global maps").
 
 The grid is that of the global climatology (``e2esim.faraday.global_climatology.grid_axes``): square cells of
 ``step_deg`` over ``lat_range_deg`` x ``lon_range_deg``. A cell is kept when it is land (at least
-``min_land_percent`` of it, GSHHG shoreline: ``e2esim.scene.land_mask``) and, with ``forest_only``, when the
-scenario's scene (type ``agb_map``) gives it a forest class (``e2esim.scene.map_forest``). Each case sets
+``min_land_percent`` of it, GSHHG shoreline: ``e2esim.scene.land_mask``), when at least ``min_forest_percent``
+of it is forest in the land-cover product ``forest_cover`` (MODIS 2019 IGBP classes:
+``e2esim.scene.forest_cover``; deserts, ice and water are never forest) and, with ``forest_only``, when the
+scenario's scene (type ``agb_map``) gives it a forest class (``e2esim.scene.map_forest``). A cell stands for
+its forest area (its area times its forest fraction) in the share of the forest that meets a requirement
+(``e2esim.io.map_netcdf``). Each case sets
 
     scene.lat_deg, scene.lon_deg, ionosphere.lat_deg, ionosphere.lon_deg    the cell centre (deg)
     ionosphere.month, ionosphere.pass, ionosphere.solar                        when
@@ -26,6 +30,7 @@ from e2esim.errors import ConfigError, Location, ModuleLookupError, PhysicsInput
 from e2esim.faraday.global_climatology import grid_axes
 from e2esim.params import Ordered, Param, find_param, to_si, validate_section
 from e2esim.runner.limits import MAX_MAP_CASES, check_count
+from e2esim.scene.forest_cover import DEFAULT_FOREST_GROUPS, FOREST_GROUPS, PRODUCTS
 
 MONTHS = tuple(range(1, 13))
 
@@ -39,6 +44,14 @@ MAP_PARAMS = (
     Param("land_only", "bool", "keep land cells only (GSHHG shoreline)", default=True),
     Param("min_land_percent", "float", "share of a cell that must be land for it to count as land", default=50.0,
           unit="%", exclusive_minimum=0.0, maximum=100.0, convert=False),
+    Param("forest_cover", "str", "land-cover product that says where forest is: modis_igbp_2019 (MODIS MCD12C1 "
+          "2019, IGBP classes; e2esim.scene.forest_cover), or none (every land cell counts as wholly forest)",
+          default="modis_igbp_2019", choices=PRODUCTS + ("none",)),
+    Param("forest_classes", "str", "IGBP class groups of forest_cover that count as forest: forests (classes 1-5), "
+          "woody_savannas (8), savannas (9)", default=DEFAULT_FOREST_GROUPS, variable_length=True,
+          choices=FOREST_GROUPS),
+    Param("min_forest_percent", "float", "share of a cell that must be forest (forest_cover) for it to be swept",
+          default=1.0, unit="%", exclusive_minimum=0.0, maximum=100.0, convert=False),
     Param("forest_only", "bool", "keep only cells the scene (type agb_map) gives a forest class: in its latitude "
           "bands, and forest in its AGB map", default=True),
     Param("months", "int", "months of the year", default=MONTHS, variable_length=True, minimum=1, maximum=12),
@@ -59,14 +72,16 @@ MAP_KEYS = (LAT_KEYS[0], LON_KEYS[0], LAT_KEYS[1], LON_KEYS[1], MONTH_KEY, PASS_
 
 @dataclass(frozen=True)
 class MapGrid:
-    """The grid of a map sweep: cell-centre axes (deg), the land fraction of each cell (n_lat, n_lon), which
-    cells are swept (bool, n_lat x n_lon), and the months, passes and solar levels; ``seen`` (pass -> bool per
-    latitude): the latitudes each pass of the ionosphere's orbit sees (all, without a global_climatology)."""
+    """The grid of a map sweep: cell-centre axes (deg), the land and forest fractions of each cell (n_lat,
+    n_lon; NaN without land_only, 1 without forest_cover), which cells are swept (bool, n_lat x n_lon), and the
+    months, passes and solar levels; ``seen`` (pass -> bool per latitude): the latitudes each pass of the
+    ionosphere's orbit sees (all, without a global_climatology)."""
 
     lat_deg: np.ndarray
     lon_deg: np.ndarray
     step_deg: float
     land_fraction: np.ndarray
+    forest_fraction: np.ndarray
     swept: np.ndarray
     months: tuple
     passes: tuple
@@ -106,6 +121,9 @@ def map_grid(section, where: Location, scenario: dict | None = None) -> MapGrid:
     else:
         land = np.full((lat.size, lon.size), np.nan)
         swept = np.ones((lat.size, lon.size), bool)
+    forest = cell_forest_fraction(m, lat, lon)
+    if m["forest_cover"] != "none":
+        swept &= (forest > 0) & (forest >= m["min_forest_percent"] / 100.0)
     passes = tuple(dict.fromkeys(m["passes"]))
     seen = {p: np.ones(lat.size, bool) for p in passes}
     if scenario is not None:
@@ -113,8 +131,23 @@ def map_grid(section, where: Location, scenario: dict | None = None) -> MapGrid:
         if m["forest_only"]:
             swept &= _forest_cells(scenario, lat, lon, where)
         seen = _seen_latitudes(scenario, lat, passes, where) or seen
-    return MapGrid(lat, lon, float(m["step_deg"]), land, swept, tuple(dict.fromkeys(m["months"])), passes,
+    return MapGrid(lat, lon, float(m["step_deg"]), land, forest, swept, tuple(dict.fromkeys(m["months"])), passes,
                    tuple(dict.fromkeys(m["solar"])), seen)
+
+
+def map_settings(section, where: Location | None = None) -> dict:
+    """``sweep.map`` validated and complete with its defaults."""
+    return validate_section(MAP_PARAMS, section, where or Location(key_path=("sweep", "map")))
+
+
+def cell_forest_fraction(m: dict, lat, lon) -> np.ndarray:
+    """Forest share (0-1) of each cell (n_lat, n_lon) in the land-cover product of the validated ``sweep.map``
+    ``m``; 1 everywhere with ``forest_cover: none``."""
+    if m["forest_cover"] == "none":
+        return np.ones((np.size(lat), np.size(lon)))
+    from e2esim.scene.forest_cover import forest_fraction
+
+    return forest_fraction(lat, lon, m["step_deg"], tuple(dict.fromkeys(m["forest_classes"])))
 
 
 def map_table(section, where: Location, scenario: dict | None = None):
@@ -127,7 +160,8 @@ def map_table(section, where: Location, scenario: dict | None = None):
     n = i.size * len(grid.months) * len(grid.passes) * len(grid.solar)
     if n == 0:
         raise ConfigError(where, "no cell of the grid is swept (no land, or no forest, in the region)",
-                          "widen lat_range_deg / lon_range_deg, or set land_only or forest_only to false")
+                          "widen lat_range_deg / lon_range_deg, lower min_forest_percent, or set land_only or "
+                          "forest_only to false or forest_cover to none")
     check_count("map sweep cases", n, MAX_MAP_CASES, where.describe())
     lat, lon = grid.lat_deg[i].tolist(), grid.lon_deg[j].tolist()
     cells = KeyGroup(LAT_KEYS[:1] + LON_KEYS[:1] + LAT_KEYS[1:] + LON_KEYS[1:],

@@ -15,10 +15,12 @@ assigns one of them by latitude and leaves every other latitude without a forest
   have no Table I preset: no forest class (the cell is left out of a map), unless ``temperate_biome`` names a
   biome whose Table I model stands in for them.
 
-The bands are an **assumption** of e2esim, not a forest map: every land cell in a band is treated as forest
-of the band's biome, deserts and tundra included. Give an AGB map (``e2esim.scene.agb_map``) for real forest
-cover. The default AGB of a band is that of its Table I forest (boreal_200: 200 t/ha; tropical_338: 338 t/ha,
-TropiSAR), whose covariance is used exactly.
+The bands are an **assumption** of e2esim about which biome a forest stands for, not a forest map: on their
+own they call every land cell in a band forest, deserts and tundra included. Map sweeps take where forest is
+from a land-cover product (``sweep.map.forest_cover``, the MODIS 2019 IGBP classes of
+``e2esim.scene.forest_cover``), or from an AGB map (``e2esim.scene.agb_map``). The default AGB of a band is
+that of its Table I forest (boreal_200: 200 t/ha; tropical_338: 338 t/ha, TropiSAR), whose covariance is used
+exactly.
 """
 
 from __future__ import annotations
