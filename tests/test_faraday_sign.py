@@ -51,7 +51,7 @@ def radar_basis(incidence_deg=30.0, azimuth_deg=-100.0):
 
 
 def test_faraday_constant_and_biomass_magnitude():
-    # mission-facts: K = e^3/(8 pi^2 eps0 m_e^2 c) = 2.365e4 SI; 0.716 deg per TECU per 10 uT at 435 MHz
+    # K = e^3/(8 pi^2 eps0 m_e^2 c) = 2.365e4 SI (CODATA); 0.716 deg per TECU per 10 uT at 435 MHz
     assert FARADAY_CONSTANT == pytest.approx(2.365e4, rel=1e-3)
     deg = np.degrees(faraday_rotation(10e-6, TECU, F_BIOMASS))
     assert deg == pytest.approx(0.716, abs=5e-4)

@@ -11,7 +11,7 @@ from e2esim.geomag.igrf import dipole_coefficients, igrf_geocentric, igrf_refere
 from e2esim.orbit.frames import to_ecef
 
 # NOAA NCEI geomagnetic calculator, IGRF-13, 2020-01-01, 64 N 20 E, 5 km (geodetic), nT
-# (../shared/reference/mission-facts.md; the values ppigrf's own tests use)
+# (the values ppigrf's own tests use)
 NOAA = {"X": 13028.6, "Y": 1937.9, "Z": 50828.7}
 
 
@@ -47,7 +47,7 @@ def test_fast_synthesis_equals_ppigrf():
 
 
 def test_igrf13_dipole_coefficients_2020():
-    # IGRF-13 coefficient file, epoch 2020 (mission-facts): g10, g11, h11 in nT
+    # IGRF-13 coefficient file (Alken et al. 2021), epoch 2020: g10, g11, h11 in nT
     g10, g11, h11 = dipole_coefficients("2020-01-01", "IGRF13")
     assert (g10 * 1e9, g11 * 1e9, h11 * 1e9) == pytest.approx((-29404.8, -1450.9, 4652.5), abs=0.05)
 

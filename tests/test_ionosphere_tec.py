@@ -57,7 +57,7 @@ def test_one_ut_per_point_is_independent_of_the_other_points():
 
 def test_delay_relations_eqs_7a_7b_8():
     tec, f = 25 * TECU, 435e6
-    assert RANGE_DELAY_CONSTANT == pytest.approx(40.308, abs=1e-3)  # mission-facts: 40.31
+    assert RANGE_DELAY_CONSTANT == pytest.approx(40.308, abs=1e-3)  # e^2/(8 pi^2 eps0 m_e), CODATA: 40.31
     assert range_delay(tec, f) == pytest.approx(40.308 * 25e16 / f**2, rel=1e-4)
     # CODATA's r_e and e, m_e, eps0 agree to 1e-11
     assert phase_advance(tec, f) == pytest.approx(2 * np.pi * f * range_delay(tec, f) / 299792458.0, rel=1e-9)

@@ -25,11 +25,11 @@ BIOMASS = SunSynchronousOrbit(666e3)
 
 
 def test_sun_synchronous_inclination_and_period():
-    # CEOS EO Handbook: 666 km, 98 deg (mission-facts). The CEOS period of 102.6 min does not belong to a
+    # CEOS EO Handbook, BIOMASS mission summary: 666 km, 98 deg. The CEOS period of 102.6 min does not belong to a
     # 666 km circular orbit: Kepler gives 98.06 min (102.6 min would be about 890 km).
     assert np.degrees(sun_synchronous_inclination(666e3)) == pytest.approx(98.05, abs=0.02)
     assert keplerian_period(666e3) / 60 == pytest.approx(98.06, abs=0.01)
-    # NISAR, 747 km sun-synchronous: 98.4 deg (mission-facts)
+    # NISAR, 747 km sun-synchronous: 98.4 deg (NASA/JPL NISAR quick facts)
     assert np.degrees(sun_synchronous_inclination(747e3)) == pytest.approx(98.4, abs=0.05)
 
 

@@ -245,3 +245,39 @@ def test_killing_a_run_under_workers_leaves_no_process(tmp_path):
     while any(_alive(w) for w in workers) and time.monotonic() < deadline:
         time.sleep(0.05)
     assert not any(_alive(w) for w in workers), workers
+
+
+def test_the_api_holds_its_folder_lock_and_releases_it(tmp_path, monkeypatch):
+    # issue 21 item 11: e2esim.run(output=...) dropped the lock that prepare_folder returned, so a second run
+    # into the same folder in the same process was refused as "another e2esim run (PID <own pid>)"
+    import e2esim
+    from e2esim.errors import OutputFolderError
+    from e2esim.runner import run as run_module
+    from e2esim.runner.lock import FolderLock
+
+    scenario, out = _scenario(tmp_path), tmp_path / "out"
+    seen = []
+    real = run_module.run_scenario
+
+    def watched(*args, **kwargs):  # the folder is locked while the scenario runs
+        seen.append((out / LOCK_NAME).read_text().strip())
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(run_module, "run_scenario", watched)
+    first = e2esim.run(scenario, output=out)
+    second = e2esim.run(scenario, output=out, force=True)
+    assert seen == [str(os.getpid())] * 2 and not (out / LOCK_NAME).exists()
+    assert second.labels == first.labels and (out / "summary.json").is_file()
+
+    with FolderLock(out), pytest.raises(OutputFolderError, match="another e2esim run"):
+        e2esim.run(scenario, output=out, force=True)  # a live lock still refuses
+
+    def failing(*args, **kwargs):
+        raise RuntimeError("a run that fails")
+
+    monkeypatch.setattr(run_module, "run_scenario", failing)
+    with pytest.raises(RuntimeError, match="a run that fails"):
+        e2esim.run(scenario, output=out, force=True)
+    assert not (out / LOCK_NAME).exists()  # released on failure too
+    monkeypatch.setattr(run_module, "run_scenario", real)
+    assert e2esim.run(scenario, output=out, force=True).n_cases == 3

@@ -15,6 +15,7 @@ from e2esim.io.h5_datasets import read_text
 from e2esim.io.results_h5 import write_results
 from e2esim.runner.scenario import Scenario
 from e2esim.runner.sweep import case_labels
+from quick_runs import scenario_names
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -177,3 +178,30 @@ def test_api_example_runs(tmp_path, monkeypatch):
     namespace = runpy.run_path(str(ROOT / "examples" / "api_sweep.py"))
     png = namespace["main"](tmp_path / "again")
     assert png.is_file() and (tmp_path / "again" / "run" / "report.html").is_file()
+
+
+@pytest.mark.parametrize("scenario", scenario_names())
+def test_to_xarray_works_on_every_shipped_scenario(scenario, quick_run):
+    # issue 21 item 11: men2021_fig1 (instrument.nesz_db) and nisar_lband (scene.agb_t_ha, scene.sigma_*) sweep keys
+    # that are output scalars too raised "found in both data_vars and coords"
+    result, folder = quick_run(scenario)
+    for results in (e2esim.Results.from_run(result), e2esim.open_results(folder)):
+        ds = results.to_xarray()
+        if results.resolved_scenario.get("sweep", {}).get("map") is not None:
+            continue  # a map: its grid (test_map_sweep.py)
+        for key in results.sweep_keys:  # every sweep key is a coordinate, every output scalar is in the dataset
+            assert key in ds.coords
+        for name, values in results.scalars.items():
+            held = ds[name] if name in ds.data_vars or name in ds.coords else ds[name + ".output"]
+            if held.dims == ds["label"].dims:
+                np.testing.assert_allclose(held.values.ravel(), values, rtol=1e-12)
+            assert held.attrs["units"] == results.units[name]
+
+
+def test_to_xarray_keeps_an_output_scalar_that_differs_from_its_swept_key(small):
+    results, _ = small
+    shifted = dict(results.scalars, **{"instrument.crosstalk.level_db": results.scalars["agb.exponent"]})
+    again = e2esim.Results(**{**results.__dict__, "scalars": shifted})
+    ds = again.to_xarray()
+    assert list(ds["instrument.crosstalk.level_db"].values) == [-34.0, -30.0, -26.0]  # the swept input
+    np.testing.assert_array_equal(ds["instrument.crosstalk.level_db.output"].values.ravel(), shifted["agb.exponent"])

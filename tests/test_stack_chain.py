@@ -87,11 +87,16 @@ def test_the_ground_cancellation_scenario_answers_its_question(quick_run):
         estimator = i["propagation.0.estimator"] + ("_multichannel" if i["propagation.0.channels"] == "all" else "")
         by[(i["scene.site"], estimator, i["orbit.passes"], i["propagation.0.faraday_difference_sd_deg"])] = case
     for site in ("tropical", "boreal"):
-        # the 20 % goal (RMS of every source): only ground-cancelled HH, HV and VV together meet it, and it has the
-        # smallest error of the four estimators
+        # the 20 % goal (RMS of every source): ground-cancelled HH, HV and VV together meet it, with the smallest
+        # error of the four estimators; ground-cancelled HV only just, in the boreal forest (19.9 %)
         rmse = {e: by[(site, e, "dawn", None)]["requirements"][1] for e in
                 ("single_date", "multi_date", "ground_cancelled", "ground_cancelled_multichannel")}
-        assert [e for e, v in rmse.items() if v["passed"]] == ["ground_cancelled_multichannel"]
+        passing = [e for e, v in rmse.items() if v["passed"]]
+        gc_hv = rmse["ground_cancelled"]["value"]
+        if site == "tropical":
+            assert passing == ["ground_cancelled_multichannel"] and gc_hv > 22.0
+        else:
+            assert passing == ["ground_cancelled", "ground_cancelled_multichannel"] and 19.5 < gc_hv < 20.0
         assert rmse["ground_cancelled_multichannel"]["value"] == min(v["value"] for v in rmse.values())
         joint = by[(site, "ground_cancelled_multichannel", "dawn", None)]["results"]
         assert joint["cancellation.hh.ground_suppression_db"] < -15.0  # HH's large ground is cancelled too

@@ -23,7 +23,8 @@ def run(scenario, set: dict | None = None, output=None, force: bool = False, pro
         workers: int = 1, engine: str = "batched", **overrides) -> Results:
     """Run every case of ``scenario`` and return its ``Results``; write no file unless ``output`` names a
     folder (then results.h5, summary.json, the report and its plots go there, as ``e2esim run -o`` writes them;
-    an existing non-empty folder needs ``force``).
+    an existing non-empty folder needs ``force``). As ``e2esim run``, the folder is locked while the scenario
+    runs and its outputs are written (a second run into it meanwhile is refused) and released after.
 
     scenario : a scenario file (path), a scenario as a dict (the YAML's content), or a ``Scenario``.
     set, overrides : dotted key -> value, e.g. ``set={"instrument.crosstalk.level_db": -28}`` or
@@ -36,13 +37,18 @@ def run(scenario, set: dict | None = None, output=None, force: bool = False, pro
 
     assignments = {**(set or {}), **overrides}
     resolved = load_scenario(scenario, assignments).resolve()
-    result = run_scenario(resolved, progress=progress, command=f"e2esim.run({_describe(scenario)})", workers=workers,
-                          engine=engine)
-    results = Results.from_run(result)
-    if output is not None:
-        folder = Path(output)
-        prepare_folder(folder, force)
-        results.write(folder)
+    # As `e2esim run` (cli.cmd_run): the folder is locked before the run and released when its outputs are
+    # written, whatever happens; a lock left held would refuse the next run into the same folder.
+    lock = prepare_folder(Path(output), force) if output is not None else None
+    try:
+        result = run_scenario(resolved, progress=progress, command=f"e2esim.run({_describe(scenario)})",
+                              workers=workers, engine=engine)
+        results = Results.from_run(result)
+        if output is not None:
+            results.write(output)
+    finally:
+        if lock is not None:
+            lock.release()
     return results
 
 

@@ -114,7 +114,11 @@ class Results:
     def to_xarray(self):
         """xarray Dataset: every output scalar as a variable (attributes ``units``, ``description``) over the
         sweep's dimensions, the sweep keys as coordinates (module docstring); a map sweep's map on its grid, as in
-        its results.nc (``e2esim.io.map_netcdf``)."""
+        its results.nc (``e2esim.io.map_netcdf``).
+
+        An output scalar named as a sweep key (``scene.agb_t_ha`` of a sweep over it) is that coordinate, with
+        the scalar's attributes, where its values are the swept ones; where they differ it is the variable
+        ``<name>.output`` beside the coordinate."""
         import xarray as xr
 
         from e2esim.runner.map_sweep import map_section
@@ -139,9 +143,13 @@ class Results:
         coords["label"] = (tuple(dims), np.asarray(self.label_list(), dtype=object).reshape(shape))
         data = {}
         for name, values in self.scalars.items():
-            data[name] = xr.Variable(tuple(dims), values.reshape(shape),
-                                     attrs={"units": self.units.get(name, "unknown"),
-                                            "description": scalar_description(name)})
+            attrs = {"units": self.units.get(name, "unknown"), "description": scalar_description(name)}
+            if name in coords:  # an output scalar named as a sweep key (scene.agb_t_ha, instrument.nesz_db)
+                if _same_values(self.inputs[name], values):
+                    coords[name] = (*coords[name], attrs)  # the coordinate says it all: it gets the units
+                    continue
+                name = f"{name}{OUTPUT_SUFFIX}"  # the chain's value differs from the swept input: keep both
+            data[name] = xr.Variable(tuple(dims), values.reshape(shape), attrs=attrs)
         ds = xr.Dataset(data, coords=coords)
         ds.attrs.update(scenario=self.scenario_name, requirements=list(self.requirements))
         return ds
@@ -179,6 +187,19 @@ def results_of(result) -> Results:
     if cached is None:
         cached = result.__dict__["_results"] = Results.from_run(result)
     return cached
+
+
+OUTPUT_SUFFIX = ".output"
+"""Suffix of an output scalar whose name is a sweep key's and whose values are not the swept ones."""
+
+
+def _same_values(inputs, values) -> bool:
+    """Whether a sweep key's input values are an output scalar's values (to rounding; NaN and None alike)."""
+    if not all(v is None or (isinstance(v, (int, float)) and not isinstance(v, bool)) for v in inputs):
+        return False
+    swept = np.array([np.nan if v is None else v for v in inputs], dtype=float)
+    values = np.asarray(values, dtype=float)  # a dB value read back through linear units may differ in its last bits
+    return swept.shape == values.shape and bool(np.allclose(swept, values, rtol=1e-12, atol=0.0, equal_nan=True))
 
 
 def _is_text(values) -> bool:

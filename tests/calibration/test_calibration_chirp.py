@@ -22,7 +22,7 @@ from e2esim.polarimetry.simulate import (
     simulate_chirp_scene,
 )
 
-F0, BW = 435e6, 6e6  # BIOMASS: Quegan et al. (2018) Sect. 5; ../shared/reference/mission-facts.md
+F0, BW = 435e6, 6e6  # BIOMASS: Quegan et al. (2018) Sect. 5; WMO OSCAR "SAR-P"
 SCENE = forest("boreal_200")
 NOISE = 10 ** (-27 / 10)
 

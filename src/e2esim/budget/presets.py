@@ -1,5 +1,5 @@
 """Budget presets: UAVSAR as in Ahmed et al. (2014), Tables III-IV, and ESA BIOMASS at its AGB product
-resolution (../shared/reference/mission-facts.md, reproduced in docs/theory/retrieval.md).
+resolution (published mission facts, each value with its source; docs/theory/retrieval.md lists them).
 
 Values are in SI units and radians; each carries its source. "Assumed" marks a value no source in the
 project's reference list gives: change it for your study.
@@ -42,34 +42,35 @@ UAVSAR_AHMED2014 = dict(
 )
 """UAVSAR over the Harvard and Howland forests, Ahmed et al. (2014), Tables III-IV and eq. (44)."""
 
-_BIOMASS_ALTITUDE_M = 666e3  # mission-facts: 666 km
-_BIOMASS_INCIDENCE = 0.5 * (23.0 + 33.75) * _DEG  # mission-facts: 23 deg near to 33.75 deg far range (seed 003)
+_BIOMASS_ALTITUDE_M = 666e3  # CEOS EO Handbook, BIOMASS mission summary: 666 km
+_BIOMASS_INCIDENCE = 0.5 * (23.0 + 33.75) * _DEG  # Quegan et al. (2018), Section 4.2: 23 deg near to 33.75 deg far
 
 BIOMASS_200M = dict(
-    bandwidth_hz=6e6,  # mission-facts: 6 MHz (WMO OSCAR); c/2B = 24.98 m = the quoted 25 m slant range
-    azimuth_resolution_m=8.3,  # mission-facts: single-look 25 m slant range x 8.3 m azimuth (seed 003, Section 6)
+    bandwidth_hz=6e6,  # WMO OSCAR, instrument "SAR-P": 6 MHz; c/2B = 24.98 m = the quoted 25 m slant range
+    azimuth_resolution_m=8.3,  # Quegan et al. (2018), Section 6: single look 25 m slant range x 8.3 m azimuth
     eta_range=1.0,  # assumed: the quoted resolutions are c/2B, i.e. unweighted (kappa = 1, eq. 25)
     eta_azimuth=1.0,  # assumed, as in range
-    nesz=10 ** (-27 / 10),  # mission-facts: -27 dB threshold (seed 000)
+    nesz=10 ** (-27 / 10),  # Men et al. (2021), Section V-A: -27 dB threshold
     quantisation_bits=8,  # assumed (UAVSAR value of Table III)
     ambiguity_ratio_db=20.0,  # assumed (the value of Hensley et al. [21] used by Ahmed et al. 2014)
-    random_calibration_db=0.1,  # mission-facts: radiometric stability 0.3 dB (3 sigma) -> 0.1 dB (1 sigma)
+    random_calibration_db=0.1,  # CEOS EO Handbook: radiometric stability 0.3 dB (3 sigma) -> 0.1 dB (1 sigma)
     pointing_error_rad=0.0,  # assumed: antenna pointing is inside the radiometric stability specification
     elevation_beamwidth_rad=9.5 * _DEG,  # assumed: look-angle span of the 23-33.75 deg incidence swath
     azimuth_beamwidth_rad=3.0 * _DEG,  # assumed; only used with a non-zero pointing error
     beam_shaping=BEAM_SHAPING_UNIFORM,  # uniformly weighted aperture (Table III of Ahmed et al. 2014)
     dem_height_error_m=3.0,  # assumed: SRTM-class DEM as in Ahmed et al. (2014), Table III
     dem_posting_m=30.0,  # assumed: 30 m posting (SRTM / Copernicus GLO-30)
-    area_m2=200.0 * 200.0,  # mission-facts: AGB product at 200 m (4 ha)
-    incidence_rad=_BIOMASS_INCIDENCE,  # mission-facts: mid-swath
+    area_m2=200.0 * 200.0,  # Quegan et al. (2019), abstract: AGB product at 200 m (4 ha)
+    incidence_rad=_BIOMASS_INCIDENCE,  # Quegan et al. (2018), Section 4.2: mid-swath
     slope_range_rad=3.0 * _DEG,  # assumed: the mean slopes of Ahmed et al. (2014), Table IV
     slope_azimuth_rad=3.0 * _DEG,  # assumed, as above
     slant_range_m=float(slant_range_spherical(_BIOMASS_ALTITUDE_M, _BIOMASS_INCIDENCE)),  # 666 km orbit
-    observations=3,  # mission-facts: interferometric-phase cycle of 3 passes (seed 003, Section 2)
+    observations=3,  # Quegan et al. (2018), Section 2: interferometric-phase cycle of 3 passes
     diverse_observations=1,  # assumed: repeat passes with small baselines are speckle identical
     temporal_relative_sd=0.0,  # no published value in the reference list: set it in the scenario
 )
-"""ESA BIOMASS P-band at the 200 m AGB product resolution (mission-facts.md; assumptions marked)."""
+"""ESA BIOMASS P-band at the 200 m AGB product resolution (published values with their sources; assumptions
+marked)."""
 
 PRESETS = {"uavsar_ahmed2014": UAVSAR_AHMED2014, "biomass_200m": BIOMASS_200M}
 

@@ -36,7 +36,8 @@ from e2esim.params import Ordered, Param, ParamGroup, Requires
 PASS_NAMES = ("dawn", "dusk", "ascending", "descending")
 
 _ORBIT = ParamGroup("orbit", "the orbit whose passes see the cell (defaults: ESA BIOMASS, 666 km dawn-dusk, "
-                    "ascending node 06:00, left-looking, incidence 23-33.75 deg; mission-facts)", (
+                    "ascending node 06:00, left-looking, incidence 23-33.75 deg; CEOS EO Handbook, "
+                    "Quegan et al. 2018)", (
     Param("altitude_km", "float", "orbit altitude", default=666.0, unit="km", minimum=150.0, maximum=6000.0),
     Param("ltan_hours", "float", "local mean solar time of the ascending node", default=6.0, unit="h", minimum=0.0,
           exclusive_maximum=24.0),

@@ -137,7 +137,7 @@ class BiomassInstrument(GaussianErrorsInstrument):
     Section VI), read as 3-sigma amplitudes (Men et al. 2021, Section V-B); pair correlations 0.9 with
     phase 0, the most stringent case (Men et al. 2021, Section IV); NESZ -27 dB (threshold; Men et al.
     2021, Section V-A, Table III); 435 MHz (Quegan et al. 2018, Section 5), 6 MHz bandwidth (WMO OSCAR
-    "SAR-P"; ../shared/reference/mission-facts.md).
+    instrument "SAR-P").
     """
 
     type_name = "biomass"
@@ -160,10 +160,10 @@ class BiomassInstrument(GaussianErrorsInstrument):
 class NisarInstrument(GaussianErrorsInstrument):
     """NASA-ISRO NISAR L-band SAR, a second instrument preset.
 
-    1.257 GHz centre frequency (NISAR handbook via public sensor tables), NESZ -25 dB (NISAR science users'
-    handbook, 2019), 20 MHz of the selectable 5-80 MHz (NISAR Cal/Val plan), all from
-    ../shared/reference/mission-facts.md. NISAR's polarimetric distortion specification is not among the
-    published facts e2esim has, so crosstalk and channel imbalance keep the BIOMASS values (-30 dB and -34 dB,
+    1.257 GHz centre frequency and NESZ -25 dB (NISAR Science Users' Handbook, NASA/JPL 2019), 20 MHz of the
+    selectable 5-80 MHz (NISAR calibration and validation plan, URSI AP-RASC 2019, abstract). NISAR's
+    polarimetric distortion specification is not among the published facts e2esim has, so crosstalk and
+    channel imbalance keep the BIOMASS values (-30 dB and -34 dB,
     3-sigma labels, rho = 0.9): a comparison with BIOMASS then isolates the effect of frequency (Faraday
     rotation about (1257/435)^2 = 8.4 times smaller) and noise. Override them when the specification is known.
     """

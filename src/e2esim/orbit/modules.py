@@ -114,8 +114,8 @@ class SunSynchronousOrbitModule(Stage):
 
 class BiomassOrbit(SunSynchronousOrbitModule):
     """ESA BIOMASS: 666 km dawn-dusk sun-synchronous orbit, ascending node at 06:00, left-looking,
-    incidence 23 deg to 33.75 deg (CEOS EO Handbook; ESA coverage material; Quegan et al. 2018, Section 4.2;
-    ../shared/reference/mission-facts.md)."""
+    incidence 23 deg to 33.75 deg (CEOS EO Handbook, BIOMASS mission summary; ESA's BIOMASS coverage material;
+    Quegan et al. 2018, Section 4.2)."""
 
     type_name = "biomass_orbit"
     summary = "ESA BIOMASS orbit preset: 666 km dawn-dusk (LTAN 06:00), left-looking, incidence 23-33.75 deg"

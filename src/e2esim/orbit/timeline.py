@@ -11,8 +11,9 @@ Phases, one after the other from the mission start:
 The paper gives the phase lengths and the stacks, not when within a phase a given site is imaged (that is
 the acquisition plan). Here a site's stack starts at a fraction ``site_slot`` of the free time of each
 phase or cycle (0: first possible day, 1: last), 0.5 by default; the 21 commissioning passes are spread
-evenly over the CP. ESA later quoted about 18 months for the TP and 9-month IP cycles
-(../shared/reference/mission-facts.md); every number here is a parameter.
+evenly over the CP. The BIOMASS mission paper quotes other lengths (a 14-month tomographic phase, Pol-InSAR
+coverage every 7 months: Quegan et al. 2019, Remote Sens. Environ. 227, 44-60, abstract); every number here is
+a parameter.
 """
 
 from __future__ import annotations

@@ -125,7 +125,7 @@ def _preset_value(preset: str, field: str, factor: float, unit: str) -> tuple:
 
 def preset_comments(module) -> dict:
     """{(preset, field): comment} from the source of ``e2esim.budget.presets``: each value's comment there
-    names its source ("mission-facts: ...", "assumed: ..."). Empty when the source is not available."""
+    names its source ("CEOS EO Handbook: ...", "assumed: ..."). Empty when the source is not available."""
     try:
         source = inspect.getsource(module)
     except (OSError, TypeError):

@@ -11,8 +11,9 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from e2esim.io.error_budget import source_groups, source_name, verdict_budget
+from e2esim.report.outliers import axis_cut, mark_cut
 from e2esim.report.plot_base import PlotSkipped, save
-from e2esim.report.sweep_layout import case_ticks
+from e2esim.report.sweep_layout import case_row_height, case_ticks
 
 MAX_BAR_CASES = 30
 GROUP_HATCH = {"systematic": "", "random": "//", "regression": "..", "model": "xx"}
@@ -45,12 +46,17 @@ def plot_error_budget(result, folder: Path, options: dict) -> list:
                           "analytically; see the notes)")
     sources = list(dict.fromkeys(r["source"] for _, _, _, rows in panels for case_rows in rows for r in case_rows))
     colours = {s: plt.get_cmap("tab20")(i % 20) for i, s in enumerate(sources)}
-    heights = [1.4 + 0.32 * len(cases) for _, cases, _, _ in panels]
+    heights = [1.4 + case_row_height(cases, base=0.32) * len(cases) for _, cases, _, _ in panels]
     fig, axes = plt.subplots(len(panels), 1, figsize=(9.5, sum(heights) + 0.6), squeeze=False,
                              gridspec_kw={"height_ratios": heights})
     drawn: dict = {}
+    notes = []
     for ax, (j, cases, which, rows) in zip(axes[:, 0], panels):
         unit = cases[0].verdicts[j].unit
+        checked = np.array([c.verdicts[j].value for c in cases])
+        ends = [s for case_rows in rows for s in _stack_ends(case_rows)]
+        cut = axis_cut(np.concatenate([checked, ends]), reference=[cases[0].verdicts[j].limit])
+        clip = cut.clip if cut else np.asarray
         for y, (c, case_rows) in enumerate(zip(cases, rows)):
             right = left = 0.0
             for r in case_rows:
@@ -58,16 +64,24 @@ def plot_error_budget(result, folder: Path, options: dict) -> list:
                 if not np.isfinite(value) or value == 0.0:
                     continue
                 start = right if value > 0 else left + value
-                bar = ax.barh(y, abs(value), left=start, color=colours[r["source"]], edgecolor="white",
-                              hatch=GROUP_HATCH.get(r["group"], ""), height=0.7)
-                drawn.setdefault(f"{source_name(r['source'])} ({r['group']})", bar)
+                lo, hi = clip([start, start + abs(value)])  # a bar beyond the cut axis stops at its edge
+                if hi > lo:
+                    bar = ax.barh(y, hi - lo, left=lo, color=colours[r["source"]], edgecolor="white",
+                                  hatch=GROUP_HATCH.get(r["group"], ""), height=0.7)
+                    drawn.setdefault(f"{source_name(r['source'])} ({r['group']})", bar)
                 right, left = (right + value, left) if value > 0 else (right, left + value)
             v = c.verdicts[j]
             rest = v.value - right - left
             if np.isfinite(rest) and rest > 0 and right > 0:
-                bar = ax.barh(y, rest, left=right, color="0.85", edgecolor="0.6", height=0.7)
-                drawn.setdefault("not attributed to one source (interactions)", bar)
-            ax.plot(v.value, y, "kd", ms=5)
+                lo, hi = clip([right, right + rest])
+                if hi > lo:
+                    bar = ax.barh(y, hi - lo, left=lo, color="0.85", edgecolor="0.6", height=0.7)
+                    drawn.setdefault("not attributed to one source (interactions)", bar)
+            ax.plot(clip([v.value])[0], y, "kd", ms=5)
+        mark_cut(ax, range(len(cases)), checked, cut, unit)
+        if cut:
+            ax.set_xlim(*cut.limits(np.concatenate([checked, ends]), [cases[0].verdicts[j].limit]))
+            notes.append(cut.note(checked, unit))
         ax.axvline(cases[0].verdicts[j].limit, color="tab:red", lw=1.2, ls="--")
         ax.axvline(0, color="k", lw=0.6)
         case_ticks(ax, cases, axis="y", positions=range(len(cases)))
@@ -82,4 +96,11 @@ def plot_error_budget(result, folder: Path, options: dict) -> list:
              "Error budget of each requirement: how much the checked value falls when one error source is removed "
              "(bars, hatched: random-error budget; dotted: regression), the checked value (black diamond) and the "
              "limit (red dashed line). The parts need not add up: the sources interact and quantiles are not "
-             "additive; grey is the part no single source accounts for.")]
+             "additive; grey is the part no single source accounts for." + "".join(notes))]
+
+
+def _stack_ends(case_rows) -> list:
+    """Where a case's stacked bars end, on either side of zero (what the axis must reach)."""
+    right = sum(r["contribution"] for r in case_rows if np.isfinite(r["contribution"]) and r["contribution"] > 0)
+    left = sum(r["contribution"] for r in case_rows if np.isfinite(r["contribution"]) and r["contribution"] < 0)
+    return [right, left]

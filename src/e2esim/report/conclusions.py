@@ -6,6 +6,7 @@ from __future__ import annotations
 from e2esim.io.error_budget import agb_budget, source_groups, source_name, unit_key
 from e2esim.io.summary import requirement_overview, requirement_sources
 from e2esim.report.blocks import badge, fmt
+from e2esim.report.outliers import error_meaning
 from e2esim.report.tables import SCOPE_SHORT
 
 
@@ -26,7 +27,8 @@ def conclusions(result) -> list:
         )
         outside = (f" ({row['not_applicable_cases']} cases outside its range)" if row["not_applicable_cases"] else "")
         sentence = (f"{row['name']} ({SCOPE_SHORT.get(scope, scope)}) {verb}{outside}; worst case {worst.index} "
-                    f"({worst.label}): {fmt(v.value, 3)} {v.unit} against a limit of {fmt(v.limit, 3)} {v.unit}")
+                    f"({worst.label}): {fmt(v.value, 3)} {v.unit}{_meaning(v)} against a limit of "
+                    f"{fmt(v.limit, 3)} {v.unit}")
         sentence += _dominant_clause(worst, v) + "."
         out.append((badge(row["all_passed"]), sentence))
     return out
@@ -45,3 +47,8 @@ def _dominant_clause(case, v) -> str:
             clause += f"; on its own it gives an RMSE of {fmt(alone['rmse_percent'], 3)} of the {fmt(v.value, 3)} %"
         clause += ")"
     return clause
+
+
+def _meaning(v) -> str:
+    meaning = error_meaning(v.value, v.unit)  # a relative error of 1.8e7 % read as what it is
+    return f" ({meaning.partition(', ')[2]})" if meaning else ""

@@ -18,6 +18,7 @@ from e2esim.report.assumptions import assumption_rows
 from e2esim.report.blocks import Badge, Details, Heading, Image, Paragraph, Table, Warning, fmt, table_blocks
 from e2esim.report.conclusions import conclusions
 from e2esim.report.sensitivity_table import SENSITIVITY_NOTE, exponent_sensitivity_table
+from e2esim.report.outliers import error_meaning
 from e2esim.runner.map_sweep import is_map_sweep
 
 __all__ = [
@@ -37,12 +38,13 @@ __all__ = [
 def verdict_lines(result) -> list:
     """Plain-text requirement summary (printed by ``e2esim run``)."""
     lines = []
-    for row in requirement_overview(result):
+    for j, row in enumerate(requirement_overview(result)):
         status = "PASS" if row["all_passed"] else "FAIL"
+        meaning = error_meaning(result.table.requirements[j].value[row["worst_case"]], row["unit"])
         lines.append(
             f"{status}  {row['name']}: {row['passed_cases']}/{row['passed_cases'] + row['failed_cases']} cases pass; "
             f"worst margin {fmt(row['worst_margin'], 3)} {row['unit']} (case {row['worst_case']}: "
-            f"{row['worst_case_label']})"
+            f"{row['worst_case_label']}{'; ' + meaning if meaning else ''})"
         )
     return lines
 

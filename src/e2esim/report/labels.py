@@ -51,3 +51,17 @@ def value_text(key: str, value) -> str:
     name, _, unit = label.partition(" (")
     shown = f"{value:g}" if isinstance(value, float) else str(value)
     return f"{name} {shown} {unit[:-1]}".strip() if unit else f"{name} {shown}"
+
+
+def wrapped(text: str, width: int) -> str:
+    """``text`` on lines of at most about ``width`` characters, broken after the commas between a label's
+    ``key=value`` parts (a part longer than a line keeps a line of its own): a label is shown whole, never cut."""
+    lines: list = []
+    for part in str(text).split(", "):
+        if lines and len(lines[-1]) + 2 + len(part) <= width:
+            lines[-1] += ", " + part
+        else:
+            if lines:
+                lines[-1] += ","
+            lines.append(part)
+    return "\n".join(lines)

@@ -19,17 +19,20 @@ def plot_estimator_comparison(result, folder: Path, options: dict) -> list:
     """Checked value of the first requirement per AGB estimator (``retrieval.estimator`` swept), grouped by the
     other sweep inputs, with each verdict's dominant error source; below, the relative error of sigma_hh,
     sigma_hv, sigma_vv (mean and 3 SD, analytic) of each group."""
+    from e2esim.report.labels import wrapped
     from e2esim.report.plot_base import save as _save
-    from e2esim.report.plots import _colors, _short
+    from e2esim.report.plots import _colors
+    from e2esim.runner.sweep import case_labels
 
     key = next((k for k in result.scenario.sweep_keys if k.endswith("estimator")), None)
     if key is None or not result.requirement_names:
         return []
     estimators = list(dict.fromkeys(c.inputs[key] for c in result.cases))
     others = [k for k in result.scenario.sweep_keys if k != key]
-    groups: dict = {}
-    for c in result.cases:
-        label = "\n".join(f"{k.split('.')[-1]}={c.inputs.get(k)}" for k in others) or "all"
+    groups: dict = {}  # each group named by the keys that tell the groups apart, as case labels name them
+    names = case_labels([{k: c.inputs.get(k) for k in others} for c in result.cases])
+    for c, name in zip(result.cases, names):
+        label = "\n".join(name.split(", ")) if others else "all"
         groups.setdefault(label, {})[c.inputs[key]] = c
     fig, (ax, ax_ch) = plt.subplots(2, 1, figsize=(max(7.0, 1.6 * len(groups) + 3), 8.5))
     width = 0.8 / len(estimators)
@@ -50,7 +53,7 @@ def plot_estimator_comparison(result, folder: Path, options: dict) -> list:
     if limit is not None:
         ax.axhline(limit, color="k", ls="--", lw=0.8)
     ax.set_xticks(x, list(groups), fontsize=7)
-    ax.set_ylabel(f"{_short(result.requirement_names[0], 50)} (%)", fontsize=8)
+    ax.set_ylabel(wrapped(f"{result.requirement_names[0]} (%)", 50), fontsize=8)
     ax.set_ylim(0, _CAP_PERCENT * 1.45)
     handles = [Patch(facecolor=col, edgecolor="k", label=est) for est, col in zip(estimators, _colors(len(estimators)))]
     handles.append(Patch(facecolor="w", edgecolor="k", hatch="//", label="fails"))

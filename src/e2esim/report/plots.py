@@ -21,6 +21,7 @@ from e2esim.io.summary import LARGE_RUN_CASES
 from e2esim.report.budget_plots import plot_error_budget
 from e2esim.report.faraday_plots import plot_faraday_climatology, plot_faraday_distributions
 from e2esim.report.global_maps import plot_map_fraction, plot_map_sweep
+from e2esim.report.labels import wrapped
 from e2esim.report.map_plots import SITE_KEYS, plot_site_map
 from e2esim.report.multichannel_plots import plot_estimator_comparison
 from e2esim.report.plot_base import PlotSkipped, figure_settings, save
@@ -56,7 +57,7 @@ def plot_error_histograms(result, folder: Path, options: dict) -> list:
         an = model.current() if model.unavailable is None else None
         if an is not None:
             ax.plot(x, _gaussian_pdf(x, float(an.mean), float(an.sd)), "b--", lw=1, label="analytic")
-        ax.set_title(_short(c.label, 50), fontsize=8)
+        ax.set_title(wrapped(c.label, 50), fontsize=8)
         ax.set_xlabel("error of $\\sigma_{hv}$ (m$^2$/m$^2$)", fontsize=8)
         ax.tick_params(labelsize=7)
     for ax in axes.ravel()[len(cases):]:
@@ -100,7 +101,7 @@ def plot_tradeoff(result, folder: Path, options: dict) -> list:
             ax.plot(*residual, "o", ms=8, mfc="none", mec="tab:purple", mew=2, label="residual after calibration")
         ax.set_xlabel(f"crosstalk (dB, {conv})")
         ax.set_ylabel(f"channel imbalance (dB, {conv})")
-        ax.set_title(_short(c.label, 70), fontsize=9)
+        ax.set_title(wrapped(c.label, 70), fontsize=9)
         ax.grid(alpha=0.3)
         ax.legend(fontsize=6)
     for ax in axes.ravel()[len(cases):]:
@@ -225,10 +226,6 @@ def make_plots(result, folder: Path, warnings: list | None = None) -> list:
             if warnings is not None:
                 warnings.append(message)
     return out
-
-
-def _short(text: str, width: int = 60) -> str:
-    return text if len(text) <= width else text[: width - 1] + "…"
 
 
 def _colors(n: int) -> list:

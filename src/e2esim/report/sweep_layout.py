@@ -18,7 +18,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 
-from e2esim.report.labels import axis_label, value_text
+from e2esim.report.labels import axis_label, value_text, wrapped
 from e2esim.runner.sweep import differing_keys
 
 MAX_FACETS = 12
@@ -145,17 +145,27 @@ def legend(ax, n_series: int) -> None:
         ax.legend(fontsize=7)
 
 
+CASE_LABEL_WIDTH = {"x": 40, "y": 60}
+"""Characters per line of a case label on each axis; longer labels are wrapped (``labels.wrapped``), never cut."""
+
+
+def case_tick_labels(cases, axis: str = "x") -> list:
+    """``<index>: <label>`` of each case, wrapped at the commas between its keys."""
+    return [wrapped(f"{c.index}: {c.label}", CASE_LABEL_WIDTH[axis]) for c in cases]
+
+
+def case_row_height(cases, axis: str = "y", base: float = 0.22) -> float:
+    """Height (inches) of a row of a chart with one row per case: ``base``, or more for labels on several lines."""
+    lines = max((label.count("\n") + 1 for label in case_tick_labels(cases, axis)), default=1)
+    return max(base, 0.06 + 0.14 * lines)
+
+
 def case_ticks(ax, cases, axis: str = "x", max_labels: int = 40, positions=None) -> None:
-    """Case labels as tick labels at ``positions`` (default: the case numbers); at most ``max_labels``, beyond
-    that the axis says "case number"."""
+    """Case labels, whole, as tick labels at ``positions`` (default: the case numbers); at most ``max_labels``,
+    beyond that the axis says "case number"."""
     positions = [c.index for c in cases] if positions is None else list(positions)
     if len(cases) <= max_labels:
-        labels = [_short(f"{c.index}: {c.label}", 72 if axis == "y" else 48) for c in cases]
-        (ax.set_xticks if axis == "x" else ax.set_yticks)(positions, labels, fontsize=7,
+        (ax.set_xticks if axis == "x" else ax.set_yticks)(positions, case_tick_labels(cases, axis), fontsize=7,
                                                           **({"rotation": 30, "ha": "right"} if axis == "x" else {}))
     else:
         (ax.set_xlabel if axis == "x" else ax.set_ylabel)("case number (labels in the case table)")
-
-
-def _short(text: str, width: int = 48) -> str:
-    return text if len(text) <= width else text[: width - 1] + "…"

@@ -8,8 +8,17 @@ from pathlib import Path
 
 import numpy as np
 
+from e2esim.report.outliers import axis_cut, mark_cut
 from e2esim.report.plot_base import PlotSkipped, save
-from e2esim.report.sweep_layout import case_ticks, facet_axes, legend, series_offsets, style, sweep_layout
+from e2esim.report.sweep_layout import (
+    case_row_height,
+    case_ticks,
+    facet_axes,
+    legend,
+    series_offsets,
+    style,
+    sweep_layout,
+)
 
 MAX_CASES_BY_LABEL = 60
 """Beyond this many cases a sweep without a numeric variable is drawn against the case number."""
@@ -23,19 +32,25 @@ def plot_verdicts(result, folder: Path, options: dict) -> list:
     if layout.x_key is None:
         return _verdicts_by_case(result, folder, names)
     fig, axes = facet_axes(layout, rows_per_facet=len(names), height=3.0)
+    every = [np.array([c.verdicts[j].margin for c in result.cases]) for j in range(len(names))]
+    cuts = [axis_cut(m) for m in every]  # the panels of a requirement share their y axis
     for facet, rows in zip(layout.facets, axes):
         offsets = series_offsets(layout, facet)
         for j, (ax, name) in enumerate(zip(rows, names)):
+            unit = result.cases[0].verdicts[j].unit
             for i, (series, dx) in enumerate(zip(facet.series, offsets)):
                 x = layout.x_values(series.cases) + dx
                 margins = np.array([c.verdicts[j].margin for c in series.cases])
+                drawn = cuts[j].clip(margins) if cuts[j] else margins
                 st = style(i)
-                ax.plot(x, margins, "-", color=st["color"], lw=1, marker=st["marker"], ms=3.5, label=series.label)
+                ax.plot(x, drawn, "-", color=st["color"], lw=1, marker=st["marker"], ms=3.5, label=series.label)
                 failed = np.array([not c.verdicts[j].passed for c in series.cases])
-                ax.plot(x[failed], margins[failed], "x", color="tab:red", ms=6, mew=1.5)
+                ax.plot(x[failed], drawn[failed], "x", color="tab:red", ms=6, mew=1.5)
+                mark_cut(ax, x, margins, cuts[j], unit, horizontal=False)
+            if cuts[j]:
+                ax.set_ylim(*cuts[j].limits(every[j]))
             ax.axhline(0, color="k", lw=0.8)
             ax.axhspan(min(ax.get_ylim()[0], -1e-9), 0, color="tab:red", alpha=0.06)
-            unit = result.cases[0].verdicts[j].unit
             ax.set_ylabel(f"margin ({unit})", fontsize=8)
             ax.set_title(f"{name}" + (f"\n{facet.title}" if facet.title else ""), fontsize=8)
             ax.grid(alpha=0.3)
@@ -45,7 +60,8 @@ def plot_verdicts(result, folder: Path, options: dict) -> list:
     fig.tight_layout()
     return [(save(fig, folder, "verdicts"),
              f"Requirement margins against {layout.x_label} (positive passes; red crosses and the shaded band "
-             "fail)" + (f"; one panel per {', '.join(layout.facet_keys)}" if layout.facet_keys else "") + ".")]
+             "fail)" + (f"; one panel per {', '.join(layout.facet_keys)}" if layout.facet_keys else "") + "."
+             + _cut_notes(cuts, every, [result.cases[0].verdicts[j].unit for j in range(len(names))]))]
 
 
 def _verdicts_by_case(result, folder, names) -> list:
@@ -54,27 +70,46 @@ def _verdicts_by_case(result, folder, names) -> list:
     by_label = n <= MAX_CASES_BY_LABEL
     import matplotlib.pyplot as plt
 
-    fig, axes = plt.subplots(len(names), 1, figsize=(8, len(names) * (1.2 + (0.22 * n if by_label else 3))),
+    row = case_row_height(cases) if by_label else 0.0
+    fig, axes = plt.subplots(len(names), 1, figsize=(8, len(names) * (1.2 + (row * n if by_label else 3))),
                              squeeze=False)
+    every, cuts = [], []
     for j, (ax, name) in enumerate(zip(axes[:, 0], names)):
         margins = np.array([c.verdicts[j].margin for c in cases])
+        cut = axis_cut(margins)
+        every.append(margins)
+        cuts.append(cut)
+        drawn = cut.clip(margins) if cut else margins
         colors = np.where([c.verdicts[j].passed for c in cases], "tab:green", "tab:red")
         unit = cases[0].verdicts[j].unit
+        positions = [c.index for c in cases]
         if by_label:
-            ax.barh([c.index for c in cases], margins, color=colors)
+            ax.barh(positions, drawn, color=colors)
             case_ticks(ax, cases, axis="y")
             ax.invert_yaxis()
             ax.axvline(0, color="k", lw=0.8)
             ax.set_xlabel(f"margin ({unit})")
+            mark_cut(ax, positions, margins, cut, unit)
+            if cut:
+                ax.set_xlim(*cut.limits(margins))
         else:
-            ax.scatter([c.index for c in cases], margins, c=colors, s=6)
+            ax.scatter(positions, drawn, c=colors, s=6)
             ax.axhline(0, color="k", lw=0.8)
             ax.set_xlabel("case number (labels in the case table)")
             ax.set_ylabel(f"margin ({unit})")
+            mark_cut(ax, positions, margins, cut, unit, horizontal=False)
+            if cut:
+                ax.set_ylim(*cut.limits(margins))
         ax.set_title(name, fontsize=9)
         ax.grid(alpha=0.3)
     fig.tight_layout()
-    return [(save(fig, folder, "verdicts"), "Requirement margins per case (positive passes; green passes, red fails).")]
+    return [(save(fig, folder, "verdicts"), "Requirement margins per case (positive passes; green passes, red fails)."
+             + _cut_notes(cuts, every, [cases[0].verdicts[j].unit for j in range(len(names))]))]
+
+
+def _cut_notes(cuts, values, units) -> str:
+    """The caption's sentences on values drawn cut (``e2esim.report.outliers``)."""
+    return "".join(cut.note(v, u) for cut, v, u in zip(cuts, values, units) if cut is not None)
 
 
 def _agb_basis(cases) -> str | None:
@@ -93,12 +128,17 @@ def plot_agb_error_vs_sweep(result, folder: Path, options: dict) -> list:
     if layout.x_key is None:
         return _agb_error_by_case(result, folder, keys, basis)
     fig, axes = facet_axes(layout, height=3.8)
+    every = np.array([[c.scalars[k] for k in keys] for c in result.cases])
+    cut = axis_cut(every)
     for facet, (ax,) in zip(layout.facets, axes):
         for i, (series, dx) in enumerate(zip(facet.series, series_offsets(layout, facet))):
-            lo, mid, hi = (np.array([c.scalars[k] for c in series.cases]) for k in keys)
+            values = [np.array([c.scalars[k] for c in series.cases]) for k in keys]
+            lo, mid, hi = (cut.clip(v) for v in values) if cut else values
             st = style(i)
+            x = layout.x_values(series.cases) + dx
+            mark_cut(ax, x, values[2], cut, "%", horizontal=False)
             ax.errorbar(
-                layout.x_values(series.cases) + dx,
+                x,
                 mid,
                 yerr=[mid - lo, hi - mid],
                 fmt="-",
@@ -109,6 +149,8 @@ def plot_agb_error_vs_sweep(result, folder: Path, options: dict) -> list:
                 color=st["color"],
                 label=series.label,
             )
+        if cut:
+            ax.set_ylim(*cut.limits(every))
         ax.axhline(0, color="k", lw=0.8)
         ax.set_title(facet.title, fontsize=8)
         ax.set_xlabel(layout.x_label, fontsize=8)
@@ -119,7 +161,8 @@ def plot_agb_error_vs_sweep(result, folder: Path, options: dict) -> list:
     fig.tight_layout()
     return [(save(fig, folder, "agb_error_vs_sweep"),
              f"Relative AGB error (every error source, {basis}) against {layout.x_label}: median (marker) and the "
-             "0.135 % to 99.865 % interval (bar); series sharing an x value are set slightly apart.")]
+             "0.135 % to 99.865 % interval (bar); series sharing an x value are set slightly apart."
+             + (cut.note(every[:, 2], "%") if cut else ""))]
 
 
 def _agb_error_by_case(result, folder, keys, basis) -> list:
@@ -128,10 +171,15 @@ def _agb_error_by_case(result, folder, keys, basis) -> list:
         raise PlotSkipped(f"{len(cases)} cases and no numeric sweep variable to draw them against; set output.plot_x")
     import matplotlib.pyplot as plt
 
-    fig, ax = plt.subplots(figsize=(8, 1.2 + 0.3 * len(cases)))
-    lo, mid, hi = (np.array([c.scalars[k] for c in cases]) for k in keys)
+    fig, ax = plt.subplots(figsize=(8, 1.2 + case_row_height(cases, base=0.3) * len(cases)))
+    values = [np.array([c.scalars[k] for c in cases]) for k in keys]
+    cut = axis_cut(np.concatenate(values))
+    lo, mid, hi = (cut.clip(v) for v in values) if cut else values
     y = [c.index for c in cases]
     ax.errorbar(mid, y, xerr=[mid - lo, hi - mid], fmt="o", ms=4, capsize=3, color="tab:blue")
+    mark_cut(ax, y, values[2], cut, "%")
+    if cut:
+        ax.set_xlim(*cut.limits(np.concatenate(values)))
     case_ticks(ax, cases, axis="y")
     ax.invert_yaxis()
     ax.axvline(0, color="k", lw=0.8)
@@ -140,7 +188,7 @@ def _agb_error_by_case(result, folder, keys, basis) -> list:
     fig.tight_layout()
     return [(save(fig, folder, "agb_error_vs_sweep"),
              "Relative AGB error of each case (every error source): median (marker) and the 0.135 % to 99.865 % "
-             "interval (bar).")]
+             "interval (bar)." + (cut.note(values[2], "%") if cut else ""))]
 
 
 def plot_backscatter_vs_sweep(result, folder: Path, options: dict) -> list:

@@ -172,7 +172,7 @@ class AGBRelativeRMSE(Requirement):
 
 class AGBAbsoluteRMSE(Requirement):
     """sqrt(E[(AGB_hat - AGB)^2]) <= limit in t/ha, e.g. NISAR's "20 Mg/ha RMS at 1 ha for AGB < 100 Mg/ha"
-    (NISAR science requirements, ../shared/reference/mission-facts.md); 1 Mg/ha = 1 t/ha."""
+    (the NISAR L2 biomass requirement, NISAR Science Users' Handbook, NASA/JPL 2019); 1 Mg/ha = 1 t/ha."""
 
     kind = "requirement"
     type_name = "agb_rmse_absolute"

@@ -35,6 +35,7 @@ from e2esim.runner.columns import (
     scalar_columns,
     source_group_column,
 )
+from e2esim.runner.progress import CaseProgress
 from e2esim.runner.records import case_scalars
 from e2esim.runner.result_table import ResultTable
 from e2esim.runner.scenario import ResolvedScenario
@@ -355,7 +356,7 @@ def run_scenario(
     for block in blocks:
         done[block.indices] = True
     todo = np.flatnonzero(~done)
-    bar = tqdm(total=n, initial=int(done.sum()), desc=resolved.name, unit="case", disable=not progress, leave=False)
+    bar = CaseProgress(n, int(done.sum()), resolved.name, progress, workers if not scheduler else 1)
     try:
         for block, frame in iter_blocks(resolved, block_tasks(resolved, todo, workers if not scheduler else 8),
                                         workers, scheduler, engine=engine, keep_products=keep,

@@ -1,7 +1,7 @@
 """The acquisition stack: N repeat passes over one site, each with its time, vertical wavenumber and incidence.
 
 BIOMASS images a site 3 times, 3 days apart, in the interferometric phase, and 7 times in the tomographic
-phase (Quegan et al. 2018, Section 2; ../shared/reference/mission-facts.md). After phase calibration and
+phase (Quegan et al. 2018, Section 2). After phase calibration and
 ground steering a scatterer at height z above the terrain has the phase k_z,n z in image n (BPS AGB ATBD,
 eq. 3.2), so what the stack needs from the geometry is each pass's vertical wavenumber relative to the first
 pass. For repeat-pass (monostatic) geometry
@@ -10,9 +10,10 @@ pass. For repeat-pass (monostatic) geometry
 
 with B_perp the perpendicular baseline, rho the slant range and theta the incidence.
 
-Presets (``PHASES``): the nominal BIOMASS k_z values are not published in what the project could read
-(/work/notes/research_12_13.md, Section 3). The presets are the numbers *inferred* there from the BioPAL
-prototype configuration (its forest/non-forest classes at multiples of 0.0432 rad/m): a tomographic step of
+Presets (``PHASES``): the project found no published nominal BIOMASS k_z values. The presets are *inferred*
+from the BioPAL prototype's configuration (github.com/BioPAL/BioPAL, ``biopal/_package_data/conf/
+Configuration_File.xml``: the forest/non-forest classifier's ``max_vertical_wavenumber`` values 0.0432, 0.0869,
+0.1294 and 0.1729 rad/m, multiples of about 0.0432 rad/m): a tomographic step of
 0.0435 rad/m and an interferometric step of twice that (the BPS AGB ATBD, Section 3.2.4.1, takes every second
 tomographic pass as "nominally consistent with" the interferometric baselines). They are assumptions:
 give ``kz_rad_m`` or ``perpendicular_baselines_m`` for a study.
@@ -30,7 +31,8 @@ from e2esim.ionosphere.constants import SPEED_OF_LIGHT
 DAY_S = 86_400.0
 
 TOMOGRAPHIC_KZ_STEP = 0.0435
-"""rad/m: assumed elementary k_z step of the tomographic phase (inferred, research notes Section 3, confidence L)."""
+"""rad/m: assumed elementary k_z step of the tomographic phase (inferred from the BioPAL configuration: module
+docstring; low confidence)."""
 
 PHASES = {
     # name: (passes, repeat interval in days, k_z step in rad/m between consecutive passes)

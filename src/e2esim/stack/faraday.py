@@ -9,8 +9,8 @@ passes, so Omega_n - Omega_m ~ Omega (ln X_n - ln X_m) has SD
 
     sigma_D = Omega_rms s sqrt(2 (1 - rho)),  Omega_rms = sqrt(E[Omega_0^2])        (ground-cancellation.md, eq. 7)
 
-The correlation rho of the day-to-day TEC deviations of passes 3 days apart was not found in what could be
-read (research notes Section 7): the default rho = 0 (independent days) is an **assumption** and the worst
+The project found no published correlation rho of the day-to-day TEC deviations of passes 3 days apart: the
+default rho = 0 (independent days) is an **assumption** and the worst
 case; the scenarios sweep sigma_D directly. The small widening of each pass's marginal (variance of Omega_0
 plus sigma_D^2 / 2) is accepted.
 

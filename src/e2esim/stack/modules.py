@@ -33,16 +33,16 @@ from e2esim.stack.error_model import StackHVErrorModel
 from e2esim.stack.faraday import StackFaraday, tec_difference_sd
 from e2esim.stack.joint_model import StackJointErrorModel
 from e2esim.stack.model_base import StackModelBase
-from e2esim.stack.montecarlo import simulate_stack
+from e2esim.stack.montecarlo import NOISE_FACTORS, simulate_stack
 from e2esim.stack.rvog import ForestStructure
 from e2esim.stack.scene import StackScene
 from e2esim.stack.sites import SITE_FORESTS, SITES
 from e2esim.stack.system import StackSystemErrors
 from e2esim.stack.temporal import ASSUMED_FLOOR, ASSUMED_GROUND_RATIO, ASSUMED_TIME_CONSTANT_DAYS, TemporalDecorrelation
 
-BIOMASS_CENTRE_FREQUENCY_HZ = 435e6  # ../shared/reference/mission-facts.md (seed 003, Section 5)
-BIOMASS_ALTITUDE_M = 666e3  # mission-facts: 666 km
-BIOMASS_MID_INCIDENCE_DEG = 0.5 * (23.0 + 33.75)  # mission-facts: 23 deg near to 33.75 deg far range
+BIOMASS_CENTRE_FREQUENCY_HZ = 435e6  # Quegan et al. (2018), Section 5
+BIOMASS_ALTITUDE_M = 666e3  # CEOS EO Handbook, BIOMASS mission summary: 666 km
+BIOMASS_MID_INCIDENCE_DEG = 0.5 * (23.0 + 33.75)  # Quegan et al. (2018), Section 4.2: 23 deg near to 33.75 deg far
 
 _TEMPORAL = ParamGroup("temporal", "temporal decorrelation gamma_v(dt) = floor + (1 - floor) exp(-dt / tau), "
                        "gamma_g = 1 - ground_ratio (1 - gamma_v) (ground-cancellation.md eq. 3; values assumed)", (
@@ -266,7 +266,9 @@ class StackBackscatterError(Stage):
 class StackErrorBudget(BackscatterErrorBudget):
     """The random-error budget of Ahmed et al. (2014) for a multi-pass estimate: the observations and their
     speckle diversity from the estimator and the inter-pass coherence of the stack (ground-cancellation.md,
-    eq. 17), not the speckle-identical repeat passes of the single-pass preset."""
+    eq. 17), not the speckle-identical repeat passes of the single-pass preset. Its NESZ is the noise of each
+    channel's combined estimate, sigma_n tr Q for HH and VV and sigma_n tr Q / 2 for the symmetrised HV (Men et al.
+    2021, eq. 3)."""
 
     type_name = "stack_error_budget"
     summary = ("speckle/noise, temporal, calibration and area-projection error of a multi-pass estimate, with the "
@@ -289,8 +291,11 @@ class StackErrorBudget(BackscatterErrorBudget):
         noise_obs = comb.noise_diversity
         speckle_obs = np.array([min(comb.speckle_diversity(scene.channel_matrix(i)), noise_obs) for i in range(3)])
         base = self.inputs_for(case)
+        # The noise of each channel's combined estimate: tr Q times the per-pass estimate's, which is sigma_n for
+        # HH and VV and sigma_n / 2 for the symmetrised HV = (M_hv + M_vh) / 2 (two independent noise draws of
+        # power sigma_n averaged: Men et al. 2021, eq. 3; ground-cancellation.md, "Reduction").
         inputs = base.replace(observations=noise_obs, diverse_observations=speckle_obs,
-                              nesz=base.nesz * comb.noise_gain)
+                              nesz=base.nesz * comb.noise_gain * NOISE_FACTORS)
         try:
             budget = backscatter_budget(inputs, sigma)
         except PhysicsInputError as exc:

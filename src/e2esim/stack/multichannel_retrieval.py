@@ -2,9 +2,10 @@
 of the BIOMASS AGB ATBD on ground-cancelled channels, with the exponents of the ground-cancelled power laws.
 
 The ATBD estimates AGB from the ground-cancelled HH, HV and VV (BPS AGB ATBD Sections 2.2, 3.4, eqs. 4.8-4.10;
-Soja et al. 2021). Published exponents of the ground-cancelled power laws could not be found (the ATBD fits them per
-block, eq. 4.19, and states none; the BioPAL prototype only bounds them, 0.1 to 1.9 for every channel), so they are a
-stated model of the scene's random-volume-over-ground split, per channel (ground-cancellation.md, eq. 24):
+Soja et al. 2021). The project found no published exponents of the ground-cancelled power laws (it looked in Soja et
+al. 2021 and Banda et al. 2020; the ATBD fits them per block, eq. 4.19, and states none; the BioPAL prototype only
+bounds them, 0.1 to 1.9 for every channel), so they are a stated model of the scene's random-volume-over-ground split,
+per channel (ground-cancellation.md, eq. 24):
 
 * ``rvog``: the ground term does not change with AGB and the volume carries all of the AGB dependence, so the
   cancelled channel follows the volume alone, alpha_GC = alpha (1 + mu_pq) (eq. 19 for every channel);

@@ -1,9 +1,9 @@
 """The power law of a multi-pass estimate (kind ``retrieval``): the exponent of the ground-cancelled channel, and the
 uncertainty of that exponent as the AGB error's model term.
 
-Published exponents of the ground-cancelled HV power law could not be read (docs/theory/ground-cancellation.md,
-Section 3.1), so a ground-cancelled estimate takes either the HV exponent of the biome (``same``: conservative) or the
-exponent the random-volume-over-ground split of the scene implies, p / (1 + mu_hv) (``rvog``: a stated model,
+The project found no published exponent of the ground-cancelled HV power law, so a
+ground-cancelled estimate takes either the HV exponent of the biome (``same``: conservative) or the exponent the
+random-volume-over-ground split of the scene implies, p / (1 + mu_hv) (``rvog``: a stated model,
 ``e2esim.stack.sites.ground_cancelled_exponent``, ground-cancellation.md eq. 19). Single-date and multi-date
 estimates keep the biome's exponent (Men et al. 2021, eq. 15). The exponent is uncertain: by default
 (``model_uncertainty.mode: stated``) its published spread (``e2esim.retrieval.model_error``) is propagated as the

@@ -1,7 +1,8 @@
 """Random volume over ground (RVoG): the forest's vertical structure seen by a pair of passes.
 
 Papathanassiou & Cloude (2001), IEEE TGRS 39(11) 2352-2363; the forms below agree with the BioPAL volume
-decorrelation code (research notes Section 4.2). A volume of height h_v with a power extinction sigma_e
+decorrelation code (github.com/BioPAL/BioPAL, ``biopal/fh/processing_FH.py``, ``volume_decorrelation_lut``). A
+volume of height h_v with a power extinction sigma_e
 (per metre of slant path) over a ground. The backscatter of a layer at height z is attenuated on the way
 down and up through the canopy above it, ``exp(-p (h_v - z))`` with ``p = 2 sigma_e / cos theta``, so the
 volume coherence of an interferogram of vertical wavenumber kappa is

@@ -1,20 +1,21 @@
 """Forest-structure presets of the multi-pass scene, for the tropical and boreal sites.
 
 The single-pass powers are those of Men et al. (2021), Table I (``e2esim.scene.table1``); these presets add what
-the random-volume-over-ground model needs. Published P-band values of extinction and ground-to-volume ratios for
-TropiSAR or BioSAR could not be read (research notes Sections 4 and 6), so every number below but the cited ones
-is **assumed** and marked so; the scenarios vary them.
+the random-volume-over-ground model needs. The project found no published P-band values of extinction and
+ground-to-volume ratios for TropiSAR or BioSAR, so every number below but the cited ones is **assumed** and
+marked so; the scenarios vary them.
 
 * tropical (Paracou, French Guiana, TropiSAR; Table I tropical 338 t/ha): h_v = 35 m. The layer at 30 +- 10 m
   above the ground correlates best with AGB at Paracou (Ho Tong Minh et al. 2014, IEEE TGRS 52(2) 967-979,
   abstract), and French Guiana canopies reach beyond 35 m (canopy-height mapping of French Guiana, Frontiers in
   Remote Sensing 2024, doi:10.3389/frsen.2024.1484900, abstract); 35 m itself is assumed.
 * boreal (central Siberia in the scenarios; Table I boreal 200 t/ha from Quegan & Lomas 2015): h_v = 20 m,
-  assumed (boreal stands of Sweden's BioSAR sites are about 20-30 m tall, research notes Section 6, unverified).
+  assumed.
 * both: extinction 0.15 dB/m (assumed), volume HH-VV coherence 1/3 (randomly oriented thin dipoles, Freeman &
   Durden 1998, IEEE TGRS 36(3)); ground-to-volume ratios (hh, hv, vv) of (-3, -10, -6) dB tropical and (+3, -3, 0)
-  dB boreal (assumed; the ordering HH > VV > HV of the ground term follows the double-bounce physics, research
-  notes Section 4.2, and the BIOMASS processor searches -20 to +20 dB).
+  dB boreal (assumed; the ordering HH > VV > HV of the ground term follows the ground-trunk double bounce, which
+  has no HV part and a larger HH than VV Fresnel product, Freeman & Durden 1998; the BIOMASS processor searches
+  -20 to +20 dB: BPS, github.com/BioPAL/BPS, ``xsd/biomass-xsd/bio-aux-pp2_2a.xsd``, ``groundToVolumeRatioRange``).
 """
 
 from __future__ import annotations

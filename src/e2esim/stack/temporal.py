@@ -6,7 +6,8 @@ Model (ground-cancellation.md, eq. 3): the volume's temporal coherence decays ex
 
 and the ground decorrelates a fraction r of the volume's loss, gamma_g(dt) = 1 - r (1 - gamma_v(dt)). The
 ratio r is the BIOMASS processor's "ratio of temporal decorrelation between ground and volume" (0: the ground
-does not decorrelate, 1: as the volume; BPS auxiliary file ``bio-aux-pp2_2a.xsd``, research notes Section 5).
+does not decorrelate, 1: as the volume; BPS, github.com/BioPAL/BPS, ``xsd/biomass-xsd/bio-aux-pp2_2a.xsd``,
+``temporalDecorrelationGroundToVolumeRatio``).
 Temporal decorrelation of tropical forest at P-band is reported by the TropiScat tower experiment at Paracou
 (Hamadi et al. 2014, IEEE TGRS 52(8); El Idrissi Essebtey et al. 2021, IEEE TGRS, doi:10.1109/TGRS.2021.3082395):
 daily cycles in dry spells, perturbed by rain, depending on season, polarisation and the hour of acquisition.
