@@ -106,6 +106,9 @@ class AGBContribution:
     "regression" (retrieval-model uncertainty). relative_mean, relative_variance : mean and variance of
     the relative sigma_hv error x = e / sigma_hv it contributes (the variance may be negative for an
     increment such as the Faraday-rotation share of the systematic error). description : one line.
+    uncertainty : for a sampled term (the regression's expectation over simulated campaigns), a
+    ``RegressionUncertainty``: the standard error of ``relative_variance`` and the spread across campaigns;
+    None for an exact term.
     """
 
     name: str
@@ -113,6 +116,7 @@ class AGBContribution:
     relative_mean: float
     relative_variance: float
     description: str = ""
+    uncertainty: object = None
 
 
 @dataclass(frozen=True)
