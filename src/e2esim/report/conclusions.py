@@ -7,6 +7,7 @@ from e2esim.io.error_budget import agb_budget, source_groups, source_name, unit_
 from e2esim.io.summary import requirement_overview, requirement_sources
 from e2esim.report.blocks import badge, fmt
 from e2esim.report.tables import SCOPE_SHORT
+from e2esim.report.uncertainty import with_standard_error
 
 
 def conclusions(result) -> list:
@@ -25,8 +26,9 @@ def conclusions(result) -> list:
             f"passes in all {total} cases" if row["all_passed"] else f"fails in {row['failed_cases']} of {total} cases"
         )
         outside = (f" ({row['not_applicable_cases']} cases outside its range)" if row["not_applicable_cases"] else "")
+        value = with_standard_error(v.value, v.details.get("value_standard_error"))
         sentence = (f"{row['name']} ({SCOPE_SHORT.get(scope, scope)}) {verb}{outside}; worst case {worst.index} "
-                    f"({worst.label}): {fmt(v.value, 3)} {v.unit} against a limit of {fmt(v.limit, 3)} {v.unit}")
+                    f"({worst.label}): {value} {v.unit} against a limit of {fmt(v.limit, 3)} {v.unit}")
         sentence += _dominant_clause(worst, v) + "."
         out.append((badge(row["all_passed"]), sentence))
     return out

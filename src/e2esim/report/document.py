@@ -17,6 +17,7 @@ from e2esim.report import tables
 from e2esim.report.assumptions import assumption_rows
 from e2esim.report.blocks import Badge, Details, Heading, Image, Paragraph, Table, Warning, fmt, table_blocks
 from e2esim.report.conclusions import conclusions
+from e2esim.report.uncertainty import uncertainty_flags
 from e2esim.runner.map_sweep import is_map_sweep
 
 __all__ = [
@@ -36,13 +37,14 @@ __all__ = [
 def verdict_lines(result) -> list:
     """Plain-text requirement summary (printed by ``e2esim run``)."""
     lines = []
-    for row in requirement_overview(result):
+    for j, row in enumerate(requirement_overview(result)):
         status = "PASS" if row["all_passed"] else "FAIL"
         lines.append(
             f"{status}  {row['name']}: {row['passed_cases']}/{row['passed_cases'] + row['failed_cases']} cases pass; "
             f"worst margin {fmt(row['worst_margin'], 3)} {row['unit']} (case {row['worst_case']}: "
             f"{row['worst_case_label']})"
         )
+        lines += [f"      ! {flag}" for flag in uncertainty_flags(result, j)]
     return lines
 
 
@@ -52,6 +54,8 @@ def build_report(result, plots: list, warnings: list = ()) -> list:
     blocks = [Heading(1, sc.output.get("title") or sc.name)]
     if result.requirement_names:
         blocks += [Heading(2, "Conclusions")] + [Paragraph(f"{b} {sentence}") for b, sentence in conclusions(result)]
+        blocks += [Paragraph(f"**How sure:** {name}: {flag}") for j, name in enumerate(result.requirement_names)
+                   for flag in uncertainty_flags(result, j)]
         blocks += [Heading(2, "Requirement verdicts"), tables.verdict_table(result), Paragraph(_scope_note(result))]
         blocks += _budget_section(result, plots)
     else:

@@ -21,6 +21,7 @@ from functools import cached_property
 import numpy as np
 
 from e2esim.errors import PhysicsInputError
+from e2esim.retrieval.agb_uncertainty import SampledAnswers, relative_moments, uncertainty_scalars
 from e2esim.retrieval.power_law import agb_relative_error, sigma_relative_error
 
 _HERMITE_NODES, _HERMITE_WEIGHTS = np.polynomial.hermite_e.hermegauss(64)
@@ -120,7 +121,7 @@ class AGBContribution:
 
 
 @dataclass(frozen=True)
-class AGBError:
+class AGBError(SampledAnswers):
     """Relative AGB error ``q = AGB_hat / AGB - 1`` implied by the sigma_hv error.
 
     exponent : power-law exponent p (for other models the local exponent 1 / (d ln sigma / d ln AGB),
@@ -134,6 +135,9 @@ class AGBError:
     error_model : the single-channel ``ErrorModel`` this error maps (a channel or a channel combination of a
         multi-channel model), for the requirements' margins, attribution and trade-off curves; None: the
         case's ``backscatter.error``.
+    realisations : M, the independent realisations of the samples ((M, N) flattened by rows; 0: all independent).
+    sample_moments : (mean, its SE, SD, its SE) of the Monte Carlo relative sigma errors x, or () without samples.
+    saturated_standard_error : basis -> standard error of ``saturated_fraction``.
     """
 
     exponent: float
@@ -145,17 +149,24 @@ class AGBError:
     contributions: tuple = ()
     saturated_fraction: tuple = ()
     error_model: object = None
+    realisations: int = 0
+    sample_moments: tuple = ()
+    saturated_standard_error: tuple = ()
 
     @classmethod
     def from_sigma_errors(cls, exponent, sigma_hv, error_mean=None, error_sd=None, relative_samples=None,
-                          mapping=None, contributions=(), saturated_fraction=(), error_model=None):
-        """From the analytic mean/SD of e (m^2/m^2) and/or Monte Carlo relative errors e / sigma_hv."""
-        samples = None
+                          mapping=None, contributions=(), saturated_fraction=(), error_model=None,
+                          saturated_standard_error=()):
+        """From the analytic mean/SD of e (m^2/m^2) and/or Monte Carlo relative errors e / sigma_hv ((M, N): M
+        independent realisations of N samples each, or (M,))."""
+        samples, realisations, moments = None, 0, ()
         if relative_samples is not None:
             x = np.ravel(relative_samples)
             samples = agb_relative_error(x, exponent) if mapping is None else mapping(x)
+            realisations = int(np.shape(relative_samples)[0]) if np.ndim(relative_samples) > 1 else 0
+            moments = relative_moments(relative_samples)
         return cls(exponent, sigma_hv, error_mean, error_sd, samples, mapping, tuple(contributions),
-                   tuple(saturated_fraction), error_model)
+                   tuple(saturated_fraction), error_model, realisations, moments, tuple(saturated_standard_error))
 
     def has(self, basis: str) -> bool:
         return (self.error_mean is not None) if basis == "analytic" else (self.samples is not None)
@@ -262,8 +273,11 @@ class AGBError:
                 quantiles = self.quantile(np.array(list(REPORTED_QUANTILES.values())), basis)
                 for k, label in enumerate(REPORTED_QUANTILES):
                     out[f"{basis}.{label}_percent"] = 100 * quantiles[..., k]
+        out.update(uncertainty_scalars(self, REPORTED_QUANTILES))
         for basis, fraction in self.saturated_fraction:
             out[f"{basis}.saturated_fraction"] = fraction
+        for basis, se in self.saturated_standard_error:
+            out[f"{basis}.saturated_fraction_standard_error"] = se
         for c in self.contributions:
             stats = self.contribution_stats(c.name)
             key = f"contribution.{c.name}"
@@ -382,3 +396,4 @@ def check_relative_variance(name: str, value: float) -> float:
     if not np.isfinite(value):
         raise PhysicsInputError(f"contribution {name!r} has a non-finite variance {value}")
     return float(value)
+

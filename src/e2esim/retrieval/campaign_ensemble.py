@@ -31,6 +31,7 @@ for the run (``ensemble``), so the cases at other AGB of the same model reuse th
 from __future__ import annotations
 
 from dataclasses import dataclass
+
 import numpy as np
 
 from e2esim.errors import PhysicsInputError

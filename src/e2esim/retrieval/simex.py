@@ -336,7 +336,8 @@ def simex_batch(model: RetrievalModel, agb, sigma, agb_error_sd, sigma_error_sd,
     status[todo] = EXTRAPOLATION_OUT_OF_DOMAIN
     status[~naive.converged] = NAIVE_FAILED
     params = np.where((status == SIMEX_OK)[:, None], params, naive.params)
-    return SimexBatch(params, naive.params, status, failed / (lam.size * n_sim), clipped, fallback & (status == SIMEX_OK))
+    return SimexBatch(params, naive.params, status, failed / (lam.size * n_sim), clipped,
+                      fallback & (status == SIMEX_OK))
 
 
 def _extrapolate_batch(model, lam_all, by_lam, usable, degree, rows) -> np.ndarray:
