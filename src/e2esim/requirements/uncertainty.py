@@ -116,10 +116,10 @@ def largest_side(values: list, errors: list):
     if all(np.ndim(v) == 0 for v in values):
         k = int(np.argmax(values))
         return values[k], errors[k]
-    stacked = np.stack(np.broadcast_arrays(*(np.asarray(v, dtype=float) for v in values)))
-    k = np.argmax(stacked, axis=0)
-    se = np.stack(np.broadcast_arrays(*(np.asarray(e, dtype=float) for e in errors)))
-    return np.take_along_axis(stacked, k[None], 0)[0], np.take_along_axis(se, k[None], 0)[0]
+    arrays = np.broadcast_arrays(*(np.asarray(x, dtype=float) for x in (*values, *errors)))
+    stacked, se = np.stack(arrays[:len(values)]), np.stack(arrays[len(values):])
+    k = np.argmax(stacked, axis=0)[None]
+    return np.take_along_axis(stacked, k, 0)[0], np.take_along_axis(se, k, 0)[0]
 
 
 def _plain(x):

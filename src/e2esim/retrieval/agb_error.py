@@ -70,7 +70,9 @@ class RelativeErrorMap:
 
     def threshold(self, level: float) -> float:
         """x at which q reaches ``level`` (> -1): +inf if q never exceeds it (cap), -1 if q never falls to it."""
-        return self._threshold_numeric(level)
+        kept = self.__dict__.setdefault("_thresholds", {})  # a bisection once per level, kept with the frozen map
+        return kept[float(level)] if float(level) in kept else kept.setdefault(float(level),
+                                                                                self._threshold_numeric(level))
 
     def _threshold_numeric(self, level):
         if not np.isfinite(level):
@@ -135,9 +137,8 @@ class AGBError(SampledAnswers):
     error_model : the single-channel ``ErrorModel`` this error maps (a channel or a channel combination of a
         multi-channel model), for the requirements' margins, attribution and trade-off curves; None: the
         case's ``backscatter.error``.
-    realisations : M, the independent realisations of the samples ((M, N) flattened by rows; 0: all independent).
-    sample_moments : (mean, its SE, SD, its SE) of the Monte Carlo relative sigma errors x, or () without samples.
-    saturated_standard_error : basis -> standard error of ``saturated_fraction``.
+    realisations : M, independent realisations of the samples ((M, N) flattened by rows; 0: all independent).
+    sample_moments : (mean, SE, SD, SE) of the Monte Carlo's x, or (). saturated_standard_error : basis -> SE.
     """
 
     exponent: float
