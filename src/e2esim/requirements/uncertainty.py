@@ -81,8 +81,8 @@ def disagreement_note(code, values: dict, errors: dict, basis: str, unit: str) -
 
 DISAGREEMENT_CAUSES = {
     SHAPE: "The Monte Carlo's mean and SD of the sigma error agree with the analytic ones: the difference is the shape "
-           "of the distribution, a tail the analytic Gaussian does not have (e.g. the gamma-distributed speckle and "
-           "noise of the Monte Carlo).",
+           "of the distribution, a skew or tail the analytic Gaussian does not have (e.g. the gamma law of the Monte "
+           "Carlo's speckle and noise, or the quadratic form of large system errors).",
     MOMENTS: "The Monte Carlo's mean or SD of the sigma error differs from the analytic one: the analytic moments' "
              "approximation does not hold here (docs/theory/co-pol-error.md).",
 }
