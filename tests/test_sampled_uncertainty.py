@@ -2,12 +2,10 @@
 RMSEs, proportions and quantiles cover what they claim for any seed; verdicts say when their margin is inside
 that uncertainty and when the analytic model and the Monte Carlo disagree beyond it."""
 
-import sys
-from pathlib import Path
-
 import numpy as np
 import pytest
 from scipy import stats
+from test_retrieval_chain import BASE  # the chain of the retrieval tests: boreal 200 t/ha, 4 ha budget
 
 from e2esim.retrieval.agb_error import AGBError
 from e2esim.retrieval.sampling_error import (
@@ -18,9 +16,6 @@ from e2esim.retrieval.sampling_error import (
 )
 from e2esim.runner.run import run_scenario
 from e2esim.runner.scenario import Scenario
-
-sys.path.insert(0, str(Path(__file__).parent))
-from test_retrieval_chain import BASE  # noqa: E402  (the chain of the retrieval tests: boreal 200, 4 ha budget)
 
 REPLICATIONS = 400
 COVERAGE_TOLERANCE = 4.5 * np.sqrt(0.95 * 0.05 / REPLICATIONS)  # binomial: a failure once in ~10^5 seeds

@@ -101,7 +101,7 @@ class CampaignEnsemble:
         truth = np.atleast_1d(self.model.sigma(agb, **cov))
         f = float(truth[1] if truth.size == 3 else truth[0])  # HV of a multi-channel model
         if self.method == "delta":
-            return np.array([_delta_variance(fit, agb, f, cov, self.mode) for fit in self.fitted])
+            return np.array([_delta_variance(fit, agb, f, cov, self.mode, self.model) for fit in self.fitted])
         m = np.array([float(agb)])
         curves = self.model.evaluate(m, self.boot, **cov)[..., 0]  # (K', B)
         centre = self.model.evaluate(m, self.centre, **cov)[..., 0]  # (K',)
@@ -178,11 +178,12 @@ def _check_usable(usable: int, campaign) -> None:
             "be fitted; widen agb_range_t_ha, add plots or reduce the measurement errors")
 
 
-def _delta_variance(fit, agb, f_true, cov, mode) -> float:
-    """Eq. (4) (and eq. 7) of one campaign at ``agb``, relative to the true backscatter ``f_true``."""
+def _delta_variance(fit, agb, f_true, cov, mode, truth) -> float:
+    """Eq. (4) (and eq. 7) of one campaign at ``agb``, relative to the true backscatter ``f_true`` (for a
+    multi-channel model: HV-equivalent through the true model's HV weight, as every error of the chain)."""
     model = fit.model
     if np.ndim(model.sigma(agb, **cov)) == 1:  # multi-channel: through the joint inversion
-        var, pred = multichannel_variance(model, fit.covariance, agb, cov)
+        var, pred = multichannel_variance(model, fit.covariance, agb, cov, truth.channel_weights()[1])
     else:
         jac = model.param_jacobian(np.array([agb]), **cov)[0]
         if fit.space == "log":
@@ -233,9 +234,11 @@ def _bootstrap_ensemble(model, campaign, plots, rng, covariates):
                             model_error=model_error[enough], naive_residual=naive_residual[enough])
 
 
-def multichannel_variance(model, coef_cov, agb, cov):
+def multichannel_variance(model, coef_cov, agb, cov, hv_weight=None):
     """Var of ln AGB_hat from the coefficients (numerical gradient through the joint inversion) and from
-    the error in equation (1 / a^T Sigma_r^-1 a), both as HV-equivalent relative sigma variances."""
+    the error in equation (1 / a^T Sigma_r^-1 a), both as HV-equivalent relative sigma variances: divided by
+    the square of ``hv_weight``, the HV weight c_hv of the joint inversion the chain maps its errors through
+    (default: the fitted model's own, which a campaign's fit can put near 0)."""
     truth = model.sigma(agb, **cov)
     p = model.params
     grad = np.empty(p.size)
@@ -247,7 +250,7 @@ def multichannel_variance(model, coef_cov, agb, cov):
         lu = np.log(model.with_params(up).invert(truth[None], **cov).agb[0])
         ld = np.log(model.with_params(dn).invert(truth[None], **cov).agb[0])
         grad[k] = (lu - ld) / (2 * h)
-    c_hv = model.channel_weights()[1]
+    c_hv = model.channel_weights()[1] if hv_weight is None else hv_weight
     a = np.asarray(model.a)
     var_ln = float(grad @ coef_cov @ grad)
     pred_ln = 1.0 / float(a @ np.linalg.solve(model.residual_covariance, a))
