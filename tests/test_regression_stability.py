@@ -39,7 +39,7 @@ def _chi2_ok(values, errors) -> bool:
     (PowerLaw.through(200.0, 0.0726, 2.2), CalibrationCampaign("confidence", "delta", 40, (20.0, 400.0), 0.1, 0.1,
                                                                0.1, campaigns=100), 50.0, 20),
     (SAT, CalibrationCampaign("confidence", "bootstrap", 38, (5.0, 350.0), 0.03, 0.07, 0.15, bootstrap_samples=30,
-                              simex_samples=5, campaigns=60), 50.0, 8),
+                              simex_samples=5, campaigns=50), 50.0, 6),
     (LOGLINEAR, CalibrationCampaign("confidence", "delta", 40, campaigns=30), 200.0, 6),
 ], ids=["power_law_delta", "saturating_bootstrap", "log_linear_delta"])
 def test_the_regression_term_scatters_over_seeds_as_its_standard_error_says(model, campaign, agb, seeds, seed):
@@ -50,7 +50,7 @@ def test_the_regression_term_scatters_over_seeds_as_its_standard_error_says(mode
     assert all(t.failed <= campaign.campaigns // 10 for t in terms)
     assert _chi2_ok([t.relative_variance for t in terms], [t.standard_error for t in terms])
     spread = terms[0].spread  # one campaign's own estimate moves far more than the expectation over them
-    assert spread["p84"] - spread["p16"] > 10 * terms[0].relative_sd_standard_error
+    assert spread["p84"] - spread["p16"] > 3 * terms[0].relative_sd_standard_error
 
 
 def test_campaigns_are_drawn_once_per_run_and_shared_by_its_cases(seed):

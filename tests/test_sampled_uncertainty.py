@@ -76,28 +76,27 @@ def test_standard_errors_of_clustered_samples_cover(rng):
 
 def test_agb_error_monte_carlo_standard_errors_against_the_exact_answer(rng):
     """Monte Carlo samples of a Gaussian relative sigma error through the power law: the analytic answers are then
-    exact, and (Monte Carlo - analytic) / standard error has SD 1 for the RMSE, the mean, the 99.865 % quantile
-    and an exceedance probability."""
-    z = {name: [] for name in ("rmse", "mean", "q99865", "exceedance")}
+    exact, and (Monte Carlo - analytic) / standard error has mean 0 and SD 1 for the RMSE, the mean, the 97.725 %
+    quantile and an exceedance probability. (A quantile further in the tail has a few samples beyond it and an
+    asymmetric interval: its coverage is tested above, on the interval.)"""
+    z = {name: [] for name in ("rmse", "mean", "q97725", "exceedance")}
     for _ in range(REPLICATIONS // 2):
         x = 0.02 + 0.1 * rng.standard_normal((2000, 2))
         agb = AGBError.from_sigma_errors(2.2, 1.0, 0.02, 0.1, x)
         assert agb.realisations == 2000
-        for name, args in (("rmse", ()), ("mean", ()), ("q99865", (0.99865,)), ("exceedance", (0.2, "over"))):
+        for name, args in (("rmse", ()), ("mean", ()), ("q97725", (0.97725,)), ("exceedance", (0.2, "over"))):
             statistic = "quantile" if name.startswith("q") else name
             mc = getattr(agb, statistic)(*args, basis="montecarlo")
             exact = getattr(agb, statistic)(*args, basis="analytic")
             z[name].append((mc - exact) / agb.standard_error(statistic, "montecarlo", *args))
             assert agb.standard_error(statistic, "analytic", *args) == 0.0  # exact: nothing sampled
     for name, values in z.items():
-        assert abs(np.mean(values)) < 4.5 / np.sqrt(len(values)) + 0.1, name
-        assert _z_sd_ok(values) or name == "q99865", name
-    # the tail quantile's interval is conservative (few samples beyond it): SD of z at most about 1
-    assert 0.6 < np.std(z["q99865"]) < 1.0 + 4.5 / np.sqrt(2 * len(z["q99865"]))
+        assert abs(np.mean(values)) < 4.5 / np.sqrt(len(values)) + 0.05, name
+        assert _z_sd_ok(values), name
 
 
 def _chain(seed, realisations=20_000, speckle="gamma", requirements=None, area_m2=10_000.0):
-    """BASE at a 1 ha product (more speckle than 4 ha: its gamma tail shows), both simulation modes."""
+    """BASE at a smaller product than 4 ha (more speckle: its gamma tail shows), both simulation modes."""
     data = dict(BASE, propagation=[
         {"type": "hv_backscatter_error"},
         {"type": "backscatter_error_budget", "temporal": {"sd_percent": 5.0}, "observation": {"area_m2": area_m2},
@@ -111,12 +110,12 @@ def _chain(seed, realisations=20_000, speckle="gamma", requirements=None, area_m
 def test_analytic_and_monte_carlo_disagreement_is_flagged_on_the_first_screen(seed):
     """biomass_default's all-sources 99.865 % AGB error read 115 % analytic and 136 % Monte Carlo with nothing said.
     Part of it is real: the Monte Carlo draws the speckle and noise from a gamma law (a heavier upper tail than
-    the analytic Gaussian); part was the Monte Carlo's sampling error. With a 1 ha product the gamma tail is
-    far beyond the sampling error: the verdicts flag it (code 1: the moments agree, the shape differs), say which
-    value they used, and the command line and the top of the report say so."""
+    the analytic Gaussian); part was the Monte Carlo's sampling error. With a 0.25 ha product the gamma tail is
+    far beyond the sampling error (above five standard errors): the verdicts flag it (code 1: the moments agree,
+    the shape differs), say which value they used, and the command line and the top of the report say so."""
     from e2esim.report.document import build_report, verdict_lines
 
-    result = _chain(seed)
+    result = _chain(seed, area_m2=2500.0)
     for v in result.cases[0].verdicts:
         assert v.details["basis_disagreement"] == 1.0, v.name
         assert v.basis == "analytic" and v.details["value_standard_error"] == 0.0
