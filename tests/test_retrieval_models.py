@@ -17,6 +17,7 @@ from e2esim.retrieval.models import (
     INVALID,
     INVERTED,
     MAX_ITERATIONS,
+    OUT_OF_DOMAIN,
     SATURATED,
     levenberg_marquardt,
 )
@@ -173,8 +174,9 @@ def test_saturating_initial_guess_finds_the_basin():
 
 def test_non_convergence_is_counted_never_dropped():
     """Every data set gets a result and a status: unusable data are flagged (and keep the start values), flat
-    data are fitted by a flat curve (beta1 at its bound), good data recover the model; from a poor start the
-    exact data give the true coefficients."""
+    data are fitted by a flat curve with beta1 stopped on its bound, which is no least-squares solution (that lies
+    at beta1 = inf) and counts as out of domain; good data recover the model; from a poor start the exact data
+    give the true coefficients."""
     rng = np.random.default_rng(3)
     agb = np.tile(np.linspace(5, 300, 20), (50, 1))
     sigma = SAT.sigma(agb) + 0.002 * rng.standard_normal(agb.shape)
@@ -182,7 +184,9 @@ def test_non_convergence_is_counted_never_dropped():
     sigma[5] = np.nan  # unusable
     batch = SAT.fit_batch(agb, sigma, p0=np.tile(SAT.params, (50, 1)))
     assert batch.params.shape == (50, 3) and batch.status.shape == (50,)
-    assert batch.status[5] == BAD_DATA and batch.n_failed == 1
+    assert batch.status[5] == BAD_DATA and batch.n_failed == 6
+    np.testing.assert_array_equal(batch.status[:5], OUT_OF_DOMAIN)
+    np.testing.assert_allclose(batch.params[:5, 1], 1.0, rtol=1e-3)  # BETA1_MAX
     np.testing.assert_array_equal(batch.params[5], SAT.params)  # flagged, not fitted
     assert sum(batch.failure_counts().values()) == batch.n_failed
     for row in range(5):  # the fitted curve is the flat data

@@ -103,7 +103,11 @@ def test_simex_counts_failures_and_flags_unreliable_results():
 class _DriftingModel(SaturatingModel):
     """A stub whose "fit" returns beta1(lambda) = 0.01 + 0.02 lambda - 0.005 lambda^2, lambda read off the
     added predictor error: concave, so the quadratic extrapolant gives beta1(-1) = -0.015 (outside the
-    domain) while the linear one gives +0.0025."""
+    domain) while the linear one gives +0.0025. Its curve is the flat data whatever the coefficients, so every
+    extrapolation is supported by the data (``supported_by_data``) and only the domain decides."""
+
+    def evaluate(self, agb, params=None, **covariates):
+        return 0.05 + 0.0 * super().evaluate(agb, params, **covariates)
 
     def fit_batch(self, agb, sigma, p0=None, space=None, weights=None, **covariates):
         from e2esim.retrieval.models import BatchFit

@@ -14,6 +14,7 @@ DIMENSIONLESS = "1"
 TEXT = "text"  # units of string datasets
 
 _SUFFIX_UNITS = (
+    ("_fraction_standard_error", DIMENSIONLESS), ("_probability_standard_error", DIMENSIONLESS),
     ("_t_ha", "t/ha"), ("_percent", "%"), ("_db", "dB"), ("_deg", "deg"), ("_mhz", "MHz"), ("_hz", "Hz"),
     ("_tecu", "TECU"), ("_ut", "uT"), ("_sfu", "sfu"), ("_m", "m"), ("_fraction", DIMENSIONLESS),
     ("_probability", DIMENSIONLESS), ("variance_share", DIMENSIONLESS), ("_pvalue", DIMENSIONLESS),
@@ -39,6 +40,7 @@ _RULES = (
     (r"calibration\.residual\.(max_abs_correlation_outside_pairs|max_crosstalk_noncircularity)", DIMENSIONLESS),
     (r"faraday(_residual)?\.tec_variability", DIMENSIONLESS),
     (r"agb\.exponent", DIMENSIONLESS),
+    (r"agb\.contribution\.\w+\.campaigns(_failed)?", "count"),
     (r"requirement\d+\.passed", "1 (pass) or 0 (fail)"),
 )
 
@@ -85,5 +87,9 @@ def detail_unit(key: str, unit: str) -> str:
     """Unit of a verdict detail (``crosstalk.margin_db``, ``contribution.noise_percent``, ``applies``...)."""
     if key == "applies":
         return "1 (applies) or 0 (outside the requirement's AGB range)"
+    if key == "margin_within_uncertainty":
+        return "1 (the margin is inside 1.96 standard errors of the value) or 0"
+    if key == "basis_disagreement":
+        return "0 (agree), 1 (differ: shape of the distribution) or 2 (differ: moments)"
     found = scalar_unit(key)
     return found if found != "unknown" else unit

@@ -8,6 +8,7 @@ from e2esim.io.summary import requirement_overview, requirement_sources
 from e2esim.report.blocks import badge, fmt
 from e2esim.report.outliers import error_meaning
 from e2esim.report.tables import SCOPE_SHORT
+from e2esim.report.uncertainty import with_standard_error
 
 
 def conclusions(result) -> list:
@@ -26,9 +27,9 @@ def conclusions(result) -> list:
             f"passes in all {total} cases" if row["all_passed"] else f"fails in {row['failed_cases']} of {total} cases"
         )
         outside = (f" ({row['not_applicable_cases']} cases outside its range)" if row["not_applicable_cases"] else "")
+        value = with_standard_error(v.value, v.details.get("value_standard_error"))
         sentence = (f"{row['name']} ({SCOPE_SHORT.get(scope, scope)}) {verb}{outside}; worst case {worst.index} "
-                    f"({worst.label}): {fmt(v.value, 3)} {v.unit}{_meaning(v)} against a limit of "
-                    f"{fmt(v.limit, 3)} {v.unit}")
+                    f"({worst.label}): {value} {v.unit}{_meaning(v)} against a limit of {fmt(v.limit, 3)} {v.unit}")
         sentence += _dominant_clause(worst, v) + "."
         out.append((badge(row["all_passed"]), sentence))
     return out

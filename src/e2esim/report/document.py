@@ -19,6 +19,7 @@ from e2esim.report.blocks import Badge, Details, Heading, Image, Paragraph, Tabl
 from e2esim.report.conclusions import conclusions
 from e2esim.report.sensitivity_table import SENSITIVITY_NOTE, exponent_sensitivity_table
 from e2esim.report.outliers import error_meaning
+from e2esim.report.uncertainty import uncertainty_flags
 from e2esim.runner.map_sweep import is_map_sweep
 
 __all__ = [
@@ -46,6 +47,7 @@ def verdict_lines(result) -> list:
             f"worst margin {fmt(row['worst_margin'], 3)} {row['unit']} (case {row['worst_case']}: "
             f"{row['worst_case_label']}{'; ' + meaning if meaning else ''})"
         )
+        lines += [f"      ! {flag}" for flag in uncertainty_flags(result, j)]
     return lines
 
 
@@ -55,6 +57,8 @@ def build_report(result, plots: list, warnings: list = ()) -> list:
     blocks = [Heading(1, sc.output.get("title") or sc.name)]
     if result.requirement_names:
         blocks += [Heading(2, "Conclusions")] + [Paragraph(f"{b} {sentence}") for b, sentence in conclusions(result)]
+        blocks += [Paragraph(f"**How sure:** {name}: {flag}") for j, name in enumerate(result.requirement_names)
+                   for flag in uncertainty_flags(result, j)]
         blocks += [Heading(2, "Requirement verdicts"), tables.verdict_table(result), Paragraph(_scope_note(result))]
         blocks += _budget_section(result, plots)
     else:

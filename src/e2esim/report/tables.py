@@ -6,6 +6,7 @@ from __future__ import annotations
 from e2esim.io.error_budget import agb_budget, source_groups, source_name, unit_key, verdict_budget
 from e2esim.io.summary import SOURCE_SCOPES, requirement_overview, requirement_sources
 from e2esim.report.blocks import Table, badge, fmt
+from e2esim.report.uncertainty import with_standard_error
 
 SCOPE_SHORT = {"all": "all sources", "systematic": "systematic only"}
 LEVEL_NAMES = {"crosstalk": "crosstalk", "channel_imbalance": "channel imbalance", "nesz": "NESZ"}
@@ -104,7 +105,9 @@ def case_table(result) -> Table:
         f"{name} ({SCOPE_SHORT.get(s, s)})" for name, s in zip(result.requirement_names, scope))
     rows = []
     for case in result.cases:
-        cells = [str(case.index), case.label] + [fmt(case.scalars.get(k), d) for _, k, d in present]
+        cells = [str(case.index), case.label] + [
+            with_standard_error(case.scalars.get(k), case.scalars.get(k.replace("_percent", "_standard_error_percent")),
+                                d) for _, k, d in present]
         cells += [verdict_cell(v) for v in case.verdicts]
         rows.append(tuple(cells))
     return Table(header, tuple(rows))
@@ -114,7 +117,8 @@ def verdict_cell(v):
     applies = v.details.get("applies", 1.0) != 0.0
     dominant = f"; {source_name(v.dominant)}" if v.dominant else ""
     note = "" if applies else "; outside the requirement's AGB range"
-    return badge(v.passed, f"({fmt(v.value, 3)} {v.unit}{dominant}{note})", applies=applies)
+    value = with_standard_error(v.value, v.details.get("value_standard_error"))
+    return badge(v.passed, f"({value} {v.unit}{dominant}{note})", applies=applies)
 
 
 def comparison_table(result) -> Table | None:

@@ -37,6 +37,7 @@ from e2esim.requirements.margins import (
     tradeoff_curves,
 )
 from e2esim.requirements.tradeoff import AGBRequirement
+from e2esim.requirements.uncertainty import largest_side, verdict_uncertainty
 from e2esim.requirements.verdict import RequirementVerdict
 
 
@@ -86,15 +87,30 @@ class AGBErrorBound(Requirement):
         conf = self.si["confidence_fraction"]
         bound = self.si["bound_fraction"]
         values, details, notes = [], {}, []
+        side_values, side_errors, sampling = {}, {}, []
         for side in self.sides():
             prob = conf if side == "over" else 1 - conf
+            sign = 1.0 if side == "over" else -1.0
             for b in ("analytic", "montecarlo"):
                 if agb.has(b):
                     details[f"{side}.{b}.quantile_percent"] = plain(agb.quantile(prob, b)) * PERCENT
                     details[f"{side}.{b}.exceedance_probability"] = agb.exceedance(bound, side, b)
+                    side_values.setdefault(b, []).append(sign * details[f"{side}.{b}.quantile_percent"])
+                    side_errors.setdefault(b, []).append(plain(agb.standard_error("quantile", b, prob)) * PERCENT)
+            if agb.has("montecarlo"):
+                details[f"{side}.montecarlo.exceedance_probability_standard_error"] = agb.standard_error(
+                    "exceedance", "montecarlo", bound, side)
+                sampling.append(agb.sampling_standard_error("quantile", prob) * PERCENT)
             q = plain(agb.quantile(prob, basis)) * PERCENT
             values.append(q if side == "over" else -q)
         value = largest(values)
+        picked = {b: largest_side(side_values[b], side_errors[b]) for b in side_values}
+        mc_sampling = largest_side(side_values["montecarlo"], sampling)[1] if sampling else None
+        sure, sure_notes = verdict_uncertainty(agb, basis, {b: v for b, (v, _) in picked.items()},
+                                               {b: e for b, (_, e) in picked.items()}, mc_sampling,
+                                               c["bound_percent"] - value, "%")
+        details.update(sure)
+        notes.extend(sure_notes)
         verdict_curves = {}
         model = error_model_of(case)
         if (c["level_margins"] or c["tradeoff_curve"]) and model.unavailable is not None:
@@ -161,13 +177,19 @@ class AGBRelativeRMSE(Requirement):
     def evaluate(self, case):
         agb = checked_error(self, case)
         basis = basis_of(self, case, agb)
-        details = {f"{b}.rmse_percent": agb.rmse(b) * PERCENT for b in ("analytic", "montecarlo") if agb.has(b)}
+        bases = [b for b in ("analytic", "montecarlo") if agb.has(b)]
+        details = {f"{b}.rmse_percent": agb.rmse(b) * PERCENT for b in bases}
         value = agb.rmse(basis) * PERCENT
         limit = self.config["max_percent"]
+        sure, sure_notes = verdict_uncertainty(
+            agb, basis, {b: details[f"{b}.rmse_percent"] for b in bases},
+            {b: agb.standard_error("rmse", b) * PERCENT for b in bases},
+            agb.sampling_standard_error("rmse") * PERCENT if agb.has("montecarlo") else None, limit - value, "%")
+        details.update(sure)
         contributions, notes = attribution(case, lambda agb_error: agb_error.rmse("analytic") * PERCENT, agb)
         details.update(contributions)
         return RequirementVerdict(self.label, truth(value <= limit), value, limit, limit - value, "%", basis,
-                                  details, dominant=dominant(details), notes=notes)
+                                  details, dominant=dominant(details), notes=tuple(notes) + sure_notes)
 
 
 class AGBAbsoluteRMSE(Requirement):
@@ -204,12 +226,19 @@ class AGBAbsoluteRMSE(Requirement):
         basis = basis_of(self, case, agb)
         limit = self.config["max_t_ha"]
         value = agb.rmse(basis) * agb_true
-        details = {f"{b}.rmse_t_ha": agb.rmse(b) * agb_true for b in ("analytic", "montecarlo") if agb.has(b)}
+        bases = [b for b in ("analytic", "montecarlo") if agb.has(b)]
+        details = {f"{b}.rmse_t_ha": agb.rmse(b) * agb_true for b in bases}
         contributions, notes = attribution(case, lambda a: a.rmse("analytic") * agb_true, agb, unit="t_ha")
         details.update(contributions)
         below = self.config["applies_below_t_ha"]
         applies = np.ones(np.shape(value), bool) if below is None else np.asarray(agb_true) < below
         details["applies"] = plain(np.asarray(applies, dtype=float))
+        sure, sure_notes = verdict_uncertainty(
+            agb, basis, {b: details[f"{b}.rmse_t_ha"] for b in bases},
+            {b: plain(np.asarray(agb.standard_error("rmse", b)) * agb_true) for b in bases},
+            plain(agb.sampling_standard_error("rmse") * np.asarray(agb_true)) if agb.has("montecarlo") else None,
+            limit - value, "t/ha", applies)
+        details.update(sure)
         return RequirementVerdict(self.label, truth((np.asarray(value) <= limit) | ~applies), value, limit,
                                   limit - value, "t/ha", basis, details, dominant=dominant(details, "t_ha"),
-                                  notes=notes)
+                                  notes=tuple(notes) + sure_notes)

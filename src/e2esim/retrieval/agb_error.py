@@ -21,6 +21,7 @@ from functools import cached_property
 import numpy as np
 
 from e2esim.errors import PhysicsInputError
+from e2esim.retrieval.agb_uncertainty import SampledAnswers, relative_moments, uncertainty_scalars
 from e2esim.retrieval.power_law import agb_relative_error, sigma_relative_error
 
 _HERMITE_NODES, _HERMITE_WEIGHTS = np.polynomial.hermite_e.hermegauss(64)
@@ -69,7 +70,9 @@ class RelativeErrorMap:
 
     def threshold(self, level: float) -> float:
         """x at which q reaches ``level`` (> -1): +inf if q never exceeds it (cap), -1 if q never falls to it."""
-        return self._threshold_numeric(level)
+        kept = self.__dict__.setdefault("_thresholds", {})  # a bisection once per level, kept with the frozen map
+        return kept[float(level)] if float(level) in kept else kept.setdefault(float(level),
+                                                                                self._threshold_numeric(level))
 
     def _threshold_numeric(self, level):
         if not np.isfinite(level):
@@ -106,6 +109,9 @@ class AGBContribution:
     "regression" (retrieval-model uncertainty). relative_mean, relative_variance : mean and variance of
     the relative sigma_hv error x = e / sigma_hv it contributes (the variance may be negative for an
     increment such as the Faraday-rotation share of the systematic error). description : one line.
+    uncertainty : for a sampled term (the regression's expectation over simulated campaigns), a
+    ``RegressionUncertainty``: the standard error of ``relative_variance`` and the spread across campaigns;
+    None for an exact term.
     """
 
     name: str
@@ -113,10 +119,11 @@ class AGBContribution:
     relative_mean: float
     relative_variance: float
     description: str = ""
+    uncertainty: object = None
 
 
 @dataclass(frozen=True)
-class AGBError:
+class AGBError(SampledAnswers):
     """Relative AGB error ``q = AGB_hat / AGB - 1`` implied by the sigma_hv error.
 
     exponent : power-law exponent p (for other models the local exponent 1 / (d ln sigma / d ln AGB),
@@ -132,6 +139,8 @@ class AGBError:
         case's ``backscatter.error``.
     sensitivity : (name, value) pairs of the exponent sensitivity of the analytic RMSE (the joint multi-channel
         estimate, ``e2esim.retrieval.exponent_sensitivity``), written as ``agb.exponent_sensitivity.<name>``.
+    realisations : M, independent realisations of the samples ((M, N) flattened by rows; 0: all independent).
+    sample_moments : (mean, SE, SD, SE) of the Monte Carlo's x, or (). saturated_standard_error : basis -> SE.
     """
 
     exponent: float
@@ -144,17 +153,24 @@ class AGBError:
     saturated_fraction: tuple = ()
     error_model: object = None
     sensitivity: tuple = ()
+    realisations: int = 0
+    sample_moments: tuple = ()
+    saturated_standard_error: tuple = ()
 
     @classmethod
     def from_sigma_errors(cls, exponent, sigma_hv, error_mean=None, error_sd=None, relative_samples=None,
-                          mapping=None, contributions=(), saturated_fraction=(), error_model=None):
-        """From the analytic mean/SD of e (m^2/m^2) and/or Monte Carlo relative errors e / sigma_hv."""
-        samples = None
+                          mapping=None, contributions=(), saturated_fraction=(), error_model=None,
+                          saturated_standard_error=()):
+        """From the analytic mean/SD of e (m^2/m^2) and/or Monte Carlo relative errors e / sigma_hv ((M, N): M
+        independent realisations of N samples each, or (M,))."""
+        samples, realisations, moments = None, 0, ()
         if relative_samples is not None:
             x = np.ravel(relative_samples)
             samples = agb_relative_error(x, exponent) if mapping is None else mapping(x)
+            realisations = int(np.shape(relative_samples)[0]) if np.ndim(relative_samples) > 1 else 0
+            moments = relative_moments(relative_samples)
         return cls(exponent, sigma_hv, error_mean, error_sd, samples, mapping, tuple(contributions),
-                   tuple(saturated_fraction), error_model)
+                   tuple(saturated_fraction), error_model, realisations, moments, tuple(saturated_standard_error))
 
     def has(self, basis: str) -> bool:
         return (self.error_mean is not None) if basis == "analytic" else (self.samples is not None)
@@ -261,8 +277,11 @@ class AGBError:
                 quantiles = self.quantile(np.array(list(REPORTED_QUANTILES.values())), basis)
                 for k, label in enumerate(REPORTED_QUANTILES):
                     out[f"{basis}.{label}_percent"] = 100 * quantiles[..., k]
+        out.update(uncertainty_scalars(self, REPORTED_QUANTILES))
         for basis, fraction in self.saturated_fraction:
             out[f"{basis}.saturated_fraction"] = fraction
+        for basis, se in self.saturated_standard_error:
+            out[f"{basis}.saturated_fraction_standard_error"] = se
         for c in self.contributions:
             stats = self.contribution_stats(c.name)
             key = f"contribution.{c.name}"
@@ -383,3 +402,4 @@ def check_relative_variance(name: str, value: float) -> float:
     if not np.isfinite(value):
         raise PhysicsInputError(f"contribution {name!r} has a non-finite variance {value}")
     return float(value)
+

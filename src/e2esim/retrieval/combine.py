@@ -193,25 +193,42 @@ def combined_agb_error(case, exponent: float, mapping: RelativeErrorMap | None =
         if model_term is not None:  # exact: the estimate's sigma scaled by e^(m / p), m = p x_model (eq. 7.1)
             m = draw_log_errors(case.rng, relative.shape, model_var * exponent**2)
             relative = (1.0 + relative) * scale_factors(m, 1.0 / exponent) - 1.0
-    saturated = ()
+    saturated = errors = ()
     if mapping is not None:
-        saturated = _saturation(mapping, mean, sd, s, relative)
-    return AGBError.from_sigma_errors(exponent, s, mean, sd, relative, mapping, contributions, saturated)
+        reg_se = 0.0 if regression is None or regression.uncertainty is None else regression.uncertainty.standard_error
+        saturated, errors = _saturation(mapping, mean, sd, s, relative, reg_se)
+    return AGBError.from_sigma_errors(exponent, s, mean, sd, relative, mapping, contributions, saturated,
+                                      saturated_standard_error=errors)
 
 
-def _saturation(mapping, mean, sd, sigma, relative) -> tuple:
+def _saturation(mapping, mean, sd, sigma, relative, variance_se: float = 0.0) -> tuple:
+    """((basis, saturated fraction), ...), ((basis, its standard error), ...): the analytic one's from the
+    standard error ``variance_se`` of the sampled relative variance (the regression), the Monte Carlo's from its
+    sampling error (``e2esim.retrieval.sampling_error``) and that, in quadrature."""
     from scipy import special
 
-    out = []
+    from e2esim.retrieval.sampling_error import proportion_standard_error
+
+    out, errors = [], []
     threshold = mapping.saturation_threshold()
-    if mean is not None:
+
+    def analytic(sd_):
         if not np.isfinite(threshold):
-            p = 0.0
-        elif sd > 0:
-            p = float(special.ndtr(-(threshold * sigma - mean) / sd))
-        else:
-            p = float(mean >= threshold * sigma)
-        out.append(("analytic", p))
+            return 0.0
+        if sd_ > 0:
+            return float(special.ndtr(-(threshold * sigma - mean) / sd_))
+        return float(mean >= threshold * sigma)
+
+    terms_se = 0.0
+    if mean is not None:
+        out.append(("analytic", analytic(sd)))
+        if variance_se > 0:
+            shift = sigma**2 * variance_se
+            terms_se = abs(analytic(np.sqrt(sd**2 + shift)) - analytic(np.sqrt(max(sd**2 - shift, 0.0)))) / 2
+            errors.append(("analytic", terms_se))
     if relative is not None:
-        out.append(("montecarlo", float(np.mean(np.ravel(relative) >= threshold)) if np.isfinite(threshold) else 0.0))
-    return tuple(out)
+        hit = np.ravel(relative) >= threshold
+        out.append(("montecarlo", float(np.mean(hit)) if np.isfinite(threshold) else 0.0))
+        sampling = proportion_standard_error(hit, np.shape(relative)[0] if np.ndim(relative) > 1 else 0)
+        errors.append(("montecarlo", float(np.hypot(sampling, terms_se)) if np.isfinite(threshold) else 0.0))
+    return tuple(out), tuple(errors)

@@ -23,7 +23,8 @@ BAD_DATA = 4
 """Fit status: the data set cannot be fitted (non-finite values, sigma <= 0 or AGB <= 0 for a log fit,
 fewer points than parameters)."""
 OUT_OF_DOMAIN = 5
-"""Fit status: the least-squares coefficients lie outside the model's domain (e.g. a power-law exponent <= 0)."""
+"""Fit status: the least-squares coefficients lie outside the model's domain (e.g. a power-law exponent <= 0), or
+the fit stopped on the domain's boundary (``levenberg_marquardt``)."""
 FIT_STATUS_NAMES = {CONVERGED: "converged", MAX_ITERATIONS: "max_iterations", NON_FINITE: "non_finite",
                     STALLED: "stalled", BAD_DATA: "bad_data", OUT_OF_DOMAIN: "out_of_domain"}
 
@@ -155,7 +156,28 @@ def levenberg_marquardt(fun, jac, y, p0, valid=None, weights=None, bad=None, max
         # Damping exhausted: converged if the point is stationary to working precision, else stalled.
         status[active[stalled]] = np.where(gnorm[stalled] <= _STALL_GTOL, CONVERGED, STALLED)
         active = active[~(done | nonfinite | stalled)]
+    if valid is not None:
+        converged = np.flatnonzero(status == CONVERGED)
+        status[converged[_on_domain_edge(p[converged], valid)]] = OUT_OF_DOMAIN
     return BatchFit(p, status, ssr, iterations)
+
+
+_EDGE_STEP = 1e-3
+"""Relative change of one coefficient that a converged fit must survive inside the domain (``_on_domain_edge``)."""
+
+
+def _on_domain_edge(p: np.ndarray, valid) -> np.ndarray:
+    """(b,) True where a relative change of ``_EDGE_STEP`` in one coefficient leaves the domain: the fit stopped
+    against the domain's boundary, where the steps that would lower the residuals further are rejected, so it is
+    no least-squares solution (the solution lies outside the domain, e.g. a saturating model's saturation level
+    running to its cap on data that show no saturation) and counts as ``OUT_OF_DOMAIN``."""
+    edge = np.zeros(p.shape[0], dtype=bool)
+    for k in range(p.shape[1]):
+        for factor in (1.0 + _EDGE_STEP, 1.0 - _EDGE_STEP):
+            moved = p.copy()
+            moved[:, k] *= factor
+            edge |= ~np.asarray(valid(moved), bool)
+    return edge
 
 
 def _solve_or_nan(matrix, vector):

@@ -45,6 +45,8 @@ _REGRESSION = ParamGroup("regression", "uncertainty of the model's calibration o
           default=10.0, unit="%", minimum=0.0),
     Param("bootstrap_samples", "int", "B for method bootstrap", default=200, minimum=10, maximum=100000),
     Param("simex_samples", "int", "S per lambda for method bootstrap", default=50, minimum=2, maximum=10000),
+    Param("campaigns", "int", "simulated calibration campaigns the regression term is the mean over (its standard "
+          "error falls as 1/sqrt(campaigns))", default=100, minimum=10, maximum=100000),
     Ordered("agb_range_t_ha"),
 ))
 
@@ -76,7 +78,7 @@ class _Retrieval(Stage):
 
     def regression(self, case, model, agb, covariates=None):
         try:
-            return regression_contribution(model, agb, self.campaign, case.rng, covariates)
+            return regression_contribution(model, agb, self.campaign, case.settings.seed, covariates)
         except PhysicsInputError as exc:
             raise fail(self, f"case {case.index}: {exc}", key="regression") from exc
 

@@ -181,13 +181,48 @@ def simex(
         coef = np.stack([np.polyfit(lam_all[usable], by_lam[usable, j], deg) for j in range(p)])
         corrected = model.from_working(np.array([np.polyval(c, -1.0) for c in coef]))
         tried.append(f"{name}: {dict(zip(model.param_names, np.round(corrected, 6)))}")
-        if model.params_valid(corrected):
+        supported = supported_by_data(model, corrected[None], agb[None], sigma[None], np.sum(naive.residuals**2),
+                                      space, {k: None if v is None else np.asarray(v)[None]
+                                              for k, v in covariates.items()})[0]
+        if model.params_valid(corrected) and supported:
             return SimexResult(naive, model.with_params(corrected), corrected, lam_all, by_lam, sd_lam,
                                np.full(lam.size, n_sim), failures, modes, name, coef, clipped,
                                float(max_failure_fraction), fallback=name != extrapolant)
     raise PhysicsInputError(
         "SIMEX extrapolation left the model's domain (" + "; ".join(tried) + "); the measurement errors may "
         "be too large for this data set")
+
+
+SUPPORT_LEVEL = 1e-4
+"""A corrected fit must lie inside the naive fit's 1 - SUPPORT_LEVEL confidence region (``supported_by_data``)."""
+
+
+def supported_by_data(model: RetrievalModel, params, agb, sigma, naive_ssr, space: str, covariates: dict) -> np.ndarray:
+    """(B,) whether corrected coefficients params (B, p) are a curve the data (agb (B, n), sigma (B, n[, c])) support.
+
+    Two conditions; ``params_valid`` (finite, in range) sees neither. The curve is positive at every plot of
+    AGB > 0: a negative backscatter where a plot was measured is no backscatter curve. And the curve lies in
+    the naive fit's confidence region of level 1 - ``SUPPORT_LEVEL``, ``S(beta) <= S_naive (1 + p / (n - p)
+    F_{p, n-p})`` (Beale 1960; Draper & Smith 1998, Section 24.5), S the residual sum of squares in the fit space:
+    the bias SIMEX removes is that of measurement errors smaller than the scatter, while an extrapolation that
+    ran away along a direction the data hardly identify (a saturating model's saturation level at ten times
+    the data, or a beta2 of -500 when beta1 saturates the curve within a few t/ha) gives a curve that misses
+    the data by far more. Such an extrapolation counts as outside the model's domain.
+    """
+    from scipy import special  # imported here: scipy costs start-up time
+
+    agb = np.asarray(agb, dtype=float)
+    sigma = np.asarray(sigma, dtype=float)
+    params = np.nan_to_num(np.asarray(params, dtype=float))
+    with np.errstate(invalid="ignore", over="ignore", divide="ignore"):
+        curve = model.evaluate(agb, params, **covariates)
+        resid = np.log(sigma) - np.log(curve) if space == "log" else sigma - curve
+    lowest = curve.min(axis=-1) if curve.ndim == agb.ndim + 1 else curve  # multi-channel: every channel
+    positive = np.all((lowest > 0) | (agb <= 0), axis=-1)
+    ssr = np.sum(resid.reshape(resid.shape[0], -1) ** 2, axis=1)
+    n, p = resid[0].size, params.shape[-1]
+    f_crit = special.fdtri(p, n - p, 1.0 - SUPPORT_LEVEL) if n > p else np.inf
+    return positive & np.isfinite(ssr) & (ssr <= np.asarray(naive_ssr) * (1.0 + p / max(n - p, 1) * f_crit))
 
 
 def _extrapolant_chain(extrapolant: str) -> tuple:
@@ -225,13 +260,15 @@ SIMEX_STATUS_NAMES = {SIMEX_OK: "ok", NAIVE_FAILED: "naive_failed", TOO_FEW_LAMB
 class SimexBatch:
     """SIMEX of B data sets. params : (B, p) corrected (naive where status != ok). naive : (B, p).
     status : (B,) ``SIMEX_OK`` or a failure code. failure_fraction : (B,) share of simulated fits that
-    failed. n_clipped : simulated field AGB values set to 0."""
+    failed. n_clipped : simulated field AGB values set to 0. fallback : (B,) the quadratic extrapolant left the
+    model's domain and the linear one was used (as ``simex``)."""
 
     params: np.ndarray
     naive: np.ndarray
     status: np.ndarray
     failure_fraction: np.ndarray
     n_clipped: int
+    fallback: np.ndarray | None = None
 
     @property
     def ok(self) -> np.ndarray:
@@ -246,8 +283,9 @@ def simex_batch(model: RetrievalModel, agb, sigma, agb_error_sd, sigma_error_sd,
                 space: str | None = None, **covariates) -> SimexBatch:
     """Eqs. (17)-(19) for B data sets agb (B, n), sigma (B, n), all fits of one lambda in one batch.
 
-    Same estimator as ``simex`` (quadratic or linear extrapolant through lambda = 0 and the lambdas);
-    failures are counted per data set, never dropped silently.
+    Same estimator as ``simex`` (quadratic or linear extrapolant through lambda = 0 and the lambdas, the linear
+    one where the quadratic leaves the model's domain); failures are counted per data set, never dropped
+    silently.
     """
     lam = np.asarray(lambdas, dtype=float)
     degree = EXTRAPOLANTS[extrapolant]
@@ -282,18 +320,37 @@ def simex_batch(model: RetrievalModel, agb, sigma, agb_error_sd, sigma_error_sd,
                                         np.sum(params * ok[..., None], axis=1) / np.maximum(count, 1)[:, None], np.nan)
     lam_all = np.concatenate([[0.0], lam])
     usable = np.all(np.isfinite(by_lam), axis=2)  # (B, L + 1)
-    vander = np.vander(lam_all, degree + 1)  # highest power first, like np.polyfit
-    wts = usable.astype(float)
-    vtv = np.einsum("l,lj,lk,bl->bjk", np.ones(lam_all.size), vander, vander, wts)
-    vty = np.einsum("lj,bl,blp->bjp", vander, wts, np.nan_to_num(by_lam))
     enough = usable.sum(axis=1) >= degree + 1
-    coef = np.full((nb, degree + 1, p), np.nan)
-    if np.any(enough):
-        coef[enough] = np.linalg.solve(vtv[enough], vty[enough])
-    at_minus_one = model.from_working(np.einsum("j,bjp->bp", np.vander([-1.0], degree + 1)[0], coef))
     status = np.full(nb, SIMEX_OK, dtype=np.int8)
     status[~enough] = TOO_FEW_LAMBDAS
-    status[enough & ~model.params_valid(np.nan_to_num(at_minus_one))] = EXTRAPOLATION_OUT_OF_DOMAIN
+    params = np.array(naive.params, dtype=float, copy=True)
+    todo = enough.copy()
+    fallback = np.zeros(nb, dtype=bool)
+    for name in _extrapolant_chain(extrapolant):  # as ``simex``: the linear extrapolant where the quadratic fails
+        at_minus_one = _extrapolate_batch(model, lam_all, by_lam, usable, EXTRAPOLANTS[name], todo)
+        inside = todo & model.params_valid(np.nan_to_num(at_minus_one)) & supported_by_data(
+            model, at_minus_one, agb, sigma, naive.ssr, space, covariates)
+        params[inside] = at_minus_one[inside]
+        fallback |= inside & (name != extrapolant)
+        todo &= ~inside
+    status[todo] = EXTRAPOLATION_OUT_OF_DOMAIN
     status[~naive.converged] = NAIVE_FAILED
-    params = np.where((status == SIMEX_OK)[:, None], at_minus_one, naive.params)
-    return SimexBatch(params, naive.params, status, failed / (lam.size * n_sim), clipped)
+    params = np.where((status == SIMEX_OK)[:, None], params, naive.params)
+    return SimexBatch(params, naive.params, status, failed / (lam.size * n_sim), clipped,
+                      fallback & (status == SIMEX_OK))
+
+
+def _extrapolate_batch(model, lam_all, by_lam, usable, degree, rows) -> np.ndarray:
+    """(B, p) coefficients at lambda = -1 of a polynomial of ``degree`` fitted to each data set's eq. (19)
+    values (NaN outside ``rows`` or where too few lambdas are usable)."""
+    nb, _, p = by_lam.shape
+    vander = np.vander(lam_all, degree + 1)  # highest power first, like np.polyfit
+    wts = usable.astype(float)
+    vtv = np.einsum("lj,lk,bl->bjk", vander, vander, wts)
+    vty = np.einsum("lj,bl,blp->bjp", vander, wts, np.nan_to_num(by_lam))
+    rows = rows & (usable.sum(axis=1) >= degree + 1)
+    coef = np.full((nb, degree + 1, p), np.nan)
+    if np.any(rows):
+        coef[rows] = np.linalg.solve(vtv[rows], vty[rows])
+    with np.errstate(invalid="ignore", over="ignore"):
+        return model.from_working(np.einsum("j,bjp->bp", np.vander([-1.0], degree + 1)[0], coef))

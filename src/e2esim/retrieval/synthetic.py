@@ -3,7 +3,8 @@
 The Harvard and Howland data of Ahmed et al. (2014) are not public, so the tests and the figures of
 docs/theory/retrieval.md use plots drawn from a known model, with the error structure of the paper:
 
-* true AGB x_i of n plots (uniform or log-uniform over a range);
+* true AGB x_i of n plots (uniform or log-uniform over a range, or stratified: one plot drawn uniformly in
+  each of n equal parts of the range, the design of a calibration campaign that spans its range);
 * field AGB with allometric error, ``W_i = x_i + u_i``, ``u_i ~ N(0, sigma_ui^2)`` (eq. 9), sigma_ui a
   fraction of x_i (Ahmed et al. 2013 report allometric errors of a few to tens of percent);
 * backscatter of the plot ``y_i = f(beta, x_i) + eps_i`` with error in equation ``eps_i ~ N(0, sigma^2)``
@@ -24,7 +25,7 @@ import numpy as np
 from e2esim.errors import PhysicsInputError
 from e2esim.retrieval.models import RetrievalModel
 
-AGB_DISTRIBUTIONS = ("uniform", "loguniform")
+AGB_DISTRIBUTIONS = ("uniform", "loguniform", "stratified")
 
 
 @dataclass(frozen=True)
@@ -99,6 +100,8 @@ def synthetic_field_plots(
     shape = (n_plots,) if n_datasets is None else (n_datasets, n_plots)
     if agb_distribution == "uniform":
         x = rng.uniform(lo, hi, shape)
+    elif agb_distribution == "stratified":
+        x = lo + (np.arange(n_plots) + rng.uniform(0.0, 1.0, shape)) * ((hi - lo) / n_plots)
     else:
         if lo <= 0:
             raise PhysicsInputError("a log-uniform AGB distribution needs a lower bound > 0")
