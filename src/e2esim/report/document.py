@@ -17,8 +17,8 @@ from e2esim.report import tables
 from e2esim.report.assumptions import assumption_rows
 from e2esim.report.blocks import Badge, Details, Heading, Image, Paragraph, Table, Warning, fmt, table_blocks
 from e2esim.report.conclusions import conclusions
-from e2esim.report.sensitivity_table import SENSITIVITY_NOTE, exponent_sensitivity_table
 from e2esim.report.outliers import error_meaning
+from e2esim.report.sensitivity_table import SENSITIVITY_NOTE, exponent_sensitivity_table
 from e2esim.report.uncertainty import uncertainty_flags
 from e2esim.runner.map_sweep import is_map_sweep
 

@@ -170,7 +170,8 @@ class AGBError(SampledAnswers):
             realisations = int(np.shape(relative_samples)[0]) if np.ndim(relative_samples) > 1 else 0
             moments = relative_moments(relative_samples)
         return cls(exponent, sigma_hv, error_mean, error_sd, samples, mapping, tuple(contributions),
-                   tuple(saturated_fraction), error_model, realisations, moments, tuple(saturated_standard_error))
+                   tuple(saturated_fraction), error_model, realisations=realisations, sample_moments=moments,
+                   saturated_standard_error=tuple(saturated_standard_error))
 
     def has(self, basis: str) -> bool:
         return (self.error_mean is not None) if basis == "analytic" else (self.samples is not None)
