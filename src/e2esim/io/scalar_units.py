@@ -39,7 +39,7 @@ _RULES = (
     (r"calibration\.residual\.(max_abs_correlation_outside_pairs|max_crosstalk_noncircularity)", DIMENSIONLESS),
     (r"faraday(_residual)?\.tec_variability", DIMENSIONLESS),
     (r"agb\.exponent", DIMENSIONLESS),
-    (r"requirement\d+\.passed", "1 (pass) or 0 (fail)"),
+    (r"requirement\d+\.passed", "1 (pass), 0 (fail) or NaN (not applicable)"),
 )
 
 _GROUPS = {
@@ -82,8 +82,6 @@ def scalar_description(name: str) -> str:
 
 
 def detail_unit(key: str, unit: str) -> str:
-    """Unit of a verdict detail (``crosstalk.margin_db``, ``contribution.noise_percent``, ``applies``...)."""
-    if key == "applies":
-        return "1 (applies) or 0 (outside the requirement's AGB range)"
+    """Unit of a verdict detail (``crosstalk.margin_db``, ``contribution.noise_percent``...)."""
     found = scalar_unit(key)
     return found if found != "unknown" else unit

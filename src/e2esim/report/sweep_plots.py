@@ -11,6 +11,7 @@ import numpy as np
 from e2esim.report.plot_base import PlotSkipped, save
 from e2esim.report.sweep_layout import case_ticks, facet_axes, legend, series_offsets, style, sweep_layout
 
+STATUS_COLOURS = {"pass": "tab:green", "fail": "tab:red", "not_applicable": "0.6"}
 MAX_CASES_BY_LABEL = 60
 """Beyond this many cases a sweep without a numeric variable is drawn against the case number."""
 
@@ -31,7 +32,7 @@ def plot_verdicts(result, folder: Path, options: dict) -> list:
                 margins = np.array([c.verdicts[j].margin for c in series.cases])
                 st = style(i)
                 ax.plot(x, margins, "-", color=st["color"], lw=1, marker=st["marker"], ms=3.5, label=series.label)
-                failed = np.array([not c.verdicts[j].passed for c in series.cases])
+                failed = np.array([c.verdicts[j].status == "fail" for c in series.cases])
                 ax.plot(x[failed], margins[failed], "x", color="tab:red", ms=6, mew=1.5)
             ax.axhline(0, color="k", lw=0.8)
             ax.axhspan(min(ax.get_ylim()[0], -1e-9), 0, color="tab:red", alpha=0.06)
@@ -45,7 +46,8 @@ def plot_verdicts(result, folder: Path, options: dict) -> list:
     fig.tight_layout()
     return [(save(fig, folder, "verdicts"),
              f"Requirement margins against {layout.x_label} (positive passes; red crosses and the shaded band "
-             "fail)" + (f"; one panel per {', '.join(layout.facet_keys)}" if layout.facet_keys else "") + ".")]
+             "fail)" + (f"; one panel per {', '.join(layout.facet_keys)}" if layout.facet_keys else "")
+             + "; a case the requirement does not apply to has no margin and no point.")]
 
 
 def _verdicts_by_case(result, folder, names) -> list:
@@ -58,7 +60,7 @@ def _verdicts_by_case(result, folder, names) -> list:
                              squeeze=False)
     for j, (ax, name) in enumerate(zip(axes[:, 0], names)):
         margins = np.array([c.verdicts[j].margin for c in cases])
-        colors = np.where([c.verdicts[j].passed for c in cases], "tab:green", "tab:red")
+        colors = [STATUS_COLOURS[c.verdicts[j].status] for c in cases]
         unit = cases[0].verdicts[j].unit
         if by_label:
             ax.barh([c.index for c in cases], margins, color=colors)
@@ -74,7 +76,8 @@ def _verdicts_by_case(result, folder, names) -> list:
         ax.set_title(name, fontsize=9)
         ax.grid(alpha=0.3)
     fig.tight_layout()
-    return [(save(fig, folder, "verdicts"), "Requirement margins per case (positive passes; green passes, red fails).")]
+    return [(save(fig, folder, "verdicts"), "Requirement margins per case (positive passes; green passes, red fails; "
+             "a case the requirement does not apply to has no margin and no bar).")]
 
 
 def _agb_basis(cases) -> str | None:
