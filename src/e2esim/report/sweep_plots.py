@@ -115,7 +115,7 @@ def plot_agb_error_vs_sweep(result, folder: Path, options: dict) -> list:
         ax.axhline(0, color="k", lw=0.8)
         ax.set_title(facet.title, fontsize=8)
         ax.set_xlabel(layout.x_label, fontsize=8)
-        ax.set_ylabel("relative AGB error, all sources (%)", fontsize=8)
+        ax.set_ylabel("relative AGB error, computed sources (%)", fontsize=8)
         ax.grid(alpha=0.3)
         ax.tick_params(labelsize=7)
     legend(axes[0][0], len(layout.facets[0].series))
@@ -138,7 +138,7 @@ def _agb_error_by_case(result, folder, keys, basis) -> list:
     case_ticks(ax, cases, axis="y")
     ax.invert_yaxis()
     ax.axvline(0, color="k", lw=0.8)
-    ax.set_xlabel(f"relative AGB error, all sources ({basis}, %)")
+    ax.set_xlabel(f"relative AGB error, computed sources ({basis}, %)")
     ax.grid(alpha=0.3)
     fig.tight_layout()
     return [(save(fig, folder, "agb_error_vs_sweep"),

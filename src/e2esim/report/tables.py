@@ -61,7 +61,7 @@ def agb_budget_table(result) -> Table | None:
     sources = list(dict.fromkeys((r["source"], r["group"]) for case_rows in rows for r in case_rows))
     if not sources:
         return None
-    header = ("case", "total RMSE, all sources (%)") + tuple(
+    header = ("case", "total RMSE, computed sources (%)") + tuple(
         f"{source_name(s)} [{g}]: RMSE alone (%) / variance share" for s, g in sources)
     body = []
     for c, case_rows in zip(result.cases, rows):
@@ -103,9 +103,9 @@ def case_table(result) -> Table:
             ("bias, systematic (analytic, m²/m²)", "analytic.mean", 4),
             ("SD, systematic (analytic, m²/m²)", "analytic.sd", 4),
             ("bias, systematic (MC, m²/m²)", "montecarlo.mean", 4), ("SD, systematic (MC, m²/m²)", "montecarlo.sd", 4),
-            ("AGB error 0.135 %, all sources (%)", "agb.analytic.q00135_percent", 3),
-            ("AGB error 99.865 %, all sources (%)", "agb.analytic.q99865_percent", 3),
-            ("AGB error 99.865 %, all sources (MC, %)", "agb.montecarlo.q99865_percent", 3)]
+            ("AGB error 0.135 %, computed sources (%)", "agb.analytic.q00135_percent", 3),
+            ("AGB error 99.865 %, computed sources (%)", "agb.analytic.q99865_percent", 3),
+            ("AGB error 99.865 %, computed sources (MC, %)", "agb.montecarlo.q99865_percent", 3)]
     present = [c for c in cols if any(c[1] in case.scalars for case in result.cases)]
     header = ("case", "inputs") + tuple(c[0] for c in present) + tuple(result.requirement_names)
     rows = []
