@@ -9,13 +9,13 @@ import json
 import numpy as np
 import pytest
 import yaml
-from quick_runs import SCENARIOS, scenario_names
 
 import e2esim
 from e2esim.cli import main
 from e2esim.errors import ConfigError
 from e2esim.runner.run import run_scenario
 from e2esim.runner.scenario import Scenario
+from quick_runs import SCENARIOS, scenario_names
 
 SYSTEM_ONLY = """
 name: coverage
@@ -143,7 +143,8 @@ def test_assumed_terms_complete_all_sources_and_enter_the_checked_value():
 
     assert v.value == pytest.approx(100 * replace(agb, error_sd=sd).rmse(), rel=1e-12)
     assert v.value > plain.value
-    assert v.details["contribution.assumed_retrieval_percent"] > 0 and v.details["contribution.assumed_random_percent"] > 0
+    assert v.details["contribution.assumed_retrieval_percent"] > 0
+    assert v.details["contribution.assumed_random_percent"] > 0
 
 
 @pytest.mark.parametrize("change, where, message", [

@@ -14,7 +14,7 @@ Nothing physical is computed here; the rows are read from what the chain wrote:
 from __future__ import annotations
 
 SYSTEMATIC = "systematic"
-GROUP_ORDER = ("systematic", "random", "regression")
+GROUP_ORDER = ("systematic", "random", "regression", "model", "assumed")
 UNIT_KEYS = {"%": "percent", "t/ha": "t_ha"}
 """The ending of a contribution key for a requirement unit (``e2esim.requirements.attribution``)."""
 
@@ -24,6 +24,7 @@ SOURCE_NAMES = {
     "temporal": "temporal variability", "calibration": "radiometric calibration",
     "area_projection": "area projection", "regression": "regression (retrieval model)",
     "system_distortions": "system distortions", "noise_bias": "noise bias",
+    "assumed_random": "random terms (assumed)", "assumed_retrieval": "retrieval model (assumed)",
 }
 """Words for the source names of the built-in models; another source is shown by its name."""
 

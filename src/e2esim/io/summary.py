@@ -14,6 +14,7 @@ import numpy as np
 from e2esim.io.atomic import write_text_atomic
 from e2esim.io.error_budget import agb_budget, source_groups, verdict_budget
 
+
 def requirement_sources(resolved) -> list:
     """Per requirement, its ``sources`` setting ("computed", "all" or "systematic"; "computed" for a requirement
     without one). What each verdict actually covers is its ``coverage`` (``e2esim.requirements.coverage``)."""

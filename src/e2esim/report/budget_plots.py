@@ -15,7 +15,7 @@ from e2esim.report.plot_base import PlotSkipped, save
 from e2esim.report.sweep_layout import case_ticks
 
 MAX_BAR_CASES = 30
-GROUP_HATCH = {"systematic": "", "random": "//", "regression": ".."}
+GROUP_HATCH = {"systematic": "", "random": "//", "regression": "..", "model": "..", "assumed": "xx"}
 
 
 def budget_cases(result, j: int) -> tuple[list, str]:
@@ -80,6 +80,6 @@ def plot_error_budget(result, folder: Path, options: dict) -> list:
     fig.tight_layout()
     return [(save(fig, folder, "error_budget"),
              "Error budget of each requirement: how much the checked value falls when one error source is removed "
-             "(bars, hatched: random-error budget; dotted: regression), the checked value (black diamond) and the "
-             "limit (red dashed line). The parts need not add up: the sources interact and quantiles are not "
-             "additive; grey is the part no single source accounts for.")]
+             "(bars, hatched: random-error budget; dotted: regression or retrieval model; cross-hatched: assumed), "
+             "the checked value (black diamond) and the limit (red dashed line). The parts need not add up: the "
+             "sources interact and quantiles are not additive; grey is the part no single source accounts for.")]

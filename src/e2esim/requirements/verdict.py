@@ -8,7 +8,6 @@ import numpy as np
 
 from e2esim.block import Batched, Values
 
-
 STATUSES = ("pass", "fail", "not_applicable")
 """The three states of a verdict: the checked value meets the limit, it does not, or the requirement does not apply
 to the case (outside its stated range): then there is no margin and nothing passes."""
