@@ -19,7 +19,6 @@ from e2esim import registry
 from e2esim.errors import ConfigError, Location, ModuleLookupError, ScenarioFileError
 from e2esim.module import KIND_ORDER, Module, Stage
 from e2esim.params import Param, find_param, unknown_key_error, validate_section
-from e2esim.requirements.source_check import check_error_sources
 from e2esim.runner.limits import check_monte_carlo, check_plain, shorten
 from e2esim.runner.overrides import check_not_swept, parse_value, remove_from_sweep, split_assignment
 from e2esim.runner.plan import CaseSpec, CaseSpecs, Slot, SweepPlan, combinations, number_shapes
@@ -265,7 +264,6 @@ class Scenario:
                                   _items_allowed(self.raw.get(path[0]), path[0]))
             self._check_key(key, path, slot, plan)
         plan.find_templates()
-        check_error_sources(plan)  # sources: all only where the chain computes every group (or states it assumed)
         return plan
 
     def _slot_paths(self, keys: list, root: Location) -> list:
