@@ -14,7 +14,6 @@ import yaml
 import e2esim
 from e2esim.cli import main
 from e2esim.io.compare import compare_report
-from e2esim.report.map_plots import site_margins, site_position
 from e2esim.requirements.verdict import RequirementVerdict, RequirementVerdictsBlock
 from e2esim.results import results_of
 from e2esim.runner.run import run_scenario
@@ -64,6 +63,8 @@ def test_nisar_cases_outside_the_range_are_not_applicable_not_passing(quick_run)
         assert na.sum() == 4 and not results.passed[na, 0].any() and np.isnan(results.margin[na, 0]).all()
         assert np.isnan(results.scalars["requirement0.passed"][na]).all()
     # the site map: each site's worst margin over the cases the requirement applies to, never -165 t/ha
+    from e2esim.report.map_plots import site_margins, site_position
+
     positions = [site_position(c) for c in result.cases]
     sites = sorted(set(positions))
     worst = site_margins(result.cases, positions, {p: i for i, p in enumerate(sites)}, 0)
