@@ -24,6 +24,8 @@ SOURCE_NAMES = {
     "temporal": "temporal variability", "calibration": "radiometric calibration",
     "area_projection": "area projection", "regression": "regression (retrieval model)",
     "system_distortions": "system distortions", "noise_bias": "noise bias",
+    "faraday_difference": "Faraday-rotation difference", "system_instability": "system instability",
+    "temporal_decorrelation": "temporal decorrelation",
     "assumed_random": "random terms (assumed)", "assumed_retrieval": "retrieval model (assumed)",
 }
 """Words for the source names of the built-in models; another source is shown by its name."""
