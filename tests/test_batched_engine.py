@@ -44,6 +44,7 @@ def assert_same_case(got, expected) -> None:
     for v, w in zip(got.verdicts, expected.verdicts):
         assert (v.name, v.passed, v.unit, v.basis, v.dominant, v.notes) == (w.name, w.passed, w.unit, w.basis,
                                                                               w.dominant, w.notes)
+        assert (v.status, v.reason, v.coverage, v.coverage_text) == (w.status, w.reason, w.coverage, w.coverage_text)
         assert _close(v.value, w.value) and _close(v.limit, w.limit) and _close(v.margin, w.margin, abs(w.limit))
         assert list(v.details) == list(w.details)
         for key, x in w.details.items():
@@ -183,6 +184,8 @@ def test_the_run_columns_are_the_cases(quick_run, name):
         np.testing.assert_array_equal(values, [c.scalars.get(name_, np.nan) for c in cases])
     for j in range(len(result.requirement_names)):
         assert columns.passed[:, j].tolist() == [c.verdicts[j].passed for c in cases]
+        assert columns.status[:, j].tolist() == [c.verdicts[j].status for c in cases]
+        assert columns.coverage_text[:, j].tolist() == [c.verdicts[j].coverage_text for c in cases]
         np.testing.assert_array_equal(columns.margin[:, j], [c.verdicts[j].margin for c in cases])
         assert columns.dominant[:, j].tolist() == [c.verdicts[j].dominant for c in cases]
         for key, values in columns.details[j].items():

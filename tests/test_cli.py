@@ -88,7 +88,7 @@ def test_summary_json_content(default_runs):
     assert s["e2esim_version"] == e2esim.__version__
     assert s["n_cases"] == len(s["cases"]) == 5
     names = [r["name"] for r in s["requirements"]]
-    assert names == ["AGB error within +-20 % at 99.865 % (system errors)", "AGB RMSE <= 20 %"]
+    assert names == ["AGB error within +-20 % at 99.865 % (system errors)", "AGB RMSE <= 20 % (computed sources)"]
     case = s["cases"][1]
     assert case["inputs"] == {"scene.forest": "boreal_200", "orbit.site.name": "central_siberia",
                               "orbit.site.lat_deg": 60.0, "orbit.site.lon_deg": 92.0}
@@ -96,7 +96,7 @@ def test_summary_json_content(default_runs):
     req = case["requirements"][0]
     assert set(req) >= {"name", "passed", "value", "limit", "margin", "unit", "basis", "details"}
     assert req["margin"] == pytest.approx(req["limit"] - req["value"])
-    assert req["passed"] == (req["value"] <= req["limit"])
+    assert req["passed"] == (req["value"] <= req["limit"]) and req["status"] == ("pass" if req["passed"] else "fail")
 
 
 def test_results_h5_layout_and_provenance(default_runs):
@@ -163,9 +163,10 @@ def test_report_first_screen_answers_the_question(default_runs):
     s = json.loads((out / "summary.json").read_text())
     report = (out / "report.md").read_text()
     worst = s["cases"][0]["requirements"][1]  # RMSE of every source, case 0 is the worst
-    assert s["requirements"][1]["sources"] == "all" and s["requirements"][0]["sources"] == "systematic"
+    assert s["requirements"][1]["sources"] == "computed" and s["requirements"][0]["sources"] == "systematic"
     sentence = next(line for line in report.splitlines() if line.startswith("**FAIL** AGB RMSE"))
-    assert "(all sources) fails in 5 of 5 cases" in sentence
+    assert "(computed sources) fails in 5 of 5 cases" in sentence
+    assert "no regression/retrieval-model term in this chain" in sentence  # what it covers, from the chain
     assert f"{worst['value']:.3g} % against a limit of 20 %" in sentence
     speckle = worst["details"]["contribution.speckle_noise_percent"]
     alone = s["cases"][0]["results"]["agb.contribution.speckle_noise.rmse_percent"]
@@ -176,7 +177,7 @@ def test_report_first_screen_answers_the_question(default_runs):
     assert report.index("## Error budget") < report.index("## Plots") < report.index("## Cases")
     page = (out / "report.html").read_text()
     assert page.count('<span class="badge fail">FAIL</span>') >= 6 and '<span class="badge pass">PASS</span>' in page
-    assert "AGB error 99.865 %, all sources" in report and "(systematic only)" in report
+    assert "AGB error 99.865 %, computed sources" in report and "(all sources)" not in report
 
 
 def test_error_budget_in_summary_is_the_verdicts_attribution(default_runs):

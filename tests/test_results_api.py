@@ -87,11 +87,13 @@ def test_text_over_cases_is_written_as_codes_and_reads_back_the_same(small):
     results, folder = small
     table = results.run.table
     with h5py.File(folder / "results.h5") as f:
-        assert f.attrs["format_version"] == 3
-        for name in ("dominant", "basis"):
+        assert f.attrs["format_version"] == 4
+        for name in ("dominant", "basis", "status", "reason", "coverage_sources", "coverage_text"):
             assert f[f"requirements/{name}"].dtype.kind == "u" and f[f"requirements/{name}"].shape == (6, 1)
         assert read_text(f["requirements/dominant"]).tolist() == results.dominant.tolist()
         assert read_text(f["requirements/basis"])[:, 0].tolist() == table.requirements[0].basis.tolist()
+        assert read_text(f["requirements/status"]).tolist() == results.status.tolist()
+        assert read_text(f["requirements/coverage_text"]).tolist() == results.coverage_text.tolist()
         assert read_text(f["cases/inputs/scene.forest"]).tolist() == ["boreal_50"] * 3 + ["boreal_200"] * 3
         labels = f["cases/label"]  # factored: one part per group of sweep keys
         assert labels["codes"].shape == (6, 2) and len(labels["parts"]) == 5 and not labels["numbered"][()].any()
@@ -99,6 +101,8 @@ def test_text_over_cases_is_written_as_codes_and_reads_back_the_same(small):
     assert again.labels.tolist() == results.labels.tolist() == [
         f"forest={f}, crosstalk.level_db={x}" for f in ("boreal_50", "boreal_200") for x in (-34, -30, -26)]
     assert again.dominant.tolist() == results.dominant.tolist()
+    for name in ("status", "reason", "coverage", "coverage_text"):
+        assert getattr(again, name).tolist() == getattr(results, name).tolist()
 
 
 def test_case_sweeps_with_repeats_and_missing_keys_read_back_the_same(tmp_path):

@@ -17,7 +17,8 @@ from e2esim.runner.run import BlockResult, ScenarioResult, run_block, run_scenar
 from e2esim.runner.scenario import Scenario
 from e2esim.runner.spill import SpilledBlock, SpillFile, spill_block
 
-FIELDS = ("name", "passed", "value", "limit", "margin", "unit", "basis", "dominant", "notes")
+FIELDS = ("name", "passed", "value", "limit", "margin", "unit", "basis", "dominant", "notes", "applicable", "reason",
+          "coverage", "coverage_text")
 
 
 def _resolved():
@@ -28,6 +29,8 @@ def _same(a, b) -> bool:
     """Equal arrays (NaN equal to NaN) or equal lists of values."""
     if isinstance(a, np.ndarray):
         return a.dtype == b.dtype and np.array_equal(a, b, equal_nan=a.dtype.kind == "f")
+    if isinstance(a, np.floating):  # a not-applicable verdict's passed and margin scalars are NaN
+        return bool(a == b or (np.isnan(a) and np.isnan(b)))
     return a == b
 
 
@@ -60,8 +63,8 @@ def assert_same_cases(got, expected) -> None:
         assert list(a.scalars) == list(b.scalars)
         assert all(_same(np.float64(a.scalars[k]), np.float64(b.scalars[k])) for k in b.scalars)
         for v, w in zip(a.verdicts, b.verdicts):
-            assert (v.name, v.passed, v.unit, v.basis, v.dominant, v.notes) == (w.name, w.passed, w.unit, w.basis,
-                                                                                  w.dominant, w.notes)
+            assert (v.name, v.status, v.reason, v.unit, v.basis, v.dominant, v.notes, v.coverage) == (
+                w.name, w.status, w.reason, w.unit, w.basis, w.dominant, w.notes, w.coverage)
             assert _same(np.array([v.value, v.limit, v.margin]), np.array([w.value, w.limit, w.margin]))
             assert list(v.details) == list(w.details) and list(v.curves) == list(w.curves)
 

@@ -24,8 +24,11 @@ class Results:
     scenario_name, sweep_keys, labels (one per case: a sequence of text that makes each label when read; compares
     equal to the list of them), inputs ({sweep key: [value per case]}), scalars
     ({name: (n,) float array}, every output scalar, docs/output-format.md), units ({name: unit}),
-    requirements (names), requirement_units, requirement_sources ("all"/"systematic"), passed, value, limit,
-    margin ((n, R) arrays), dominant ((n, R) strings), details ([{key: (n,) array}] per requirement),
+    requirements (names), requirement_units, requirement_sources (each requirement's ``sources`` setting:
+    "computed", "all" or "systematic"), passed (true only where a requirement applies and is met), value, limit,
+    margin (NaN where it does not apply) ((n, R) arrays), status ("pass", "fail" or "not_applicable"), reason (why
+    not applicable, else ""), dominant, coverage (the error sources each checked value contains, names separated
+    by ", ") and coverage_text (the same in words) ((n, R) strings), details ([{key: (n,) array}] per requirement),
     provenance, resolved_scenario (dict). ``run``: the ``ScenarioResult`` with every case's products when the
     run was made in this process (None when read from a file).
     """
@@ -45,6 +48,10 @@ class Results:
     margin: np.ndarray = None
     dominant: np.ndarray = None
     details: list = field(default_factory=list)
+    status: np.ndarray = None
+    reason: np.ndarray = None
+    coverage: np.ndarray = None
+    coverage_text: np.ndarray = None
     provenance: dict = field(default_factory=dict)
     resolved_scenario: dict = field(default_factory=dict)
     run: object = field(default=None, repr=False)
@@ -61,8 +68,12 @@ class Results:
     @classmethod
     def from_run(cls, result) -> Results:
         """From a ``ScenarioResult`` (``e2esim.runner.run.run_scenario``)."""
+        from e2esim.block import Values
         from e2esim.io.summary import requirement_sources
         from e2esim.runner.result_table import text_column
+
+        def joined(values):  # a column of source-name tuples as text
+            return text_column(Values([", ".join(v) for v in values.values], values.index))
 
         table = result.table  # columns of every case, in case order
         n, n_req = table.n, len(result.requirement_names)
@@ -90,6 +101,10 @@ class Results:
             margin=stacked("margin").astype(float).reshape(n, n_req),
             dominant=stacked("dominant", text_column).reshape(n, n_req),
             details=[{k: table.detail(j, k) for k in r.details} for j, r in enumerate(table.requirements)],
+            status=stacked("status").astype(object).reshape(n, n_req),
+            reason=stacked("reason", text_column).reshape(n, n_req),
+            coverage=stacked("coverage", joined).reshape(n, n_req),
+            coverage_text=stacked("coverage_text", text_column).reshape(n, n_req),
             provenance=dict(result.provenance),
             resolved_scenario=result.scenario.resolved,
             run=result,
@@ -98,13 +113,15 @@ class Results:
     # Views ------------------------------------------------------------------------------------------
     def to_dataframe(self):
         """pandas DataFrame, one row per case (index ``case``): ``label``, the sweep keys, every output scalar,
-        and per requirement j ``requirement<j>.dominant``. ``df.attrs["units"]`` gives each column's unit."""
+        and per requirement j ``requirement<j>.status`` and ``requirement<j>.dominant``. ``df.attrs["units"]`` gives
+        each column's unit."""
         import pandas as pd
 
         columns = {"label": self.label_list()}
         columns.update({k: self.inputs[k] for k in self.sweep_keys})
         columns.update(self.scalars)
         for j in range(len(self.requirements)):
+            columns[f"requirement{j}.status"] = list(self.status[:, j])
             columns[f"requirement{j}.dominant"] = list(self.dominant[:, j])
         df = pd.DataFrame(columns, index=pd.RangeIndex(self.n_cases, name="case"))
         df.attrs["units"] = dict(self.units)
@@ -162,11 +179,14 @@ class Results:
         return ("case",), (self.n_cases,)
 
     def verdict_table(self, j: int = 0):
-        """pandas DataFrame of requirement j per case: passed, value, limit, margin, dominant."""
+        """pandas DataFrame of requirement j per case: status, reason, passed, value, limit, margin (NaN where the
+        requirement does not apply), dominant, coverage_text."""
         import pandas as pd
 
-        return pd.DataFrame({"label": self.label_list(), "passed": self.passed[:, j], "value": self.value[:, j],
-                             "limit": self.limit[:, j], "margin": self.margin[:, j], "dominant": self.dominant[:, j]},
+        return pd.DataFrame({"label": self.label_list(), "status": self.status[:, j], "reason": self.reason[:, j],
+                             "passed": self.passed[:, j], "value": self.value[:, j], "limit": self.limit[:, j],
+                             "margin": self.margin[:, j], "dominant": self.dominant[:, j],
+                             "coverage_text": self.coverage_text[:, j]},
                             index=pd.RangeIndex(self.n_cases, name="case"))
 
     def write(self, folder) -> dict:

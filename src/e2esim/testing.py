@@ -179,7 +179,8 @@ def _identical(a, b) -> bool:
 
 
 def _same_verdict(v, w) -> bool:
-    plain = ("name", "passed", "unit", "basis", "dominant", "notes", "value", "limit", "margin")
+    plain = ("name", "passed", "unit", "basis", "dominant", "notes", "value", "limit", "margin", "applicable",
+             "reason", "coverage", "coverage_text")
     return (all(_identical(getattr(v, f), getattr(w, f)) if isinstance(getattr(w, f), float)
                 else getattr(v, f) == getattr(w, f) for f in plain)
             and list(v.details) == list(w.details) and all(_identical(v.details[k], w.details[k]) for k in w.details)

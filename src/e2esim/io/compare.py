@@ -54,17 +54,25 @@ def matched_cases(a: Results, b: Results) -> list:
     return [(i, i) for i in range(min(a.n_cases, b.n_cases))]
 
 
+STATUS_WORDS = {"pass": "PASS", "fail": "FAIL", "not_applicable": "N/A"}
+
+
 def verdict_differences(a: Results, b: Results, pairs: list) -> list:
-    """[(requirement, case label, A, B)] where a verdict or its dominant contributor differs."""
+    """[(requirement, case label, A, B)] where a verdict (PASS, FAIL or N/A) or its dominant contributor
+    differs."""
     out = []
     for j, name in enumerate(a.requirements):
         if name not in b.requirements:
             out.append((name, "(all cases)", "stated", "not stated"))
             continue
         jb = b.requirements.index(name)
+        covered = [sorted({t for t in r.coverage_text[[p[k] for p in pairs], i] if t}) for r, i, k in
+                   ((a, j, 0), (b, jb, 1))]
+        if covered[0] != covered[1]:
+            out.append((name, "(error sources covered)", "; ".join(covered[0]) or "-", "; ".join(covered[1]) or "-"))
         for ia, ib in pairs:
-            va = ("PASS" if a.passed[ia, j] else "FAIL", a.dominant[ia, j])
-            vb = ("PASS" if b.passed[ib, jb] else "FAIL", b.dominant[ib, jb])
+            va = (STATUS_WORDS[a.status[ia, j]], a.dominant[ia, j])
+            vb = (STATUS_WORDS[b.status[ib, jb]], b.dominant[ib, jb])
             if va != vb:
                 out.append((name, a.labels[ia], f"{va[0]} ({va[1] or '-'})", f"{vb[0]} ({vb[1] or '-'})"))
     out += [(name, "(all cases)", "not stated", "stated") for name in b.requirements if name not in a.requirements]

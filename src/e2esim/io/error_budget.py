@@ -14,7 +14,7 @@ Nothing physical is computed here; the rows are read from what the chain wrote:
 from __future__ import annotations
 
 SYSTEMATIC = "systematic"
-GROUP_ORDER = ("systematic", "random", "regression", "model")
+GROUP_ORDER = ("systematic", "random", "regression", "model", "assumed")
 UNIT_KEYS = {"%": "percent", "t/ha": "t_ha"}
 """The ending of a contribution key for a requirement unit (``e2esim.requirements.attribution``)."""
 
@@ -25,6 +25,9 @@ SOURCE_NAMES = {
     "area_projection": "area projection", "regression": "regression (retrieval model)",
     "model": "model (retrieval exponents and coefficients)",
     "system_distortions": "system distortions", "noise_bias": "noise bias",
+    "faraday_difference": "Faraday-rotation difference", "system_instability": "system instability",
+    "temporal_decorrelation": "temporal decorrelation",
+    "assumed_random": "random terms (assumed)", "assumed_retrieval": "retrieval model (assumed)",
 }
 """Words for the source names of the built-in models; another source is shown by its name."""
 

@@ -168,7 +168,8 @@ def _scalar_attrs(name: str, unit: str | None) -> dict:
     unit = unit or "unknown"
     attrs = {"long_name": scalar_description(name), "e2esim_name": name, "e2esim_units": unit}
     if name.endswith(".passed"):
-        attrs.update(units="1", flag_values=np.array([0.0, 1.0]), flag_meanings="fails passes")
+        attrs.update(units="1", flag_values=np.array([0.0, 1.0]), flag_meanings="fails passes",
+                     comment="NaN: no verdict (the requirement does not apply to the case, or the cell is not swept)")
     elif unit in CF_UNITS:
         attrs["units"] = CF_UNITS[unit]  # a unit e2esim does not know (a plug-in's output) gets none
     if STANDARD_NAMES.get(name):

@@ -17,12 +17,14 @@ from e2esim.io.atomic import atomic_path
 from e2esim.io.h5_datasets import code_dtype, coded_values, put, put_coded, put_text
 from e2esim.io.scalar_units import detail_unit, scalar_description, scalar_unit
 from e2esim.io.summary import requirement_sources
+from e2esim.requirements.verdict import STATUSES
 from e2esim.runner.joined_labels import JoinedLabels
 from e2esim.runner.map_sweep import is_map_sweep
 
-FORMAT_VERSION = 3
+FORMAT_VERSION = 4
 """2: units and descriptions on every dataset, acquisitions, requirement sources; 3: text over cases (labels,
-basis, dominant source, text sweep values) as integer codes into tables of distinct texts."""
+basis, dominant source, text sweep values) as integer codes into tables of distinct texts; 4: every verdict's
+status (pass, fail, not_applicable) and reason, and the error sources it covers (coverage)."""
 
 
 def write_results(result, path) -> None:
@@ -108,7 +110,9 @@ def _write_requirements(req, result, units: list) -> None:
     table = result.table
     n = table.n
     put_text(req, "sources", requirement_sources(result.scenario),
-             "error sources each requirement covers: all, or systematic (system distortions, Faraday rotation, noise)")
+             "the sources setting of each requirement: computed (every source the chain computes), all (the same, "
+             "checked complete at validation) or systematic (system distortions, Faraday rotation, noise); what each "
+             "verdict covers is /requirements/coverage_sources")
 
     def stacked(attr, dtype):  # (case, requirement), one requirement's column joined at a time
         out = np.empty((n, len(names)), dtype=dtype)
@@ -116,11 +120,23 @@ def _write_requirements(req, result, units: list) -> None:
             out[:, j] = getattr(r, attr)
         return out
 
-    put(req, "passed", stacked("passed", bool), "1", "verdict of requirement j (column) in case i (row): true passes")
+    put(req, "passed", stacked("passed", bool), "1", "verdict of requirement j (column) in case i (row): true passes "
+        "(false where it fails or does not apply: see /requirements/status)")
+    applicable = stacked("applicable", bool)
+    put_coded(req, "status", list(STATUSES), np.where(~applicable, 2, np.where(stacked("passed", bool), 0, 1)),
+              "status of requirement j (column) in case i (row): pass, fail, or not_applicable (outside the "
+              "requirement's range: no margin)")
+    put_coded(req, "reason", *coded_values([r.reason for r in table.requirements]),
+              "why requirement j does not apply to case i (empty where it applies)")
+    put_coded(req, "coverage_sources", *coded_values([_joined(r.coverage) for r in table.requirements]),
+              "the error sources the checked value of requirement j contains in case i, as the chain computed them "
+              "(names separated by ', ')")
+    put_coded(req, "coverage_text", *coded_values([r.coverage_text for r in table.requirements]),
+              "the same in words, with the terms the chain does not compute")
     about = {
         "value": "the checked quantity",
         "limit": "the requirement's bound",
-        "margin": "limit - value; positive passes",
+        "margin": "limit - value; positive passes; NaN where the requirement does not apply",
     }
     for attr in ("value", "limit", "margin"):
         put(req, attr, stacked(attr, float), "see /requirements/unit",
@@ -134,6 +150,11 @@ def _write_requirements(req, result, units: list) -> None:
         for k in sorted(r.details):
             put(det, f"{j}/{k}", table.detail(j, k), detail_unit(k, units[j]),
                 f"requirement {j}: {k} (docs/output-format.md, summary.json details)")
+
+
+def _joined(coverage: Values) -> Values:
+    """A ``Values`` column of source-name tuples as text, each distinct tuple once."""
+    return Values([", ".join(sources) for sources in coverage.values], coverage.index)
 
 
 def _write_curves(arrays, table) -> None:

@@ -66,11 +66,33 @@ def read_results(path) -> Results:
             out.dominant = read_text(req["dominant"])
             out.details = [{k: ds[()].astype(float) for k, ds in req["details"][str(j)].items()}
                            if str(j) in req.get("details", {}) else {} for j in range(r)]
+            _read_verdict_states(out, req, n, r)
         else:
             out.passed = np.zeros((n, 0), bool)
             out.value = out.limit = out.margin = np.zeros((n, 0))
-            out.dominant = np.zeros((n, 0), dtype=object)
+            out.dominant = out.status = out.reason = out.coverage = out.coverage_text = np.zeros((n, 0), dtype=object)
         return out
+
+
+def _read_verdict_states(out, req, n: int, r: int) -> None:
+    """Status, reason and coverage of every verdict (format 4); a file of an earlier format has no coverage
+    (empty) and its statuses come from ``passed`` and the ``applies`` detail of ``agb_rmse_absolute``: a case
+    outside the requirement's range, stored there as passing with a margin, reads as not applicable, with no
+    margin."""
+    if "status" in req:
+        for name, dataset in (("status", "status"), ("reason", "reason"), ("coverage", "coverage_sources"),
+                              ("coverage_text", "coverage_text")):
+            setattr(out, name, read_text(req[dataset]))
+        return
+    applies = np.ones((n, r), bool)
+    for j, details in enumerate(out.details):
+        if "applies" in details:
+            applies[:, j] = details["applies"] != 0.0
+    out.passed = out.passed & applies
+    out.margin = np.where(applies, out.margin, np.nan)
+    out.status = np.where(~applies, "not_applicable", np.where(out.passed, "pass", "fail")).astype(object)
+    out.reason = np.where(applies, "", "outside the requirement's AGB range").astype(object)
+    out.coverage = out.coverage_text = np.full((n, r), "", dtype=object)
 
 
 def _sweep_keys(inputs, resolved) -> list:

@@ -41,7 +41,7 @@ _RULES = (
     (r"faraday(_residual)?\.tec_variability", DIMENSIONLESS),
     (r"agb\.exponent", DIMENSIONLESS),
     (r"agb\.contribution\.\w+\.campaigns(_failed)?", "count"),
-    (r"requirement\d+\.passed", "1 (pass) or 0 (fail)"),
+    (r"requirement\d+\.passed", "1 (pass), 0 (fail) or NaN (not applicable)"),
 )
 
 _GROUPS = {
@@ -84,9 +84,7 @@ def scalar_description(name: str) -> str:
 
 
 def detail_unit(key: str, unit: str) -> str:
-    """Unit of a verdict detail (``crosstalk.margin_db``, ``contribution.noise_percent``, ``applies``...)."""
-    if key == "applies":
-        return "1 (applies) or 0 (outside the requirement's AGB range)"
+    """Unit of a verdict detail (``crosstalk.margin_db``, ``contribution.noise_percent``...)."""
     if key == "margin_within_uncertainty":
         return "1 (the margin is inside 1.96 standard errors of the value) or 0"
     if key == "basis_disagreement":

@@ -14,42 +14,60 @@ import numpy as np
 from e2esim.io.atomic import write_text_atomic
 from e2esim.io.error_budget import agb_budget, source_groups, verdict_budget
 
-SOURCE_SCOPES = {"all": "the systematic errors, the product's random-error budget, the regression uncertainty and the "
-                        "model term (the retrieval's exponents), where the chain has them",
-                 "systematic": "system distortions, Faraday rotation and noise (the criterion of Men et al. 2021)"}
-"""What a requirement's ``sources`` setting covers, in words."""
-
 
 def requirement_sources(resolved) -> list:
-    """Per requirement, the error sources its verdict covers ("all" or "systematic"), from its settings."""
+    """Per requirement, its ``sources`` setting ("computed", "all" or "systematic"; "computed" for a requirement
+    without one). What each verdict actually covers is its ``coverage`` (``e2esim.requirements.coverage``)."""
+    from e2esim.requirements.coverage import setting
+
     modules = resolved.cases[0].modules if resolved.cases else []
-    return [m.config.get("sources", "all") for m in modules if m.kind == "requirement"]
+    return [setting(m) for m in modules if m.kind == "requirement"]
+
+
+def coverage_overview(r) -> list:
+    """[{sources, text, cases}] of one requirement's columns: each distinct coverage with its number of cases (in
+    the order first met), counted per distinct pair of codes, not per case."""
+    coverage, text = r.coverage, r.coverage_text
+    codes = np.stack([np.asarray(coverage.index), np.asarray(text.index)], axis=1)
+    pairs, first, counts = np.unique(codes, axis=0, return_index=True, return_counts=True)
+    out: dict = {}
+    for k in np.argsort(first, kind="stable"):
+        a, b = pairs[k]
+        key = (tuple(coverage.values[a]), text.values[b])
+        out[key] = out.get(key, 0) + int(counts[k])
+    return [{"sources": list(sources), "text": words, "cases": count} for (sources, words), count in out.items()]
 
 
 def requirement_overview(result) -> list:
-    """Per requirement: how many cases pass, the worst margin and where it occurs (from the run's columns)."""
+    """Per requirement: how many cases pass, fail and are not applicable, the worst margin over the cases it
+    applies to and where it occurs, and what its verdicts cover (from the run's columns)."""
     rows = []
     sources = requirement_sources(result.scenario)
     table = result.table
     labels = result.labels
     for j, name in enumerate(result.requirement_names):
         r = table.requirements[j]
-        applies = table.applies(j)  # the cases the requirement covers
-        candidates = np.nonzero(applies)[0] if applies.any() else np.arange(table.n)
-        margins = r.margin[candidates]
-        worst = int(candidates[np.argmin(np.where(np.isfinite(margins), margins, np.inf))])  # the first of equals
-        passed = r.passed[applies]
+        applies = table.applies(j)  # the cases the requirement applies to
+        passed = np.asarray(r.passed)[applies]
+        worst = None
+        if applies.any():
+            candidates = np.nonzero(applies)[0]
+            margins = r.margin[candidates]
+            worst = int(candidates[np.argmin(np.where(np.isfinite(margins), margins, np.inf))])  # the first of equals
+        status = "not_applicable" if worst is None else "pass" if passed.all() else "fail"
         rows.append({
             "name": name,
-            "sources": sources[j] if j < len(sources) else "all",
+            "sources": sources[j] if j < len(sources) else "computed",
+            "coverage": coverage_overview(r),
+            "status": status,
             "passed_cases": int(passed.sum()),
             "failed_cases": int((~passed).sum()),
             "not_applicable_cases": int(table.n - applies.sum()),
-            "all_passed": bool(passed.all()),
-            "worst_margin": float(r.margin[worst]) if applies.any() else float("nan"),
-            "unit": r.unit[worst],
+            "all_passed": status == "pass",
+            "worst_margin": float(r.margin[worst]) if worst is not None else float("nan"),
+            "unit": r.unit[worst if worst is not None else 0],
             "worst_case": worst,
-            "worst_case_label": labels[worst],
+            "worst_case_label": labels[worst] if worst is not None else None,
         })
     return rows
 
@@ -78,9 +96,11 @@ def summary_dict(result) -> dict:
             "results": _finite(c.scalars),
             "agb_budget": agb_budget(c.scalars, groups),
             "requirements": [
-                {"name": v.name, "passed": v.passed, "value": _number(v.value), "limit": _number(v.limit),
-                 "margin": _number(v.margin), "unit": v.unit, "basis": v.basis, "dominant": v.dominant,
-                 "details": _finite(v.details), "budget": verdict_budget(v, groups), "notes": list(v.notes)}
+                {"name": v.name, "status": v.status, "reason": v.reason, "passed": v.passed,
+                 "value": _number(v.value), "limit": _number(v.limit), "margin": _number(v.margin), "unit": v.unit,
+                 "basis": v.basis, "dominant": v.dominant, "coverage": list(v.coverage),
+                 "coverage_text": v.coverage_text, "details": _finite(v.details), "budget": verdict_budget(v, groups),
+                 "notes": list(v.notes)}
                 for v in c.verdicts
             ],
         })

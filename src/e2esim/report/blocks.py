@@ -60,8 +60,12 @@ class Badge:
         return f"**{self.status}** {self.text}".strip()
 
 
-def badge(passed: bool, text: str = "", applies: bool = True) -> Badge:
-    return Badge("N/A" if not applies else "PASS" if passed else "FAIL", text)
+STATUS_WORDS = {"pass": "PASS", "fail": "FAIL", "not_applicable": "N/A"}
+
+
+def status_badge(status: str, text: str = "") -> Badge:
+    """The badge of a verdict's ``status`` ("pass", "fail", "not_applicable")."""
+    return Badge(STATUS_WORDS[status], text)
 
 
 def fmt(x, digits=4) -> str:

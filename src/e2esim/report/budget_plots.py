@@ -16,7 +16,7 @@ from e2esim.report.plot_base import PlotSkipped, save
 from e2esim.report.sweep_layout import case_row_height, case_ticks
 
 MAX_BAR_CASES = 30
-GROUP_HATCH = {"systematic": "", "random": "//", "regression": "..", "model": "xx"}
+GROUP_HATCH = {"systematic": "", "random": "//", "regression": "..", "model": "xx", "assumed": "\\\\"}
 
 
 def budget_cases(result, j: int) -> tuple[list, str]:
@@ -94,9 +94,10 @@ def plot_error_budget(result, folder: Path, options: dict) -> list:
     fig.tight_layout()
     return [(save(fig, folder, "error_budget"),
              "Error budget of each requirement: how much the checked value falls when one error source is removed "
-             "(bars, hatched: random-error budget; dotted: regression), the checked value (black diamond) and the "
-             "limit (red dashed line). The parts need not add up: the sources interact and quantiles are not "
-             "additive; grey is the part no single source accounts for." + "".join(notes))]
+             "(bars, hatched: random-error budget; dotted: regression; cross-hatched: retrieval model; back-hatched: "
+             "assumed), the checked value (black diamond) and the limit (red dashed line). The parts need not add up: "
+             "the sources interact and quantiles are not additive; grey is the part no single source accounts for."
+             + "".join(notes))]
 
 
 def _stack_ends(case_rows) -> list:

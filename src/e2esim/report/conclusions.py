@@ -4,34 +4,34 @@ far off is the worst case, and which error source contributes most there (from i
 from __future__ import annotations
 
 from e2esim.io.error_budget import agb_budget, source_groups, source_name, unit_key
-from e2esim.io.summary import requirement_overview, requirement_sources
-from e2esim.report.blocks import badge, fmt
+from e2esim.io.summary import requirement_overview
+from e2esim.report.blocks import fmt, status_badge
 from e2esim.report.outliers import error_meaning
-from e2esim.report.tables import SCOPE_SHORT
+from e2esim.report.tables import coverage_words
 from e2esim.report.uncertainty import with_standard_error
 
 
 def conclusions(result) -> list:
     """[(Badge, sentence)] in requirement order."""
     out = []
-    for j, (row, scope) in enumerate(zip(requirement_overview(result), requirement_sources(result.scenario))):
+    for j, row in enumerate(requirement_overview(result)):
         total = row["passed_cases"] + row["failed_cases"]
-        if total == 0:
-            out.append(
-                (badge(True, applies=False), f"{row['name']}: applies to none of the {len(result.cases)} cases.")
-            )
+        if row["worst_case"] is None:
+            out.append((status_badge("not_applicable"),
+                        f"{row['name']}: applies to none of the {len(result.cases)} cases."))
             continue
         worst = result.cases[row["worst_case"]]
         v = worst.verdicts[j]
         verb = (
             f"passes in all {total} cases" if row["all_passed"] else f"fails in {row['failed_cases']} of {total} cases"
         )
-        outside = (f" ({row['not_applicable_cases']} cases outside its range)" if row["not_applicable_cases"] else "")
+        outside = (f" ({row['not_applicable_cases']} cases outside its range: not applicable)"
+                   if row["not_applicable_cases"] else "")
         value = with_standard_error(v.value, v.details.get("value_standard_error"))
-        sentence = (f"{row['name']} ({SCOPE_SHORT.get(scope, scope)}) {verb}{outside}; worst case {worst.index} "
+        sentence = (f"{row['name']} {verb}{outside}; worst case {worst.index} "
                     f"({worst.label}): {value} {v.unit}{_meaning(v)} against a limit of {fmt(v.limit, 3)} {v.unit}")
-        sentence += _dominant_clause(worst, v) + "."
-        out.append((badge(row["all_passed"]), sentence))
+        sentence += _dominant_clause(worst, v) + f". It covers {coverage_words(row)}."
+        out.append((status_badge(row["status"]), sentence))
     return out
 
 

@@ -12,10 +12,21 @@ import inspect
 
 import numpy as np
 
-from e2esim.io.summary import LARGE_RUN_CASES, SOURCE_SCOPES, requirement_overview, requirement_sources
+from e2esim.io.summary import LARGE_RUN_CASES, requirement_overview
 from e2esim.report import tables
 from e2esim.report.assumptions import assumption_rows
-from e2esim.report.blocks import Badge, Details, Heading, Image, Paragraph, Table, Warning, fmt, table_blocks
+from e2esim.report.blocks import (
+    STATUS_WORDS,
+    Badge,
+    Details,
+    Heading,
+    Image,
+    Paragraph,
+    Table,
+    Warning,
+    fmt,
+    table_blocks,
+)
 from e2esim.report.conclusions import conclusions
 from e2esim.report.outliers import error_meaning
 from e2esim.report.sensitivity_table import SENSITIVITY_NOTE, exponent_sensitivity_table
@@ -37,16 +48,21 @@ __all__ = [
 
 
 def verdict_lines(result) -> list:
-    """Plain-text requirement summary (printed by ``e2esim run``)."""
+    """Plain-text requirement summary (printed by ``e2esim run``): the verdict, the cases passing (and not
+    applicable), the worst margin over the cases the requirement applies to, and what the verdicts cover."""
     lines = []
     for j, row in enumerate(requirement_overview(result)):
-        status = "PASS" if row["all_passed"] else "FAIL"
-        meaning = error_meaning(result.table.requirements[j].value[row["worst_case"]], row["unit"])
-        lines.append(
-            f"{status}  {row['name']}: {row['passed_cases']}/{row['passed_cases'] + row['failed_cases']} cases pass; "
-            f"worst margin {fmt(row['worst_margin'], 3)} {row['unit']} (case {row['worst_case']}: "
-            f"{row['worst_case_label']}{'; ' + meaning if meaning else ''})"
-        )
+        status = STATUS_WORDS[row["status"]]
+        if row["worst_case"] is None:
+            lines.append(f"{status}  {row['name']}: applies to none of the {row['not_applicable_cases']} cases")
+        else:
+            total = row["passed_cases"] + row["failed_cases"]
+            outside = f", {row['not_applicable_cases']} not applicable" if row["not_applicable_cases"] else ""
+            meaning = error_meaning(result.table.requirements[j].value[row["worst_case"]], row["unit"])
+            lines.append(f"{status}  {row['name']}: {row['passed_cases']}/{total} cases pass{outside}; worst margin "
+                         f"{fmt(row['worst_margin'], 3)} {row['unit']} (case {row['worst_case']}: "
+                         f"{row['worst_case_label']}{'; ' + meaning if meaning else ''})")
+        lines.append(f"      covers: {tables.coverage_words(row)}")
         lines += [f"      ! {flag}" for flag in uncertainty_flags(result, j)]
     return lines
 
@@ -136,9 +152,13 @@ def _provenance_section(result) -> list:
 
 
 def _scope_note(result) -> str:
-    used = dict.fromkeys(requirement_sources(result.scenario))
-    return "Error sources covered: " + "; ".join(f"**{tables.SCOPE_SHORT.get(s, s)}**: {SOURCE_SCOPES.get(s, s)}"
-                                                 for s in used) + "."
+    return ("Error sources covered: the sources each verdict's checked value contains, as the chain computed them "
+            "(the error model's sources, the random-error budget's terms, the regression or retrieval-model "
+            "uncertainty), and the terms this chain does not compute. A requirement checks **computed sources** "
+            "(all the chain computes), **all sources** (the same, checked at validation to include speckle and a "
+            "regression or retrieval-model term, computed or stated as assumed) or the **system errors** only. "
+            "N/A: the requirement does not apply to the case (outside its stated range); such cases have no margin "
+            "and are not counted as passing.")
 
 
 def _budget_section(result, plots) -> list:

@@ -47,7 +47,7 @@ def plot_estimator_comparison(result, folder: Path, options: dict) -> list:
             limit = v.limit
             shown = min(v.value, _CAP_PERCENT)
             pos = i + (j - (len(estimators) - 1) / 2) * width
-            ax.bar(pos, shown, width, color=color, edgecolor="k", lw=0.6, hatch=None if v.passed else "//")
+            ax.bar(pos, shown, width, color=color, edgecolor="k", lw=0.6, hatch="//" if v.status == "fail" else None)
             text = f"{v.value:.3g}" if v.value > _CAP_PERCENT else ""
             ax.text(pos, shown, f"{text}\n{v.dominant}".strip(), rotation=90, ha="center", va="bottom", fontsize=6)
     if limit is not None:

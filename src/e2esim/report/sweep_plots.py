@@ -20,6 +20,7 @@ from e2esim.report.sweep_layout import (
     sweep_layout,
 )
 
+STATUS_COLOURS = {"pass": "tab:green", "fail": "tab:red", "not_applicable": "0.6"}
 MAX_CASES_BY_LABEL = 60
 """Beyond this many cases a sweep without a numeric variable is drawn against the case number."""
 
@@ -44,7 +45,7 @@ def plot_verdicts(result, folder: Path, options: dict) -> list:
                 drawn = cuts[j].clip(margins) if cuts[j] else margins
                 st = style(i)
                 ax.plot(x, drawn, "-", color=st["color"], lw=1, marker=st["marker"], ms=3.5, label=series.label)
-                failed = np.array([not c.verdicts[j].passed for c in series.cases])
+                failed = np.array([c.verdicts[j].status == "fail" for c in series.cases])
                 ax.plot(x[failed], drawn[failed], "x", color="tab:red", ms=6, mew=1.5)
                 mark_cut(ax, x, margins, cuts[j], unit, horizontal=False)
             if cuts[j]:
@@ -60,7 +61,8 @@ def plot_verdicts(result, folder: Path, options: dict) -> list:
     fig.tight_layout()
     return [(save(fig, folder, "verdicts"),
              f"Requirement margins against {layout.x_label} (positive passes; red crosses and the shaded band "
-             "fail)" + (f"; one panel per {', '.join(layout.facet_keys)}" if layout.facet_keys else "") + "."
+             "fail)" + (f"; one panel per {', '.join(layout.facet_keys)}" if layout.facet_keys else "")
+             + "; a case the requirement does not apply to has no margin and no point."
              + _cut_notes(cuts, every, [result.cases[0].verdicts[j].unit for j in range(len(names))]))]
 
 
@@ -80,7 +82,7 @@ def _verdicts_by_case(result, folder, names) -> list:
         every.append(margins)
         cuts.append(cut)
         drawn = cut.clip(margins) if cut else margins
-        colors = np.where([c.verdicts[j].passed for c in cases], "tab:green", "tab:red")
+        colors = [STATUS_COLOURS[c.verdicts[j].status] for c in cases]
         unit = cases[0].verdicts[j].unit
         positions = [c.index for c in cases]
         if by_label:
@@ -103,7 +105,8 @@ def _verdicts_by_case(result, folder, names) -> list:
         ax.set_title(name, fontsize=9)
         ax.grid(alpha=0.3)
     fig.tight_layout()
-    return [(save(fig, folder, "verdicts"), "Requirement margins per case (positive passes; green passes, red fails)."
+    return [(save(fig, folder, "verdicts"), "Requirement margins per case (positive passes; green passes, red fails; "
+             "a case the requirement does not apply to has no margin and no bar)."
              + _cut_notes(cuts, every, [cases[0].verdicts[j].unit for j in range(len(names))]))]
 
 
@@ -154,7 +157,7 @@ def plot_agb_error_vs_sweep(result, folder: Path, options: dict) -> list:
         ax.axhline(0, color="k", lw=0.8)
         ax.set_title(facet.title, fontsize=8)
         ax.set_xlabel(layout.x_label, fontsize=8)
-        ax.set_ylabel("relative AGB error, all sources (%)", fontsize=8)
+        ax.set_ylabel("relative AGB error, computed sources (%)", fontsize=8)
         ax.grid(alpha=0.3)
         ax.tick_params(labelsize=7)
     legend(axes[0][0], len(layout.facets[0].series))
@@ -183,7 +186,7 @@ def _agb_error_by_case(result, folder, keys, basis) -> list:
     case_ticks(ax, cases, axis="y")
     ax.invert_yaxis()
     ax.axvline(0, color="k", lw=0.8)
-    ax.set_xlabel(f"relative AGB error, all sources ({basis}, %)")
+    ax.set_xlabel(f"relative AGB error, computed sources ({basis}, %)")
     ax.grid(alpha=0.3)
     fig.tight_layout()
     return [(save(fig, folder, "agb_error_vs_sweep"),

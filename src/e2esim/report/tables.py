@@ -4,25 +4,34 @@ Carlo. Every column says which error sources it covers; verdicts are badges."""
 from __future__ import annotations
 
 from e2esim.io.error_budget import agb_budget, source_groups, source_name, unit_key, verdict_budget
-from e2esim.io.summary import SOURCE_SCOPES, requirement_overview, requirement_sources
-from e2esim.report.blocks import Table, badge, fmt
+from e2esim.io.summary import requirement_overview
+from e2esim.report.blocks import Table, fmt, status_badge
 from e2esim.report.uncertainty import with_standard_error
 
-SCOPE_SHORT = {"all": "all sources", "systematic": "systematic only"}
 LEVEL_NAMES = {"crosstalk": "crosstalk", "channel_imbalance": "channel imbalance", "nesz": "NESZ"}
 
 
-def scopes(result) -> list:
-    return requirement_sources(result.scenario)
+def coverage_words(row: dict) -> str:
+    """What a requirement's verdicts cover (its overview's ``coverage``): one text, or each with its cases."""
+    parts = row["coverage"]
+    if len(parts) == 1:
+        return parts[0]["text"]
+    return "; ".join(f"{p['text']} ({p['cases']} cases)" for p in parts)
+
+
+def passing_words(row: dict) -> str:
+    """"4/8" cases passing, with the cases the requirement does not apply to: "4/8 (4 N/A)"."""
+    total = row["passed_cases"] + row["failed_cases"]
+    outside = f" ({row['not_applicable_cases']} N/A)" if row["not_applicable_cases"] else ""
+    return f"{row['passed_cases']}/{total}{outside}"
 
 
 def verdict_table(result) -> Table:
     rows = []
-    for row, scope in zip(requirement_overview(result), scopes(result)):
-        total = row["passed_cases"] + row["failed_cases"]
-        rows.append((row["name"], SCOPE_SHORT.get(scope, scope), badge(row["all_passed"], applies=total > 0),
-                     f"{row['passed_cases']}/{total}", f"{fmt(row['worst_margin'], 3)} {row['unit']}",
-                     f"{row['worst_case']}: {row['worst_case_label']}"))
+    for row in requirement_overview(result):
+        worst = "–" if row["worst_case"] is None else f"{row['worst_case']}: {row['worst_case_label']}"
+        rows.append((row["name"], coverage_words(row), status_badge(row["status"]), passing_words(row),
+                     f"{fmt(row['worst_margin'], 3)} {row['unit']}", worst))
     return Table(("requirement", "error sources covered", "verdict", "cases passing", "worst margin", "worst case"),
                  tuple(rows))
 
@@ -41,8 +50,7 @@ def budget_table(result, j: int) -> Table | None:
     for c, case_rows in zip(cases, rows):
         v = c.verdicts[j]
         by_source = {r["source"]: r["contribution"] for r in case_rows}
-        applies = v.details.get("applies", 1.0) != 0.0
-        body.append((f"{c.index}: {c.label}", fmt(v.value, 3), badge(v.passed, applies=applies))
+        body.append((f"{c.index}: {c.label}", fmt(v.value, 3), status_badge(v.status))
                     + tuple(fmt(by_source.get(s), 3) for s, _ in sources))
     return Table(header, tuple(body))
 
@@ -54,7 +62,7 @@ def agb_budget_table(result) -> Table | None:
     sources = list(dict.fromkeys((r["source"], r["group"]) for case_rows in rows for r in case_rows))
     if not sources:
         return None
-    header = ("case", "total RMSE, all sources (%)") + tuple(
+    header = ("case", "total RMSE, computed sources (%)") + tuple(
         f"{source_name(s)} [{g}]: RMSE alone (%) / variance share" for s, g in sources)
     body = []
     for c, case_rows in zip(result.cases, rows):
@@ -92,17 +100,15 @@ def margin_table(result) -> Table | None:
 
 
 def case_table(result) -> Table:
-    scope = scopes(result)
     cols = [("σ_hv (m²/m²)", "scene.sigma_hv", 4),
             ("bias, systematic (analytic, m²/m²)", "analytic.mean", 4),
             ("SD, systematic (analytic, m²/m²)", "analytic.sd", 4),
             ("bias, systematic (MC, m²/m²)", "montecarlo.mean", 4), ("SD, systematic (MC, m²/m²)", "montecarlo.sd", 4),
-            ("AGB error 0.135 %, all sources (%)", "agb.analytic.q00135_percent", 3),
-            ("AGB error 99.865 %, all sources (%)", "agb.analytic.q99865_percent", 3),
-            ("AGB error 99.865 %, all sources (MC, %)", "agb.montecarlo.q99865_percent", 3)]
+            ("AGB error 0.135 %, computed sources (%)", "agb.analytic.q00135_percent", 3),
+            ("AGB error 99.865 %, computed sources (%)", "agb.analytic.q99865_percent", 3),
+            ("AGB error 99.865 %, computed sources (MC, %)", "agb.montecarlo.q99865_percent", 3)]
     present = [c for c in cols if any(c[1] in case.scalars for case in result.cases)]
-    header = ("case", "inputs") + tuple(c[0] for c in present) + tuple(
-        f"{name} ({SCOPE_SHORT.get(s, s)})" for name, s in zip(result.requirement_names, scope))
+    header = ("case", "inputs") + tuple(c[0] for c in present) + tuple(result.requirement_names)
     rows = []
     for case in result.cases:
         cells = [str(case.index), case.label] + [
@@ -114,11 +120,10 @@ def case_table(result) -> Table:
 
 
 def verdict_cell(v):
-    applies = v.details.get("applies", 1.0) != 0.0
     dominant = f"; {source_name(v.dominant)}" if v.dominant else ""
-    note = "" if applies else "; outside the requirement's AGB range"
+    note = f"; not applicable: {v.reason}" if v.status == "not_applicable" else ""
     value = with_standard_error(v.value, v.details.get("value_standard_error"))
-    return badge(v.passed, f"({value} {v.unit}{dominant}{note})", applies=applies)
+    return status_badge(v.status, f"({value} {v.unit}{dominant}{note})")
 
 
 def comparison_table(result) -> Table | None:
@@ -143,7 +148,6 @@ def contribution_key(verdict, source: str) -> str:
 
 
 __all__ = [
-    "SOURCE_SCOPES",
     "agb_budget_table",
     "budget_table",
     "case_table",

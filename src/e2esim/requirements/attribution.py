@@ -15,12 +15,13 @@ def attribution(case, value_of, agb: AGBError, unit: str = "percent") -> tuple[d
 
     For each source of the error model (``backscatter.error``) the value is recomputed with that source
     removed (``ErrorModel.without``), everything else kept; the random-error budget's terms (speckle and
-    noise, temporal, calibration, area projection), the regression uncertainty and the model term (the
-    retrieval's exponents) by taking their variance out of the total. A source's contribution is the checked
-    value minus the value without it, in the requirement's unit. The parts need not add up (the sources
-    interact, and quantiles are not additive), but the largest is the one whose improvement helps most.
-    ``value_of`` maps an analytic ``AGBError`` to the checked value; ``agb`` is the error the requirement
-    checks; ``unit`` ends the keys, ``contribution.<source>_<unit>``. Returns (contributions, notes).
+    noise, temporal, calibration, area projection) and the regression uncertainty by taking their variance
+    out of the total (every contribution whose group is not "systematic": the model term of the retrieval's
+    exponents, an assumed term). A source's contribution is the checked value minus the value without it, in the
+    requirement's unit. The parts need not add up (the sources interact, and quantiles are not additive),
+    but the largest is the one whose improvement helps most. ``value_of`` maps an analytic ``AGBError`` to
+    the checked value; ``agb`` is the error the requirement checks; ``unit`` ends the keys,
+    ``contribution.<source>_<unit>``. Returns (contributions, notes).
     """
     model = error_model_of(case)
     if model.unavailable is not None or agb.error_mean is None:
@@ -43,7 +44,7 @@ def attribution(case, value_of, agb: AGBError, unit: str = "percent") -> tuple[d
         inactive = getattr(variant, "inactive", None)  # a block's cases where the source is not active
         out[f"contribution.{name}_{unit}"] = value if inactive is None else np.where(inactive, 0.0, value)
     for c in agb.contributions:
-        if c.group in ("random", "regression", "model"):
+        if c.group != "systematic":  # the budget's terms, regression, a retrieval-model or an assumed term
             var = np.maximum(np.asarray(agb.error_sd) ** 2 - np.asarray(model.value) ** 2
                              * np.maximum(c.relative_variance, 0.0), 0.0)
             without = dataclasses.replace(agb, error_sd=_plain(np.sqrt(var)))

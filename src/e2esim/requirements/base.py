@@ -9,12 +9,12 @@ from typing import ClassVar
 import numpy as np
 
 from e2esim.module import Module, fail
-from e2esim.params import Param
+from e2esim.params import Param, ParamGroup
 from e2esim.requirements.verdict import RequirementVerdict
 from e2esim.retrieval.agb_error import AGBError
 
 BASES = ("auto", "analytic", "montecarlo")
-SOURCE_CHOICES = ("all", "systematic")
+SOURCE_CHOICES = ("computed", "all", "systematic")
 PERCENT = 100.0
 
 
@@ -33,9 +33,32 @@ def truth(x):
     return bool(x) if np.ndim(x) == 0 else np.asarray(x, dtype=bool)
 
 SOURCES_PARAM = Param(
-    "sources", "str", "error sources checked: all (system, Faraday rotation, noise, error budget, regression, model) "
-    "or systematic (system distortions, Faraday rotation and noise only: the criterion of Men et al. 2021)",
-    default="all", choices=SOURCE_CHOICES)
+    "sources", "str", "error sources checked: computed (every source the chain computes: system, Faraday rotation, "
+    "noise, error budget, regression, model; the verdict's coverage names them), all (the same, and e2esim "
+    "validate refuses a chain without a speckle term and a regression or retrieval-model term unless they are "
+    "stated under assumed) or systematic (system distortions, Faraday rotation and noise only: the criterion of Men et al. 2021)", default="computed", choices=SOURCE_CHOICES)
+ASSUMED_PARAM = ParamGroup("assumed", "error terms the chain does not compute, stated as assumed values (1 sigma, "
+                           "zero mean, independent of every other term) so that sources: all can be checked; they "
+                           "enter the checked value analytically and the coverage says they are assumed", (
+    Param("random_percent", "float", "relative error of the backscatter from speckle and the other random terms of "
+          "the product (Ahmed et al. 2014, eq. 20), together", default=None, unit="%", exclusive_minimum=0.0,
+          maximum=1000.0, nullable=True),
+    Param("retrieval_agb_percent", "float", "relative AGB error of the retrieval model (regression and model "
+          "uncertainty), entered through the local exponent of the AGB error", default=None, unit="%",
+          exclusive_minimum=0.0, maximum=1000.0, nullable=True),
+))
+SCOPE_SUFFIXES = {"computed": " (computed sources)", "all": " (all sources)", "systematic": " (system errors)"}
+ASSUMED_SHORT = {"random_percent": "random", "retrieval_agb_percent": "retrieval model"}
+
+
+def scope_suffix(config: dict) -> str:
+    """The end of a generated requirement label: which sources it checks, and which of them are assumed."""
+    assumed = [ASSUMED_SHORT[k] for k, v in (config.get("assumed") or {}).items() if v is not None]
+    if config["sources"] == "all" and assumed:
+        return f" (all sources, {' and '.join(assumed)} assumed)"
+    return SCOPE_SUFFIXES[config["sources"]]
+
+
 BASIS_PARAM = Param("basis", "str", "analytic Gaussian model or Monte Carlo samples (auto: analytic when computed)",
                     default="auto", choices=BASES)
 
@@ -73,13 +96,16 @@ def error_model_of(case):
 
 
 def checked_error(requirement: Requirement, case) -> AGBError:
-    """The AGB error a requirement checks: from every source (``all``), or only from the systematic error of
-    the propagation's error model, system distortions, Faraday rotation and noise (``systematic``, the
-    criterion of Men et al. 2021), leaving out the random-error budget, the regression uncertainty and the model term
-    (the uncertainty of the retrieval's exponents and coefficients)."""
+    """The AGB error a requirement checks: from every source the chain computes (``computed``, ``all``; with the
+    requirement's assumed terms, ``with_assumed``), or only from the systematic error of the propagation's error
+    model, system distortions, Faraday rotation and noise (``systematic``, the criterion of Men et al. 2021),
+    leaving out the random-error budget, the regression uncertainty and the model term (the uncertainty of
+    the retrieval's exponents and coefficients)."""
     agb = case["agb.error"]
-    if requirement.si["sources"] == "all" or not agb.contributions:
-        return agb
+    if requirement.si["sources"] != "systematic":
+        return with_assumed(requirement, agb)
+    if all(c.group == "systematic" for c in agb.contributions):
+        return agb  # nothing but the propagation's error (and its parts): already the systematic error
     model = error_model_of(case)
     m = model.current() if model.unavailable is None else None
     if np.ndim(agb.exponent):  # a block of cases (e2esim.retrieval.agb_error_block): analytic only
@@ -89,6 +115,24 @@ def checked_error(requirement: Requirement, case) -> AGBError:
         agb.exponent, model.value, None if m is None else float(m.mean), None if m is None else float(m.sd),
         model.relative_samples(), agb.mapping, error_model=agb.error_model,
     )
+
+
+def with_assumed(requirement: Requirement, agb: AGBError) -> AGBError:
+    """``agb`` with the requirement's assumed terms (``e2esim.requirements.coverage.assumed_contributions``) added to
+    the variance of the relative sigma error, as the retrieval adds the random-error budget
+    (``e2esim.retrieval.combine``); analytic only: the Monte Carlo samples are left out (a verdict note says so)."""
+    from e2esim.requirements.coverage import assumed_contributions
+
+    extra = assumed_contributions(requirement, agb)
+    if not extra:
+        return agb
+    if agb.error_mean is None:
+        raise fail(requirement, "the assumed terms are combined with the analytic AGB error, which this simulation "
+                   "mode does not compute", "use simulation mode analytic or both", key="assumed")
+    added = sum(c.relative_variance for c in extra)
+    sd = np.sqrt(np.square(np.asarray(agb.error_sd, dtype=float)) + np.square(np.asarray(agb.sigma_hv)) * added)
+    return dataclasses.replace(agb, error_sd=plain(sd), samples=None, contributions=tuple(agb.contributions) + extra,
+                               saturated_fraction=tuple((b, f) for b, f in agb.saturated_fraction if b != "montecarlo"))
 
 
 def basis_of(requirement: Requirement, case, agb: AGBError) -> str:

@@ -17,6 +17,7 @@ from e2esim.module import fail
 from e2esim.params import Param
 from e2esim.requirements.attribution import attribution, dominant
 from e2esim.requirements.base import (
+    ASSUMED_PARAM,
     BASIS_PARAM,
     PERCENT,
     SOURCES_PARAM,
@@ -26,6 +27,7 @@ from e2esim.requirements.base import (
     error_model_of,
     largest,
     plain,
+    scope_suffix,
     truth,
 )
 from e2esim.requirements.margins import (
@@ -58,6 +60,7 @@ class AGBErrorBound(Requirement):
               choices=("over", "under", "both")),
         BASIS_PARAM,
         SOURCES_PARAM,
+        ASSUMED_PARAM,
         Param("level_margins", "bool",
               "find by root finding how far crosstalk, channel imbalance and NESZ may degrade before the "
               "verdict flips (analytic model)", default=False),
@@ -74,8 +77,7 @@ class AGBErrorBound(Requirement):
         if c["name"]:
             return c["name"]
         sign = {"over": "+", "under": "-", "both": "+-"}[c["side"]]
-        suffix = " (system errors)" if c["sources"] == "systematic" else ""
-        return f"AGB error within {sign}{c['bound_percent']:g} % at {c['confidence_percent']:g} %{suffix}"
+        return f"AGB error within {sign}{c['bound_percent']:g} % at {c['confidence_percent']:g} %{scope_suffix(c)}"
 
     def sides(self) -> tuple:
         return ("over", "under") if self.config["side"] == "both" else (self.config["side"],)
@@ -167,12 +169,12 @@ class AGBRelativeRMSE(Requirement):
               exclusive_minimum=0.0),
         BASIS_PARAM,
         SOURCES_PARAM,
+        ASSUMED_PARAM,
     )
 
     @property
     def label(self) -> str:
-        suffix = " (system errors)" if self.config["sources"] == "systematic" else ""
-        return self.config["name"] or f"AGB RMSE <= {self.config['max_percent']:g} %{suffix}"
+        return self.config["name"] or f"AGB RMSE <= {self.config['max_percent']:g} %{scope_suffix(self.config)}"
 
     def evaluate(self, case):
         agb = checked_error(self, case)
@@ -204,10 +206,11 @@ class AGBAbsoluteRMSE(Requirement):
         Param("name", "str", "label in reports (null: generated)", default=None, nullable=True),
         Param("max_t_ha", "float", "largest allowed RMS AGB error", default=20.0, unit="t/ha", exclusive_minimum=0.0),
         Param("applies_below_t_ha", "float", "the requirement applies to AGB below this (null: to every AGB); "
-              "cases above pass by definition and say so", default=None, unit="t/ha", exclusive_minimum=0.0,
-              nullable=True),
+              "cases at or above it are not applicable: no pass, no fail, no margin", default=None, unit="t/ha",
+              exclusive_minimum=0.0, nullable=True),
         BASIS_PARAM,
         SOURCES_PARAM,
+        ASSUMED_PARAM,
     )
     needs = (*Requirement.needs, "scene.covariance")
 
@@ -215,7 +218,7 @@ class AGBAbsoluteRMSE(Requirement):
     def label(self) -> str:
         c = self.config
         scope = f" for AGB < {c['applies_below_t_ha']:g} t/ha" if c["applies_below_t_ha"] else ""
-        return c["name"] or f"AGB RMSE <= {c['max_t_ha']:g} t/ha{scope}"
+        return c["name"] or f"AGB RMSE <= {c['max_t_ha']:g} t/ha{scope}{scope_suffix(c)}"
 
     def evaluate(self, case):
         agb_true = case["scene.covariance"].agb_t_ha
@@ -231,14 +234,14 @@ class AGBAbsoluteRMSE(Requirement):
         contributions, notes = attribution(case, lambda a: a.rmse("analytic") * agb_true, agb, unit="t_ha")
         details.update(contributions)
         below = self.config["applies_below_t_ha"]
-        applies = np.ones(np.shape(value), bool) if below is None else np.asarray(agb_true) < below
-        details["applies"] = plain(np.asarray(applies, dtype=float))
+        applies = True if below is None else truth(np.asarray(agb_true) < below)
         sure, sure_notes = verdict_uncertainty(
             agb, basis, {b: details[f"{b}.rmse_t_ha"] for b in bases},
             {b: plain(np.asarray(agb.standard_error("rmse", b)) * agb_true) for b in bases},
             plain(agb.sampling_standard_error("rmse") * np.asarray(agb_true)) if agb.has("montecarlo") else None,
             limit - value, "t/ha", applies)
         details.update(sure)
-        return RequirementVerdict(self.label, truth((np.asarray(value) <= limit) | ~applies), value, limit,
-                                  limit - value, "t/ha", basis, details, dominant=dominant(details, "t_ha"),
-                                  notes=tuple(notes) + sure_notes)
+        return RequirementVerdict(self.label, truth(np.asarray(value) <= limit), value, limit, limit - value, "t/ha",
+                                  basis, details, dominant=dominant(details, "t_ha"), notes=tuple(notes) + sure_notes,
+                                  applicable=applies, reason="" if below is None else f"the case's AGB is not below "
+                                  f"{below:g} t/ha, the range the requirement applies to")

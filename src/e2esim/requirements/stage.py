@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 
 from e2esim import products as P
@@ -10,6 +12,23 @@ from e2esim.requirements.verdict import RequirementVerdicts, RequirementVerdicts
 
 _CURVE_CASES = 32
 """Cases whose trade-off curves are traced at once (a few tens of MB of temporaries)."""
+
+
+def with_coverage(requirement, verdict, case):
+    """``verdict`` with the error sources its checked value covers (``e2esim.requirements.coverage``), unless the
+    requirement gave its own, and a note where an ``all`` verdict's chain lacks a group or the Monte Carlo
+    cross-check leaves out assumed terms."""
+    from e2esim.requirements.coverage import assumed_values, setting, verdict_coverage
+
+    if verdict.coverage:
+        return verdict
+    coverage, text, missing = verdict_coverage(requirement, case)
+    notes = list(verdict.notes)
+    if missing and setting(requirement) == "all":
+        notes.append(f"sources: all, but this case's chain computed no {' and no '.join(missing)} term")
+    if assumed_values(requirement) and getattr(case.get("agb.error"), "samples", None) is not None:
+        notes.append("no Monte Carlo cross-check: the assumed terms are combined with the analytic AGB error only")
+    return dataclasses.replace(verdict, coverage=coverage, coverage_text=text, notes=tuple(notes))
 
 
 def _union(groups) -> tuple:
@@ -40,7 +59,8 @@ class RequirementSet:
         return self.requirements
 
     def forward(self, case) -> dict:
-        return {"verdicts": RequirementVerdicts(tuple(r.evaluate(case) for r in self.requirements))}
+        return {"verdicts": RequirementVerdicts(tuple(with_coverage(r, r.evaluate(case), case)
+                                                      for r in self.requirements))}
 
     def forward_block(self, block):
         """The verdicts of a block at once, when every requirement evaluates blocks (``batched``) and the block's
@@ -59,8 +79,9 @@ class RequirementSet:
         for start in range(0, len(block), size):
             part = block if size >= len(block) else block.take(np.arange(start, min(start + size, len(block))))
             try:
-                parts.append(RequirementVerdictsBlock(tuple(r.evaluate(BlockView(part)) for r in self.requirements),
-                                                      len(part)))
+                view = BlockView(part)
+                parts.append(RequirementVerdictsBlock(tuple(with_coverage(r, r.evaluate(view), view)
+                                                            for r in self.requirements), len(part)))
             except (NotBatched, ConfigError):
                 return None
         return {"verdicts": parts[0] if len(parts) == 1 else RequirementVerdictsBlock.concatenate(parts)}

@@ -8,17 +8,27 @@ import numpy as np
 
 from e2esim.block import Batched, Values
 
+STATUSES = ("pass", "fail", "not_applicable")
+"""The three states of a verdict: the checked value meets the limit, it does not, or the requirement does not apply
+to the case (outside its stated range): then there is no margin and nothing passes."""
+
 
 @dataclass(frozen=True)
 class RequirementVerdict:
     """Verdict of one requirement for one case.
 
-    name : label of the requirement. passed : verdict. value : the quantity checked, limit : its bound,
-    margin : how far inside the bound (positive passes), all in ``unit``. basis : "analytic" or
-    "montecarlo". details : further numbers (exceedance probabilities, cross-checks, level margins in dB).
-    curves : trade-off curves and other arrays (name -> ndarray), possibly empty.
-    dominant : the error source whose removal would reduce ``value`` most ("" if not attributed).
-    notes : remarks for the report, e.g. why margins or attribution are not available for this case.
+    name : label of the requirement. passed : True only when the requirement applies and is met (``status``
+    "pass"). value : the quantity checked, limit : its bound, margin : how far inside the bound (positive passes;
+    NaN where the requirement does not apply), all in ``unit``. basis : "analytic" or "montecarlo". details :
+    further numbers (exceedance probabilities, cross-checks, level margins in dB). curves : trade-off curves and
+    other arrays (name -> ndarray), possibly empty. dominant : the error source whose removal would reduce
+    ``value`` most ("" if not attributed). notes : remarks for the report, e.g. why margins or attribution are not
+    available for this case. applicable : whether the requirement applies to the case; reason : why not ("" where
+    it applies). coverage : the error sources the checked value contains, as the chain computed them
+    (``e2esim.requirements.coverage``); coverage_text : the same in words, with what the chain leaves out.
+
+    A verdict that does not apply is normalised on construction: ``passed`` False, ``margin`` NaN. For a block of
+    cases (``RequirementVerdictsBlock``) the numbers, ``passed`` and ``applicable`` are arrays over the cases.
     """
 
     name: str
@@ -32,6 +42,45 @@ class RequirementVerdict:
     curves: dict = field(default_factory=dict)
     dominant: str = ""
     notes: tuple = ()
+    applicable: bool = True
+    reason: str = ""
+    coverage: tuple = ()
+    coverage_text: str = ""
+
+    def __post_init__(self):
+        applicable = self.applicable
+        if np.ndim(applicable) == 0:
+            applicable = bool(applicable)
+            object.__setattr__(self, "applicable", applicable)
+            if applicable:
+                object.__setattr__(self, "reason", "")
+            else:
+                object.__setattr__(self, "passed", False)
+                object.__setattr__(self, "margin", float("nan"))
+            return
+        applicable = np.asarray(applicable, dtype=bool)
+        object.__setattr__(self, "applicable", applicable)
+        if not applicable.all():
+            object.__setattr__(self, "passed", np.asarray(self.passed, dtype=bool) & applicable)
+            object.__setattr__(self, "margin", np.where(applicable, self.margin, np.nan))
+
+    @property
+    def status(self):
+        """"pass", "fail" or "not_applicable" (an array of them for a block)."""
+        if np.ndim(self.applicable) == 0 and np.ndim(self.passed) == 0:
+            return "not_applicable" if not self.applicable else "pass" if self.passed else "fail"
+        return status_of(self.passed, self.applicable)
+
+
+def status_of(passed, applicable) -> np.ndarray:
+    """The status of every case from its ``passed`` and ``applicable`` (bool arrays)."""
+    return np.where(~np.asarray(applicable, dtype=bool), "not_applicable",
+                    np.where(np.asarray(passed, dtype=bool), "pass", "fail")).astype(object)
+
+
+def passed_scalar(passed, applicable):
+    """``requirement<i>.passed``: 1 passes, 0 fails, NaN where the requirement does not apply."""
+    return np.where(applicable, np.asarray(passed, dtype=float), np.nan)
 
 
 @dataclass(frozen=True)
@@ -50,10 +99,11 @@ class RequirementVerdicts:
         return self.verdicts[i]
 
     def scalars(self) -> dict:
-        """``requirement<i>.passed`` (1 or 0), ``.value`` and ``.margin`` in each requirement's unit."""
+        """``requirement<i>.passed`` (1 passes, 0 fails, NaN not applicable), ``.value`` and ``.margin`` (NaN not
+        applicable) in each requirement's unit."""
         out = {}
         for i, v in enumerate(self.verdicts):
-            out[f"requirement{i}.passed"] = float(v.passed)
+            out[f"requirement{i}.passed"] = float(passed_scalar(v.passed, v.applicable))
             out[f"requirement{i}.value"] = v.value
             out[f"requirement{i}.margin"] = v.margin
         return out
@@ -86,7 +136,7 @@ class RequirementVerdictsBlock(Batched):
     def scalar_columns(self) -> dict:
         out = {}
         for i, v in enumerate(self.verdicts):
-            out[f"requirement{i}.passed"] = np.broadcast_to(np.asarray(v.passed, dtype=float), (self.n,))
+            out[f"requirement{i}.passed"] = np.broadcast_to(passed_scalar(v.passed, v.applicable), (self.n,))
             out[f"requirement{i}.value"] = np.broadcast_to(np.asarray(v.value, dtype=float), (self.n,))
             out[f"requirement{i}.margin"] = np.broadcast_to(np.asarray(v.margin, dtype=float), (self.n,))
         return out
@@ -98,12 +148,15 @@ class RequirementVerdictsBlock(Batched):
         n, out = self.n, []
         for v in self.verdicts:
             curves = Values([_curves_at(v.curves, i) for i in range(n)], np.arange(n)) if v.curves else None
+            applicable = np.broadcast_to(np.asarray(v.applicable, dtype=bool), (n,))
             out.append(RequirementColumns(
                 name=Values.repeated(v.name, n), passed=np.broadcast_to(np.asarray(v.passed, dtype=bool), (n,)),
                 value=_floats(v.value, n), limit=_floats(v.limit, n), margin=_floats(v.margin, n),
                 unit=Values.repeated(v.unit, n), basis=Values.repeated(v.basis, n),
                 dominant=_names(v.dominant, n), notes=Values.repeated(tuple(v.notes), n),
-                details={k: Column(_floats(x, n)) for k, x in v.details.items()}, curves=curves))
+                details={k: Column(_floats(x, n)) for k, x in v.details.items()}, curves=curves,
+                applicable=applicable, reason=Values(["", v.reason], (~applicable).astype(np.int64)),
+                coverage=Values.repeated(tuple(v.coverage), n), coverage_text=Values.repeated(v.coverage_text, n)))
         return out
 
 
@@ -132,7 +185,8 @@ def _verdict_at(v: RequirementVerdict, i: int) -> RequirementVerdict:
         name=v.name, passed=bool(_at(v.passed, i)), value=float(_at(v.value, i)), limit=float(_at(v.limit, i)),
         margin=float(_at(v.margin, i)), unit=v.unit, basis=v.basis,
         details={k: float(_at(x, i)) for k, x in v.details.items()}, curves=_curves_at(v.curves, i),
-        dominant=str(_at(v.dominant, i)), notes=v.notes)
+        dominant=str(_at(v.dominant, i)), notes=v.notes, applicable=bool(_at(v.applicable, i)), reason=v.reason,
+        coverage=v.coverage, coverage_text=v.coverage_text)
 
 
 def _verdict_take(v: RequirementVerdict, positions) -> RequirementVerdict:
@@ -142,7 +196,7 @@ def _verdict_take(v: RequirementVerdict, positions) -> RequirementVerdict:
     return RequirementVerdict(v.name, take(v.passed), take(v.value), take(v.limit), take(v.margin), v.unit, v.basis,
                               {k: take(x) for k, x in v.details.items()},
                               {k: (c[positions] if c.ndim == 2 else c) for k, c in v.curves.items()},
-                              take(v.dominant), v.notes)
+                              take(v.dominant), v.notes, take(v.applicable), v.reason, v.coverage, v.coverage_text)
 
 
 def _verdict_join(parts: list, sizes: list) -> RequirementVerdict:
@@ -159,4 +213,5 @@ def _verdict_join(parts: list, sizes: list) -> RequirementVerdict:
     return RequirementVerdict(first.name, join(lambda p: p.passed, bool), join(lambda p: p.value, float),
                               join(lambda p: p.limit, float), join(lambda p: p.margin, float), first.unit, first.basis,
                               {k: join(lambda p, k=k: p.details[k], float) for k in first.details}, curves,
-                              join(lambda p: p.dominant, object), first.notes)
+                              join(lambda p: p.dominant, object), first.notes, join(lambda p: p.applicable, bool),
+                              first.reason, first.coverage, first.coverage_text)

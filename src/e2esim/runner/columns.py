@@ -14,7 +14,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from e2esim.block import Batched, Catalog, Factor, Values
-from e2esim.requirements.verdict import RequirementVerdict
+from e2esim.requirements.verdict import RequirementVerdict, status_of
 from e2esim.runner.records import DECLARATIONS
 
 
@@ -74,7 +74,8 @@ def dict_columns(rows: list) -> dict:
 @dataclass
 class RequirementColumns:
     """The verdicts of one requirement over cases: text fields as ``Values``, numbers as float arrays,
-    ``details`` as ``Column``s, ``curves`` as ``Values`` of {name: array} per case (None: no curves)."""
+    ``applicable`` as a bool array, ``coverage`` as ``Values`` of tuples of source names, ``details`` as
+    ``Column``s, ``curves`` as ``Values`` of {name: array} per case (None: no curves)."""
 
     name: Values
     passed: np.ndarray
@@ -85,6 +86,10 @@ class RequirementColumns:
     basis: Values
     dominant: Values
     notes: Values
+    applicable: np.ndarray
+    reason: Values
+    coverage: Values
+    coverage_text: Values
     details: dict = field(default_factory=dict)
     curves: Values | None = None
 
@@ -94,7 +99,13 @@ class RequirementColumns:
             margin=float(self.margin[k]), unit=self.unit[k], basis=self.basis[k],
             details={key: float(c.values[k]) for key, c in self.details.items() if c.has(k)},
             curves=dict(self.curves[k]) if self.curves is not None else {}, dominant=self.dominant[k],
-            notes=tuple(self.notes[k]))
+            notes=tuple(self.notes[k]), applicable=bool(self.applicable[k]), reason=self.reason[k],
+            coverage=tuple(self.coverage[k]), coverage_text=self.coverage_text[k])
+
+    @property
+    def status(self) -> np.ndarray:
+        """"pass", "fail" or "not_applicable" per case."""
+        return status_of(self.passed, self.applicable)
 
     def take(self, positions) -> RequirementColumns:
         return RequirementColumns(
@@ -116,7 +127,9 @@ class RequirementColumns:
             margin=np.array([v.margin for v in verdicts], dtype=float),
             unit=Values.of([v.unit for v in verdicts]), basis=Values.of([v.basis for v in verdicts]),
             dominant=Values.of([v.dominant for v in verdicts]), notes=Values.of([tuple(v.notes) for v in verdicts]),
-            details=details, curves=curves)
+            applicable=np.array([v.applicable for v in verdicts], dtype=bool),
+            reason=Values.of([v.reason for v in verdicts]), coverage=Values.of([tuple(v.coverage) for v in verdicts]),
+            coverage_text=Values.of([v.coverage_text for v in verdicts]), details=details, curves=curves)
 
     @staticmethod
     def concatenate(parts: list) -> RequirementColumns:
@@ -131,7 +144,8 @@ class RequirementColumns:
             details={k: Column.concatenate([p.details.get(k) for p in parts], sizes) for k in keys}, curves=curves)
 
 
-_ARRAYS = ("name", "passed", "value", "limit", "margin", "unit", "basis", "dominant", "notes")
+_ARRAYS = ("name", "passed", "value", "limit", "margin", "unit", "basis", "dominant", "notes", "applicable", "reason",
+           "coverage", "coverage_text")
 
 
 def take_field(column, positions):

@@ -160,7 +160,14 @@ class SweepPlan:
     # Templates -------------------------------------------------------------------------------------------------
     def find_templates(self) -> None:
         """Give every case its chain template; assemble each template once (``ConfigError`` for a chain that
-        cannot be built: a product nobody provides, a cycle)."""
+        cannot be built: a product nobody provides, a cycle; or one that cannot back a requirement's ``sources:
+        all``, ``e2esim.requirements.source_check``)."""
+        from e2esim.requirements.source_check import check_error_sources
+
+        self._find_templates()
+        check_error_sources(self)
+
+    def _find_templates(self) -> None:
         found: dict = {}
         if all(int(slot.shapes.max()) == 0 for slot in self.module_slots):  # one chain for every case
             self.templates.append(self._assemble(self.object_codes([0])[0]))

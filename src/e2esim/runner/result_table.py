@@ -80,11 +80,8 @@ class ResultTable:
         return np.ones(self.n, dtype=bool) if column.present is None else column.present
 
     def applies(self, j: int) -> np.ndarray:
-        """Cases requirement ``j`` covers (its ``applies`` detail is not 0; bool per case)."""
-        detail = self.requirements[j].details.get("applies")
-        if detail is None:
-            return np.ones(self.n, dtype=bool)
-        return ~(detail.values == 0.0) | (~detail.present if detail.present is not None else False)
+        """Cases requirement ``j`` applies to (bool per case; the others are not applicable)."""
+        return np.asarray(self.requirements[j].applicable, dtype=bool)
 
     def detail(self, j: int, key: str) -> np.ndarray:
         """Detail ``key`` of requirement ``j``, NaN where a case lacks it."""
@@ -114,6 +111,17 @@ class JoinedRequirement:
     basis = property(lambda self: self._joined("basis"))
     dominant = property(lambda self: self._joined("dominant"))
     notes = property(lambda self: self._joined("notes"))
+    applicable = property(lambda self: self._joined("applicable"))
+    reason = property(lambda self: self._joined("reason"))
+    coverage = property(lambda self: self._joined("coverage"))
+    coverage_text = property(lambda self: self._joined("coverage_text"))
+
+    @property
+    def status(self) -> np.ndarray:
+        """"pass", "fail" or "not_applicable" per case."""
+        from e2esim.requirements.verdict import status_of
+
+        return status_of(self.passed, self.applicable)
 
     @property
     def curves(self) -> Values | None:

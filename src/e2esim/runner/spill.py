@@ -155,8 +155,8 @@ class SpilledValues:
         return Values(self.values, self._spill.get(self._index))
 
 
-_NUMBERS = ("passed", "value", "limit", "margin")
-_TEXTS = ("name", "unit", "basis", "dominant", "notes")
+_NUMBERS = ("passed", "value", "limit", "margin", "applicable")
+_TEXTS = ("name", "unit", "basis", "dominant", "notes", "reason", "coverage", "coverage_text")
 
 
 class SpilledRequirement:
@@ -188,7 +188,12 @@ class SpilledRequirement:
     basis = property(lambda self: self._text("basis"))
     dominant = property(lambda self: self._text("dominant"))
     notes = property(lambda self: self._text("notes"))
+    applicable = property(lambda self: self._number("applicable"))
+    reason = property(lambda self: self._text("reason"))
+    coverage = property(lambda self: self._text("coverage"))
+    coverage_text = property(lambda self: self._text("coverage_text"))
 
     def load(self) -> RequirementColumns:
         return RequirementColumns(self.name, self.passed, self.value, self.limit, self.margin, self.unit, self.basis,
-                                  self.dominant, self.notes, details=dict(self.details.items()), curves=self.curves)
+                                  self.dominant, self.notes, self.applicable, self.reason, self.coverage,
+                                  self.coverage_text, details=dict(self.details.items()), curves=self.curves)
