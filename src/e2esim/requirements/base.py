@@ -36,7 +36,8 @@ SOURCES_PARAM = Param(
     "sources", "str", "error sources checked: computed (every source the chain computes: system, Faraday rotation, "
     "noise, error budget, regression, model; the verdict's coverage names them), all (the same, and e2esim "
     "validate refuses a chain without a speckle term and a regression or retrieval-model term unless they are "
-    "stated under assumed) or systematic (system distortions, Faraday rotation and noise only: the criterion of Men et al. 2021)", default="computed", choices=SOURCE_CHOICES)
+    "stated under assumed) or systematic (system distortions, Faraday rotation and noise only: the criterion of "
+    "Men et al. 2021)", default="computed", choices=SOURCE_CHOICES)
 ASSUMED_PARAM = ParamGroup("assumed", "error terms the chain does not compute, stated as assumed values (1 sigma, "
                            "zero mean, independent of every other term) so that sources: all can be checked; they "
                            "enter the checked value analytically and the coverage says they are assumed", (
