@@ -29,7 +29,8 @@ class AGBErrorBlock(Batched, AGBError):
         return AGBError(float(self.exponent[i]), float(self.sigma_hv[i]), _at(self.error_mean, i),
                         _at(self.error_sd, i), None, self.mapping,
                         tuple(AGBContribution(c.name, c.group, float(c.relative_mean[i]), float(c.relative_variance[i]),
-                                              c.description) for c in self.contributions),
+                                              c.description, None if c.uncertainty is None else c.uncertainty.item(i))
+                              for c in self.contributions),
                         tuple((basis, float(np.asarray(f)[i])) for basis, f in self.saturated_fraction),
                         None if self.error_model is None else self.error_model.item(i))
 
@@ -38,7 +39,9 @@ class AGBErrorBlock(Batched, AGBError):
             self, exponent=self.exponent[positions], sigma_hv=self.sigma_hv[positions],
             error_mean=self.error_mean[positions], error_sd=self.error_sd[positions],
             contributions=tuple(dataclasses.replace(c, relative_mean=c.relative_mean[positions],
-                                                    relative_variance=c.relative_variance[positions])
+                                                    relative_variance=c.relative_variance[positions],
+                                                    uncertainty=None if c.uncertainty is None
+                                                    else c.uncertainty.take(positions))
                                 for c in self.contributions),
             saturated_fraction=tuple((b, np.asarray(f)[positions]) for b, f in self.saturated_fraction),
             error_model=None if self.error_model is None else self.error_model.take(positions))
@@ -56,7 +59,10 @@ class AGBErrorBlock(Batched, AGBError):
             contributions=tuple(dataclasses.replace(c, relative_mean=joined(lambda p, k=k: p.contributions[k]
                                                                             .relative_mean),
                                                     relative_variance=joined(lambda p, k=k: p.contributions[k]
-                                                                             .relative_variance))
+                                                                             .relative_variance),
+                                                    uncertainty=None if c.uncertainty is None
+                                                    else type(c.uncertainty).concatenate(
+                                                        [p.contributions[k].uncertainty for p in parts]))
                                 for k, c in enumerate(first.contributions)),
             saturated_fraction=tuple((b, joined(lambda p, k=k: p.saturated_fraction[k][1]))
                                      for k, (b, _) in enumerate(first.saturated_fraction)),

@@ -57,9 +57,10 @@ class SampledAnswers:
         """Standard error of an analytic answer ``value_of(agb_error)`` from the standard errors of the sampled
         variance terms: half the change of the answer when their variance moves by +- its standard error
         (their standard errors in quadrature); 0 when no term is sampled."""
-        v_se = float(np.sqrt(sum(c.uncertainty.standard_error ** 2 for c in self.contributions
-                                 if c.uncertainty is not None)))
-        if v_se == 0 or self.error_sd is None:
+        terms = [np.square(np.asarray(c.uncertainty.standard_error, dtype=float)) for c in self.contributions
+                 if c.uncertainty is not None]
+        v_se = np.sqrt(sum(terms)) if terms else 0.0  # element-wise: a block's cases get their own numbers
+        if not np.any(v_se) or self.error_sd is None:
             return 0.0
         var = np.square(self.error_sd)
         shift = np.square(self.sigma_hv) * v_se
@@ -92,8 +93,8 @@ def uncertainty_scalars(agb, quantiles: dict) -> dict:
         out[f"{key}.sigma_sd_standard_error_percent"] = 100 * u.relative_sd_standard_error
         for name, value in u.spread.items():
             out[f"{key}.sigma_sd_{name}_percent"] = 100 * value
-        out[f"{key}.campaigns"] = float(u.campaigns)
-        out[f"{key}.campaigns_failed"] = float(u.failed)
+        out[f"{key}.campaigns"] = _plain(np.asarray(u.campaigns, dtype=float))
+        out[f"{key}.campaigns_failed"] = _plain(np.asarray(u.failed, dtype=float))
     return out
 
 

@@ -49,7 +49,11 @@ _BOOT_CHUNK = 4096  # bootstrap data sets fitted at once (tens of MB of temporar
 class RegressionUncertainty:
     """The regression term at one AGB: relative_variance : mean over the campaigns of their relative variance
     (x = e / sigma units). standard_error : its standard error, sd / sqrt(K). spread : {"p16", "p50", "p84"}
-    quantiles of the per-campaign relative SD. campaigns : K drawn; failed : how many of them were left out."""
+    quantiles of the per-campaign relative SD. campaigns : K drawn; failed : how many of them were left out.
+
+    For a block of sweep cases (``e2esim.retrieval.agb_error_block``) every field is a (B,) array over the cases
+    (``gathered``, ``item``, ``take``); the properties are element-wise, so a case gets the same numbers alone or in
+    a block."""
 
     relative_variance: float
     standard_error: float
@@ -59,13 +63,49 @@ class RegressionUncertainty:
 
     @property
     def relative_sd(self) -> float:
-        return float(np.sqrt(max(self.relative_variance, 0.0)))
+        return _plain(np.sqrt(np.maximum(self.relative_variance, 0.0)))
 
     @property
     def relative_sd_standard_error(self) -> float:
         """SE of sqrt(v) by the delta method, SE(v) / (2 sqrt(v))."""
-        sd = self.relative_sd
-        return self.standard_error / (2.0 * sd) if sd > 0 else 0.0
+        sd = np.asarray(self.relative_sd)
+        positive = sd > 0
+        return _plain(np.where(positive, np.asarray(self.standard_error) / (2.0 * np.where(positive, sd, 1.0)), 0.0))
+
+    @classmethod
+    def gathered(cls, terms: list, index) -> RegressionUncertainty:
+        """The (B,) form of one-case ``terms`` for cases whose term is ``terms[index[i]]``."""
+        def column(get, dtype=float):
+            return np.asarray([get(t) for t in terms], dtype=dtype)[index]
+
+        return cls(column(lambda t: t.relative_variance), column(lambda t: t.standard_error),
+                   {k: column(lambda t, k=k: t.spread[k]) for k in terms[0].spread},
+                   column(lambda t: t.campaigns, np.int64), column(lambda t: t.failed, np.int64))
+
+    def item(self, i: int) -> RegressionUncertainty:
+        return RegressionUncertainty(float(self.relative_variance[i]), float(self.standard_error[i]),
+                                     {k: float(v[i]) for k, v in self.spread.items()}, int(self.campaigns[i]),
+                                     int(self.failed[i]))
+
+    def take(self, positions) -> RegressionUncertainty:
+        return RegressionUncertainty(self.relative_variance[positions], self.standard_error[positions],
+                                     {k: v[positions] for k, v in self.spread.items()}, self.campaigns[positions],
+                                     self.failed[positions])
+
+    @staticmethod
+    def concatenate(parts: list) -> RegressionUncertainty:
+        def joined(get):
+            return np.concatenate([np.asarray(get(p)) for p in parts])
+
+        first = parts[0]
+        return RegressionUncertainty(joined(lambda p: p.relative_variance), joined(lambda p: p.standard_error),
+                                     {k: joined(lambda p, k=k: p.spread[k]) for k in first.spread},
+                                     joined(lambda p: p.campaigns), joined(lambda p: p.failed))
+
+
+def _plain(x):
+    """A float for one case, the array for a block."""
+    return float(x) if np.ndim(x) == 0 else np.asarray(x)
 
 
 @dataclass(frozen=True)

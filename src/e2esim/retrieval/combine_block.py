@@ -16,6 +16,7 @@ from e2esim.case import Case
 from e2esim.errors import ConfigError
 from e2esim.retrieval.agb_error import AGBContribution
 from e2esim.retrieval.agb_error_block import AGBErrorBlock
+from e2esim.retrieval.campaign_ensemble import RegressionUncertainty
 from e2esim.retrieval.combine import budget_contributions, random_total_variance
 from e2esim.runner.distinct import distinct_rows
 
@@ -83,10 +84,14 @@ def stable_regression(stage, block, sigma, agb, exponent, model_of) -> AGBContri
     if any((t.name, t.group, t.description) != (first_term.name, first_term.group, first_term.description)
            for t in made):
         return None
+    sampled = [t.uncertainty is not None for t in made]
+    if any(sampled) and not all(sampled):
+        return None
+    uncertainty = RegressionUncertainty.gathered([t.uncertainty for t in made], inverse) if all(sampled) else None
     return AGBContribution(first_term.name, first_term.group,
                            np.asarray([t.relative_mean for t in made], dtype=float)[inverse],
                            np.asarray([t.relative_variance for t in made], dtype=float)[inverse],
-                           first_term.description)
+                           first_term.description, uncertainty)
 
 
 def gather_agb(stage, scene: Factor) -> np.ndarray | None:
