@@ -6,9 +6,9 @@ sources, before anything runs.
 (a regression campaign, Ahmed et al. 2014, eqs. 3-7, or a retrieval-model term). What a stage contributes is known
 from its settings before any case runs (``declared_terms``): a stage may say it with a method
 ``agb_error_terms()`` returning term names (``TERMS``); without one the terms follow from what it provides and
-its usual parameters (``reference: population``, a budget's ``include``, a retrieval's ``regression.mode``). A
-scenario may state a missing group as an assumed value instead (the requirement's ``assumed`` section), which
-then must not duplicate a group the chain computes.
+its usual parameters (``reference: population``, a budget's ``include``, a retrieval's ``regression.mode`` and
+``model_uncertainty.mode``). A scenario may state a missing group as an assumed value instead (the requirement's
+``assumed`` section), which then must not duplicate a group the chain computes.
 
 Every distinct combination of the modules that matter (requirements, the stages that contribute terms, the
 simulation settings) is checked once, so a sweep over a million cases costs what its distinct chains cost. What a
@@ -59,6 +59,8 @@ def declared_terms(stage) -> set:
         out.update(term for term, name in (("speckle", "speckle_noise"), ("temporal", "temporal")) if name in include)
     if "agb.error" in provides and (si.get("regression") or {}).get("mode", "none") != "none":
         out.add("regression")
+    if "agb.error" in provides and (si.get("model_uncertainty") or {}).get("mode", "none") != "none":
+        out.add("model")  # the retrieval's exponents and coefficients (e2esim.retrieval.model_error)
     return out
 
 

@@ -33,7 +33,7 @@ class StackPowerLawRetrieval(PowerLawRetrieval):
               "rvog (p / (1 + mu_hv)) or same (the biome's)", default="rvog", choices=GROUND_CANCELLED_EXPONENTS),
         model_error.model_uncertainty_group("stated", 1),
     )
-    uses = ("scene.stack",)
+    uses = ("backscatter.budget", "scene.stack")  # the budget: read by combine (the random-error terms)
 
     def case_exponent(self, case) -> float:
         p = self.exponent_for(case["scene.covariance"])
