@@ -30,7 +30,7 @@ from e2esim.stack.acquisitions import (
 )
 from e2esim.stack.analytic import REFERENCES
 from e2esim.stack.error_model import StackHVErrorModel
-from e2esim.stack.faraday import StackFaraday, tec_difference_sd
+from e2esim.stack.faraday import StackFaraday, residual_moments, tec_difference_sd
 from e2esim.stack.joint_model import StackJointErrorModel
 from e2esim.stack.model_base import StackModelBase
 from e2esim.stack.montecarlo import simulate_stack
@@ -156,6 +156,10 @@ class RVoGStackScene(Stage):
 
 
 CHANNELS = ("hv", "all")
+RESIDUAL_ANALYTIC_MAX_SD_RAD = math.radians(3.0)
+"""Beyond this SD of the residual rotation of the co-polarised correction, the analytic cubature misses more than
+3 % of the residual's own spread and 1e-4 of its bias (tests/test_stack_faraday_residual.py; ground-cancellation.md,
+Section 3.3)."""
 
 
 class StackBackscatterError(Stage):
@@ -194,10 +198,13 @@ class StackBackscatterError(Stage):
               "multichannel retrieval; HV the same)", default="hv", choices=CHANNELS),
         Param("correct_copol_faraday", "bool", "correct each pass's co-polarised channels for its own Faraday rotation "
               "before the passes are combined, as the processor does at level 1 (Monte Carlo, and the analytic moments "
-              "of channels: all; HV is unchanged by it)", default=True),
+              "of channels: all; HV is unchanged by it): with the estimate of the calibration section's "
+              "faraday_correction step when it has one (its residual, CalibrationRecord.faraday_error(), per pass), "
+              "else with the true rotation", default=True),
         Param("gaussianity", "bool", "test the simulated HV errors for Gaussianity", default=True),
     )
     needs = ("scene.stack", "system.residual", "faraday.residual")
+    uses = ("calibration",)
     provides = (P.BACKSCATTER_ERROR,)
 
     def combination(self, scene: StackScene):
@@ -227,21 +234,44 @@ class StackBackscatterError(Stage):
         rms = math.hypot(faraday.mean_rad, faraday.sd_rad)
         return tec_difference_sd(rms, cv, c["tec_correlation"])
 
+    def copol_residual(self, case) -> tuple:
+        """(dW distribution or None, notes): what is left of each pass's Faraday rotation in the co-polarised
+        channels after their correction. Only the joint model reads it (the symmetrised HV is unchanged by any
+        rotation): the residual of the calibration section's Faraday-rotation estimate, while no polarimetric step
+        has folded the rotation into the residual crosstalk; None (the true rotation) without such a step."""
+        record = case.get("calibration")
+        if self.si["channels"] != "all" or not self.si["correct_copol_faraday"] or record is None:
+            return None, ()
+        residual = record.faraday_error() if record.representation == "rotation_invariant" else None
+        if residual is None:
+            return None, ()
+        _, sd, wrong = residual_moments(residual)
+        notes = ()
+        if case.settings.analytic and wrong > 0.0:
+            notes += (f"{100 * wrong:.3g} % of the Faraday-rotation estimates of calibration resolve the pi/2 ambiguity "
+                      "wrongly (HH and VV swapped on that pass): the Monte Carlo draws them, the analytic moments leave "
+                      "them out",)
+        if case.settings.analytic and sd > RESIDUAL_ANALYTIC_MAX_SD_RAD:
+            notes += (f"the Faraday rotation left by calibration's estimates has an SD of {math.degrees(sd):.3g} deg: "
+                      "the analytic moments of HH and VV average it by a cubature that is approximate beyond "
+                      f"{math.degrees(RESIDUAL_ANALYTIC_MAX_SD_RAD):g} deg; the Monte Carlo is exact",)
+        return residual, notes
+
     def forward(self, case):
         c, s = self.si, case.settings
         scene, system, faraday = case["scene.stack"], case["system.residual"], case["faraday.residual"]
         errors = StackSystemErrors(system, c["system_error_correlation"])
-        stack_faraday = StackFaraday(faraday, self.difference_sd(faraday))
+        residual, notes = self.copol_residual(case)
+        stack_faraday = StackFaraday(faraday, self.difference_sd(faraday), residual)
         combination = self.combination(scene)
         problem = analytic_problem(system) if s.analytic else None
         if problem is not None and not s.montecarlo:
             raise fail(self, f"case {case.index}: the analytic error model does not apply: {problem}",
                        "use simulation.mode: montecarlo (or both) for this case")
-        notes = ()
         if problem is not None:
-            notes = (f"analytic model not used: {problem}; results from the Monte Carlo",)
+            notes += (f"analytic model not used: {problem}; results from the Monte Carlo",)
         elif s.analytic and analytic_caveat(system):
-            notes = (analytic_caveat(system),)
+            notes += (analytic_caveat(system),)
         unavailable = (f"the analytic moments are not computed in simulation mode {s.mode!r}" if not s.analytic
                        else problem)
         joint = c["channels"] == "all"
