@@ -58,7 +58,7 @@ def _second_order_shift(model, ms):
     """The exact expectation of the corrected co-polarised powers of every pass pair with no system errors, for
     dW_n independent N(0, s^2): E[cos^2 dW] etc. from E cos(k dW) = exp(-k^2 s^2 / 2); combined as the estimator
     combines the passes. Returns (E sigma_hat_hh, E sigma_hat_vv) - (sigma_hh, sigma_vv)."""
-    e = lambda k: np.exp(-0.5 * k**2 * ms)  # noqa: E731
+    e = lambda k: np.exp(-0.5 * k**2 * ms)
     c2, s2 = (1 + e(2)) / 2, (1 - e(2)) / 2
     c4, s4, cs = (3 + 4 * e(2) + e(4)) / 8, (3 - 4 * e(2) + e(4)) / 8, (1 - e(4)) / 8
     blocks = model.scene.blocks()  # C_nm (N, N, 3, 3)

@@ -48,6 +48,8 @@ class Results:
     provenance: dict = field(default_factory=dict)
     resolved_scenario: dict = field(default_factory=dict)
     run: object = field(default=None, repr=False)
+    settings_without_effect: list = field(default_factory=list)
+    """Messages on the swept or overridden settings that change no result (``e2esim.runner.no_effect``)."""
 
     @property
     def n_cases(self) -> int:
@@ -62,6 +64,7 @@ class Results:
     def from_run(cls, result) -> Results:
         """From a ``ScenarioResult`` (``e2esim.runner.run.run_scenario``)."""
         from e2esim.io.summary import requirement_sources
+        from e2esim.runner.no_effect import no_effect
         from e2esim.runner.result_table import text_column
 
         table = result.table  # columns of every case, in case order
@@ -93,6 +96,7 @@ class Results:
             provenance=dict(result.provenance),
             resolved_scenario=result.scenario.resolved,
             run=result,
+            settings_without_effect=[f.message() for f in no_effect(result)],
         )
 
     # Views ------------------------------------------------------------------------------------------

@@ -17,6 +17,7 @@ from e2esim.report import tables
 from e2esim.report.assumptions import assumption_rows
 from e2esim.report.blocks import Badge, Details, Heading, Image, Paragraph, Table, Warning, fmt, table_blocks
 from e2esim.report.conclusions import conclusions
+from e2esim.report.no_effect_section import no_effect_section
 from e2esim.runner.map_sweep import is_map_sweep
 
 __all__ = [
@@ -56,6 +57,7 @@ def build_report(result, plots: list, warnings: list = ()) -> list:
         blocks += _budget_section(result, plots)
     else:
         blocks += [Paragraph("The scenario states no requirements.")]
+    blocks += no_effect_section(result)
     if sc.description:
         blocks += [Heading(2, "Scenario"), Paragraph(sc.description.strip())]
     if is_map_sweep(sc):  # thousands of cells: the maps and results.nc instead of per-case tables

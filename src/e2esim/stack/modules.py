@@ -11,6 +11,8 @@ from e2esim import products as P
 from e2esim.budget.geometry import slant_range_spherical
 from e2esim.budget.modules import BackscatterErrorBudget
 from e2esim.budget.result import backscatter_budget
+from e2esim.calibration.modules import rotation_only_setting
+from e2esim.distortion.faraday_correction import HV_UNCHANGED_BY_ROTATION
 from e2esim.distortion.modules import analytic_caveat, analytic_problem
 from e2esim.distortion.montecarlo import gaussianity
 from e2esim.errors import PhysicsInputError
@@ -239,8 +241,10 @@ class StackBackscatterError(Stage):
         channels after their correction. Only the joint model reads it (the symmetrised HV is unchanged by any
         rotation): the residual of the calibration section's Faraday-rotation estimate, while no polarimetric step
         has folded the rotation into the residual crosstalk; None (the true rotation) without such a step."""
+        if self.si["channels"] != "all" or not self.si["correct_copol_faraday"]:
+            return None, ()
         record = case.get("calibration")
-        if self.si["channels"] != "all" or not self.si["correct_copol_faraday"] or record is None:
+        if record is None:
             return None, ()
         residual = record.faraday_error() if record.representation == "rotation_invariant" else None
         if residual is None:
@@ -248,14 +252,23 @@ class StackBackscatterError(Stage):
         _, sd, wrong = residual_moments(residual)
         notes = ()
         if case.settings.analytic and wrong > 0.0:
-            notes += (f"{100 * wrong:.3g} % of the Faraday-rotation estimates of calibration resolve the pi/2 ambiguity "
-                      "wrongly (HH and VV swapped on that pass): the Monte Carlo draws them, the analytic moments leave "
-                      "them out",)
+            notes += (f"{100 * wrong:.3g} % of the Faraday-rotation estimates of calibration resolve the pi/2 "
+                      "ambiguity wrongly (HH and VV swapped on that pass): the Monte Carlo draws them, the analytic "
+                      "moments leave them out",)
         if case.settings.analytic and sd > RESIDUAL_ANALYTIC_MAX_SD_RAD:
             notes += (f"the Faraday rotation left by calibration's estimates has an SD of {math.degrees(sd):.3g} deg: "
                       "the analytic moments of HH and VV average it by a cubature that is approximate beyond "
                       f"{math.degrees(RESIDUAL_ANALYTIC_MAX_SD_RAD):g} deg; the Monte Carlo is exact",)
         return residual, notes
+
+    def insensitivity(self, owner, key):
+        """HV (and HH and VV left uncorrected) cannot see the settings of a Faraday-rotation correction."""
+        if getattr(owner, "kind", None) != "calibration" or not rotation_only_setting(owner, key):
+            return None
+        if self.si["channels"] == "all" and self.si["correct_copol_faraday"]:
+            return None
+        return HV_UNCHANGED_BY_ROTATION + ("" if self.si["channels"] == "hv" else
+                                           "; HH and VV are not corrected (correct_copol_faraday: false)")
 
     def forward(self, case):
         c, s = self.si, case.settings

@@ -5,7 +5,8 @@ Each realisation draws the system errors of every pass (``StackSystemErrors``, e
 every pass (``StackFaraday``, eq. 6) and, per pass, the measured vector m_n = g_n K_n s_n + n_n of Men et al.
 (2021), eq. (1) (K_n = (T_n^T kron R_n)(F_n^T kron F_n)); the co-polarised channels may be corrected for each
 pass's Faraday rotation, F(-Omega_hat_n) M F(-Omega_hat_n) (Quegan et al. 2018, eq. 4) with the true rotation or
-an estimate of it (``StackFaraday.residual``), which leaves the symmetrised HV unchanged. The per-pass estimates z_n = (M_hh, (M_hv + M_vh)/2, M_vv) form the 3N-vector z = A s + nu.
+an estimate of it (``StackFaraday.residual``), which leaves the symmetrised HV unchanged. The per-pass estimates
+z_n = (M_hh, (M_hv + M_vh)/2, M_vv) form the 3N-vector z = A s + nu.
 
 Fast path, exact in distribution (cost independent of the looks L), as ``e2esim.distortion.montecarlo``:
 
