@@ -11,7 +11,7 @@ import pytest
 import e2esim
 from e2esim.api import NoEffectWarning
 from e2esim.cli import main
-from e2esim.runner.no_effect import no_effect
+from e2esim.runner.no_effect import MONTE_CARLO_NOTE, no_effect
 from e2esim.runner.run import run_scenario
 from e2esim.runner.scenario import Scenario
 from e2esim.runner.variation import Contexts, column_products, is_sampled
@@ -82,7 +82,7 @@ def test_a_key_that_changes_only_the_random_stream_is_reported_but_sampling_sett
     purpose: compared on the samples, it acts (in mode both) and changes nothing (in mode analytic)."""
     (found,) = findings(single_pass({"propagation.mc_method": ["fast", "brute_force"]}, mode="both",
                                     simulation={"mode": "both", "seed": 7, "looks": 200, "realisations": 60}))
-    assert found.key == "propagation.mc_method"
+    assert found.key == "propagation.mc_method" and found.note == MONTE_CARLO_NOTE
     sweep = {"simulation.realisations": [50, 60]}
     assert findings(single_pass(sweep, mode="both")) == []
     (found,) = findings(single_pass(sweep))

@@ -26,7 +26,7 @@ it to check (``--set sweep.parameters.KEY=[old, new]``).
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 
 import numpy as np
 
@@ -37,6 +37,7 @@ from e2esim.runner.variation import Contexts, column_products, is_sampled
 
 SAMPLING_SETTINGS = ("simulation.seed", "simulation.realisations", "simulation.noise_realisations")
 """Settings whose purpose is the Monte Carlo draws: compared on the sampled outputs too."""
+MONTE_CARLO_NOTE = "its Monte Carlo results, drawn anew in every case, were compared by presence only"
 _SHOW = 3  # outputs named in a message
 
 
@@ -53,6 +54,7 @@ class NoEffect:
     where: str
     reason: str = ""
     changed: tuple = ()
+    note: str = ""
 
     def message(self) -> str:
         head = (f"swept {self.key} changes no result in {self.where}" if self.source == "sweep"
@@ -63,7 +65,7 @@ class NoEffect:
         if self.changed:
             more = ", ..." if len(self.changed) > _SHOW else ""
             text += f"; it changes only {', '.join(self.changed[:_SHOW])}{more}"
-        return text
+        return text + (f"; {self.note}" if self.note else "")
 
     def as_dict(self) -> dict:
         return {**asdict(self), "changed": list(self.changed), "message": self.message()}
@@ -105,8 +107,11 @@ def sweep_findings(result) -> list:
         changed = _changed(rt, contexts, _by_relevance(columns), sampling, contexts.evidence)
         quiet = contexts.evidence & ~changed
         if quiet.any():
-            findings.append(_sweep_finding(result, plan, group, g, contexts, quiet, changed,
-                                           [n for n in names if column_rank[n] == owner] if after else []))
+            finding = _sweep_finding(result, plan, group, g, contexts, quiet, changed,
+                                     [n for n in names if column_rank[n] == owner] if after else [])
+            if not sampling and any(is_sampled(n) for n in columns):
+                finding = replace(finding, note=MONTE_CARLO_NOTE)
+            findings.append(finding)
     return findings
 
 
@@ -158,7 +163,7 @@ def _owner(plan, chain: list, keys: tuple) -> int:
 
 
 def _stage_of(plan, chain: list, path: tuple):
-    """The stage of ``chain`` (case 0's) whose module the key path ``path`` sets, or None."""
+    """The stage of ``chain`` whose module the key path ``path`` sets, or None."""
     for slot in plan.module_slots:
         if tuple(path[:len(slot.path)]) == tuple(slot.path):
             for stage in chain:
@@ -279,8 +284,8 @@ def _unchanged(key, path, given, previous, value, plan, chain) -> NoEffect | Non
     slot, rest = _slot(plan, path)
     if slot is None or not rest:
         return None
-    param = find_param(slot.objects[0].params, ".".join(str(p) for p in rest))
-    if isinstance(param, Param) and _same(param.default, value):
+    params = [find_param(m.params, ".".join(str(p) for p in rest)) for m in slot.objects]
+    if all(isinstance(p, Param) and _same(p.default, value) for p in params):
         return NoEffect(key, "--set", "", "every case", f"{_text(value)} is its default")
     return None
 

@@ -200,9 +200,8 @@ class StackBackscatterError(Stage):
               "multichannel retrieval; HV the same)", default="hv", choices=CHANNELS),
         Param("correct_copol_faraday", "bool", "correct each pass's co-polarised channels for its own Faraday rotation "
               "before the passes are combined, as the processor does at level 1 (Monte Carlo, and the analytic moments "
-              "of channels: all; HV is unchanged by it): with the estimate of the calibration section's "
-              "faraday_correction step when it has one (its residual, CalibrationRecord.faraday_error(), per pass), "
-              "else with the true rotation", default=True),
+              "of channels: all; HV is unchanged by it), by the calibration's faraday_correction estimate when "
+              "there is one, else by the true rotation", default=True),
         Param("gaussianity", "bool", "test the simulated HV errors for Gaussianity", default=True),
     )
     needs = ("scene.stack", "system.residual", "faraday.residual")
