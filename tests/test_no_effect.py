@@ -15,7 +15,7 @@ from e2esim.runner.no_effect import MONTE_CARLO_NOTE, no_effect
 from e2esim.runner.run import run_scenario
 from e2esim.runner.scenario import Scenario
 from e2esim.runner.variation import Contexts, column_products, is_sampled
-from test_stack_faraday_residual import ground_cancelled_with_faraday_correction
+from stack_helpers import ground_cancelled_with_faraday_correction
 
 
 def single_pass(sweep=None, mode="analytic", **sections):
@@ -72,8 +72,8 @@ def test_an_effective_key_is_not_reported():
     sweep group that acts."""
     assert findings(single_pass({"instrument.crosstalk.level_db": [-30.0, -25.0],
                                  "scene.forest": ["boreal_50", "boreal_200"]})) == []
-    assert findings(single_pass({"propagation.mc_method, instrument.crosstalk.level_db": [["fast", -30.0],
-                                                                                         ["brute_force", -25.0]]})) == []
+    together = {"propagation.mc_method, instrument.crosstalk.level_db": [["fast", -30.0], ["brute_force", -25.0]]}
+    assert findings(single_pass(together)) == []
 
 
 def test_a_key_that_changes_only_the_random_stream_is_reported_but_sampling_settings_are_not():

@@ -24,7 +24,7 @@ from e2esim.stack.joint_model import StackJointErrorModel
 from e2esim.stack.montecarlo import pass_operators, simulate_stack
 from e2esim.stack.system import StackSystemErrors
 from helpers import Z_ACCEPT
-from stack_helpers import BOREAL_FR, rich_system, site_scene
+from stack_helpers import BOREAL_FR, ground_cancelled_with_faraday_correction, rich_system, site_scene
 
 
 def _model(residual, system=None, difference_deg=4.0, looks=300, reference="population", site="boreal"):
@@ -120,27 +120,6 @@ def test_the_monte_carlo_sees_the_residual_as_the_analytic_model_does(rng):
     assert np.all(np.abs(z_cov) < Z_ACCEPT), z_cov
     shift = (an.mean - perfect.current_joint().mean) / mean_se
     assert abs(shift[0]) > 3 * Z_ACCEPT and abs(shift[2]) > 3 * Z_ACCEPT and abs(shift[1]) < 1e-9, shift
-
-
-def ground_cancelled_with_faraday_correction(channels="all", looks=(20, 100_000), mode="analytic"):
-    """scenarios/biomass_ground_cancelled.yaml (3 passes, boreal, dawn) with a calibration section of one
-    faraday_correction step whose estimation window is swept; a constant Faraday rotation of 20 deg, the same on
-    every pass (the climatology's nodes make a case slower, not different)."""
-    import yaml
-
-    from quick_runs import SCENARIOS
-
-    raw = yaml.safe_load((SCENARIOS / "biomass_ground_cancelled.yaml").read_text())
-    raw["ionosphere"] = {"type": "constant_faraday", "value_deg": 20.0}  # few nodes: a fast case
-    raw["propagation"][0]["faraday_difference_sd_deg"] = 0.0
-    raw["calibration"] = [{"type": "faraday_correction"}]
-    raw["propagation"][0]["channels"] = channels
-    raw["retrieval"] = {"type": "stack_multichannel_power_law" if channels == "all" else "stack_power_law"}
-    raw["requirements"] = raw["requirements"][1:]  # the AGB RMSE (no attribution: it needs no variant without a source)
-    raw["simulation"].update(mode=mode, realisations=400)
-    raw["sweep"] = {"mode": "grid", "parameters": {"calibration.0.looks": list(looks)}}
-    raw.pop("output")
-    return raw
 
 
 def test_the_estimation_window_reaches_the_ground_cancelled_copolarised_channels():
