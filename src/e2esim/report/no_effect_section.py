@@ -3,7 +3,7 @@ the verdicts, because a reader who swept a setting would otherwise read its flat
 
 from __future__ import annotations
 
-from e2esim.report.blocks import Heading, Paragraph, Warning
+from e2esim.report.blocks import Heading, Paragraph
 from e2esim.runner.no_effect import no_effect
 
 
@@ -11,7 +11,7 @@ def no_effect_section(result) -> list:
     findings = no_effect(result)
     if not findings:
         return []
-    return [Heading(2, "Settings that change nothing")] + [Warning(f.message()) for f in findings] + [Paragraph(
+    return [Heading(2, "Settings that change nothing")] + [Paragraph(f.message()) for f in findings] + [Paragraph(
         "A swept setting is compared between cases that differ in it alone, on every deterministic result after "
         "its stage; an override is reported when the value was already in force, when its module never read it, or "
         "when every stage that reads its stage's products cannot depend on it (docs/user-guide.md, \"Settings "
