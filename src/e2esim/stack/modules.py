@@ -160,8 +160,7 @@ class RVoGStackScene(Stage):
 CHANNELS = ("hv", "all")
 RESIDUAL_ANALYTIC_MAX_SD_RAD = math.radians(3.0)
 """Beyond this SD of the residual rotation of the co-polarised correction, the analytic cubature misses more than
-3 % of the residual's own spread and 1e-4 of its bias (tests/test_stack_faraday_residual.py; ground-cancellation.md,
-Section 3.3)."""
+3 % of the residual's own spread (and 5e-5 of the bias it adds; ground-cancellation.md, Section 3.3)."""
 
 
 class StackBackscatterError(Stage):
