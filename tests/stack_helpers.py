@@ -42,3 +42,24 @@ BOREAL_FR = GaussianFaraday(np.radians(60.0), np.radians(5.0))
 def stack_errors(system=None, correlation=1.0, difference_deg=0.0, faraday=BOREAL_FR):
     return (StackSystemErrors(system if system is not None else rich_system(), correlation),
             StackFaraday(faraday, np.radians(difference_deg)))
+
+
+def ground_cancelled_with_faraday_correction(channels="all", looks=(20, 100_000), mode="analytic"):
+    """scenarios/biomass_ground_cancelled.yaml (3 passes, boreal, dawn) with a calibration section of one
+    faraday_correction step whose estimation window is swept; a constant Faraday rotation of 20 deg, the same on
+    every pass (the climatology's nodes make a case slower, not different)."""
+    import yaml
+
+    from quick_runs import SCENARIOS
+
+    raw = yaml.safe_load((SCENARIOS / "biomass_ground_cancelled.yaml").read_text())
+    raw["ionosphere"] = {"type": "constant_faraday", "value_deg": 20.0}  # few nodes: a fast case
+    raw["propagation"][0]["faraday_difference_sd_deg"] = 0.0
+    raw["calibration"] = [{"type": "faraday_correction"}]
+    raw["propagation"][0]["channels"] = channels
+    raw["retrieval"] = {"type": "stack_multichannel_power_law" if channels == "all" else "stack_power_law"}
+    raw["requirements"] = raw["requirements"][1:]  # the AGB RMSE (no attribution: it needs no variant without a source)
+    raw["simulation"].update(mode=mode, realisations=400)
+    raw["sweep"] = {"mode": "grid", "parameters": {"calibration.0.looks": list(looks)}}
+    raw.pop("output")
+    return raw

@@ -14,9 +14,14 @@ from __future__ import annotations
 
 import copy
 import json
+import warnings
 from pathlib import Path
 
 from e2esim.results import Results
+
+
+class NoEffectWarning(UserWarning):
+    """A swept or overridden setting that changes no result (``Results.settings_without_effect``)."""
 
 
 def run(scenario, set: dict | None = None, output=None, force: bool = False, progress: bool = False,
@@ -44,6 +49,8 @@ def run(scenario, set: dict | None = None, output=None, force: bool = False, pro
         result = run_scenario(resolved, progress=progress, command=f"e2esim.run({_describe(scenario)})",
                               workers=workers, engine=engine)
         results = Results.from_run(result)
+        for message in results.settings_without_effect:
+            warnings.warn(message, NoEffectWarning, stacklevel=2)
         if output is not None:
             results.write(output)
     finally:

@@ -155,6 +155,7 @@ def cmd_run(args) -> int:
     from e2esim.report.document import verdict_lines
     from e2esim.runner.executors import check_scheduler_address
     from e2esim.runner.journal import Journal
+    from e2esim.runner.no_effect import no_effect
     from e2esim.runner.outputs import output_folder, prepare_folder, write_outputs
     from e2esim.runner.run import run_scenario
 
@@ -184,6 +185,8 @@ def cmd_run(args) -> int:
         journal.remove()
     finally:
         lock.release()
+    for finding in no_effect(result):
+        print(f"e2esim: warning: {finding.message()}", file=sys.stderr)
     out = sys.stderr if args.json else sys.stdout
     print(f"{resolved.name}: {len(result.cases)} case(s); outputs in {folder}/", file=out)
     for line in verdict_lines(result) or ["(no requirements stated)"]:

@@ -20,7 +20,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from e2esim.errors import ConfigError, Location, PhysicsInputError
-from e2esim.params import to_si, validate_section
+from e2esim.params import Param, ParamGroup, to_si, validate_section
 
 KIND_ORDER = (
     "orbit",
@@ -50,8 +50,35 @@ KIND_DOCS = {
 }
 
 
-def _frozen(values: dict) -> Mapping:
-    return MappingProxyType({k: _frozen(v) if isinstance(v, dict) else v for k, v in values.items()})
+class ParamReads(dict):
+    """A module's parameter values that note which top-level names are read (``[]`` and ``get``): how a sweep or
+    an override of a key the module never read is reported as changing nothing (``e2esim.runner.no_effect``).
+    Copies (``dict(...)``, ``**``), iteration and pickling do not note reads; a copy is an ordinary dict."""
+
+    __slots__ = ("reads",)
+    plain_as_dict = True  # e2esim.runner.plaindata writes it as the dict it is
+
+    def __getitem__(self, key):
+        self.reads.add(key)
+        return dict.__getitem__(self, key)
+
+    def get(self, key, default=None):
+        self.reads.add(key)
+        return dict.get(self, key, default)
+
+    def __reduce__(self):
+        return (dict, (dict(self),))
+
+
+def _noting(values: dict, reads: set) -> ParamReads:
+    out = ParamReads(values)
+    out.reads = reads
+    return out
+
+
+def _frozen(values: dict, reads: set | None = None) -> Mapping:
+    inner = {k: _frozen(v) if isinstance(v, dict) else v for k, v in values.items()}
+    return MappingProxyType(inner if reads is None else _noting(inner, reads))
 
 
 class Module:
@@ -87,13 +114,30 @@ class Module:
         return obj
 
     def _configure(self, values: Mapping, where: Location, ignore=()) -> None:
-        self.config = validate_section(self.params, values, where, ignore=ignore)
+        config = validate_section(self.params, values, where, ignore=ignore)
         self.location = where
+        self._reads: set = set()  # names read from ``config`` and ``si`` once built (``params_read``)
         try:
-            self.si = _frozen(self.derive(to_si(self.params, self.config)))
+            si = self.derive(to_si(self.params, config))
+            self.config = _noting(config, self._reads)
+            self.si = _frozen(si, self._reads)
             self.setup()
         except PhysicsInputError as exc:
             raise ConfigError(exc.location(where), str(exc)) from exc
+
+    def params_read(self) -> set | None:
+        """The names of the parameters (their ``config`` names) read from ``config`` or ``si`` since the module
+        was built (in ``setup``, ``forward``, ...) in this process; None when it read a value ``derive`` made,
+        which may stand for any parameter."""
+        names = {}
+        for p in self.params:
+            if isinstance(p, (Param, ParamGroup)):
+                names[p.name] = p.name
+                names[getattr(p, "si_name", p.name)] = p.name
+        reads = getattr(self, "_reads", None)
+        if reads is None or any(key not in names for key in reads):
+            return None
+        return {names[key] for key in reads}
 
     def derive(self, si: dict) -> dict:
         """The SI values the module works with, from those of its parameters (override to adjust or add:
@@ -137,8 +181,11 @@ def _thawed(values: Mapping) -> dict:
 
 def _restore(cls, state):
     obj = cls.__new__(cls)
+    reads = state.setdefault("_reads", set())
     if state.get("si") is not None:
-        state["si"] = _frozen(state["si"])
+        state["si"] = _frozen(state["si"], reads)
+    if isinstance(state.get("config"), dict):
+        state["config"] = _noting(state["config"], reads)
     obj.__dict__.update(state)
     return obj
 
@@ -174,6 +221,13 @@ class Stage(Module, ABC):
     @abstractmethod
     def forward(self, case) -> dict:
         """The products this stage adds to ``case``."""
+
+    def insensitivity(self, owner, key: str) -> str | None:
+        """Why no output of this stage can depend on the setting ``key`` of ``owner``, a stage before it whose
+        products it reads, or None when it may (the default). Said where a sweep or an override of ``key`` is
+        reported as changing nothing (``e2esim.runner.no_effect``), and enough for an override to be reported:
+        e.g. sigma_hv and the settings of a Faraday-rotation correction."""
+        return None
 
     def sweep_key(self, name: str) -> str:
         """The dotted sweep key of parameter ``name`` of this stage's section (``ionosphere.month``)."""

@@ -55,6 +55,8 @@ class Results:
     provenance: dict = field(default_factory=dict)
     resolved_scenario: dict = field(default_factory=dict)
     run: object = field(default=None, repr=False)
+    settings_without_effect: list = field(default_factory=list)
+    """Messages on the swept or overridden settings that change no result (``e2esim.runner.no_effect``)."""
 
     @property
     def n_cases(self) -> int:
@@ -70,6 +72,7 @@ class Results:
         """From a ``ScenarioResult`` (``e2esim.runner.run.run_scenario``)."""
         from e2esim.block import Values
         from e2esim.io.summary import requirement_sources
+        from e2esim.runner.no_effect import no_effect
         from e2esim.runner.result_table import text_column
 
         def joined(values):  # a column of source-name tuples as text
@@ -108,6 +111,7 @@ class Results:
             provenance=dict(result.provenance),
             resolved_scenario=result.scenario.resolved,
             run=result,
+            settings_without_effect=[f.message() for f in no_effect(result)],
         )
 
     # Views ------------------------------------------------------------------------------------------

@@ -35,6 +35,24 @@ CLUTTER_CHOICES = (*CLUTTER_SHAPES, "scene")
 PRIORS = ("climatology", "tec_map")
 
 
+def rotation_only_setting(strategy, key: str) -> bool:
+    """Whether ``key`` sets a parameter of a ``faraday_correction`` step of ``strategy`` (a ``CalibrationStrategy``)
+    whose other steps correct no polarimetric distortion: it then changes only the Faraday rotation left in the data
+    (the "rotation_invariant" record of ``e2esim.calibration.record``), not the residual system errors."""
+    from e2esim.runner.overrides import override_path
+
+    path = override_path(key)
+    modules = getattr(strategy, "modules", ())
+    if not all(type(m) in (FaradayCorrection, NoCalibration, RadiometricCalibration) for m in modules):
+        return False
+    for m in modules:
+        where = tuple(m.location.key_path)
+        inside = path[:len(where)] == where and path[len(where):][:1] not in ((), ("type",))
+        if isinstance(m, FaradayCorrection) and inside:
+            return True
+    return False
+
+
 class CalibrationModule(Module):
     """Base class: a module contributes one or more steps of the calibration strategy (``steps``).
 

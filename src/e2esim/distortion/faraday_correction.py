@@ -23,6 +23,11 @@ from e2esim.errors import PhysicsInputError
 from e2esim.faraday.distribution import ConstantFaraday, FaradayDistribution
 
 MODES = ("none", "perfect", "estimated")
+HV_UNCHANGED_BY_ROTATION = (
+    "sigma_hv is estimated from the symmetrised (M_hv + M_vh)/2 of each image, which no rotation F(a) M F(a) of the "
+    "data changes (Men et al. 2021, eq. 2; docs/theory/ground-cancellation.md, Section 3.3): a Faraday-rotation "
+    "correction, and the error of its estimate, cannot change it")
+"""Why an HV estimate ignores the settings of a Faraday-rotation correction (``Stage.insensitivity``)."""
 
 
 @dataclass(frozen=True)

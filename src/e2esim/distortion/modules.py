@@ -7,6 +7,7 @@ import numpy as np
 from e2esim import products as P
 from e2esim.distortion.analytic import FORMS, REFERENCES
 from e2esim.distortion.error_model import HVErrorModel
+from e2esim.distortion.faraday_correction import HV_UNCHANGED_BY_ROTATION
 from e2esim.distortion.montecarlo import METHODS, gaussianity, simulate
 from e2esim.module import Stage, fail
 from e2esim.params import Param
@@ -56,6 +57,13 @@ class HVBackscatterErrorPropagation(Stage):
     )
     needs = ("scene.covariance", "system.residual", "faraday.residual")
     provides = (P.BACKSCATTER_ERROR,)
+
+    def insensitivity(self, owner, key):
+        """sigma_hv cannot see the settings of a Faraday-rotation correction (``HV_UNCHANGED_BY_ROTATION``)."""
+        from e2esim.calibration.modules import rotation_only_setting
+
+        calibration = getattr(owner, "kind", None) == "calibration"
+        return HV_UNCHANGED_BY_ROTATION if calibration and rotation_only_setting(owner, key) else None
 
     def forward(self, case):
         c, s = self.si, case.settings

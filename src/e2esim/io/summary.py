@@ -13,6 +13,7 @@ import numpy as np
 
 from e2esim.io.atomic import write_text_atomic
 from e2esim.io.error_budget import agb_budget, source_groups, verdict_budget
+from e2esim.runner.no_effect import no_effect
 
 
 def requirement_sources(resolved) -> list:
@@ -81,7 +82,8 @@ about 2 kB and 0.2 ms each; past ten thousand cases nobody reads them, and a mil
 def summary_dict(result) -> dict:
     n = len(result.scenario.cases)
     head = {"scenario": result.scenario.name, **result.provenance, "n_cases": n,
-            "requirements": requirement_overview(result)}
+            "requirements": requirement_overview(result),
+            "settings_without_effect": [f.as_dict() for f in no_effect(result)]}
     if n > LARGE_RUN_CASES:
         return _clean({**head, "cases_omitted": f"{n} cases, more than {LARGE_RUN_CASES}: every case's inputs, "
                        "results and verdicts are in results.h5", "cases": []})

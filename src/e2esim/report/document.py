@@ -28,6 +28,7 @@ from e2esim.report.blocks import (
     table_blocks,
 )
 from e2esim.report.conclusions import conclusions
+from e2esim.report.no_effect_section import no_effect_section
 from e2esim.report.outliers import error_meaning
 from e2esim.report.sensitivity_table import SENSITIVITY_NOTE, exponent_sensitivity_table
 from e2esim.report.uncertainty import uncertainty_flags
@@ -79,6 +80,7 @@ def build_report(result, plots: list, warnings: list = ()) -> list:
         blocks += _budget_section(result, plots)
     else:
         blocks += [Paragraph("The scenario states no requirements.")]
+    blocks += no_effect_section(result)
     if sc.description:
         blocks += [Heading(2, "Scenario"), Paragraph(sc.description.strip())]
     if is_map_sweep(sc):  # thousands of cells: the maps and results.nc instead of per-case tables

@@ -46,6 +46,23 @@ def override_path(key: str) -> tuple:
     return tuple(int(p) if p.isdigit() else p for p in parts)
 
 
+NOT_GIVEN = object()
+"""``value_at`` of a key path the scenario does not set."""
+
+
+def value_at(data, path: tuple):
+    """The value at ``path`` in a scenario's raw data, or ``NOT_GIVEN``."""
+    node = data
+    for key in path:
+        if isinstance(node, dict) and key in node:
+            node = node[key]
+        elif isinstance(node, list) and isinstance(key, int) and 0 <= key < len(node):
+            node = node[key]
+        else:
+            return NOT_GIVEN
+    return node
+
+
 def parse_value(text: str, flag: str, key: str):
     """The value of an override, read as YAML with the scenario's rules and limits."""
     return parse_scalar(text, f"{flag} {shorten(key)}")

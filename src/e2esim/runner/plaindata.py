@@ -93,7 +93,7 @@ class _Encoder:
             node = self._remember(v, {"$": "l", "i": []})
             node["i"] = [self.encode(x) for x in v]
             return node
-        if t is dict:
+        if t is dict or (getattr(t, "plain_as_dict", False) and isinstance(v, dict)):  # a module's noting values
             node = self._remember(v, {"$": "d", "i": []})
             node["i"] = [[self.encode(k), self.encode(x)] for k, x in v.items()]
             return node

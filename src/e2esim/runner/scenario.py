@@ -20,7 +20,14 @@ from e2esim.errors import ConfigError, Location, ModuleLookupError, ScenarioFile
 from e2esim.module import KIND_ORDER, Module, Stage
 from e2esim.params import Param, find_param, unknown_key_error, validate_section
 from e2esim.runner.limits import check_monte_carlo, check_plain, shorten
-from e2esim.runner.overrides import check_not_swept, parse_value, remove_from_sweep, split_assignment
+from e2esim.runner.overrides import (
+    NOT_GIVEN,
+    check_not_swept,
+    parse_value,
+    remove_from_sweep,
+    split_assignment,
+    value_at,
+)
 from e2esim.runner.plan import CaseSpec, CaseSpecs, Slot, SweepPlan, combinations, number_shapes
 from e2esim.runner.plugins import plugin_list
 from e2esim.runner.sweep import _ABSENT, CaseLabels, sweep_table
@@ -118,6 +125,7 @@ class ResolvedScenario:
     cases: Sequence = field(default_factory=list)
     sweep_keys: tuple = ()
     plan: SweepPlan | None = None
+    overrides: tuple = ()  # (key, key path, given before, value before) of every --set (e2esim.runner.no_effect)
 
     @property
     def requirement_names(self) -> list:
@@ -163,8 +171,11 @@ class Scenario:
         top_level = top_level_keys()
         if path[0] not in top_level:
             raise unknown_key_error(Location(f"{self.source} (--set)", path[:1]), path[0], top_level)
+        previous = value_at(self.raw, path)
         _set_path(self.raw, path, parse_value(text, "--set", key), Location(self.source, path, self.lines))
         self.lines[path] = f"--set {shorten(key)}"
+        given = previous is not NOT_GIVEN  # what the value was before: e2esim.runner.no_effect
+        self.overrides = [*getattr(self, "overrides", ()), (key, path, given, previous if given else None)]
         return key, path
 
     def replace_sweep(self, assignment: str) -> None:
@@ -225,6 +236,7 @@ class Scenario:
             cases=cases,
             sweep_keys=sweep_keys,
             plan=plan,
+            overrides=tuple(getattr(self, "overrides", ())),
         )
 
     def _plan(self, table, root: Location) -> SweepPlan:

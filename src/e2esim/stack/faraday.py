@@ -22,6 +22,13 @@ cubature (``gaussian_cubature``): for up to 3 passes (1 or 2 dimensions) of degr
 rule, Radon's 7-point rule), exact for every monomial of degree <= 5, so the neglected terms are O(sigma_D^6);
 for more passes of degree 3 (+-sqrt(d) e_i, 2 d points), neglecting O(sigma_D^4) terms (the tests bound them
 against the fully symmetric degree-5 rule). The moments of the error are smooth functions of zeta.
+
+Each pass's co-polarised channels may be corrected with an *estimate* of its rotation, Omega_hat_n = Omega_n -
+dW_n (a calibration section's ``faraday_correction`` step, docs/theory/ground-cancellation.md, Section 3.3): the
+residual rotations dW_n are independent between the passes (each pass's estimate has its own window, speckle and
+noise), of Omega and of the system errors, each distributed as ``residual`` (``CalibrationRecord.faraday_error()``,
+as for one pass in ``e2esim.distortion.faraday_correction``). The Monte Carlo draws them from it; the analytic
+moments average them with a cubature for a Gaussian of the residual's mean and SD (``residual_nodes``).
 """
 
 from __future__ import annotations
@@ -32,6 +39,7 @@ import numpy as np
 
 from e2esim.errors import PhysicsInputError
 from e2esim.faraday.distribution import FaradayDistribution
+from e2esim.faraday.estimators import AMBIGUITY_PERIOD
 
 
 def gaussian_cubature(dim: int, degree: int | None = None) -> tuple[np.ndarray, np.ndarray]:
@@ -120,6 +128,9 @@ class StackFaraday:
 
     common: FaradayDistribution
     difference_sd: float = 0.0
+    residual: FaradayDistribution | None = None
+    """dW_n = Omega_n - Omega_hat_n of each pass's co-polarised correction (module docstring); None: corrected
+    with the true rotation."""
     _nodes: dict = field(default_factory=dict, repr=False, compare=False)
 
     def __post_init__(self):
@@ -152,3 +163,41 @@ class StackFaraday:
         common = self.common.sample(rng, realisations)
         delta = self.difference_sd / np.sqrt(2.0) * rng.standard_normal((realisations, passes))
         return common[:, None] + delta
+
+    def corrections(self, rng: np.random.Generator, omega: np.ndarray) -> np.ndarray:
+        """Omega_hat (M, N), the rotation each pass's co-polarised channels are corrected with: Omega itself, or
+        Omega - dW with dW drawn from ``residual`` for every pass and realisation."""
+        if self.residual is None:
+            return omega
+        return omega - self.residual.sample(rng, np.shape(omega))
+
+    def residual_nodes(self, passes: int) -> tuple[np.ndarray, np.ndarray]:
+        """(dW (J, N) rad, weights (J,)): a cubature (``gaussian_cubature``) for independent N(mu, s^2) per pass, mu
+        and s the residual's mean and SD after its pi/2 ambiguity errors are taken out (``residual_moments``); one
+        node at 0 without a residual. A residual enters HH and VV at second order and the spread of their
+        conditional means at fourth, so the rule is of degree 5 (O(s^6) left out); above 4 passes, where that rule
+        has negative weights, of degree 3, which leaves out the mixed terms dW_n^2 dW_m^2 of two passes: O(s^4), a
+        part of about 5 s^2 (rad) of the bias the residual adds, and its spread (ground-cancellation.md, Section
+        3.3)."""
+        if self.residual is None:
+            return np.zeros((1, passes)), np.ones(1)
+        mu, sd, _ = residual_moments(self.residual)
+        u, w = gaussian_cubature(passes, 5 if passes <= 4 else 3)
+        return mu + sd * u, w
+
+
+def residual_moments(residual: FaradayDistribution) -> tuple[float, float, float]:
+    """(mean, SD, fraction of pi/2 ambiguity errors) of a residual rotation dW: its samples folded into
+    (-pi/4, pi/4] (an estimate resolved on the wrong branch is off by a multiple of pi/2, which swaps HH and VV:
+    the Monte Carlo draws those; the analytic moments describe the rest). A distribution without samples gives its
+    own mean and SD."""
+    samples = getattr(residual, "samples", None)
+    if samples is None:
+        return float(residual.mean_rad), float(residual.sd_rad), 0.0
+    weights = residual.probabilities
+    branch = np.round(samples / AMBIGUITY_PERIOD)
+    wrong = branch != 0
+    folded = samples - AMBIGUITY_PERIOD * branch
+    mu = float(np.sum(weights * folded))
+    sd = float(np.sqrt(max(np.sum(weights * (folded - mu) ** 2), 0.0)))
+    return mu, sd, float(np.sum(weights[wrong]))

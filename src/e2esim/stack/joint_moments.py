@@ -7,7 +7,9 @@ rotation node the kernel ``e2esim.stack.channel_forms`` gives the mean and covar
 forms over the system errors; then, as ``stack.analytic`` does for HV and co-pol Section 5 for one pass:
 
 * Faraday rotation: the same nodes as ``stack.analytic`` (exact over Omega_0, cubature over the pass
-  differences), law of total covariance (the covariance of the conditional means is a term of its own);
+  differences), law of total covariance (the covariance of the conditional means is a term of its own); when the
+  co-polarised channels are corrected with estimates, times the cubature nodes of their residuals dW_n
+  (``StackFaraday.residual_nodes``, ground-cancellation.md Section 3.3);
 * the passes' own gain factors: Cov over eta of the conditional means sum eta_n eta_m Q_mn Y_nm^pp (exact), and
   M scaled by E[eta_n eta_m] in the conditional covariance (eq. 15);
 * the gain common to all passes, co-pol eq. (5.2); noise of power sigma_n per channel and pass, sigma_nu,p^2 =
@@ -73,8 +75,13 @@ def joint_node_terms(scene: StackScene, errors: StackSystemErrors, faraday: Stac
     weights and the passes' gain products: what ``stack_joint_moments`` evaluates at any level (cached by the
     error model per difference SD)."""
     nodes = pass_nodes(scene, errors, faraday, difference_sd)
-    omega = nodes.pop("omega")
-    out = channel_node_polynomials(scene.blocks(), combination.matrix, omega, omega if correct_copol else None,
+    omega, omega_hat = nodes.pop("omega"), None
+    if correct_copol:  # corrected with Omega_hat = Omega - dW: the nodes of Omega times those of dW
+        residual, weights = faraday.residual_nodes(scene.passes)
+        omega = np.repeat(omega, len(weights), axis=0)
+        omega_hat = omega - np.tile(residual, (len(nodes["weights"]), 1))
+        nodes["weights"] = np.outer(nodes["weights"], weights).ravel()
+    out = channel_node_polynomials(scene.blocks(), combination.matrix, omega, omega_hat,
                                    errors.pass_correlation(scene.passes), unit_covariances(errors.system),
                                    nodes["pair"], population_cross)
     out.update(nodes)

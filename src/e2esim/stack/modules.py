@@ -11,6 +11,8 @@ from e2esim import products as P
 from e2esim.budget.geometry import slant_range_spherical
 from e2esim.budget.modules import BackscatterErrorBudget
 from e2esim.budget.result import backscatter_budget
+from e2esim.calibration.modules import rotation_only_setting
+from e2esim.distortion.faraday_correction import HV_UNCHANGED_BY_ROTATION
 from e2esim.distortion.modules import analytic_caveat, analytic_problem
 from e2esim.distortion.montecarlo import gaussianity
 from e2esim.errors import PhysicsInputError
@@ -30,7 +32,7 @@ from e2esim.stack.acquisitions import (
 )
 from e2esim.stack.analytic import REFERENCES
 from e2esim.stack.error_model import StackHVErrorModel
-from e2esim.stack.faraday import StackFaraday, tec_difference_sd
+from e2esim.stack.faraday import StackFaraday, residual_moments, tec_difference_sd
 from e2esim.stack.joint_model import StackJointErrorModel
 from e2esim.stack.model_base import StackModelBase
 from e2esim.stack.montecarlo import NOISE_FACTORS, simulate_stack
@@ -156,6 +158,9 @@ class RVoGStackScene(Stage):
 
 
 CHANNELS = ("hv", "all")
+RESIDUAL_ANALYTIC_MAX_SD_RAD = math.radians(3.0)
+"""Beyond this SD of the residual rotation of the co-polarised correction, the analytic cubature misses more than
+3 % of the residual's own spread (and 5e-5 of the bias it adds; ground-cancellation.md, Section 3.3)."""
 
 
 class StackBackscatterError(Stage):
@@ -194,10 +199,12 @@ class StackBackscatterError(Stage):
               "multichannel retrieval; HV the same)", default="hv", choices=CHANNELS),
         Param("correct_copol_faraday", "bool", "correct each pass's co-polarised channels for its own Faraday rotation "
               "before the passes are combined, as the processor does at level 1 (Monte Carlo, and the analytic moments "
-              "of channels: all; HV is unchanged by it)", default=True),
+              "of channels: all; HV is unchanged by it), by the calibration's faraday_correction estimate when "
+              "there is one, else by the true rotation", default=True),
         Param("gaussianity", "bool", "test the simulated HV errors for Gaussianity", default=True),
     )
     needs = ("scene.stack", "system.residual", "faraday.residual")
+    uses = ("calibration",)
     provides = (P.BACKSCATTER_ERROR,)
 
     def combination(self, scene: StackScene):
@@ -227,21 +234,55 @@ class StackBackscatterError(Stage):
         rms = math.hypot(faraday.mean_rad, faraday.sd_rad)
         return tec_difference_sd(rms, cv, c["tec_correlation"])
 
+    def copol_residual(self, case) -> tuple:
+        """(dW distribution or None, notes): what is left of each pass's Faraday rotation in the co-polarised
+        channels after their correction. Only the joint model reads it (the symmetrised HV is unchanged by any
+        rotation): the residual of the calibration section's Faraday-rotation estimate, while no polarimetric step
+        has folded the rotation into the residual crosstalk; None (the true rotation) without such a step."""
+        if self.si["channels"] != "all" or not self.si["correct_copol_faraday"]:
+            return None, ()
+        record = case.get("calibration")
+        if record is None:
+            return None, ()
+        residual = record.faraday_error() if record.representation == "rotation_invariant" else None
+        if residual is None:
+            return None, ()
+        _, sd, wrong = residual_moments(residual)
+        notes = ()
+        if case.settings.analytic and wrong > 0.0:
+            notes += (f"{100 * wrong:.3g} % of the Faraday-rotation estimates of calibration resolve the pi/2 "
+                      "ambiguity wrongly (HH and VV swapped on that pass): the Monte Carlo draws them, the analytic "
+                      "moments leave them out",)
+        if case.settings.analytic and sd > RESIDUAL_ANALYTIC_MAX_SD_RAD:
+            notes += (f"the Faraday rotation left by calibration's estimates has an SD of {math.degrees(sd):.3g} deg: "
+                      "the analytic moments of HH and VV average it by a cubature that is approximate beyond "
+                      f"{math.degrees(RESIDUAL_ANALYTIC_MAX_SD_RAD):g} deg; the Monte Carlo is exact",)
+        return residual, notes
+
+    def insensitivity(self, owner, key):
+        """HV (and HH and VV left uncorrected) cannot see the settings of a Faraday-rotation correction."""
+        if getattr(owner, "kind", None) != "calibration" or not rotation_only_setting(owner, key):
+            return None
+        if self.si["channels"] == "all" and self.si["correct_copol_faraday"]:
+            return None
+        return HV_UNCHANGED_BY_ROTATION + ("" if self.si["channels"] == "hv" else
+                                           "; HH and VV are not corrected (correct_copol_faraday: false)")
+
     def forward(self, case):
         c, s = self.si, case.settings
         scene, system, faraday = case["scene.stack"], case["system.residual"], case["faraday.residual"]
         errors = StackSystemErrors(system, c["system_error_correlation"])
-        stack_faraday = StackFaraday(faraday, self.difference_sd(faraday))
+        residual, notes = self.copol_residual(case)
+        stack_faraday = StackFaraday(faraday, self.difference_sd(faraday), residual)
         combination = self.combination(scene)
         problem = analytic_problem(system) if s.analytic else None
         if problem is not None and not s.montecarlo:
             raise fail(self, f"case {case.index}: the analytic error model does not apply: {problem}",
                        "use simulation.mode: montecarlo (or both) for this case")
-        notes = ()
         if problem is not None:
-            notes = (f"analytic model not used: {problem}; results from the Monte Carlo",)
+            notes += (f"analytic model not used: {problem}; results from the Monte Carlo",)
         elif s.analytic and analytic_caveat(system):
-            notes = (analytic_caveat(system),)
+            notes += (analytic_caveat(system),)
         unavailable = (f"the analytic moments are not computed in simulation mode {s.mode!r}" if not s.analytic
                        else problem)
         joint = c["channels"] == "all"

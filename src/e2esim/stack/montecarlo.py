@@ -4,8 +4,9 @@ passes combined (single date, multi-date average, ground cancellation) as the pr
 Each realisation draws the system errors of every pass (``StackSystemErrors``, eq. 8), the Faraday rotation of
 every pass (``StackFaraday``, eq. 6) and, per pass, the measured vector m_n = g_n K_n s_n + n_n of Men et al.
 (2021), eq. (1) (K_n = (T_n^T kron R_n)(F_n^T kron F_n)); the co-polarised channels may be corrected for each
-pass's Faraday rotation, F(-Omega_n) M F(-Omega_n) (Quegan et al. 2018, eq. 4), which leaves the symmetrised HV
-unchanged. The per-pass estimates z_n = (M_hh, (M_hv + M_vh)/2, M_vv) form the 3N-vector z = A s + nu.
+pass's Faraday rotation, F(-Omega_hat_n) M F(-Omega_hat_n) (Quegan et al. 2018, eq. 4) with the true rotation or
+an estimate of it (``StackFaraday.residual``), which leaves the symmetrised HV unchanged. The per-pass estimates
+z_n = (M_hh, (M_hv + M_vh)/2, M_vv) form the 3N-vector z = A s + nu.
 
 Fast path, exact in distribution (cost independent of the looks L), as ``e2esim.distortion.montecarlo``:
 
@@ -61,12 +62,13 @@ def faraday_correction(omega: np.ndarray) -> np.ndarray:
     return distortion_operator(np.zeros(omega.shape + (4,)), np.ones(omega.shape + (2,)), -omega)
 
 
-def pass_operators(delta, f, omega, gain, correct_copol: bool) -> np.ndarray:
-    """A_n: the 3 x 3 maps from (S_hh, S_hv, S_vv) of each pass to its estimates (..., 3, 3)."""
+def pass_operators(delta, f, omega, gain, correct_copol: bool, omega_hat=None) -> np.ndarray:
+    """A_n: the 3 x 3 maps from (S_hh, S_hv, S_vv) of each pass to its estimates (..., 3, 3); the co-polarised
+    channels corrected with ``omega_hat`` (None: the true ``omega``) when ``correct_copol``."""
     k = SystemState(delta, f, omega, gain.astype(complex)).operator() @ RECIPROCAL_EMBEDDING
     a = ESTIMATES @ k
-    if correct_copol:  # the symmetrised HV row is unchanged by the correction (tested)
-        a = ESTIMATES @ (faraday_correction(omega) @ k)
+    if correct_copol:  # the symmetrised HV row is unchanged by the correction, whatever omega_hat (tested)
+        a = ESTIMATES @ (faraday_correction(omega if omega_hat is None else omega_hat) @ k)
     return a
 
 
@@ -93,10 +95,11 @@ def simulate_stack(scene: StackScene, errors: StackSystemErrors, faraday: StackF
     n = scene.passes
     if reference == "scene" and looks < 3 * n:
         raise PhysicsInputError(f"the fast Monte Carlo of one scene needs at least 3N = {3 * n} looks, got {looks}")
-    # draw order: system errors, Faraday rotation, scene, noise
+    # draw order: system errors, Faraday rotation, its estimates' residuals (when corrected with them), scene, noise
     delta, f, gain = errors.sample(rng, realisations, n)
     omega = faraday.sample(rng, realisations, n)
-    big = _block_diagonal(pass_operators(delta, f, omega, gain, correct_copol))  # (M, 3N, 3N)
+    omega_hat = faraday.corrections(rng, omega) if correct_copol else None
+    big = _block_diagonal(pass_operators(delta, f, omega, gain, correct_copol, omega_hat))  # (M, 3N, 3N)
     big = np.repeat(big, noise_realisations, axis=0)
     d = np.tile(errors.system.noise_power * NOISE_FACTORS, n)  # noise power of every estimate
     if reference == "population":
