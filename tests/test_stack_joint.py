@@ -4,7 +4,6 @@ analytic joint moments against the Monte Carlo (statistical, any seed), the mult
 cancelled data with the random-error budget."""
 
 import dataclasses
-
 import functools
 
 import numpy as np
@@ -12,7 +11,6 @@ import pytest
 
 from e2esim.distortion.covariance_montecarlo import noncentral_wishart
 from e2esim.distortion.faraday_correction import FaradayCorrection
-from e2esim.distortion.polarimetric_model import PolarimetricErrorModel
 from e2esim.distortion.polarimetric_moments import polarimetric_error_moments
 from e2esim.distortion.validation import sample_covariance_moments
 from e2esim.retrieval.combine import intensity_correlation

@@ -65,9 +65,9 @@ def pairing_terms(degrees: tuple = (3, 4)) -> dict:
             ks, ms, ls, ns = (np.flatnonzero(sizes == x) for x in (su, degree - su, sd, degree - sd))
             if min(len(ks), len(ms), len(ls), len(ns)) == 0:
                 continue
-            k, l, m, n = (x.ravel() for x in np.meshgrid(ks, ls, ms, ns, indexing="ij"))
+            k, el, m, n = (x.ravel() for x in np.meshgrid(ks, ls, ms, ns, indexing="ij"))
             up = np.concatenate([padded[k, :su], padded[m, :degree - su]], 1)  # (C, degree)
-            down = np.concatenate([padded[l, :sd], padded[n, :degree - sd]], 1)
+            down = np.concatenate([padded[el, :sd], padded[n, :degree - sd]], 1)
             perms = np.array(list(itertools.permutations(range(degree))))  # (P, degree)
             # a pairing within (m_k, m_l) and within (m_m, m_n) is part of E[q_p] E[q_q]: left out
             keep = ~np.all((perms[:, :su] < sd), axis=1) if su == sd else np.ones(len(perms), bool)
@@ -79,7 +79,7 @@ def pairing_terms(degrees: tuple = (3, 4)) -> dict:
             b = paired[ci, pi]
             crosstalk = np.isin(a, sorted(_CROSSTALK)).sum(1)
             pad = np.full((len(ci), 4 - degree), _ONE)
-            blocks.append(np.column_stack([order[degree] + degree - crosstalk, k[ci], l[ci], m[ci], n[ci],
+            blocks.append(np.column_stack([order[degree] + degree - crosstalk, k[ci], el[ci], m[ci], n[ci],
                                            a, pad, b, pad]))
     t = np.concatenate(blocks).astype(np.intp)
     # bijections with the same (k, l, m, n) and monomial are summed before the contraction

@@ -39,7 +39,7 @@ from e2esim.distortion.channel_moments import (
     unit_covariances,
 )
 from e2esim.distortion.expansion import expansion_at
-from e2esim.distortion.faraday_correction import FaradayCorrection
+from e2esim.distortion.faraday_correction import CORRECTED_DEGREE, FaradayCorrection
 from e2esim.distortion.higher_order import covariance_coefficients, higher_monomials, split_by_source
 from e2esim.polarimetry.system_model import RECIPROCAL_CHANNELS, estimator_noise_factor
 
@@ -229,7 +229,7 @@ def error_polynomial(scene, system, faraday, correction: FaradayCorrection | Non
     key = (np.ascontiguousarray(scene.matrix).tobytes(), gammas.tobytes(), faraday, correction)
     poly = _RECENT.get(key)
     if poly is None:
-        omega, omega_hat, weights = correction.nodes(faraday)
+        omega, omega_hat, weights = correction.nodes(faraday, CORRECTED_DEGREE)
         poly = ErrorPolynomial.build(scene.matrix, gammas, omega, omega_hat, weights)
         if len(_RECENT) >= _RECENT_SIZE:
             _RECENT.pop(next(iter(_RECENT)))
