@@ -17,16 +17,10 @@ from e2esim.distortion.validity import (
 )
 from e2esim.module import Stage, fail
 from e2esim.params import Param
-from e2esim.units import THREE_SIGMA_AMPLITUDE
 
 VALIDITY_NOTE = "analytic model used beyond its validity range"
 """How a case note outside a model's measured validity range begins (``e2esim run`` repeats such notes as
 warnings)."""
-
-
-def analytic_problem(system, convention: str = THREE_SIGMA_AMPLITUDE) -> str | None:
-    """Why no analytic model describes ``system`` at all (a level above ``HARD_LIMIT_VARIANCE``), or None."""
-    return hard_limit_problem(system, convention)
 
 
 def analytic_caveat(system) -> str | None:
