@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from e2esim.distortion.validity import describe_level
 from e2esim.requirements.tradeoff import (
     TRADEOFF_LEVELS,
     axis_limits,
@@ -17,7 +18,6 @@ from e2esim.requirements.tradeoff import (
     requirement_violation,
     tradeoff_curve,
 )
-from e2esim.distortion.validity import describe_level
 from e2esim.units import level_db_from_variance, variance_from_level_db
 
 INSTRUMENT_LEVELS = ("crosstalk", "channel_imbalance")
@@ -56,7 +56,8 @@ def validity_note(model) -> str | None:
         return None
     return (f"level margins and trade-off curves stop at the edge of the validity range of the {validity.model}, "
             f"{describe_level(validity.search_limit)}: a crosstalk or channel-imbalance limit beyond it is given as "
-            "infinite and the curve has no points there (docs/theory/validity.md); the Monte Carlo can go further")
+            "infinite and the curve has no points there; the Gaussian quantiles of eq. (19) behind them hold in a "
+            "narrower range, and near a crosstalk limit the Monte Carlo's are larger (docs/theory/validity.md)")
 
 
 def _capped(limit, edge):
