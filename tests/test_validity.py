@@ -225,6 +225,11 @@ def test_past_the_hard_limit_mode_analytic_refuses_in_the_scenarios_convention()
                           "channel_imbalance": {"level_db": -40.0, "convention": "variance"}}
     with pytest.raises(ConfigError, match=r"-9\.0 dB \(variance convention: V = 0\.13; -2\.5 dB as a 3-sigma label\)"):
         run_scenario(Scenario(data, "v.yaml").resolve(), progress=False)
+    # the co-polarised model, exact up to the hard limit, refuses beyond it too, and takes the Monte Carlo in both
+    with pytest.raises(ConfigError, match=r"crosstalk level -2\.0 dB .* hard limit of the analytic models"):
+        _run(-2.0, propagation={"type": "polarimetric_error"})
+    both = _run(-2.0, "both", propagation={"type": "polarimetric_error"})
+    assert any(n.startswith("analytic model not used") and "hard limit" in n for n in both.notes)
 
 
 def test_the_fast_path_declines_cases_past_the_range_and_gives_the_per_case_numbers():
