@@ -33,16 +33,21 @@ def _model(scene=None, correction=CORRECTED, montecarlo=None, **kw):
 
 
 def test_primary_channel_is_the_hv_model_of_men_et_al():
+    # the same mean (exact in both); the variance adds the O(V^3) and O(V^4) terms the HV model leaves out
+    # (co-pol eq. 3.6): 5.5e-6 of it at the specification, 1e-4 where the trade-off curve below ends
+    # (test_copol_theory checks the equality to 1e-12 without them)
     poly, hv = _model(), HVErrorModel(forest("boreal_200"), system(), FR, looks=100_000)
     assert poly.value == hv.value and poly.levels == hv.levels
     assert float(poly.current().mean) == pytest.approx(float(hv.current().mean), rel=1e-12)
-    assert float(poly.current().variance) == pytest.approx(float(hv.current().variance), rel=1e-12)
+    assert float(poly.current().variance) == pytest.approx(float(hv.current().variance), rel=1e-5)
+    assert float(poly.current().variance) != float(hv.current().variance)
     req = AGBRequirement(0.2, 0.99865, "over", 2.2)
     x = np.logspace(-5, -2.5, 7)
-    assert np.allclose(tradeoff_curve(req, poly, x), tradeoff_curve(req, hv, x), rtol=1e-7, equal_nan=True)
+    assert np.allclose(tradeoff_curve(req, poly, x), tradeoff_curve(req, hv, x), rtol=1e-3, equal_nan=True)
     for source in ("crosstalk", "channel_imbalance", "noise", "faraday_rotation"):
+        # without the channel imbalance the variance has no first-order part: the higher terms weigh more (7e-5)
         a, b = poly.without(source).current(), hv.without(source).current()
-        assert float(a.variance) == pytest.approx(float(b.variance), rel=1e-10, abs=1e-20)
+        assert float(a.variance) == pytest.approx(float(b.variance), rel=2e-4, abs=1e-20)
 
 
 def test_views_contributions_and_sources():

@@ -4,13 +4,14 @@ analytic joint moments against the Monte Carlo (statistical, any seed), the mult
 cancelled data with the random-error budget."""
 
 import dataclasses
+import functools
 
 import numpy as np
 import pytest
 
 from e2esim.distortion.covariance_montecarlo import noncentral_wishart
 from e2esim.distortion.faraday_correction import FaradayCorrection
-from e2esim.distortion.polarimetric_model import PolarimetricErrorModel
+from e2esim.distortion.polarimetric_moments import polarimetric_error_moments
 from e2esim.distortion.validation import sample_covariance_moments
 from e2esim.retrieval.combine import intensity_correlation
 from e2esim.retrieval.multichannel import TABLE1_ALPHA
@@ -92,20 +93,25 @@ def test_stable_errors_reduce_to_issue_12_on_the_ground_cancelled_covariance(ref
     errors, faraday = stack_errors(correlation=1.0, difference_deg=0.0)
     for comb in (combos.subtraction(3, 2, 0), combos.single_date(3, 1)):
         joint = StackJointErrorModel(scene, errors, faraday, comb, 150, reference, correct_copol=correct)
-        single = PolarimetricErrorModel(
-            ScatteringCovariance(comb.combined_covariance(scene.blocks())),
+        # the stack kernel is second order in the errors (eq. 22): the single-pass moments to the same order
+        single = functools.partial(
+            polarimetric_error_moments, ScatteringCovariance(comb.combined_covariance(scene.blocks())),
             errors.system.with_levels(noise_power=errors.system.noise_power * comb.noise_gain), BOREAL_FR,
-            FaradayCorrection("perfect" if correct else "none"), 150, reference)
-        a, b = joint.current_joint(), single.current_joint()
+            FaradayCorrection("perfect" if correct else "none"), 150, reference, higher_order=False)
+        a, b = joint.current_joint(), single()
+        # corrected: the single-pass moments average the O(V^3), O(V^4) part of the spread of the conditional mean
+        # exactly (harmonics up to 16 Omega, 33 nodes; co-pol sec. 4), the stack's rule to degree 8: 1e-8 of the
+        # covariance here, 1e-7 at crosstalk 3e-3 (the part grows as V^3)
+        cov_rtol = 1e-6 if correct else RTOL
         np.testing.assert_allclose(joint.values, b.sigma, rtol=RTOL)
         np.testing.assert_allclose(a.mean, b.mean, rtol=0, atol=RTOL * np.abs(b.mean).max())
-        np.testing.assert_allclose(a.covariance, b.covariance, rtol=0, atol=RTOL * np.abs(b.covariance).max())
+        np.testing.assert_allclose(a.covariance, b.covariance, rtol=0, atol=cov_rtol * np.abs(b.covariance).max())
         np.testing.assert_allclose(a.expected_covariance, b.expected_covariance, rtol=0,
                                    atol=RTOL * np.abs(b.expected_covariance).max())
         x = np.array([1e-4, 3e-3])  # at other levels too
         np.testing.assert_allclose(joint.joint_moments(crosstalk=x).covariance,
-                                   single.joint_moments(crosstalk=x).covariance, rtol=0,
-                                   atol=RTOL * np.abs(b.covariance).max())
+                                   single(crosstalk_level=x).covariance, rtol=0,
+                                   atol=cov_rtol * np.abs(b.covariance).max())
 
 
 def _agree(rng, site, reference, looks, rho, diff_deg, correct, realisations):

@@ -150,6 +150,30 @@ def _scenario(args):
                          replace_sweep=args.replace_sweep)
 
 
+def validity_warnings(result, shown: int = 3) -> list:
+    """Lines warning of cases whose analytic numbers come from a model used beyond its measured validity range
+    (case notes beginning with ``distortion.modules.VALIDITY_NOTE``): the first ``shown`` notes and a count."""
+    import numpy as np
+
+    from e2esim.distortion.modules import VALIDITY_NOTE
+
+    notes = result.table.notes
+    counts = np.bincount(notes.index, minlength=len(notes.values))
+    per_note: dict = {}
+    for value, count in zip(notes.values, counts):
+        for note in value:
+            if note.startswith(VALIDITY_NOTE):
+                per_note[note] = per_note.get(note, 0) + int(count)
+    if not per_note:
+        return []
+    total = sum(per_note.values())
+    lines = [f"{total} case(s) use an analytic model beyond its validity range (docs/theory/validity.md):"]
+    lines += [f"  {count} case(s): {note}" for note, count in list(per_note.items())[:shown]]
+    if len(per_note) > shown:
+        lines.append(f"  ... and {len(per_note) - shown} more such notes (see the report)")
+    return lines
+
+
 def cmd_run(args) -> int:
     from e2esim.io.summary import summary_json
     from e2esim.report.document import verdict_lines
@@ -191,6 +215,8 @@ def cmd_run(args) -> int:
     print(f"{resolved.name}: {len(result.cases)} case(s); outputs in {folder}/", file=out)
     for line in verdict_lines(result) or ["(no requirements stated)"]:
         print("  " + line, file=out)
+    for line in validity_warnings(result):
+        print(f"e2esim: warning: {line}", file=sys.stderr)
     if args.json:
         print(summary_json(result))
     return 0

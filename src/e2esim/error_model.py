@@ -65,12 +65,15 @@ class ErrorModel(ABC):
     includes_speckle : the error already counts speckle over the looks (so a random-error budget must not
         count it again).
     notes : remarks for the report (e.g. why the analytic model was not used).
+    validity : the measured validity range of the analytic moments (``e2esim.distortion.validity.ValidityRange``:
+        margins and trade-off curves search the levels up to its edge), or None when not known.
     """
 
     channel: str = "hv"
     unavailable: str | None = None
     includes_speckle: bool = False
     notes: tuple = ()
+    validity = None
 
     @property
     @abstractmethod
@@ -269,6 +272,10 @@ class DerivedErrorModel(ErrorModel):
     @property
     def notes(self) -> tuple:
         return self.source.notes
+
+    @property
+    def validity(self):
+        return self.source.validity
 
     def moments(self, **levels) -> Moments:
         self.check_available()

@@ -18,6 +18,7 @@ import numpy as np
 from e2esim.distortion.analytic import HVErrorMoments, hv_error_moments
 from e2esim.distortion.montecarlo import MonteCarloErrors
 from e2esim.distortion.validation import compare_with_analytic, sample_moments
+from e2esim.distortion.validity import VALIDITY, ValidityRange
 from e2esim.error_model import Contribution, ErrorModel, ErrorModelUnavailable
 from e2esim.faraday.distribution import ConstantFaraday, FaradayDistribution
 from e2esim.instrument.system_errors import SystemErrorModel
@@ -89,6 +90,11 @@ class HVErrorModel(SystemLevels, ErrorModel):
     _memo: dict = field(default_factory=dict, repr=False, compare=False)
 
     channel = "hv"
+
+    @property
+    def validity(self) -> ValidityRange:
+        """The measured validity range of the analytic form (docs/theory/validity.md)."""
+        return VALIDITY["hv_" + self.form]
 
     @property
     def value(self) -> float:

@@ -25,6 +25,7 @@ from e2esim.distortion.error_model import (
     analytic_scalars,
     split_contributions,
 )
+from e2esim.distortion.validity import VALIDITY, ValidityRange
 from e2esim.error_model import ErrorModel
 from e2esim.faraday.distribution import ConstantFaraday
 
@@ -59,6 +60,11 @@ class HVErrorModelBlock(Batched, SystemLevels, ErrorModel):
     _memo: dict = field(default_factory=dict, repr=False, compare=False)
 
     channel = "hv"
+
+    @property
+    def validity(self) -> ValidityRange:
+        """The measured validity range of the analytic form (docs/theory/validity.md)."""
+        return VALIDITY["hv_" + self.form]
     unavailable = None
     notes = ()
 

@@ -9,8 +9,11 @@ the raw model with rotated distortion matrices and the residual rotation dW. The
 unchanged by the correction for any W_hat (Men et al. 2021, eq. 2); the co-polarised ones are not. The
 moments are averaged over (Omega, dW) with Omega from the geophysical distribution and dW independent of it
 (the distribution ``CalibrationRecord.faraday_error()`` gives), on a product of the exact Fourier quadratures
-of both (``FaradayDistribution.quadrature``): every quantity is a trigonometric polynomial of degree <= 8 in
-Omega and in dW (co-pol sec. 4).
+of both (``FaradayDistribution.quadrature``). Every quantity is a trigonometric polynomial of degree <= 8 in dW;
+in Omega too without a correction. With one, the rotated distortion terms F(-W_hat) R_i F(W_hat) carry harmonics
+2 Omega (one error term) and 4 Omega (two): the mean and the covariance to O(V^2) stay within degree 8, the O(V^3)
+and O(V^4) covariance terms and the spread of the conditional mean reach degree 16 (``CORRECTED_DEGREE``, co-pol
+sec. 4).
 """
 
 from __future__ import annotations
@@ -20,7 +23,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from e2esim.errors import PhysicsInputError
-from e2esim.faraday.distribution import ConstantFaraday, FaradayDistribution
+from e2esim.faraday.distribution import QUADRATURE_DEGREE, ConstantFaraday, FaradayDistribution
 
 MODES = ("none", "perfect", "estimated")
 HV_UNCHANGED_BY_ROTATION = (
@@ -28,6 +31,8 @@ HV_UNCHANGED_BY_ROTATION = (
     "data changes (Men et al. 2021, eq. 2; docs/theory/ground-cancellation.md, Section 3.3): a Faraday-rotation "
     "correction, and the error of its estimate, cannot change it")
 """Why an HV estimate ignores the settings of a Faraday-rotation correction (``Stage.insensitivity``)."""
+CORRECTED_DEGREE = 16
+"""Highest harmonic in Omega of the exact covariance of corrected co-polarised channels (module docstring)."""
 
 
 @dataclass(frozen=True)
@@ -54,10 +59,11 @@ class FaradayCorrection:
             return f"Faraday rotation corrected by an estimate (residual {self.residual.describe()})"
         return {"none": "Faraday rotation not corrected", "perfect": "Faraday rotation corrected exactly"}[self.mode]
 
-    def nodes(self, faraday: FaradayDistribution) -> tuple:
+    def nodes(self, faraday: FaradayDistribution, corrected_degree: int = QUADRATURE_DEGREE) -> tuple:
         """(omega, omega_hat or None, weights), each (G,): nodes and weights that average a trigonometric
-        polynomial of degree <= 8 in Omega (and in dW) over the distributions exactly."""
-        om, w = nodes_of(faraday)
+        polynomial of degree <= 8 in dW, and in Omega of degree <= 8 without a correction and <=
+        ``corrected_degree`` with one, over the distributions exactly."""
+        om, w = nodes_of(faraday, QUADRATURE_DEGREE if self.mode == "none" else corrected_degree)
         if self.mode == "none":
             return om, None, w
         if self.mode == "perfect":
@@ -75,8 +81,9 @@ class FaradayCorrection:
         return np.asarray(omega, float) - self.residual.sample(rng, np.shape(omega))
 
 
-def nodes_of(dist: FaradayDistribution) -> tuple:
-    """Quadrature nodes and weights of a distribution; a single node for a constant rotation."""
+def nodes_of(dist: FaradayDistribution, degree: int = QUADRATURE_DEGREE) -> tuple:
+    """Quadrature nodes and weights of a distribution, exact to ``degree``; a single node for a constant
+    rotation."""
     if isinstance(dist, ConstantFaraday):
         return np.array([float(dist.value)]), np.ones(1)
-    return dist.quadrature()
+    return dist.quadrature(degree)

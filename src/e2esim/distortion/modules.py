@@ -9,21 +9,19 @@ from e2esim.distortion.analytic import FORMS, REFERENCES
 from e2esim.distortion.error_model import HVErrorModel
 from e2esim.distortion.faraday_correction import HV_UNCHANGED_BY_ROTATION
 from e2esim.distortion.montecarlo import METHODS, gaussianity, simulate
+from e2esim.distortion.validity import (
+    VALIDITY,
+    ValidityRange,
+    beyond_range,
+    hard_limit_problem,
+    scenario_convention,
+)
 from e2esim.module import Stage, fail
 from e2esim.params import Param
 
-MAX_ANALYTIC_LEVEL = 0.1
-"""Largest crosstalk or channel-imbalance variance (-10 dB) for which the second-order expansion of Men et
-al. (2021) is used; beyond it the errors are not small and only the Monte Carlo is exact."""
-
-
-def analytic_problem(system) -> str | None:
-    """Why the analytic moments cannot describe ``system`` at all, or None."""
-    for name, level in (("crosstalk", system.crosstalk_level), ("channel imbalance", system.imbalance_level)):
-        if level > MAX_ANALYTIC_LEVEL:
-            return (f"the {name} variance {level:.3g} is not small (above {MAX_ANALYTIC_LEVEL:g}, -10 dB), so the "
-                    "second-order expansion of Men et al. (2021) does not hold")
-    return None
+VALIDITY_NOTE = "analytic model used beyond its validity range"
+"""How a case note outside a model's measured validity range begins (``e2esim run`` repeats such notes as
+warnings)."""
 
 
 def analytic_caveat(system) -> str | None:
@@ -31,6 +29,38 @@ def analytic_caveat(system) -> str | None:
     correlated outside the pairs of Men et al. 2021, Section III), or None."""
     check = getattr(system, "analytic_caveat", None)
     return check() if callable(check) else None
+
+
+def in_plain_range(system, validity: ValidityRange) -> bool:
+    """The analytic model describes ``system`` plainly: within its validity range, no caveat (the batched fast
+    paths take such cases only; ``analytic_use`` reports the others)."""
+    return beyond_range(system, validity) is None and not analytic_caveat(system)
+
+
+def analytic_use(stage, case, system, validity: ValidityRange) -> tuple:
+    """(why the analytic moments are not used, or None; notes) for a case of a propagation stage.
+
+    Past the hard limit: refused in simulation mode ``analytic``, the Monte Carlo alone in ``both``. Past the
+    model's measured validity range (``e2esim.distortion.validity``): the Monte Carlo alone in ``both``; in
+    ``analytic`` a note beginning with ``VALIDITY_NOTE`` (a warning of ``e2esim run``). Levels are given in the
+    scenario's convention and as 3-sigma labels.
+    """
+    s = case.settings
+    if not s.analytic:
+        return f"the analytic moments are not computed in simulation mode {s.mode!r}", ()
+    convention = scenario_convention(case)
+    problem = hard_limit_problem(system, convention)
+    if problem is not None and not s.montecarlo:
+        raise fail(stage, f"case {case.index}: the analytic error model does not apply: {problem}",
+                   "use simulation.mode: montecarlo (or both) for this case")
+    beyond = None if problem is not None else beyond_range(system, validity, convention)
+    if (problem or beyond) is not None and s.montecarlo:
+        why = problem or beyond
+        return why, (f"analytic model not used: {why}; results from the Monte Carlo",)
+    notes = () if beyond is None else (
+        f"{VALIDITY_NOTE}: {beyond}; the analytic numbers are approximate: use simulation.mode both or montecarlo",)
+    caveat = analytic_caveat(system)
+    return None, notes + ((caveat,) if caveat else ())
 
 
 class HVBackscatterErrorPropagation(Stage):
@@ -65,27 +95,20 @@ class HVBackscatterErrorPropagation(Stage):
         calibration = getattr(owner, "kind", None) == "calibration"
         return HV_UNCHANGED_BY_ROTATION if calibration and rotation_only_setting(owner, key) else None
 
+    @property
+    def validity(self) -> ValidityRange:
+        """The measured validity range of the analytic form used (docs/theory/validity.md)."""
+        return VALIDITY["hv_" + self.si["variance_form"]]
+
     def forward(self, case):
         c, s = self.si, case.settings
         scene, system, faraday = case["scene.covariance"], case["system.residual"], case["faraday.residual"]
         mc = gauss = None
-        notes = ()
-        problem = analytic_problem(system) if s.analytic else None
-        if problem is not None and not s.montecarlo:
-            raise fail(self, f"case {case.index}: the analytic error model does not apply: {problem}",
-                       "use simulation.mode: montecarlo (or both) for this case")
-        if problem is not None:  # mode both: the Monte Carlo alone, and say why
-            notes = (f"analytic model not used: {problem}; results from the Monte Carlo",)
-        elif s.analytic and analytic_caveat(system):
-            notes = (analytic_caveat(system),)
-        if s.analytic and problem is None and not scene.is_reflection_symmetric():
+        unavailable, notes = analytic_use(self, case, system, self.validity)
+        if unavailable is None and not scene.is_reflection_symmetric():
             raise fail(self, "the analytic error model assumes a reflection-symmetric scene (Men et al. 2021, "
                        f"Section III) but case {case.index} has HH-HV or HV-VV correlation",
                        "use simulation.mode: montecarlo for this scene")
-        if not s.analytic:
-            unavailable = f"the analytic moments are not computed in simulation mode {s.mode!r}"
-        else:
-            unavailable = problem
         looks = s.looks if c["variance_form"] == "complete" else None
         model = HVErrorModel(scene, system, faraday, c["variance_form"], looks, c["reference"],
                              notes=notes, unavailable=unavailable)
@@ -102,8 +125,8 @@ class HVBackscatterErrorPropagation(Stage):
 
     def forward_block(self, block):
         """``forward`` for a block of analytic cases at once (``HVErrorModelBlock``); None (case by case) for a
-        Monte Carlo, and for cases the analytic model does not describe plainly (large errors, a caveat, a
-        scene that is not reflection symmetric): ``forward`` reports those."""
+        Monte Carlo, and for cases the analytic model does not describe plainly (levels beyond its validity range, a
+        caveat, a scene that is not reflection symmetric): ``forward`` reports those."""
         from e2esim.block import Factor
         from e2esim.distortion.error_model_block import HVErrorModelBlock, block_inputs
 
@@ -113,7 +136,8 @@ class HVBackscatterErrorPropagation(Stage):
         if s.montecarlo or not s.analytic or not all(isinstance(p, Factor) for p in (scene, system)) or not (
                 isinstance(faraday, Factor) or batched_faraday):
             return None
-        plain = system.table("plain analytic", lambda v: not (analytic_problem(v) or analytic_caveat(v)))
+        validity = self.validity
+        plain = system.table(f"plain analytic, {validity.model}", lambda v: in_plain_range(v, validity))
         symmetric = scene.table("reflection symmetric", lambda v: v.is_reflection_symmetric())
         if not (plain[system.index].all() and symmetric[scene.index].all()):
             return None

@@ -21,6 +21,7 @@ from e2esim.distortion.error_model import LEVELS, SystemLevels
 from e2esim.distortion.faraday_correction import FaradayCorrection
 from e2esim.distortion.polarimetric_moments import ChannelErrorMoments, error_polynomial, evaluate, evaluate_totals
 from e2esim.distortion.validation import sample_covariance_moments
+from e2esim.distortion.validity import VALIDITY
 from e2esim.error_model import JointContribution, JointMoments, MultiChannelErrorModel
 from e2esim.faraday.distribution import ConstantFaraday, FaradayDistribution
 from e2esim.instrument.system_errors import SystemErrorModel
@@ -61,6 +62,7 @@ class PolarimetricErrorModel(SystemLevels, MultiChannelErrorModel):
 
     channel = "hv"
     channels = RECIPROCAL_CHANNELS
+    validity = VALIDITY["polarimetric"]
 
     @property
     def values(self) -> np.ndarray:

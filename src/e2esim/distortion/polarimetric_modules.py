@@ -7,11 +7,12 @@ import numpy as np
 from e2esim import products as P
 from e2esim.distortion.covariance_montecarlo import simulate_covariance
 from e2esim.distortion.faraday_correction import FaradayCorrection
-from e2esim.distortion.modules import analytic_caveat, analytic_problem
+from e2esim.distortion.modules import analytic_use
 from e2esim.distortion.montecarlo import METHODS, gaussianity
 from e2esim.distortion.polarimetric_model import PolarimetricErrorModel
 from e2esim.distortion.polarimetric_moments import REFERENCES
-from e2esim.module import Stage, fail
+from e2esim.distortion.validity import VALIDITY
+from e2esim.module import Stage
 from e2esim.params import Param
 
 CORRECTIONS = ("auto", "none", "perfect")
@@ -65,17 +66,8 @@ class PolarimetricErrorPropagation(Stage):
         s = case.settings
         scene, system, faraday = case["scene.covariance"], case["system.residual"], case["faraday.residual"]
         correction, note = self.correction(case)
-        notes = (note,) if note else ()
-        problem = analytic_problem(system) if s.analytic else None
-        if problem is not None and not s.montecarlo:
-            raise fail(self, f"case {case.index}: the analytic error model does not apply: {problem}",
-                       "use simulation.mode: montecarlo (or both) for this case")
-        if problem is not None:
-            notes += (f"analytic model not used: {problem}; results from the Monte Carlo",)
-        elif s.analytic and analytic_caveat(system):
-            notes += (analytic_caveat(system),)
-        unavailable = (f"the analytic moments are not computed in simulation mode {s.mode!r}" if not s.analytic
-                       else problem)
+        unavailable, notes = analytic_use(self, case, system, VALIDITY["polarimetric"])
+        notes = ((note,) if note else ()) + notes
         model = PolarimetricErrorModel(scene, system, faraday, correction, s.looks, self.si["reference"], notes=notes,
                                        unavailable=unavailable)
         if unavailable is None:

@@ -4,8 +4,9 @@
 the mean vector and covariance matrix of ``e_p = sigma_hat_p - sigma_p`` for p in (hh, hv, vv), with their
 parts by source, at any crosstalk, channel-imbalance and noise levels (broadcast, one call for a curve):
 
-* at fixed angles, the exact mean and the O(V^2)-complete covariance of the signal powers
-  (``e2esim.distortion.channel_moments``, co-pol eqs. 3.2-3.3), as polynomials in the levels;
+* at fixed angles, the exact mean and the exact covariance of the signal powers, as polynomials in the levels:
+  to O(V^2) by ``e2esim.distortion.channel_moments`` (co-pol eqs. 3.2-3.3), the O(V^3) and O(V^4) rest by
+  ``e2esim.distortion.higher_order`` (co-pol eq. 3.6);
 * averaged exactly over Faraday rotation (and the residual rotation of a correction,
   ``e2esim.distortion.faraday_correction``) with the law of total covariance (co-pol eq. 4.2):
   ``Cov e = E_Omega[Cov(e | Omega)] + Cov_Omega[E(e | Omega)]``. The co-polarised channels are not
@@ -15,7 +16,9 @@ parts by source, at any crosstalk, channel-imbalance and noise levels (broadcast
   window of L looks, the noise (``scene`` reference) or noise and speckle (``population``) over the window
   (co-pol sec. 5).
 
-For HV this equals ``e2esim.distortion.analytic.hv_error_moments(form="complete")`` (tested to 1e-12).
+For HV its terms to O(V^2) equal ``e2esim.distortion.analytic.hv_error_moments(form="complete")`` (tested to 1e-12;
+``higher_order=False`` leaves the rest out); the O(V^3) and O(V^4) terms that model leaves out are relative O(V)
+of a first-order variance there (docs/theory/validity.md).
 """
 
 from __future__ import annotations
@@ -36,7 +39,8 @@ from e2esim.distortion.channel_moments import (
     unit_covariances,
 )
 from e2esim.distortion.expansion import expansion_at
-from e2esim.distortion.faraday_correction import FaradayCorrection
+from e2esim.distortion.faraday_correction import CORRECTED_DEGREE, FaradayCorrection
+from e2esim.distortion.higher_order import covariance_coefficients, higher_monomials, split_by_source
 from e2esim.polarimetry.system_model import RECIPROCAL_CHANNELS, estimator_noise_factor
 
 REFERENCES = ("scene", "population")
@@ -48,7 +52,8 @@ class ErrorPolynomial:
     """The signal part of the moments averaged over the angles, as coefficients of ``MONOMIALS`` (co-pol 4.2).
 
     sigma : (..., 3) true powers. mean : (..., 6, 3, 3) complex, E[A C A^H]. cov : (..., 6, 3, 3), the average
-    of the conditional covariance of the powers. spread : (..., 6, 6, 3, 3), Cov over the angles of the
+    of the conditional covariance of the powers to O(V^2). cov_higher : (..., 9, 3, 3), its O(V^3) and O(V^4)
+    terms (``higher_order.HIGHER_MONOMIALS``). spread : (..., 6, 6, 3, 3), Cov over the angles of the
     coefficients of the conditional mean powers: Cov_Omega(m_p, m_q) = sum_kl x_k x_l spread[k, l, p, q].
     """
 
@@ -56,6 +61,7 @@ class ErrorPolynomial:
     mean: np.ndarray
     cov: np.ndarray
     spread: np.ndarray
+    cov_higher: np.ndarray
 
     @classmethod
     def build(cls, scene_matrix, gammas, omega, omega_hat, weights) -> ErrorPolynomial:
@@ -67,6 +73,7 @@ class ErrorPolynomial:
         w = np.asarray(weights, float)
         mean = np.einsum("...g,...gkpq->...kpq", w, cond.mean)
         cov = np.einsum("...g,...gkpq->...kpq", w, cond.cov)
+        higher = np.einsum("...g,...gkpq->...kpq", w, covariance_coefficients(exp, scene_matrix, gammas))
         sigma = np.real(np.diagonal(np.asarray(scene_matrix), axis1=-2, axis2=-1))
         # conditional mean errors (the true power taken out of the constant term: less cancellation below)
         diag = np.real(np.diagonal(cond.mean, axis1=-2, axis2=-1)).copy()  # (..., G, 6, 3)
@@ -74,7 +81,7 @@ class ErrorPolynomial:
         mdiag = np.einsum("...g,...gkp->...kp", w, diag)
         spread = (np.einsum("...g,...gkp,...glq->...klpq", w, diag, diag)
                   - mdiag[..., :, None, :, None] * mdiag[..., None, :, None, :])
-        return cls(sigma, mean, cov, spread)
+        return cls(sigma, mean, cov, spread, higher)
 
 
 @dataclass(frozen=True)
@@ -125,8 +132,9 @@ class ChannelErrorMoments:
 
 
 def evaluate(poly: ErrorPolynomial, crosstalk, imbalance, noise_power, gain_moments=(1.0, 1.0),
-             looks: int | None = None, reference: str = "scene") -> ChannelErrorMoments:
-    """The moments at levels V_delta, V_eps, sigma_n (broadcast against each other; co-pol eqs. 4.2, 5.1-5.4)."""
+             looks: int | None = None, reference: str = "scene", higher_order: bool = True) -> ChannelErrorMoments:
+    """The moments at levels V_delta, V_eps, sigma_n (broadcast against each other; co-pol eqs. 4.2, 5.1-5.4).
+    ``higher_order=False``: the covariance to O(V^2) only (co-pol eq. 3.3, as the HV model of Men et al.)."""
     if reference not in REFERENCES:
         raise ValueError(f"reference must be one of {REFERENCES}, got {reference!r}")
     x = monomials(crosstalk, imbalance)  # (..., 6)
@@ -150,6 +158,10 @@ def evaluate(poly: ErrorPolynomial, crosstalk, imbalance, noise_power, gain_mome
     cov_crosstalk = cov_parts[..., CROSSTALK, :, :] + cov_parts[..., CROSSTALK2, :, :]
     cov_imbalance = cov_parts[..., IMBALANCE, :, :] + cov_parts[..., IMBALANCE2, :, :]
     cov_interaction = cov_parts[..., MIXED, :, :]
+    if higher_order:  # O(V^3) and O(V^4), co-pol eq. (3.6)
+        more = split_by_source(poly.cov_higher * higher_monomials(crosstalk, imbalance)[..., :, None, None])
+        cov_crosstalk, cov_imbalance, cov_interaction = (
+            a + b for a, b in zip((cov_crosstalk, cov_imbalance, cov_interaction), more))
     signal_matrix = mean_parts.sum(-3)  # E[A C A^H]
     q1 = diag(signal_matrix)  # mean signal powers
     signal_cov = cov_crosstalk + cov_imbalance + cov_interaction + spread
@@ -176,7 +188,7 @@ def evaluate(poly: ErrorPolynomial, crosstalk, imbalance, noise_power, gain_mome
 
 
 def evaluate_totals(poly: ErrorPolynomial, crosstalk, imbalance, noise_power, gain_moments=(1.0, 1.0),
-                    looks: int | None = None, reference: str = "scene") -> tuple:
+                    looks: int | None = None, reference: str = "scene", higher_order: bool = True) -> tuple:
     """(mean (..., 3), covariance (..., 3, 3)) of ``evaluate`` without the parts: a few matrix products, for the
     many evaluations of root finding (margins, trade-off curves)."""
     x = monomials(crosstalk, imbalance)
@@ -188,8 +200,11 @@ def evaluate_totals(poly: ErrorPolynomial, crosstalk, imbalance, noise_power, ga
     signal = (x @ mean_m).reshape(shape + (3, 3))  # E[A C A^H]
     q1 = np.real(np.diagonal(signal, axis1=-2, axis2=-1))
     xx = (x[..., 0, :, None] * x[..., 0, None, :]).reshape(shape + (1, 36))
-    signal_cov = ((x @ poly.cov.reshape(lead + (6, 9))) + xx @ poly.spread.reshape(lead + (36, 9))).reshape(
-        shape + (3, 3))
+    signal_cov = (x @ poly.cov.reshape(lead + (6, 9))) + xx @ poly.spread.reshape(lead + (36, 9))
+    if higher_order:  # O(V^3) and O(V^4), co-pol eq. (3.6)
+        xh = np.broadcast_to(higher_monomials(crosstalk, imbalance), shape + (9,))[..., None, :]
+        signal_cov = signal_cov + xh @ poly.cov_higher.reshape(lead + (9, 9))
+    signal_cov = signal_cov.reshape(shape + (3, 3))
     g1, g2 = gain_moments
     noise = np.broadcast_to(sn, shape)[..., None] * NOISE_FACTORS
     mean = g1 * q1 + noise - poly.sigma
@@ -214,7 +229,7 @@ def error_polynomial(scene, system, faraday, correction: FaradayCorrection | Non
     key = (np.ascontiguousarray(scene.matrix).tobytes(), gammas.tobytes(), faraday, correction)
     poly = _RECENT.get(key)
     if poly is None:
-        omega, omega_hat, weights = correction.nodes(faraday)
+        omega, omega_hat, weights = correction.nodes(faraday, CORRECTED_DEGREE)
         poly = ErrorPolynomial.build(scene.matrix, gammas, omega, omega_hat, weights)
         if len(_RECENT) >= _RECENT_SIZE:
             _RECENT.pop(next(iter(_RECENT)))
@@ -228,17 +243,19 @@ _RECENT_SIZE = 32
 
 def polarimetric_error_moments(scene, system, faraday, correction: FaradayCorrection | None = None,
                                looks: int | None = None, reference: str = "scene", crosstalk_level=None,
-                               imbalance_level=None, noise_power=None) -> ChannelErrorMoments:
+                               imbalance_level=None, noise_power=None, higher_order: bool = True
+                               ) -> ChannelErrorMoments:
     """Mean and covariance of the errors of (sigma_hh, sigma_hv, sigma_vv) (module docstring).
 
     scene, system, faraday : ``ScatteringCovariance`` (any Hermitian covariance: complex HH-VV correlation,
     no reflection symmetry needed), ``SystemErrorModel`` (any variances and pair correlations),
     ``FaradayDistribution`` of Omega. correction : how the co-polarised channels treat Faraday rotation
     (default: not corrected). looks, reference : as ``hv_error_moments``. crosstalk_level, imbalance_level,
-    noise_power : replace V_delta, V_eps, sigma_n (broadcast).
+    noise_power : replace V_delta, V_eps, sigma_n (broadcast). higher_order : False leaves out the O(V^3) and
+    O(V^4) covariance terms (co-pol eq. 3.6), as the HV model of Men et al. (2021) does.
     """
     poly = error_polynomial(scene, system, faraday, correction)
     return evaluate(poly, system.crosstalk_level if crosstalk_level is None else crosstalk_level,
                     system.imbalance_level if imbalance_level is None else imbalance_level,
                     system.noise_power if noise_power is None else noise_power,
-                    system.gain_power_moments, looks, reference)
+                    system.gain_power_moments, looks, reference, higher_order)

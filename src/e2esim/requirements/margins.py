@@ -1,10 +1,16 @@
 """How far each error level may degrade before a requirement fails, and the crosstalk/channel-imbalance
-trade-off curves: root finding on the propagation's error model (``e2esim.requirements.tradeoff``)."""
+trade-off curves: root finding on the propagation's error model (``e2esim.requirements.tradeoff``).
+
+Neither runs past the measured validity range of the error model's analytic moments (``ErrorModel.validity``,
+docs/theory/validity.md): a limit or axis crossing beyond its edge is reported as +inf ("holds as far as the
+analytic model can tell"), the curve has no points there (NaN), and the details carry the edge,
+``validity_edge_db`` in the instrument's convention; ``validity_note`` says so in the verdict's notes."""
 
 from __future__ import annotations
 
 import numpy as np
 
+from e2esim.distortion.validity import describe_level
 from e2esim.requirements.tradeoff import (
     TRADEOFF_LEVELS,
     axis_limits,
@@ -37,6 +43,33 @@ def stated_levels_db(case) -> dict:
     return out
 
 
+def validity_edge(model) -> float | None:
+    """The largest crosstalk or channel-imbalance variance the analytic model speaks for, or None (unknown)."""
+    validity = getattr(model, "validity", None)
+    return None if validity is None else validity.search_limit
+
+
+def validity_note(model) -> str | None:
+    """The verdict note on margins and curves that stop at the model's validity edge, or None."""
+    validity = getattr(model, "validity", None)
+    if validity is None:
+        return None
+    return (f"level margins and trade-off curves stop at the edge of the validity range of the {validity.model}, "
+            f"{describe_level(validity.search_limit)}: a crosstalk or channel-imbalance limit beyond it is given as "
+            "infinite and the curve has no points there; the Gaussian quantiles of eq. (19) behind them hold in a "
+            "narrower range, and near a crosstalk limit the Monte Carlo's are larger (docs/theory/validity.md)")
+
+
+def _capped(limit, edge):
+    """Limits beyond the validity edge as +inf (NaN, failing at every level, stays)."""
+    return limit if edge is None else np.where(limit > edge, np.inf, limit)
+
+
+def _edge_db(model, convention: str) -> dict:
+    edge = validity_edge(model)
+    return {} if edge is None else {"validity_edge_db": float(level_db_from_variance(edge, convention))}
+
+
 def level_margins(requirements, model, convention: str, stated_db: dict | None = None) -> dict:
     """Levels (dB) at which the verdict flips, each level of the error model varied alone, and their margins.
 
@@ -50,7 +83,8 @@ def level_margins(requirements, model, convention: str, stated_db: dict | None =
     """
     stated_db = stated_db or {}
     cases = np.shape(model.value)
-    out = {}
+    edge = validity_edge(model)
+    out = _edge_db(model, convention)
     for level, current in model.levels.items():
         conv = convention if level in INSTRUMENT_LEVELS else "variance"
         limits = []
@@ -60,6 +94,8 @@ def level_margins(requirements, model, convention: str, stated_db: dict | None =
             limits.append(first_failing_level(violation, cases))
         limit = np.minimum.reduce(limits)
         limit = np.where(np.any(np.isnan(limits), axis=0), np.nan, limit)
+        if level in INSTRUMENT_LEVELS:
+            limit = _capped(limit, edge)
         current = np.asarray(current, dtype=float)
         with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
             limit_db = np.where(np.isfinite(limit), level_db_from_variance(limit, conv), limit)
@@ -87,10 +123,12 @@ def has_tradeoff_plane(model) -> bool:
 
 def axis_crossings(requirements, model, convention: str) -> dict:
     """Where each trade-off curve meets the axes (Men et al. 2021, Section V-B points 3 and 6), in dB:
-    the largest channel imbalance with no crosstalk and the largest crosstalk with no channel imbalance."""
-    out = {}
+    the largest channel imbalance with no crosstalk and the largest crosstalk with no channel imbalance (+inf
+    beyond the model's validity edge)."""
+    edge = validity_edge(model)
+    out = _edge_db(model, convention)
     for req in requirements:
-        limits = axis_limits(req, model)
+        limits = {k: _capped(np.asarray(v, dtype=float), edge) for k, v in axis_limits(req, model).items()}
         with np.errstate(divide="ignore", invalid="ignore"):
             out[f"{req.side}.imbalance_axis_db"] = _plain(level_db_from_variance(limits["imbalance_limit"], convention))
             out[f"{req.side}.crosstalk_axis_db"] = _plain(level_db_from_variance(limits["crosstalk_limit"], convention))
@@ -98,12 +136,16 @@ def axis_crossings(requirements, model, convention: str) -> dict:
 
 
 def tradeoff_curves(requirements, model, convention: str, crosstalk_db_range, points: int) -> dict:
-    """The trade-off curve of every side: channel imbalance (dB) against crosstalk (dB), in ``convention``."""
+    """The trade-off curve of every side: channel imbalance (dB) against crosstalk (dB), in ``convention``; NaN
+    where either level would be beyond the model's validity edge."""
     x_db = np.linspace(*crosstalk_db_range, points)
     x = variance_from_level_db(x_db, convention)
+    edge = validity_edge(model)
     curves = {"crosstalk_db": x_db}
     for req in requirements:
         v_eps = tradeoff_curve(req, model, x)
+        if edge is not None:
+            v_eps = np.where((v_eps > edge) | (x > edge), np.nan, v_eps)
         with np.errstate(divide="ignore", invalid="ignore"):
             curves[f"{req.side}.imbalance_db"] = level_db_from_variance(v_eps, convention)
     return curves

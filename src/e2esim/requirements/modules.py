@@ -37,6 +37,7 @@ from e2esim.requirements.margins import (
     level_margins,
     stated_levels_db,
     tradeoff_curves,
+    validity_note,
 )
 from e2esim.requirements.tradeoff import AGBRequirement
 from e2esim.requirements.uncertainty import largest_side, verdict_uncertainty
@@ -125,6 +126,8 @@ class AGBErrorBound(Requirement):
                                    extra_variance=extra)
                     for side in self.sides()]
             convention = level_convention(case)
+            if validity_note(model) is not None:
+                notes.append(validity_note(model))
             if c["level_margins"]:
                 details.update(level_margins(reqs, model, convention, stated_levels_db(case)))
             if c["tradeoff_curve"] and not has_tradeoff_plane(model):

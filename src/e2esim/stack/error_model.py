@@ -15,6 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from e2esim.distortion.validity import VALIDITY
 from e2esim.error_model import Contribution, ErrorModel
 from e2esim.stack.analytic import StackHVMoments, stack_hv_moments
 from e2esim.stack.model_base import (
@@ -31,6 +32,7 @@ class StackHVErrorModel(StackModelBase, ErrorModel):
     """Error of a multi-pass HV estimate (module docstring); fields as ``StackModelBase``."""
 
     channel = "hv"
+    validity = VALIDITY["stack_hv"]
 
     @property
     def value(self) -> float:

@@ -18,6 +18,7 @@ import numpy as np
 
 from e2esim.distortion.polarimetric_model import correlation_scalars
 from e2esim.distortion.validation import sample_covariance_moments
+from e2esim.distortion.validity import VALIDITY
 from e2esim.error_model import JointContribution, JointMoments, MultiChannelErrorModel
 from e2esim.polarimetry.system_model import RECIPROCAL_CHANNELS
 from e2esim.stack.joint_moments import StackJointMoments, stack_joint_moments
@@ -39,6 +40,7 @@ class StackJointErrorModel(StackModelBase, MultiChannelErrorModel):
 
     channel = "hv"
     channels = RECIPROCAL_CHANNELS
+    validity = VALIDITY["stack_joint"]
 
     @property
     def values(self) -> np.ndarray:

@@ -13,8 +13,9 @@ from e2esim.budget.modules import BackscatterErrorBudget
 from e2esim.budget.result import backscatter_budget
 from e2esim.calibration.modules import rotation_only_setting
 from e2esim.distortion.faraday_correction import HV_UNCHANGED_BY_ROTATION
-from e2esim.distortion.modules import analytic_caveat, analytic_problem
+from e2esim.distortion.modules import analytic_use
 from e2esim.distortion.montecarlo import gaussianity
+from e2esim.distortion.validity import VALIDITY
 from e2esim.errors import PhysicsInputError
 from e2esim.ionosphere.variability import DEFAULT_TEC_VARIABILITY
 from e2esim.module import Stage, fail
@@ -275,17 +276,9 @@ class StackBackscatterError(Stage):
         residual, notes = self.copol_residual(case)
         stack_faraday = StackFaraday(faraday, self.difference_sd(faraday), residual)
         combination = self.combination(scene)
-        problem = analytic_problem(system) if s.analytic else None
-        if problem is not None and not s.montecarlo:
-            raise fail(self, f"case {case.index}: the analytic error model does not apply: {problem}",
-                       "use simulation.mode: montecarlo (or both) for this case")
-        if problem is not None:
-            notes += (f"analytic model not used: {problem}; results from the Monte Carlo",)
-        elif s.analytic and analytic_caveat(system):
-            notes += (analytic_caveat(system),)
-        unavailable = (f"the analytic moments are not computed in simulation mode {s.mode!r}" if not s.analytic
-                       else problem)
         joint = c["channels"] == "all"
+        unavailable, use_notes = analytic_use(self, case, system, VALIDITY["stack_joint" if joint else "stack_hv"])
+        notes += use_notes
         extra = {"correct_copol": c["correct_copol_faraday"]} if joint else {}
         kind = StackJointErrorModel if joint else StackHVErrorModel
         model = kind(scene, errors, stack_faraday, combination, s.looks, c["reference"], notes=notes,

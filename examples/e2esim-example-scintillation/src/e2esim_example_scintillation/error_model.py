@@ -33,6 +33,7 @@ class ScintillationErrorModel(ErrorModel):
         self.unavailable = base.unavailable
         self.includes_speckle = base.includes_speckle
         self.notes = base.notes
+        self.validity = base.validity  # the factor is exact: the base model's range holds (margins stop there)
         self._memo: dict = {}
 
     @property
