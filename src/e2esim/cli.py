@@ -243,6 +243,9 @@ def cmd_modules(args) -> int:
             default = "" if p["required"] else f" = {p['default']!r}"
             unit = f" [{p['unit']}]" if p["unit"] else ""
             print(f"    {p['name']}{unit}{default}: {p['doc']}; {p['allowed']}")
+    for plugin in registry.broken_plugins():
+        if args.kind is None or plugin.name.partition(".")[0] == args.kind:
+            print(f"{plugin.name}  ({plugin.distribution})  NOT AVAILABLE: {plugin.problem}")
     return 0
 
 
