@@ -41,7 +41,8 @@ def _plugin(site: Path, how: str) -> Path:
 
 
 def _e2esim(site: Path, *args, cwd=None):
-    env = {**os.environ, "PYTHONPATH": str(site), "E2ESIM_PLUGIN_TIMEOUT_S": "1"}
+    path = os.pathsep.join([str(site), os.environ.get("PYTHONPATH", "")])
+    env = {**os.environ, "PYTHONPATH": path, "E2ESIM_PLUGIN_TIMEOUT_S": "1"}
     return subprocess.run([sys.executable, "-m", "e2esim", *args], capture_output=True, text=True, env=env,
                           cwd=cwd, timeout=120)
 
