@@ -36,9 +36,10 @@ SCHEMA_VERSION = 2
 are stored with the arrays (issue 22)."""
 
 MAX_CACHE_FILE_BYTES = 4 * 2**30
-"""Arrays of one cache file, as declared in it, before any is read: 4 GiB. The global climatology table of a 1 deg
-map (12 months, 2 passes, 2 solar levels, 3 swath positions) takes 0.22 GB; a larger table is computed but not
-cached, and a file declaring more is a cache miss (a fill-value bomb would otherwise allocate it)."""
+"""Arrays of one cache file, as declared in it, before any is read: 4 GiB. A table of the 1 deg global map (one
+month, both passes, one solar level, three swath positions: faraday, stec, vtec) takes 9 MB, and all twelve months
+and both solar levels in one table would take 0.22 GB; a larger table is computed but not cached, and a file
+declaring more is a cache miss (a fill-value bomb would otherwise allocate it)."""
 
 MAX_ATTRIBUTE_BYTES = 1 << 20
 """One attribute of a cache file: 1 MiB (the description of a table is a few hundred bytes)."""
