@@ -25,7 +25,8 @@ PROBLEMS = {
     "not_a_module": "entry point 'propagation.bad_not_a_module' of badplug-not-a-module is not an e2esim Module "
                     "subclass",
 }
-BUILTIN_ONLY = "scene: {type: table1_forest}\ninstrument: {type: biomass}\npropagation: [{type: hv_backscatter_error}]\n"
+BUILTIN_ONLY = ("scene: {type: table1_forest}\ninstrument: {type: biomass}\n"
+                "propagation: [{type: hv_backscatter_error}]\n")
 
 
 def _plugin(site: Path, how: str) -> Path:
