@@ -68,8 +68,11 @@ def test_a_one_row_map_is_refused_for_what_it_is(tmp_path):
 
 def test_a_one_row_geotiff_is_refused_for_what_it_is(tmp_path):
     pytest.importorskip("rioxarray")
+    from affine import Affine
+
     da = xr.DataArray(np.full((1, LON.size), 150.0, np.float32), dims=("y", "x"), coords={"y": LAT[:1], "x": LON})
-    da.rio.write_crs("EPSG:4326", inplace=True).rio.to_raster(tmp_path / "row.tif")
+    da = da.rio.write_crs("EPSG:4326").rio.write_transform(Affine(1.0, 0.0, 10.0, 0.0, -1.0, -4.0))
+    da.rio.to_raster(tmp_path / "row.tif")
     with pytest.raises(PhysicsInputError, match=r"has 1 latitude\(s\) and 6 longitude\(s\)"):
         read_agb_map(tmp_path / "row.tif")
 
