@@ -12,9 +12,10 @@ import functools
 import json
 import os
 import sys
+import warnings
 
 import e2esim
-from e2esim.errors import UserError, one_line
+from e2esim.errors import E2ESimWarning, UserError, one_line
 
 EXAMPLES = """examples:
   e2esim run scenarios/biomass_default.yaml
@@ -121,7 +122,8 @@ def main(argv=None) -> int:
         parser.print_help()
         return 2
     try:
-        return COMMANDS[args.command](args)
+        with _plain_warnings():
+            return COMMANDS[args.command](args)
     except UserError as exc:
         if args.debug:
             raise
@@ -132,6 +134,25 @@ def main(argv=None) -> int:
         return 130
     except BrokenPipeError:
         return _broken_pipe()
+
+
+@contextlib.contextmanager
+def _plain_warnings():
+    """e2esim's own warnings (``E2ESimWarning``: a cache it cannot use, a plug-in it cannot load) as one line on
+    stderr, ``e2esim: warning: ...``, instead of Python's file-and-line form; other warnings as Python shows them."""
+    shown = warnings.showwarning
+
+    def show(message, category, filename, lineno, file=None, line=None):
+        if issubclass(category, E2ESimWarning):
+            print(f"e2esim: warning: {one_line(str(message))}", file=sys.stderr)
+        else:
+            shown(message, category, filename, lineno, file, line)
+
+    warnings.showwarning = show
+    try:
+        yield
+    finally:
+        warnings.showwarning = shown
 
 
 def _broken_pipe() -> int:
@@ -248,6 +269,9 @@ def cmd_modules(args) -> int:
             default = "" if p["required"] else f" = {p['default']!r}"
             unit = f" [{p['unit']}]" if p["unit"] else ""
             print(f"    {p['name']}{unit}{default}: {p['doc']}; {p['allowed']}")
+    for plugin in registry.broken_plugins():
+        if args.kind is None or plugin.name.partition(".")[0] == args.kind:
+            print(f"{plugin.name}  ({plugin.distribution})  NOT AVAILABLE: {plugin.problem}")
     return 0
 
 

@@ -137,6 +137,11 @@ class JournalError(UserError):
     """The resume journal in an output folder is corrupt, foreign or of another version."""
 
 
+class E2ESimWarning(UserWarning):
+    """Something e2esim could not use and went on without (a cache, a plug-in): the command line prints it as one
+    line, ``e2esim: warning: ...``."""
+
+
 def one_line(text: str) -> str:
     """``text`` on one line: line breaks (and runs of blanks around them) become one space, so that every
     message e2esim prints is a single line."""

@@ -7,6 +7,11 @@ a scenario section of that name).
 A scenario may also name a class directly, ``type: package.module:ClassName`` (model: xarray's backend
 plug-ins; the error for an unknown name lists the valid ones), of an installed distribution or of a
 package the user allows explicitly; see ``lookup`` and docs/security.md.
+
+Plug-in code is imported defensively (``e2esim.plugin_import``): an installed plug-in whose import raises,
+exits or takes more than 10 s, or whose entry point names no e2esim module, is left out with a
+``PluginWarning`` naming its distribution and entry point (``broken_plugins``); every other module works.
+e2esim's own entry points are imported directly: a failure there is a bug of e2esim and keeps its traceback.
 """
 
 from __future__ import annotations
@@ -17,12 +22,14 @@ import os
 import re
 import sys
 import threading
+import warnings
 from contextvars import ContextVar
 from dataclasses import dataclass
 from importlib.metadata import entry_points, packages_distributions
 
 from e2esim.errors import ModuleLookupError
 from e2esim.module import KIND_ORDER, Module
+from e2esim.plugin_import import PluginImportFailed, PluginWarning, guarded_import
 
 ENTRY_POINT_GROUP = "e2esim.modules"
 
@@ -35,23 +42,44 @@ class Registration:
     distribution: str  # installed distribution that declared it ("e2esim" for built-ins)
 
 
+@dataclass(frozen=True)
+class BrokenPlugin:
+    """An entry point of an installed plug-in that could not be loaded, and why."""
+
+    name: str  # "<kind>.<type_name>"
+    value: str  # "package.module:Class"
+    distribution: str
+    problem: str
+
+    def message(self) -> str:
+        return (f"plug-in {self.distribution}, entry point {self.name} = {self.value}, is not available: "
+                f"{self.problem}; e2esim goes on without it")
+
+
 _cache: dict[tuple[str, str], Registration] | None = None
+_broken: tuple = ()
 
 
 def _load() -> dict[tuple[str, str], Registration]:
-    global _cache
+    global _cache, _broken
     if _cache is not None:
         return _cache
     found: dict[tuple[str, str], Registration] = {}
+    broken: list = []
     names: dict = {}  # distribution name by distribution object: reading it parses its metadata file
     for ep in entry_points(group=ENTRY_POINT_GROUP):
         kind, _, type_name = ep.name.partition(".")
-        cls = ep.load()
         source = getattr(ep, "dist", None)
         if source is not None and id(source) not in names:
             names[id(source)] = source.name
         dist = names[id(source)] if source is not None else "?"
-        _check_class(cls, f"entry point {ep.name!r} of {dist}", kind, type_name)
+        if dist.lower() == "e2esim":
+            cls = ep.load()
+            _check_class(cls, f"entry point {ep.name!r} of {dist}", kind, type_name)
+        else:
+            cls = _load_plugin(ep, dist, kind, type_name, broken)
+            if cls is None:
+                continue
         key = (kind, type_name)
         if key in found and found[key].cls is not cls:
             raise ModuleLookupError(
@@ -64,15 +92,40 @@ def _load() -> dict[tuple[str, str], Registration]:
             "no built-in e2esim modules are registered: e2esim must be installed "
             "(pip install -e . from the repository) so that its entry points exist"
         )
-    _cache = found
+    _cache, _broken = found, tuple(broken)
+    for plugin in broken:
+        warnings.warn(plugin.message(), PluginWarning, stacklevel=3)
     return found
+
+
+def _load_plugin(ep, dist: str, kind: str, type_name: str, broken: list) -> type | None:
+    """The class of a plug-in's entry point, or None (appended to ``broken``) if importing it raised, exited or
+    hung, or it is not the e2esim module it says. A distribution whose import hung is not tried again."""
+    if any(b.distribution == dist and "did not finish" in b.problem for b in broken):
+        problem = "not imported: an earlier entry point of the same plug-in did not finish importing"
+    else:
+        try:
+            cls = guarded_import(ep.load)
+            _check_class(cls, f"entry point {ep.name!r} of {dist}", kind, type_name)
+            return cls
+        except (PluginImportFailed, ModuleLookupError) as exc:
+            problem = str(exc)
+    broken.append(BrokenPlugin(ep.name, ep.value, dist, problem))
+    return None
+
+
+def broken_plugins() -> tuple:
+    """The ``BrokenPlugin`` entry points left out of the registry (each also warned about once)."""
+    _load()
+    return _broken
 
 
 def refresh() -> None:
     """Forget the cached registry and installed packages (after installing a plug-in in the same process)."""
-    global _cache, _installed
+    global _cache, _installed, _broken
     _cache = None
     _installed = None
+    _broken = ()
 
 
 def _check_class(cls, origin: str, kind: str | None = None, type_name: str | None = None) -> None:
@@ -119,6 +172,10 @@ def lookup(kind: str, type_name: str) -> type:
         if cls.kind != kind:
             raise ModuleLookupError(f"{type_name!r} is a {cls.kind} module, not a {kind} module")
         return cls
+    for plugin in broken_plugins():
+        if plugin.name == f"{kind}.{type_name}":
+            raise ModuleLookupError(f"{kind} type {type_name!r} is registered by the plug-in {plugin.distribution} "
+                                    f"({plugin.name} = {plugin.value}), which could not be loaded: {plugin.problem}")
     names = [r.type_name for r in available(kind)]
     raise ModuleLookupError(
         f"unknown {kind} type {_short(type_name)!r}; registered {kind} types: {', '.join(names) or 'none'} "
@@ -155,9 +212,10 @@ def _import_class(type_name: str) -> type:
         )
     with _import_lock, _without_working_directory():
         try:
-            module = importlib.import_module(module_name)
-        except ImportError as exc:
-            raise ModuleLookupError(f"cannot import {type_name!r}: {exc}") from exc
+            module = guarded_import(lambda: importlib.import_module(module_name))
+        except PluginImportFailed as exc:
+            reason = exc.__cause__ if isinstance(exc.__cause__, ImportError) else exc
+            raise ModuleLookupError(f"cannot import {type_name!r}: {reason}") from exc
     try:
         return getattr(module, class_name)
     except AttributeError as exc:

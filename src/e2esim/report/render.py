@@ -4,6 +4,13 @@ with the plots embedded, so a person can open it in a browser from anywhere.
 The HTML comes from a Jinja2 template (``templates/report.html.j2``, autoescaped); the Markdown of paragraphs
 and table cells is rendered by markdown-it-py (CommonMark, raw HTML off), and verdict badges are styled the
 same way everywhere.
+
+Report text holds scenario text (a description, names, labels). Both renderings go through
+``e2esim.report.safe_markdown``: code spans and emphasis stay, while images, links, autolinks and raw HTML
+show as literal text, so report.md opened in any Markdown viewer and report.html in a browser fetch nothing and
+run nothing (issue 22). The HTML parser has the link, image, autolink and HTML rules switched off as well; the
+only image of report.html is a plot embedded as a data: URL, and its Content-Security-Policy forbids
+every other source.
 """
 
 from __future__ import annotations
@@ -19,8 +26,9 @@ from markupsafe import Markup, escape
 from e2esim.io.atomic import write_text_atomic
 from e2esim.report.blocks import Badge, Details, Heading, Image, Paragraph, Table, Warning
 from e2esim.report.document import build_report
+from e2esim.report.safe_markdown import literal, one_line, safe_inline
 
-_MD = MarkdownIt("commonmark", {"html": False})
+_MD = MarkdownIt("commonmark", {"html": False}).disable(["link", "image", "autolink", "html_inline", "html_block"])
 _ENV = Environment(loader=PackageLoader("e2esim.report", "templates"), autoescape=select_autoescape(["j2", "html"]),
                    trim_blocks=True, lstrip_blocks=True)
 
@@ -29,25 +37,26 @@ def to_markdown(blocks) -> str:
     out = []
     for b in blocks:
         if isinstance(b, Heading):
-            out += ["#" * b.level + " " + b.text, ""]
+            out += ["#" * b.level + " " + literal(b.text), ""]
         elif isinstance(b, Paragraph):
-            out += [b.text, ""]
+            out += [safe_inline(b.text), ""]
         elif isinstance(b, Table):
             out.append("| " + " | ".join(_md_cell(h) for h in b.header) + " |")
             out.append("|" + "---|" * len(b.header))
             out += ["| " + " | ".join(_md_cell(c) for c in row) + " |" for row in b.rows]
             out.append("")
         elif isinstance(b, Image):
-            out += [f"![{b.caption}]({b.file})", "", f"*{b.caption}*", ""]
+            out += [f"![{literal(b.caption)}]({b.file})", "", f"*{literal(b.caption)}*", ""]
         elif isinstance(b, Warning):
-            out += [f"> **Warning:** {b.text}", ""]
+            out += [f"> **Warning:** {safe_inline(b.text)}", ""]
         elif isinstance(b, Details):
-            out += [f"<details><summary>{escape(b.summary)}</summary>", "", to_markdown(b.blocks), "</details>", ""]
+            out += [f"<details><summary>{escape(one_line(b.summary))}</summary>", "", to_markdown(b.blocks),
+                    "</details>", ""]
     return "\n".join(out)
 
 
 def _md_cell(cell) -> str:
-    return str(cell).replace("|", "\\|").replace("\n", " ")
+    return safe_inline(cell).replace("|", "\\|")
 
 
 _PLAIN = re.compile(r"[^\\`*_\[\]!<>&\n\r\0]*")
@@ -61,7 +70,7 @@ def _inline(text: str) -> Markup:
     text = str(text)
     if _PLAIN.fullmatch(_INWORD_UNDERSCORE.sub("", text)):  # most cells (numbers, names): skip the 0.1 ms parse
         return Markup(text.replace('"', "&quot;"))
-    return Markup(_MD.renderInline(text))
+    return Markup(_MD.renderInline(safe_inline(text)))
 
 
 def _cell(cell) -> Markup:

@@ -5,7 +5,9 @@ longitude coordinates (named ``lat``/``latitude``/``y`` and ``lon``/``longitude`
 with rioxarray (rasterio, GDAL): band 1, in a geographic coordinate reference system (longitude and latitude in
 degrees, such as EPSG:4326); a projected map must be reprojected first (``gdalwarp -t_srs EPSG:4326``). The
 values are AGB in t/ha (= Mg/ha); a ``units`` attribute, when present, must say so or be kg m-2 (converted,
-1 kg/m^2 = 10 t/ha). NaN, the GeoTIFF's nodata value and values <= 0 mean no forest.
+1 kg/m^2 = 10 t/ha). NaN, the GeoTIFF's nodata value and values <= 0 mean no forest; a value above
+``MAX_MAP_AGB_T_HA`` (or +inf) is refused, as is a map of fewer than two latitudes or longitudes (its pixel size
+cannot be told) and a path that is not a regular file (a FIFO would block the reader for ever).
 
 A point's AGB is the value of the map pixel that contains it (nearest pixel centre); a point more than half a
 pixel beyond the map's edge is outside the map (NaN). Maps are read once per process and file version.
@@ -13,7 +15,6 @@ pixel beyond the map's edge is outside the map (NaN). Maps are read once per pro
 
 from __future__ import annotations
 
-import os
 from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
@@ -21,10 +22,17 @@ from pathlib import Path
 import numpy as np
 
 from e2esim.errors import PhysicsInputError
+from e2esim.io.regular_file import NotARegularFile, regular_file_stat
 
 MAX_MAP_PIXELS = 100_000_000
 """Pixels of an AGB map read into memory: 1e8 (400 MB as float32; a global map at 0.036 deg, 4 km). Finer maps
 are better aggregated to the map sweep's step first (cell means), which also gives each cell its mean AGB."""
+
+MAX_MAP_AGB_T_HA = 5000.0
+"""Largest AGB a map pixel may hold: 5 000 t/ha. The most carbon-dense forests measured, mountain ash in Victoria,
+Australia, hold about 1 900 t C/ha in living biomass (Keith, Mackey & Lindenmayer 2009, PNAS 106, 11635), about
+3 800 t/ha of dry biomass; a larger value is a fill value or a unit error, not a forest (issue 22: 1e30 t/ha
+was accepted and passed the requirement)."""
 
 LAT_NAMES = ("lat", "latitude", "y")
 LON_NAMES = ("lon", "longitude", "x")
@@ -64,7 +72,10 @@ def read_agb_map(path, variable: str = "agb") -> AGBMap:
     ``variable``) for a file that is missing or not such a map."""
     path = Path(path).expanduser()
     try:
-        stat = os.stat(path)
+        stat = regular_file_stat(path)
+    except NotARegularFile as exc:
+        raise PhysicsInputError(f"the AGB map {str(path)!r} is {exc.kind}, not a regular file; give a NetCDF or "
+                                "GeoTIFF file", key="file") from exc
     except OSError as exc:
         raise PhysicsInputError(f"cannot read the AGB map {str(path)!r}: {exc.strerror or exc}", key="file") from exc
     return _read_cached(str(path.resolve()), stat.st_size, stat.st_mtime_ns, variable)
@@ -93,9 +104,11 @@ def _read_netcdf(path: str, variable: str):
         if variable not in ds.data_vars:
             raise PhysicsInputError(f"the AGB map {path!r} has no variable {variable!r}; its variables: "
                                     + (", ".join(map(str, ds.data_vars)) or "none"), key="variable")
-        da = ds[variable].squeeze(drop=True)
+        da = ds[variable]
         lat_dim = _dim(da, LAT_NAMES, path, "latitude")
         lon_dim = _dim(da, LON_NAMES, path, "longitude")
+        # drop other axes of length one (time, band), never latitude or longitude: a one-row map keeps its row
+        da = da.squeeze([d for d in da.dims if da.sizes[d] == 1 and d not in (lat_dim, lon_dim)], drop=True)
         if da.ndim != 2:
             raise PhysicsInputError(f"the AGB variable {variable!r} of {path!r} has dimensions {da.dims}; expected "
                                     "two: latitude and longitude", key="variable")
@@ -140,8 +153,11 @@ def _checked(path, lat, lon, values, units) -> AGBMap:
         values = values * np.float32(10.0)
     elif u and u not in T_HA_UNITS:
         raise PhysicsInputError(f"the AGB map {path!r} is in {units!r}; expected t/ha (Mg/ha) or kg m-2", key="file")
-    if lat.ndim != 1 or lon.ndim != 1 or lat.size < 1 or lon.size < 1:
+    if lat.ndim != 1 or lon.ndim != 1:
         raise PhysicsInputError(f"the AGB map {path!r} needs 1-D latitude and longitude axes", key="file")
+    if lat.size < 2 or lon.size < 2:
+        raise PhysicsInputError(f"the AGB map {path!r} has {lat.size} latitude(s) and {lon.size} longitude(s); "
+                                "expected at least two of each, so that its pixel size is known", key="file")
     if not (np.all(np.isfinite(lat)) and np.all(np.isfinite(lon)) and np.all(np.abs(lat) <= 90.0)):
         raise PhysicsInputError(f"the AGB map {path!r} has latitudes outside [-90, 90] deg or non-finite axes",
                                 key="file")
@@ -152,8 +168,24 @@ def _checked(path, lat, lon, values, units) -> AGBMap:
         raise PhysicsInputError(f"the AGB map {path!r} repeats a latitude or longitude", key="file")
     values = np.array(values[np.ix_(i, j)], np.float32)
     values[~(values > 0)] = np.nan
+    _check_range(path, values, lat, lon, u in KG_M2_UNITS)
     values.setflags(write=False)
     return AGBMap(lat, lon, values, path)
+
+
+def _check_range(path, values, lat, lon, converted: bool) -> None:
+    """Refuse a forest value above ``MAX_MAP_AGB_T_HA`` (+inf included), naming the largest and where it is."""
+    with np.errstate(invalid="ignore"):
+        high = values > MAX_MAP_AGB_T_HA
+    if not high.any():
+        return
+    i, j = np.unravel_index(int(np.nanargmax(np.where(high, values, -np.inf))), values.shape)
+    unit = " (after converting kg m-2 to t/ha)" if converted else ""
+    raise PhysicsInputError(
+        f"the AGB map {path!r} holds {int(high.sum()):,} value(s) above {MAX_MAP_AGB_T_HA:g} t/ha, the largest "
+        f"{float(values[i, j]):.6g} t/ha{unit} at latitude {lat[i]:g}, longitude {lon[j]:g} deg; AGB is at most "
+        f"{MAX_MAP_AGB_T_HA:g} t/ha: if such values mark missing data, declare them as the variable's _FillValue "
+        "(NetCDF) or the nodata value (GeoTIFF)", key="file")
 
 
 def _wrap(lon):
