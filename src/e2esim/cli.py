@@ -50,8 +50,9 @@ def _build_parser() -> argparse.ArgumentParser:
     run.add_argument("scenario", help="scenario YAML file")
     run.add_argument("-o", "--output", metavar="DIR", help="output folder (default: output.folder, else runs/<name>)")
     run.add_argument("--force", action="store_true",
-                     help="use an existing output folder: first remove the outputs and journal of the run that was "
-                          "there (other files stay); a folder where a run is live is still refused")
+                     help="use an existing output folder: set the outputs and journal of the run that was there "
+                          "aside, and remove them once the new outputs are complete (other files stay); a folder "
+                          "where a run is live is still refused")
     _add_scenario_options(run)
     run.add_argument("--json", action="store_true", help="also print summary.json to stdout")
     run.add_argument("--no-progress", action="store_true", help="no progress bar")

@@ -152,6 +152,8 @@ def _how_it_ended(pool) -> str:
     """'killed by SIGKILL ...' and the like, for the message (from the pool's processes, when it still has them)."""
     codes = sorted({p.exitcode for p in (getattr(pool, "_processes", None) or {}).values()
                     if getattr(p, "exitcode", None) not in (None, 0)})
+    if len(codes) > 1:  # the pool ends the other workers with SIGTERM once one has died
+        codes = [c for c in codes if c != -signal.SIGTERM]
     how = [f"killed by {_signal_name(-c)}" for c in codes if c < 0] + [f"exit status {c}" for c in codes if c > 0]
     return ", ".join(how + ["by hand, or by the system when memory ran out"])
 

@@ -119,14 +119,26 @@ class Journal:
                 raise _corrupt(self.path, f"record {number} repeats cases of an earlier record")
             seen[block.indices] = True
             finished.append(block)
-        if (self.path / _RECORDS).exists():  # cut a torn last frame off, so appends continue cleanly
-            fd = os.open(self.path / _RECORDS, os.O_WRONLY | _NOFOLLOW)
-            try:
-                os.ftruncate(fd, good_length)
-            finally:
-                os.close(fd)
+        self._cut(good_length)
         self._count = int(seen.sum())
         return finished
+
+    def _cut(self, length: int) -> None:
+        """Cut a torn last frame off, so that appends continue cleanly (never growing the file)."""
+        try:
+            fd = os.open(self.path / _RECORDS, os.O_WRONLY | _NOFOLLOW)
+        except FileNotFoundError:
+            return
+        except OSError as exc:
+            raise OutputFolderError(f"{self.path}: cannot open the resume journal: {exc.strerror or exc}") from exc
+        try:
+            if os.fstat(fd).st_size > length:
+                os.ftruncate(fd, length)
+        except OSError as exc:
+            raise OutputFolderError(f"{self.path}: cannot cut the torn last record off the resume journal: "
+                                    f"{exc.strerror or exc}") from exc
+        finally:
+            os.close(fd)
 
     def _block(self, number: int, count: int, header: bytes, payload: bytes):
         from e2esim.runner.run import BlockResult
