@@ -167,7 +167,7 @@ def test_a_failed_journal_write_is_cut_off_and_closing_does_not_fail_again(tmp_p
     soft, hard = resource.getrlimit(resource.RLIMIT_FSIZE)
     resource.setrlimit(resource.RLIMIT_FSIZE, (good + len(frame) - 1000, hard))  # the last kB does not fit
     try:
-        with pytest.raises(OutputFolderError, match="cannot save a finished block: File too large; 1 cases are saved"):
+        with pytest.raises(OutputFolderError, match=r"a finished block: File too large \(1 cases are saved\)"):
             journal.record(second, frame)
         journal.close()  # no second failure
     finally:
@@ -176,6 +176,34 @@ def test_a_failed_journal_write_is_cut_off_and_closing_does_not_fail_again(tmp_p
     again = Journal(tmp_path / "out", resolved)
     assert [list(b.indices) for b in again.start(resume=True)] == [[0]]
     again.close()
+
+
+def test_a_full_disk_while_keeping_finished_blocks_on_disk_is_an_output_folder_error(tmp_path, monkeypatch):
+    """A large run keeps its finished blocks in a temporary file (e2esim.runner.spill); a full disk there was an
+    OSError with a traceback."""
+    import tempfile
+
+    from e2esim.errors import OutputFolderError
+    from e2esim.runner import spill
+    from e2esim.runner.run import run_scenario
+    from e2esim.runner.scenario import Scenario
+
+    real = tempfile.TemporaryFile
+
+    class Full:
+        def __init__(self, *args, **kwargs):
+            self.file = real()
+
+        def write(self, data):
+            raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+
+        def __getattr__(self, name):
+            return getattr(self.file, name)
+
+    monkeypatch.setattr(spill.tempfile, "TemporaryFile", Full)
+    resolved = Scenario.load(_small(tmp_path)).resolve()
+    with pytest.raises(OutputFolderError, match="cannot keep the finished blocks in a temporary file: No space left"):
+        run_scenario(resolved, progress=False, keep_products=False, spill=True, spill_folder=tmp_path / "out")
 
 
 def test_force_keeps_the_earlier_outputs_until_the_new_ones_are_complete(tmp_path, capsys, monkeypatch):
@@ -306,3 +334,37 @@ def test_ctrl_c_keeps_the_blocks_that_finished_meanwhile_and_drops_those_in_flig
     assert sorted(taken) == [0, 1, 2]
     waiting = [int(p.name[len("waiting"):]) for p in tmp_path.glob("waiting*")]
     assert waiting and not any(_alive(pid) for pid in waiting)
+
+
+def test_ctrl_c_while_results_h5_is_written_stops_it_cleanly(tmp_path, monkeypatch):
+    """Ctrl-C is held back while HDF5 runs (an exception inside its file callbacks would leave the library in a
+    state that crashes the interpreter at exit) and raised before the next dataset: no file is left, and HDF5
+    writes the next file normally."""
+    import h5py
+
+    from e2esim.io import h5_datasets
+    from e2esim.io.results_h5 import write_results
+    from e2esim.runner.run import run_scenario
+    from e2esim.runner.scenario import Scenario
+
+    result = run_scenario(Scenario.load(_small(tmp_path)).resolve(), progress=False)
+    real_put, calls = h5_datasets.put, []
+
+    def put(*args, **kwargs):
+        calls.append(1)
+        if len(calls) == 5:
+            os.kill(os.getpid(), signal.SIGINT)  # held back; raised before this dataset is made
+        return real_put(*args, **kwargs)
+
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    monkeypatch.setattr("e2esim.io.results_h5.put", put)
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            write_results(result, tmp_path / "results.h5")
+    finally:
+        signal.signal(signal.SIGINT, previous)
+    assert len(calls) == 5 and list(tmp_path.glob("*.h5")) == [] and not list(tmp_path.glob(".*.tmp"))
+    monkeypatch.undo()
+    write_results(result, tmp_path / "results.h5")
+    with h5py.File(tmp_path / "results.h5", "r") as f:
+        assert f.attrs["n_cases"] == 3

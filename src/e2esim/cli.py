@@ -158,7 +158,7 @@ def cmd_run(args) -> int:
     from e2esim.runner.interrupts import stop_signals_as_interrupts
     from e2esim.runner.journal import Journal
     from e2esim.runner.no_effect import no_effect
-    from e2esim.runner.outputs import aside_note, output_folder, prepare_folder, write_outputs
+    from e2esim.runner.outputs import output_folder, prepare_folder, write_outputs
     from e2esim.runner.run import run_scenario
 
     if args.workers < 1:
@@ -182,15 +182,16 @@ def cmd_run(args) -> int:
                 return _stopped(stop, _saved(journal, resolved, folder))
             except WorkerLost as exc:
                 raise WorkerLost(f"{exc}; {_saved(journal, resolved, folder)}") from exc
-            except OutputFolderError as exc:  # the journal could not be written: a full disk, say
-                raise OutputFolderError(f"{exc}{aside_note(folder)}") from exc
+            except OutputFolderError as exc:  # the journal or the spill file could not be written: a full disk
+                then = "free the space and run"
+                raise OutputFolderError(f"{exc}; {_saved(journal, resolved, folder, then)}") from exc
             finally:
                 journal.close()
             try:
                 write_outputs(result, folder)
             except KeyboardInterrupt as stop:
-                return _stopped(stop, "while writing the outputs; no partial output file was left; "
-                                      + _saved(journal, resolved, folder))
+                return _stopped(stop, "no partial output file was left; " + _saved(journal, resolved, folder),
+                                " while writing the outputs")
             journal.remove()
         finally:
             lock.release()
@@ -205,22 +206,22 @@ def cmd_run(args) -> int:
     return 0
 
 
-def _saved(journal, resolved, folder) -> str:
+def _saved(journal, resolved, folder, then: str = "run") -> str:
     """What a run that ends early leaves, and how to go on."""
     from e2esim.runner.outputs import aside_note
 
-    return (f"{journal.finished_count()} of {len(resolved.cases)} cases are saved in {journal.path}; run the same "
-            f"command with --resume to finish{aside_note(folder)}")
+    return (f"{journal.finished_count()} of {len(resolved.cases)} cases are saved in {journal.path}; {then} the "
+            f"same command with --resume to finish{aside_note(folder)}")
 
 
-def _stopped(stop: KeyboardInterrupt, what: str) -> int:
+def _stopped(stop: KeyboardInterrupt, what: str, when: str = "") -> int:
     """The one message of a run ended by Ctrl-C or a stop signal; the exit status says which (128 + signal)."""
     from e2esim.runner.interrupts import Stopped
 
     if isinstance(stop, Stopped):
-        print(f"e2esim: stopped by {stop}; {what}", file=sys.stderr)
+        print(f"e2esim: stopped by {stop}{when}; {what}", file=sys.stderr)
         return 128 + stop.signum
-    print(f"e2esim: interrupted; {what}", file=sys.stderr)
+    print(f"e2esim: interrupted{when}; {what}", file=sys.stderr)
     return 130
 
 

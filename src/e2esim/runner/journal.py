@@ -171,9 +171,8 @@ class Journal:
             except OSError as exc:
                 with contextlib.suppress(OSError):
                     os.ftruncate(self._fd, self._end)
-                raise OutputFolderError(f"{self.path}: cannot save a finished block: {exc.strerror or exc}; "
-                                        f"{self._count} cases are saved; free the space and run the same command "
-                                        "with --resume") from exc
+                raise OutputFolderError(f"{self.path}: cannot save a finished block: {exc.strerror or exc} "
+                                        f"({self._count} cases are saved)") from exc
             self._end += len(data)
             self._count += len(result)
 
