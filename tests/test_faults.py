@@ -368,3 +368,24 @@ def test_ctrl_c_while_results_h5_is_written_stops_it_cleanly(tmp_path, monkeypat
     write_results(result, tmp_path / "results.h5")
     with h5py.File(tmp_path / "results.h5", "r") as f:
         assert f.attrs["n_cases"] == 3
+
+
+@posix_only
+def test_file_size_limit_while_writing_results_nc_is_an_os_error(tmp_path):
+    """results.nc (a map sweep's) is written by the NetCDF library, which says only "NetCDF: HDF error" (a
+    RuntimeError: a traceback) when a write fails; now the OSError of a full disk or the file-size limit."""
+    script = """
+import errno, resource, sys
+import numpy as np, xarray as xr
+from e2esim.io.map_netcdf import write_map_netcdf
+ds = xr.Dataset({"v": (("lat", "lon"), np.random.default_rng(1).random((200, 200)))})
+resource.setrlimit(resource.RLIMIT_FSIZE, (100_000, resource.getrlimit(resource.RLIMIT_FSIZE)[1]))
+try:
+    write_map_netcdf(ds, sys.argv[1])
+except OSError as exc:
+    print(exc.errno == errno.EFBIG, exc.strerror)
+"""
+    out = subprocess.run([sys.executable, "-c", script, str(tmp_path / "results.nc")], capture_output=True, text=True,
+                         timeout=120)
+    assert out.returncode == 0 and out.stdout.strip() == "True File too large", out.stderr[-2000:]
+    assert list(tmp_path.iterdir()) == []
