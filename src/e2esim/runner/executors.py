@@ -111,6 +111,8 @@ class _ProcessBlocks:
         scenario = pickle.dumps(resolved, protocol=pickle.HIGHEST_PROTOCOL)  # sent once to each worker
         self.pool = ProcessPoolExecutor(max_workers=workers, initializer=_start_worker, initargs=(scenario,))
         self.number = {self.pool.submit(run_block_remote, indices, options): k for k, indices in enumerate(tasks)}
+        # the worker processes, started by the submits (the pool forgets them once it is broken)
+        self.processes = list((getattr(self.pool, "_processes", None) or {}).values())
 
     def __iter__(self):
         pending = set(self.number)
@@ -123,8 +125,8 @@ class _ProcessBlocks:
         try:
             data, frame = future.result()
         except BrokenProcessPool as exc:
-            raise WorkerLost(f"a worker process ended abruptly ({_how_it_ended(self.pool)}); the blocks it was "
-                             "running are lost") from exc
+            raise WorkerLost(f"a worker process ended abruptly ({_how_it_ended(self.processes)}); the blocks it "
+                             "was running are lost") from exc
         return self.number[future], pickle.loads(data), frame
 
     def finished(self) -> list:
@@ -138,7 +140,8 @@ class _ProcessBlocks:
         if all(f.done() for f in self.number):
             self.pool.shutdown(wait=True)
             return
-        processes = list((getattr(self.pool, "_processes", None) or {}).values())
+        processes = self.processes + [p for p in (getattr(self.pool, "_processes", None) or {}).values()
+                                      if p not in self.processes]
         self.pool.shutdown(wait=False, cancel_futures=True)
         for process in processes:  # the blocks in flight are dropped, not waited for (a worker writes no file)
             with contextlib.suppress(OSError, ValueError, AttributeError):
@@ -148,10 +151,15 @@ class _ProcessBlocks:
                 process.join(timeout=5)
 
 
-def _how_it_ended(pool) -> str:
-    """'killed by SIGKILL ...' and the like, for the message (from the pool's processes, when it still has them)."""
-    codes = sorted({p.exitcode for p in (getattr(pool, "_processes", None) or {}).values()
-                    if getattr(p, "exitcode", None) not in (None, 0)})
+def _how_it_ended(processes: list) -> str:
+    """'killed by SIGKILL, ...' and the like, for the message. The pool's own thread may be reaping the dead worker
+    just now (its exit code then reads None for a moment): asked again for up to a second."""
+    deadline = time.monotonic() + 1.0
+    while True:
+        codes = sorted({p.exitcode for p in processes if getattr(p, "exitcode", None) not in (None, 0)})
+        if codes or time.monotonic() > deadline:
+            break
+        time.sleep(0.02)
     if len(codes) > 1:  # the pool ends the other workers with SIGTERM once one has died
         codes = [c for c in codes if c != -signal.SIGTERM]
     how = [f"killed by {_signal_name(-c)}" for c in codes if c < 0] + [f"exit status {c}" for c in codes if c > 0]
