@@ -434,3 +434,24 @@ def test_broken_pipe_exits_quietly(monkeypatch, capsys):
     finally:
         stdout.close()
     assert status == 0 and capsys.readouterr().err == ""
+
+
+# ---------------------------------------------------------------------------------------------- seed
+def test_seed_of_64_bits_or_more_is_refused_at_validation(tmp_path, capsys):
+    # issue 22 item 4: a seed of 2^64 passed validate; every case ran, then results.h5 could not store it
+    # ("Object dtype has no native HDF5 equivalent"), leaving a stray plot; --resume crashed the same way
+    path = tmp_path / "scenario.yaml"
+    path.write_text(GOOD, encoding="utf-8")
+    for seed in (2**64, 10**30):
+        status = main(["validate", str(path), "--set", f"simulation.seed={seed}"])
+        err = capsys.readouterr().err
+        assert status == 2 and err.count("\n") == 1, err
+        assert f"simulation.seed: {seed} is out of range" in err
+        assert "expected an integer with 0 <= value <= 18446744073709551615" in err
+    out = tmp_path / "out"
+    status = main(["run", str(path), "-o", str(out), "--no-progress", "--set", f"simulation.seed={2**64 - 1}"])
+    assert status == 0, capsys.readouterr().err
+    import h5py
+
+    with h5py.File(out / "results.h5", "r") as f:
+        assert int(f.attrs["seed"]) == 2**64 - 1

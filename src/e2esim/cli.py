@@ -15,7 +15,7 @@ import sys
 import warnings
 
 import e2esim
-from e2esim.errors import E2ESimWarning, UserError, one_line
+from e2esim.errors import E2ESimWarning, OutputFolderError, UserError, one_line
 
 EXAMPLES = """examples:
   e2esim run scenarios/biomass_default.yaml
@@ -51,8 +51,9 @@ def _build_parser() -> argparse.ArgumentParser:
     run.add_argument("scenario", help="scenario YAML file")
     run.add_argument("-o", "--output", metavar="DIR", help="output folder (default: output.folder, else runs/<name>)")
     run.add_argument("--force", action="store_true",
-                     help="use an existing output folder: first remove the outputs and journal of the run that was "
-                          "there (other files stay); a folder where a run is live is still refused")
+                     help="use an existing output folder: set the outputs and journal of the run that was there "
+                          "aside, and remove them once the new outputs are complete (other files stay); a folder "
+                          "where a run is live is still refused")
     _add_scenario_options(run)
     run.add_argument("--json", action="store_true", help="also print summary.json to stdout")
     run.add_argument("--no-progress", action="store_true", help="no progress bar")
@@ -198,7 +199,8 @@ def validity_warnings(result, shown: int = 3) -> list:
 def cmd_run(args) -> int:
     from e2esim.io.summary import summary_json
     from e2esim.report.document import verdict_lines
-    from e2esim.runner.executors import check_scheduler_address
+    from e2esim.runner.executors import WorkerLost, check_scheduler_address
+    from e2esim.runner.interrupts import stop_signals_as_interrupts
     from e2esim.runner.journal import Journal
     from e2esim.runner.no_effect import no_effect
     from e2esim.runner.outputs import output_folder, prepare_folder, write_outputs
@@ -210,26 +212,34 @@ def cmd_run(args) -> int:
         check_scheduler_address(args.scheduler)
     resolved = _scenario(args).resolve()
     folder = output_folder(resolved, args.output)
-    lock = prepare_folder(folder, args.force, args.resume)
-    try:
-        journal = Journal(folder, resolved)
-        finished = journal.start(resume=args.resume)
+    with stop_signals_as_interrupts():  # SIGTERM, SIGHUP: ended as Ctrl-C ends a run, finished blocks kept
+        lock = prepare_folder(folder, args.force, args.resume)
         try:
-            result = run_scenario(resolved, progress=not args.no_progress,
-                                  command=" ".join(["e2esim"] + sys.argv[1:]), workers=args.workers,
-                                  scheduler=args.scheduler, journal=journal, finished=finished,
-                                  engine="per_case" if args.per_case else "batched", spill_folder=folder)
-        except KeyboardInterrupt:
-            journal.close()
-            print(f"e2esim: interrupted; {journal.finished_count()} of {len(resolved.cases)} cases are saved in "
-                  f"{journal.path}; run the same command with --resume to finish", file=sys.stderr)
-            return 130
+            journal = Journal(folder, resolved)
+            finished = journal.start(resume=args.resume)
+            try:
+                result = run_scenario(resolved, progress=not args.no_progress,
+                                      command=" ".join(["e2esim"] + sys.argv[1:]), workers=args.workers,
+                                      scheduler=args.scheduler, journal=journal, finished=finished,
+                                      engine="per_case" if args.per_case else "batched", spill_folder=folder)
+            except KeyboardInterrupt as stop:
+                journal.close()
+                return _stopped(stop, _saved(journal, resolved, folder))
+            except WorkerLost as exc:
+                raise WorkerLost(f"{exc}; {_saved(journal, resolved, folder)}") from exc
+            except OutputFolderError as exc:  # the journal or the spill file could not be written: a full disk
+                then = "free the space and run"
+                raise OutputFolderError(f"{exc}; {_saved(journal, resolved, folder, then)}") from exc
+            finally:
+                journal.close()
+            try:
+                write_outputs(result, folder)
+            except KeyboardInterrupt as stop:
+                return _stopped(stop, "no partial output file was left; " + _saved(journal, resolved, folder),
+                                " while writing the outputs")
+            journal.remove()
         finally:
-            journal.close()
-        write_outputs(result, folder)
-        journal.remove()
-    finally:
-        lock.release()
+            lock.release()
     for finding in no_effect(result):
         print(f"e2esim: warning: {finding.message()}", file=sys.stderr)
     out = sys.stderr if args.json else sys.stdout
@@ -241,6 +251,25 @@ def cmd_run(args) -> int:
     if args.json:
         print(summary_json(result))
     return 0
+
+
+def _saved(journal, resolved, folder, then: str = "run") -> str:
+    """What a run that ends early leaves, and how to go on."""
+    from e2esim.runner.outputs import aside_note
+
+    return (f"{journal.finished_count()} of {len(resolved.cases)} cases are saved in {journal.path}; {then} the "
+            f"same command with --resume to finish{aside_note(folder)}")
+
+
+def _stopped(stop: KeyboardInterrupt, what: str, when: str = "") -> int:
+    """The one message of a run ended by Ctrl-C or a stop signal; the exit status says which (128 + signal)."""
+    from e2esim.runner.interrupts import Stopped
+
+    if isinstance(stop, Stopped):
+        print(f"e2esim: stopped by {stop}{when}; {what}", file=sys.stderr)
+        return 128 + stop.signum
+    print(f"e2esim: interrupted{when}; {what}", file=sys.stderr)
+    return 130
 
 
 def cmd_validate(args) -> int:

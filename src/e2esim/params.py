@@ -368,7 +368,8 @@ def _replace(p: Param, **changes) -> Param:
 
 
 def _fmt(x: float) -> str:
-    return f"{x:g}"
+    short = f"{x:g}"
+    return str(x) if isinstance(x, int) and float(short) != x else short  # an integer bound is shown exactly
 
 
 _LARGEST = 10**300  # integers beyond this are not numbers a scenario means (and overflow a float)
@@ -388,7 +389,7 @@ def _show(value: Any) -> str:
     elif isinstance(value, int) and not -_LARGEST < value < _LARGEST:
         text = f"an integer of {len(str(abs(value))) if abs(value) < 10**4000 else 'over 4000'} digits"
     else:
-        text = repr(value) if not isinstance(value, (int, float)) else f"{value:g}"
+        text = repr(value) if not isinstance(value, (int, float)) else _fmt(value)
     return text if len(text) <= _SHOW_CHARS else text[:_SHOW_CHARS] + "..."
 
 

@@ -5,6 +5,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 MODES = ("analytic", "montecarlo", "both")
+SEED_MAX = 2**64 - 1
+"""The largest root seed: numpy's SeedSequence takes any integer, but results.h5 stores the seed as an unsigned
+64-bit integer (HDF5 has no larger one)."""
 
 
 @dataclass(frozen=True)

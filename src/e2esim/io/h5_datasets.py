@@ -12,6 +12,7 @@ from __future__ import annotations
 import h5py
 import numpy as np
 
+from e2esim.io.guarded_h5 import check_writing
 from e2esim.io.scalar_units import TEXT
 
 STRING = h5py.string_dtype("utf-8")
@@ -20,7 +21,9 @@ TABLE_ATTR = "text"
 
 
 def put(group, name: str, data, units: str, description: str, dtype=None):
-    """Create dataset ``name`` with its ``units`` and ``description`` attributes."""
+    """Create dataset ``name`` with its ``units`` and ``description`` attributes (first stopping the writer if a
+    write failed or Ctrl-C came: ``e2esim.io.guarded_h5``)."""
+    check_writing()
     ds = group.create_dataset(name, data=data, dtype=dtype)
     ds.attrs["units"] = units
     ds.attrs["description"] = description

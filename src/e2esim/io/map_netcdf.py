@@ -12,10 +12,14 @@ the report's maps also draw, and written atomically (``write_map_netcdf``).
 
 from __future__ import annotations
 
+import contextlib
+import errno
 import json
+import os
 
 import numpy as np
 
+from e2esim.errors import one_line
 from e2esim.io.atomic import atomic_path
 from e2esim.io.scalar_units import scalar_description
 from e2esim.runner.map_sweep import (
@@ -143,7 +147,29 @@ def write_map_netcdf(ds, path) -> None:
     # the filter costs a tenth of the writing time of a global map
     encoding = {name: {"zlib": True, "complevel": 1, "shuffle": False} for name in ds.data_vars}
     with atomic_path(path) as tmp:
-        ds.to_netcdf(tmp, engine="netcdf4", encoding=encoding)
+        try:
+            ds.to_netcdf(tmp, engine="netcdf4", encoding=encoding)
+        except RuntimeError as exc:  # the NetCDF library says only "HDF error" when a write fails
+            raise _write_error(tmp, exc) from exc
+
+
+def _write_error(path, exc: RuntimeError) -> OSError:
+    """The ``OSError`` of a failed NetCDF write: a full disk or the file-size limit where that is what happened
+    (the folder has less than 1 MiB free; the file reached the limit), else the library's words."""
+    code = None
+    with contextlib.suppress(OSError, ImportError, ValueError):
+        import resource
+
+        limit = resource.getrlimit(resource.RLIMIT_FSIZE)[0]
+        if limit != resource.RLIM_INFINITY and os.path.getsize(path) >= limit - 2**20:
+            code = errno.EFBIG
+    with contextlib.suppress(OSError, AttributeError):
+        fs = os.statvfs(os.path.dirname(os.path.abspath(path)))
+        if fs.f_bavail * fs.f_frsize < 2**20:
+            code = errno.ENOSPC
+    if code is not None:
+        return OSError(code, os.strerror(code))
+    return OSError(errno.EIO, f"the NetCDF library could not write {os.path.basename(path)} ({one_line(exc)})")
 
 
 def _positions(values: list, per_case) -> np.ndarray:

@@ -8,12 +8,12 @@ from __future__ import annotations
 
 import json
 
-import h5py
 import numpy as np
 import yaml
 
 from e2esim.block import Values
 from e2esim.io.atomic import atomic_path
+from e2esim.io.guarded_h5 import guarded_h5_file
 from e2esim.io.h5_datasets import code_dtype, coded_values, put, put_coded, put_text
 from e2esim.io.scalar_units import detail_unit, scalar_description, scalar_unit
 from e2esim.io.summary import requirement_sources
@@ -33,7 +33,7 @@ def write_results(result, path) -> None:
     acquisitions only where the run kept its products."""
     table = result.table
     n = table.n
-    with atomic_path(path) as tmp, h5py.File(tmp, "w") as f:
+    with atomic_path(path) as tmp, guarded_h5_file(tmp) as f:  # a full disk: an OSError, never a crash
         for key, value in result.provenance.items():
             if value is None:
                 continue  # e.g. no source commit outside a git checkout

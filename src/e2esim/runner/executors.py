@@ -3,11 +3,14 @@
 Every case carries its own seed (``run.case_generator``), so the numbers are the same whichever executor
 runs it and in whatever order. The unit of work is a block of cases (``e2esim.runner.run.block_tasks``); the
 resolved scenario goes to each worker once, and results come back as each block finishes. Local worker
-processes end with the main process, however it ends (``exit_with_parent``).
+processes end with the main process, however it ends (``exit_with_parent``). Ctrl-C is the main process's to
+handle: it keeps every finished block and stops the workers without waiting for the blocks in flight
+(``run_blocks``); a worker that dies ends the run with a message (``WorkerLost``), not a traceback.
 """
 
 from __future__ import annotations
 
+import contextlib
 import os
 import pickle
 import re
@@ -16,8 +19,10 @@ import sys
 import threading
 import time
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+from concurrent.futures.process import BrokenProcessPool
 
 from e2esim.errors import UserError
+from e2esim.runner.interrupts import interrupts_deferred, worker_signals
 
 _PR_SET_PDEATHSIG = 1  # linux/prctl.h
 _PARENT_POLL_S = 0.5
@@ -25,32 +30,147 @@ _PARENT_POLL_S = 0.5
 _WORKER: dict = {}  # in a worker process: the scenario it runs blocks of, and its stage memo
 
 
-def iter_blocks(resolved, tasks: list, workers: int = 1, scheduler: str | None = None, engine: str = "batched",
-                keep_products: bool = False, packages: frozenset | None = None, frames: bool = True):
-    """Yield ``(BlockResult, journal frame or None)`` as blocks finish (not necessarily in case order); frames
-    come from other processes, made with ``packages`` (e2esim.runner.plaindata.allowed_packages), and only
-    when ``frames`` (a run with a journal)."""
-    from e2esim.runner.blocks import StageMemo
-    from e2esim.runner.run import default_services, run_block
+def run_blocks(resolved, tasks: list, take, workers: int = 1, scheduler: str | None = None,
+               engine: str = "batched", keep_products: bool = False, packages: frozenset | None = None,
+               frames: bool = True) -> None:
+    """Run the blocks ``tasks`` and hand each to ``take(BlockResult, journal frame or None)`` as it finishes (not
+    necessarily in case order); frames come from other processes, made with ``packages``
+    (e2esim.runner.plaindata.allowed_packages), and only when ``frames`` (a run with a journal).
 
+    Ctrl-C (``KeyboardInterrupt``) drops the blocks in flight at once and keeps every finished one: the blocks
+    that finished meanwhile are handed to ``take`` too, the workers are stopped without waiting for their blocks,
+    and the interrupt is raised again. A ``take`` is never cut short by Ctrl-C (it waits until the block is kept),
+    and no block is handed over twice. A worker that dies (killed, out of memory) ends the run with a
+    ``WorkerLost`` error; the blocks handed over stay kept.
+    """
     if not tasks:
         return
     if scheduler:
         check_scheduler_address(scheduler)
-    if not scheduler and workers <= 1:
-        services, memo = default_services(), StageMemo()
-        for indices in tasks:
-            yield run_block(resolved, indices, engine, keep_products, services, memo), None
-        return
-    if packages is None and frames:
+    if packages is None and frames and (scheduler or workers > 1):
         from e2esim.runner.plaindata import allowed_packages
 
         packages = allowed_packages()
     options = (engine, keep_products, packages)
-    remote = _dask(resolved, tasks, scheduler, options) if scheduler else _processes(resolved, tasks, workers,
-                                                                                        options)
-    for data, frame in remote:
-        yield pickle.loads(data), frame
+    if scheduler:
+        source = _DaskBlocks(resolved, tasks, scheduler, options)
+    elif workers > 1:
+        source = _ProcessBlocks(resolved, tasks, workers, options)
+    else:
+        source = _SerialBlocks(resolved, tasks, options)
+    taken: set = set()
+
+    def hand_over(number, block, frame):
+        with interrupts_deferred():
+            take(block, frame)
+            taken.add(number)
+
+    try:
+        for number, block, frame in source:
+            hand_over(number, block, frame)
+    except (KeyboardInterrupt, WorkerLost):
+        for number, block, frame in source.finished():
+            if number not in taken:
+                hand_over(number, block, frame)
+        raise
+    finally:
+        source.close()
+
+
+class WorkerLost(UserError):
+    """A worker process of ``--workers`` or of a dask cluster died while it ran a block."""
+
+
+class _SerialBlocks:
+    """The blocks run one after the other in this process (Ctrl-C drops the one in flight)."""
+
+    def __init__(self, resolved, tasks: list, options: tuple):
+        self.resolved, self.tasks, self.options = resolved, tasks, options
+
+    def __iter__(self):
+        from e2esim.runner.blocks import StageMemo
+        from e2esim.runner.run import default_services, run_block
+
+        engine, keep_products, _ = self.options
+        services, memo = default_services(), StageMemo()
+        for number, indices in enumerate(self.tasks):
+            yield number, run_block(self.resolved, indices, engine, keep_products, services, memo), None
+
+    def finished(self) -> list:
+        return []
+
+    def close(self) -> None:
+        pass
+
+
+class _ProcessBlocks:
+    """The blocks run on local worker processes; results as they finish. ``close`` stops the workers at once when
+    blocks are still running (Ctrl-C, an error): they ignore SIGINT, which the main process handles."""
+
+    def __init__(self, resolved, tasks: list, workers: int, options: tuple):
+        scenario = pickle.dumps(resolved, protocol=pickle.HIGHEST_PROTOCOL)  # sent once to each worker
+        self.pool = ProcessPoolExecutor(max_workers=workers, initializer=_start_worker, initargs=(scenario,))
+        self.number = {self.pool.submit(run_block_remote, indices, options): k for k, indices in enumerate(tasks)}
+        # the worker processes, started by the submits (the pool forgets them once it is broken)
+        self.processes = list((getattr(self.pool, "_processes", None) or {}).values())
+
+    def __iter__(self):
+        pending = set(self.number)
+        while pending:
+            done, pending = wait(pending, return_when=FIRST_COMPLETED)
+            for future in done:
+                yield self._result(future)
+
+    def _result(self, future) -> tuple:
+        try:
+            data, frame = future.result()
+        except BrokenProcessPool as exc:
+            raise WorkerLost(f"a worker process ended abruptly ({_how_it_ended(self.processes)}); the blocks it "
+                             "was running are lost") from exc
+        return self.number[future], pickle.loads(data), frame
+
+    def finished(self) -> list:
+        """The blocks that finished without error (handed over or not)."""
+        done = [f for f in self.number if f.done() and not f.cancelled() and f.exception() is None]
+        return [self._result(f) for f in sorted(done, key=self.number.get)]
+
+    def close(self) -> None:
+        for future in self.number:
+            future.cancel()
+        if all(f.done() for f in self.number):
+            self.pool.shutdown(wait=True)
+            return
+        processes = self.processes + [p for p in (getattr(self.pool, "_processes", None) or {}).values()
+                                      if p not in self.processes]
+        self.pool.shutdown(wait=False, cancel_futures=True)
+        for process in processes:  # the blocks in flight are dropped, not waited for (a worker writes no file)
+            with contextlib.suppress(OSError, ValueError, AttributeError):
+                process.kill()
+        for process in processes:
+            with contextlib.suppress(OSError, ValueError, AttributeError, AssertionError):
+                process.join(timeout=5)
+
+
+def _how_it_ended(processes: list) -> str:
+    """'killed by SIGKILL, ...' and the like, for the message. The pool's own thread may be reaping the dead worker
+    just now (its exit code then reads None for a moment): asked again for up to a second."""
+    deadline = time.monotonic() + 1.0
+    while True:
+        codes = sorted({p.exitcode for p in processes if getattr(p, "exitcode", None) not in (None, 0)})
+        if codes or time.monotonic() > deadline:
+            break
+        time.sleep(0.02)
+    if len(codes) > 1:  # the pool ends the other workers with SIGTERM once one has died
+        codes = [c for c in codes if c != -signal.SIGTERM]
+    how = [f"killed by {_signal_name(-c)}" for c in codes if c < 0] + [f"exit status {c}" for c in codes if c > 0]
+    return ", ".join(how + ["by hand, or by the system when memory ran out"])
+
+
+def _signal_name(number: int) -> str:
+    try:
+        return signal.Signals(number).name
+    except ValueError:
+        return f"signal {number}"
 
 
 def run_block_remote(indices, options: tuple, resolved=None) -> tuple:
@@ -75,22 +195,8 @@ def run_block_remote(indices, options: tuple, resolved=None) -> tuple:
 
 def _start_worker(scenario: bytes) -> None:
     exit_with_parent()
+    worker_signals()
     _WORKER["resolved"] = pickle.loads(scenario)
-
-
-def _processes(resolved, tasks: list, workers: int, options: tuple):
-    scenario = pickle.dumps(resolved, protocol=pickle.HIGHEST_PROTOCOL)  # sent once to each worker, not per block
-    with ProcessPoolExecutor(max_workers=workers, initializer=_start_worker, initargs=(scenario,)) as pool:
-        pending = {pool.submit(run_block_remote, indices, options) for indices in tasks}
-        try:
-            while pending:
-                done, pending = wait(pending, return_when=FIRST_COMPLETED)
-                for future in done:
-                    yield future.result()
-        except BaseException:
-            for future in pending:
-                future.cancel()
-            raise
 
 
 def exit_with_parent() -> None:
@@ -138,24 +244,48 @@ def check_scheduler_address(address: str) -> None:
                         f"SCHEME one of {', '.join(_SCHEDULER_SCHEMES)} (e.g. tcp://10.0.0.5:8786), or HOST:PORT")
 
 
-def _dask(resolved, tasks: list, address: str, options: tuple):
-    try:
-        from distributed import Client, as_completed
-    except ImportError as exc:  # pragma: no cover - dask.distributed is a dependency
-        raise UserError("--scheduler needs dask.distributed (pip install distributed)") from exc
-    try:
-        client = Client(address, timeout="20s")
-    except (OSError, TimeoutError, ValueError, TypeError) as exc:
-        reason = " ".join(str(exc).split())[:200]
-        raise UserError(f"cannot connect to the dask scheduler at {address}: {reason}") from exc
-    try:
-        scenario = client.scatter(resolved, broadcast=True)  # once per worker, not per block
-        futures = client.map(run_block_remote, tasks, options=options, resolved=scenario, pure=False)
+class _DaskBlocks:
+    """The blocks run on the dask.distributed cluster at ``address``; results as they finish."""
+
+    def __init__(self, resolved, tasks: list, address: str, options: tuple):
         try:
-            for future in as_completed(futures):
-                yield future.result()
+            from distributed import Client
+        except ImportError as exc:  # pragma: no cover - dask.distributed is a dependency
+            raise UserError("--scheduler needs dask.distributed (pip install distributed)") from exc
+        try:
+            self.client = Client(address, timeout="20s")
+        except (OSError, TimeoutError, ValueError, TypeError) as exc:
+            reason = " ".join(str(exc).split())[:200]
+            raise UserError(f"cannot connect to the dask scheduler at {address}: {reason}") from exc
+        try:
+            scenario = self.client.scatter(resolved, broadcast=True)  # once per worker, not per block
+            futures = self.client.map(run_block_remote, tasks, options=options, resolved=scenario, pure=False)
         except BaseException:
-            client.cancel(futures)
+            self.client.close()
             raise
-    finally:
-        client.close()
+        self.number = {future: k for k, future in enumerate(futures)}
+
+    def __iter__(self):
+        from distributed import as_completed
+
+        for future in as_completed(list(self.number)):
+            yield self._result(future)
+
+    def _result(self, future) -> tuple:
+        try:
+            data, frame = future.result()
+        except Exception as exc:
+            if type(exc).__name__ != "KilledWorker":
+                raise
+            raise WorkerLost("dask workers died while running a block (killed, or out of memory); the blocks they "
+                             "were running are lost") from exc
+        return self.number[future], pickle.loads(data), frame
+
+    def finished(self) -> list:
+        done = [f for f in self.number if f.status == "finished"]
+        return [self._result(f) for f in sorted(done, key=self.number.get)]
+
+    def close(self) -> None:
+        with contextlib.suppress(Exception):  # a cluster that went away: nothing left to cancel
+            self.client.cancel(list(self.number))
+        self.client.close()

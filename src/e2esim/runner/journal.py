@@ -22,9 +22,12 @@ One appended file of blocks keeps the bookkeeping cheap for sweeps of a million 
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import json
+import os
 import shutil
+import stat
 import struct
 import zlib
 from pathlib import Path
@@ -34,6 +37,7 @@ import numpy as np
 import e2esim
 from e2esim.errors import JournalError, OutputExistsError, OutputFolderError
 from e2esim.io.atomic import write_text_atomic
+from e2esim.runner.interrupts import interrupts_deferred
 from e2esim.runner.plaindata import BadPlainData, NotPlainData, allowed_packages, decode, encode
 
 JOURNAL = ".e2esim-partial"
@@ -43,6 +47,7 @@ FORMAT = "e2esim-journal"
 VERSION = 3  # 1 was the pickle journal of e2esim <= 0.x, 2 a journal of single cases; neither is read
 _MAGIC = b"E2J2"
 _FRAME = struct.Struct("<4sQQQI")  # magic, number of cases, header length, payload length, CRC-32 of both
+_NOFOLLOW = getattr(os, "O_NOFOLLOW", 0) | getattr(os, "O_CLOEXEC", 0)  # never write through a planted link
 
 
 def fingerprint(resolved) -> str:
@@ -79,7 +84,8 @@ class Journal:
         self.resolved = resolved
         self.fingerprint = fingerprint(resolved)
         self.packages = allowed_packages()
-        self._file = None
+        self._fd: int | None = None  # the records file, appended to without a buffer
+        self._end = 0  # its length in whole frames
         self._count = 0
 
     def exists(self) -> bool:
@@ -90,6 +96,7 @@ class Journal:
 
     def start(self, resume: bool) -> list:
         """Check an existing journal; with ``resume``, return the finished blocks it holds (``BlockResult``s)."""
+        self._refuse_link()
         if not self.exists():
             return []
         manifest = read_manifest(self.path)
@@ -112,10 +119,26 @@ class Journal:
                 raise _corrupt(self.path, f"record {number} repeats cases of an earlier record")
             seen[block.indices] = True
             finished.append(block)
-        with open(self.path / _RECORDS, "r+b") as fh:  # cut a torn last frame off, so appends continue cleanly
-            fh.truncate(good_length)
+        self._cut(good_length)
         self._count = int(seen.sum())
         return finished
+
+    def _cut(self, length: int) -> None:
+        """Cut a torn last frame off, so that appends continue cleanly (never growing the file)."""
+        try:
+            fd = os.open(self.path / _RECORDS, os.O_WRONLY | _NOFOLLOW)
+        except FileNotFoundError:
+            return
+        except OSError as exc:
+            raise OutputFolderError(f"{self.path}: cannot open the resume journal: {exc.strerror or exc}") from exc
+        try:
+            if os.fstat(fd).st_size > length:
+                os.ftruncate(fd, length)
+        except OSError as exc:
+            raise OutputFolderError(f"{self.path}: cannot cut the torn last record off the resume journal: "
+                                    f"{exc.strerror or exc}") from exc
+        finally:
+            os.close(fd)
 
     def _block(self, number: int, count: int, header: bytes, payload: bytes):
         from e2esim.runner.run import BlockResult
@@ -133,39 +156,64 @@ class Journal:
         return result
 
     def record(self, result, data: bytes | None = None) -> None:
-        """Append one finished block (``data``: its frame, when a worker already made it)."""
+        """Append one finished block (``data``: its frame, when a worker already made it). The frame goes to the OS
+        at once (no buffer: a killed process loses nothing it reported finished, and a failed write leaves nothing
+        behind to fail again on close); Ctrl-C waits until it is written; a write that fails (a full disk, the
+        file-size limit) is cut off again, so the journal keeps whole frames only."""
         data = encode_block(result, self.packages) if data is None else data
         if data is None:
             return  # not plain data: it runs again on resume
-        if self._file is None:
+        if self._fd is None:
             self._create()
-        try:
-            self._file.write(data)
-            self._file.flush()  # in the OS's hands at once: a killed process loses nothing it reported finished
-        except OSError as exc:
-            raise OutputFolderError(f"{self.path}: cannot save a finished block: {exc.strerror or exc}; "
-                                    f"{self._count} cases are saved; free the space and run the same command "
-                                    "with --resume") from exc
-        self._count += len(result)
+        with interrupts_deferred():
+            try:
+                _write_all(self._fd, data)
+            except OSError as exc:
+                with contextlib.suppress(OSError):
+                    os.ftruncate(self._fd, self._end)
+                raise OutputFolderError(f"{self.path}: cannot save a finished block: {exc.strerror or exc} "
+                                        f"({self._count} cases are saved)") from exc
+            self._end += len(data)
+            self._count += len(result)
 
     def _create(self) -> None:
         try:
             self.path.mkdir(parents=True, exist_ok=True)
+            self._refuse_link()
             manifest = {"format": FORMAT, "version": VERSION, "e2esim": e2esim.__version__,
                         "fingerprint": self.fingerprint, "cases": len(self.resolved.cases)}
             write_text_atomic(self.path / _MANIFEST, json.dumps(manifest) + "\n")
-            self._file = open(self.path / _RECORDS, "ab")
+            fd = os.open(self.path / _RECORDS, os.O_WRONLY | os.O_CREAT | os.O_APPEND | _NOFOLLOW, 0o644)
+            info = os.fstat(fd)
+            if not stat.S_ISREG(info.st_mode):
+                os.close(fd)
+                raise OutputFolderError(f"{self.path / _RECORDS}: is not a regular file; it was not written to")
+            self._fd, self._end = fd, info.st_size
         except OSError as exc:
             raise OutputFolderError(f"{self.path}: cannot create the resume journal: {exc.strerror or exc}") from exc
 
+    def _refuse_link(self) -> None:
+        """A journal folder planted as a symbolic link would have the journal written (and cut) elsewhere."""
+        if self.path.is_symlink():
+            raise OutputFolderError(f"{self.path}: is a symbolic link, not a journal of e2esim; it was not used. "
+                                    "Remove it, or choose another folder with -o")
+
     def close(self) -> None:
-        if self._file is not None:
-            self._file.close()
-            self._file = None
+        """Close the records file; never fails (every frame was written whole or cut off when it was appended)."""
+        if self._fd is not None:
+            with contextlib.suppress(OSError):
+                os.close(self._fd)
+            self._fd = None
 
     def remove(self) -> None:
         self.close()
         shutil.rmtree(self.path, ignore_errors=True)
+
+
+def _write_all(fd: int, data: bytes) -> None:
+    view = memoryview(data)
+    while view:
+        view = view[os.write(fd, view):]
 
 
 def read_manifest(path: Path) -> dict:

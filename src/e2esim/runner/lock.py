@@ -4,6 +4,10 @@ POSIX: ``fcntl.flock`` on ``<folder>/.e2esim.lock``. The kernel releases the loc
 however it ends (SIGKILL included), so a lock is never stale; the PID in the file is only for the message.
 Elsewhere: the file is created exclusively (``O_EXCL``) and a file whose PID no longer runs is stale and
 taken over. A second run into a locked folder is refused, with or without ``--force``.
+
+The lock file is opened without following a symbolic link (``O_NOFOLLOW``) and used only if it is a regular
+file with one name: a link planted under its name, or a hard link to a file elsewhere, would otherwise have
+the PID written into (and the content cut off) a file outside the output folder. Such a lock is refused.
 """
 
 from __future__ import annotations
@@ -11,6 +15,7 @@ from __future__ import annotations
 import contextlib
 import errno
 import os
+import stat
 from pathlib import Path
 
 from e2esim.errors import OutputFolderError
@@ -21,6 +26,7 @@ except ImportError:  # pragma: no cover - Windows
     fcntl = None
 
 LOCK_NAME = ".e2esim.lock"
+_OPEN_FLAGS = os.O_RDWR | os.O_CREAT | getattr(os, "O_NOFOLLOW", 0) | getattr(os, "O_CLOEXEC", 0)
 
 
 class FolderLock:
@@ -36,13 +42,19 @@ class FolderLock:
             try:
                 fd = self._open()
             except OSError as exc:
+                if exc.errno == errno.ELOOP:
+                    raise self._foreign("is a symbolic link") from None
                 raise OutputFolderError(f"{self.folder}: cannot write into the output folder: "
                                         f"{exc.strerror or exc}") from exc
             if fd is None:
                 continue
             try:
+                self._check_own(fd)
                 os.ftruncate(fd, 0)
                 os.write(fd, f"{os.getpid()}\n".encode())
+            except OutputFolderError:
+                os.close(fd)  # not ours: left as it is, for the user to look at
+                raise
             except OSError as exc:
                 os.close(fd)
                 with contextlib.suppress(OSError):
@@ -57,7 +69,7 @@ class FolderLock:
         """A descriptor of the lock file that this process now holds, None to try again; refuses if held."""
         if fcntl is None:  # pragma: no cover - Windows
             return self._open_exclusive()
-        fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o644)
+        fd = os.open(self.path, _OPEN_FLAGS | os.O_NONBLOCK, 0o644)  # O_NONBLOCK: a FIFO planted there cannot hang
         try:
             fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except OSError as exc:
@@ -74,9 +86,21 @@ class FolderLock:
             return None
         return fd
 
+    def _check_own(self, fd: int) -> None:
+        """Refuse a lock file that is not a regular file with this one name (a FIFO, a device, a hard link)."""
+        info = os.fstat(fd)
+        if not stat.S_ISREG(info.st_mode):
+            raise self._foreign("is not a regular file")
+        if info.st_nlink != 1:
+            raise self._foreign(f"has {info.st_nlink} names (a hard link to a file elsewhere?)")
+
+    def _foreign(self, what: str) -> OutputFolderError:
+        return OutputFolderError(f"{self.path}: {what}, not a lock file of e2esim; it was not written to. Remove it "
+                                 "if you know where it comes from, or choose another folder with -o")
+
     def _open_exclusive(self) -> int | None:  # pragma: no cover - Windows
         try:
-            return os.open(self.path, os.O_RDWR | os.O_CREAT | os.O_EXCL, 0o644)
+            return os.open(self.path, _OPEN_FLAGS | os.O_EXCL, 0o644)
         except FileExistsError:
             pid = self._holder()
             if pid is not None and _alive(pid):
@@ -86,10 +110,17 @@ class FolderLock:
             return None
 
     def _holder(self) -> int | None:
+        """The PID in the lock file (for the message); None if it cannot be read."""
         try:
-            text = self.path.read_text(encoding="ascii", errors="replace").strip()
+            fd = os.open(self.path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_NOFOLLOW", 0))
         except OSError:
             return None
+        try:
+            text = os.read(fd, 32).decode("ascii", errors="replace").strip()  # a PID is a few digits
+        except OSError:
+            return None
+        finally:
+            os.close(fd)
         return int(text) if text.isdigit() else None
 
     def _busy(self, pid: int | None) -> OutputFolderError:

@@ -12,6 +12,7 @@ import json
 import os
 import re
 import shutil
+import stat
 import tempfile
 from pathlib import Path
 
@@ -27,8 +28,11 @@ from e2esim.runner.map_sweep import is_map_sweep
 OUTPUT_FILES = ("results.h5", "summary.json", "report.md", "report.html")
 OUTPUT_LIST = ".e2esim-outputs.json"
 """The files a run wrote, so that ``--force`` removes exactly those (and no file of the user's)."""
-_TRASH = ".e2esim-trash-"
+ASIDE = ".e2esim-previous-"
+"""Prefix of the folder where ``--force`` sets the previous run's outputs aside until the new ones are complete."""
+_ASIDE_PREFIXES = (ASIDE, ".e2esim-trash-")  # the second: the trash of an e2esim that deleted at once
 _TEMP = re.compile(r"^\..+\.[A-Za-z0-9_]{8}\.tmp$")  # e2esim.io.atomic: ".<name>.<random>.tmp"
+_LIST_LIMIT = 1_000_000  # bytes: a list of a few hundred file names is a few kB
 
 
 def output_folder(resolved, override: str | None) -> Path:
@@ -44,9 +48,9 @@ def prepare_folder(folder: Path, force: bool, resume: bool = False) -> FolderLoc
     """Create and lock the run's folder; return the lock, which the caller releases when the run ends.
 
     A folder locked by a live run is refused. Without ``force`` or ``resume`` an existing non-empty folder
-    is refused too; ``resume`` continues an interrupted run there; ``force`` first clears the previous
-    run's outputs and journal. Leftovers of a killed run (temporary files of the atomic writer, a half
-    cleared ``--force``) are removed in every case.
+    is refused too; ``resume`` continues an interrupted run there; ``force`` first sets the previous run's
+    outputs and journal aside (``set_aside``), to be removed when the new outputs are complete. Temporary
+    files of the atomic writer that a killed run left are removed in every case.
     """
     folder = Path(folder)
     if folder.exists() and not folder.is_dir():
@@ -62,7 +66,7 @@ def prepare_folder(folder: Path, force: bool, resume: bool = False) -> FolderLoc
             raise OutputExistsError(f"{folder}: holds an interrupted run ({count_finished(folder)} cases finished); "
                                     "use --resume to continue it or --force to start again")
         if force:
-            clear_outputs(folder)
+            set_aside(folder)
         elif not resume and any(p.name != LOCK_NAME for p in folder.iterdir()):
             raise OutputExistsError(
                 f"{folder}: output folder exists and is not empty; use --force to overwrite it, or -o to choose another"
@@ -76,11 +80,12 @@ def prepare_folder(folder: Path, force: bool, resume: bool = False) -> FolderLoc
     return lock
 
 
-def clear_outputs(folder: Path) -> None:
-    """Remove the previous run's outputs: first moved, each with one rename, into a trash folder inside
-    ``folder``, then deleted, so that no stale or half-deleted output stays beside the new ones. Removed:
-    the files the run listed in its ``OUTPUT_LIST``, the standard outputs and the journal; for an e2esim
-    that kept no list, also every PNG. Other files are the user's and stay."""
+def set_aside(folder: Path) -> Path | None:
+    """Move the previous run's outputs, each with one rename, into a new folder ``ASIDE``* inside ``folder``, so that
+    no stale output stays beside the new ones and none is lost before the new ones are complete (``write_outputs``
+    removes the folder then; a run that fails or is interrupted leaves it, and says so). Moved: the files the run
+    listed in its ``OUTPUT_LIST``, the standard outputs and the journal; for an e2esim that kept no list, also
+    every PNG. Other files are the user's and stay. Returns the folder, or None when there was nothing to move."""
     names = set(OUTPUT_FILES) | {JOURNAL, OUTPUT_LIST}
     listed = _listed_outputs(folder)
     if listed is not None:
@@ -89,17 +94,45 @@ def clear_outputs(folder: Path) -> None:
         names |= {p.name for p in folder.glob("*.png")}
     present = [folder / n for n in sorted(names) if os.path.lexists(folder / n)]
     if not present:
-        return
-    trash = Path(tempfile.mkdtemp(prefix=_TRASH, dir=folder))
+        return None
+    aside = Path(tempfile.mkdtemp(prefix=ASIDE, dir=folder))
     for path in present:
-        os.replace(path, trash / path.name)
-    shutil.rmtree(trash, ignore_errors=True)
+        os.replace(path, aside / path.name)  # a link is moved as a link, never followed
+    return aside
+
+
+def aside_folders(folder: Path) -> list:
+    """The folders of earlier outputs that ``--force`` set aside (real folders only, never a link)."""
+    try:
+        entries = list(os.scandir(folder))
+    except OSError:
+        return []
+    return sorted(Path(e.path) for e in entries
+                  if e.name.startswith(_ASIDE_PREFIXES) and e.is_dir(follow_symlinks=False))
+
+
+def aside_note(folder: Path) -> str:
+    """For a message when a run fails: where the earlier outputs are kept, or '' if none were set aside."""
+    kept = aside_folders(folder)
+    if not kept:
+        return ""
+    return (f"; the earlier outputs are kept in {kept[-1]}{f' (and {len(kept) - 1} more)' if len(kept) > 1 else ''} "
+            "until a run here completes (delete them to free space)")
 
 
 def _listed_outputs(folder: Path) -> set | None:
+    """The names in ``OUTPUT_LIST``: read as a regular file of at most ``_LIST_LIMIT`` bytes, never through a link
+    or from a FIFO (it is the user's folder: anything may have been put there)."""
     try:
-        names = json.loads((folder / OUTPUT_LIST).read_text(encoding="utf-8"))
-    except (OSError, ValueError):
+        fd = os.open(folder / OUTPUT_LIST, os.O_RDONLY | getattr(os, "O_NOFOLLOW", 0) | getattr(os, "O_NONBLOCK", 0))
+    except OSError:
+        return None
+    try:
+        with os.fdopen(fd, "rb") as fh:
+            if not stat.S_ISREG(os.fstat(fh.fileno()).st_mode):
+                return None
+            names = json.loads(fh.read(_LIST_LIMIT + 1)[:_LIST_LIMIT].decode("utf-8"))
+    except (OSError, ValueError, RecursionError):
         return None
     if not isinstance(names, list):
         return None
@@ -107,13 +140,17 @@ def _listed_outputs(folder: Path) -> set | None:
 
 
 def _remove_leftovers(folder: Path) -> None:
-    """Temporary files of the atomic writer and trash of a ``--force`` that a killed run left behind."""
-    for path in folder.iterdir():
-        if path.name.startswith(_TRASH) and path.is_dir():
-            shutil.rmtree(path, ignore_errors=True)
-        elif _TEMP.match(path.name) and path.is_file():
+    """Temporary files of the atomic writer that a killed run left behind (outputs set aside stay)."""
+    for entry in os.scandir(folder):
+        if _TEMP.match(entry.name) and not entry.is_dir(follow_symlinks=False):
             with contextlib.suppress(FileNotFoundError):
-                path.unlink()
+                os.unlink(entry.path)
+
+
+def _remove_aside(folder: Path) -> None:
+    """The earlier outputs set aside: removed once the new outputs are complete."""
+    for aside in aside_folders(folder):
+        shutil.rmtree(aside, ignore_errors=True)
 
 
 def write_outputs(result, folder: Path) -> dict:
@@ -139,13 +176,17 @@ def write_outputs(result, folder: Path) -> dict:
         write_report(result, folder, plots, warnings)
         written = sorted({p.name for p in folder.iterdir()} - before - {JOURNAL, LOCK_NAME})
         write_text_atomic(folder / OUTPUT_LIST, json.dumps(written + [OUTPUT_LIST], indent=0) + "\n")
-    except OSError as exc:
-        for name in {p.name for p in folder.iterdir()} - before - {JOURNAL, LOCK_NAME}:
-            with contextlib.suppress(OSError):
-                (folder / name).unlink()
+    except BaseException as exc:  # a full disk, the file-size limit, Ctrl-C: no output of this attempt stays
+        with contextlib.suppress(OSError):
+            for name in {p.name for p in folder.iterdir()} - before - {JOURNAL, LOCK_NAME}:
+                with contextlib.suppress(OSError):
+                    (folder / name).unlink()
+        if not isinstance(exc, OSError):
+            raise
         raise OutputFolderError(f"{folder}: cannot write the outputs: {exc.strerror or exc}; no partial file was "
                                 "left; the finished cases are kept: free the space and run the same command with "
-                                "--resume") from exc
+                                f"--resume{aside_note(folder)}") from exc
+    _remove_aside(folder)  # the new outputs are complete: the earlier ones go
     return {"folder": folder, "plots": [folder / name for name, _ in plots], "warnings": warnings}
 
 

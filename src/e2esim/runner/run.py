@@ -341,7 +341,7 @@ def run_scenario(
         default: for runs of more than ``SPILL_ABOVE_CASES`` cases that keep no products), in a temporary file
         in ``spill_folder`` (default: the system's temporary folder).
     """
-    from e2esim.runner.executors import iter_blocks
+    from e2esim.runner.executors import run_blocks
 
     if engine not in ENGINES:
         raise UserError(f"engine {engine!r}: expected one of {', '.join(ENGINES)}")
@@ -357,14 +357,15 @@ def run_scenario(
         done[block.indices] = True
     todo = np.flatnonzero(~done)
     bar = CaseProgress(n, int(done.sum()), resolved.name, progress, workers if not scheduler else 1)
+    def take(block, frame):  # a finished block: saved, kept, counted (Ctrl-C waits for it: run_blocks)
+        if journal is not None:
+            journal.record(block, frame)
+        blocks.append(kept(block))
+        bar.update(len(block))
+
     try:
-        for block, frame in iter_blocks(resolved, block_tasks(resolved, todo, workers if not scheduler else 8),
-                                        workers, scheduler, engine=engine, keep_products=keep,
-                                        frames=journal is not None):
-            if journal is not None:
-                journal.record(block, frame)
-            blocks.append(kept(block))
-            bar.update(len(block))
+        run_blocks(resolved, block_tasks(resolved, todo, workers if not scheduler else 8), take, workers, scheduler,
+                   engine=engine, keep_products=keep, frames=journal is not None)
     finally:
         bar.close()
     blocks.sort(key=lambda b: int(b.indices[0]))

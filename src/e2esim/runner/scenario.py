@@ -32,7 +32,7 @@ from e2esim.runner.plan import CaseSpec, CaseSpecs, Slot, SweepPlan, combination
 from e2esim.runner.plugins import plugin_list
 from e2esim.runner.sweep import _ABSENT, CaseLabels, sweep_table
 from e2esim.runner.yaml_loader import load_yaml, read_scenario_text
-from e2esim.settings import MODES, SimulationSettings
+from e2esim.settings import MODES, SEED_MAX, SimulationSettings
 
 BUILT_IN_SECTIONS = tuple(k for k in KIND_ORDER if k != "requirement")
 """Module sections of e2esim's own kinds, in section order (the ``requirement`` kind is the
@@ -84,8 +84,8 @@ PLOT_TYPES = (
 SIMULATION_PARAMS = (
     Param("mode", "str", "what to compute: analytic moments, Monte Carlo, or both", default="both",
           choices=MODES),
-    Param("seed", "int", "root seed of all random draws (case i uses SeedSequence(seed, spawn_key=(i,)))",
-          default=0, minimum=0),
+    Param("seed", "int", "root seed of all random draws (case i uses SeedSequence(seed, spawn_key=(i,))); at most "
+          "2^64 - 1, the largest integer results.h5 stores", default=0, minimum=0, maximum=SEED_MAX),
     Param("looks", "int", "L: independent pixels averaged into one sigma estimate (Men et al. 2021, eq. 17)",
           default=100_000, minimum=1),
     Param("realisations", "int", "M: system-error and Faraday-rotation realisations", default=10_000,

@@ -23,6 +23,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from e2esim.block import Values
+from e2esim.errors import OutputFolderError
 from e2esim.runner.columns import Column, RequirementColumns
 
 SPILL_ABOVE_CASES = 10_000
@@ -47,6 +48,7 @@ class SpillFile:
     def __init__(self, folder=None):
         if folder is not None:
             os.makedirs(folder, exist_ok=True)
+        self._folder = folder if folder is not None else tempfile.gettempdir()
         self._file = tempfile.TemporaryFile(prefix="e2esim-spill-", dir=folder)
         self._end = 0
 
@@ -54,8 +56,13 @@ class SpillFile:
         array = np.ascontiguousarray(array)
         if array.dtype.kind not in "biuf":
             raise TypeError(f"only numeric arrays are spilled, not {array.dtype}")
-        self._file.seek(self._end)
-        self._file.write(array.data)
+        try:
+            self._file.seek(self._end)
+            self._file.write(array.data)
+            self._file.flush()  # a full disk shows here, not later in a buffer
+        except OSError as exc:
+            raise OutputFolderError(f"{self._folder}: cannot keep the finished blocks in a temporary file: "
+                                    f"{exc.strerror or exc}") from exc
         ref = Spilled(self._end, array.dtype.str, array.shape)
         self._end += array.nbytes
         return ref
