@@ -197,3 +197,28 @@ def test_crafted_cache_files_are_refused_before_any_array_is_read(tmp_path):
 def test_a_cache_file_without_a_checksum_is_a_miss(tmp_path):
     path = _file_with(tmp_path, lambda f: f.create_dataset("vtec", data=np.ones(3)))
     assert read_checked(path, ("vtec",)) == (None, "it carries no checksum (not written by this version of e2esim)")
+
+
+def test_a_file_size_limit_while_a_table_is_cached_is_a_warning_not_a_crash(tmp_path):
+    """The cache's HDF5 writes go through e2esim.io.guarded_h5 like results.h5: a full disk or the file-size limit
+    inside HDF5 is a warning and the run goes on; writing with h5py directly, a failed flush inside HDF5 could end
+    the process with a segmentation fault at exit (issue 22, item 3)."""
+    import subprocess
+    import sys
+
+    code = f"""
+import resource, warnings
+import numpy as np
+from e2esim.io.array_cache import ArrayCache
+resource.setrlimit(resource.RLIMIT_FSIZE, (20_000, resource.getrlimit(resource.RLIMIT_FSIZE)[1]))
+cache = ArrayCache({str(tmp_path / "cache")!r})
+with warnings.catch_warnings(record=True) as caught:
+    warnings.simplefilter("always")
+    cache.put("table", {{"what": "test"}}, None, {{"x": np.random.default_rng(1).normal(size=200_000)}}, {{}})
+print("warned:", [str(w.message) for w in caught])
+"""
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 0, (proc.returncode, proc.stderr[-2000:])
+    assert "warned:" in proc.stdout and "climatology cache" in proc.stdout, proc.stdout
+    assert "Traceback" not in proc.stderr
+    assert not list((tmp_path / "cache").glob("*.h5"))  # no half-written table left behind

@@ -211,7 +211,7 @@ def write(path: Path, arrays: dict, attrs: dict) -> None:
     """Write arrays (compressed) and JSON-able attributes to ``path`` atomically, with the file's name, the
     producing versions and the checksum of it all. Raises what the file system raises (``ArrayCache.put``
     turns that into a warning)."""
-    import h5py
+    from e2esim.io.guarded_h5 import check_writing, guarded_h5_file
 
     path = Path(path)
     arrays = {name: np.asarray(value) for name, value in arrays.items()}
@@ -222,8 +222,10 @@ def write(path: Path, arrays: dict, attrs: dict) -> None:
     stored.update(entry=path.stem, cache_schema=SCHEMA_VERSION, e2esim_version=e2esim.__version__,
                   pyiri_version=_pyiri_version())
     stored["checksum"] = checksum(arrays, stored)
-    with atomic_path(path) as tmp, h5py.File(tmp, "w") as f:
+    # through a GuardedFile: a full disk or the file-size limit is an OSError (a warning), never a crash at exit
+    with atomic_path(path) as tmp, guarded_h5_file(tmp) as f:
         for name, value in arrays.items():
+            check_writing()
             if value.size > 1024:
                 f.create_dataset(name, data=value, compression="gzip", compression_opts=1, shuffle=True)
             else:
