@@ -137,6 +137,12 @@ class JournalError(UserError):
     """The resume journal in an output folder is corrupt, foreign or of another version."""
 
 
+class ResultsFileError(UserError):
+    """A results.h5 (given to ``e2esim compare`` or ``open_results``) that is not one e2esim can read safely:
+    not HDF5, not of e2esim, damaged, or holding what e2esim never writes (links or storage outside the file,
+    data beyond the limits)."""
+
+
 def one_line(text: str) -> str:
     """``text`` on one line: line breaks (and runs of blanks around them) become one space, so that every
     message e2esim prints is a single line."""

@@ -25,24 +25,23 @@ from __future__ import annotations
 import hashlib
 import json
 import shutil
-import struct
 import zlib
 from pathlib import Path
 
 import numpy as np
 
 import e2esim
-from e2esim.errors import JournalError, OutputExistsError, OutputFolderError
+from e2esim.errors import OutputExistsError, OutputFolderError
 from e2esim.io.atomic import write_text_atomic
+from e2esim.runner.journal_check import BadRecord, check_block
+from e2esim.runner.journal_records import FORMAT, VERSION, corrupt, read_manifest, records
+from e2esim.runner.journal_records import FRAME as _FRAME
+from e2esim.runner.journal_records import MAGIC as _MAGIC
+from e2esim.runner.journal_records import MANIFEST as _MANIFEST
+from e2esim.runner.journal_records import RECORDS as _RECORDS
 from e2esim.runner.plaindata import BadPlainData, NotPlainData, allowed_packages, decode, encode
 
 JOURNAL = ".e2esim-partial"
-_RECORDS = "cases.journal"
-_MANIFEST = "manifest.json"
-FORMAT = "e2esim-journal"
-VERSION = 3  # 1 was the pickle journal of e2esim <= 0.x, 2 a journal of single cases; neither is read
-_MAGIC = b"E2J2"
-_FRAME = struct.Struct("<4sQQQI")  # magic, number of cases, header length, payload length, CRC-32 of both
 
 
 def fingerprint(resolved) -> str:
@@ -103,33 +102,27 @@ class Journal:
                 f"{self.path.parent}: the interrupted run there is of a different scenario, seed or e2esim "
                 "version; use --force to start again"
             )
-        frames, good_length = _frames(self.path / _RECORDS)
         finished = []
         seen = np.zeros(len(self.resolved.cases), dtype=bool)
-        for number, (count, header, payload) in enumerate(frames):
+        # a torn last frame is cut off once read, so appends continue cleanly
+        for number, (count, header, payload) in enumerate(records(self.path, truncate=True)):
             block = self._block(number, count, header, payload)
             if seen[block.indices].any():
-                raise _corrupt(self.path, f"record {number} repeats cases of an earlier record")
+                raise corrupt(self.path, f"record {number} repeats cases of an earlier record")
             seen[block.indices] = True
             finished.append(block)
-        with open(self.path / _RECORDS, "r+b") as fh:  # cut a torn last frame off, so appends continue cleanly
-            fh.truncate(good_length)
         self._count = int(seen.sum())
         return finished
 
     def _block(self, number: int, count: int, header: bytes, payload: bytes):
-        from e2esim.runner.run import BlockResult
-
+        """The checked ``BlockResult`` of one record (``e2esim.runner.journal_check``)."""
         try:
             result = decode(header, payload, self.packages)
-        except BadPlainData as exc:
-            raise _corrupt(self.path, f"record {number} is not valid: {exc}") from exc
-        n = len(self.resolved.cases)
-        indices = getattr(result, "indices", None)
-        if (not isinstance(result, BlockResult) or not isinstance(indices, np.ndarray) or indices.ndim != 1
-                or indices.dtype.kind not in "iu" or len(indices) != count or count == 0
-                or indices.min() < 0 or indices.max() >= n or len(np.unique(indices)) != count):
-            raise _corrupt(self.path, f"record {number} is not a finished block of this run")
+            check_block(result, self.resolved, self.packages)
+        except (BadPlainData, BadRecord) as exc:
+            raise corrupt(self.path, f"record {number} is not a finished block of this run: {exc}") from exc
+        if len(result) != count:
+            raise corrupt(self.path, f"record {number} claims {count} cases and holds {len(result)}")
         return result
 
     def record(self, result, data: bytes | None = None) -> None:
@@ -168,56 +161,8 @@ class Journal:
         shutil.rmtree(self.path, ignore_errors=True)
 
 
-def read_manifest(path: Path) -> dict:
-    """The manifest of the journal folder ``path``, checked: JSON of this format and version."""
-    try:
-        text = (path / _MANIFEST).read_text(encoding="utf-8")
-        manifest = json.loads(text)
-    except (OSError, UnicodeDecodeError, ValueError) as exc:
-        raise _corrupt(path, f"its manifest cannot be read ({type(exc).__name__})") from exc
-    if not isinstance(manifest, dict) or manifest.get("format") != FORMAT:
-        raise _corrupt(path, "it is not an e2esim journal, or one of an older e2esim that is not read")
-    if manifest.get("version") != VERSION:
-        raise _corrupt(path, f"it has journal version {str(manifest.get('version'))[:20]}, this e2esim reads "
-                             f"version {VERSION}")
-    return manifest
-
-
 def count_finished(folder: Path) -> int:
     """Number of cases in the complete records of the journal of an output folder (checked, not decoded)."""
     path = Path(folder) / JOURNAL
     read_manifest(path)
-    return sum(count for count, _, _ in _frames(path / _RECORDS)[0])
-
-
-def _frames(path: Path) -> tuple[list, int]:
-    """The complete frames of a journal file [(cases, header, payload)] and the length they span; a torn
-    last frame is left out, anything else that does not check out is a JournalError."""
-    if not path.exists():
-        return [], 0
-    try:
-        data = path.read_bytes()
-    except OSError as exc:
-        raise _corrupt(path.parent, f"it cannot be read: {exc.strerror or exc}") from exc
-    frames, pos = [], 0
-    while pos < len(data):
-        if pos + _FRAME.size > len(data):
-            break  # a torn frame head
-        magic, count, n_header, n_payload, crc = _FRAME.unpack_from(data, pos)
-        if magic != _MAGIC:
-            raise _corrupt(path.parent, f"record {len(frames)} does not start with the journal's mark")
-        start = pos + _FRAME.size
-        end = start + n_header + n_payload
-        if end > len(data):
-            break  # a torn last frame
-        header, payload = data[start:start + n_header], data[start + n_header:end]
-        if zlib.crc32(payload, zlib.crc32(header)) != crc:
-            raise _corrupt(path.parent, f"record {len(frames)} fails its checksum")
-        frames.append((count, header, payload))
-        pos = end
-    return frames, pos
-
-
-def _corrupt(path: Path, problem: str) -> JournalError:
-    return JournalError(f"{path}: the resume journal is corrupt or foreign: {problem}; it is not used. Run with "
-                        "--force to discard it and start again")
+    return sum(count for count, _, _ in records(path))
