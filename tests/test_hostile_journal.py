@@ -14,7 +14,10 @@ import numpy as np
 import pytest
 from hostile_files import cli, make_journal
 
-from e2esim.runner.journal import JOURNAL, Journal
+from e2esim.runner.journal import JOURNAL, Journal, encode_block
+from e2esim.runner.journal_check import check_block
+from e2esim.runner.plaindata import allowed_packages, decode
+from quick_runs import scenario_names
 
 FRAME = struct.Struct("<4sQQQI")
 
@@ -261,3 +264,18 @@ def test_the_journal_still_resumes(made, run):
     _, resolved, _ = made
     blocks = Journal(run[1], resolved).start(resume=True)
     assert [list(b.indices) for b in blocks] == [[0], [1]] and all(len(b.products) == 1 for b in blocks)
+
+
+@pytest.mark.parametrize("name", scenario_names())
+def test_the_checks_pass_every_block_of_every_shipped_scenario(name, quick_run):
+    """What the run writes is what the checks expect: every block of every shipped scenario's quick run, with
+    its products, comes back from its journal frame and passes ``check_block`` (the checks hold e2esim's own
+    annotations to the objects its modules really make)."""
+    result, _ = quick_run(name)
+    packages = allowed_packages()
+    for block in result.blocks:
+        frame = encode_block(block, packages)
+        _, count, n_header, _, _ = FRAME.unpack_from(frame)
+        header, payload = frame[FRAME.size:FRAME.size + n_header], frame[FRAME.size + n_header:]
+        check_block(decode(header, payload, packages), result.scenario, packages)
+        assert count == len(block)

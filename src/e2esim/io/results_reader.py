@@ -63,8 +63,9 @@ def _read(h5: H5Reader, path: Path) -> Results:
         h5.fail("/ (attribute n_cases)", f"says {declared} cases, the labels are of {n}")
     inputs_group = h5.get("cases/inputs", h5py.Group)
     stored = dict(h5.members(inputs_group))
-    sweep_keys = tuple(_sweep_keys(h5, stored, resolved))
+    sweep_keys, sweep_problem = _sweep_keys(h5, stored, resolved)
     inputs = {k: _input_values(h5, inputs_group, stored[k], n) for k in sweep_keys}
+    _check_map(h5, resolved, inputs, sweep_problem)
     req = h5.get("requirements", h5py.Group)
     names = _texts(h5, req, "names", (None,))
     r = len(names)
@@ -135,29 +136,60 @@ def _read_verdict_states(h5: H5Reader, out, req, n: int, r: int) -> None:
     out.coverage = out.coverage_text = np.full((n, r), "", dtype=object)
 
 
-def _sweep_keys(h5: H5Reader, stored: dict, resolved: dict) -> list:
-    """The sweep keys in the scenario's order (HDF5 lists a group's members alphabetically)."""
+def _sweep_keys(h5: H5Reader, stored: dict, resolved: dict) -> tuple:
+    """(The sweep keys in the scenario's order (HDF5 lists a group's members alphabetically), the problem of the
+    stored sweep when it does not validate)."""
     from e2esim.errors import Location
     from e2esim.runner.sweep import sweep_table
 
     try:
-        keys = sweep_table(resolved.get("sweep"), Location("<results.h5>", ("sweep",))).keys
-    except UserError:
-        keys = ()
+        keys, problem = sweep_table(resolved.get("sweep"), Location("<results.h5>", ("sweep",))).keys, None
+    except UserError as exc:
+        keys, problem = (), str(exc)
     tables = {h5.text_attribute(ds, TABLE_ATTR) for ds in stored.values()}
-    return [k for k in keys if k in stored] or sorted(k for k in stored if k not in tables)
+    return tuple([k for k in keys if k in stored] or sorted(k for k in stored if k not in tables)), problem
+
+
+def _check_map(h5: H5Reader, resolved: dict, inputs: dict, problem: str | None) -> None:
+    """A map sweep's results (drawn on its grid by ``Results.to_xarray``): its stored ``sweep.map`` valid, and
+    every case a cell of that grid with its month, pass and solar level."""
+    from e2esim.io.map_netcdf import _grid_positions
+    from e2esim.runner.map_sweep import LAT_KEYS, LON_KEYS, MONTH_KEY, PASS_KEY, SOLAR_KEY, map_section, map_settings
+
+    section = map_section(resolved.get("sweep"))
+    if section is None:
+        return
+    where = "/provenance/resolved_scenario"
+    if problem is not None:
+        h5.fail(where, f"its map sweep is not valid ({problem})")
+    missing = [k for k in (LAT_KEYS[0], LON_KEYS[0], MONTH_KEY, PASS_KEY, SOLAR_KEY) if k not in inputs]
+    if missing:
+        h5.fail("/cases/inputs", f"lacks {missing[0]}, a key of the map sweep")
+    numbers = all(isinstance(v, (int, float)) and not isinstance(v, bool) for k in (LAT_KEYS[0], LON_KEYS[0], MONTH_KEY)
+                  for v in inputs[k])
+    if not numbers or not all(isinstance(v, str) for k in (PASS_KEY, SOLAR_KEY) for v in inputs[k]):
+        h5.fail("/cases/inputs", "the map's cells, months, passes or solar levels are not of their types")
+    from e2esim.faraday.global_climatology import grid_axes
+
+    m = map_settings(section)
+    lat, lon = grid_axes(m["step_deg"], tuple(m["lat_range_deg"]), tuple(m["lon_range_deg"]))
+    try:
+        for axis, key in ((np.round(lat, 9), LAT_KEYS[0]), (np.round(lon, 9), LON_KEYS[0])):
+            _grid_positions(axis, inputs[key], m["step_deg"])
+    except ValueError:
+        h5.fail(f"/cases/inputs/{key}", "holds a cell that is not on the map's grid")
 
 
 def _labels(h5: H5Reader, node):
     """The case labels: joined from their parts when read (format 3, ``JoinedLabels``), or a list of text."""
     if isinstance(node, h5py.Dataset):
-        if node.ndim != 1 or node.shape[0] > MAX_RESULT_CASES:
+        if len(h5.shape(node)) != 1 or node.shape[0] > MAX_RESULT_CASES:
             h5.fail(node.name, f"has shape {node.shape}", f"expected one label per case, at most "
                     f"{MAX_RESULT_CASES:,} cases")
         return h5.read_text(node, (None,)).tolist()
     parts = h5.read_text(h5.get(f"{node.name}/parts"), (None,))
     codes_ds = h5.get(f"{node.name}/codes")
-    if codes_ds.ndim != 2 or codes_ds.shape[0] > MAX_RESULT_CASES:
+    if len(h5.shape(codes_ds)) != 2 or codes_ds.shape[0] > MAX_RESULT_CASES:
         h5.fail(codes_ds.name, f"has shape {codes_ds.shape}", f"expected (cases, groups), at most "
                 f"{MAX_RESULT_CASES:,} cases")
     n = codes_ds.shape[0]

@@ -114,9 +114,12 @@ class H5Reader:
 
     def members(self, group, kind=h5py.Dataset) -> list:
         """[(name, object)] of ``group``'s members, each reached by a hard link and of ``kind``."""
-        out = []
+        out, base = [], group.name.rstrip("/")
         for name in list(group):
-            out.append((name, self.get(f"{group.name}/{name}", kind)))
+            node = self._child(group, name, f"{base}/{name}")
+            if not isinstance(node, kind):
+                self.fail(f"{base}/{name}", f"is a {_kind_name(type(node))}, not a {_kind_name(kind)}")
+            out.append((name, node))
         return out
 
     # Data ---------------------------------------------------------------------------------------------
@@ -138,10 +141,17 @@ class H5Reader:
         out.flat[:] = [as_text(x) for x in data.flat]
         return out
 
+    def shape(self, ds) -> tuple:
+        """The shape of ``ds``; one without any (an HDF5 null dataspace) is refused."""
+        if ds.shape is None:
+            self.fail(ds.name, "holds no data (an empty HDF5 dataspace)")
+        return ds.shape
+
     def _check(self, ds, shape: tuple) -> None:
         """Refuse ``ds`` unless it lies in this file, has ``shape``, stores what it declares and, compressed,
         decompresses within the limits."""
         plist = ds.id.get_create_plist()
+        self.shape(ds)
         if plist.get_layout() == h5py.h5d.VIRTUAL:
             self.fail(ds.name, "is a virtual dataset (its data lies in other files); e2esim reads only data stored "
                       "in the file itself")

@@ -9,9 +9,11 @@ Both are plain data, never pickle (``e2esim.runner.plaindata``): each record is 
     magic "E2J2" | number of cases, header length, payload length (little-endian u64) | CRC-32 | header | payload
 
 with a JSON header and the block's numeric arrays as raw bytes. Reading a journal builds numbers, text,
-arrays and e2esim's own result objects, and runs no code from the file; a record that does not check out
-(magic, lengths, CRC, JSON, dtypes and shapes, allowed classes, the case it claims to be) makes the
-journal corrupt: exit status 2, with ``--force`` as the way out. A process killed while writing leaves at
+arrays and e2esim's own result objects, and runs no code from the file; the files are read with limits
+(``e2esim.runner.journal_records``: regular files only, each record checked before its bytes are read) and
+a record that does not check out (magic, lengths, CRC, JSON, dtypes and shapes, allowed classes, the block
+it must be for this run, ``e2esim.runner.journal_check``) makes the journal corrupt: exit status 2, with
+``--force`` as the way out. A process killed while writing leaves at
 most a torn last frame, shorter than it says, which ``--resume`` cuts off. A block whose result holds
 something plain data cannot store (a plug-in's own object, say) is simply not journaled and runs again
 on resume. The files are created with the first finished case, so a run that fails before any case
