@@ -382,6 +382,8 @@ def make_journal_case(seed: int) -> tuple:
     frames = _frames(records.read_bytes())
     changes = []
     for _ in range(rnd.randint(1, 3)):
+        if not frames:
+            break
         k = rnd.randrange(len(frames))
         kind = rnd.randrange(10)
         if kind <= 5:
@@ -418,7 +420,7 @@ def make_journal_case(seed: int) -> tuple:
     elif tail < 0.15:
         data += bytes(rnd.randrange(100))
         changes.append("garbage appended")
-    elif tail < 0.2:
+    elif tail < 0.2 and data:
         pos = rnd.randrange(len(data))
         data = data[:pos] + bytes([data[pos] ^ 0xFF]) + data[pos + 1:]
         changes.append("a byte flipped")

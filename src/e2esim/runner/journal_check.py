@@ -23,7 +23,11 @@ import numpy as np
 
 from e2esim.block import Values
 from e2esim.case import Products
+from e2esim.requirements.uncertainty import AGREE, MOMENTS, SHAPE
 from e2esim.runner.columns import Column, RequirementColumns
+
+CODED_DETAILS = {"basis_disagreement": (AGREE, SHAPE, MOMENTS)}
+"""Verdict details that are codes (``e2esim.requirements.uncertainty``), with their values (or NaN)."""
 
 
 class BadRecord(ValueError):
@@ -72,6 +76,10 @@ def _requirement(columns, what: str, size: int) -> None:
     for name in ("value", "limit", "margin"):
         _array(getattr(columns, name), f"{what}: {name}", "f", size)
     _mapping(columns.details, f"{what}: details", lambda v, w: _column(v, w, size))
+    for name, codes in CODED_DETAILS.items():
+        column = columns.details.get(name)
+        if column is not None and not np.all(np.isin(column.values, codes) | np.isnan(column.values)):
+            raise BadRecord(f"{what}: the detail {name} holds a value other than {', '.join(map(str, codes))}")
     if columns.curves is not None:
         _values(columns.curves, f"{what}: curves", size,
                 lambda v, w: _mapping(v, w, lambda a, w2: _array(a, w2, "f", None)))
