@@ -308,7 +308,16 @@ def _mutate_record(rnd, doc: dict, payload: bytes) -> tuple:
     nodes = _nodes(doc["tree"])
     objects = [node for node, key in nodes if isinstance(node, dict) and node.get("$") == "o" and key == "c"]
     classes = sorted({o["c"] for o in objects if isinstance(o["c"], str)})
-    action = rnd.randrange(8)
+    action = rnd.randrange(9)
+    if action == 7:  # every float array, or one, set to one awkward value: zeros, NaN, infinities
+        value, data, pos = rnd.choice(VALUES), bytearray(payload), 0
+        every = rnd.random() < 0.5
+        for spec in doc["arrays"]:
+            size = int(np.prod(spec[1])) * np.dtype(spec[0]).itemsize
+            if spec[0] == "<f8" and (every or rnd.random() < 0.2):
+                data[pos:pos + size] = np.full(size // 8, value).tobytes()
+            pos += size
+        return bytes(data), f"floats = {value}"
     if action == 0:
         node, key = rnd.choice(nodes)
         node[key] = json.loads(json.dumps(rnd.choice(NODES)))

@@ -143,7 +143,8 @@ def _text_mapping(value, what: str) -> None:
 def _products(products, spec, what: str, packages: frozenset) -> None:
     """Exactly the products the case's chain declares, in its order, each of its class, each object in them
     complete and typed as annotated."""
-    if type(products) is not Products or type(products._values) is not types.MappingProxyType:
+    values = getattr(products, "_values", None)  # a decoded record may leave the slot unset
+    if type(products) is not Products or type(values) is not types.MappingProxyType:
         raise BadRecord(f"{what} are a {type(products).__name__}, not products")
     declared = [p for stage in spec.chain for p in stage.provides]
     if list(products) != [p.name for p in declared]:
@@ -153,7 +154,7 @@ def _products(products, spec, what: str, packages: frozenset) -> None:
             product.check(products[product.name], "the journal")
         except TypeError as exc:
             raise BadRecord(f"{what}: {exc}") from None
-    _objects(products._values, what, packages)
+    _objects(values, what, packages)
 
 
 def _objects(root, what: str, packages: frozenset) -> None:
