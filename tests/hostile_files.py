@@ -5,12 +5,23 @@ from __future__ import annotations
 
 import contextlib
 import signal
+import tempfile
 from pathlib import Path
 
+from hypothesis import HealthCheck
+from hypothesis import strategies as st
+
 from e2esim.cli import main
+from e2esim.errors import UserError, one_line
 
 SECRET = "SECRET-e2esim-7Q4Z"
 """Text of a file outside the crafted ones: it must never appear in anything e2esim prints or writes."""
+FUZZ_FOLDER = Path(tempfile.mkdtemp(prefix="e2esim-fuzz-files-"))
+SECRET_FILE = FUZZ_FOLDER / "outside.txt"
+SECRET_FILE.write_text((SECRET + "\n") * 50)
+COMMON = dict(deadline=None, database=None, suppress_health_check=[HealthCheck.too_slow])
+"""Hypothesis settings of the fuzz tests (tests/test_fuzz_results.py, tests/test_fuzz_journals.py)."""
+SEEDS = st.integers(min_value=0, max_value=2**64 - 1)
 
 RESULTS_SCENARIO = {  # analytic, a 2 x 2 grid with a text sweep key and two requirements: fast, every dataset kind
     "name": "hostile",
@@ -92,3 +103,9 @@ def cli(capsys, *args) -> tuple:
     if status == 2:
         assert err.startswith("e2esim: error: ") and err.count("\n") == 1, repr(err)
     return status, out, err
+
+
+def expect_clean(exc: UserError, path: Path) -> None:
+    """A refusal of a crafted file: one line naming it (or its journal), nothing of the secret file."""
+    message = one_line(exc)
+    assert SECRET not in message and (str(path) in message or "journal" in message), message
