@@ -1,5 +1,6 @@
 """Real results.h5 and journal files of quick runs, for the tests that craft hostile ones from them
-(tests/test_hostile_results.py, tests/test_hostile_journal.py, tests/test_fuzz_files.py)."""
+(tests/test_hostile_results.py, tests/test_hostile_journal.py, tests/test_fuzz_results.py,
+tests/test_fuzz_journals.py)."""
 
 from __future__ import annotations
 
