@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import dataclasses
 import functools
+import re
 import types
 import typing
 from collections.abc import Mapping
@@ -119,10 +120,14 @@ _KINDS = {"f": "floating-point", "b": "booleans", "iu": "integers"}
 
 
 def _mapping(value, what: str, check_item) -> None:
-    if type(value) is not dict or not all(type(k) is str for k in value):
+    """A dict of names (the names of output datasets: text, not empty, without "/" or control characters)."""
+    if type(value) is not dict or not all(type(k) is str and _NAME.fullmatch(k) for k in value):
         raise BadRecord(f"{what} are not a mapping of names")
     for key, item in value.items():
         check_item(item, f"{what}: {key[:60]}")
+
+
+_NAME = re.compile(r"(?!\.{1,2}\Z)[^/\x00-\x1f\x7f]{1,200}")
 
 
 def _text(value, what: str) -> None:
