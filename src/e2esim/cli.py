@@ -327,6 +327,7 @@ def cmd_reproduce(args) -> int:
 
 def cmd_compare(args) -> int:
     from e2esim.api import open_results
+    from e2esim.errors import OutputFolderError
     from e2esim.io.atomic import write_text_atomic
     from e2esim.io.compare import compare_report
 
@@ -334,7 +335,11 @@ def cmd_compare(args) -> int:
         raise UserError(f"--rtol {args.rtol}: expected a relative tolerance >= 0")
     text, differ = compare_report(open_results(args.run_a), open_results(args.run_b), args.run_a, args.run_b,
                                   args.rtol)
-    write_text_atomic(args.report, text + "\n")
+    try:
+        write_text_atomic(args.report, text + "\n")
+    except OSError as exc:
+        raise OutputFolderError(f"--report {args.report}: cannot write the comparison there: "
+                                f"{exc.strerror or exc}; give a writable file with --report FILE") from exc
     print(text)
     print(f"(written to {args.report})")
     return 1 if differ else 0

@@ -142,6 +142,12 @@ class E2ESimWarning(UserWarning):
     line, ``e2esim: warning: ...``."""
 
 
+class ResultsFileError(UserError):
+    """A results.h5 (given to ``e2esim compare`` or ``open_results``) that is not one e2esim can read safely:
+    not HDF5, not of e2esim, damaged, or holding what e2esim never writes (links or storage outside the file,
+    data beyond the limits)."""
+
+
 def one_line(text: str) -> str:
     """``text`` on one line: line breaks (and runs of blanks around them) become one space, so that every
     message e2esim prints is a single line."""

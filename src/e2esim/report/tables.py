@@ -126,21 +126,29 @@ def verdict_cell(v):
     return status_badge(v.status, f"({value} {v.unit}{dominant}{note})")
 
 
+COMPARISON = ("comparison.bias_rel_diff", "comparison.bias_rel_se", "comparison.var_rel_diff", "comparison.var_rel_se")
+
+
 def comparison_table(result) -> Table | None:
-    cases = [c for c in result.cases if "comparison.bias_rel_diff" in c.scalars]
+    cases = [c for c in result.cases if all(k in c.scalars for k in COMPARISON)]  # a resumed journal may lack some
     if not cases:
         return None
     rows = []
     for c in cases:
         s = c.scalars
-        zb = s["comparison.bias_rel_diff"] / s["comparison.bias_rel_se"]
-        zv = s["comparison.var_rel_diff"] / s["comparison.var_rel_se"]
+        zb = _z(s["comparison.bias_rel_diff"], s["comparison.bias_rel_se"])
+        zv = _z(s["comparison.var_rel_diff"], s["comparison.var_rel_se"])
         rows.append((str(c.index), c.label,
                      f"{100 * s['comparison.bias_rel_diff']:.2f} % ± {100 * s['comparison.bias_rel_se']:.2f} %",
                      f"{zb:.2f}",
                      f"{100 * s['comparison.var_rel_diff']:.2f} % ± {100 * s['comparison.var_rel_se']:.2f} %",
                      f"{zv:.2f}"))
     return Table(("case", "inputs", "bias rel. diff.", "z", "variance rel. diff.", "z"), tuple(rows))
+
+
+def _z(difference: float, standard_error: float) -> float:
+    """The difference in standard errors (NaN without a standard error)."""
+    return difference / standard_error if standard_error else float("nan")
 
 
 def contribution_key(verdict, source: str) -> str:

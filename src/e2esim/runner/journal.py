@@ -9,9 +9,11 @@ Both are plain data, never pickle (``e2esim.runner.plaindata``): each record is 
     magic "E2J2" | number of cases, header length, payload length (little-endian u64) | CRC-32 | header | payload
 
 with a JSON header and the block's numeric arrays as raw bytes. Reading a journal builds numbers, text,
-arrays and e2esim's own result objects, and runs no code from the file; a record that does not check out
-(magic, lengths, CRC, JSON, dtypes and shapes, allowed classes, the case it claims to be) makes the
-journal corrupt: exit status 2, with ``--force`` as the way out. A process killed while writing leaves at
+arrays and e2esim's own result objects, and runs no code from the file; the files are read with limits
+(``e2esim.runner.journal_records``: regular files only, each record checked before its bytes are read) and
+a record that does not check out (magic, lengths, CRC, JSON, dtypes and shapes, allowed classes, the block
+it must be for this run, ``e2esim.runner.journal_check``) makes the journal corrupt: exit status 2, with
+``--force`` as the way out. A process killed while writing leaves at
 most a torn last frame, shorter than it says, which ``--resume`` cuts off. A block whose result holds
 something plain data cannot store (a plug-in's own object, say) is simply not journaled and runs again
 on resume. The files are created with the first finished case, so a run that fails before any case
@@ -28,25 +30,24 @@ import json
 import os
 import shutil
 import stat
-import struct
 import zlib
 from pathlib import Path
 
 import numpy as np
 
 import e2esim
-from e2esim.errors import JournalError, OutputExistsError, OutputFolderError
+from e2esim.errors import OutputExistsError, OutputFolderError
 from e2esim.io.atomic import write_text_atomic
 from e2esim.runner.interrupts import interrupts_deferred
+from e2esim.runner.journal_check import BadRecord, check_block
+from e2esim.runner.journal_records import FORMAT, VERSION, corrupt, read_manifest, records
+from e2esim.runner.journal_records import FRAME as _FRAME
+from e2esim.runner.journal_records import MAGIC as _MAGIC
+from e2esim.runner.journal_records import MANIFEST as _MANIFEST
+from e2esim.runner.journal_records import RECORDS as _RECORDS
 from e2esim.runner.plaindata import BadPlainData, NotPlainData, allowed_packages, decode, encode
 
 JOURNAL = ".e2esim-partial"
-_RECORDS = "cases.journal"
-_MANIFEST = "manifest.json"
-FORMAT = "e2esim-journal"
-VERSION = 3  # 1 was the pickle journal of e2esim <= 0.x, 2 a journal of single cases; neither is read
-_MAGIC = b"E2J2"
-_FRAME = struct.Struct("<4sQQQI")  # magic, number of cases, header length, payload length, CRC-32 of both
 _NOFOLLOW = getattr(os, "O_NOFOLLOW", 0) | getattr(os, "O_CLOEXEC", 0)  # never write through a planted link
 
 
@@ -110,49 +111,27 @@ class Journal:
                 f"{self.path.parent}: the interrupted run there is of a different scenario, seed or e2esim "
                 "version; use --force to start again"
             )
-        frames, good_length = _frames(self.path / _RECORDS)
         finished = []
         seen = np.zeros(len(self.resolved.cases), dtype=bool)
-        for number, (count, header, payload) in enumerate(frames):
+        # a torn last frame is cut off once read, so appends continue cleanly
+        for number, (count, header, payload) in enumerate(records(self.path, truncate=True)):
             block = self._block(number, count, header, payload)
             if seen[block.indices].any():
-                raise _corrupt(self.path, f"record {number} repeats cases of an earlier record")
+                raise corrupt(self.path, f"record {number} repeats cases of an earlier record")
             seen[block.indices] = True
             finished.append(block)
-        self._cut(good_length)
         self._count = int(seen.sum())
         return finished
 
-    def _cut(self, length: int) -> None:
-        """Cut a torn last frame off, so that appends continue cleanly (never growing the file)."""
-        try:
-            fd = os.open(self.path / _RECORDS, os.O_WRONLY | _NOFOLLOW)
-        except FileNotFoundError:
-            return
-        except OSError as exc:
-            raise OutputFolderError(f"{self.path}: cannot open the resume journal: {exc.strerror or exc}") from exc
-        try:
-            if os.fstat(fd).st_size > length:
-                os.ftruncate(fd, length)
-        except OSError as exc:
-            raise OutputFolderError(f"{self.path}: cannot cut the torn last record off the resume journal: "
-                                    f"{exc.strerror or exc}") from exc
-        finally:
-            os.close(fd)
-
     def _block(self, number: int, count: int, header: bytes, payload: bytes):
-        from e2esim.runner.run import BlockResult
-
+        """The checked ``BlockResult`` of one record (``e2esim.runner.journal_check``)."""
         try:
             result = decode(header, payload, self.packages)
-        except BadPlainData as exc:
-            raise _corrupt(self.path, f"record {number} is not valid: {exc}") from exc
-        n = len(self.resolved.cases)
-        indices = getattr(result, "indices", None)
-        if (not isinstance(result, BlockResult) or not isinstance(indices, np.ndarray) or indices.ndim != 1
-                or indices.dtype.kind not in "iu" or len(indices) != count or count == 0
-                or indices.min() < 0 or indices.max() >= n or len(np.unique(indices)) != count):
-            raise _corrupt(self.path, f"record {number} is not a finished block of this run")
+            check_block(result, self.resolved, self.packages)
+        except (BadPlainData, BadRecord) as exc:
+            raise corrupt(self.path, f"record {number} is not a finished block of this run: {exc}") from exc
+        if len(result) != count:
+            raise corrupt(self.path, f"record {number} claims {count} cases and holds {len(result)}")
         return result
 
     def record(self, result, data: bytes | None = None) -> None:
@@ -216,56 +195,8 @@ def _write_all(fd: int, data: bytes) -> None:
         view = view[os.write(fd, view):]
 
 
-def read_manifest(path: Path) -> dict:
-    """The manifest of the journal folder ``path``, checked: JSON of this format and version."""
-    try:
-        text = (path / _MANIFEST).read_text(encoding="utf-8")
-        manifest = json.loads(text)
-    except (OSError, UnicodeDecodeError, ValueError) as exc:
-        raise _corrupt(path, f"its manifest cannot be read ({type(exc).__name__})") from exc
-    if not isinstance(manifest, dict) or manifest.get("format") != FORMAT:
-        raise _corrupt(path, "it is not an e2esim journal, or one of an older e2esim that is not read")
-    if manifest.get("version") != VERSION:
-        raise _corrupt(path, f"it has journal version {str(manifest.get('version'))[:20]}, this e2esim reads "
-                             f"version {VERSION}")
-    return manifest
-
-
 def count_finished(folder: Path) -> int:
     """Number of cases in the complete records of the journal of an output folder (checked, not decoded)."""
     path = Path(folder) / JOURNAL
     read_manifest(path)
-    return sum(count for count, _, _ in _frames(path / _RECORDS)[0])
-
-
-def _frames(path: Path) -> tuple[list, int]:
-    """The complete frames of a journal file [(cases, header, payload)] and the length they span; a torn
-    last frame is left out, anything else that does not check out is a JournalError."""
-    if not path.exists():
-        return [], 0
-    try:
-        data = path.read_bytes()
-    except OSError as exc:
-        raise _corrupt(path.parent, f"it cannot be read: {exc.strerror or exc}") from exc
-    frames, pos = [], 0
-    while pos < len(data):
-        if pos + _FRAME.size > len(data):
-            break  # a torn frame head
-        magic, count, n_header, n_payload, crc = _FRAME.unpack_from(data, pos)
-        if magic != _MAGIC:
-            raise _corrupt(path.parent, f"record {len(frames)} does not start with the journal's mark")
-        start = pos + _FRAME.size
-        end = start + n_header + n_payload
-        if end > len(data):
-            break  # a torn last frame
-        header, payload = data[start:start + n_header], data[start + n_header:end]
-        if zlib.crc32(payload, zlib.crc32(header)) != crc:
-            raise _corrupt(path.parent, f"record {len(frames)} fails its checksum")
-        frames.append((count, header, payload))
-        pos = end
-    return frames, pos
-
-
-def _corrupt(path: Path, problem: str) -> JournalError:
-    return JournalError(f"{path}: the resume journal is corrupt or foreign: {problem}; it is not used. Run with "
-                        "--force to discard it and start again")
+    return sum(count for count, _, _ in records(path))

@@ -44,6 +44,25 @@ MAX_MONTE_CARLO_BYTES = 4 * 2**30
 """Memory one case's Monte Carlo may need, estimated from its sizes (``monte_carlo_bytes``): 4 GiB, so
 that a few worker processes still fit a workstation. The Table II checks at the paper's sizes need 13 MB."""
 
+MAX_STORED_SCENARIO_BYTES = 4 * MAX_DOCUMENT_BYTES
+MAX_STORED_SCENARIO_VALUES = 2 * MAX_NODES
+"""The scenario text stored in a results.h5 (``/provenance``), read back by ``e2esim compare`` and
+``open_results``: the scenario limits, with room for the resolved form (every module's defaults filled in,
+written one value a line), and checked the same way before anything is built (aliases counted expanded)."""
+
+MAX_H5_DECOMPRESSED_BYTES = 2**30
+"""Compressed data of one HDF5 file that e2esim reads (a results.h5 someone repacked with gzip; e2esim writes
+none): 1 GiB once decompressed, each chunk never beyond its declared size. Uncompressed data is limited by
+the file itself: every byte read must be stored in it (no fill values)."""
+
+MAX_H5_CHUNKS = 100_000
+"""Chunks of one compressed dataset: each is checked before HDF5 decompresses it (about 2 s at the limit)."""
+
+MAX_JOURNAL_RECORD_BYTES = 16 * 2**30
+"""One record of a resume journal (a finished block of cases, with its products when the run keeps them):
+16 GiB. A block of the largest Monte Carlo with kept samples is far below; a record declaring more is
+refused before it is read."""
+
 MAX_MESSAGE_VALUE_CHARS = 80
 """A value quoted in an error message is cut to this many characters."""
 

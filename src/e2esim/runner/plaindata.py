@@ -153,21 +153,30 @@ def decode(header: bytes, payload: bytes, packages: frozenset):
         return _Decoder(arrays, packages).decode(doc["tree"])
     except RecursionError as exc:
         raise BadPlainData("the record is nested too deeply") from exc
+    except BadPlainData:
+        raise
+    except Exception as exc:  # e.g. hashing a decoded object that lacks a field, to put it in a set
+        raise BadPlainData(f"the record does not decode ({type(exc).__name__})") from exc
+
+
+MAX_DIMENSIONS = 32
+"""Dimensions of a stored array (numpy allows 64; e2esim's arrays have at most 4)."""
 
 
 def _arrays(specs: list, payload: bytes) -> list:
     buffer = bytearray(payload)  # writeable arrays, like the ones that were stored
     out, pos = [], 0
     for spec in specs:
-        if not (isinstance(spec, list) and len(spec) in (2, 3) and isinstance(spec[0], str)
-                and isinstance(spec[1], list) and all(type(n) is int and n >= 0 for n in spec[1])
-                and spec[2:] in ([], ["read-only"])):
+        if not (isinstance(spec, list) and len(spec) in (2, 3) and isinstance(spec[0], str) and len(spec[0]) <= 40
+                and isinstance(spec[1], list) and len(spec[1]) <= MAX_DIMENSIONS
+                and all(type(n) is int and 0 <= n < 2**62 for n in spec[1]) and spec[2:] in ([], ["read-only"])):
             raise BadPlainData("an array description is malformed")
         try:
             dtype = np.dtype(spec[0])
         except (TypeError, ValueError) as exc:
             raise BadPlainData(f"unknown array dtype {spec[0][:40]!r}") from exc
-        if dtype.kind not in ARRAY_KINDS or dtype.fields is not None or dtype.subdtype is not None:
+        if dtype.kind not in ARRAY_KINDS or dtype.fields is not None or dtype.subdtype is not None \
+                or dtype.itemsize == 0:
             raise BadPlainData(f"array dtype {spec[0][:40]!r} is not plain data")
         count = 1
         for n in spec[1]:
@@ -175,7 +184,12 @@ def _arrays(specs: list, payload: bytes) -> list:
         size = count * dtype.itemsize
         if pos + size > len(buffer):
             raise BadPlainData("the arrays are longer than the record")
-        array = np.frombuffer(buffer, dtype, count, pos).reshape(spec[1])
+        if max(spec[1], default=1) * dtype.itemsize > 2**62:
+            raise BadPlainData("an array's shape is too large")
+        try:
+            array = (np.frombuffer(buffer, dtype, count, pos) if count else np.zeros(0, dtype)).reshape(spec[1])
+        except (ValueError, TypeError, MemoryError) as exc:
+            raise BadPlainData(f"an array of shape {spec[1]} does not fit its record") from exc
         array.flags.writeable = not spec[2:]  # as it was stored: read-only arrays stay read-only
         out.append(array)
         pos += size
@@ -233,13 +247,16 @@ class _Decoder:
         return self._register(node, self.arrays[node["a"]])
 
     def _oa(self, node):
-        shape = node["s"]
-        if type(shape) is not list or not all(type(n) is int and n >= 0 for n in shape):
+        shape, items = node["s"], self._items(node)
+        if type(shape) is not list or len(shape) > MAX_DIMENSIONS or not all(type(n) is int and n >= 0 for n in shape):
             raise BadPlainData("the shape of an array of values is malformed")
-        out = self._register(node, np.empty(shape, dtype=object))
-        items = [self.decode(x) for x in self._items(node)]
-        if len(items) != out.size:
+        count = 1
+        for n in shape:
+            count *= n
+        if count != len(items):  # checked before anything is allocated: the shape may claim terabytes
             raise BadPlainData("an array of values has the wrong number of items")
+        out = self._register(node, np.empty(shape, dtype=object))
+        items = [self.decode(x) for x in items]
         flat = out.ravel()
         for k, item in enumerate(items):  # one by one: numpy would read tuples as rows
             flat[k] = item

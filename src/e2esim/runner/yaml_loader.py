@@ -128,10 +128,22 @@ def _compose(text: str, source: str):
             from exc
 
 
-def check_structure(text: str, source: str) -> None:
+def load_plain_yaml(text: str, source: str, max_bytes: int, max_values: int):
+    """YAML text that e2esim stored (the scenario in a results.h5) as ``yaml.safe_load`` reads it, with the
+    checks and limits of a scenario (``check_structure``) before anything is built."""
+    if len(text) > max_bytes:
+        raise LimitError(f"{source}: the text is larger than the limit of {max_bytes:,} characters")
+    check_structure(text, source, max_values)
+    try:
+        return yaml.load(text, Loader=_FAST or yaml.SafeLoader)
+    except (yaml.YAMLError, ValueError, TypeError, RecursionError) as exc:
+        raise ScenarioFileError(f"{source}: malformed YAML: {shorten(_error_text(exc), 160)}") from exc
+
+
+def check_structure(text: str, source: str, max_values: int = MAX_NODES) -> None:
     """Stream the YAML events once (no objects are built) and refuse, at the first offending line, a
     disallowed tag, nesting deeper than ``MAX_DEPTH``, an alias of a collection that contains it, or more
-    than ``MAX_NODES`` values once aliases are expanded. Malformed YAML is left to the composer, whose
+    than ``max_values`` values once aliases are expanded. Malformed YAML is left to the composer, whose
     message names the problem."""
     sizes: dict = {}  # anchor -> number of values it stands for
     stack: list = []  # open collections: [values so far, anchor]
@@ -173,8 +185,8 @@ def check_structure(text: str, source: str) -> None:
             else:
                 continue
             expanded += count
-            if expanded > MAX_NODES:
-                raise LimitError(f"{source}:{_line(event)}: the scenario holds more than the limit of {MAX_NODES:,} "
+            if expanded > max_values:
+                raise LimitError(f"{source}:{_line(event)}: the scenario holds more than the limit of {max_values:,} "
                                  "values once its YAML aliases (*name) are expanded; write long value lists as "
                                  "{linspace: [start, stop, n]}, or avoid nesting aliases in aliases")
     except (yaml.YAMLError, ValueError):
