@@ -50,7 +50,7 @@ def test_a_fifo_named_like_a_map_is_refused_not_read(tmp_path, name):
 
 def test_a_directory_named_like_a_map_is_refused(tmp_path):
     (tmp_path / "map.nc").mkdir()
-    with pytest.raises(PhysicsInputError, match="is a directory, not a regular file"):
+    with pytest.raises(PhysicsInputError, match="is a folder, not a regular file"):
         read_agb_map(tmp_path / "map.nc")
 
 

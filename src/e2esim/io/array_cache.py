@@ -29,7 +29,7 @@ import numpy as np
 import e2esim
 from e2esim.errors import E2ESimWarning
 from e2esim.io.atomic import atomic_path
-from e2esim.io.regular_file import NotARegularFile, regular_file_stat
+from e2esim.io.input_files import NotARegularFile, regular_file_stat
 
 SCHEMA_VERSION = 2
 """Bumped whenever what is stored, or how it is computed, changes. 2: the checksum and the producing versions

@@ -1,5 +1,8 @@
 """Opening a file e2esim did not just write: only a regular file, checked before a byte is read.
 
+Used by every reader of a file from a user or an earlier run: results.h5 and resume journals (``open_regular``),
+the climatology cache and user AGB maps (``regular_file_stat``, for libraries that open the file by its name).
+
 A FIFO blocks the reader until something writes to it (for ever, if nothing does), ``/dev/zero`` or
 ``/dev/urandom`` never end, and a folder is not a file. So every file e2esim reads from a user or from an
 earlier run (a results.h5, a resume journal and its manifest) is first opened without blocking
@@ -47,6 +50,25 @@ def open_regular(path, what: str, error=UserError, nofollow: bool = False, write
     return fd
 
 
+class NotARegularFile(OSError):
+    """The path exists but is a folder, FIFO, device or socket; ``kind`` says which."""
+
+    def __init__(self, path, kind: str):
+        super().__init__(f"{os.fspath(path)!r} is {kind}, not a regular file")
+        self.kind = kind
+
+
+def regular_file_stat(path) -> os.stat_result:
+    """``os.stat(path)`` (following links, as the library's open after it does) if it is a regular file;
+    ``NotARegularFile`` if it is something else, ``OSError`` if it cannot be looked at. A stat never blocks, even
+    on a FIFO; a file swapped for a FIFO between this check and the open needs someone racing you in your folder."""
+    st = os.stat(path)
+    kind = special_kind(st.st_mode)
+    if kind is not None:
+        raise NotARegularFile(path, kind)
+    return st
+
+
 def check_regular(path, what: str, error=UserError) -> int:
     """The size of the regular file ``path``, checked as by ``open_regular`` (for a library that opens the file
     by its name itself, such as HDF5)."""
@@ -69,4 +91,4 @@ def read_limited(fd: int, count: int) -> bytes:
     return b"".join(pieces)
 
 
-__all__ = ["check_regular", "open_regular", "read_limited", "special_kind"]
+__all__ = ["NotARegularFile", "check_regular", "open_regular", "read_limited", "regular_file_stat", "special_kind"]
