@@ -21,45 +21,57 @@ DESIGN = dict(allometric_error=0.15, backscatter_error=0.02, model_error_sd=0.00
 P_MIN = 1e-4  # two-sided binomial p-value below which the coverage is inconsistent with 95 %
 
 
+MAX_REFUSED = 0.02
+"""Share of data sets whose SIMEX correction the data do not support (it leaves the model's domain or the naive
+fit's confidence region, ``simex.supported_by_data``: refused, as a simulated campaign that fails is left out of
+the regression term); above it the coverage would describe a selected minority."""
+
+
 def _coverage(rng, n_sets, design, agb=50.0, n_sim=50, n_boot=200, refit="naive"):
+    """(hits, data sets used): the band covers the truth in ``hits`` of the data sets SIMEX accepts."""
     truth = SAT.sigma(agb)
-    hits = 0
+    hits = refused = 0
     for _ in range(n_sets):
         fp = synthetic_field_plots(SAT, 60, rng, **DESIGN)
-        sx = simex(SAT, fp.agb, fp.sigma, fp.agb_error_sd, fp.sigma_error_sd, rng, n_sim=n_sim)
+        try:
+            sx = simex(SAT, fp.agb, fp.sigma, fp.agb_error_sd, fp.sigma_error_sd, rng, n_sim=n_sim)
+        except PhysicsInputError:
+            refused += 1
+            continue
         boot = parametric_bootstrap(sx.model, fp.agb, fp.sigma, fp.agb_error_sd, fp.sigma_error_sd, rng,
                                     n_boot=n_boot, design=design, refit=refit)
         band = boot.band(np.array([agb]))
         hits += band.conf_lower[0] <= truth <= band.conf_upper[0]
-    return hits
+    assert refused <= MAX_REFUSED * n_sets, (refused, n_sets)
+    return hits, n_sets - refused
 
 
 def test_bootstrap_confidence_band_covers_truth_at_nominal_rate(rng):
     """SIMEX centre, conditional bootstrap, eqs. (3)-(4) with the bootstrap covariance: 95 % band at
     50 t/ha over 60 data sets, binomial test (a simulation of 800 data sets gives 95.0 %; the printed
     design's 45 % fails such a test by far, see below; 200 data sets in the slow test)."""
-    hits = _coverage(rng, 60, "conditional")
-    assert stats.binomtest(hits, 60, 0.95).pvalue > P_MIN, hits
+    hits, used = _coverage(rng, 60, "conditional")
+    assert stats.binomtest(hits, used, 0.95).pvalue > P_MIN, hits
 
 
 @pytest.mark.slow
 def test_bootstrap_coverage_at_50_t_ha_with_more_data_sets(rng):
-    hits = _coverage(rng, 200, "conditional")
-    assert stats.binomtest(hits, 200, 0.95).pvalue > P_MIN, hits
+    hits, used = _coverage(rng, 200, "conditional")
+    assert stats.binomtest(hits, used, 0.95).pvalue > P_MIN, hits
 
 
 @pytest.mark.slow
 @pytest.mark.parametrize("agb", [25.0, 100.0])
 def test_bootstrap_coverage_other_agb_levels(rng, agb):
-    hits = _coverage(rng, 400, "conditional", agb=agb)
-    assert stats.binomtest(hits, 400, 0.95).pvalue > P_MIN, hits
+    hits, used = _coverage(rng, 400, "conditional", agb=agb)
+    assert stats.binomtest(hits, used, 0.95).pvalue > P_MIN, hits
 
 
 def test_printed_eq_12_undercovers(rng):
     """Eq. (12) as printed generates the response at the perturbed predictor W_b, so the bootstrap data
     carry no predictor error: the band is far too narrow (about 45 % coverage at 50 t/ha)."""
-    hits = _coverage(rng, 60, "paper", n_sim=20, n_boot=100)
-    assert stats.binomtest(hits, 60, 0.95, alternative="less").pvalue < P_MIN, hits
+    hits, used = _coverage(rng, 60, "paper", n_sim=20, n_boot=100)
+    assert stats.binomtest(hits, used, 0.95, alternative="less").pvalue < P_MIN, hits
 
 
 def test_bootstrap_result_and_reproducibility():
