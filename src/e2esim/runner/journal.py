@@ -88,8 +88,11 @@ class Journal:
     def finished_count(self) -> int:
         return self._count
 
-    def start(self, resume: bool) -> list:
-        """Check an existing journal; with ``resume``, return the finished blocks it holds (``BlockResult``s)."""
+    def start(self, resume: bool):
+        """Check an existing journal; with ``resume``, return the finished blocks it holds (``BlockResult``s) as an
+        iterator that reads, checks and gives one record at a time, to be consumed once and whole: the runner spills
+        each block before the next is read (``run_scenario``), so resuming a large run never holds its journal, or
+        its blocks, in memory. A record that does not check out raises ``JournalError`` when it is reached."""
         if not self.exists():
             return []
         manifest = read_manifest(self.path)
@@ -103,19 +106,23 @@ class Journal:
                 f"{self.path.parent}: the interrupted run there is of a different scenario, seed or e2esim "
                 "version; use --force to start again"
             )
-        frames, good_length = _frames(self.path / _RECORDS)
-        finished = []
+        return self._finished()
+
+    def _finished(self):
         seen = np.zeros(len(self.resolved.cases), dtype=bool)
-        for number, (count, header, payload) in enumerate(frames):
+        good_length = 0
+        for number, (count, header, payload, end) in enumerate(_frames(self.path / _RECORDS)):
             block = self._block(number, count, header, payload)
             if seen[block.indices].any():
                 raise _corrupt(self.path, f"record {number} repeats cases of an earlier record")
             seen[block.indices] = True
-            finished.append(block)
-        with open(self.path / _RECORDS, "r+b") as fh:  # cut a torn last frame off, so appends continue cleanly
-            fh.truncate(good_length)
-        self._count = int(seen.sum())
-        return finished
+            self._count += len(block)
+            del header, payload
+            yield block
+            good_length = end
+        if (self.path / _RECORDS).exists():
+            with open(self.path / _RECORDS, "r+b") as fh:  # cut a torn last frame off, so appends continue cleanly
+                fh.truncate(good_length)
 
     def _block(self, number: int, count: int, header: bytes, payload: bytes):
         from e2esim.runner.run import BlockResult
@@ -187,35 +194,34 @@ def count_finished(folder: Path) -> int:
     """Number of cases in the complete records of the journal of an output folder (checked, not decoded)."""
     path = Path(folder) / JOURNAL
     read_manifest(path)
-    return sum(count for count, _, _ in _frames(path / _RECORDS)[0])
+    return sum(count for count, _, _, _ in _frames(path / _RECORDS))
 
 
-def _frames(path: Path) -> tuple[list, int]:
-    """The complete frames of a journal file [(cases, header, payload)] and the length they span; a torn
-    last frame is left out, anything else that does not check out is a JournalError."""
+def _frames(path: Path):
+    """Yield the complete frames of a journal file as (cases, header, payload, end of the frame), read one at a
+    time; a torn last frame is left out, anything else that does not check out is a JournalError."""
     if not path.exists():
-        return [], 0
+        return
     try:
-        data = path.read_bytes()
+        with open(path, "rb") as fh:
+            pos, number = 0, 0
+            while True:
+                head = fh.read(_FRAME.size)
+                if len(head) < _FRAME.size:
+                    return  # the end, or a torn frame head
+                magic, count, n_header, n_payload, crc = _FRAME.unpack(head)
+                if magic != _MAGIC:
+                    raise _corrupt(path.parent, f"record {number} does not start with the journal's mark")
+                header, payload = fh.read(n_header), fh.read(n_payload)
+                if len(header) < n_header or len(payload) < n_payload:
+                    return  # a torn last frame
+                if zlib.crc32(payload, zlib.crc32(header)) != crc:
+                    raise _corrupt(path.parent, f"record {number} fails its checksum")
+                pos += _FRAME.size + n_header + n_payload
+                yield count, header, payload, pos
+                number += 1
     except OSError as exc:
         raise _corrupt(path.parent, f"it cannot be read: {exc.strerror or exc}") from exc
-    frames, pos = [], 0
-    while pos < len(data):
-        if pos + _FRAME.size > len(data):
-            break  # a torn frame head
-        magic, count, n_header, n_payload, crc = _FRAME.unpack_from(data, pos)
-        if magic != _MAGIC:
-            raise _corrupt(path.parent, f"record {len(frames)} does not start with the journal's mark")
-        start = pos + _FRAME.size
-        end = start + n_header + n_payload
-        if end > len(data):
-            break  # a torn last frame
-        header, payload = data[start:start + n_header], data[start + n_header:end]
-        if zlib.crc32(payload, zlib.crc32(header)) != crc:
-            raise _corrupt(path.parent, f"record {len(frames)} fails its checksum")
-        frames.append((count, header, payload))
-        pos = end
-    return frames, pos
 
 
 def _corrupt(path: Path, problem: str) -> JournalError:

@@ -29,6 +29,9 @@ about 3 million). A sweep is kept in factored form (``e2esim.runner.sweep.SweepT
 built once per distinct configuration; what grows with the cases is their results as columns, about 0.5 kB
 per case for the lightest chain (2.5 GB at the limit)."""
 
+MEMORY_PER_CASE_BYTES = 512
+"""PROVISIONAL"""
+
 MAX_MAP_CASES = 5_000_000
 """Cases of a map sweep (``sweep: {map: ...}``, e2esim.runner.map_sweep), and cells of its grid: 5 000 000, as
 ``MAX_CASES``. A 1 deg global map of the forest cells (MODIS 2019) of the default latitude bands over 12 months

@@ -76,7 +76,8 @@ def spill_block(block, spill: SpillFile) -> SpilledBlock:
     """The ``SpilledBlock`` of ``block`` (a ``BlockResult`` without products): its arrays written to ``spill``."""
     if block.products is not None:
         raise ValueError("a block that keeps its cases' products is not spilled")
-    return SpilledBlock(spill, block.indices, SpilledColumns.of(block.scalars, spill),
+    # the indices copied: those of a block read back from the journal are a view of the whole record's bytes
+    return SpilledBlock(spill, np.array(block.indices), SpilledColumns.of(block.scalars, spill),
                         [SpilledRequirement.of(r, spill) for r in block.requirements],
                         SpilledValues.of(block.notes, spill), SpilledValues.of(block.groups, spill))
 
@@ -160,18 +161,23 @@ _TEXTS = ("name", "unit", "basis", "dominant", "notes", "reason", "coverage", "c
 
 
 class SpilledRequirement:
-    """The ``RequirementColumns`` of one requirement in a spilled block: every field read back when asked for;
-    the trade-off curves (arrays of their own per case) stay in memory."""
+    """The ``RequirementColumns`` of one requirement in a spilled block: every field read back when asked for,
+    the trade-off curves included (``SpilledCurves``)."""
 
     def __init__(self, spill: SpillFile, numbers: dict, texts: dict, details: SpilledColumns, curves):
         self._spill, self._numbers, self._texts = spill, numbers, texts
-        self.details, self.curves = details, curves
+        self.details, self._curves = details, curves
 
     @classmethod
     def of(cls, r: RequirementColumns, spill: SpillFile) -> SpilledRequirement:
         return cls(spill, {f: spill.put(getattr(r, f)) for f in _NUMBERS},
                    {f: SpilledValues.of(getattr(r, f), spill) for f in _TEXTS},
-                   SpilledColumns.of(r.details, spill), r.curves)
+                   SpilledColumns.of(r.details, spill), SpilledCurves.of(r.curves, spill))
+
+    @property
+    def curves(self) -> Values | None:
+        """The block's trade-off curves per case (``Values`` of {name: array}), read back when asked for."""
+        return self._curves.load() if isinstance(self._curves, SpilledCurves) else self._curves
 
     def _number(self, field: str) -> np.ndarray:
         return self._spill.get(self._numbers[field])
@@ -197,3 +203,63 @@ class SpilledRequirement:
         return RequirementColumns(self.name, self.passed, self.value, self.limit, self.margin, self.unit, self.basis,
                                   self.dominant, self.notes, self.applicable, self.reason, self.coverage,
                                   self.coverage_text, details=dict(self.details.items()), curves=self.curves)
+
+
+class SpilledCurves:
+    """The trade-off curves of a spilled block, ``Values`` of {name: array} per case (``{}``: none): each name's
+    curves stacked into one array on disk (one row per case that has curves; once, where every case has the same
+    array object, as the crosstalk axis of a batched block), read back as the block's ``Values`` when asked for.
+
+    ``of`` keeps in memory, as they are, curves it cannot stack: names, shapes or dtypes that differ between the
+    block's cases, or values that are not numeric arrays (a plug-in's)."""
+
+    def __init__(self, spill: SpillFile, index: Spilled, present: Spilled, arrays: dict, shared: frozenset):
+        self._spill, self._index, self._present = spill, index, present
+        self._arrays = arrays  # name -> Spilled, in the curves' order: rows of the cases that have curves, or one
+        self._shared = shared  # the names stored once
+
+    @classmethod
+    def of(cls, curves: Values | None, spill: SpillFile):
+        """The ``SpilledCurves`` of ``curves``, or ``curves`` itself where they cannot be stacked (or are None)."""
+        if curves is None:
+            return None
+        rows = curves.values
+        drawn = [row for row in rows if row]
+        if not drawn or not all(isinstance(row, dict) for row in rows) or not _stackable(drawn):
+            return curves
+        arrays, shared = {}, set()
+        for name, first in drawn[0].items():
+            if all(row[name] is first for row in drawn):
+                arrays[name] = spill.put(first)
+                shared.add(name)
+            else:
+                arrays[name] = spill.put(np.stack([row[name] for row in drawn]))
+        present = np.array([bool(row) for row in rows], dtype=bool)
+        return cls(spill, spill.put(curves.index), spill.put(present), arrays, frozenset(shared))
+
+    def load(self) -> Values:
+        arrays = {name: self._spill.get(ref) for name, ref in self._arrays.items()}
+        rows, k = [], 0
+        for has in self._spill.get(self._present):
+            if has:
+                rows.append({name: a if name in self._shared else a[k] for name, a in arrays.items()})
+                k += 1
+            else:
+                rows.append({})
+        return Values(rows, self._spill.get(self._index))
+
+
+def _stackable(rows: list) -> bool:
+    """Whether every row (a dict of arrays) has the same names, in the same order, each a numeric array of the
+    same shape and dtype as in the first row."""
+    first = rows[0]
+    names = list(first)
+    for row in rows:
+        if list(row) != names:
+            return False
+        for name in names:
+            a, b = row[name], first[name]
+            if not (isinstance(a, np.ndarray) and a.dtype.kind in "biuf" and a.shape == b.shape
+                    and a.dtype == b.dtype):
+                return False
+    return True

@@ -1,0 +1,225 @@
+"""Memory of big runs (issue 22, "Memory of big runs"): the peak memory per case of ``e2esim run`` for every
+requirement type, against the figure the documentation states and against a reference measured in the same run.
+
+Every run is ``e2esim run`` (the command a user types) in a fresh process, on a variant of
+``benchmarks/realistic_sweep.yaml``: HV error + random-error budget + power law, 500 AGB x 20 crosstalk x 20
+Faraday-rotation spreads (200,000 cases; ``--agb``, ``--spreads``). Each variant runs twice, with all its
+Faraday-rotation spreads and with a quarter of them: the same scenes, instruments and error budgets (the run's
+catalogs of distinct values, bounded by ``e2esim.runner.blocks.CATALOG_ENTRIES``), a quarter of the cases. What
+grows per case is then the difference of the two peaks over the difference of their case counts: the figure the
+documentation states (``e2esim.runner.limits.MEMORY_PER_CASE_BYTES``). The peak of the larger run divided by its
+cases is printed beside it (fixed costs and catalogs included).
+
+Variants (the requirements of the scenario): ``minimal`` (the reference: the lightest chain, no error budget, a
++-20 % bound and an RMSE, as in benchmarks/bench_sweeps.py), ``bound`` (agb_error_bound), ``level_margins``
+(agb_error_bound with level margins), ``tradeoff_curve`` (agb_error_bound with its trade-off curve, 121
+points; a tenth of the AGB values: a curve costs root finding per point and case), ``rmse`` (agb_rmse),
+``rmse_absolute`` (agb_rmse_absolute) and ``realistic`` (level margins and RMSE: the issue's run), the last
+also on ``--workers 2`` (the main process, and the process tree as the sum of its proportional set sizes,
+PSS, sampled every 0.1 s: pages the workers share with the main process counted once) and resumed
+(``--resume`` of a run whose journal holds every case: reading the journal back and writing the outputs).
+
+Peaks are ``ru_maxrss`` of the main process (``os.wait4``; it starts from this small process's size at the fork).
+Nothing is asserted: the figures are printed for a person to read, each with PASS or MISS against the documented
+figure. The machine's load is printed first: on a shared machine compare figures taken in the same run only.
+
+Run with ``python benchmarks/bench_memory.py`` (about 20 minutes on two cores); ``--quick``: 150 AGB values (60,000
+cases, a quarter 15,000), a smoke run of a few minutes; ``--variants a,b``: only those.
+"""
+
+from __future__ import annotations
+
+import argparse
+import copy
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import yaml
+
+ROOT = Path(__file__).resolve().parents[1]
+SCENARIO = ROOT / "benchmarks" / "realistic_sweep.yaml"
+sys.path.insert(0, str(ROOT / "src"))
+
+BOUND = {"type": "agb_error_bound", "sources": "systematic", "bound_percent": 20, "confidence_percent": 99.865}
+RMSE = {"type": "agb_rmse", "max_percent": 20}
+VARIANTS = {
+    "minimal": [BOUND, RMSE],
+    "bound": [BOUND],
+    "level_margins": [{**BOUND, "level_margins": True}],
+    "tradeoff_curve": [{**BOUND, "tradeoff_curve": True}],
+    "rmse": [RMSE],
+    "rmse_absolute": [{"type": "agb_rmse_absolute", "max_t_ha": 20}],
+    "realistic": [{**BOUND, "level_margins": True}, RMSE],
+}
+SMALLER = {"tradeoff_curve": 10}  # AGB values divided by this: a curve is traced per case (121 points)
+
+
+def variant(name: str, agb: int, spreads: int) -> dict:
+    """The scenario of variant ``name`` with ``agb`` AGB values and ``spreads`` Faraday-rotation spreads."""
+    raw = yaml.safe_load(SCENARIO.read_text())
+    raw["name"] = f"memory_{name}"
+    raw["requirements"] = copy.deepcopy(VARIANTS[name])
+    if name == "minimal":
+        raw["propagation"] = [raw["propagation"][0]]  # no error budget: the lightest chain
+    sweep = raw["sweep"]["parameters"]
+    sweep["scene.agb_t_ha"]["linspace"][2] = max(1, agb // SMALLER.get(name, 1))
+    sweep["ionosphere.sd_deg"]["linspace"][2] = spreads
+    return raw
+
+
+def cases_of(raw: dict) -> int:
+    n = 1
+    for axis in raw["sweep"]["parameters"].values():
+        n *= axis["linspace"][2]
+    return n
+
+
+# Measuring one process tree -----------------------------------------------------------------------------------
+def _tree(pid: int) -> list:
+    out = [pid]
+    try:
+        for task in os.listdir(f"/proc/{pid}/task"):
+            with open(f"/proc/{pid}/task/{task}/children") as fh:
+                for child in fh.read().split():
+                    out += _tree(int(child))
+    except OSError:
+        pass
+    return out
+
+
+def _pss_kib(pid: int) -> int:
+    try:
+        with open(f"/proc/{pid}/smaps_rollup") as fh:
+            for line in fh:
+                if line.startswith("Pss:"):
+                    return int(line.split()[1])
+    except OSError:
+        pass
+    return 0
+
+
+def measured(command: list) -> dict:
+    """Run ``command``; its main process's peak (``ru_maxrss``, MiB), the peak sum of its process tree's PSS
+    (MiB; 0 where there is no /proc), the largest number of processes seen, and the wall time."""
+    t0 = time.perf_counter()
+    proc = subprocess.Popen(command, cwd=ROOT, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    tree_peak, processes = 0, 1
+    while True:
+        pid, status, usage = os.wait4(proc.pid, os.WNOHANG)
+        if pid:
+            break
+        pids = _tree(proc.pid)
+        tree_peak = max(tree_peak, sum(_pss_kib(p) for p in pids))
+        processes = max(processes, len(pids))
+        time.sleep(0.1)
+    error = proc.stderr.read().decode(errors="replace")
+    if os.waitstatus_to_exitcode(status) != 0:
+        raise SystemExit(f"{' '.join(command)} failed:\n{error[-3000:]}")
+    return {"main_mib": usage.ru_maxrss / 1024, "tree_mib": tree_peak / 1024, "processes": processes,
+            "seconds": time.perf_counter() - t0}
+
+
+def e2esim(*args) -> list:
+    return [sys.executable, "-m", "e2esim", *args]
+
+
+def run_variant(raw: dict, folder: Path, mode: str) -> dict:
+    """Peaks of ``e2esim run`` of ``raw`` in ``mode``: "serial", "workers" (--workers 2) or "resume" (--resume of
+    a journal holding every case, made by ``make_journal`` in a process of its own)."""
+    folder.mkdir(parents=True, exist_ok=True)
+    path = folder / "scenario.yaml"
+    path.write_text(yaml.safe_dump(raw, sort_keys=False))
+    out = folder / "out"
+    if mode == "resume":
+        subprocess.run([sys.executable, __file__, "--make-journal", str(path), str(out)], cwd=ROOT, check=True)
+        args = ["--resume"]
+    else:
+        args = ["--force"] + (["--workers", "2"] if mode == "workers" else [])
+    return {**measured(e2esim("run", str(path), "-o", str(out), "--no-progress", *args)), "cases": cases_of(raw)}
+
+
+def make_journal(path: str, out: str) -> None:
+    """An interrupted run of ``path`` in ``out`` whose journal holds every case (killed before its outputs)."""
+    from e2esim.runner.journal import Journal
+    from e2esim.runner.outputs import prepare_folder
+    from e2esim.runner.run import run_scenario
+    from e2esim.runner.scenario import Scenario
+
+    resolved = Scenario.load(path).resolve()
+    lock = prepare_folder(Path(out), force=True)
+    journal = Journal(Path(out), resolved)
+    journal.start(resume=False)
+    run_scenario(resolved, progress=False, journal=journal, spill_folder=out)
+    journal.close()
+    lock.release()
+
+
+# The figures --------------------------------------------------------------------------------------------------
+def say(text: str) -> None:
+    print(text, flush=True)
+
+
+def per_case(full: dict, quarter: dict, key: str) -> float:
+    """Bytes per further case from the quarter run to the full one."""
+    return (full[key] - quarter[key]) * 2**20 / (full["cases"] - quarter["cases"])
+
+
+def figure(name: str, mode: str, full: dict, quarter: dict, documented: float, reference: float | None) -> float:
+    grow = per_case(full, quarter, "main_mib")
+    met = "PASS" if grow <= documented else "MISS"
+    line = (f"   {name:<15} {mode:<8} {full['cases']:>8,} cases: peak {full['main_mib']:7.1f} MiB "
+            f"({full['main_mib'] * 2**20 / full['cases']:6.0f} B/case all told; {quarter['cases']:,} cases: "
+            f"{quarter['main_mib']:.1f} MiB); grows {grow:6.0f} B per case, documented <= {documented:.0f}: {met}")
+    if reference:
+        line += f"; {grow / reference:.1f}x the reference" if reference > 0 else ""
+    if mode == "workers":
+        line += (f"; process tree (PSS, {full['processes']} processes) {full['tree_mib']:.1f} MiB, "
+                 f"{per_case(full, quarter, 'tree_mib'):.0f} B per case")
+    say(line + f"; {full['seconds']:.0f} s")
+    return grow
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--agb", type=int, default=None, help="AGB values (default 500; --quick 150)")
+    parser.add_argument("--spreads", type=int, default=20, help="Faraday-rotation spreads of the full run (20)")
+    parser.add_argument("--quick", action="store_true", help="150 AGB values: a smoke run")
+    parser.add_argument("--variants", default=",".join(VARIANTS), help="comma-separated variants (default all)")
+    parser.add_argument("--make-journal", nargs=2, help=argparse.SUPPRESS)
+    args = parser.parse_args()
+    if args.make_journal:
+        make_journal(*args.make_journal)
+        return
+    from e2esim.runner.limits import MEMORY_PER_CASE_BYTES
+
+    agb = args.agb or (150 if args.quick else 500)
+    names = [v for v in args.variants.split(",") if v]
+    unknown = sorted(set(names) - set(VARIANTS))
+    if unknown:
+        raise SystemExit(f"unknown variants {unknown}; known: {', '.join(VARIANTS)}")
+    load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
+    say(f"machine: {os.cpu_count()} cores, load average {load:.2f} at the start")
+    say(f"memory per case of e2esim run, main process (ru_maxrss), {agb} AGB x 20 crosstalk x {args.spreads} "
+        f"Faraday-rotation spreads against a quarter of the spreads; documented: <= {MEMORY_PER_CASE_BYTES} bytes "
+        "per case (e2esim.runner.limits.MEMORY_PER_CASE_BYTES)")
+    reference = None
+    with tempfile.TemporaryDirectory() as tmp:
+        for name in (["minimal"] if "minimal" in names else []) + [n for n in names if n != "minimal"]:
+            modes = ("serial", "workers", "resume") if name == "realistic" else ("serial",)
+            for mode in modes:
+                runs = [run_variant(variant(name, agb, spreads), Path(tmp) / f"{name}-{mode}-{spreads}", mode)
+                        for spreads in (max(1, args.spreads // 4), args.spreads)]
+                grow = figure(name, mode, runs[1], runs[0], MEMORY_PER_CASE_BYTES,
+                              None if name == "minimal" else reference)
+                if name == "minimal":
+                    reference = grow
+    if reference is not None:
+        say("   (reference: the minimal chain, serial, measured first in this run)")
+
+
+if __name__ == "__main__":
+    main()
