@@ -3,28 +3,30 @@ requirement type, against the figure the documentation states and against a refe
 
 Every run is ``e2esim run`` (the command a user types) in a fresh process, on a variant of
 ``benchmarks/realistic_sweep.yaml``: HV error + random-error budget + power law, 500 AGB x 20 crosstalk x 20
-Faraday-rotation spreads (200,000 cases; ``--agb``, ``--spreads``). Each variant runs twice, with all its
-Faraday-rotation spreads and with a quarter of them: the same scenes, instruments and error budgets (the run's
-catalogs of distinct values, bounded by ``e2esim.runner.blocks.CATALOG_ENTRIES``), a quarter of the cases. What
-grows per case is then the difference of the two peaks over the difference of their case counts: the figure the
-documentation states (``e2esim.runner.limits.MEMORY_PER_CASE_BYTES``). The peak of the larger run divided by its
-cases is printed beside it (fixed costs and catalogs included).
+Faraday-rotation spreads (200,000 cases). Each variant runs twice, with 20 Faraday-rotation spreads and with 7
+(70,000 cases): the same scenes, instruments and error budgets (the run's catalogs of distinct values, bounded
+by ``e2esim.runner.blocks.CATALOG_ENTRIES``: docs/architecture.md), and blocks of the same size (4096 cases,
+on two workers too), fewer cases. What grows per case is the difference of the two peaks over the difference
+of their case counts: the figure the documentation states (``e2esim.runner.limits.MEMORY_PER_CASE_BYTES``).
+The peak of the larger run over its cases is printed beside it (fixed costs and catalogs included).
 
 Variants (the requirements of the scenario): ``minimal`` (the reference: the lightest chain, no error budget, a
 +-20 % bound and an RMSE, as in benchmarks/bench_sweeps.py), ``bound`` (agb_error_bound), ``level_margins``
-(agb_error_bound with level margins), ``tradeoff_curve`` (agb_error_bound with its trade-off curve, 121
-points; a tenth of the AGB values: a curve costs root finding per point and case), ``rmse`` (agb_rmse),
-``rmse_absolute`` (agb_rmse_absolute) and ``realistic`` (level margins and RMSE: the issue's run), the last
-also on ``--workers 2`` (the main process, and the process tree as the sum of its proportional set sizes,
-PSS, sampled every 0.1 s: pages the workers share with the main process counted once) and resumed
-(``--resume`` of a run whose journal holds every case: reading the journal back and writing the outputs).
+(agb_error_bound with level margins), ``tradeoff_curve`` (agb_error_bound with its trade-off curve, 121 points:
+root finding per point and case, some 15 ms a case, so 26 AGB values and 40 against 20 spreads, 20,800 and
+10,400 cases), ``rmse`` (agb_rmse), ``rmse_absolute`` (agb_rmse_absolute) and ``realistic`` (level margins and
+RMSE: the run of the issue), the last also on ``--workers 2`` (the main process, and the process tree as the
+sum of its proportional set sizes, PSS, sampled every 0.1 s: pages the workers share with the main process
+counted once) and resumed (``--resume`` of a run whose journal holds every case: reading the journal back and
+writing the outputs).
 
 Peaks are ``ru_maxrss`` of the main process (``os.wait4``; it starts from this small process's size at the fork).
 Nothing is asserted: the figures are printed for a person to read, each with PASS or MISS against the documented
 figure. The machine's load is printed first: on a shared machine compare figures taken in the same run only.
 
-Run with ``python benchmarks/bench_memory.py`` (about 20 minutes on two cores); ``--quick``: 150 AGB values (60,000
-cases, a quarter 15,000), a smoke run of a few minutes; ``--variants a,b``: only those.
+Run with ``python benchmarks/bench_memory.py`` (about 25 minutes on two cores); ``--quick``: 150 AGB values
+(60,000 and 21,000 cases; under --workers 2 the smaller run then has smaller blocks), no trade-off curve unless
+named, a smoke run of a few minutes; ``--variants a,b``: only those.
 """
 
 from __future__ import annotations
@@ -55,7 +57,8 @@ VARIANTS = {
     "rmse_absolute": [{"type": "agb_rmse_absolute", "max_t_ha": 20}],
     "realistic": [{**BOUND, "level_margins": True}, RMSE],
 }
-SMALLER = {"tradeoff_curve": 10}  # AGB values divided by this: a curve is traced per case (121 points)
+SPREADS = (7, 20)  # Faraday-rotation spreads of the smaller and the larger run
+TRADEOFF = (26, (20, 40))  # the trade-off curve's AGB values and spreads: 10,400 and 20,800 cases (both spilled)
 
 
 def variant(name: str, agb: int, spreads: int) -> dict:
@@ -66,9 +69,16 @@ def variant(name: str, agb: int, spreads: int) -> dict:
     if name == "minimal":
         raw["propagation"] = [raw["propagation"][0]]  # no error budget: the lightest chain
     sweep = raw["sweep"]["parameters"]
-    sweep["scene.agb_t_ha"]["linspace"][2] = max(1, agb // SMALLER.get(name, 1))
+    sweep["scene.agb_t_ha"]["linspace"][2] = agb
     sweep["ionosphere.sd_deg"]["linspace"][2] = spreads
     return raw
+
+
+def sizes(name: str, agb: int) -> list:
+    """(AGB values, spreads) of the smaller and the larger run of variant ``name``."""
+    if name == "tradeoff_curve":
+        return [(TRADEOFF[0], s) for s in TRADEOFF[1]]
+    return [(agb, s) for s in SPREADS]
 
 
 def cases_of(raw: dict) -> int:
@@ -163,22 +173,22 @@ def say(text: str) -> None:
     print(text, flush=True)
 
 
-def per_case(full: dict, quarter: dict, key: str) -> float:
-    """Bytes per further case from the quarter run to the full one."""
-    return (full[key] - quarter[key]) * 2**20 / (full["cases"] - quarter["cases"])
+def per_case(full: dict, smaller: dict, key: str) -> float:
+    """Bytes per further case from the smaller run to the larger one."""
+    return (full[key] - smaller[key]) * 2**20 / (full["cases"] - smaller["cases"])
 
 
-def figure(name: str, mode: str, full: dict, quarter: dict, documented: float, reference: float | None) -> float:
-    grow = per_case(full, quarter, "main_mib")
+def figure(name: str, mode: str, full: dict, smaller: dict, documented: float, reference: float | None) -> float:
+    grow = per_case(full, smaller, "main_mib")
     met = "PASS" if grow <= documented else "MISS"
     line = (f"   {name:<15} {mode:<8} {full['cases']:>8,} cases: peak {full['main_mib']:7.1f} MiB "
-            f"({full['main_mib'] * 2**20 / full['cases']:6.0f} B/case all told; {quarter['cases']:,} cases: "
-            f"{quarter['main_mib']:.1f} MiB); grows {grow:6.0f} B per case, documented <= {documented:.0f}: {met}")
+            f"({full['main_mib'] * 2**20 / full['cases']:6.0f} B/case all told; {smaller['cases']:,} cases: "
+            f"{smaller['main_mib']:.1f} MiB); grows {grow:6.0f} B per case, documented <= {documented:.0f}: {met}")
     if reference:
         line += f"; {grow / reference:.1f}x the reference" if reference > 0 else ""
     if mode == "workers":
         line += (f"; process tree (PSS, {full['processes']} processes) {full['tree_mib']:.1f} MiB, "
-                 f"{per_case(full, quarter, 'tree_mib'):.0f} B per case")
+                 f"{per_case(full, smaller, 'tree_mib'):.0f} B per case")
     say(line + f"; {full['seconds']:.0f} s")
     return grow
 
@@ -186,9 +196,9 @@ def figure(name: str, mode: str, full: dict, quarter: dict, documented: float, r
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--agb", type=int, default=None, help="AGB values (default 500; --quick 150)")
-    parser.add_argument("--spreads", type=int, default=20, help="Faraday-rotation spreads of the full run (20)")
     parser.add_argument("--quick", action="store_true", help="150 AGB values: a smoke run")
-    parser.add_argument("--variants", default=",".join(VARIANTS), help="comma-separated variants (default all)")
+    parser.add_argument("--variants", default=None,
+                        help=f"comma-separated variants (default all: {', '.join(VARIANTS)})")
     parser.add_argument("--make-journal", nargs=2, help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.make_journal:
@@ -197,22 +207,23 @@ def main() -> None:
     from e2esim.runner.limits import MEMORY_PER_CASE_BYTES
 
     agb = args.agb or (150 if args.quick else 500)
-    names = [v for v in args.variants.split(",") if v]
+    chosen = args.variants or ",".join(v for v in VARIANTS if not (args.quick and v == "tradeoff_curve"))
+    names = [v for v in chosen.split(",") if v]
     unknown = sorted(set(names) - set(VARIANTS))
     if unknown:
         raise SystemExit(f"unknown variants {unknown}; known: {', '.join(VARIANTS)}")
     load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
     say(f"machine: {os.cpu_count()} cores, load average {load:.2f} at the start")
-    say(f"memory per case of e2esim run, main process (ru_maxrss), {agb} AGB x 20 crosstalk x {args.spreads} "
-        f"Faraday-rotation spreads against a quarter of the spreads; documented: <= {MEMORY_PER_CASE_BYTES} bytes "
-        "per case (e2esim.runner.limits.MEMORY_PER_CASE_BYTES)")
+    say(f"memory per case of e2esim run, main process (ru_maxrss): {agb} AGB x 20 crosstalk x {SPREADS[1]} "
+        f"Faraday-rotation spreads against {SPREADS[0]} spreads; documented: <= {MEMORY_PER_CASE_BYTES} bytes per "
+        "case (e2esim.runner.limits.MEMORY_PER_CASE_BYTES)")
     reference = None
     with tempfile.TemporaryDirectory() as tmp:
         for name in (["minimal"] if "minimal" in names else []) + [n for n in names if n != "minimal"]:
             modes = ("serial", "workers", "resume") if name == "realistic" else ("serial",)
             for mode in modes:
-                runs = [run_variant(variant(name, agb, spreads), Path(tmp) / f"{name}-{mode}-{spreads}", mode)
-                        for spreads in (max(1, args.spreads // 4), args.spreads)]
+                runs = [run_variant(variant(name, a, spreads), Path(tmp) / f"{name}-{mode}-{spreads}", mode)
+                        for a, spreads in sizes(name, agb)]
                 grow = figure(name, mode, runs[1], runs[0], MEMORY_PER_CASE_BYTES,
                               None if name == "minimal" else reference)
                 if name == "minimal":

@@ -119,6 +119,7 @@ class Journal:
             self._count += len(block)
             del header, payload
             yield block
+            del block  # not held while the next record is read: one block in memory at a time
             good_length = end
         if (self.path / _RECORDS).exists():
             with open(self.path / _RECORDS, "r+b") as fh:  # cut a torn last frame off, so appends continue cleanly
@@ -219,6 +220,7 @@ def _frames(path: Path):
                     raise _corrupt(path.parent, f"record {number} fails its checksum")
                 pos += _FRAME.size + n_header + n_payload
                 yield count, header, payload, pos
+                del header, payload  # not held while the next frame is read
                 number += 1
     except OSError as exc:
         raise _corrupt(path.parent, f"it cannot be read: {exc.strerror or exc}") from exc

@@ -351,7 +351,10 @@ def run_scenario(
         raise ValueError("a run that keeps its cases' products keeps its blocks in memory (spill=False)")
     spill_file = SpillFile(spill_folder) if (n > SPILL_ABOVE_CASES and not keep if spill is None else spill) else None
     kept = (lambda block: block) if spill_file is None else (lambda block: spill_block(block, spill_file))
-    blocks = [kept(block) for block in finished or ()]
+    blocks = []
+    for block in finished or ():
+        blocks.append(kept(block))
+        del block  # not held while the next is read from the journal
     resumed = sum(len(block) for block in blocks)
     done = np.zeros(n, dtype=bool)
     for block in blocks:

@@ -16,6 +16,7 @@ folder when there is one, not in the system's temporary folder, which is memory 
 from __future__ import annotations
 
 import os
+import sys
 import tempfile
 from collections.abc import Mapping
 from dataclasses import dataclass
@@ -30,9 +31,10 @@ SPILL_ABOVE_CASES = 10_000
 6 MB): their report reads every case some twenty times (``e2esim.runner.run.REMEMBER_CASES_UP_TO``)."""
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, slots=True)
 class Spilled:
-    """Where one array lies in a ``SpillFile``: byte offset, dtype (numpy's text form) and shape."""
+    """Where one array lies in a ``SpillFile``: byte offset, dtype (numpy's text form) and shape. Small (slots, the
+    dtype's text shared): a block keeps one per array, a few hundred."""
 
     offset: int
     dtype: str
@@ -56,7 +58,7 @@ class SpillFile:
             raise TypeError(f"only numeric arrays are spilled, not {array.dtype}")
         self._file.seek(self._end)
         self._file.write(array.data)
-        ref = Spilled(self._end, array.dtype.str, array.shape)
+        ref = Spilled(self._end, sys.intern(array.dtype.str), array.shape)
         self._end += array.nbytes
         return ref
 
@@ -117,19 +119,33 @@ class SpilledBlock:
 
 
 class SpilledColumns(Mapping):
-    """{name: ``Column``} of a spilled block, each read back when asked for."""
+    """{name: ``Column``} of a spilled block, each read back when asked for. The columns present in every case
+    (nearly all) are rows of one array on disk, so that the block keeps a row number per name, not a reference
+    per column."""
 
-    def __init__(self, spill: SpillFile, refs: dict):
-        self._spill = spill
-        self._refs = refs  # name -> (values, present or None)
+    def __init__(self, spill: SpillFile, table: Spilled | None, refs: dict):
+        self._spill, self._table = spill, table  # the (columns, cases) float array of the full columns
+        self._refs = refs  # name -> its row in the table, or (values, present) of a column of its own
 
     @classmethod
     def of(cls, columns: Mapping, spill: SpillFile) -> SpilledColumns:
-        return cls(spill, {name: (spill.put(c.values), None if c.present is None else spill.put(c.present))
-                           for name, c in columns.items()})
+        full = [name for name, c in columns.items() if c.present is None and c.values.dtype == np.float64
+                and c.values.ndim == 1]
+        if len({len(columns[name].values) for name in full}) > 1:
+            full = []
+        table = spill.put(np.stack([columns[name].values for name in full])) if full else None
+        rows = {name: k for k, name in enumerate(full)}
+        return cls(spill, table, {name: rows[name] if name in rows else
+                                  (spill.put(c.values), None if c.present is None else spill.put(c.present))
+                                  for name, c in columns.items()})
 
     def __getitem__(self, name: str) -> Column:
-        values, present = self._refs[name]
+        ref = self._refs[name]
+        if isinstance(ref, int):
+            cases = self._table.shape[1]
+            row = Spilled(self._table.offset + ref * cases * 8, self._table.dtype, (cases,))
+            return Column(self._spill.get(row))
+        values, present = ref
         return Column(self._spill.get(values), None if present is None else self._spill.get(present))
 
     def __iter__(self):
