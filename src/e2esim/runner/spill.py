@@ -1,12 +1,14 @@
 """Finished blocks of a large run kept on disk, so that a run's memory is bounded by its blocks, not its size.
 
-A block's results (``e2esim.runner.run.BlockResult``) take about 0.6 kB per case, nearly all of it numbers:
-the output scalars, the requirement verdicts and their details. A sweep of a million cases that kept them would
-hold 0.6 GB until its outputs are written. Runs of more than ``SPILL_ABOVE_CASES`` cases therefore write every
-finished block's arrays to one temporary file (``SpillFile``) and keep only a ``SpilledBlock``: the block's case
-indices and, per array, where it lies in the file. The writers read the run column by column
-(``e2esim.runner.result_table``), so reading back one column of every block at a time keeps the memory of the
-outputs at one column of the sweep (8 bytes per case) beside the blocks in flight.
+A block's results (``e2esim.runner.run.BlockResult``) take 0.6 to 1.5 kB per case, nearly all of it numbers: the
+output scalars, the requirement verdicts and their details (level margins the most), and 2 kB more per case with
+trade-off curves. A sweep of a million cases that kept them would hold gigabytes until its outputs are written.
+Runs of more than ``SPILL_ABOVE_CASES`` cases therefore write every finished block's arrays to one temporary file
+(``SpillFile``) and keep only a ``SpilledBlock``: the block's case indices and where its arrays lie in the file
+(the columns present in every case as rows of one array, each trade-off curve as one array). The writers read
+the run column by column (``e2esim.runner.result_table``; the curves block by block), so reading back one column
+of every block at a time keeps the memory of the outputs at one column of the sweep (8 bytes per case) beside the
+blocks in flight.
 
 The file holds plain arrays only, is read only by the process that wrote it, and is removed when the run's
 result is (on POSIX it has no name at all: a killed run leaves nothing behind). It is created in the output
