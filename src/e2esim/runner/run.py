@@ -334,12 +334,13 @@ def run_scenario(
     """Run every case (serially, on ``workers`` local processes or on the dask cluster at ``scheduler``)
     with a progress bar; return the results with their provenance.
 
-    journal : a ``Journal`` that records each block as it finishes; finished : blocks already done (``BlockResult``s
-        of an interrupted run, any iterable: each is spilled before the next is taken), whose cases are not run
-        again. engine : "batched" or "per_case" (the reference). keep_products : keep every case's products
-        (default: for runs of at most ``KEEP_PRODUCTS_UP_TO`` cases). spill : keep the finished blocks on disk
-        (``e2esim.runner.spill``; default: for runs of more than ``SPILL_ABOVE_CASES`` cases that keep no products),
-        in a temporary file in ``spill_folder`` (default: the system's temporary folder).
+    journal : a ``Journal`` that records each block as it finishes; finished : blocks already done (an iterable of
+        ``BlockResult``, from an interrupted run: each is spilled before the next is taken), whose cases are not run
+        again. engine : "batched" or
+        "per_case" (the reference). keep_products : keep every case's products (default: for runs of at most
+        ``KEEP_PRODUCTS_UP_TO`` cases). spill : keep the finished blocks on disk (``e2esim.runner.spill``;
+        default: for runs of more than ``SPILL_ABOVE_CASES`` cases that keep no products), in a temporary file
+        in ``spill_folder`` (default: the system's temporary folder).
     """
     from e2esim.runner.executors import iter_blocks
 
