@@ -6,7 +6,7 @@ curves go to disk with their block. And the limits the documentation states are 
 What a run holds is measured with ``tracemalloc`` (every allocation of Python and numpy) as the difference between
 two runs of the same distinct scenes, instruments and budgets (the run's catalogs, bounded by their own limits)
 with different numbers of cases, so what is counted is what grows with the cases alone. Blocks are made small
-(``BLOCK_CASES``) so that the runs are quick; a block's own bookkeeping (about 40 kB, whatever its size) then weighs
+(``BLOCK_CASES``) so that the runs are quick; a block's own bookkeeping (10 to 20 kB, whatever its size) then weighs
 more per case than at the 4096 cases of a real block, which the thresholds allow for."""
 
 from __future__ import annotations
@@ -32,8 +32,8 @@ ROOT = Path(__file__).resolve().parents[1]
 BLOCK = 256  # cases per block in these tests
 HELD_PER_CASE = 160
 """Bytes a spilled run may hold per case here: its case indices (8 bytes) and a block's bookkeeping over 256 cases
-(about 40 kB: where each of its hundred-odd columns lies in the spill file). Kept in memory, the columns of these
-runs take about 1.5 kB per case, their trade-off curves as much again."""
+(where each of its columns lies in the spill file). These runs held about 0.8 kB per case when the trade-off
+curves stayed in memory, and resumed 3.5 kB, when each journal record was kept whole by its case indices."""
 
 SWEEP = """
 name: memory
@@ -91,6 +91,23 @@ def test_a_large_run_holds_no_per_case_objects_beyond_its_case_indices(small_blo
         assert result.table.requirements[0].curves is not None  # the curves are there, read back from disk
     per_case = (held[40] - held[20]) / (16 * 20)
     assert per_case < HELD_PER_CASE, f"{per_case:.0f} bytes held per case"
+
+
+@pytest.mark.slow
+def test_a_run_of_thousands_of_cases_with_level_margins_holds_a_few_bytes_per_case(tmp_path):
+    """At the real block size (4096 cases), 12,288 against 24,576 cases with level margins: the case indices and
+    a block's bookkeeping (about 20 kB), far below ``MEMORY_PER_CASE_BYTES``."""
+    raw = SWEEP.replace(", tradeoff_curve: true, curve_points: 7", "").replace("linspace: [40, 300, 4]",
+                                                                                "linspace: [40, 300, 32]")
+    run_scenario(Scenario(yaml.safe_load(raw.replace("SPREADS", "2")), "warm.yaml").resolve(), progress=False)
+    held = {}
+    for spreads in (96, 192):  # 32 x 4 x spreads: 3 and 6 blocks of 4096 cases
+        resolved = Scenario(yaml.safe_load(raw.replace("SPREADS", str(spreads))), "memory.yaml").resolve()
+        result, held[spreads], _ = _held(lambda r=resolved: run_scenario(r, progress=False, spill_folder=tmp_path))
+        assert all(isinstance(b, SpilledBlock) for b in result.blocks) and len(result.blocks) == spreads // 32
+    per_case = (held[192] - held[96]) / (128 * 96)
+    assert per_case < 20, f"{per_case:.0f} bytes held per case"  # 8 of them the case indices
+    assert per_case < MEMORY_PER_CASE_BYTES
 
 
 def test_a_resumed_run_reads_its_journal_one_record_at_a_time_and_keeps_none(small_blocks, tmp_path):
