@@ -34,6 +34,7 @@ from __future__ import annotations
 
 import argparse
 import copy
+import math
 import os
 import subprocess
 import sys
@@ -181,17 +182,30 @@ def per_case(full: dict, smaller: dict, key: str) -> float:
     return (full[key] - smaller[key]) * 2**20 / (full["cases"] - smaller["cases"])
 
 
+def block_cases(cases: int, mode: str) -> int:
+    """The cases of a block of a run of ``cases`` cases (``e2esim.runner.run.block_tasks``): on two workers, small
+    enough that each gets eight blocks."""
+    from e2esim.runner.run import BLOCK_CASES
+
+    return max(1, min(BLOCK_CASES, math.ceil(cases / 16))) if mode == "workers" else BLOCK_CASES
+
+
 def figure(name: str, mode: str, full: dict, smaller: dict, documented: float, reference: float | None) -> float:
     grow = per_case(full, smaller, "main_mib")
     met = "PASS" if grow <= documented else "MISS"
+    blocks = [block_cases(run["cases"], mode) for run in (smaller, full)]
+    if blocks[0] != blocks[1]:  # the blocks in flight differ: their memory is not the cases'
+        met = f"not judged (blocks of {blocks[0]:,} and {blocks[1]:,} cases)"
     line = (f"   {name:<15} {mode:<8} {full['cases']:>8,} cases: peak {full['main_mib']:7.1f} MiB "
             f"({full['main_mib'] * 2**20 / full['cases']:6.0f} B/case all told; {smaller['cases']:,} cases: "
             f"{smaller['main_mib']:.1f} MiB); grows {grow:6.0f} B per case, documented <= {documented:.0f}: {met}")
     if reference:
         line += f"; {grow / reference:.1f}x the reference" if reference > 0 else ""
     if mode == "workers":
-        line += (f"; process tree (PSS, {full['processes']} processes) {full['tree_mib']:.1f} MiB, "
-                 f"{per_case(full, smaller, 'tree_mib'):.0f} B per case")
+        tree = per_case(full, smaller, "tree_mib")
+        judged = met if blocks[0] != blocks[1] else "PASS" if tree <= documented else "MISS"
+        line += (f"; process tree (PSS, {full['processes']} processes) {full['tree_mib']:.1f} MiB, grows "
+                 f"{tree:.0f} B per case: {judged}")
     say(line + f"; {full['seconds']:.0f} s")
     return grow
 
