@@ -118,7 +118,7 @@ def test_foreign_manifest_is_exit_2(scenario, tmp_path, capsys):
 def test_journal_records_come_back_exactly(scenario, tmp_path):
     out = tmp_path / "out"
     resolved, blocks = _valid_journal(scenario, out)
-    finished = Journal(out, resolved).start(resume=True)
+    finished = list(Journal(out, resolved).start(resume=True))
     assert [list(b.indices) for b in finished] == [[0, 1], [2]]
     for block, back in zip(blocks, finished):
         for k in range(len(block)):

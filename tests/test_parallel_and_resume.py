@@ -143,6 +143,6 @@ def test_a_torn_last_record_is_cut_off(tmp_path):
     path = tmp_path / "out" / ".e2esim-partial" / "cases.journal"
     with open(path, "ab") as fh:  # half of a fourth record, as a killed process may leave it
         fh.write(path.read_bytes()[: len(path.read_bytes()) // 5])
-    finished = Journal(tmp_path / "out", resolved).start(resume=True)
+    finished = list(Journal(tmp_path / "out", resolved).start(resume=True))
     assert [list(b.indices) for b in finished] == [[0], [1], [2]]
     assert finished[1].case(0, {}, "").scalars == blocks[1].case(0, {}, "").scalars

@@ -14,6 +14,12 @@ from e2esim.block import Catalog, Factor
 from e2esim.errors import PhysicsInputError
 from e2esim.runner.distinct import distinct_rows
 
+BUDGET_CATALOG_ENTRIES = 1 << 14
+"""Budgets a stage keeps for later blocks (in each process) before it starts afresh: 16,384. A budget of three
+channels holds some thirty small arrays, about 6.6 kB, nearly forty times a scene (benchmarks/bench_memory.py),
+so these take about 110 MB at most, where the runner's ``CATALOG_ENTRIES`` would allow 0.4 GB. A sweep that meets
+more distinct scene-instrument pairs again and again makes a returning pair's budget anew (about 0.4 ms)."""
+
 
 def block_budgets(block, made: dict, budget_of) -> Factor | None:
     """The budgets of every case of ``block`` as a ``Factor``; None when the scene or the instrument is not a
@@ -21,14 +27,13 @@ def block_budgets(block, made: dict, budget_of) -> Factor | None:
 
     made : the stage's memory across blocks, {(id(scene), id(instrument)): (number, scene, instrument)} and
     the catalog of its budgets under "catalog" (the products are kept with their numbers, so that their ids
-    stay theirs; started afresh beyond ``CATALOG_ENTRIES`` budgets). budget_of : (scene, instrument or None) -> budget.
+    stay theirs; started afresh beyond ``BUDGET_CATALOG_ENTRIES`` budgets). budget_of : (scene, instrument or
+    None) -> budget.
     """
     scene, inst = block["scene.covariance"], block.get("instrument")
     if not isinstance(scene, Factor) or (inst is not None and not isinstance(inst, Factor)):
         return None
-    from e2esim.runner.blocks import CATALOG_ENTRIES
-
-    if len(made.get("catalog", ())) > CATALOG_ENTRIES:  # start afresh, as the runner's catalogs do
+    if len(made.get("catalog", ())) > BUDGET_CATALOG_ENTRIES:  # start afresh, as the runner's catalogs do
         made.clear()
     catalog = made.setdefault("catalog", Catalog())
     inst_index = np.zeros(len(scene), dtype=np.int64) if inst is None else inst.index

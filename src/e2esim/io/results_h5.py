@@ -158,20 +158,18 @@ def _joined(coverage: Values) -> Values:
 
 
 def _write_curves(arrays, table) -> None:
-    """The trade-off curves of every case that has them."""
-    for j, req in enumerate(table.requirements):
-        curves = req.curves  # joined from the blocks when read: once
-        if curves is None:
-            continue
-        drawn = np.array([bool(v) for v in curves.values], dtype=bool)
-        for i in np.nonzero(drawn[curves.index])[0]:
-            cg = arrays.require_group(f"case{i:06d}")
-            for name, values in curves[i].items():
-                what = ("crosstalk level (abscissa of the trade-off curve)" if name == "crosstalk_db" else
-                        "largest channel imbalance meeting the requirement at each crosstalk level (NaN: crosstalk "
-                        "alone breaks it)" if name.endswith("imbalance_db") else name)
-                put(cg, f"requirement{j}/{name}", np.asarray(values, dtype=float),
-                    "dB (instrument convention)" if name.endswith("_db") else "unknown", f"requirement {j}: {what}")
+    """The trade-off curves of every case that has them, read block by block (``ResultTable.curves_by_block``)."""
+    for j in range(len(table.requirements)):
+        for cases, curves in table.curves_by_block(j):
+            drawn = np.array([bool(v) for v in curves.values], dtype=bool)
+            for k in np.nonzero(drawn[curves.index])[0]:
+                cg = arrays.require_group(f"case{int(cases[k]):06d}")
+                for name, values in curves[k].items():
+                    what = ("crosstalk level (abscissa of the trade-off curve)" if name == "crosstalk_db" else
+                            "largest channel imbalance meeting the requirement at each crosstalk level (NaN: "
+                            "crosstalk alone breaks it)" if name.endswith("imbalance_db") else name)
+                    put(cg, f"requirement{j}/{name}", np.asarray(values, dtype=float),
+                        "dB (instrument convention)" if name.endswith("_db") else "unknown", f"requirement {j}: {what}")
 
 
 def _write_samples(arrays, result) -> None:

@@ -9,6 +9,7 @@ may be missing in some cases (a Monte Carlo scalar of a case that ran none): ``p
 
 from __future__ import annotations
 
+import sys
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -183,7 +184,7 @@ def scalar_columns(products: dict, n: int, declarations: dict | None = None) -> 
             written.append(ids)
             columns = _factor_columns(value, None if not repeated.any() else ~repeated)
         for key, column in columns.items():
-            out[prefix + key] = column
+            out[sys.intern(prefix + key)] = column  # one text per name, not one per block: a large run keeps them
     return out
 
 

@@ -95,8 +95,11 @@ class Journal:
     def finished_count(self) -> int:
         return self._count
 
-    def start(self, resume: bool) -> list:
-        """Check an existing journal; with ``resume``, return the finished blocks it holds (``BlockResult``s)."""
+    def start(self, resume: bool):
+        """Check an existing journal; with ``resume``, return the finished blocks it holds (``BlockResult``s) as an
+        iterator that reads, checks and gives one record at a time, to be consumed once and whole: the runner spills
+        each block before the next is read (``run_scenario``), so resuming a large run never holds its journal, or
+        its blocks, in memory. A record that does not check out raises ``JournalError`` when it is reached."""
         self._refuse_link()
         if not self.exists():
             return []
@@ -111,7 +114,9 @@ class Journal:
                 f"{self.path.parent}: the interrupted run there is of a different scenario, seed or e2esim "
                 "version; use --force to start again"
             )
-        finished = []
+        return self._finished()
+
+    def _finished(self):
         seen = np.zeros(len(self.resolved.cases), dtype=bool)
         # a torn last frame is cut off once read, so appends continue cleanly
         for number, (count, header, payload) in enumerate(records(self.path, truncate=True)):
@@ -119,9 +124,10 @@ class Journal:
             if seen[block.indices].any():
                 raise corrupt(self.path, f"record {number} repeats cases of an earlier record")
             seen[block.indices] = True
-            finished.append(block)
-        self._count = int(seen.sum())
-        return finished
+            self._count += len(block)
+            del header, payload
+            yield block
+            del block  # not held while the next record is read: one block in memory at a time
 
     def _block(self, number: int, count: int, header: bytes, payload: bytes):
         """The checked ``BlockResult`` of one record (``e2esim.runner.journal_check``)."""

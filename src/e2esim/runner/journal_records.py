@@ -78,6 +78,7 @@ def records(path: Path, truncate: bool = False):
         for count, header, payload, end in _frames(fd, size, path):
             good = end
             yield count, header, payload
+            del header, payload  # not held while the next record is read
         if truncate and good < size:
             os.ftruncate(fd, good)
     except OSError as exc:
@@ -110,6 +111,7 @@ def _frames(fd: int, size: int, path: Path):
         if zlib.crc32(payload, zlib.crc32(header)) != crc:
             raise corrupt(path, f"record {number} fails its checksum")
         yield count, header, payload, end
+        del header, payload  # one record in memory at a time (a resumed run reads its journal record by record)
         pos, number = end, number + 1
 
 

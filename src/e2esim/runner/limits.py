@@ -26,15 +26,25 @@ Python's recursion limit in the YAML composer."""
 MAX_CASES = 5_000_000
 """Sweep cases in one run: 5 million (a global 1-degree map over 12 months, 2 passes and 2 solar levels is
 about 3 million). A sweep is kept in factored form (``e2esim.runner.sweep.SweepTable``) and its modules are
-built once per distinct configuration; what grows with the cases is their results as columns, about 0.5 kB
-per case for the lightest chain (2.5 GB at the limit)."""
+built once per distinct configuration; what grows with the cases is at most ``MEMORY_PER_CASE_BYTES`` per case
+(2.4 GiB at the limit) beside a fixed part of a few hundred MB."""
+
+MEMORY_PER_CASE_BYTES = 512
+"""What a run of more than ``e2esim.runner.spill.SPILL_ABOVE_CASES`` cases grows by per case: at most 512 bytes in
+the main process, and in all its processes together (``--workers``), for every requirement type, level margins
+and trade-off curves included, and when resumed. Its finished blocks are on disk (``e2esim.runner.spill``): it
+holds their case indices (8 bytes a case) and, while the outputs are written, a few of the run's columns at a
+time. Beside it: the imports, the blocks in flight and the catalogs of distinct scenes, instruments and error
+budgets, bounded by ``e2esim.runner.blocks.CATALOG_ENTRIES`` and ``e2esim.budget.block.BUDGET_CATALOG_ENTRIES``
+(docs/architecture.md, "Memory is bounded by the blocks"). Measured by benchmarks/bench_memory.py; what a run
+holds per case is checked by tests/test_memory_of_large_runs.py."""
 
 MAX_MAP_CASES = 5_000_000
 """Cases of a map sweep (``sweep: {map: ...}``, e2esim.runner.map_sweep), and cells of its grid: 5 000 000, as
 ``MAX_CASES``. A 1 deg global map of the forest cells (MODIS 2019) of the default latitude bands over 12 months
 and 2 passes has about 119 000 cases (210 000 with every land cell of the bands), and every land cell over 12
-months, 2 passes and 2 solar levels about 1 070 000. The
-batched engine keeps each case's results as columns (about 0.5 kB a case); the per-case runner (``--per-case``)
+months, 2 passes and 2 solar levels about 1 070 000. The batched engine keeps each case's results as columns,
+on disk beyond ``SPILL_ABOVE_CASES`` cases (``MEMORY_PER_CASE_BYTES``); the per-case runner (``--per-case``)
 would keep every case's products, about 45 kB a case: run large maps with the batched engine."""
 
 MAX_DATES = 100_000

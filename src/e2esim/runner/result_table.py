@@ -83,6 +83,15 @@ class ResultTable:
         """Cases requirement ``j`` applies to (bool per case; the others are not applicable)."""
         return np.asarray(self.requirements[j].applicable, dtype=bool)
 
+    def curves_by_block(self, j: int):
+        """Yield (case numbers, ``Values`` of {name: array}) of requirement ``j``'s trade-off curves, block by block
+        (blocks without curves left out): each block's read back when reached, so a writer never holds the curves
+        of every case at once, as ``requirements[j].curves`` does."""
+        for block in self.blocks:
+            curves = block.requirements[j].curves
+            if curves is not None:
+                yield block.indices, curves
+
     def detail(self, j: int, key: str) -> np.ndarray:
         """Detail ``key`` of requirement ``j``, NaN where a case lacks it."""
         column = self.requirements[j].details[key]
@@ -125,7 +134,8 @@ class JoinedRequirement:
 
     @property
     def curves(self) -> Values | None:
-        """The trade-off curves per case, None when no block has any."""
+        """The trade-off curves per case, None when no block has any: one dict of arrays per case, every case's in
+        memory at once (the writers read them block by block: ``ResultTable.curves_by_block``)."""
         if all(p.curves is None for p in self.parts):
             return None
         joined = Values.concatenate([p.curves if p.curves is not None else Values.repeated({}, len(p.passed))

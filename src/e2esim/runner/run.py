@@ -325,7 +325,7 @@ def run_scenario(
     workers: int = 1,
     scheduler: str | None = None,
     journal=None,
-    finished: list | None = None,
+    finished=None,
     engine: str = "batched",
     keep_products: bool | None = None,
     spill: bool | None = None,
@@ -334,8 +334,9 @@ def run_scenario(
     """Run every case (serially, on ``workers`` local processes or on the dask cluster at ``scheduler``)
     with a progress bar; return the results with their provenance.
 
-    journal : a ``Journal`` that records each block as it finishes; finished : blocks already done (a list of
-        ``BlockResult``, from an interrupted run), whose cases are not run again. engine : "batched" or
+    journal : a ``Journal`` that records each block as it finishes; finished : blocks already done (an iterable of
+        ``BlockResult``, from an interrupted run: each is spilled before the next is taken), whose cases are not run
+        again. engine : "batched" or
         "per_case" (the reference). keep_products : keep every case's products (default: for runs of at most
         ``KEEP_PRODUCTS_UP_TO`` cases). spill : keep the finished blocks on disk (``e2esim.runner.spill``;
         default: for runs of more than ``SPILL_ABOVE_CASES`` cases that keep no products), in a temporary file
@@ -351,7 +352,11 @@ def run_scenario(
         raise ValueError("a run that keeps its cases' products keeps its blocks in memory (spill=False)")
     spill_file = SpillFile(spill_folder) if (n > SPILL_ABOVE_CASES and not keep if spill is None else spill) else None
     kept = (lambda block: block) if spill_file is None else (lambda block: spill_block(block, spill_file))
-    blocks = [kept(block) for block in finished or []]
+    blocks = []
+    for block in finished or ():
+        blocks.append(kept(block))
+        del block  # not held while the next is read from the journal
+    resumed = sum(len(block) for block in blocks)
     done = np.zeros(n, dtype=bool)
     for block in blocks:
         done[block.indices] = True
@@ -385,8 +390,8 @@ def run_scenario(
         provenance["engine"] = engine
     if workers > 1 or scheduler:
         provenance["executor"] = f"dask {scheduler}" if scheduler else f"{workers} local processes"
-    if finished:
-        provenance["resumed_cases"] = int(sum(len(b) for b in finished))
+    if resumed:
+        provenance["resumed_cases"] = int(resumed)
     return ScenarioResult(resolved, blocks, provenance)
 
 

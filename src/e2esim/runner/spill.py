@@ -1,12 +1,14 @@
 """Finished blocks of a large run kept on disk, so that a run's memory is bounded by its blocks, not its size.
 
-A block's results (``e2esim.runner.run.BlockResult``) take about 0.6 kB per case, nearly all of it numbers:
-the output scalars, the requirement verdicts and their details. A sweep of a million cases that kept them would
-hold 0.6 GB until its outputs are written. Runs of more than ``SPILL_ABOVE_CASES`` cases therefore write every
-finished block's arrays to one temporary file (``SpillFile``) and keep only a ``SpilledBlock``: the block's case
-indices and, per array, where it lies in the file. The writers read the run column by column
-(``e2esim.runner.result_table``), so reading back one column of every block at a time keeps the memory of the
-outputs at one column of the sweep (8 bytes per case) beside the blocks in flight.
+A block's results (``e2esim.runner.run.BlockResult``) take 0.6 to 1.5 kB per case, nearly all of it numbers: the
+output scalars, the requirement verdicts and their details (level margins the most), and 2 kB more per case with
+trade-off curves. A sweep of a million cases that kept them would hold gigabytes until its outputs are written.
+Runs of more than ``SPILL_ABOVE_CASES`` cases therefore write every finished block's arrays to one temporary file
+(``SpillFile``) and keep only a ``SpilledBlock``: the block's case indices and where its arrays lie in the file
+(the columns present in every case as rows of one array, each trade-off curve as one array). The writers read
+the run column by column (``e2esim.runner.result_table``; the curves block by block), so reading back one column
+of every block at a time keeps the memory of the outputs at one column of the sweep (8 bytes per case) beside the
+blocks in flight.
 
 The file holds plain arrays only, is read only by the process that wrote it, and is removed when the run's
 result is (on POSIX it has no name at all: a killed run leaves nothing behind). It is created in the output
@@ -16,6 +18,7 @@ folder when there is one, not in the system's temporary folder, which is memory 
 from __future__ import annotations
 
 import os
+import sys
 import tempfile
 from collections.abc import Mapping
 from dataclasses import dataclass
@@ -31,9 +34,10 @@ SPILL_ABOVE_CASES = 10_000
 6 MB): their report reads every case some twenty times (``e2esim.runner.run.REMEMBER_CASES_UP_TO``)."""
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, slots=True)
 class Spilled:
-    """Where one array lies in a ``SpillFile``: byte offset, dtype (numpy's text form) and shape."""
+    """Where one array lies in a ``SpillFile``: byte offset, dtype (numpy's text form) and shape. Small (slots, the
+    dtype's text shared): a block keeps one per array, a few hundred."""
 
     offset: int
     dtype: str
@@ -63,7 +67,7 @@ class SpillFile:
         except OSError as exc:
             raise OutputFolderError(f"{self._folder}: cannot keep the finished blocks in a temporary file: "
                                     f"{exc.strerror or exc}") from exc
-        ref = Spilled(self._end, array.dtype.str, array.shape)
+        ref = Spilled(self._end, sys.intern(array.dtype.str), array.shape)
         self._end += array.nbytes
         return ref
 
@@ -83,7 +87,8 @@ def spill_block(block, spill: SpillFile) -> SpilledBlock:
     """The ``SpilledBlock`` of ``block`` (a ``BlockResult`` without products): its arrays written to ``spill``."""
     if block.products is not None:
         raise ValueError("a block that keeps its cases' products is not spilled")
-    return SpilledBlock(spill, block.indices, SpilledColumns.of(block.scalars, spill),
+    # the indices copied: those of a block read back from the journal are a view of the whole record's bytes
+    return SpilledBlock(spill, np.array(block.indices), SpilledColumns.of(block.scalars, spill),
                         [SpilledRequirement.of(r, spill) for r in block.requirements],
                         SpilledValues.of(block.notes, spill), SpilledValues.of(block.groups, spill))
 
@@ -123,19 +128,33 @@ class SpilledBlock:
 
 
 class SpilledColumns(Mapping):
-    """{name: ``Column``} of a spilled block, each read back when asked for."""
+    """{name: ``Column``} of a spilled block, each read back when asked for. The columns present in every case
+    (nearly all) are rows of one array on disk, so that the block keeps a row number per name, not a reference
+    per column."""
 
-    def __init__(self, spill: SpillFile, refs: dict):
-        self._spill = spill
-        self._refs = refs  # name -> (values, present or None)
+    def __init__(self, spill: SpillFile, table: Spilled | None, refs: dict):
+        self._spill, self._table = spill, table  # the (columns, cases) float array of the full columns
+        self._refs = refs  # name -> its row in the table, or (values, present) of a column of its own
 
     @classmethod
     def of(cls, columns: Mapping, spill: SpillFile) -> SpilledColumns:
-        return cls(spill, {name: (spill.put(c.values), None if c.present is None else spill.put(c.present))
-                           for name, c in columns.items()})
+        full = [name for name, c in columns.items() if c.present is None and c.values.dtype == np.float64
+                and c.values.ndim == 1]
+        if len({len(columns[name].values) for name in full}) > 1:
+            full = []
+        table = spill.put(np.stack([columns[name].values for name in full])) if full else None
+        rows = {name: k for k, name in enumerate(full)}
+        return cls(spill, table, {name: rows[name] if name in rows else
+                                  (spill.put(c.values), None if c.present is None else spill.put(c.present))
+                                  for name, c in columns.items()})
 
     def __getitem__(self, name: str) -> Column:
-        values, present = self._refs[name]
+        ref = self._refs[name]
+        if isinstance(ref, int):
+            cases = self._table.shape[1]
+            row = Spilled(self._table.offset + ref * cases * 8, self._table.dtype, (cases,))
+            return Column(self._spill.get(row))
+        values, present = ref
         return Column(self._spill.get(values), None if present is None else self._spill.get(present))
 
     def __iter__(self):
@@ -167,18 +186,23 @@ _TEXTS = ("name", "unit", "basis", "dominant", "notes", "reason", "coverage", "c
 
 
 class SpilledRequirement:
-    """The ``RequirementColumns`` of one requirement in a spilled block: every field read back when asked for;
-    the trade-off curves (arrays of their own per case) stay in memory."""
+    """The ``RequirementColumns`` of one requirement in a spilled block: every field read back when asked for,
+    the trade-off curves included (``SpilledCurves``)."""
 
     def __init__(self, spill: SpillFile, numbers: dict, texts: dict, details: SpilledColumns, curves):
         self._spill, self._numbers, self._texts = spill, numbers, texts
-        self.details, self.curves = details, curves
+        self.details, self._curves = details, curves
 
     @classmethod
     def of(cls, r: RequirementColumns, spill: SpillFile) -> SpilledRequirement:
         return cls(spill, {f: spill.put(getattr(r, f)) for f in _NUMBERS},
                    {f: SpilledValues.of(getattr(r, f), spill) for f in _TEXTS},
-                   SpilledColumns.of(r.details, spill), r.curves)
+                   SpilledColumns.of(r.details, spill), SpilledCurves.of(r.curves, spill))
+
+    @property
+    def curves(self) -> Values | None:
+        """The block's trade-off curves per case (``Values`` of {name: array}), read back when asked for."""
+        return self._curves.load() if isinstance(self._curves, SpilledCurves) else self._curves
 
     def _number(self, field: str) -> np.ndarray:
         return self._spill.get(self._numbers[field])
@@ -204,3 +228,63 @@ class SpilledRequirement:
         return RequirementColumns(self.name, self.passed, self.value, self.limit, self.margin, self.unit, self.basis,
                                   self.dominant, self.notes, self.applicable, self.reason, self.coverage,
                                   self.coverage_text, details=dict(self.details.items()), curves=self.curves)
+
+
+class SpilledCurves:
+    """The trade-off curves of a spilled block, ``Values`` of {name: array} per case (``{}``: none): each name's
+    curves stacked into one array on disk (one row per case that has curves; once, where every case has the same
+    array object, as the crosstalk axis of a batched block), read back as the block's ``Values`` when asked for.
+
+    ``of`` keeps in memory, as they are, curves it cannot stack: names, shapes or dtypes that differ between the
+    block's cases, or values that are not numeric arrays (a plug-in's)."""
+
+    def __init__(self, spill: SpillFile, index: Spilled, present: Spilled, arrays: dict, shared: frozenset):
+        self._spill, self._index, self._present = spill, index, present
+        self._arrays = arrays  # name -> Spilled, in the curves' order: rows of the cases that have curves, or one
+        self._shared = shared  # the names stored once
+
+    @classmethod
+    def of(cls, curves: Values | None, spill: SpillFile):
+        """The ``SpilledCurves`` of ``curves``, or ``curves`` itself where they cannot be stacked (or are None)."""
+        if curves is None:
+            return None
+        rows = curves.values
+        drawn = [row for row in rows if row]
+        if not drawn or not all(isinstance(row, dict) for row in rows) or not _stackable(drawn):
+            return curves
+        arrays, shared = {}, set()
+        for name, first in drawn[0].items():
+            if all(row[name] is first for row in drawn):
+                arrays[name] = spill.put(first)
+                shared.add(name)
+            else:
+                arrays[name] = spill.put(np.stack([row[name] for row in drawn]))
+        present = np.array([bool(row) for row in rows], dtype=bool)
+        return cls(spill, spill.put(curves.index), spill.put(present), arrays, frozenset(shared))
+
+    def load(self) -> Values:
+        arrays = {name: self._spill.get(ref) for name, ref in self._arrays.items()}
+        rows, k = [], 0
+        for has in self._spill.get(self._present):
+            if has:
+                rows.append({name: a if name in self._shared else a[k] for name, a in arrays.items()})
+                k += 1
+            else:
+                rows.append({})
+        return Values(rows, self._spill.get(self._index))
+
+
+def _stackable(rows: list) -> bool:
+    """Whether every row (a dict of arrays) has the same names, in the same order, each a numeric array of the
+    same shape and dtype as in the first row."""
+    first = rows[0]
+    names = list(first)
+    for row in rows:
+        if list(row) != names:
+            return False
+        for name in names:
+            a, b = row[name], first[name]
+            if not (isinstance(a, np.ndarray) and a.dtype.kind in "biuf" and a.shape == b.shape
+                    and a.dtype == b.dtype):
+                return False
+    return True
