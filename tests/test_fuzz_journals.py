@@ -218,7 +218,7 @@ def check_journal(out: Path) -> None:
     _, resolved, _ = _Made.journal_run()
     with hang_guard(HANG_S), warnings.catch_warnings():
         try:
-            blocks = Journal(out, resolved).start(resume=True)
+            blocks = list(Journal(out, resolved).start(resume=True))  # an iterator: records are checked as read
         except UserError as exc:
             expect_clean(exc, out)
             return

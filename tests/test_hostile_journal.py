@@ -263,7 +263,7 @@ def test_a_huge_manifest(run, capsys):
 def test_the_journal_still_resumes(made, run):
     """The checks pass what the run itself wrote: both blocks come back, with their products."""
     _, resolved, _ = made
-    blocks = Journal(run[1], resolved).start(resume=True)
+    blocks = list(Journal(run[1], resolved).start(resume=True))
     assert [list(b.indices) for b in blocks] == [[0], [1]] and all(len(b.products) == 1 for b in blocks)
 
 
