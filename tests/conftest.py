@@ -8,6 +8,7 @@ scikit-learn's ``global_random_seed``); the seed in use is printed in the test r
 from __future__ import annotations
 
 import os
+import signal
 import tempfile
 import zlib
 
@@ -24,6 +25,11 @@ def pytest_configure(config):
     if "E2ESIM_CACHE" not in os.environ:
         os.environ["E2ESIM_CACHE"] = tempfile.mkdtemp(prefix="e2esim-test-cache-")
     os.environ["E2ESIM_TEST_SEED"] = str(TEST_SEED)
+    # A suite started as a background job of a non-interactive shell inherits SIGINT ignored, and so would every
+    # e2esim the tests start (an ignored signal stays ignored across exec): the Ctrl-C tests would then see a run
+    # that cannot be interrupted. Python's own handler here makes the children start with the default one.
+    if signal.getsignal(signal.SIGINT) == signal.SIG_IGN:
+        signal.signal(signal.SIGINT, signal.default_int_handler)
 
 
 @pytest.hookimpl(tryfirst=True)  # before pytest-xdist reads the groups
