@@ -27,6 +27,19 @@ class Stopped(KeyboardInterrupt):
         self.signum = signum
 
 
+class RunInterrupted(KeyboardInterrupt):
+    """A run ended by Ctrl-C or a stop signal: ``message`` says what was kept and how to go on (without the
+    ``e2esim:`` prefix); ``exit_status`` is 130 for Ctrl-C, 128 + the signal number for SIGTERM and SIGHUP.
+    A ``KeyboardInterrupt``, so that a program calling ``e2esim.run`` is interrupted as Python interrupts it."""
+
+    def __init__(self, stop: KeyboardInterrupt, what: str, when: str = ""):
+        if isinstance(stop, Stopped):
+            self.message, self.exit_status = f"stopped by {stop}{when}; {what}", 128 + stop.signum
+        else:
+            self.message, self.exit_status = f"interrupted{when}; {what}", 130
+        super().__init__(self.message)
+
+
 def _raise_stopped(signum, frame):
     raise Stopped(signum)
 
