@@ -15,6 +15,8 @@ from pathlib import Path
 import numpy as np
 
 from e2esim.io.scalar_units import scalar_description, scalar_unit
+from e2esim.maps.grid import map_section
+from e2esim.maps.netcdf import map_dataset
 
 
 @dataclass
@@ -135,18 +137,14 @@ class Results:
     def to_xarray(self):
         """xarray Dataset: every output scalar as a variable (attributes ``units``, ``description``) over the
         sweep's dimensions, the sweep keys as coordinates (module docstring); a map sweep's map on its grid, as in
-        its results.nc (``e2esim.io.map_netcdf``).
+        its results.nc (``e2esim.maps.netcdf``).
 
         An output scalar named as a sweep key (``scene.agb_t_ha`` of a sweep over it) is that coordinate, with
         the scalar's attributes, where its values are the swept ones; where they differ it is the variable
         ``<name>.output`` beside the coordinate."""
         import xarray as xr
 
-        from e2esim.runner.map_sweep import map_section
-
         if map_section(self.resolved_scenario.get("sweep")) is not None:
-            from e2esim.io.map_netcdf import map_dataset
-
             return map_dataset(self)
 
         dims, shape = self.sweep_dimensions()
