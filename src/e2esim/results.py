@@ -17,6 +17,7 @@ import numpy as np
 from e2esim.io.scalar_units import scalar_description, scalar_unit
 from e2esim.maps.grid import map_section
 from e2esim.maps.netcdf import map_dataset
+from e2esim.runner.folder_run import write_into_folder
 
 
 @dataclass
@@ -192,15 +193,12 @@ class Results:
                             index=pd.RangeIndex(self.n_cases, name="case"))
 
     def write(self, folder) -> dict:
-        """Write results.h5, summary.json, the report and its plots into ``folder`` (a run made here only)."""
+        """Write results.h5, summary.json, the report and its plots into ``folder`` (a run made here only), with
+        the folder locked as a run locks it (``e2esim.runner.folder_run.write_into_folder``)."""
         if self.run is None:
             raise ValueError("these results were read from a file: their products (for the report and the plots) "
                              "are not kept; run the scenario again to write a report")
-        from e2esim.runner.outputs import write_outputs
-
-        folder = Path(folder)
-        folder.mkdir(parents=True, exist_ok=True)
-        return write_outputs(self.run, folder)
+        return write_into_folder(self.run, Path(folder))
 
 
 def results_of(result) -> Results:

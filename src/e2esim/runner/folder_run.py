@@ -17,6 +17,7 @@ from e2esim.errors import OutputFolderError, UserError
 from e2esim.runner.executors import WorkerLost, check_scheduler_address
 from e2esim.runner.interrupts import RunInterrupted, stop_signals_as_interrupts
 from e2esim.runner.journal import Journal
+from e2esim.runner.lock import FolderLock
 from e2esim.runner.outputs import aside_note, prepare_folder, write_outputs
 from e2esim.runner.run import ScenarioResult, run_scenario
 
@@ -62,6 +63,18 @@ def run_into_folder(resolved, folder, force: bool = False, resume: bool = False,
     return result
 
 
+def write_into_folder(result: ScenarioResult, folder: Path) -> dict:
+    """Write the outputs of a run made before into ``folder`` (created if need be; other files stay), locked while
+    they are written (``Results.write``); return ``write_outputs``'s answer."""
+    folder = Path(folder)
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise OutputFolderError(f"{folder}: cannot create the output folder: {exc.strerror or exc}") from exc
+    with FolderLock(folder):
+        return write_outputs(result, folder)
+
+
 def _run_journalled(resolved, folder: Path, journal: Journal, resume: bool, options: dict) -> ScenarioResult:
     """The run, each finished block recorded in ``journal`` (and those it holds taken back with ``resume``)."""
     finished = journal.start(resume=resume)
@@ -84,4 +97,4 @@ def _saved(journal: Journal, resolved, folder: Path, then: str = "run") -> str:
             f"same command with --resume to finish{aside_note(folder)}")
 
 
-__all__ = ["RunInterrupted", "check_executor", "run_into_folder"]
+__all__ = ["check_executor", "run_into_folder", "write_into_folder"]
