@@ -10,6 +10,7 @@ import pytest
 from test_output_folder import _run, _scenario
 
 import e2esim
+import e2esim.errors
 from e2esim.errors import OutputFolderError
 from e2esim.runner import folder_run
 from e2esim.runner.interrupts import RunInterrupted
@@ -71,3 +72,20 @@ def test_an_api_run_interrupted_while_writing_resumes_through_the_api(tmp_path, 
     assert resumed.provenance["resumed_cases"] == 3 and (out / "summary.json").is_file()
     assert not (out / JOURNAL).exists()
     assert resumed.scalars.keys() == e2esim.run(scenario).scalars.keys()
+
+
+def test_results_write_locks_the_folder_as_a_run_does(tmp_path):
+    results, out = e2esim.run(_scenario(tmp_path)), tmp_path / "out"
+    with FolderLock(out.mkdir() or out), pytest.raises(OutputFolderError, match="another e2esim run"):
+        results.write(out)  # a run live in the folder is not written over
+    assert not (out / "summary.json").exists()
+    results.write(out)
+    assert (out / "summary.json").is_file() and not (out / LOCK_NAME).exists()
+
+
+def test_the_api_checks_its_workers_as_the_cli_does(tmp_path, capsys):
+    scenario = _scenario(tmp_path)
+    status, err = _run(scenario, "-o", tmp_path / "cli", "--workers", "0", capsys=capsys)
+    with pytest.raises(e2esim.errors.UserError) as refused:
+        e2esim.run(scenario, workers=0)
+    assert status == 2 and err == f"e2esim: error: {refused.value}\n"
