@@ -3,7 +3,9 @@
 
 Python turns SIGINT into ``KeyboardInterrupt`` wherever the main thread happens to be; the command line turns
 SIGTERM and SIGHUP into ``Stopped``, a ``KeyboardInterrupt`` too (``stop_signals_as_interrupts``), so that every
-way of stopping a run ends it the same way: the finished blocks kept, one message, how to resume. Inside a
+way of stopping a run ends it the same way: the finished blocks kept, one message, how to resume (the run path,
+``e2esim.runner.folder_run``, raises it as ``RunInterrupted``, which the command line prints and ``e2esim.run``
+lets through). Inside a
 block's computation that is what we want: the block is dropped and the run ends at once. Inside the few
 milliseconds that keep a finished block, or while HDF5 writes results.h5 (an exception raised inside HDF5's file
 callbacks would leave the library in a state that crashes the interpreter at exit), it is not: there
