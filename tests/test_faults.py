@@ -377,7 +377,7 @@ def test_file_size_limit_while_writing_results_nc_is_an_os_error(tmp_path):
     script = """
 import errno, resource, sys
 import numpy as np, xarray as xr
-from e2esim.io.map_netcdf import write_map_netcdf
+from e2esim.maps.netcdf import write_map_netcdf
 ds = xr.Dataset({"v": (("lat", "lon"), np.random.default_rng(1).random((200, 200)))})
 resource.setrlimit(resource.RLIMIT_FSIZE, (100_000, resource.getrlimit(resource.RLIMIT_FSIZE)[1]))
 try:

@@ -12,8 +12,8 @@ import pytest
 import xarray as xr
 
 from e2esim.errors import Location
-from e2esim.io.map_netcdf import map_dataset
-from e2esim.runner.map_sweep import map_grid
+from e2esim.maps.grid import map_grid
+from e2esim.maps.netcdf import map_dataset
 from e2esim.runner.scenario import Scenario
 from e2esim.scene.forest_cover import (
     DEFAULT_FOREST_GROUPS,

@@ -10,9 +10,10 @@ import xarray as xr
 from e2esim.errors import ConfigError, LimitError, Location
 from e2esim.faraday.cell_lookup import cell_index, month_table
 from e2esim.faraday.global_lookup import GlobalClimatologyLookup
-from e2esim.io.map_netcdf import area_fraction
-from e2esim.runner.map_sweep import MAP_KEYS, map_table
+from e2esim.maps.grid import MAP_KEYS
+from e2esim.maps.netcdf import area_fraction
 from e2esim.runner.scenario import Scenario
+from e2esim.runner.sweep import sweep_table
 from e2esim.scene.agb_map import read_agb_map
 from e2esim.scene.forest_cover import forest_fraction
 from e2esim.scene.land_mask import is_land, land_fraction
@@ -159,7 +160,7 @@ def _map_scenario(**sweep_map):
 def test_map_sweep_expands_to_forest_land_cells_months_passes_and_solar_levels():
     raw = _map_scenario(step_deg=10, lat_range_deg=[-30, 70], lon_range_deg=[-20, 60], months=[1, 7],
                         passes=["dawn", "dusk"], solar=["min", "max"])
-    table = map_table(raw["sweep"]["map"], Location("t.yaml", ("sweep", "map")), raw)
+    table = sweep_table(raw["sweep"], Location("t.yaml", ("sweep",)), raw)
     cases, keys = table.all_inputs(), table.keys
     assert keys == MAP_KEYS
     lat = np.arange(-25.0, 70.0, 10.0)

@@ -252,7 +252,7 @@ def test_the_api_holds_its_folder_lock_and_releases_it(tmp_path, monkeypatch):
     # into the same folder in the same process was refused as "another e2esim run (PID <own pid>)"
     import e2esim
     from e2esim.errors import OutputFolderError
-    from e2esim.runner import run as run_module
+    from e2esim.runner import folder_run as run_module  # the one run path of the CLI and the API
     from e2esim.runner.lock import FolderLock
 
     scenario, out = _scenario(tmp_path), tmp_path / "out"

@@ -17,7 +17,8 @@ import json
 import warnings
 from pathlib import Path
 
-from e2esim.results import Results
+from e2esim.results import Results, results_of
+from e2esim.runner.folder_run import run_into_folder
 
 
 class NoEffectWarning(UserWarning):
@@ -25,37 +26,32 @@ class NoEffectWarning(UserWarning):
 
 
 def run(scenario, set: dict | None = None, output=None, force: bool = False, progress: bool = False,
-        workers: int = 1, engine: str = "batched", **overrides) -> Results:
+        workers: int = 1, engine: str = "batched", resume: bool = False, scheduler: str | None = None,
+        **overrides) -> Results:
     """Run every case of ``scenario`` and return its ``Results``; write no file unless ``output`` names a
-    folder (then results.h5, summary.json, the report and its plots go there, as ``e2esim run -o`` writes them;
-    an existing non-empty folder needs ``force``). As ``e2esim run``, the folder is locked while the scenario
-    runs and its outputs are written (a second run into it meanwhile is refused) and released after.
+    folder. With a folder the run takes the path of ``e2esim run -o`` (``e2esim.runner.folder_run``): the folder
+    is locked while the scenario runs and its outputs are written (a second run into it meanwhile is refused),
+    an existing non-empty folder needs ``force`` (the earlier outputs are set aside until the new ones are
+    complete), every finished block is kept in the resume journal, and results.h5, summary.json, the report and
+    its plots are written atomically. A run stopped by Ctrl-C raises ``KeyboardInterrupt`` (a
+    ``RunInterrupted`` saying how many cases were kept); ``resume`` continues it without recomputing them.
 
     scenario : a scenario file (path), a scenario as a dict (the YAML's content), or a ``Scenario``.
     set, overrides : dotted key -> value, e.g. ``set={"instrument.crosstalk.level_db": -28}`` or
         ``**{"simulation.realisations": 500}``; both may be given.
     engine : "batched" (blocks of cases at once) or "per_case" (one case at a time, the reference); the
         same numbers either way.
+    workers, scheduler : run the cases on that many local processes, or on the dask.distributed cluster at
+        that address (as ``--workers`` and ``--scheduler``); the same numbers either way.
     """
-    from e2esim.runner.outputs import prepare_folder
-    from e2esim.runner.run import run_scenario
-
     assignments = {**(set or {}), **overrides}
     resolved = load_scenario(scenario, assignments).resolve()
-    # As `e2esim run` (cli.cmd_run): the folder is locked before the run and released when its outputs are
-    # written, whatever happens; a lock left held would refuse the next run into the same folder.
-    lock = prepare_folder(Path(output), force) if output is not None else None
-    try:
-        result = run_scenario(resolved, progress=progress, command=f"e2esim.run({_describe(scenario)})",
-                              workers=workers, engine=engine)
-        results = Results.from_run(result)
-        for message in results.settings_without_effect:
-            warnings.warn(message, NoEffectWarning, stacklevel=2)
-        if output is not None:
-            results.write(output)
-    finally:
-        if lock is not None:
-            lock.release()
+    result = run_into_folder(resolved, Path(output) if output is not None else None, force, resume,
+                             progress=progress, command=f"e2esim.run({_describe(scenario)})", workers=workers,
+                             scheduler=scheduler, engine=engine)
+    results = results_of(result)
+    for message in results.settings_without_effect:
+        warnings.warn(message, NoEffectWarning, stacklevel=2)
     return results
 
 

@@ -15,7 +15,8 @@ import sys
 import warnings
 
 import e2esim
-from e2esim.errors import E2ESimWarning, OutputFolderError, UserError, one_line
+from e2esim.errors import E2ESimWarning, UserError, one_line
+from e2esim.runner.interrupts import RunInterrupted
 
 EXAMPLES = """examples:
   e2esim run scenarios/biomass_default.yaml
@@ -130,6 +131,9 @@ def main(argv=None) -> int:
             raise
         print(f"e2esim: error: {one_line(exc)}", file=sys.stderr)
         return exc.exit_status
+    except RunInterrupted as stop:  # says what the run kept and how to go on
+        print(f"e2esim: {stop.message}", file=sys.stderr)
+        return stop.exit_status
     except KeyboardInterrupt:
         print("e2esim: interrupted; no partial output files were left", file=sys.stderr)
         return 130
@@ -199,47 +203,16 @@ def validity_warnings(result, shown: int = 3) -> list:
 def cmd_run(args) -> int:
     from e2esim.io.summary import summary_json
     from e2esim.report.document import verdict_lines
-    from e2esim.runner.executors import WorkerLost, check_scheduler_address
-    from e2esim.runner.interrupts import stop_signals_as_interrupts
-    from e2esim.runner.journal import Journal
+    from e2esim.runner.folder_run import check_executor, run_into_folder
     from e2esim.runner.no_effect import no_effect
-    from e2esim.runner.outputs import output_folder, prepare_folder, write_outputs
-    from e2esim.runner.run import run_scenario
+    from e2esim.runner.outputs import output_folder
 
-    if args.workers < 1:
-        raise UserError(f"--workers {args.workers}: expected a number of processes >= 1")
-    if args.scheduler:
-        check_scheduler_address(args.scheduler)
+    check_executor(args.workers, args.scheduler)
     resolved = _scenario(args).resolve()
     folder = output_folder(resolved, args.output)
-    with stop_signals_as_interrupts():  # SIGTERM, SIGHUP: ended as Ctrl-C ends a run, finished blocks kept
-        lock = prepare_folder(folder, args.force, args.resume)
-        try:
-            journal = Journal(folder, resolved)
-            finished = journal.start(resume=args.resume)
-            try:
-                result = run_scenario(resolved, progress=not args.no_progress,
-                                      command=" ".join(["e2esim"] + sys.argv[1:]), workers=args.workers,
-                                      scheduler=args.scheduler, journal=journal, finished=finished,
-                                      engine="per_case" if args.per_case else "batched", spill_folder=folder)
-            except KeyboardInterrupt as stop:
-                journal.close()
-                return _stopped(stop, _saved(journal, resolved, folder))
-            except WorkerLost as exc:
-                raise WorkerLost(f"{exc}; {_saved(journal, resolved, folder)}") from exc
-            except OutputFolderError as exc:  # the journal or the spill file could not be written: a full disk
-                then = "free the space and run"
-                raise OutputFolderError(f"{exc}; {_saved(journal, resolved, folder, then)}") from exc
-            finally:
-                journal.close()
-            try:
-                write_outputs(result, folder)
-            except KeyboardInterrupt as stop:
-                return _stopped(stop, "no partial output file was left; " + _saved(journal, resolved, folder),
-                                " while writing the outputs")
-            journal.remove()
-        finally:
-            lock.release()
+    result = run_into_folder(resolved, folder, args.force, args.resume, progress=not args.no_progress,
+                             command=" ".join(["e2esim"] + sys.argv[1:]), workers=args.workers,
+                             scheduler=args.scheduler, engine="per_case" if args.per_case else "batched")
     for finding in no_effect(result):
         print(f"e2esim: warning: {finding.message()}", file=sys.stderr)
     out = sys.stderr if args.json else sys.stdout
@@ -251,25 +224,6 @@ def cmd_run(args) -> int:
     if args.json:
         print(summary_json(result))
     return 0
-
-
-def _saved(journal, resolved, folder, then: str = "run") -> str:
-    """What a run that ends early leaves, and how to go on."""
-    from e2esim.runner.outputs import aside_note
-
-    return (f"{journal.finished_count()} of {len(resolved.cases)} cases are saved in {journal.path}; {then} the "
-            f"same command with --resume to finish{aside_note(folder)}")
-
-
-def _stopped(stop: KeyboardInterrupt, what: str, when: str = "") -> int:
-    """The one message of a run ended by Ctrl-C or a stop signal; the exit status says which (128 + signal)."""
-    from e2esim.runner.interrupts import Stopped
-
-    if isinstance(stop, Stopped):
-        print(f"e2esim: stopped by {stop}{when}; {what}", file=sys.stderr)
-        return 128 + stop.signum
-    print(f"e2esim: interrupted{when}; {what}", file=sys.stderr)
-    return 130
 
 
 def cmd_validate(args) -> int:

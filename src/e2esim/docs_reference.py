@@ -62,8 +62,8 @@ def _yaml(value) -> str:
 
 
 def render() -> str:
+    from e2esim.maps.grid import MAP_PARAMS
     from e2esim.runner.limits import MAX_MAP_CASES
-    from e2esim.runner.map_sweep import MAP_PARAMS
     from e2esim.runner.scenario import (
         DEFAULT_MODULES,
         OUTPUT_PARAMS,
@@ -128,7 +128,7 @@ def render() -> str:
         "### `sweep.map`: global maps",
         "",
         "Every forest cell of a latitude-longitude grid (global or a region) x months x passes x solar levels "
-        "(e2esim.runner.map_sweep; docs/user-guide.md, \"Global maps\"). It needs `scene: {type: agb_map}` and "
+        "(e2esim.maps.grid; docs/user-guide.md, \"Global maps\"). It needs `scene: {type: agb_map}` and "
         "`ionosphere: {type: global_climatology}`, whose cell, month, pass and solar level it sets in each case "
         "(`scene.lat_deg`, `scene.lon_deg`, `ionosphere.lat_deg`, `ionosphere.lon_deg`, `ionosphere.month`, "
         "`ionosphere.pass`, `ionosphere.solar`), and stands alone in the `sweep` section. At most "

@@ -15,6 +15,9 @@ from pathlib import Path
 import numpy as np
 
 from e2esim.io.scalar_units import scalar_description, scalar_unit
+from e2esim.maps.grid import map_section
+from e2esim.maps.netcdf import map_dataset
+from e2esim.runner.folder_run import write_into_folder
 
 
 @dataclass
@@ -135,18 +138,14 @@ class Results:
     def to_xarray(self):
         """xarray Dataset: every output scalar as a variable (attributes ``units``, ``description``) over the
         sweep's dimensions, the sweep keys as coordinates (module docstring); a map sweep's map on its grid, as in
-        its results.nc (``e2esim.io.map_netcdf``).
+        its results.nc (``e2esim.maps.netcdf``).
 
         An output scalar named as a sweep key (``scene.agb_t_ha`` of a sweep over it) is that coordinate, with
         the scalar's attributes, where its values are the swept ones; where they differ it is the variable
         ``<name>.output`` beside the coordinate."""
         import xarray as xr
 
-        from e2esim.runner.map_sweep import map_section
-
         if map_section(self.resolved_scenario.get("sweep")) is not None:
-            from e2esim.io.map_netcdf import map_dataset
-
             return map_dataset(self)
 
         dims, shape = self.sweep_dimensions()
@@ -194,15 +193,12 @@ class Results:
                             index=pd.RangeIndex(self.n_cases, name="case"))
 
     def write(self, folder) -> dict:
-        """Write results.h5, summary.json, the report and its plots into ``folder`` (a run made here only)."""
+        """Write results.h5, summary.json, the report and its plots into ``folder`` (a run made here only), with
+        the folder locked as a run locks it (``e2esim.runner.folder_run.write_into_folder``)."""
         if self.run is None:
             raise ValueError("these results were read from a file: their products (for the report and the plots) "
                              "are not kept; run the scenario again to write a report")
-        from e2esim.runner.outputs import write_outputs
-
-        folder = Path(folder)
-        folder.mkdir(parents=True, exist_ok=True)
-        return write_outputs(self.run, folder)
+        return write_into_folder(self.run, Path(folder))
 
 
 def results_of(result) -> Results:

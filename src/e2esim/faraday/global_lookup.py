@@ -31,7 +31,7 @@ from e2esim.module import Stage, fail
 from e2esim.orbit.acquisition import swath_incidences
 from e2esim.orbit.geometry import view_geometry
 from e2esim.orbit.sunsync import PASSES, SunSynchronousOrbit
-from e2esim.params import Ordered, Param, ParamGroup, Requires
+from e2esim.params import Ordered, Param, ParamGroup, Requires, to_si, validate_section
 
 PASS_NAMES = ("dawn", "dusk", "ascending", "descending")
 
@@ -219,3 +219,9 @@ def visible_latitudes(orbit_config: dict, lat_deg, pass_name: str) -> np.ndarray
     view = view_geometry(orbit, np.radians(np.asarray(lat_deg, float))[None, :], 0.0,
                          np.radians(np.asarray(incidence_deg))[:, None], name)
     return np.any(view.valid, axis=0)
+
+
+def orbit_settings(section, where) -> dict:
+    """The SI values of a ``global_climatology`` section's ``orbit`` group (``section``: its raw mapping or None;
+    the defaults where absent), validated as the module validates them; ``where``: the section's location."""
+    return to_si((_ORBIT,), validate_section((_ORBIT,), {"orbit": section or {}}, where))["orbit"]

@@ -17,9 +17,9 @@ from e2esim.io.guarded_h5 import guarded_h5_file
 from e2esim.io.h5_datasets import code_dtype, coded_values, put, put_coded, put_text
 from e2esim.io.scalar_units import detail_unit, scalar_description, scalar_unit
 from e2esim.io.summary import requirement_sources
+from e2esim.maps.grid import is_map_sweep
 from e2esim.requirements.verdict import STATUSES
 from e2esim.runner.joined_labels import JoinedLabels
-from e2esim.runner.map_sweep import is_map_sweep
 
 FORMAT_VERSION = 4
 """2: units and descriptions on every dataset, acquisitions, requirement sources; 3: text over cases (labels,

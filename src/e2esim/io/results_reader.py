@@ -22,6 +22,8 @@ from e2esim.errors import ResultsFileError, UserError
 from e2esim.io.h5_datasets import TABLE_ATTR
 from e2esim.io.safe_h5 import H5Reader
 from e2esim.io.scalar_units import scalar_unit
+from e2esim.maps.grid import LAT_KEYS, LON_KEYS, MONTH_KEY, PASS_KEY, SOLAR_KEY, map_axes, map_section, map_settings
+from e2esim.maps.netcdf import grid_positions
 from e2esim.requirements.verdict import STATUSES
 from e2esim.results import Results
 from e2esim.runner.joined_labels import JoinedLabels
@@ -153,9 +155,6 @@ def _sweep_keys(h5: H5Reader, stored: dict, resolved: dict) -> tuple:
 def _check_map(h5: H5Reader, resolved: dict, inputs: dict, problem: str | None) -> None:
     """A map sweep's results (drawn on its grid by ``Results.to_xarray``): its stored ``sweep.map`` valid, and
     every case a cell of that grid with its month, pass and solar level."""
-    from e2esim.io.map_netcdf import _grid_positions
-    from e2esim.runner.map_sweep import LAT_KEYS, LON_KEYS, MONTH_KEY, PASS_KEY, SOLAR_KEY, map_section, map_settings
-
     section = map_section(resolved.get("sweep"))
     if section is None:
         return
@@ -169,13 +168,11 @@ def _check_map(h5: H5Reader, resolved: dict, inputs: dict, problem: str | None) 
                   for v in inputs[k])
     if not numbers or not all(isinstance(v, str) for k in (PASS_KEY, SOLAR_KEY) for v in inputs[k]):
         h5.fail("/cases/inputs", "the map's cells, months, passes or solar levels are not of their types")
-    from e2esim.faraday.global_climatology import grid_axes
-
     m = map_settings(section)
-    lat, lon = grid_axes(m["step_deg"], tuple(m["lat_range_deg"]), tuple(m["lon_range_deg"]))
+    lat, lon = map_axes(m)
     try:
-        for axis, key in ((np.round(lat, 9), LAT_KEYS[0]), (np.round(lon, 9), LON_KEYS[0])):
-            _grid_positions(axis, inputs[key], m["step_deg"])
+        for axis, key in ((lat, LAT_KEYS[0]), (lon, LON_KEYS[0])):
+            grid_positions(axis, inputs[key], m["step_deg"])
     except ValueError:
         h5.fail(f"/cases/inputs/{key}", "holds a cell that is not on the map's grid")
 

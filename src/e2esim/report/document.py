@@ -13,6 +13,7 @@ import inspect
 import numpy as np
 
 from e2esim.io.summary import LARGE_RUN_CASES, requirement_overview
+from e2esim.maps.grid import is_map_sweep
 from e2esim.report import tables
 from e2esim.report.assumptions import assumption_rows
 from e2esim.report.blocks import (
@@ -32,7 +33,6 @@ from e2esim.report.no_effect_section import no_effect_section
 from e2esim.report.outliers import error_meaning
 from e2esim.report.sensitivity_table import SENSITIVITY_NOTE, exponent_sensitivity_table
 from e2esim.report.uncertainty import uncertainty_flags
-from e2esim.runner.map_sweep import is_map_sweep
 
 __all__ = [
     "Badge",

@@ -11,6 +11,10 @@ import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib.patches import Patch
 
+from e2esim.report.labels import wrapped
+from e2esim.report.plot_base import colors, save
+from e2esim.runner.sweep import case_labels
+
 _CAP_PERCENT = 100.0  # bars beyond are drawn at the cap and labelled with their value
 _CHANNELS = ("hh", "hv", "vv")
 
@@ -19,11 +23,6 @@ def plot_estimator_comparison(result, folder: Path, options: dict) -> list:
     """Checked value of the first requirement per AGB estimator (``retrieval.estimator`` swept), grouped by the
     other sweep inputs, with each verdict's dominant error source; below, the relative error of sigma_hh,
     sigma_hv, sigma_vv (mean and 3 SD, analytic) of each group."""
-    from e2esim.report.labels import wrapped
-    from e2esim.report.plot_base import save as _save
-    from e2esim.report.plots import _colors
-    from e2esim.runner.sweep import case_labels
-
     key = next((k for k in result.scenario.sweep_keys if k.endswith("estimator")), None)
     if key is None or not result.requirement_names:
         return []
@@ -38,7 +37,7 @@ def plot_estimator_comparison(result, folder: Path, options: dict) -> list:
     width = 0.8 / len(estimators)
     x = np.arange(len(groups))
     limit = None
-    for j, (est, color) in enumerate(zip(estimators, _colors(len(estimators)))):
+    for j, (est, color) in enumerate(zip(estimators, colors(len(estimators)))):
         for i, cases in enumerate(groups.values()):
             c = cases.get(est)
             if c is None:
@@ -55,12 +54,12 @@ def plot_estimator_comparison(result, folder: Path, options: dict) -> list:
     ax.set_xticks(x, list(groups), fontsize=7)
     ax.set_ylabel(wrapped(f"{result.requirement_names[0]} (%)", 50), fontsize=8)
     ax.set_ylim(0, _CAP_PERCENT * 1.45)
-    handles = [Patch(facecolor=col, edgecolor="k", label=est) for est, col in zip(estimators, _colors(len(estimators)))]
+    handles = [Patch(facecolor=col, edgecolor="k", label=est) for est, col in zip(estimators, colors(len(estimators)))]
     handles.append(Patch(facecolor="w", edgecolor="k", hatch="//", label="fails"))
     ax.legend(handles=handles, fontsize=7, title="estimator", title_fontsize=7)
     ax.grid(alpha=0.3, axis="y")
     width_ch = 0.8 / len(_CHANNELS)
-    for j, (ch, color) in enumerate(zip(_CHANNELS, _colors(len(_CHANNELS)))):
+    for j, (ch, color) in enumerate(zip(_CHANNELS, colors(len(_CHANNELS)))):
         for i, cases in enumerate(groups.values()):
             s = next(iter(cases.values())).scalars
             if f"{ch}.analytic.relative_mean_percent" not in s:
@@ -76,7 +75,7 @@ def plot_estimator_comparison(result, folder: Path, options: dict) -> list:
     ax_ch.legend(fontsize=7)
     ax_ch.grid(alpha=0.3)
     fig.tight_layout()
-    return [(_save(fig, folder, "estimator_comparison"),
+    return [(save(fig, folder, "estimator_comparison"),
              "Top: the checked value of the first requirement for each AGB estimator (HV alone, HH, HV and VV "
              "together, ...), with the dominant error source of each verdict (hatched: fails; values above "
              f"{_CAP_PERCENT:g} % drawn at the cap and printed); dashed: the limit. Bottom: the relative errors of "

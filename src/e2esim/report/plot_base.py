@@ -36,6 +36,12 @@ def figure_settings():
     return matplotlib.rc_context({"figure.dpi": DPI})
 
 
+def colors(n: int) -> list:
+    """``n`` colours of the report's plots (matplotlib's tab10, repeated after ten)."""
+    cmap = plt.get_cmap("tab10")
+    return [cmap(i % 10) for i in range(max(n, 1))]
+
+
 def save(fig, folder: Path, name: str, tight: bool | None = None) -> str:
     """Write ``fig`` as ``folder/name.png`` (atomically); return the file name (``save_png``)."""
     return save_png(fig, Path(folder) / f"{name}.png", tight)
@@ -43,7 +49,7 @@ def save(fig, folder: Path, name: str, tight: bool | None = None) -> str:
 
 def save_drawn(fig, folder: Path, name: str) -> str:
     """Write the canvas of ``fig`` as it was last drawn, with no new drawing pass (a figure redrawn in parts,
-    ``e2esim.report.global_maps.MonthPanels``), as ``folder/name.png`` (atomically); return the file name."""
+    ``e2esim.maps.plots.MonthPanels``), as ``folder/name.png`` (atomically); return the file name."""
     path = Path(folder) / f"{name}.png"
     with atomic_path(path) as tmp:
         matplotlib.image.imsave(tmp, fig.canvas.buffer_rgba(), format="png", origin="upper", dpi=fig.dpi)

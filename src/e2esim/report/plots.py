@@ -18,17 +18,17 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from e2esim.io.summary import LARGE_RUN_CASES
+from e2esim.maps.grid import is_map_sweep
+from e2esim.maps.plots import plot_map_fraction, plot_map_sweep
 from e2esim.report.budget_plots import plot_error_budget
 from e2esim.report.faraday_plots import plot_faraday_climatology, plot_faraday_distributions
-from e2esim.report.global_maps import plot_map_fraction, plot_map_sweep
 from e2esim.report.labels import wrapped
 from e2esim.report.map_plots import SITE_KEYS, plot_site_map
 from e2esim.report.multichannel_plots import plot_estimator_comparison
-from e2esim.report.plot_base import PlotSkipped, figure_settings, save
+from e2esim.report.plot_base import PlotSkipped, colors, figure_settings, save
 from e2esim.report.stack_plots import plot_agb_error_vs_faraday_difference
 from e2esim.report.sweep_layout import legend, sweep_layout
 from e2esim.report.sweep_plots import plot_agb_error_vs_sweep, plot_backscatter_vs_sweep, plot_verdicts
-from e2esim.runner.map_sweep import is_map_sweep
 from e2esim.units import level_db_from_variance
 
 
@@ -86,7 +86,7 @@ def plot_tradeoff(result, folder: Path, options: dict) -> list:
     styles = {"over": "-", "under": "--"}
     for ax, c in zip(axes.ravel(), cases):
         verdicts = [v for v in c.verdicts if v.curves]
-        for v, color in zip(verdicts, _colors(len(verdicts))):
+        for v, color in zip(verdicts, colors(len(verdicts))):
             x = v.curves["crosstalk_db"]
             for side in ("over", "under"):
                 key = f"{side}.imbalance_db"
@@ -139,10 +139,10 @@ def plot_contributions(result, folder: Path, options: dict) -> list:
     linestyles = ["-", "--", ":", "-."]
     for (label, cases), ls in zip(groups.items(), linestyles * 10):
         x = np.array([c.inputs[x_key] for c in cases], dtype=float)
-        for (part, key), color in zip(bias_parts.items(), _colors(3)):
+        for (part, key), color in zip(bias_parts.items(), colors(3)):
             frac = [c.scalars[key] / c.scalars["analytic.mean"] for c in cases]
             ax_b.plot(x, frac, ls, color=color, label=f"{part}, {label}")
-        for (part, key), color in zip(var_parts.items(), _colors(3)):
+        for (part, key), color in zip(var_parts.items(), colors(3)):
             frac = [c.scalars[key] / c.scalars["analytic.variance"] for c in cases]
             ax_v.plot(x, frac, ls, color=color, label=f"{part}, {label}")
     ax_b.set_ylabel("fraction of the mean error")
@@ -226,8 +226,3 @@ def make_plots(result, folder: Path, warnings: list | None = None) -> list:
             if warnings is not None:
                 warnings.append(message)
     return out
-
-
-def _colors(n: int) -> list:
-    cmap = plt.get_cmap("tab10")
-    return [cmap(i % 10) for i in range(max(n, 1))]

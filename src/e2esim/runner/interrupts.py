@@ -3,7 +3,9 @@
 
 Python turns SIGINT into ``KeyboardInterrupt`` wherever the main thread happens to be; the command line turns
 SIGTERM and SIGHUP into ``Stopped``, a ``KeyboardInterrupt`` too (``stop_signals_as_interrupts``), so that every
-way of stopping a run ends it the same way: the finished blocks kept, one message, how to resume. Inside a
+way of stopping a run ends it the same way: the finished blocks kept, one message, how to resume (the run path,
+``e2esim.runner.folder_run``, raises it as ``RunInterrupted``, which the command line prints and ``e2esim.run``
+lets through). Inside a
 block's computation that is what we want: the block is dropped and the run ends at once. Inside the few
 milliseconds that keep a finished block, or while HDF5 writes results.h5 (an exception raised inside HDF5's file
 callbacks would leave the library in a state that crashes the interpreter at exit), it is not: there
@@ -25,6 +27,19 @@ class Stopped(KeyboardInterrupt):
     def __init__(self, signum: int):
         super().__init__(signal.Signals(signum).name)
         self.signum = signum
+
+
+class RunInterrupted(KeyboardInterrupt):
+    """A run ended by Ctrl-C or a stop signal: ``message`` says what was kept and how to go on (without the
+    ``e2esim:`` prefix); ``exit_status`` is 130 for Ctrl-C, 128 + the signal number for SIGTERM and SIGHUP.
+    A ``KeyboardInterrupt``, so that a program calling ``e2esim.run`` is interrupted as Python interrupts it."""
+
+    def __init__(self, stop: KeyboardInterrupt, what: str, when: str = ""):
+        if isinstance(stop, Stopped):
+            self.message, self.exit_status = f"stopped by {stop}{when}; {what}", 128 + stop.signum
+        else:
+            self.message, self.exit_status = f"interrupted{when}; {what}", 130
+        super().__init__(self.message)
 
 
 def _raise_stopped(signum, frame):

@@ -40,7 +40,7 @@ budgets, bounded by ``e2esim.runner.blocks.CATALOG_ENTRIES`` and ``e2esim.budget
 holds per case is checked by tests/test_memory_of_large_runs.py."""
 
 MAX_MAP_CASES = 5_000_000
-"""Cases of a map sweep (``sweep: {map: ...}``, e2esim.runner.map_sweep), and cells of its grid: 5 000 000, as
+"""Cases of a map sweep (``sweep: {map: ...}``, e2esim.maps.grid), and cells of its grid: 5 000 000, as
 ``MAX_CASES``. A 1 deg global map of the forest cells (MODIS 2019) of the default latitude bands over 12 months
 and 2 passes has about 119 000 cases (210 000 with every land cell of the bands), and every land cell over 12
 months, 2 passes and 2 solar levels about 1 070 000. The batched engine keeps each case's results as columns,

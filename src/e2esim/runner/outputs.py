@@ -18,12 +18,12 @@ from pathlib import Path
 
 from e2esim.errors import OutputExistsError, OutputFolderError
 from e2esim.io.atomic import write_text_atomic
-from e2esim.io.map_netcdf import map_dataset_of, write_map_netcdf
 from e2esim.io.results_h5 import write_results
 from e2esim.io.summary import write_summary
+from e2esim.maps.grid import is_map_sweep
+from e2esim.maps.netcdf import map_dataset_of, write_map_netcdf
 from e2esim.runner.journal import JOURNAL, count_finished
 from e2esim.runner.lock import LOCK_NAME, FolderLock
-from e2esim.runner.map_sweep import is_map_sweep
 
 OUTPUT_FILES = ("results.h5", "summary.json", "report.md", "report.html")
 OUTPUT_LIST = ".e2esim-outputs.json"

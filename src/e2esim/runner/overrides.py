@@ -74,7 +74,7 @@ def swept_keys(sweep) -> dict:
     if not isinstance(sweep, dict):
         return out
     if isinstance(sweep.get("map"), dict):
-        from e2esim.runner.map_sweep import MAP_KEYS
+        from e2esim.maps.grid import MAP_KEYS
 
         out.update(dict.fromkeys(MAP_KEYS, "sweep.map"))
     params, cases = sweep.get("parameters"), sweep.get("cases")

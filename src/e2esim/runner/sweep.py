@@ -3,7 +3,7 @@
 ``sweep.parameters`` maps dotted keys to value lists (or ``{linspace: [start, stop, n]}``,
 ``{logspace: [...]}``), combined as a grid or side by side (``mode: zip``); a key "a.b, c.d" varies several
 keys together. ``sweep.cases`` lists the cases explicitly. ``sweep.map`` sweeps the forest cells of a
-latitude-longitude grid over months, passes and solar levels (e2esim.runner.map_sweep).
+latitude-longitude grid over months, passes and solar levels (e2esim.maps.grid).
 """
 
 from __future__ import annotations
@@ -16,6 +16,7 @@ from typing import Any
 import numpy as np
 
 from e2esim.errors import ConfigError, Location
+from e2esim.maps.grid import map_table
 from e2esim.params import Param, unknown_key_error, validate_section
 from e2esim.runner.joined_labels import NO_PART, SEPARATOR, JoinedLabels, numbered
 from e2esim.runner.limits import MAX_CASES, SPLIT_ADVICE, check_count, shorten
@@ -52,7 +53,7 @@ class SweepTable:
     case for a grid (case i is the C-order position ``unravel_index(i, sizes)``, the order of
     ``itertools.product``); ``zip``, ``cases`` and map sweeps keep a table of positions (n, groups).
 
-    layout : "none" (one case, no sweep), "grid", "zip", "cases" or "map" (``e2esim.runner.map_sweep``).
+    layout : "none" (one case, no sweep), "grid", "zip", "cases" or "map" (``e2esim.maps.grid``).
     groups : ``KeyGroup`` per parameter entry (for ``cases``, one per key, its distinct values, ``ABSENT`` where
     a case does not set it; for a map: cell, month, pass, solar level). table : the positions, None for a grid.
     """
@@ -153,12 +154,11 @@ def sweep_table(sweep: Any, where: Location, scenario: dict | None = None) -> Sw
         if key not in SWEEP_KEYS:
             raise unknown_key_error(where.child(key), key, SWEEP_KEYS)
     if "map" in sweep:
-        from e2esim.runner.map_sweep import map_table
-
         if len(sweep) > 1:
             raise ConfigError(where, "has 'map' beside " + ", ".join(repr(k) for k in sweep if k != "map"),
                               "a map sweep stands alone")
-        return map_table(sweep["map"], where.child("map"), scenario)
+        groups, table = map_table(sweep["map"], where.child("map"), scenario)
+        return SweepTable("map", tuple(KeyGroup(keys, values) for keys, values in groups), table)
     mode = validate_section(SWEEP_PARAMS, {k: v for k, v in sweep.items() if k == "mode"}, where)["mode"]
     params, cases = sweep.get("parameters"), sweep.get("cases")
     if params is not None and cases is not None:

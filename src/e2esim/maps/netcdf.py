@@ -6,8 +6,9 @@ has one, and ``e2esim_name``/``e2esim_units`` (the name and unit of results.h5).
 forest fractions of each cell (``e2esim.scene.land_mask``, ``e2esim.scene.forest_cover``), its area weight (cos
 latitude), its forest-area weight (area weight times forest fraction) and, per requirement, the share of the
 swept forest area that meets it in each month, pass and solar level: a cell counts by its forest area. The
-dataset is built from the ``Results`` of a run (``map_dataset``; ``map_dataset_of`` keeps it with the run), which
-the report's maps also draw, and written atomically (``write_map_netcdf``).
+dataset is built from the columns of a run (``map_dataset``, from a ``Results`` or, for the run in this process,
+``map_dataset_of``, which keeps it with the run), which the report's maps also draw, and written atomically
+(``write_map_netcdf``). The grid, its land and its forest come from ``e2esim.maps.grid``.
 """
 
 from __future__ import annotations
@@ -16,21 +17,22 @@ import contextlib
 import errno
 import json
 import os
+from dataclasses import dataclass
 
 import numpy as np
 
 from e2esim.errors import one_line
 from e2esim.io.atomic import atomic_path
-from e2esim.io.scalar_units import scalar_description
-from e2esim.runner.map_sweep import (
+from e2esim.io.scalar_units import scalar_description, scalar_unit
+from e2esim.maps.grid import (
     LAT_KEYS,
     LON_KEYS,
     MONTH_KEY,
     PASS_KEY,
     SOLAR_KEY,
-    cell_forest_fraction,
+    forest_cover_citation,
+    grid_of_section,
     map_section,
-    map_settings,
 )
 
 DIMS = ("solar", "pass", "month", "lat", "lon")
@@ -47,36 +49,56 @@ error statistics are not in the CF standard name table), so only the coordinates
 one. Kept as a table so that a name added to CF is added here."""
 
 
+@dataclass(frozen=True)
+class MapColumns:
+    """What a map dataset is made of: the columns of a run's cases, as ``e2esim.results.Results`` holds them
+    (a ``Results`` serves as well)."""
+
+    scenario_name: str
+    resolved_scenario: dict
+    inputs: dict
+    scalars: dict
+    units: dict
+    requirements: list
+    provenance: dict
+
+    @classmethod
+    def of(cls, result) -> MapColumns:
+        """From a ``ScenarioResult`` (``e2esim.runner.run``): its scalars in name order, each with its unit."""
+        table = result.table
+        requirement_units = tuple(r.unit[0] for r in table.requirements) if table.n else ()
+        names = sorted(table.scalars)
+        return cls(result.scenario.name, result.scenario.resolved, result.input_columns(),
+                   {k: table.scalar(k).astype(float, copy=False) for k in names},
+                   {k: scalar_unit(k, requirement_units) for k in names}, list(result.requirement_names),
+                   dict(result.provenance))
+
+
 def map_dataset_of(result):
     """The map dataset of a run (a ``ScenarioResult`` of a map sweep), built once and kept with the run: the
     writer of results.nc and the report's maps read the same one."""
     cached = result.__dict__.get("_map_dataset")
     if cached is None:
-        from e2esim.results import results_of
-
-        cached = result.__dict__["_map_dataset"] = map_dataset(results_of(result))
+        cached = result.__dict__["_map_dataset"] = map_dataset(MapColumns.of(result))
     return cached
 
 
 def map_dataset(results):
-    """The map of ``results`` (a ``e2esim.results.Results`` of a map sweep) as an xarray Dataset."""
-    import xarray as xr
-
-    from e2esim.faraday.global_climatology import grid_axes
+    """The map of ``results`` (``MapColumns``, or a ``e2esim.results.Results``, of a map sweep) as an xarray
+    Dataset."""
+    import xarray as xr  # lazy: xarray costs a second at start-up, and only maps and to_xarray use it
 
     section = map_section(results.resolved_scenario.get("sweep"))
     if section is None:
         raise ValueError("not a map sweep: its sweep section has no 'map'")
-    step = float(section.get("step_deg", 1.0))
-    lat, lon = (np.round(a, 9) for a in grid_axes(step, tuple(section.get("lat_range_deg", (-90.0, 90.0))),
-                                                  tuple(section.get("lon_range_deg", (-180.0, 180.0)))))
+    lat, lon, step, land, forest, settings = grid_of_section(section)
     inputs = results.inputs
     solar = list(dict.fromkeys(inputs[SOLAR_KEY]))
     passes = list(dict.fromkeys(inputs[PASS_KEY]))
     months = sorted(dict.fromkeys(int(m) for m in inputs[MONTH_KEY]))
     index = (_positions(solar, inputs[SOLAR_KEY]), _positions(passes, inputs[PASS_KEY]),
              _positions(months, [int(m) for m in inputs[MONTH_KEY]]),
-             _grid_positions(lat, inputs[LAT_KEYS[0]], step), _grid_positions(lon, inputs[LON_KEYS[0]], step))
+             grid_positions(lat, inputs[LAT_KEYS[0]], step), grid_positions(lon, inputs[LON_KEYS[0]], step))
     shape = (len(solar), len(passes), len(months), lat.size, lon.size)
     data = {}
     for name, values in results.scalars.items():
@@ -89,18 +111,14 @@ def map_dataset(results):
     data["cell_area_weight"] = xr.Variable(("lat", "lon"), weight, attrs={
         "units": "1", "long_name": "area weight of each swept cell: cos(latitude), 0 where not swept",
         "comment": "cells are equal in latitude and longitude, so their areas are proportional to cos(latitude)"})
-    data["land_area_fraction"] = xr.Variable(("lat", "lon"), _land(lat, lon, step, section), attrs={
+    data["land_area_fraction"] = xr.Variable(("lat", "lon"), land, attrs={
         "units": "1", "standard_name": "land_area_fraction",
         "long_name": "share of the cell that is land (GSHHG shoreline, roaring-landmask)"})
-    settings = map_settings(section)
-    forest = cell_forest_fraction(settings, lat, lon)
     cover = settings["forest_cover"]
     if cover != "none":
-        from e2esim.scene.forest_cover import citation
-
         data["forest_area_fraction"] = xr.Variable(("lat", "lon"), forest, attrs={
             "units": "1", "long_name": "share of the cell that is forest (IGBP groups "
-            f"{', '.join(dict.fromkeys(settings['forest_classes']))} of {cover})", "source": citation()})
+            f"{', '.join(dict.fromkeys(settings['forest_classes']))} of {cover})", "source": forest_cover_citation()})
     forest_weight = weight * forest
     data["forest_area_weight"] = xr.Variable(("lat", "lon"), forest_weight, attrs={
         "units": "1", "long_name": "forest area of each swept cell: cos(latitude) times its forest fraction, 0 where "
@@ -177,7 +195,9 @@ def _positions(values: list, per_case) -> np.ndarray:
     return np.array([where[v] for v in per_case], int)
 
 
-def _grid_positions(axis, per_case, step) -> np.ndarray:
+def grid_positions(axis, per_case, step) -> np.ndarray:
+    """Position on ``axis`` (cell centres, spaced ``step``) of every case's cell centre; ``ValueError`` for a cell
+    off the grid."""
     k = np.rint((np.asarray(per_case, float) - axis[0]) / step).astype(int)
     if np.any(k < 0) or np.any(k >= axis.size) or not np.allclose(axis[np.clip(k, 0, axis.size - 1)], per_case):
         raise ValueError("a case's cell is not a cell of the map's grid")
@@ -201,14 +221,6 @@ def _scalar_attrs(name: str, unit: str | None) -> dict:
     if STANDARD_NAMES.get(name):
         attrs["standard_name"] = STANDARD_NAMES[name]
     return attrs
-
-
-def _land(lat, lon, step, section) -> np.ndarray:
-    if not section.get("land_only", True):
-        return np.full((lat.size, lon.size), np.nan)
-    from e2esim.scene.land_mask import land_fraction
-
-    return land_fraction(lat, lon, step)
 
 
 def _global_attrs(results, step) -> dict:

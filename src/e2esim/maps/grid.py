@@ -8,7 +8,7 @@ of it is forest in the land-cover product ``forest_cover`` (MODIS 2019 IGBP clas
 ``e2esim.scene.forest_cover``; deserts, ice and water are never forest) and, with ``forest_only``, when the
 scenario's scene (type ``agb_map``) gives it a forest class (``e2esim.scene.map_forest``). A cell stands for
 its forest area (its area times its forest fraction) in the share of the forest that meets a requirement
-(``e2esim.io.map_netcdf``). Each case sets
+(``e2esim.maps.netcdf``). Each case sets
 
     scene.lat_deg, scene.lon_deg, ionosphere.lat_deg, ionosphere.lon_deg    the cell centre (deg)
     ionosphere.month, ionosphere.pass, ionosphere.solar                        when
@@ -107,14 +107,13 @@ def map_grid(section, where: Location, scenario: dict | None = None) -> MapGrid:
     if not isinstance(section, dict):
         raise ConfigError(where, f"{section!r} is not a mapping", "expected step_deg, lat_range_deg, months, ...")
     m = validate_section(MAP_PARAMS, section, where)
-    lat, lon = grid_axes(m["step_deg"], tuple(m["lat_range_deg"]), tuple(m["lon_range_deg"]))
+    lat, lon = map_axes(m)
     if lat.size == 0 or lon.size == 0:
         raise ConfigError(where.child("step_deg"), f"{m['step_deg']:g} deg is larger than the grid's ranges",
                           "give a step that fits lat_range_deg and lon_range_deg")
-    lat, lon = np.round(lat, 9), np.round(lon, 9)
     check_count("grid cells", lat.size * lon.size, MAX_MAP_CASES, where.describe())
     if m["land_only"]:
-        from e2esim.scene.land_mask import land_fraction
+        from e2esim.scene.land_mask import land_fraction  # lazy: start-up time of runs without a map
 
         land = land_fraction(lat, lon, m["step_deg"])
         swept = land >= m["min_land_percent"] / 100.0
@@ -135,6 +134,13 @@ def map_grid(section, where: Location, scenario: dict | None = None) -> MapGrid:
                    tuple(dict.fromkeys(m["solar"])), seen)
 
 
+def map_axes(m: dict) -> tuple:
+    """(lat, lon): the cell centres (deg) of the validated ``sweep.map`` ``m``, rounded to 1e-9 deg as the cases'
+    cells are (the grid of the global climatology, ``e2esim.faraday.global_climatology.grid_axes``)."""
+    lat, lon = grid_axes(m["step_deg"], tuple(m["lat_range_deg"]), tuple(m["lon_range_deg"]))
+    return np.round(lat, 9), np.round(lon, 9)
+
+
 def map_settings(section, where: Location | None = None) -> dict:
     """``sweep.map`` validated and complete with its defaults."""
     return validate_section(MAP_PARAMS, section, where or Location(key_path=("sweep", "map")))
@@ -145,16 +151,16 @@ def cell_forest_fraction(m: dict, lat, lon) -> np.ndarray:
     ``m``; 1 everywhere with ``forest_cover: none``."""
     if m["forest_cover"] == "none":
         return np.ones((np.size(lat), np.size(lon)))
-    from e2esim.scene.forest_cover import forest_fraction
+    from e2esim.scene.forest_cover import forest_fraction  # lazy: start-up time of runs without a map
 
     return forest_fraction(lat, lon, m["step_deg"], tuple(dict.fromkeys(m["forest_classes"])))
 
 
-def map_table(section, where: Location, scenario: dict | None = None):
-    """``sweep.map`` -> its ``SweepTable`` (layout "map"): module docstring. Four groups of keys (the cell, the
-    month, the pass, the solar level) and per case the position of each; nothing else is stored per case."""
-    from e2esim.runner.sweep import KeyGroup, SweepTable
-
+def map_table(section, where: Location, scenario: dict | None = None) -> tuple:
+    """``sweep.map`` -> its cases (module docstring) as (groups, positions): four groups of keys (the cell, the
+    month, the pass, the solar level), each (keys, values) with one tuple of values per position, and per case the
+    position of each group ((n, 4) int array); nothing else is stored per case. ``e2esim.runner.sweep`` makes them
+    the sweep's ``SweepTable`` (layout "map")."""
     grid = map_grid(section, where, scenario)
     i, j = np.nonzero(grid.swept)
     n = i.size * len(grid.months) * len(grid.passes) * len(grid.solar)
@@ -164,8 +170,8 @@ def map_table(section, where: Location, scenario: dict | None = None):
                           "forest_only to false or forest_cover to none")
     check_count("map sweep cases", n, MAX_MAP_CASES, where.describe())
     lat, lon = grid.lat_deg[i].tolist(), grid.lon_deg[j].tolist()
-    cells = KeyGroup(LAT_KEYS[:1] + LON_KEYS[:1] + LAT_KEYS[1:] + LON_KEYS[1:],
-                     tuple((la, lo, la, lo) for la, lo in zip(lat, lon)))
+    cells = (LAT_KEYS[:1] + LON_KEYS[:1] + LAT_KEYS[1:] + LON_KEYS[1:],
+             tuple((la, lo, la, lo) for la, lo in zip(lat, lon)))
     seen = {p: np.nonzero(grid.seen[p][i])[0] for p in grid.passes}  # cell positions each pass sees
     parts = []
     for s, _ in enumerate(grid.solar):
@@ -177,10 +183,32 @@ def map_table(section, where: Location, scenario: dict | None = None):
     if not len(table):
         raise ConfigError(where, "no swept cell is seen by the passes of the ionosphere's orbit",
                           "restrict lat_range_deg to latitudes the orbit reaches")
-    groups = (cells, KeyGroup((MONTH_KEY,), tuple((m,) for m in grid.months)),
-              KeyGroup((PASS_KEY,), tuple((p,) for p in grid.passes)),
-              KeyGroup((SOLAR_KEY,), tuple((s,) for s in grid.solar)))
-    return SweepTable("map", groups, table)
+    groups = (cells, ((MONTH_KEY,), tuple((m,) for m in grid.months)),
+              ((PASS_KEY,), tuple((p,) for p in grid.passes)), ((SOLAR_KEY,), tuple((s,) for s in grid.solar)))
+    return groups, table
+
+
+def grid_of_section(section) -> tuple:
+    """(lat, lon, step_deg, land fraction, forest fraction, settings) of a ``sweep.map`` (validated): the cell
+    centres (deg, rounded as the cases' are), the land fraction of each cell (NaN without land_only) and its
+    forest fraction (1 with forest_cover none), as results.nc stores them beside the cases' values."""
+    m = map_settings(section)
+    step = float(m["step_deg"])
+    lat, lon = map_axes(m)
+    if m["land_only"]:
+        from e2esim.scene.land_mask import land_fraction  # lazy: loaded for a map only
+
+        land = land_fraction(lat, lon, step)
+    else:
+        land = np.full((lat.size, lon.size), np.nan)
+    return lat, lon, step, land, cell_forest_fraction(m, lat, lon), m
+
+
+def forest_cover_citation() -> str:
+    """The source of the land-cover product (``e2esim.scene.forest_cover``), for results.nc."""
+    from e2esim.scene.forest_cover import citation  # lazy: loaded for a map only
+
+    return citation()
 
 
 def _section_class(scenario: dict, kind: str, where: Location):
@@ -234,13 +262,14 @@ def _pair(value) -> bool:
 
 def _seen_latitudes(scenario: dict, lat, passes, where: Location) -> dict | None:
     """pass -> latitudes (bool) the ionosphere's orbit sees; None unless the ionosphere is global_climatology."""
-    from e2esim.faraday.global_lookup import _ORBIT, GlobalClimatologyLookup, visible_latitudes
+    # lazy: the ionosphere's tables and orbits cost 0.1 s at start-up, for runs without a map too
+    from e2esim.faraday.global_lookup import GlobalClimatologyLookup, orbit_settings, visible_latitudes
 
     cls, raw = _section_class(scenario, "ionosphere", where)
     if cls is None or not issubclass(cls, GlobalClimatologyLookup):
         return None
     here = Location(where.source, ("ionosphere",), where.lines)
-    orbit = to_si((_ORBIT,), validate_section((_ORBIT,), {"orbit": raw.get("orbit") or {}}, here))["orbit"]
+    orbit = orbit_settings(raw.get("orbit"), here)
     try:
         return {p: visible_latitudes(orbit, lat, p) for p in passes}
     except PhysicsInputError as exc:  # an orbit without such a pass, impossible incidences
@@ -249,6 +278,7 @@ def _seen_latitudes(scenario: dict, lat, passes, where: Location) -> dict | None
 
 def _forest_cells(scenario: dict, lat, lon, where: Location) -> np.ndarray:
     """Cells (n_lat, n_lon) the scenario's ``agb_map`` scene gives a forest class (all, for another scene)."""
+    # lazy: the forest of a map's scene costs 0.06 s at start-up, for runs without a map too
     from e2esim.scene.map_forest import FOREST_PARAMS, ForestSource
     from e2esim.scene.map_modules import AGBMapScene
 

@@ -1,9 +1,9 @@
-"""Report plots of map sweeps (``e2esim.runner.map_sweep``): ``global_maps``, filled latitude-longitude maps of
+"""Report plots of map sweeps (``e2esim.maps.grid``): ``global_maps``, filled latitude-longitude maps of
 the Faraday rotation, the sigma_hv error, the AGB error and the verdict for every month (panels), pass and solar
 level (one figure each); ``map_fraction``, the share of the forest area that meets each requirement, by month
 (each cell weighted by its forest area, ``forest_area_weight`` of the map dataset).
 
-Both draw the map dataset of the run (``e2esim.io.map_netcdf.map_dataset_of``, the content of results.nc): the
+Both draw the map dataset of the run (``e2esim.maps.netcdf.map_dataset_of``, the content of results.nc): the
 report computes nothing physical (an area weight is bookkeeping; the sigma_hv error is shown relative to sigma_hv).
 """
 
@@ -21,9 +21,9 @@ from matplotlib.cm import ScalarMappable
 from matplotlib.colors import ListedColormap, Normalize
 from matplotlib.ticker import MultipleLocator
 
-from e2esim.io.map_netcdf import map_dataset_of
+from e2esim.maps.grid import is_map_sweep
+from e2esim.maps.netcdf import map_dataset_of
 from e2esim.report.plot_base import PlotSkipped, save, save_drawn
-from e2esim.runner.map_sweep import is_map_sweep
 
 MONTH_NAMES = ("Jan", "Feb", "Mar", "Apr", "May", "Jun", "Jul", "Aug", "Sep", "Oct", "Nov", "Dec")
 PASS_FAIL = ListedColormap(["#d7301f", "#1a9850"])
