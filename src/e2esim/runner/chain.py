@@ -1,7 +1,8 @@
 """From a scenario's modules to the chain of stages the runner passes each case through.
 
 Sections become stages: a stage module is a stage itself; the ``calibration`` list becomes one
-``CalibrationStrategy`` and the ``requirements`` list one ``RequirementSet`` (there is always a calibration
+``CalibrationStrategy``, the ``error_terms`` list one ``ErrorTermStack`` with the stage that provides
+``backscatter.error`` (``e2esim.error_terms.stage``) and the ``requirements`` list one ``RequirementSet`` (there is always a calibration
 stage, with no steps when the scenario has no calibration section, so the propagation finds the residual
 products). The order follows the products: a stage runs after every stage that provides what it needs or
 uses, and otherwise in the order of the sections (``e2esim.module.KIND_ORDER``, then plug-in kinds as
@@ -14,6 +15,7 @@ from __future__ import annotations
 
 from e2esim import registry
 from e2esim.calibration.stage import CalibrationStrategy
+from e2esim.error_terms.stage import ErrorTermStack, refined
 from e2esim.errors import ConfigError, Location
 from e2esim.requirements.stage import RequirementSet
 
@@ -23,14 +25,17 @@ CONTEXT = ("settings", "rng", "inputs")
 
 def assemble(modules: list, root: Location) -> list:
     """The stages of a case in chain order, from its modules (in section order)."""
-    stages, calibration, requirements = [], [], []
+    stages, calibration, requirements, terms = [], [], [], []
     for module in modules:
         if module.kind == "calibration":
             calibration.append(module)
+        elif module.kind == "error_terms":
+            terms.append(module)
         elif module.kind == "requirement":
             requirements.append(module)
         else:
             stages.append(module)
+    stages = refined(stages, terms)
     stages.append(calibration_stage(calibration, root))
     if requirements:
         stages.append(requirement_stage(requirements, root))
@@ -40,6 +45,11 @@ def assemble(modules: list, root: Location) -> list:
 def calibration_stage(modules: list, root: Location) -> CalibrationStrategy:
     """The calibration strategy of a case's calibration modules (none: a strategy with no steps)."""
     return CalibrationStrategy(modules, modules[0].location.parent() if modules else root.child("calibration"))
+
+
+def error_term_stage(modules: list, root: Location) -> ErrorTermStack:
+    """The stage providing ``backscatter.error`` (``modules[0]``) with the error terms ``modules[1:]``."""
+    return ErrorTermStack(modules[0], modules[1:])
 
 
 def requirement_stage(modules: list, root: Location) -> RequirementSet:
