@@ -7,11 +7,17 @@ import numpy as np
 import pytest
 
 from e2esim import api
-from e2esim.error_model import Contribution, ErrorModel, JointContribution, JointMoments, Moments, \
-    MultiChannelErrorModel
+from e2esim.error_model import (
+    Contribution,
+    ErrorModel,
+    JointContribution,
+    JointMoments,
+    Moments,
+    MultiChannelErrorModel,
+)
 from e2esim.error_terms.effects import AddedPower, ExtraVariance, GammaFactor, LogNormalGain
-from e2esim.error_terms.wrapped import WrappedErrorModel, WrappedMultiChannelErrorModel, innermost, wrapped
 from e2esim.error_terms.modules import AddedNoise, ExtraRelativeVariance, GainError
+from e2esim.error_terms.wrapped import WrappedErrorModel, WrappedMultiChannelErrorModel, innermost, wrapped
 from e2esim.errors import ConfigError
 from e2esim.testing import check_module
 

@@ -206,8 +206,9 @@ for name, change in variants.items():
     same = all(np.array_equal(runs[0].scalars[k], runs[1].scalars[k], equal_nan=True) for k in runs[0].scalars)
     same &= runs[0].scalars.keys() == runs[1].scalars.keys()
     d0, d1 = runs[0].details[0], runs[1].details[0]
-    same &= d0.keys() == d1.keys() and all(np.array_equal(np.asarray(d0[k], dtype=float), np.asarray(d1[k], dtype=float),
-                                                          equal_nan=True) for k in d0 if k != "notes")
+    same &= d0.keys() == d1.keys() and all(
+        np.array_equal(np.asarray(d0[k], dtype=float), np.asarray(d1[k], dtype=float), equal_nan=True)
+        if k != "notes" else list(d0[k]) == list(d1[k]) for k in d0)
     same &= np.array_equal(runs[0].value, runs[1].value, equal_nan=True)
     out[name] = {"same": bool(same), "modes": list(runs[0].inputs["simulation.mode"]),
                  "coverage": list(runs[0].coverage[:, 0]), "value": runs[0].value[:, 0].tolist(),

@@ -59,10 +59,10 @@ class _Wrapped:
         variant = self.base.without(source)
         return self if variant is self.base else wrapped(variant, self.effect)
 
-    def _joint(self, levels: dict):
+    def _level(self, levels: dict):
+        """The effect's level in ``levels`` (taken out of it), else its own."""
         own = levels.pop(self.effect.source, None)
-        level = self.effect.level if own is None else own
-        return own, level
+        return self.effect.level if own is None else own
 
     def scalars(self) -> dict:
         out = dict(self.base.scalars())
@@ -87,7 +87,7 @@ class WrappedErrorModel(_Wrapped, ErrorModel):
         return self.base.value
 
     def moments(self, **levels) -> Moments:
-        own, level = self._joint(levels)
+        level = self._level(levels)
         m = self.base.moments(**levels)
         mean, cov = self.effect.joint(np.asarray(m.mean)[..., None], np.asarray(m.variance)[..., None, None],
                                       np.array([self.value], dtype=float), level)
@@ -124,7 +124,7 @@ class WrappedMultiChannelErrorModel(_Wrapped, MultiChannelErrorModel):
         return self.base.values
 
     def joint_moments(self, **levels) -> JointMoments:
-        own, level = self._joint(levels)
+        level = self._level(levels)
         j = self.base.joint_moments(**levels)
         mean, cov = self.effect.joint(np.asarray(j.mean), np.asarray(j.covariance),
                                       np.asarray(self.values, dtype=float), level)

@@ -23,8 +23,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from e2esim.errors import Location
 from e2esim.error_terms.stage import refined
+from e2esim.errors import Location
 from e2esim.runner.chain import calibration_stage, error_term_stage, order, requirement_stage
 from e2esim.runner.distinct import distinct_rows
 
