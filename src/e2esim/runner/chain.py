@@ -1,14 +1,14 @@
 """From a scenario's modules to the chain of stages the runner passes each case through.
 
 Sections become stages: a stage module is a stage itself; the ``calibration`` list becomes one
-``CalibrationStrategy``, the ``error_terms`` list one ``ErrorTermStack`` with the stage that provides
-``backscatter.error`` (``e2esim.error_terms.stage``) and the ``requirements`` list one ``RequirementSet``
-(there is always a calibration stage, with no steps when the scenario has no calibration section, so the
-propagation finds the residual products). The order follows the products: a stage runs after every stage that
-provides what it needs or uses, and otherwise in the order of the sections (``e2esim.module.KIND_ORDER``, then plug-in kinds as
+``CalibrationStrategy`` and the ``requirements`` list one ``RequirementSet`` (there is always a calibration
+stage, with no steps when the scenario has no calibration section, so the propagation finds the residual
+products). The order follows the products: a stage runs after every stage that provides what it needs or
+uses, and otherwise in the order of the sections (``e2esim.module.KIND_ORDER``, then plug-in kinds as
 listed), so a plug-in kind (an ``interferometry`` stage, say) takes its place by what it needs and provides.
 A product that no stage provides is a ``ConfigError`` naming the stage that needs it and the registered
-modules that could provide it: ``e2esim validate`` reports it before anything runs.
+modules that could provide it: ``e2esim validate`` reports it before anything runs. With an ``error_terms`` list,
+the stage that provides ``backscatter.error`` and the terms become one ``ErrorTermStack`` (``e2esim.error_terms``).
 """
 
 from __future__ import annotations
