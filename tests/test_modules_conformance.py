@@ -25,6 +25,9 @@ CONFIGS = {
                                            "table_lat_range_deg": [-10, 20], "table_lon_range_deg": [0, 30],
                                            "variability_nodes": 3, "cache_dir": "off"},
     ("scene", "agb_map"): {"lat_deg": 60.5, "lon_deg": 92.5},
+    ("error_terms", "added_noise"): {"power_db": -30.0},
+    ("error_terms", "gain_error"): {"sd_db": 0.2},
+    ("error_terms", "extra_variance"): {"relative_sd_percent": 1.0},
 }
 
 BUILTIN = [r for r in registry.available() if r.distribution.lower() == "e2esim"]

@@ -146,13 +146,14 @@ print(f"{10 * math.log10(v_star):.6f} {verdict.details['scintillation.limit_db']
 def test_plugin_modules_conform(plugin_path):
     code = ("from e2esim.testing import check_module; "
             "from e2esim_example_scintillation.stage import S4Scintillation; "
-            "from e2esim_example_scintillation.propagation import HVWithScintillation; "
+            "from e2esim_example_scintillation.error_model import QuantisationTerm, ScintillationTerm; "
             "from e2esim.testing import reference_case; "
             "from e2esim_example_scintillation.products import Scintillation; "
             "check_module(S4Scintillation, {'s4': 0.5, 'at_frequency_mhz': 250}); "
-            "case = reference_case(HVWithScintillation.needs[:-1]).adding("
+            "case = reference_case(('backscatter.error',)).adding("
             "{'ionosphere.scintillation': Scintillation(0.3, 50)}); "
-            "check_module(HVWithScintillation, {}, case); print('ok')")
+            "check_module(ScintillationTerm, {}, case); check_module(QuantisationTerm, {'sqnr_db': 20}, case); "
+            "print('ok')")
     env = {**os.environ, "PYTHONPATH": str(plugin_path)}
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env)
     assert proc.returncode == 0 and proc.stdout.strip() == "ok", proc.stderr
@@ -178,3 +179,64 @@ def test_the_plugin_examples_give_the_per_case_numbers_on_the_batched_engine(plu
     assert [c["requirements"] for c in batched] == [c["requirements"] for c in per_case]
     if example == "scintillation" and mode != "montecarlo":
         assert "contribution.scintillation_percent" in batched[0]["requirements"][0]["details"]
+
+
+TWO_TERMS = """
+import json, sys
+import numpy as np
+import yaml
+from e2esim import api
+base = yaml.safe_load(open(sys.argv[1]))
+base.update(simulation={"seed": 11, "looks": 2000, "realisations": 300}, output={"plots": ["verdicts"]},
+            sweep={"parameters": {"simulation.mode": ["analytic", "montecarlo", "both"]}})
+stack_scene = {"type": "rvog_stack", "site": "tropical", "phase": "interferometric"}
+variants = {
+    "hv_backscatter_error": {},
+    "polarimetric_error": {"propagation": {"type": "polarimetric_error"},
+                           "retrieval": {"type": "multichannel_power_law", "estimator": "joint"}},
+    "stack_backscatter_error": {"scene": stack_scene, "retrieval": {"type": "stack_power_law"},
+                                "propagation": [{"type": "stack_backscatter_error", "estimator": "ground_cancelled"}]},
+    "stack_error_budget": {"scene": stack_scene, "retrieval": {"type": "stack_power_law"},
+                           "propagation": [{"type": "stack_backscatter_error", "estimator": "ground_cancelled"},
+                                           {"type": "stack_error_budget"}]},
+}
+out = {}
+for name, change in variants.items():
+    runs = [api.run({**base, **change}, engine=engine) for engine in ("batched", "per_case")]
+    same = all(np.array_equal(runs[0].scalars[k], runs[1].scalars[k], equal_nan=True) for k in runs[0].scalars)
+    same &= runs[0].scalars.keys() == runs[1].scalars.keys()
+    d0, d1 = runs[0].details[0], runs[1].details[0]
+    same &= d0.keys() == d1.keys() and all(
+        np.array_equal(np.asarray(d0[k], dtype=float), np.asarray(d1[k], dtype=float), equal_nan=True)
+        if k != "notes" else list(d0[k]) == list(d1[k]) for k in d0)
+    same &= np.array_equal(runs[0].value, runs[1].value, equal_nan=True)
+    out[name] = {"same": bool(same), "modes": list(runs[0].inputs["simulation.mode"]),
+                 "coverage": list(runs[0].coverage[:, 0]), "value": runs[0].value[:, 0].tolist(),
+                 **{f"{s}.{k}": np.asarray(d0[key], dtype=float).tolist() for s in ("scintillation", "quantisation")
+                    for k, key in (("contribution", f"contribution.{s}_percent"), ("limit_db", f"{s}.limit_db"))}}
+print(json.dumps(out))
+"""
+
+
+def test_two_plugin_error_terms_compose_on_every_propagation_module_in_both_engines(plugin_path):
+    """Issue 27 (Done when): the plug-in's two error terms (scintillation, then quantisation noise) wrap the error
+    model of every propagation module (HV, polarimetric, stack, stack with its error budget) in every simulation
+    mode; each is attributed and has a margin where the analytic model answers, the verdict's coverage names both,
+    and the batched and per-case engines give identical numbers."""
+    env = {**os.environ, "PYTHONPATH": str(plugin_path)}
+    proc = subprocess.run([sys.executable, "-c", TWO_TERMS, str(SCINTILLATION / "two_terms.yaml")],
+                          capture_output=True, text=True, env=env, cwd=ROOT)
+    assert proc.returncode == 0, proc.stderr
+    results = json.loads(proc.stdout.splitlines()[-1])
+    assert list(results) == ["hv_backscatter_error", "polarimetric_error", "stack_backscatter_error",
+                             "stack_error_budget"]
+    for name, r in results.items():
+        assert r["same"], name
+        assert r["modes"] == ["analytic", "montecarlo", "both"]
+        for coverage in r["coverage"]:
+            assert "scintillation" in coverage and "quantisation" in coverage, (name, coverage)
+        for source in ("scintillation", "quantisation"):
+            analytic_and_both = [r[f"{source}.contribution"][i] for i in (0, 2)]
+            assert all(c > 0 for c in analytic_and_both), (name, source, r[f"{source}.contribution"])
+            assert all(math.isfinite(r[f"{source}.limit_db"][i]) for i in (0, 2)), (name, source)
+        assert all(math.isfinite(v) and v > 0 for v in r["value"]), (name, r["value"])

@@ -29,6 +29,7 @@ KIND_ORDER = (
     "ionosphere",
     "calibration",
     "propagation",
+    "error_terms",
     "retrieval",
     "requirement",
 )
@@ -44,6 +45,7 @@ KIND_DOCS = {
     "instrument": "system-error statistics, noise and gain of the radar, and its specification",
     "calibration": "a calibration strategy (list of steps) and the residual errors it leaves",
     "propagation": "error of the backscattering coefficient (an error model), and its random-error budget",
+    "error_terms": "error sources added to the propagation's error model, in order (a list)",
     "retrieval": "relative AGB error through a backscatter-AGB model",
     "requirement": "verdict of a mission requirement on the AGB error",
     "faraday_estimator": "a Faraday-rotation estimator used by the faraday_correction calibration step",

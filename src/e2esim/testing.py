@@ -221,6 +221,7 @@ def check_module(cls, config: dict | None = None, case: Case | None = None) -> M
     assert repr(module).startswith(cls.__name__)
 
     from e2esim.calibration.modules import CalibrationModule
+    from e2esim.error_terms.modules import ErrorTerm
     from e2esim.faraday.estimator_modules import FaradayEstimatorModule
     from e2esim.requirements.base import Requirement
 
@@ -234,6 +235,8 @@ def check_module(cls, config: dict | None = None, case: Case | None = None) -> M
         check_block_invariance(RequirementSet([module], Location("check")), case)
     elif isinstance(module, CalibrationModule):
         _check_calibration(module, copy, case)
+    elif isinstance(module, ErrorTerm):
+        _check_error_term(module, copy, case)
     elif isinstance(module, FaradayEstimatorModule):
         case = case or reference_case(("scene.covariance", "system", "faraday.geophysical", "instrument"))
         system = case["system"]
@@ -293,6 +296,16 @@ def _check_calibration(module, copy, case) -> None:
     runs = [CalibrationStrategy([m], Location("check")).forward(_with_rng(case, 123)) for m in (module, copy)]
     assert _fingerprint(case_scalars(Products(runs[0]))) == _fingerprint(case_scalars(Products(runs[1]))), (
         f"{name}: the calibration strategy is not deterministic for a given rng")
+
+
+def _check_error_term(module, copy, case) -> None:
+    name = type(module).__name__
+    case = case or reference_case(("backscatter.error", *module.needs), module.uses)
+    models = [m.wrap(case["backscatter.error"], _with_rng(case, 123)) for m in (module, copy)]
+    assert module.source in models[0].sources and module.source in models[0].levels, (
+        f"{name}: the wrapped model lacks the source {module.source!r}")
+    assert _fingerprint(models[0].scalars()) == _fingerprint(models[1].scalars()), (
+        f"{name}.wrap is not deterministic for a given rng")
 
 
 def _fingerprint(values: dict):

@@ -7,13 +7,15 @@ products). The order follows the products: a stage runs after every stage that p
 uses, and otherwise in the order of the sections (``e2esim.module.KIND_ORDER``, then plug-in kinds as
 listed), so a plug-in kind (an ``interferometry`` stage, say) takes its place by what it needs and provides.
 A product that no stage provides is a ``ConfigError`` naming the stage that needs it and the registered
-modules that could provide it: ``e2esim validate`` reports it before anything runs.
+modules that could provide it: ``e2esim validate`` reports it before anything runs. With an ``error_terms`` list,
+the stage that provides ``backscatter.error`` and the terms become one ``ErrorTermStack`` (``e2esim.error_terms``).
 """
 
 from __future__ import annotations
 
 from e2esim import registry
 from e2esim.calibration.stage import CalibrationStrategy
+from e2esim.error_terms.stage import ErrorTermStack, refined
 from e2esim.errors import ConfigError, Location
 from e2esim.requirements.stage import RequirementSet
 
@@ -23,14 +25,17 @@ CONTEXT = ("settings", "rng", "inputs")
 
 def assemble(modules: list, root: Location) -> list:
     """The stages of a case in chain order, from its modules (in section order)."""
-    stages, calibration, requirements = [], [], []
+    stages, calibration, requirements, terms = [], [], [], []
     for module in modules:
         if module.kind == "calibration":
             calibration.append(module)
+        elif module.kind == "error_terms":
+            terms.append(module)
         elif module.kind == "requirement":
             requirements.append(module)
         else:
             stages.append(module)
+    stages = refined(stages, terms)
     stages.append(calibration_stage(calibration, root))
     if requirements:
         stages.append(requirement_stage(requirements, root))
@@ -40,6 +45,11 @@ def assemble(modules: list, root: Location) -> list:
 def calibration_stage(modules: list, root: Location) -> CalibrationStrategy:
     """The calibration strategy of a case's calibration modules (none: a strategy with no steps)."""
     return CalibrationStrategy(modules, modules[0].location.parent() if modules else root.child("calibration"))
+
+
+def error_term_stage(modules: list, root: Location) -> ErrorTermStack:
+    """The stage providing ``backscatter.error`` (``modules[0]``) with the error terms ``modules[1:]``."""
+    return ErrorTermStack(modules[0], modules[1:])
 
 
 def requirement_stage(modules: list, root: Location) -> RequirementSet:

@@ -23,8 +23,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from e2esim.error_terms.stage import refined
 from e2esim.errors import Location
-from e2esim.runner.chain import calibration_stage, order, requirement_stage
+from e2esim.runner.chain import calibration_stage, error_term_stage, order, requirement_stage
 from e2esim.runner.distinct import distinct_rows
 
 SETTINGS = "simulation"
@@ -66,8 +67,8 @@ class Slot:
 @dataclass(frozen=True)
 class ChainStep:
     """One stage of a chain template: the module of slot ``slots[0]`` (``composite`` None), or a composite
-    stage of the modules of ``slots`` ("calibration": the calibration strategy; "requirements": the
-    requirement set)."""
+    stage of the modules of ``slots`` ("calibration": the calibration strategy; "error_terms": the stage providing
+    backscatter.error with the error terms; "requirements": the requirement set)."""
 
     slots: tuple
     composite: str | None = None
@@ -131,7 +132,8 @@ class SweepPlan:
         """(composite stage, its number in this run) of ``members``."""
         key = (step.composite, tuple(id(m) for m in members))
         if key not in self.composites:
-            build = calibration_stage if step.composite == "calibration" else requirement_stage
+            build = {"calibration": calibration_stage, "error_terms": error_term_stage}.get(step.composite,
+                                                                                          requirement_stage)
             # members kept, so that their ids stay theirs; the number identifies the composite in a run
             self.composites[key] = (build(list(members), self.root), members, len(self.composites))
         stage, _, number = self.composites[key]
@@ -193,12 +195,17 @@ class SweepPlan:
         slots = list(range(len(modules)))
         calibration = [j for j in slots if self.slots[j].kind == "calibration"]
         requirements = [j for j in slots if self.slots[j].kind == "requirement"]
+        terms = [j for j in slots if self.slots[j].kind == "error_terms"]
         stages, steps = [], {}
         for j in slots:
-            if j in calibration or j in requirements:
+            if j in calibration or j in requirements or j in terms:
                 continue
             stages.append(modules[j])
             steps[id(modules[j])] = ChainStep((j,))
+        for i, stage in enumerate(refined(list(stages), [modules[j] for j in terms])):
+            if stage is not stages[i]:  # the stage providing backscatter.error, with the error terms
+                steps[id(stage)] = ChainStep((*steps[id(stages[i])].slots, *terms), "error_terms")
+                stages[i] = stage
         cal = calibration_stage([modules[j] for j in calibration], self.root)
         stages.append(cal)
         steps[id(cal)] = ChainStep(tuple(calibration), "calibration")

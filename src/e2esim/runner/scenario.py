@@ -395,7 +395,7 @@ def _build_module(kind_or_section: str, raw: Any, where: Location, cache: dict) 
         cls = registry.lookup(kind, type_name)
     except ModuleLookupError as exc:
         raise ConfigError(where.child("type"), str(exc)) from exc
-    if kind not in ("calibration", "requirement") and not issubclass(cls, Stage):
+    if kind not in ("calibration", "requirement", "error_terms") and not issubclass(cls, Stage):
         raise ConfigError(where.child("type"), f"{type_name!r} is a {kind} module but not a stage of the chain",
                           "a scenario section names a Stage subclass (docs/writing-a-module.md)")
     # A section no sweep case changes is the scenario's own object: key it by identity (cheap); a changed

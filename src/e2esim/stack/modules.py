@@ -16,6 +16,7 @@ from e2esim.distortion.faraday_correction import HV_UNCHANGED_BY_ROTATION
 from e2esim.distortion.modules import analytic_use
 from e2esim.distortion.montecarlo import gaussianity
 from e2esim.distortion.validity import VALIDITY
+from e2esim.error_terms.wrapped import innermost
 from e2esim.errors import PhysicsInputError
 from e2esim.ionosphere.variability import DEFAULT_TEC_VARIABILITY
 from e2esim.module import Stage, fail
@@ -311,7 +312,7 @@ class StackErrorBudget(BackscatterErrorBudget):
     uses = ("instrument",)
 
     def forward(self, case):
-        model = case["backscatter.error"]
+        model = innermost(case["backscatter.error"])  # the stack's own model under any error terms
         if not isinstance(model, StackModelBase):
             raise fail(self, f"needs the error model of stack_backscatter_error, got a {type(model).__name__}",
                        "list stack_backscatter_error before this module in propagation")

@@ -1,84 +1,62 @@
-"""An error model with one more source: amplitude scintillation multiplying the measured intensity.
+"""The plug-in's error terms: amplitude scintillation and quantisation noise, each one more source of the
+propagation's error model, whichever propagation module made it.
 
-The estimate with scintillation is ``sigma' = sigma_hat g``, with g independent of everything else, E[g] = 1,
-Var[g] = V (``Scintillation.variance``). With ``e = sigma_hat - sigma`` of mean m and variance v (the wrapped
-model), the error ``e' = sigma_hat g - sigma`` has, exactly,
+``scintillation`` multiplies the measured intensity by a factor g independent of everything else, E[g] = 1,
+Var[g] = V (``Scintillation.variance``): with ``e = sigma_hat - sigma`` of mean m and variance v (the wrapped
+model), ``e' = sigma_hat g - sigma`` has, exactly,
 
-    E[e'] = m,        Var[e'] = E[sigma_hat^2] E[g^2] - E[sigma_hat]^2 = v (1 + V) + (sigma + m)^2 V.
+    E[e'] = m,        Var[e'] = E[sigma_hat^2] E[g^2] - E[sigma_hat]^2 = v (1 + V) + (sigma + m)^2 V
 
-V is a level of the model ("scintillation"), so requirement margins find how much scintillation a mission
-can take; "scintillation" is a source, so the attribution says how much it adds.
+(e2esim's ``GammaFactor``, which also gives the covariance of several channels). V is a level ("scintillation"),
+so requirement margins find how much scintillation a mission can take; "scintillation" is a source, so the
+attribution says how much it adds.
+
+``quantisation`` adds the noise of the on-board quantiser, whose power is the signal's divided by the
+signal-to-quantisation-noise ratio (SQNR): N_p = q sigma_p, q = 10^(-SQNR/10), independent in every channel and
+look, and not removed by the processor (e2esim's ``AddedPower``: E[e'] = m + N, Var[e'] = v + (N^2 + 2 a N) / L).
+Its level is q, so the margin says which SQNR the mission needs. For Gaussian data the optimum 3-bit (8-level)
+quantiser of Max (1960, IRE Trans. Inf. Theory 6(1), 7-12, Table I: mean squared error 0.03454) has
+SQNR = 14.62 dB, the default.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from e2esim.error_model import Contribution, ErrorModel, Moments
+from e2esim.error_terms.effects import AddedPower, GammaFactor
+from e2esim.error_terms.modules import ErrorTerm, source_param
+from e2esim.params import Param
 
-LEVEL = SOURCE = "scintillation"
+MAX_3BIT_SQNR_DB = -10 * np.log10(0.03454)
+"""SQNR of the optimum 8-level quantiser for Gaussian data (Max 1960, Table I), 14.62 dB."""
 
 
-class ScintillationErrorModel(ErrorModel):
-    """``base`` (any e2esim ``ErrorModel``) with a multiplicative intensity factor of variance ``variance``.
+class ScintillationTerm(ErrorTerm):
+    """Amplitude scintillation as a multiplicative intensity factor of variance S4^2 / N (the product
+    ``ionosphere.scintillation`` of the stage ``scintillation.s4_index``)."""
 
-    factor_samples : Monte Carlo draws of g, shape of the base model's samples (or None).
-    """
+    type_name = "scintillation"
+    summary = "amplitude scintillation as a gamma intensity factor of mean 1 (example plug-in)"
+    params = (source_param("scintillation"),)
+    needs = ("ionosphere.scintillation",)
 
-    def __init__(self, base: ErrorModel, variance: float, factor_samples=None):
-        self.base = base
-        self.variance = float(variance)
-        self.factor_samples = factor_samples
-        self.channel = base.channel
-        self.unavailable = base.unavailable
-        self.includes_speckle = base.includes_speckle
-        self.notes = base.notes
-        self.validity = base.validity  # the factor is exact: the base model's range holds (margins stop there)
-        self._memo: dict = {}
+    def effect(self, case, model):
+        return GammaFactor(self.source, case["ionosphere.scintillation"].variance,
+                           "amplitude scintillation (multiplicative intensity factor)")
 
-    @property
-    def value(self) -> float:
-        return self.base.value
 
-    @property
-    def levels(self) -> dict:
-        return {**self.base.levels, LEVEL: self.variance}
+class QuantisationTerm(ErrorTerm):
+    """Quantisation noise of power sigma_p / SQNR in every channel, not removed (module docstring)."""
 
-    @property
-    def sources(self) -> tuple:
-        return (*self.base.sources, SOURCE)
+    type_name = "quantisation"
+    summary = "quantisation noise of a given SQNR added to every channel (example plug-in)"
+    params = (
+        Param("sqnr_db", "float", "signal-to-quantisation-noise ratio of the on-board quantiser "
+              "(default: optimum 3-bit quantiser, Max 1960)", default=round(float(MAX_3BIT_SQNR_DB), 2), unit="dB"),
+        source_param("quantisation"),
+    )
 
-    def moments(self, scintillation=None, **levels):
-        m = self.base.moments(**levels)
-        v = self.variance if scintillation is None else np.asarray(scintillation, dtype=float)
-        mean = np.asarray(m.mean)
-        return Moments(mean, np.asarray(m.variance) * (1 + v) + (self.value + mean) ** 2 * v)
-
-    def current(self):
-        if "current" not in self._memo:
-            self._memo["current"] = self.moments()
-        return self._memo["current"]
-
-    def without(self, source: str) -> ErrorModel:
-        if source == SOURCE:
-            return self if self.variance == 0.0 else ScintillationErrorModel(self.base, 0.0)
-        variant = self.base.without(source)
-        return self if variant is self.base else ScintillationErrorModel(variant, self.variance)
-
-    def contributions(self) -> dict:
-        parts = dict(self.base.contributions())
-        added = float(self.current().variance) - float(self.base.current().variance)
-        parts[SOURCE] = Contribution(0.0, added, "amplitude scintillation (multiplicative intensity factor)")
-        return parts
-
-    def relative_samples(self):
-        x = self.base.relative_samples()
-        if x is None or self.factor_samples is None:
-            return x
-        return (1.0 + x) * self.factor_samples - 1.0
-
-    def scalars(self) -> dict:
-        out = dict(self.base.scalars())
-        if self.unavailable is None:
-            out["analytic.scintillated_sd"] = float(self.current().sd)
-        return out
+    def effect(self, case, model):
+        values = np.atleast_1d(np.asarray(getattr(model, "values", model.value), dtype=float))
+        return AddedPower(self.source, 1.0 / self.si["sqnr_linear"], "quantisation noise (Max 1960)",
+                          scale=tuple(values), looks=case.settings.looks)

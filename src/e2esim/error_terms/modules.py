@@ -1,0 +1,120 @@
+"""The ``error_terms`` modules: each adds one named error source to the propagation's error model.
+
+A scenario lists them in its ``error_terms`` section; they wrap ``backscatter.error`` in order
+(``e2esim.error_terms.stage``). A term is a ``Module`` (not a stage): it says which products it reads
+(``needs``, ``uses``) and makes its ``Effect`` for a case (``effect``); the base class names the source
+(``source``, default its type name), draws its random numbers when the model has Monte Carlo samples, and wraps.
+A plug-in adds a term by subclassing ``ErrorTerm`` and registering it under the kind ``error_terms``
+(docs/writing-a-module.md).
+"""
+
+from __future__ import annotations
+
+import math
+import re
+
+from e2esim.error_terms.effects import AddedPower, ExtraVariance, LogNormalGain
+from e2esim.error_terms.wrapped import base_samples_shape, wrapped
+from e2esim.errors import PhysicsInputError
+from e2esim.module import Module, fail
+from e2esim.params import Param
+
+_NAME = re.compile(r"^[a-z][a-z0-9_]*$")
+
+
+def source_param(default: str) -> Param:
+    """The ``source`` parameter every term has: the name of its level and source."""
+    return Param("source", "str", "name of the error source and of its level (attribution, margins, coverage); "
+                 "lower case, digits and _", default=default)
+
+
+class ErrorTerm(Module):
+    """Base class of an error term (module docstring). Subclasses set ``params`` (with ``source_param``),
+    ``needs``/``uses`` and ``effect``."""
+
+    kind = "error_terms"
+    needs: tuple = ()
+    uses: tuple = ()
+
+    def setup(self) -> None:
+        if not _NAME.match(self.si["source"]):
+            raise PhysicsInputError(f"source {self.si['source']!r} is not a name: use lower case letters, digits "
+                                    "and _, starting with a letter", key="source")
+
+    @property
+    def source(self) -> str:
+        return self.si["source"]
+
+    def effect(self, case, model):
+        """The ``Effect`` of this term on ``model`` (the error model it wraps) in ``case``."""
+        raise NotImplementedError
+
+    def wrap(self, model, case):
+        """``model`` with this term's source; its random numbers drawn from ``case.rng`` when the model has
+        Monte Carlo samples."""
+        effect = self.effect(case, model)
+        shape = base_samples_shape(model)
+        if shape is not None:
+            effect = effect.draw(case.rng, shape)
+        try:
+            return wrapped(model, effect)
+        except ValueError as exc:
+            raise fail(self, str(exc), "give the term another source name", key="source") from exc
+
+
+class AddedNoise(ErrorTerm):
+    """Additive circular Gaussian noise of a given power in every channel's looks (``AddedPower``), e.g. a noise
+    floor the processor does not remove, or residual interference."""
+
+    type_name = "added_noise"
+    summary = "noise of a given power added to every channel's looks, subtracted or not (biased estimate)"
+    params = (
+        Param("power_db", "float", "noise power N as a backscattering coefficient, 10 log10(N) (like an NESZ)",
+              unit="dB"),
+        Param("subtracted", "bool", "the power's mean is known and subtracted (only its spread over the looks "
+              "remains)", default=False),
+        source_param("added_noise"),
+    )
+
+    def effect(self, case, model):
+        return AddedPower(self.source, self.si["power_linear"], "added noise power (Ahmed et al. 2014, eq. 21)",
+                          looks=case.settings.looks, subtracted=self.si["subtracted"])
+
+
+class GainError(ErrorTerm):
+    """A multiplicative gain error common to every channel, log-normal in dB (``LogNormalGain``), e.g. an
+    uncorrected drift of the radiometric calibration. Its level is the variance of ln g."""
+
+    type_name = "gain_error"
+    summary = "multiplicative gain error, normal in dB (offset and SD), common to every channel"
+    params = (
+        Param("offset_db", "float", "mean of the gain error in dB", default=0.0, unit="dB", convert=False),
+        Param("sd_db", "float", "standard deviation of the gain error in dB", default=0.0, unit="dB",
+              convert=False, minimum=0.0),
+        source_param("gain_error"),
+    )
+
+    def effect(self, case, model):
+        s = self.si["sd_db"] * math.log(10.0) / 10.0
+        return LogNormalGain(self.source, s * s, "multiplicative gain error (log-normal)",
+                             offset_db=self.si["offset_db"])
+
+
+class ExtraRelativeVariance(ErrorTerm):
+    """A zero-mean random error of a given relative SD in every channel (``ExtraVariance``), e.g. an item of an
+    error budget not modelled elsewhere (an extra amplitude error). Its level is the relative variance r^2."""
+
+    type_name = "extra_variance"
+    summary = "zero-mean random error of a given relative SD, independent in every channel"
+    params = (
+        Param("relative_sd_percent", "float", "standard deviation r of the error relative to sigma", unit="%",
+              minimum=0.0),
+        source_param("extra_variance"),
+    )
+
+    def effect(self, case, model):
+        r = self.si["relative_sd_fraction"]
+        return ExtraVariance(self.source, r * r, "extra zero-mean random error")
+
+
+__all__ = ["AddedNoise", "ErrorTerm", "ExtraRelativeVariance", "GainError", "source_param"]
