@@ -20,6 +20,7 @@ import os
 import numpy as np
 
 from e2esim.errors import one_line
+from e2esim.extras import optional_import
 from e2esim.io.atomic import atomic_path
 from e2esim.io.scalar_units import scalar_description
 from e2esim.runner.map_sweep import (
@@ -60,9 +61,10 @@ def map_dataset_of(result):
 
 def map_dataset(results):
     """The map of ``results`` (a ``e2esim.results.Results`` of a map sweep) as an xarray Dataset."""
-    import xarray as xr
-
     from e2esim.faraday.global_climatology import grid_axes
+
+    xr = optional_import("xarray", "maps", "the map of a map sweep (results.nc, Results.to_xarray)")
+    optional_import("netCDF4", "maps", "the map of a map sweep (results.nc, Results.to_xarray)")
 
     section = map_section(results.resolved_scenario.get("sweep"))
     if section is None:

@@ -22,6 +22,7 @@ from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from concurrent.futures.process import BrokenProcessPool
 
 from e2esim.errors import UserError
+from e2esim.extras import optional_import
 from e2esim.runner.interrupts import interrupts_deferred, worker_signals
 
 _PR_SET_PDEATHSIG = 1  # linux/prctl.h
@@ -244,14 +245,14 @@ def check_scheduler_address(address: str) -> None:
                         f"SCHEME one of {', '.join(_SCHEDULER_SCHEMES)} (e.g. tcp://10.0.0.5:8786), or HOST:PORT")
 
 
+CLUSTER_PURPOSE = "--scheduler (a dask.distributed cluster)"
+
+
 class _DaskBlocks:
     """The blocks run on the dask.distributed cluster at ``address``; results as they finish."""
 
     def __init__(self, resolved, tasks: list, address: str, options: tuple):
-        try:
-            from distributed import Client
-        except ImportError as exc:  # pragma: no cover - dask.distributed is a dependency
-            raise UserError("--scheduler needs dask.distributed (pip install distributed)") from exc
+        Client = optional_import("distributed", "cluster", CLUSTER_PURPOSE).Client
         try:
             self.client = Client(address, timeout="20s")
         except (OSError, TimeoutError, ValueError, TypeError) as exc:
@@ -266,7 +267,7 @@ class _DaskBlocks:
         self.number = {future: k for k, future in enumerate(futures)}
 
     def __iter__(self):
-        from distributed import as_completed
+        as_completed = optional_import("distributed", "cluster", CLUSTER_PURPOSE).as_completed
 
         for future in as_completed(list(self.number)):
             yield self._result(future)
