@@ -4,11 +4,11 @@ e2esim ``UserError``) and from the command line (exit status 2, no traceback). T
 ``sys.modules[name] = None`` makes ``import name`` fail as it fails where the package is not installed."""
 
 import re
-import tomllib
 from pathlib import Path
 
 import numpy as np
 import pytest
+import tomllib
 
 from e2esim.cli import main
 from e2esim.errors import MissingExtraError, UserError
