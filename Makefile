@@ -49,6 +49,7 @@ benchmark: $(STAMP)  ## speed measurements (ratios against the reference impleme
 	$(BIN)/python benchmarks/bench_end_to_end.py
 	$(BIN)/python benchmarks/bench_stack.py
 	$(BIN)/python benchmarks/bench_sweeps.py --skip-map
+	$(BIN)/python benchmarks/bench_scenarios.py
 
 clean:
 	rm -rf $(VENV) runs .pytest_cache src/*.egg-info
