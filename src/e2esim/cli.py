@@ -233,7 +233,7 @@ def cmd_run(args) -> int:
             finally:
                 journal.close()
             try:
-                write_outputs(result, folder)
+                write_outputs(result, folder, progress=not args.no_progress)
             except KeyboardInterrupt as stop:
                 return _stopped(stop, "no partial output file was left; " + _saved(journal, resolved, folder),
                                 " while writing the outputs")

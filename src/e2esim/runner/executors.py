@@ -33,7 +33,7 @@ _WORKER: dict = {}  # in a worker process: the scenario it runs blocks of, and i
 
 def run_blocks(resolved, tasks: list, take, workers: int = 1, scheduler: str | None = None,
                engine: str = "batched", keep_products: bool = False, packages: frozenset | None = None,
-               frames: bool = True) -> None:
+               frames: bool = True, progress: bool = False) -> None:
     """Run the blocks ``tasks`` and hand each to ``take(BlockResult, journal frame or None)`` as it finishes (not
     necessarily in case order); frames come from other processes, made with ``packages``
     (e2esim.runner.plaindata.allowed_packages), and only when ``frames`` (a run with a journal).
@@ -42,7 +42,8 @@ def run_blocks(resolved, tasks: list, take, workers: int = 1, scheduler: str | N
     that finished meanwhile are handed to ``take`` too, the workers are stopped without waiting for their blocks,
     and the interrupt is raised again. A ``take`` is never cut short by Ctrl-C (it waits until the block is kept),
     and no block is handed over twice. A worker that dies (killed, out of memory) ends the run with a
-    ``WorkerLost`` error; the blocks handed over stay kept.
+    ``WorkerLost`` error; the blocks handed over stay kept. ``progress``: blocks run in this process hand their
+    stages a progress bar for long kernels (climatology months, bootstrap); other processes cannot draw one.
     """
     if not tasks:
         return
@@ -58,7 +59,7 @@ def run_blocks(resolved, tasks: list, take, workers: int = 1, scheduler: str | N
     elif workers > 1:
         source = _ProcessBlocks(resolved, tasks, workers, options)
     else:
-        source = _SerialBlocks(resolved, tasks, options)
+        source = _SerialBlocks(resolved, tasks, options, progress)
     taken: set = set()
 
     def hand_over(number, block, frame):
@@ -85,15 +86,15 @@ class WorkerLost(UserError):
 class _SerialBlocks:
     """The blocks run one after the other in this process (Ctrl-C drops the one in flight)."""
 
-    def __init__(self, resolved, tasks: list, options: tuple):
-        self.resolved, self.tasks, self.options = resolved, tasks, options
+    def __init__(self, resolved, tasks: list, options: tuple, progress: bool = False):
+        self.resolved, self.tasks, self.options, self.progress = resolved, tasks, options, progress
 
     def __iter__(self):
         from e2esim.runner.blocks import StageMemo
         from e2esim.runner.run import default_services, run_block
 
         engine, keep_products, _ = self.options
-        services, memo = default_services(), StageMemo()
+        services, memo = default_services(self.progress), StageMemo()
         for number, indices in enumerate(self.tasks):
             yield number, run_block(self.resolved, indices, engine, keep_products, services, memo), None
 
