@@ -43,7 +43,7 @@ def run_blocks(resolved, tasks: list, take, workers: int = 1, scheduler: str | N
     and the interrupt is raised again. A ``take`` is never cut short by Ctrl-C (it waits until the block is kept),
     and no block is handed over twice. A worker that dies (killed, out of memory) ends the run with a
     ``WorkerLost`` error; the blocks handed over stay kept. ``progress``: blocks run in this process hand their
-    stages a progress bar for long kernels (climatology months, bootstrap); other processes cannot draw one.
+    stages a progress bar for long kernels (a global climatology's months); other processes cannot draw one.
     """
     if not tasks:
         return
