@@ -3,6 +3,8 @@ latitude sweep (--workers 2) said 9 minutes for a 69-second run, because tqdm's 
 one-time work of the first blocks (the climatology). No timing is measured here: the estimate is a function of
 the (time, cases finished) of the blocks, replayed from a recorded run and from a model of one."""
 
+from pathlib import Path
+
 import pytest
 from tqdm import tqdm
 
@@ -86,3 +88,58 @@ def test_the_bar_shows_the_estimate_in_place_of_tqdms():
     bar.close()
     line = tqdm.format_meter(20, 40, 11.0, bar_format=BAR_FORMAT, postfix="~00:02 left", prefix="sweep")
     assert line.startswith("sweep:  50%|") and line.endswith("20/40 [00:11, ~00:02 left]")
+
+
+def test_the_outputs_bar_names_each_step_and_leaves_the_first_out_of_its_rate():
+    """Issue 28, Build 4: the plots and files of a run's outputs get a bar; its time left comes from the steps done
+    after the first (matplotlib's one-time set-up comes with the first plot), on a fake clock."""
+    from e2esim.runner.progress import StepProgress
+
+    times = iter([12.0, 14.0, 15.0])  # the first step (set-up) 12 s, then 2 s and 1 s
+    steps = StepProgress(5, "outputs", enabled=False, clock=lambda: next(times))
+    with steps.step("verdicts"):
+        assert steps.bar.desc == "outputs (verdicts)"
+    assert steps.remaining.seconds() is None and steps.remaining.text() == "time left: after the first steps"
+    with steps.step("tradeoff"):
+        pass
+    assert steps.remaining.seconds() == pytest.approx(3 * 2.0)  # 1 step in 2 s after the first: 3 left
+    with steps.step("results.h5"):
+        pass
+    assert steps.remaining.seconds() == pytest.approx(2 * 1.5) and steps.bar.postfix == "~00:03 left"
+    assert steps.remaining.done == 3
+    steps.close()
+
+
+def test_write_outputs_counts_every_plot_and_file(tmp_path, monkeypatch):
+    """Every output step passes through the bar: the plots, results.h5, summary.json and the report."""
+    import e2esim
+    from e2esim.report.plots import requested_plots
+    from e2esim.runner import outputs, progress
+
+    counted = []
+
+    class Counting(progress.StepProgress):
+        def close(self):
+            counted.append((self.remaining.done, self.remaining.total))
+            super().close()
+
+    monkeypatch.setattr(outputs, "StepProgress", Counting)
+    scenario = Path(__file__).resolve().parents[1] / "scenarios" / "men2021_fig1.yaml"
+    results = e2esim.run(scenario, set={"simulation.mode": "analytic"}, output=tmp_path / "r")
+    steps = len(requested_plots(results.run)) + 3
+    assert steps >= 5 and counted == [(steps, steps)]
+
+
+@pytest.mark.parametrize("shown", [True, False])
+def test_a_serial_run_with_a_bar_hands_its_stages_one(monkeypatch, shown):
+    """Blocks run in this process get the progress bar for long kernels (the global climatology's months) when
+    the run shows a bar: they used to get none, so the climatology build drew nothing."""
+    import e2esim
+    from e2esim.runner import run
+
+    asked = []
+    original = run.default_services
+    monkeypatch.setattr(run, "default_services", lambda progress=False: asked.append(progress) or original(progress))
+    scenario = Path(__file__).resolve().parents[1] / "scenarios" / "men2021_fig1.yaml"
+    e2esim.run(scenario, set={"simulation.mode": "analytic"}, progress=shown)
+    assert asked == [shown]

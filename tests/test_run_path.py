@@ -58,7 +58,7 @@ def test_the_api_refuses_a_held_folder_with_the_message_of_the_cli(tmp_path, cap
 def test_an_api_run_interrupted_while_writing_resumes_through_the_api(tmp_path, monkeypatch):
     scenario, out = _scenario(tmp_path), tmp_path / "out"
 
-    def interrupted(result, folder):
+    def interrupted(result, folder, progress=False):
         raise KeyboardInterrupt
 
     monkeypatch.setattr(folder_run, "write_outputs", interrupted)

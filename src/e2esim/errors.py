@@ -137,6 +137,11 @@ class JournalError(UserError):
     """The resume journal in an output folder is corrupt, foreign or of another version."""
 
 
+class MissingExtraError(UserError):
+    """An optional dependency that is not installed: the message names the optional extra that brings it and the
+    pip command (``e2esim.extras``)."""
+
+
 class E2ESimWarning(UserWarning):
     """Something e2esim could not use and went on without (a cache, a plug-in): the command line prints it as one
     line, ``e2esim: warning: ...``."""

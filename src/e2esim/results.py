@@ -14,6 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
+from e2esim.extras import optional_import
 from e2esim.io.scalar_units import scalar_description, scalar_unit
 from e2esim.maps.grid import map_section
 from e2esim.maps.netcdf import map_dataset
@@ -143,7 +144,7 @@ class Results:
         An output scalar named as a sweep key (``scene.agb_t_ha`` of a sweep over it) is that coordinate, with
         the scalar's attributes, where its values are the swept ones; where they differ it is the variable
         ``<name>.output`` beside the coordinate."""
-        import xarray as xr
+        xr = optional_import("xarray", "maps", "Results.to_xarray")
 
         if map_section(self.resolved_scenario.get("sweep")) is not None:
             return map_dataset(self)

@@ -27,6 +27,7 @@ import numpy as np
 
 from e2esim import registry
 from e2esim.errors import ConfigError, Location, ModuleLookupError, PhysicsInputError
+from e2esim.extras import require_extra
 from e2esim.faraday.global_climatology import grid_axes
 from e2esim.params import Ordered, Param, find_param, to_si, validate_section
 from e2esim.runner.limits import MAX_MAP_CASES, check_count
@@ -112,6 +113,7 @@ def map_grid(section, where: Location, scenario: dict | None = None) -> MapGrid:
         raise ConfigError(where.child("step_deg"), f"{m['step_deg']:g} deg is larger than the grid's ranges",
                           "give a step that fits lat_range_deg and lon_range_deg")
     check_count("grid cells", lat.size * lon.size, MAX_MAP_CASES, where.describe())
+    require_extra("maps", "a map sweep (sweep.map)")
     if m["land_only"]:
         from e2esim.scene.land_mask import land_fraction  # lazy: start-up time of runs without a map
 

@@ -22,6 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from e2esim.errors import one_line
+from e2esim.extras import optional_import
 from e2esim.io.atomic import atomic_path
 from e2esim.io.scalar_units import scalar_description, scalar_unit
 from e2esim.maps.grid import (
@@ -86,7 +87,9 @@ def map_dataset_of(result):
 def map_dataset(results):
     """The map of ``results`` (``MapColumns``, or a ``e2esim.results.Results``, of a map sweep) as an xarray
     Dataset."""
-    import xarray as xr  # lazy: xarray costs a second at start-up, and only maps and to_xarray use it
+
+    xr = optional_import("xarray", "maps", "the map of a map sweep (results.nc, Results.to_xarray)")
+    optional_import("netCDF4", "maps", "the map of a map sweep (results.nc, Results.to_xarray)")
 
     section = map_section(results.resolved_scenario.get("sweep"))
     if section is None:

@@ -7,6 +7,7 @@ contributions of each error source (Figs. 9-10); plus requirement margins and AG
 
 from __future__ import annotations
 
+import contextlib
 import math
 import sys
 from pathlib import Path
@@ -200,24 +201,27 @@ def requested_plots(result) -> list:
     return list(dict.fromkeys(wanted))
 
 
-def make_plots(result, folder: Path, warnings: list | None = None) -> list:
+def make_plots(result, folder: Path, warnings: list | None = None, steps=None) -> list:
     """Write the plots of ``result``; return [(file name, caption)]. A requested plot that cannot be drawn is
-    reported on standard error and added to ``warnings`` as "<plot>: <why>"."""
+    reported on standard error and added to ``warnings`` as "<plot>: <why>". ``steps``: a
+    ``e2esim.runner.progress.StepProgress`` that counts each plot, or None."""
     options = result.scenario.output
     requested = set(options["plots"]) - {"auto"}
     out = []
     large = len(result.scenario.cases) > LARGE_RUN_CASES
     for name in requested_plots(result):
-        try:
-            if large and name not in COLUMN_PLOTS:
-                raise PlotSkipped(f"the run has {len(result.scenario.cases)} cases, more than {LARGE_RUN_CASES}: "
-                                  "draw from results.h5 (e2esim.open_results, Results.to_xarray)")
-            with figure_settings():
-                made = PLOTTERS[name](result, folder, options)
-        except PlotSkipped as why:
-            made, reason = [], str(why)
-        else:
-            reason = "the plot function drew nothing for this run"
+        with contextlib.nullcontext() if steps is None else steps.step(name):
+            try:
+                if large and name not in COLUMN_PLOTS:
+                    cases = len(result.scenario.cases)
+                    raise PlotSkipped(f"the run has {cases} cases, more than {LARGE_RUN_CASES}: draw from results.h5 "
+                                      "(e2esim.open_results, Results.to_xarray)")
+                with figure_settings():
+                    made = PLOTTERS[name](result, folder, options)
+            except PlotSkipped as why:
+                made, reason = [], str(why)
+            else:
+                reason = "the plot function drew nothing for this run"
         if made:
             out.extend(made)
         elif name in requested or name in ALWAYS_PLOTS:  # plots of "auto" that do not apply are left out quietly

@@ -22,6 +22,7 @@ from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from concurrent.futures.process import BrokenProcessPool
 
 from e2esim.errors import UserError
+from e2esim.extras import optional_import
 from e2esim.runner.interrupts import interrupts_deferred, worker_signals
 
 _PR_SET_PDEATHSIG = 1  # linux/prctl.h
@@ -32,7 +33,7 @@ _WORKER: dict = {}  # in a worker process: the scenario it runs blocks of, and i
 
 def run_blocks(resolved, tasks: list, take, workers: int = 1, scheduler: str | None = None,
                engine: str = "batched", keep_products: bool = False, packages: frozenset | None = None,
-               frames: bool = True) -> None:
+               frames: bool = True, progress: bool = False) -> None:
     """Run the blocks ``tasks`` and hand each to ``take(BlockResult, journal frame or None)`` as it finishes (not
     necessarily in case order); frames come from other processes, made with ``packages``
     (e2esim.runner.plaindata.allowed_packages), and only when ``frames`` (a run with a journal).
@@ -41,7 +42,8 @@ def run_blocks(resolved, tasks: list, take, workers: int = 1, scheduler: str | N
     that finished meanwhile are handed to ``take`` too, the workers are stopped without waiting for their blocks,
     and the interrupt is raised again. A ``take`` is never cut short by Ctrl-C (it waits until the block is kept),
     and no block is handed over twice. A worker that dies (killed, out of memory) ends the run with a
-    ``WorkerLost`` error; the blocks handed over stay kept.
+    ``WorkerLost`` error; the blocks handed over stay kept. ``progress``: blocks run in this process hand their
+    stages a progress bar for long kernels (a global climatology's months); other processes cannot draw one.
     """
     if not tasks:
         return
@@ -57,7 +59,7 @@ def run_blocks(resolved, tasks: list, take, workers: int = 1, scheduler: str | N
     elif workers > 1:
         source = _ProcessBlocks(resolved, tasks, workers, options)
     else:
-        source = _SerialBlocks(resolved, tasks, options)
+        source = _SerialBlocks(resolved, tasks, options, progress)
     taken: set = set()
 
     def hand_over(number, block, frame):
@@ -84,15 +86,15 @@ class WorkerLost(UserError):
 class _SerialBlocks:
     """The blocks run one after the other in this process (Ctrl-C drops the one in flight)."""
 
-    def __init__(self, resolved, tasks: list, options: tuple):
-        self.resolved, self.tasks, self.options = resolved, tasks, options
+    def __init__(self, resolved, tasks: list, options: tuple, progress: bool = False):
+        self.resolved, self.tasks, self.options, self.progress = resolved, tasks, options, progress
 
     def __iter__(self):
         from e2esim.runner.blocks import StageMemo
         from e2esim.runner.run import default_services, run_block
 
         engine, keep_products, _ = self.options
-        services, memo = default_services(), StageMemo()
+        services, memo = default_services(self.progress), StageMemo()
         for number, indices in enumerate(self.tasks):
             yield number, run_block(self.resolved, indices, engine, keep_products, services, memo), None
 
@@ -244,14 +246,14 @@ def check_scheduler_address(address: str) -> None:
                         f"SCHEME one of {', '.join(_SCHEDULER_SCHEMES)} (e.g. tcp://10.0.0.5:8786), or HOST:PORT")
 
 
+CLUSTER_PURPOSE = "--scheduler (a dask.distributed cluster)"
+
+
 class _DaskBlocks:
     """The blocks run on the dask.distributed cluster at ``address``; results as they finish."""
 
     def __init__(self, resolved, tasks: list, address: str, options: tuple):
-        try:
-            from distributed import Client
-        except ImportError as exc:  # pragma: no cover - dask.distributed is a dependency
-            raise UserError("--scheduler needs dask.distributed (pip install distributed)") from exc
+        Client = optional_import("distributed", "cluster", CLUSTER_PURPOSE).Client
         try:
             self.client = Client(address, timeout="20s")
         except (OSError, TimeoutError, ValueError, TypeError) as exc:
@@ -266,7 +268,7 @@ class _DaskBlocks:
         self.number = {future: k for k, future in enumerate(futures)}
 
     def __iter__(self):
-        from distributed import as_completed
+        as_completed = optional_import("distributed", "cluster", CLUSTER_PURPOSE).as_completed
 
         for future in as_completed(list(self.number)):
             yield self._result(future)

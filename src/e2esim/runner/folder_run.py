@@ -53,7 +53,7 @@ def run_into_folder(resolved, folder, force: bool = False, resume: bool = False,
             journal = Journal(folder, resolved)
             result = _run_journalled(resolved, folder, journal, resume, options)
             try:
-                write_outputs(result, folder)
+                write_outputs(result, folder, progress=progress)
             except KeyboardInterrupt as stop:
                 raise RunInterrupted(stop, "no partial output file was left; " + _saved(journal, resolved, folder),
                                      " while writing the outputs") from stop

@@ -24,6 +24,7 @@ from e2esim.maps.grid import is_map_sweep
 from e2esim.maps.netcdf import map_dataset_of, write_map_netcdf
 from e2esim.runner.journal import JOURNAL, count_finished
 from e2esim.runner.lock import LOCK_NAME, FolderLock
+from e2esim.runner.progress import StepProgress
 
 OUTPUT_FILES = ("results.h5", "summary.json", "report.md", "report.html")
 OUTPUT_LIST = ".e2esim-outputs.json"
@@ -153,27 +154,33 @@ def _remove_aside(folder: Path) -> None:
         shutil.rmtree(aside, ignore_errors=True)
 
 
-def write_outputs(result, folder: Path) -> dict:
+def write_outputs(result, folder: Path, progress: bool = False) -> dict:
     """Write every output file; return their paths and the warnings of plots that could not be drawn. On failure
     (a full disk, say) the files of this attempt are removed again and an ``OutputFolderError`` says why; the
-    journal stays for ``--resume``."""
+    journal stays for ``--resume``. ``progress``: a bar of the plots and files (``StepProgress``)."""
     folder = Path(folder)
     try:
         folder.mkdir(parents=True, exist_ok=True)
         before = {p.name for p in folder.iterdir()}
     except OSError as exc:
         raise OutputFolderError(f"{folder}: cannot create the output folder: {_reason(folder, exc)}") from exc
-    from e2esim.report.plots import make_plots  # imported here: matplotlib costs a second at start-up
+    from e2esim.report.plots import make_plots, requested_plots  # here: matplotlib costs a second at start-up
     from e2esim.report.render import write_report
 
+    files = ["results.h5"] + (["results.nc"] if is_map_sweep(result.scenario) else []) + ["summary.json", "report"]
+    steps = StepProgress(len(requested_plots(result)) + len(files), "outputs", progress)
     try:
         warnings: list = []
-        plots = make_plots(result, folder, warnings)
-        write_results(result, folder / "results.h5")
-        if is_map_sweep(result.scenario):
-            write_map_netcdf(map_dataset_of(result), folder / "results.nc")
-        write_summary(result, folder / "summary.json")
-        write_report(result, folder, plots, warnings)
+        plots = make_plots(result, folder, warnings, steps)
+        with steps.step("results.h5"):
+            write_results(result, folder / "results.h5")
+        if "results.nc" in files:
+            with steps.step("results.nc"):
+                write_map_netcdf(map_dataset_of(result), folder / "results.nc")
+        with steps.step("summary.json"):
+            write_summary(result, folder / "summary.json")
+        with steps.step("report"):
+            write_report(result, folder, plots, warnings)
         written = sorted({p.name for p in folder.iterdir()} - before - {JOURNAL, LOCK_NAME})
         write_text_atomic(folder / OUTPUT_LIST, json.dumps(written + [OUTPUT_LIST], indent=0) + "\n")
     except BaseException as exc:  # a full disk, the file-size limit, Ctrl-C: no output of this attempt stays
@@ -186,6 +193,8 @@ def write_outputs(result, folder: Path) -> dict:
         raise OutputFolderError(f"{folder}: cannot write the outputs: {exc.strerror or exc}; no partial file was "
                                 "left; the finished cases are kept: free the space and run the same command with "
                                 f"--resume{aside_note(folder)}") from exc
+    finally:
+        steps.close()
     _remove_aside(folder)  # the new outputs are complete: the earlier ones go
     return {"folder": folder, "plots": [folder / name for name, _ in plots], "warnings": warnings}
 

@@ -10,7 +10,9 @@ until a second round has ended, so that the rate spans whole blocks of every wor
 
 from __future__ import annotations
 
+import threading
 import time
+from contextlib import contextmanager
 from dataclasses import dataclass
 
 from tqdm.auto import tqdm
@@ -36,6 +38,7 @@ class RemainingTime:
     blocks: int = 0
     origin: tuple | None = None  # (time, cases done) at the end of the first round
     round_end: tuple | None = None  # (time, cases done) at the end of the latest whole round
+    what: str = "blocks"  # what is counted, in the text shown before the rate is measured
 
     def record(self, now: float, cases: int) -> None:
         self.done += int(cases)
@@ -62,12 +65,16 @@ class RemainingTime:
     def text(self) -> str:
         seconds = self.seconds()
         if seconds is None:
-            return "time left: after the first blocks"
+            return f"time left: after the first {self.what}"
         return f"~{tqdm.format_interval(seconds)} left"
 
 
 class CaseProgress:
-    """A tqdm bar of finished cases whose time left is ``RemainingTime``'s. ``update(cases)`` after each block."""
+    """A tqdm bar of finished cases whose time left is ``RemainingTime``'s. ``update(cases)`` after each block.
+    A shown bar is redrawn every ``TICK_S`` between blocks, so that its elapsed time moves through a long first
+    block (a climatology built in a worker process, which cannot draw a bar of its own)."""
+
+    TICK_S = 1.0
 
     def __init__(self, total: int, initial: int, description: str, enabled: bool, workers: int = 1,
                  clock=time.monotonic):
@@ -75,6 +82,14 @@ class CaseProgress:
         self.remaining = RemainingTime(total, initial, workers=max(1, workers))
         self.bar = tqdm(total=total, initial=initial, desc=description, unit="case", disable=not enabled,
                         leave=False, bar_format=BAR_FORMAT, postfix=self.remaining.text())
+        self.stop = threading.Event()
+        self.ticker = threading.Thread(target=self._tick, daemon=True, name="e2esim-progress") if enabled else None
+        if self.ticker is not None:
+            self.ticker.start()
+
+    def _tick(self) -> None:
+        while not self.stop.wait(self.TICK_S):
+            self.bar.refresh()
 
     def update(self, cases: int) -> None:
         self.remaining.record(self.clock(), cases)
@@ -82,7 +97,34 @@ class CaseProgress:
         self.bar.update(cases)
 
     def close(self) -> None:
+        self.stop.set()
+        if self.ticker is not None:
+            self.ticker.join()  # not drawing while the bar is cleared
         self.bar.close()
 
 
-__all__ = ["BAR_FORMAT", "CaseProgress", "RemainingTime"]
+class StepProgress:
+    """A bar of named steps (the plots and files of a run's outputs): ``with bar.step(name): ...`` around each. The
+    step in progress is named on the bar; the time left is ``RemainingTime``'s, the first step (matplotlib's one-time
+    set-up comes with the first plot) left out of the rate."""
+
+    def __init__(self, total: int, description: str, enabled: bool, clock=time.monotonic):
+        self.clock, self.description = clock, description
+        self.remaining = RemainingTime(total, what="steps")
+        self.bar = tqdm(total=total, desc=description, unit="step", disable=not enabled, leave=False,
+                        bar_format=BAR_FORMAT, postfix=self.remaining.text())
+
+    @contextmanager
+    def step(self, name: str):
+        self.bar.set_description_str(f"{self.description} ({name})", refresh=False)
+        self.bar.refresh()
+        yield
+        self.remaining.record(self.clock(), 1)
+        self.bar.set_postfix_str(self.remaining.text(), refresh=False)
+        self.bar.update(1)
+
+    def close(self) -> None:
+        self.bar.close()
+
+
+__all__ = ["BAR_FORMAT", "CaseProgress", "RemainingTime", "StepProgress"]

@@ -370,7 +370,7 @@ def run_scenario(
 
     try:
         run_blocks(resolved, block_tasks(resolved, todo, workers if not scheduler else 8), take, workers, scheduler,
-                   engine=engine, keep_products=keep, frames=journal is not None)
+                   engine=engine, keep_products=keep, frames=journal is not None, progress=progress)
     finally:
         bar.close()
     blocks.sort(key=lambda b: int(b.indices[0]))

@@ -21,7 +21,8 @@ from pathlib import Path
 
 import numpy as np
 
-from e2esim.errors import PhysicsInputError
+from e2esim.errors import MissingExtraError, PhysicsInputError
+from e2esim.extras import optional_import
 from e2esim.io.input_files import NotARegularFile, regular_file_stat
 
 MAX_MAP_PIXELS = 100_000_000
@@ -89,7 +90,7 @@ def _read_cached(path: str, size: int, mtime_ns: int, variable: str) -> AGBMap:
                                 + ", ".join(SUFFIXES), key="file")
     try:
         lat, lon, values, units = _read_netcdf(path, variable) if kind == "netcdf" else _read_geotiff(path)
-    except PhysicsInputError:
+    except (PhysicsInputError, MissingExtraError):
         raise
     except Exception as exc:  # the libraries' own errors on a corrupt or foreign file
         raise PhysicsInputError(f"cannot read the AGB map {path!r} as {kind}: {type(exc).__name__}: {exc}",
@@ -98,7 +99,8 @@ def _read_cached(path: str, size: int, mtime_ns: int, variable: str) -> AGBMap:
 
 
 def _read_netcdf(path: str, variable: str):
-    import xarray as xr
+    xr = optional_import("xarray", "products", "reading a NetCDF AGB map")
+    optional_import("netCDF4", "products", "reading a NetCDF AGB map")
 
     with xr.open_dataset(path, engine="netcdf4", decode_times=False, mask_and_scale=True) as ds:
         if variable not in ds.data_vars:
@@ -119,7 +121,7 @@ def _read_netcdf(path: str, variable: str):
 
 
 def _read_geotiff(path: str):
-    import rioxarray
+    rioxarray = optional_import("rioxarray", "products", "reading a GeoTIFF AGB map")
 
     with rioxarray.open_rasterio(path, masked=True) as da:
         crs = da.rio.crs

@@ -15,6 +15,8 @@ from functools import lru_cache
 
 import numpy as np
 
+from e2esim.extras import optional_import
+
 SUBSAMPLE_SPACING_DEG = 0.25
 """Spacing of the points tested in each cell (deg): a 1 deg cell is tested at 4 x 4 points."""
 
@@ -25,7 +27,7 @@ MAX_SUBSAMPLES = 16
 @lru_cache(maxsize=1)
 def _mask():
     """The GSHHG raster of roaring-landmask, loaded once per process (about a second)."""
-    import roaring_landmask
+    roaring_landmask = optional_import("roaring_landmask", "maps", "the land mask of a map sweep")
 
     return roaring_landmask.RoaringMask.new(roaring_landmask.LandmaskProvider.Gshhg)
 
