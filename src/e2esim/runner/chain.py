@@ -1,11 +1,12 @@
 """From a scenario's modules to the chain of stages the runner passes each case through.
 
-Sections become stages: a stage module is a stage itself; the ``calibration`` list becomes one
-``CalibrationStrategy`` and the ``requirements`` list one ``RequirementSet`` (there is always a calibration
-stage, with no steps when the scenario has no calibration section, so the propagation finds the residual
-products). The order follows the products: a stage runs after every stage that provides what it needs or
-uses, and otherwise in the order of the sections (``e2esim.module.KIND_ORDER``, then plug-in kinds as
-listed), so a plug-in kind (an ``interferometry`` stage, say) takes its place by what it needs and provides.
+Sections become stages: a stage module is a stage itself; the list of a composite kind (``e2esim.kinds.Kind``)
+becomes one stage of its members: the ``calibration`` list one ``CalibrationStrategy``, the ``requirements`` list
+one ``RequirementSet`` (there is always a calibration stage, with no steps when the scenario has no calibration
+section, so the propagation finds the residual products: ``Kind.always``). The order follows the products: a
+stage runs after every stage that provides what it needs or uses, and otherwise in the order of the sections
+(the kinds' ``order``, then plug-in kinds nobody declares), so a plug-in kind (an ``interferometry`` stage, say)
+takes its place by what it needs and provides.
 A product that no stage provides is a ``ConfigError`` naming the stage that needs it and the registered
 modules that could provide it: ``e2esim validate`` reports it before anything runs.
 """
@@ -13,9 +14,8 @@ modules that could provide it: ``e2esim validate`` reports it before anything ru
 from __future__ import annotations
 
 from e2esim import registry
-from e2esim.calibration.stage import CalibrationStrategy
 from e2esim.errors import ConfigError, Location
-from e2esim.requirements.stage import RequirementSet
+from e2esim.kinds import Kind
 
 CONTEXT = ("settings", "rng", "inputs")
 """What every case has besides products (not products; never needed by name)."""
@@ -23,28 +23,28 @@ CONTEXT = ("settings", "rng", "inputs")
 
 def assemble(modules: list, root: Location) -> list:
     """The stages of a case in chain order, from its modules (in section order)."""
-    stages, calibration, requirements = [], [], []
+    stages, members = [], {}
     for module in modules:
-        if module.kind == "calibration":
-            calibration.append(module)
-        elif module.kind == "requirement":
-            requirements.append(module)
-        else:
+        kind = registry.kind(module.kind)
+        if kind.composite is None:
             stages.append(module)
-    stages.append(calibration_stage(calibration, root))
-    if requirements:
-        stages.append(requirement_stage(requirements, root))
+        else:
+            members.setdefault(kind.name, []).append(module)
+    for kind in composite_kinds():
+        if members.get(kind.name) or kind.always:
+            stages.append(composite_stage(kind, members.get(kind.name, []), root))
     return order(stages)
 
 
-def calibration_stage(modules: list, root: Location) -> CalibrationStrategy:
-    """The calibration strategy of a case's calibration modules (none: a strategy with no steps)."""
-    return CalibrationStrategy(modules, modules[0].location.parent() if modules else root.child("calibration"))
+def composite_kinds() -> list:
+    """The kinds whose list makes one stage, in section order."""
+    return [k for k in registry.section_kinds() if k.composite is not None]
 
 
-def requirement_stage(modules: list, root: Location) -> RequirementSet:
-    """The requirement set of a case's requirement modules."""
-    return RequirementSet(modules, modules[0].location.parent() if modules else root.child("requirements"))
+def composite_stage(kind: Kind, modules: list, root: Location):
+    """The one stage of a case's ``modules`` of the composite ``kind`` (none: a stage with no members, when the kind
+    is ``always`` there), located at their section."""
+    return kind.composite(modules, modules[0].location.parent() if modules else root.child(kind.section))
 
 
 def order(stages: list) -> list:
@@ -89,8 +89,8 @@ def providers_of(product: str) -> list:
         provides = getattr(reg.cls, "provides", ())
         if isinstance(provides, tuple) and any(getattr(p, "name", None) == product for p in provides):
             out.append(f"{reg.kind}.{reg.type_name}")
-    if product in ("calibration", "system.residual", "faraday.residual"):
-        out.append("calibration (any list of calibration steps, or none)")
-    if product == "verdicts":
-        out.append("requirements (a list of requirement types)")
+    for kind in composite_kinds():
+        provides = getattr(kind.composite, "provides", ())
+        if isinstance(provides, tuple) and any(getattr(p, "name", None) == product for p in provides):
+            out.append(f"{kind.section} (a list of {kind.name} types{', or none' if kind.always else ''})")
     return out

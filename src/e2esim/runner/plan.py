@@ -9,8 +9,9 @@ instruments and one of everything else, however many of its million cases run. `
 validates those modules (``e2esim validate`` checks every configuration any case uses), and gives for any cases
 the number of each slot's module (``object_codes``). The chain of stages of a case follows from its modules
 (``e2esim.runner.chain``); cases whose modules have the same classes and declarations share a chain *template*,
-whose steps are a slot's module or a composite stage of several slots (the calibration strategy, the
-requirement set), built once per distinct combination of members.
+whose steps are a slot's module or a composite stage of several slots (the list of a composite kind,
+``e2esim.kinds.Kind``: the calibration strategy, the requirement set), built once per distinct combination of
+members.
 
 ``CaseSpecs`` gives the classic one-case view (``CaseSpec``: inputs, label, settings, modules, chain) of any
 case, made when asked for, for the per-case runner and for code that looks at one case.
@@ -23,8 +24,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from e2esim import registry
 from e2esim.errors import Location
-from e2esim.runner.chain import calibration_stage, order, requirement_stage
+from e2esim.runner.chain import composite_kinds, composite_stage, order
 from e2esim.runner.distinct import distinct_rows
 
 SETTINGS = "simulation"
@@ -65,9 +67,9 @@ class Slot:
 
 @dataclass(frozen=True)
 class ChainStep:
-    """One stage of a chain template: the module of slot ``slots[0]`` (``composite`` None), or a composite
-    stage of the modules of ``slots`` ("calibration": the calibration strategy; "requirements": the
-    requirement set)."""
+    """One stage of a chain template: the module of slot ``slots[0]`` (``composite`` None), or the stage of the
+    composite kind ``composite`` ("calibration": the calibration strategy; "requirement": the requirement set)
+    made of the modules of ``slots``."""
 
     slots: tuple
     composite: str | None = None
@@ -131,9 +133,9 @@ class SweepPlan:
         """(composite stage, its number in this run) of ``members``."""
         key = (step.composite, tuple(id(m) for m in members))
         if key not in self.composites:
-            build = calibration_stage if step.composite == "calibration" else requirement_stage
+            stage = composite_stage(registry.kind(step.composite), list(members), self.root)
             # members kept, so that their ids stay theirs; the number identifies the composite in a run
-            self.composites[key] = (build(list(members), self.root), members, len(self.composites))
+            self.composites[key] = (stage, members, len(self.composites))
         stage, _, number = self.composites[key]
         return stage, number
 
@@ -190,22 +192,18 @@ class SweepPlan:
 
     def _assemble(self, objects) -> Template:
         modules = self.modules_of(objects)
-        slots = list(range(len(modules)))
-        calibration = [j for j in slots if self.slots[j].kind == "calibration"]
-        requirements = [j for j in slots if self.slots[j].kind == "requirement"]
+        composites = {k.name: k for k in composite_kinds()}
         stages, steps = [], {}
-        for j in slots:
-            if j in calibration or j in requirements:
-                continue
-            stages.append(modules[j])
-            steps[id(modules[j])] = ChainStep((j,))
-        cal = calibration_stage([modules[j] for j in calibration], self.root)
-        stages.append(cal)
-        steps[id(cal)] = ChainStep(tuple(calibration), "calibration")
-        if requirements:
-            req = requirement_stage([modules[j] for j in requirements], self.root)
-            stages.append(req)
-            steps[id(req)] = ChainStep(tuple(requirements), "requirements")
+        for j, module in enumerate(modules):
+            if self.slots[j].kind not in composites:
+                stages.append(module)
+                steps[id(module)] = ChainStep((j,))
+        for name, kind in composites.items():
+            members = [j for j in range(len(modules)) if self.slots[j].kind == name]
+            if members or kind.always:
+                stage = composite_stage(kind, [modules[j] for j in members], self.root)
+                stages.append(stage)
+                steps[id(stage)] = ChainStep(tuple(members), name)
         return Template(tuple(steps[id(stage)] for stage in order(stages)))
 
 
