@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
-from e2esim.io.scalar_units import scalar_description, scalar_unit
+from e2esim.io.scalar_units import run_products, scalar_description, scalar_unit
 
 
 @dataclass
@@ -82,6 +82,7 @@ class Results:
         n, n_req = table.n, len(result.requirement_names)
         names = sorted(table.scalars)
         req_units = [r.unit[0] for r in table.requirements] if n else []
+        products = run_products(result.scenario)  # the units of the output scalars
         labels = result.labels  # a sweep's labels are joined when read (e2esim.runner.sweep.CaseLabels)
 
         def stacked(attr, convert=np.asarray):
@@ -94,7 +95,7 @@ class Results:
             labels=labels,
             inputs=result.input_columns(),
             scalars={k: table.scalar(k).astype(float, copy=False) for k in names},  # each joined anew: not shared
-            units={k: scalar_unit(k, tuple(req_units)) for k in names},
+            units={k: scalar_unit(k, tuple(req_units), products) for k in names},
             requirements=list(result.requirement_names),
             requirement_units=req_units,
             requirement_sources=requirement_sources(result.scenario),

@@ -155,6 +155,19 @@ class SweepPlan:
             numbers.append(number)
         return np.asarray(numbers, dtype=np.int64)[inverse], stages
 
+    def products(self) -> tuple:
+        """The ``Product`` declarations of everything the chains of this plan can provide (a plug-in's too), each
+        once: what gives the output scalars their units (``e2esim.io.scalar_units``)."""
+        found: dict = {}
+        for slot in self.module_slots:
+            for module in {int(shape): m for shape, m in zip(slot.shapes, slot.objects)}.values():
+                for product in getattr(module, "provides", ()):
+                    found.setdefault(product.name, product)
+        for kind in composite_kinds():
+            for product in getattr(kind.composite, "provides", ()):
+                found.setdefault(product.name, product)
+        return tuple(found.values())
+
     def chain(self, index: int) -> list:
         objects = self.object_codes([index])[0]
         return [self.stage(step, objects) for step in self.templates[int(self.template[index])].steps]
