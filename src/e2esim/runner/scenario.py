@@ -174,6 +174,7 @@ def _resolved_config(raw: dict, case: CaseSpec, output: dict) -> dict:
             resolved.setdefault(kind.section, []).append(entry)
         else:
             resolved[kind.section] = entry
+    resolved.setdefault("requirements", [])  # always listed, none included (as results.h5 has always written it)
     resolved["simulation"] = {
         f.name: getattr(case.settings, f.name) for f in SimulationSettings.__dataclass_fields__.values()
     }
