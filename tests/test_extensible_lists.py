@@ -86,6 +86,35 @@ class CheckSet:
         return {"regplug.checks": Checks(sum(strength > m.si["limit"] for m in self.modules))}
 
 
+class Scale(Module):
+    kind = "tweak"
+    type_name = "scale"
+    summary = "scales the echo"
+    params = (Param("factor", "float", "factor", default=1.0),)
+
+
+class Tweaks:
+    """The echo stage with the tweaks list: they change the echo before any other stage sees it."""
+
+    kind = "tweak"
+
+    def __init__(self, modules, location):
+        self.echo, self.tweaks = modules[0], tuple(modules[1:])
+        self.modules, self.location = tuple(modules), location
+        self.provides, self.needs, self.uses = self.echo.provides, self.echo.needs, self.echo.uses
+
+    @property
+    def identity(self):
+        return "the tweaked echo"
+
+    def forward(self, case):
+        strength = self.echo.forward(case)["regplug.echo"].strength
+        for tweak in self.tweaks:
+            strength *= tweak.si["factor"]
+        return {"regplug.echo": Echo(strength)}
+
+
+TWEAK_KIND = Kind("tweak", "changes to the echo", 47, "tweaks", composite=Tweaks, absorbs="regplug.echo")
 ECHO_KIND = Kind("echo", "an echo between the ionosphere and the calibration", 45, "echo", many=False)
 CHECK_KIND = Kind("check", "thresholds on the echo, one stage", 85, "checks", composite=CheckSet)
 
@@ -106,7 +135,8 @@ LONELY = Kind("lonely", "a composite that is no stage", 1, "lonely", composite="
 
 ENTRY_POINTS = {
     "regplug": ("[e2esim.modules]\necho.constant = regplug:ConstantEcho\ncheck.threshold = regplug:Threshold\n"
-                "[e2esim.kinds]\necho = regplug:ECHO_KIND\ncheck = regplug:CHECK_KIND\n"
+                "tweak.scale = regplug:Scale\n"
+                "[e2esim.kinds]\necho = regplug:ECHO_KIND\ncheck = regplug:CHECK_KIND\ntweak = regplug:TWEAK_KIND\n"
                 "[e2esim.plots]\necho_strength = regplug:plot_echo\n"),
     "regbad": ("[e2esim.kinds]\nlate = regbad:LATE\ntaken = regbad:TAKEN\nlonely = regbad:LONELY\n"
                "orbit = regbad:LATE\n[e2esim.plots]\necho_broken = regbad:nothing_here\n"),
@@ -119,6 +149,7 @@ echo: {type: constant, strength: 2.5}
 checks:
   - {type: threshold, limit: 1}
   - {type: threshold, limit: 5}
+tweaks: [{type: scale, factor: 1.5}, {type: scale, factor: 0.8}]
 simulation: {mode: analytic}
 output: {plots: [echo_strength, echo_broken]}
 """
@@ -145,14 +176,16 @@ def _e2esim(site: Path, *args, cwd=None):
 
 def test_a_plugin_adds_a_kind_a_composite_a_plot_and_its_units(site, tmp_path):
     """The echo section sits by its order between the ionosphere and the calibration; the checks list is one
-    stage; the plot type is drawn; the echo's scalars carry the units its product declares. The broken
+    stage; the tweaks list takes in the echo stage and changes its product before the checks see it; the plot type
+    is drawn; the echo's scalars carry the units its product declares. The broken
     declarations of regbad are named, and everything else works."""
     (tmp_path / "s.yaml").write_text(SCENARIO)
     run = _e2esim(site, "run", "s.yaml", "-o", "out", "--no-progress", cwd=tmp_path)
     assert run.returncode == 0, run.stderr
     summary = json.loads((tmp_path / "out" / "summary.json").read_text())
     results = summary["cases"][0]["results"]
-    assert results["echo.strength"] == 2.5 and results["checks.passed"] == 1.0  # 2.5 W exceeds 1 W, not 5 W
+    assert results["echo.strength"] == 2.5 * 1.5 * 0.8  # tweaked, in order
+    assert results["checks.passed"] == 1.0  # 3 W exceeds 1 W, not 5 W
     with h5py.File(tmp_path / "out" / "results.h5") as f:
         units = {name: f["cases/results"][name].attrs["units"] for name in ("echo.strength", "echo.gain_db",
                                                                                "checks.passed", "scene.sigma_hv")}
@@ -175,14 +208,18 @@ def test_a_plugin_adds_a_kind_a_composite_a_plot_and_its_units(site, tmp_path):
     validate = _e2esim(site, "validate", "s.yaml", cwd=tmp_path)
     assert validate.returncode == 0, validate.stderr
     assert ("modules: scene=table1_forest, instrument=biomass, ionosphere=constant_faraday, echo=constant, "
-            "propagation=hv_backscatter_error, retrieval=power_law, check=threshold, check=threshold") in validate.stdout
+            "tweak=scale, tweak=scale, propagation=hv_backscatter_error, retrieval=power_law, check=threshold, "
+            "check=threshold") in validate.stdout
 
 
 @pytest.mark.parametrize("change, message", [
     (("checks:\n  - {type: threshold, limit: 1}\n  - {type: threshold, limit: 5}\n", "checks: {type: threshold}\n"),
      "s.yaml:5: checks: is not a list; expected a list of check sections, each with a type"),
+    (("echo: {type: constant, strength: 2.5}\n", ""),
+     "s.yaml:7: tweaks: the tweaks list refines 'regplug.echo', which no stage of this chain provides; add a section "
+     "with one of echo.constant"),
     (("echo_broken", "echo_missing"),
-     "s.yaml:9: output.plots[1]: 'echo_missing' is not allowed (did you mean 'echo_strength'?); expected a "
+     "s.yaml:10: output.plots[1]: 'echo_missing' is not allowed (did you mean 'echo_strength'?); expected a "
      "non-empty list, each item one of 'auto', 'agb_error_vs_faraday_difference', "),
     (("echo: {type: constant, strength: 2.5}", "echo: {type: threshold}"),
      "s.yaml:4: echo.type: unknown echo type 'threshold'; registered echo types: constant"),
@@ -216,6 +253,8 @@ def test_kind_declarations_say_what_is_wrong():
     assert Kind("echo", "d", 45, "echo", many=False, composite=list).problem() == (
         "kind 'echo': a composite section holds a list (many=True)")
     assert Kind("2echo", "d", 45).problem() == "kind name '2echo' is not a name (e.g. 'interferometry')"
+    assert Kind("echo", "d", 45, "echo", absorbs="x").problem() == (
+        "kind 'echo': absorbs 'x' needs a composite and a product name")
 
 
 def test_e2esims_own_lists_are_registered():

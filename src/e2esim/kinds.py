@@ -34,6 +34,9 @@ class Kind:
     composite : ``composite(members, where) -> Stage``: the section's list makes one stage of its members (None:
         each module is a stage). always : the composite stage is in every chain, with no members when the
         section is absent (the calibration strategy provides the residual products, raw when nothing corrects).
+    absorbs : a product name, or None: the composite also takes the stage of the chain that provides this product,
+        as the first of its members, and stands in its place (a list that refines a product, which a case never
+        replaces: the stage makes it and the members change it before any other stage sees it).
     """
 
     name: str
@@ -45,6 +48,7 @@ class Kind:
     default: dict | None = None
     composite: Callable | None = None
     always: bool = False
+    absorbs: str | None = None
 
     def problem(self, entry_point: str | None = None) -> str | None:
         """What is wrong with this declaration (for a plug-in's entry point), or None."""
@@ -65,6 +69,8 @@ class Kind:
             return f"kind {self.name!r}: composite {self.composite!r} is not callable (members, where) -> Stage"
         if self.composite is not None and not self.many:
             return f"kind {self.name!r}: a composite section holds a list (many=True)"
+        if self.absorbs is not None and (self.composite is None or not isinstance(self.absorbs, str)):
+            return f"kind {self.name!r}: absorbs {self.absorbs!r} needs a composite and a product name"
         return None
 
 

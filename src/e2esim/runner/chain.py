@@ -31,8 +31,14 @@ def assemble(modules: list, root: Location) -> list:
         else:
             members.setdefault(kind.name, []).append(module)
     for kind in composite_kinds():
-        if members.get(kind.name) or kind.always:
-            stages.append(composite_stage(kind, members.get(kind.name, []), root))
+        own = members.get(kind.name, [])
+        if not (own or kind.always):
+            continue
+        if kind.absorbs is None:
+            stages.append(composite_stage(kind, own, root))
+        else:
+            i = absorbed_at(kind, stages, own, root)
+            stages[i] = composite_stage(kind, own, root, stages[i])
     return order(stages)
 
 
@@ -41,10 +47,23 @@ def composite_kinds() -> list:
     return [k for k in registry.section_kinds() if k.composite is not None]
 
 
-def composite_stage(kind: Kind, modules: list, root: Location):
+def composite_stage(kind: Kind, modules: list, root: Location, absorbed=None):
     """The one stage of a case's ``modules`` of the composite ``kind`` (none: a stage with no members, when the kind
-    is ``always`` there), located at their section."""
-    return kind.composite(modules, modules[0].location.parent() if modules else root.child(kind.section))
+    is ``always`` there), located at their section; ``absorbed``: the stage it takes in (``Kind.absorbs``), given
+    first."""
+    where = modules[0].location.parent() if modules else root.child(kind.section)
+    return kind.composite(list(modules) if absorbed is None else [absorbed, *modules], where)
+
+
+def absorbed_at(kind: Kind, stages: list, modules: list, root: Location) -> int:
+    """Where in ``stages`` the stage is that provides the product the composite ``kind`` refines."""
+    at = [i for i, s in enumerate(stages) if kind.absorbs in {p.name for p in getattr(s, "provides", ())}]
+    if not at:
+        where = modules[0].location.parent() if modules else root.child(kind.section)
+        providers = providers_of(kind.absorbs)
+        raise ConfigError(where, f"the {kind.section} list refines {kind.absorbs!r}, which no stage of this chain "
+                          "provides", "add a section with one of " + (", ".join(providers) or "none registered"))
+    return at[0]
 
 
 def order(stages: list) -> list:

@@ -25,8 +25,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from e2esim import registry
-from e2esim.errors import Location
-from e2esim.runner.chain import composite_kinds, composite_stage, order
+from e2esim.errors import ConfigError, Location
+from e2esim.runner.chain import absorbed_at, composite_kinds, composite_stage, order
 from e2esim.runner.distinct import distinct_rows
 
 SETTINGS = "simulation"
@@ -69,7 +69,7 @@ class Slot:
 class ChainStep:
     """One stage of a chain template: the module of slot ``slots[0]`` (``composite`` None), or the stage of the
     composite kind ``composite`` ("calibration": the calibration strategy; "requirement": the requirement set)
-    made of the modules of ``slots``."""
+    made of the modules of ``slots`` (``slots[0]`` the module it takes in when the kind ``absorbs`` a product)."""
 
     slots: tuple
     composite: str | None = None
@@ -133,7 +133,9 @@ class SweepPlan:
         """(composite stage, its number in this run) of ``members``."""
         key = (step.composite, tuple(id(m) for m in members))
         if key not in self.composites:
-            stage = composite_stage(registry.kind(step.composite), list(members), self.root)
+            kind = registry.kind(step.composite)
+            stage = composite_stage(kind, list(members), self.root) if kind.absorbs is None else \
+                composite_stage(kind, list(members[1:]), self.root, members[0])  # the stage it takes in, first
             # members kept, so that their ids stay theirs; the number identifies the composite in a run
             self.composites[key] = (stage, members, len(self.composites))
         stage, _, number = self.composites[key]
@@ -212,11 +214,22 @@ class SweepPlan:
                 stages.append(module)
                 steps[id(module)] = ChainStep((j,))
         for name, kind in composites.items():
-            members = [j for j in range(len(modules)) if self.slots[j].kind == name]
-            if members or kind.always:
-                stage = composite_stage(kind, [modules[j] for j in members], self.root)
+            own = [j for j in range(len(modules)) if self.slots[j].kind == name]
+            if not (own or kind.always):
+                continue
+            if kind.absorbs is None:
+                stage = composite_stage(kind, [modules[j] for j in own], self.root)
                 stages.append(stage)
-                steps[id(stage)] = ChainStep(tuple(members), name)
+                steps[id(stage)] = ChainStep(tuple(own), name)
+                continue
+            i = absorbed_at(kind, stages, [modules[j] for j in own], self.root)
+            taken = steps[id(stages[i])]
+            if taken.composite is not None:
+                raise ConfigError(self.root.child(kind.section), f"the {kind.section} list refines a product of "
+                                  f"{stages[i].identity}, itself a list", "a composite takes in one module's stage")
+            stage = composite_stage(kind, [modules[j] for j in own], self.root, stages[i])
+            steps[id(stage)] = ChainStep((*taken.slots, *own), name)
+            stages[i] = stage
         return Template(tuple(steps[id(stage)] for stage in order(stages)))
 
 
