@@ -4,7 +4,6 @@ import pytest
 
 from e2esim import registry
 from e2esim.errors import ModuleLookupError
-from e2esim.module import KIND_ORDER
 
 
 def test_builtins_register_through_the_entry_point_group():
@@ -12,8 +11,8 @@ def test_builtins_register_through_the_entry_point_group():
     assert {r.kind for r in regs} >= {"scene", "instrument", "ionosphere", "propagation", "retrieval", "requirement"}
     assert all(r.distribution.lower() == "e2esim" for r in regs if r.cls.__module__.startswith("e2esim."))
     assert registry.lookup("instrument", "biomass").__name__ == "BiomassInstrument"
-    ranks = [KIND_ORDER.index(r.kind) if r.kind in KIND_ORDER else len(KIND_ORDER) for r in regs]
-    assert ranks == sorted(ranks)  # e2esim's own kinds in chain order, then the others
+    ranks = [registry.kind(r.kind).order for r in regs]
+    assert ranks == sorted(ranks)  # e2esim's own kinds in section order, then the others
     assert registry.kinds()[-1] == "faraday_estimator"
     assert registry.lookup("faraday_estimator", "chirp_slope").ambiguous is False
 

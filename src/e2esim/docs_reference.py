@@ -9,7 +9,6 @@ from __future__ import annotations
 import sys
 
 from e2esim import registry
-from e2esim.module import KIND_DOCS, KIND_ORDER
 from e2esim.params import REQUIRED, ParamGroup, iter_constraints, iter_params
 
 
@@ -64,13 +63,11 @@ def _yaml(value) -> str:
 def render() -> str:
     from e2esim.maps.grid import MAP_PARAMS
     from e2esim.runner.limits import MAX_MAP_CASES
-    from e2esim.runner.scenario import (
-        DEFAULT_MODULES,
-        OUTPUT_PARAMS,
-        REQUIRED_SECTIONS,
-        SIMULATION_PARAMS,
-    )
+    from e2esim.runner.sections import output_params
     from e2esim.runner.sweep import SWEEP_PARAMS
+    from e2esim.settings import SIMULATION_PARAMS
+
+    kinds = registry.section_kinds("e2esim")
 
     out = [
         "# Scenario reference",
@@ -90,8 +87,8 @@ def render() -> str:
         "list names packages that `type: package.module:Class` may import although they are not installed "
         "distributions (security.md).",
         "",
-        f"Required sections: {', '.join('`' + s + '`' for s in REQUIRED_SECTIONS)}. Sections left out use: "
-        + ", ".join(f"`{k}: {{type: {v['type']}}}`" for k, v in DEFAULT_MODULES.items())
+        f"Required sections: {', '.join('`' + k.section + '`' for k in kinds if k.required)}. Sections left out use: "
+        + ", ".join(f"`{k.section}: {{type: {k.default['type']}}}`" for k in kinds if k.default)
         + "; without `orbit` the chain has no acquisition geometry, and without `calibration` the propagation sees "
         "the raw system errors and Faraday rotation.",
         "",
@@ -144,16 +141,15 @@ def render() -> str:
         "",
         "## `output`",
         "",
-        *_table(OUTPUT_PARAMS),
+        *_table(output_params("e2esim")),
         "",
     ]
-    for kind in (*KIND_ORDER, "faraday_estimator"):
-        regs = [r for r in registry.available(kind) if r.distribution.lower() == "e2esim"]
-        section = "requirements" if kind == "requirement" else kind
-        title = f"## `{section}`: {KIND_DOCS[kind]}" if kind != "faraday_estimator" else (
-            f"## Faraday-rotation estimators (`estimator` of `faraday_correction`): {KIND_DOCS[kind]}")
+    for kind in [*kinds, registry.kind("faraday_estimator")]:
+        regs = [r for r in registry.available(kind.name) if r.distribution.lower() == "e2esim"]
+        title = f"## `{kind.section}`: {kind.doc}" if kind.section else (
+            f"## Faraday-rotation estimators (`estimator` of `faraday_correction`): {kind.doc}")
         out += [title, ""]
-        if kind == "requirement":
+        if kind.name == "requirement":
             out += ["A list; each item is a mapping with `type:` and the parameters below.", ""]
         if not regs:
             out += ["No built-in module of this kind yet.", ""]

@@ -22,35 +22,6 @@ import numpy as np
 from e2esim.errors import ConfigError, Location, PhysicsInputError
 from e2esim.params import Param, ParamGroup, to_si, validate_section
 
-KIND_ORDER = (
-    "orbit",
-    "scene",
-    "instrument",
-    "ionosphere",
-    "calibration",
-    "propagation",
-    "error_terms",
-    "retrieval",
-    "requirement",
-)
-"""The built-in kinds, in the order a scenario's sections are listed and chained when their products
-allow it. The chain order itself follows the products (``e2esim.runner.chain``): a plug-in kind is placed
-after the stages whose products it needs. The instrument comes before the ionosphere (unlike the sketch in
-design.md) because Faraday rotation scales as 1/f^2 with the radar frequency."""
-
-KIND_DOCS = {
-    "orbit": "acquisition geometry: where and when the mission looks",
-    "ionosphere": "Faraday rotation of the case (its geophysical distribution)",
-    "scene": "scattering covariance of the target for an AGB level and biome",
-    "instrument": "system-error statistics, noise and gain of the radar, and its specification",
-    "calibration": "a calibration strategy (list of steps) and the residual errors it leaves",
-    "propagation": "error of the backscattering coefficient (an error model), and its random-error budget",
-    "error_terms": "error sources added to the propagation's error model, in order (a list)",
-    "retrieval": "relative AGB error through a backscatter-AGB model",
-    "requirement": "verdict of a mission requirement on the AGB error",
-    "faraday_estimator": "a Faraday-rotation estimator used by the faraday_correction calibration step",
-}
-
 
 class ParamReads(dict):
     """A module's parameter values that note which top-level names are read (``[]`` and ``get``): how a sweep or

@@ -12,6 +12,12 @@ Plug-in code is imported defensively (``e2esim.plugin_import``): an installed pl
 exits or takes more than 10 s, or whose entry point names no e2esim module, is left out with a
 ``PluginWarning`` naming its distribution and entry point (``broken_plugins``); every other module works.
 e2esim's own entry points are imported directly: a failure there is a bug of e2esim and keeps its traceback.
+
+Two more groups extend the frame the same way: ``e2esim.kinds`` declares module kinds (``e2esim.kinds.Kind``: a
+scenario section, its order, its default, a composite stage of its list) and ``e2esim.plots`` the report's plot
+types (name: the ``output.plots`` value; value: ``function(result, folder, options) -> [(file, caption)]``,
+imported only when drawn). A plug-in's declaration that cannot be loaded or is not valid is left out with a
+``PluginWarning``, like a module.
 """
 
 from __future__ import annotations
@@ -28,10 +34,13 @@ from dataclasses import dataclass
 from importlib.metadata import entry_points, packages_distributions
 
 from e2esim.errors import ModuleLookupError
-from e2esim.module import KIND_ORDER, Module
+from e2esim.kinds import Kind, undeclared
+from e2esim.module import Module
 from e2esim.plugin_import import PluginImportFailed, PluginWarning, guarded_import
 
 ENTRY_POINT_GROUP = "e2esim.modules"
+KIND_GROUP = "e2esim.kinds"
+PLOT_GROUP = "e2esim.plots"
 
 
 @dataclass(frozen=True)
@@ -50,9 +59,11 @@ class BrokenPlugin:
     value: str  # "package.module:Class"
     distribution: str
     problem: str
+    group: str = ENTRY_POINT_GROUP
 
     def message(self) -> str:
-        return (f"plug-in {self.distribution}, entry point {self.name} = {self.value}, is not available: "
+        where = "" if self.group == ENTRY_POINT_GROUP else f" of {self.group}"
+        return (f"plug-in {self.distribution}, entry point {self.name}{where} = {self.value}, is not available: "
                 f"{self.problem}; e2esim goes on without it")
 
 
@@ -69,10 +80,7 @@ def _load() -> dict[tuple[str, str], Registration]:
     names: dict = {}  # distribution name by distribution object: reading it parses its metadata file
     for ep in entry_points(group=ENTRY_POINT_GROUP):
         kind, _, type_name = ep.name.partition(".")
-        source = getattr(ep, "dist", None)
-        if source is not None and id(source) not in names:
-            names[id(source)] = source.name
-        dist = names[id(source)] if source is not None else "?"
+        dist = _distribution(ep, names)
         if dist.lower() == "e2esim":
             cls = ep.load()
             _check_class(cls, f"entry point {ep.name!r} of {dist}", kind, type_name)
@@ -98,6 +106,14 @@ def _load() -> dict[tuple[str, str], Registration]:
     return found
 
 
+def _distribution(ep, names: dict) -> str:
+    """The name of the distribution that declares ``ep`` (``names`` caches them by distribution object)."""
+    source = getattr(ep, "dist", None)
+    if source is not None and id(source) not in names:
+        names[id(source)] = source.name
+    return names[id(source)] if source is not None else "?"
+
+
 def _load_plugin(ep, dist: str, kind: str, type_name: str, broken: list) -> type | None:
     """The class of a plug-in's entry point, or None (appended to ``broken``) if importing it raised, exited or
     hung, or it is not the e2esim module it says. A distribution whose import hung is not tried again."""
@@ -115,17 +131,129 @@ def _load_plugin(ep, dist: str, kind: str, type_name: str, broken: list) -> type
 
 
 def broken_plugins() -> tuple:
-    """The ``BrokenPlugin`` entry points left out of the registry (each also warned about once)."""
+    """The ``BrokenPlugin`` entry points left out of the registry (each also warned about once): modules, kinds
+    and plot types."""
     _load()
-    return _broken
+    return _broken + _load_kinds()[1] + _plot_entries()[1]
 
 
 def refresh() -> None:
     """Forget the cached registry and installed packages (after installing a plug-in in the same process)."""
-    global _cache, _installed, _broken
+    global _cache, _installed, _broken, _kinds, _plots
     _cache = None
     _installed = None
     _broken = ()
+    _kinds = _plots = None
+
+
+# Kinds ---------------------------------------------------------------------------------------------------------
+_kinds: tuple | None = None  # ({name: Kind}, broken, {name: distribution})
+
+
+def _load_kinds() -> tuple:
+    global _kinds
+    if _kinds is not None:
+        return _kinds
+    found: dict = {}
+    broken: list = []
+    names: dict = {}
+    dists: dict = {}
+    for ep in sorted(entry_points(group=KIND_GROUP), key=lambda e: _distribution(e, names).lower() != "e2esim"):
+        dist = _distribution(ep, names)
+        if dist.lower() == "e2esim":
+            found[ep.name], dists[ep.name] = ep.load(), dist
+            continue
+        try:
+            declared = guarded_import(ep.load)
+        except PluginImportFailed as exc:
+            broken.append(BrokenPlugin(ep.name, ep.value, dist, str(exc), KIND_GROUP))
+            continue
+        problem = declared.problem(ep.name) if isinstance(declared, Kind) else (
+            "is not an e2esim Kind (e2esim.kinds.Kind)")
+        if problem is None and ep.name in found:
+            problem = f"the kind {ep.name!r} is declared already (by e2esim or another plug-in)"
+        taken = next((k.name for k in found.values() if declared.section is not None and k.section == declared.section),
+                     None) if problem is None else None
+        if taken is not None:
+            problem = f"section {declared.section!r} belongs to the kind {taken!r} already"
+        if problem is not None:
+            broken.append(BrokenPlugin(ep.name, ep.value, dist, problem, KIND_GROUP))
+        else:
+            found[ep.name], dists[ep.name] = declared, dist
+    _kinds = (found, tuple(broken), dists)
+    for plugin in broken:
+        warnings.warn(plugin.message(), PluginWarning, stacklevel=3)
+    return _kinds
+
+
+def kind(name: str) -> Kind:
+    """The declaration of kind ``name`` (a kind only a plug-in's modules name: ``e2esim.kinds.undeclared``)."""
+    return _load_kinds()[0].get(name) or undeclared(name)
+
+
+def section_kinds(distribution: str | None = None) -> list:
+    """The kinds that are scenario sections, in section order: the declared ones, then the stage kinds that
+    plug-ins' modules name without declaring them (only those one distribution declares: ``distribution``)."""
+    from e2esim.module import Stage
+
+    declared, _, dists = _load_kinds()
+    if distribution is not None:
+        return sorted((k for n, k in declared.items() if k.section is not None and dists[n].lower() == distribution),
+                      key=lambda k: (k.order, k.name))
+    extra = [undeclared(r.kind) for r in _load().values()
+             if r.kind not in declared and issubclass(r.cls, Stage)]
+    out = [k for k in declared.values() if k.section is not None] + list({k.name: k for k in extra}.values())
+    return sorted(out, key=lambda k: (k.order, k.name))
+
+
+# Plot types ----------------------------------------------------------------------------------------------------
+_plots: tuple | None = None  # ({name: entry point}, broken)
+
+
+def _plot_entries() -> tuple:
+    global _plots
+    if _plots is None:
+        found: dict = {}
+        broken: list = []
+        names: dict = {}
+        for ep in sorted(entry_points(group=PLOT_GROUP), key=lambda e: _distribution(e, names).lower() != "e2esim"):
+            dist = _distribution(ep, names)
+            problem = (f"plot name {ep.name!r} is not a name" if not ep.name.isidentifier() or ep.name == "auto"
+                       else f"the plot type {ep.name!r} is registered already" if ep.name in found else None)
+            if problem is None:
+                found[ep.name] = (ep, dist)
+            else:
+                broken.append(BrokenPlugin(ep.name, ep.value, dist, problem, PLOT_GROUP))
+        _plots = (found, tuple(broken))
+        for plugin in broken:
+            warnings.warn(plugin.message(), PluginWarning, stacklevel=3)
+    return _plots
+
+
+def plot_types(distribution: str | None = None) -> tuple:
+    """The names of the registered plot types (of one distribution, e.g. "e2esim"), e2esim's own first; nothing
+    is imported."""
+    return tuple(n for n, (_, d) in _plot_entries()[0].items() if distribution is None or d.lower() == distribution)
+
+
+def plot(name: str):
+    """The drawing function of plot type ``name``: ``function(result, folder, options) -> [(file, caption)]``.
+    Raises ModuleLookupError for an unknown name or a plug-in's plot that cannot be imported."""
+    entry = _plot_entries()[0].get(name)
+    if entry is None:
+        raise ModuleLookupError(f"unknown plot type {name!r}; registered plot types: {', '.join(plot_types())}")
+    ep, dist = entry
+    if dist.lower() == "e2esim":
+        return ep.load()
+    try:
+        function = guarded_import(ep.load)
+    except PluginImportFailed as exc:
+        raise ModuleLookupError(f"plot type {name!r} of the plug-in {dist} ({ep.value}) could not be loaded: "
+                                f"{exc}") from exc
+    if not callable(function):
+        raise ModuleLookupError(f"plot type {name!r} of the plug-in {dist} ({ep.value}) is not a function "
+                                "(result, folder, options) -> [(file name, caption)]")
+    return function
 
 
 def _check_class(cls, origin: str, kind: str | None = None, type_name: str | None = None) -> None:
@@ -146,8 +274,7 @@ def available(kind: str | None = None) -> list[Registration]:
 
 
 def _sort_key(r: Registration) -> tuple:
-    rank = KIND_ORDER.index(r.kind) if r.kind in KIND_ORDER else len(KIND_ORDER)
-    return rank, r.kind, r.type_name
+    return kind(r.kind).order, r.kind, r.type_name
 
 
 def kinds() -> list:

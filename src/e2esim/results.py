@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from e2esim.extras import optional_import
-from e2esim.io.scalar_units import scalar_description, scalar_unit
+from e2esim.io.scalar_units import run_products, scalar_description, scalar_unit
 from e2esim.maps.grid import map_section
 from e2esim.maps.netcdf import map_dataset
 from e2esim.runner.folder_run import write_into_folder
@@ -86,6 +86,7 @@ class Results:
         n, n_req = table.n, len(result.requirement_names)
         names = sorted(table.scalars)
         req_units = [r.unit[0] for r in table.requirements] if n else []
+        products = run_products(result.scenario)  # the units of the output scalars
         labels = result.labels  # a sweep's labels are joined when read (e2esim.runner.sweep.CaseLabels)
 
         def stacked(attr, convert=np.asarray):
@@ -98,7 +99,7 @@ class Results:
             labels=labels,
             inputs=result.input_columns(),
             scalars={k: table.scalar(k).astype(float, copy=False) for k in names},  # each joined anew: not shared
-            units={k: scalar_unit(k, tuple(req_units)) for k in names},
+            units={k: scalar_unit(k, tuple(req_units), products) for k in names},
             requirements=list(result.requirement_names),
             requirement_units=req_units,
             requirement_sources=requirement_sources(result.scenario),

@@ -8,6 +8,12 @@ from __future__ import annotations
 
 import numpy as np
 
+SIGMA = "m^2/m^2"
+SIGMA_SQUARED = "(m^2/m^2)^2"
+DIMENSIONLESS = "1"
+COUNT = "count"
+"""Units of output scalars that do not carry their unit in their name (``e2esim.products.Product.units``)."""
+
 THREE_SIGMA_AMPLITUDE = "three_sigma_amplitude"
 VARIANCE = "variance"
 LEVEL_CONVENTIONS = (THREE_SIGMA_AMPLITUDE, VARIANCE)

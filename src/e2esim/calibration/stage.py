@@ -10,6 +10,7 @@ from __future__ import annotations
 
 from e2esim import products as P
 from e2esim.calibration.record import CalibrationRecord
+from e2esim.kinds import Kind
 
 
 def _union(groups) -> tuple:
@@ -58,3 +59,9 @@ class CalibrationStrategy:
         system, faraday = block["system"], block["faraday.geophysical"]
         record = UncalibratedBlock(system, faraday, block.get("scene.covariance"))
         return {"calibration": record, "system.residual": system, "faraday.residual": faraday}
+
+
+KIND = Kind("calibration", "a calibration strategy (list of steps) and the residual errors it leaves", 50,
+            "calibration", composite=CalibrationStrategy, always=True)
+"""The ``calibration`` section: a list of steps that make one stage, in every chain (registered in pyproject.toml,
+``e2esim.kinds``)."""

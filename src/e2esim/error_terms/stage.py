@@ -13,6 +13,7 @@ error terms runs case by case in both engines (the reference path), so both give
 from __future__ import annotations
 
 from e2esim.errors import ConfigError
+from e2esim.kinds import Kind
 
 PRODUCT = "backscatter.error"
 
@@ -69,19 +70,14 @@ class ErrorTermStack:
         return self.propagation.insensitivity(owner, key)
 
 
-def refined(stages: list, terms: list) -> list:
-    """``stages`` with the one providing ``backscatter.error`` and ``terms`` made one ``ErrorTermStack`` (no terms:
-    ``stages`` itself); a ``ConfigError`` when no stage provides it."""
-    if not terms:
-        return stages
-    at = [i for i, s in enumerate(stages) if PRODUCT in {p.name for p in getattr(s, "provides", ())}]
-    if not at:
-        raise ConfigError(terms[0].location.parent(),
-                          "error terms refine backscatter.error, which no stage of this chain provides",
-                          "add a propagation section (hv_backscatter_error, polarimetric_backscatter_error, ...)")
-    out = list(stages)
-    out[at[0]] = ErrorTermStack(stages[at[0]], terms)
-    return out
+def error_term_stack(members: list, where) -> ErrorTermStack:
+    """The composite of the ``error_terms`` section (``e2esim.kinds.Kind.composite``): ``members[0]`` is the stage
+    that provides ``backscatter.error`` (absorbed, ``Kind.absorbs``), the rest the terms in order."""
+    return ErrorTermStack(members[0], members[1:])
 
 
-__all__ = ["ErrorTermStack", "refined"]
+KIND = Kind("error_terms", "error sources added to the propagation's error model, in order (a list)", 65,
+            "error_terms", composite=error_term_stack, absorbs=PRODUCT)
+"""The ``error_terms`` kind, registered in pyproject.toml (entry-point group ``e2esim.kinds``)."""
+
+__all__ = ["KIND", "ErrorTermStack", "error_term_stack"]

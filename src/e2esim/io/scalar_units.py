@@ -1,16 +1,17 @@
 """Units and one-line descriptions of the output scalars, for the attributes of results.h5 and for the
-Results API. The names follow docs/output-format.md: the unit is in the name (``_percent``, ``_db``,
-``_deg``, ...) or fixed by its group (``scene.sigma_hv`` in m^2/m^2). A name no rule knows (a plug-in's
-output) gets the unit "unknown", never a guess.
+Results API. The names follow docs/output-format.md: an output scalar takes its unit from the product that
+made it (``e2esim.products.Product.units``: ``scene.sigma_hv`` in m^2/m^2), a plug-in's too; otherwise the unit
+is at the end of its name (``_percent``, ``_db``, ``_deg``, ...). A name neither gives a unit gets the unit
+"unknown", never a guess.
 """
 
 from __future__ import annotations
 
 import re
 
-SIGMA = "m^2/m^2"
-SIGMA_SQUARED = "(m^2/m^2)^2"
-DIMENSIONLESS = "1"
+from e2esim import products as P
+from e2esim.units import DIMENSIONLESS
+
 TEXT = "text"  # units of string datasets
 
 _SUFFIX_UNITS = (
@@ -20,29 +21,6 @@ _SUFFIX_UNITS = (
     ("_probability", DIMENSIONLESS), ("variance_share", DIMENSIONLESS), ("_pvalue", DIMENSIONLESS),
 )
 """Units written at the end of a name (longest match first where two share an ending)."""
-
-_RULES = (
-    (r"scene\.(sigma_hh|sigma_hv|sigma_vv|hhvv_magnitude)", SIGMA),
-    (r"scene\.agb_t_ha", "t/ha"),
-    (r"system\.(crosstalk_variance|imbalance_variance)", DIMENSIONLESS),
-    (r"system\.noise_power", SIGMA),
-    (r"system\..*gain.*", "dB"),
-    (r"analytic\.(mean|sd|bias_\w+)", SIGMA),
-    (r"analytic\.(variance|var_\w+)", SIGMA_SQUARED),
-    (r"montecarlo\.(mean|sd|mean_se)", SIGMA),
-    (r"montecarlo\.(variance|variance_se)", SIGMA_SQUARED),
-    (r"montecarlo\.(samples|realisations)", "count"),
-    (r"montecarlo\.(skewness|excess_kurtosis|ks_distance)", DIMENSIONLESS),
-    (r"comparison\.\w+", DIMENSIONLESS),
-    (r"budget\.looks", "count"),
-    (r"calibration\.steps", "count"),
-    (r"calibration\..*chi2_mean", DIMENSIONLESS),
-    (r"calibration\.residual\.(max_abs_correlation_outside_pairs|max_crosstalk_noncircularity)", DIMENSIONLESS),
-    (r"faraday(_residual)?\.tec_variability", DIMENSIONLESS),
-    (r"agb\.exponent", DIMENSIONLESS),
-    (r"agb\.contribution\.\w+\.campaigns(_failed)?", "count"),
-    (r"requirement\d+\.passed", "1 (pass), 0 (fail) or NaN (not applicable)"),
-)
 
 _GROUPS = {
     "scene": "scattering covariance of the scene",
@@ -59,19 +37,29 @@ _GROUPS = {
 }
 
 
-def scalar_unit(name: str, requirement_units: tuple = ()) -> str:
-    """The unit of output scalar ``name``; ``requirement_units`` give ``requirement<j>.value``/``margin``."""
+def scalar_unit(name: str, requirement_units: tuple = (), products=P.BUILT_IN) -> str:
+    """The unit of output scalar ``name``: the one its product declares (``products``: the declarations of the
+    run's products, e2esim's own by default; ``e2esim.runner.records.run_products``), else the unit at the end
+    of its name; ``requirement_units`` give ``requirement<j>.value``/``margin``."""
     match = re.fullmatch(r"requirement(\d+)\.(value|margin)", name)
     if match:
         j = int(match.group(1))
         return requirement_units[j] if j < len(requirement_units) else "unknown"
-    for pattern, unit in _RULES:
-        if re.fullmatch(pattern, name):
+    for product in sorted(products, key=lambda p: -len(p.scalars or "")):  # a longer prefix is more specific
+        unit = product.unit_of(name)
+        if unit is not None:
             return unit
     for suffix, unit in _SUFFIX_UNITS:
         if name.endswith(suffix):
             return unit
     return "unknown"
+
+
+def run_products(scenario) -> tuple:
+    """The product declarations that give a run's output scalars their units: e2esim's own and those of the
+    run's chains (a plug-in's)."""
+    plan = getattr(scenario, "plan", None)
+    return (*P.BUILT_IN, *(plan.products() if plan is not None else ()))
 
 
 def scalar_description(name: str) -> str:

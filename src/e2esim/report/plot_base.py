@@ -1,8 +1,8 @@
 """What every report plot shares: saving a figure atomically, and saying why a requested plot is not drawn.
 
-A plot type is a function ``(result, folder, options) -> [(file name, caption)]`` registered in
-``e2esim.report.plots.PLOTTERS``. One that cannot draw anything for a run raises ``PlotSkipped`` with the
-reason; the report and standard error show it (``make_plots``).
+A plot type is a function ``(result, folder, options) -> [(file name, caption)]`` registered in the entry-point
+group ``e2esim.plots`` (``e2esim.registry.plot``). One that cannot draw anything for a run raises ``PlotSkipped``
+with the reason; the report and standard error show it (``make_plots``).
 
 Drawing speed: matplotlib lays out text (tick labels above all) on every pass over a figure. Report figures
 are made at the resolution they are saved at (``figure_settings``), so the layout pass (``tight_layout``) and

@@ -18,18 +18,14 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 
+from e2esim import registry
+from e2esim.errors import ModuleLookupError
 from e2esim.io.summary import LARGE_RUN_CASES
 from e2esim.maps.grid import is_map_sweep
-from e2esim.maps.plots import plot_map_fraction, plot_map_sweep
-from e2esim.report.budget_plots import plot_error_budget
-from e2esim.report.faraday_plots import plot_faraday_climatology, plot_faraday_distributions
 from e2esim.report.labels import wrapped
-from e2esim.report.map_plots import SITE_KEYS, plot_site_map
-from e2esim.report.multichannel_plots import plot_estimator_comparison
+from e2esim.report.map_plots import SITE_KEYS
 from e2esim.report.plot_base import PlotSkipped, colors, figure_settings, save
-from e2esim.report.stack_plots import plot_agb_error_vs_faraday_difference
 from e2esim.report.sweep_layout import legend, sweep_layout
-from e2esim.report.sweep_plots import plot_agb_error_vs_sweep, plot_backscatter_vs_sweep, plot_verdicts
 from e2esim.units import level_db_from_variance
 
 
@@ -158,25 +154,10 @@ def plot_contributions(result, folder: Path, options: dict) -> list:
              "interaction (Men et al. 2021, Appendix C, Figs. 9-10).")]
 
 
-PLOTTERS = {
-    "verdicts": plot_verdicts,
-    "error_budget": plot_error_budget,
-    "backscatter_vs_sweep": plot_backscatter_vs_sweep,
-    "error_histograms": plot_error_histograms,
-    "tradeoff": plot_tradeoff,
-    "contributions": plot_contributions,
-    "agb_error_vs_sweep": plot_agb_error_vs_sweep,
-    "faraday_distributions": plot_faraday_distributions,
-    "faraday_climatology": plot_faraday_climatology,
-    "site_map": plot_site_map,
-    "estimator_comparison": plot_estimator_comparison,
-    "agb_error_vs_faraday_difference": plot_agb_error_vs_faraday_difference,
-    "global_maps": plot_map_sweep,
-    "map_fraction": plot_map_fraction,
-}
-"""Plot types by name: function(result, folder, options) -> [(file name, caption)]; ``PlotSkipped`` says why
-one draws nothing."""
 AUTO_PLOTS = ("verdicts", "backscatter_vs_sweep", "agb_error_vs_sweep", "error_histograms", "tradeoff")
+"""``auto``: these of e2esim's plot types (every plot type, a plug-in's too, is registered in the entry-point
+group ``e2esim.plots``: function(result, folder, options) -> [(file name, caption)]; ``PlotSkipped`` says why
+one draws nothing)."""
 MAP_AUTO_PLOTS = ("global_maps", "map_fraction")
 """``auto`` of a map sweep: its maps instead of per-case plots."""
 ALWAYS_PLOTS = ("error_budget",)
@@ -213,12 +194,14 @@ def make_plots(result, folder: Path, warnings: list | None = None, steps=None) -
         with contextlib.nullcontext() if steps is None else steps.step(name):
             try:
                 if large and name not in COLUMN_PLOTS:
-                    cases = len(result.scenario.cases)
-                    raise PlotSkipped(f"the run has {cases} cases, more than {LARGE_RUN_CASES}: draw from results.h5 "
-                                      "(e2esim.open_results, Results.to_xarray)")
+                    raise PlotSkipped(f"the run has {len(result.scenario.cases)} cases, more than {LARGE_RUN_CASES}: "
+                                      "draw from results.h5 (e2esim.open_results, Results.to_xarray)")
+                draw = registry.plot(name)  # a registered plot type (entry-point group e2esim.plots)
                 with figure_settings():
-                    made = PLOTTERS[name](result, folder, options)
+                    made = draw(result, folder, options)
             except PlotSkipped as why:
+                made, reason = [], str(why)
+            except ModuleLookupError as why:  # a plug-in's plot that cannot be imported
                 made, reason = [], str(why)
             else:
                 reason = "the plot function drew nothing for this run"

@@ -7,6 +7,7 @@ import dataclasses
 import numpy as np
 
 from e2esim import products as P
+from e2esim.kinds import Kind
 from e2esim.module import fast_path
 from e2esim.requirements.verdict import RequirementVerdicts, RequirementVerdictsBlock
 
@@ -85,3 +86,9 @@ class RequirementSet:
             except (NotBatched, ConfigError):
                 return None
         return {"verdicts": parts[0] if len(parts) == 1 else RequirementVerdictsBlock.concatenate(parts)}
+
+
+KIND = Kind("requirement", "verdict of a mission requirement on the AGB error", 80, "requirements",
+            composite=RequirementSet)
+"""The ``requirements`` section: a list of requirements that make one stage (registered in pyproject.toml,
+``e2esim.kinds``)."""

@@ -1,23 +1,21 @@
 """From a scenario's modules to the chain of stages the runner passes each case through.
 
-Sections become stages: a stage module is a stage itself; the ``calibration`` list becomes one
-``CalibrationStrategy`` and the ``requirements`` list one ``RequirementSet`` (there is always a calibration
-stage, with no steps when the scenario has no calibration section, so the propagation finds the residual
-products). The order follows the products: a stage runs after every stage that provides what it needs or
-uses, and otherwise in the order of the sections (``e2esim.module.KIND_ORDER``, then plug-in kinds as
-listed), so a plug-in kind (an ``interferometry`` stage, say) takes its place by what it needs and provides.
+Sections become stages: a stage module is a stage itself; the list of a composite kind (``e2esim.kinds.Kind``)
+becomes one stage of its members: the ``calibration`` list one ``CalibrationStrategy``, the ``requirements`` list
+one ``RequirementSet`` (there is always a calibration stage, with no steps when the scenario has no calibration
+section, so the propagation finds the residual products: ``Kind.always``). The order follows the products: a
+stage runs after every stage that provides what it needs or uses, and otherwise in the order of the sections
+(the kinds' ``order``, then plug-in kinds nobody declares), so a plug-in kind (an ``interferometry`` stage, say)
+takes its place by what it needs and provides.
 A product that no stage provides is a ``ConfigError`` naming the stage that needs it and the registered
-modules that could provide it: ``e2esim validate`` reports it before anything runs. With an ``error_terms`` list,
-the stage that provides ``backscatter.error`` and the terms become one ``ErrorTermStack`` (``e2esim.error_terms``).
+modules that could provide it: ``e2esim validate`` reports it before anything runs.
 """
 
 from __future__ import annotations
 
 from e2esim import registry
-from e2esim.calibration.stage import CalibrationStrategy
-from e2esim.error_terms.stage import ErrorTermStack, refined
 from e2esim.errors import ConfigError, Location
-from e2esim.requirements.stage import RequirementSet
+from e2esim.kinds import Kind
 
 CONTEXT = ("settings", "rng", "inputs")
 """What every case has besides products (not products; never needed by name)."""
@@ -25,36 +23,47 @@ CONTEXT = ("settings", "rng", "inputs")
 
 def assemble(modules: list, root: Location) -> list:
     """The stages of a case in chain order, from its modules (in section order)."""
-    stages, calibration, requirements, terms = [], [], [], []
+    stages, members = [], {}
     for module in modules:
-        if module.kind == "calibration":
-            calibration.append(module)
-        elif module.kind == "error_terms":
-            terms.append(module)
-        elif module.kind == "requirement":
-            requirements.append(module)
-        else:
+        kind = registry.kind(module.kind)
+        if kind.composite is None:
             stages.append(module)
-    stages = refined(stages, terms)
-    stages.append(calibration_stage(calibration, root))
-    if requirements:
-        stages.append(requirement_stage(requirements, root))
+        else:
+            members.setdefault(kind.name, []).append(module)
+    for kind in composite_kinds():
+        own = members.get(kind.name, [])
+        if not (own or kind.always):
+            continue
+        if kind.absorbs is None:
+            stages.append(composite_stage(kind, own, root))
+        else:
+            i = absorbed_at(kind, stages, own, root)
+            stages[i] = composite_stage(kind, own, root, stages[i])
     return order(stages)
 
 
-def calibration_stage(modules: list, root: Location) -> CalibrationStrategy:
-    """The calibration strategy of a case's calibration modules (none: a strategy with no steps)."""
-    return CalibrationStrategy(modules, modules[0].location.parent() if modules else root.child("calibration"))
+def composite_kinds() -> list:
+    """The kinds whose list makes one stage, in section order."""
+    return [k for k in registry.section_kinds() if k.composite is not None]
 
 
-def error_term_stage(modules: list, root: Location) -> ErrorTermStack:
-    """The stage providing ``backscatter.error`` (``modules[0]``) with the error terms ``modules[1:]``."""
-    return ErrorTermStack(modules[0], modules[1:])
+def composite_stage(kind: Kind, modules: list, root: Location, absorbed=None):
+    """The one stage of a case's ``modules`` of the composite ``kind`` (none: a stage with no members, when the kind
+    is ``always`` there), located at their section; ``absorbed``: the stage it takes in (``Kind.absorbs``), given
+    first."""
+    where = modules[0].location.parent() if modules else root.child(kind.section)
+    return kind.composite(list(modules) if absorbed is None else [absorbed, *modules], where)
 
 
-def requirement_stage(modules: list, root: Location) -> RequirementSet:
-    """The requirement set of a case's requirement modules."""
-    return RequirementSet(modules, modules[0].location.parent() if modules else root.child("requirements"))
+def absorbed_at(kind: Kind, stages: list, modules: list, root: Location) -> int:
+    """Where in ``stages`` the stage is that provides the product the composite ``kind`` refines."""
+    at = [i for i, s in enumerate(stages) if kind.absorbs in {p.name for p in getattr(s, "provides", ())}]
+    if not at:
+        where = modules[0].location.parent() if modules else root.child(kind.section)
+        providers = providers_of(kind.absorbs)
+        raise ConfigError(where, f"the {kind.section} list refines {kind.absorbs!r}, which no stage of this chain "
+                          "provides", "add a section with one of " + (", ".join(providers) or "none registered"))
+    return at[0]
 
 
 def order(stages: list) -> list:
@@ -99,8 +108,8 @@ def providers_of(product: str) -> list:
         provides = getattr(reg.cls, "provides", ())
         if isinstance(provides, tuple) and any(getattr(p, "name", None) == product for p in provides):
             out.append(f"{reg.kind}.{reg.type_name}")
-    if product in ("calibration", "system.residual", "faraday.residual"):
-        out.append("calibration (any list of calibration steps, or none)")
-    if product == "verdicts":
-        out.append("requirements (a list of requirement types)")
+    for kind in composite_kinds():
+        provides = getattr(kind.composite, "provides", ())
+        if isinstance(provides, tuple) and any(getattr(p, "name", None) == product for p in provides):
+            out.append(f"{kind.section} (a list of {kind.name} types{', or none' if kind.always else ''})")
     return out

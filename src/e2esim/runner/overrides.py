@@ -9,9 +9,15 @@ validates is the value that runs. The rule for keys that a sweep sets:
   ``sweep.parameters.`` is the one dotted sweep key), ``--set sweep.cases.I.KEY=VALUE`` changes KEY in
   case I of an explicit case list.
 * ``--replace-sweep KEY=VALUE`` takes KEY out of the sweep and gives it VALUE in every case.
+
+Key paths (``value_at``, ``set_path``, ``dotted_path``) are shared with the sweep's plan
+(``e2esim.runner.plan_builder``).
 """
 
 from __future__ import annotations
+
+import copy
+from typing import Any
 
 from e2esim.errors import ConfigError, Location
 from e2esim.runner.limits import shorten
@@ -144,3 +150,42 @@ def remove_from_sweep(raw: dict, key: str, where: Location) -> None:
     left = swept_keys(sweep)
     if not left:
         del raw["sweep"]
+
+
+def dotted_path(key: str) -> tuple:
+    """Key path of a dotted sweep key: ``requirements.0.side`` -> ("requirements", 0, "side")."""
+    return tuple(int(p) if p.isdigit() else p for p in key.split("."))
+
+
+def set_path(data: dict, path: tuple, value: Any, where: Location, copy_on_write: bool = False) -> None:
+    """Set ``data[path] = value``, creating mappings on the way; with ``copy_on_write`` every mapping or
+    list on the path is replaced by a copy first, so the scenario's own objects are never changed."""
+    node = data
+    for i, key in enumerate(path[:-1]):
+        if copy_on_write and isinstance(node, (dict, list)):
+            child = node[key] if (isinstance(node, dict) and key in node) or (
+                isinstance(node, list) and isinstance(key, int) and key < len(node)) else None
+            if isinstance(child, (dict, list)):
+                node[key] = copy.copy(child)
+        if isinstance(node, list):
+            if not isinstance(key, int) or key >= len(node):
+                raise ConfigError(Location(where.source, path[: i + 1], where.lines), "no such list item",
+                                  f"the list has {len(node)} items")
+            node = node[key]
+            continue
+        if not isinstance(node, dict):
+            raise ConfigError(Location(where.source, path[:i], where.lines), "is not a mapping",
+                              "cannot set a key inside it")
+        if key not in node or node[key] is None:
+            node[key] = {}
+        node = node[key]
+    last = path[-1]
+    if isinstance(node, list):
+        if not isinstance(last, int) or last >= len(node):
+            raise ConfigError(where, "no such list item", f"the list has {len(node)} items")
+        node[last] = value
+    elif isinstance(node, dict):
+        node[last] = value
+    else:
+        raise ConfigError(Location(where.source, path[:-1], where.lines), "is not a mapping",
+                          "cannot set a key inside it")

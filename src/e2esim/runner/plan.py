@@ -9,8 +9,9 @@ instruments and one of everything else, however many of its million cases run. `
 validates those modules (``e2esim validate`` checks every configuration any case uses), and gives for any cases
 the number of each slot's module (``object_codes``). The chain of stages of a case follows from its modules
 (``e2esim.runner.chain``); cases whose modules have the same classes and declarations share a chain *template*,
-whose steps are a slot's module or a composite stage of several slots (the calibration strategy, the
-requirement set), built once per distinct combination of members.
+whose steps are a slot's module or a composite stage of several slots (the list of a composite kind,
+``e2esim.kinds.Kind``: the calibration strategy, the requirement set), built once per distinct combination of
+members.
 
 ``CaseSpecs`` gives the classic one-case view (``CaseSpec``: inputs, label, settings, modules, chain) of any
 case, made when asked for, for the per-case runner and for code that looks at one case.
@@ -23,9 +24,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from e2esim.error_terms.stage import refined
-from e2esim.errors import Location
-from e2esim.runner.chain import calibration_stage, error_term_stage, order, requirement_stage
+from e2esim import registry
+from e2esim.errors import ConfigError, Location
+from e2esim.runner.chain import absorbed_at, composite_kinds, composite_stage, order
 from e2esim.runner.distinct import distinct_rows
 
 SETTINGS = "simulation"
@@ -66,9 +67,9 @@ class Slot:
 
 @dataclass(frozen=True)
 class ChainStep:
-    """One stage of a chain template: the module of slot ``slots[0]`` (``composite`` None), or a composite
-    stage of the modules of ``slots`` ("calibration": the calibration strategy; "error_terms": the stage providing
-    backscatter.error with the error terms; "requirements": the requirement set)."""
+    """One stage of a chain template: the module of slot ``slots[0]`` (``composite`` None), or the stage of the
+    composite kind ``composite`` ("calibration": the calibration strategy; "requirement": the requirement set)
+    made of the modules of ``slots`` (``slots[0]`` the module it takes in when the kind ``absorbs`` a product)."""
 
     slots: tuple
     composite: str | None = None
@@ -132,10 +133,11 @@ class SweepPlan:
         """(composite stage, its number in this run) of ``members``."""
         key = (step.composite, tuple(id(m) for m in members))
         if key not in self.composites:
-            build = {"calibration": calibration_stage, "error_terms": error_term_stage}.get(step.composite,
-                                                                                          requirement_stage)
+            kind = registry.kind(step.composite)
+            stage = composite_stage(kind, list(members), self.root) if kind.absorbs is None else \
+                composite_stage(kind, list(members[1:]), self.root, members[0])  # the stage it takes in, first
             # members kept, so that their ids stay theirs; the number identifies the composite in a run
-            self.composites[key] = (build(list(members), self.root), members, len(self.composites))
+            self.composites[key] = (stage, members, len(self.composites))
         stage, _, number = self.composites[key]
         return stage, number
 
@@ -154,6 +156,19 @@ class SweepPlan:
             stages[number] = stage
             numbers.append(number)
         return np.asarray(numbers, dtype=np.int64)[inverse], stages
+
+    def products(self) -> tuple:
+        """The ``Product`` declarations of everything the chains of this plan can provide (a plug-in's too), each
+        once: what gives the output scalars their units (``e2esim.io.scalar_units``)."""
+        found: dict = {}
+        for slot in self.module_slots:
+            for module in {int(shape): m for shape, m in zip(slot.shapes, slot.objects)}.values():
+                for product in getattr(module, "provides", ()):
+                    found.setdefault(product.name, product)
+        for kind in composite_kinds():
+            for product in getattr(kind.composite, "provides", ()):
+                found.setdefault(product.name, product)
+        return tuple(found.values())
 
     def chain(self, index: int) -> list:
         objects = self.object_codes([index])[0]
@@ -192,27 +207,29 @@ class SweepPlan:
 
     def _assemble(self, objects) -> Template:
         modules = self.modules_of(objects)
-        slots = list(range(len(modules)))
-        calibration = [j for j in slots if self.slots[j].kind == "calibration"]
-        requirements = [j for j in slots if self.slots[j].kind == "requirement"]
-        terms = [j for j in slots if self.slots[j].kind == "error_terms"]
+        composites = {k.name: k for k in composite_kinds()}
         stages, steps = [], {}
-        for j in slots:
-            if j in calibration or j in requirements or j in terms:
+        for j, module in enumerate(modules):
+            if self.slots[j].kind not in composites:
+                stages.append(module)
+                steps[id(module)] = ChainStep((j,))
+        for name, kind in composites.items():
+            own = [j for j in range(len(modules)) if self.slots[j].kind == name]
+            if not (own or kind.always):
                 continue
-            stages.append(modules[j])
-            steps[id(modules[j])] = ChainStep((j,))
-        for i, stage in enumerate(refined(list(stages), [modules[j] for j in terms])):
-            if stage is not stages[i]:  # the stage providing backscatter.error, with the error terms
-                steps[id(stage)] = ChainStep((*steps[id(stages[i])].slots, *terms), "error_terms")
-                stages[i] = stage
-        cal = calibration_stage([modules[j] for j in calibration], self.root)
-        stages.append(cal)
-        steps[id(cal)] = ChainStep(tuple(calibration), "calibration")
-        if requirements:
-            req = requirement_stage([modules[j] for j in requirements], self.root)
-            stages.append(req)
-            steps[id(req)] = ChainStep(tuple(requirements), "requirements")
+            if kind.absorbs is None:
+                stage = composite_stage(kind, [modules[j] for j in own], self.root)
+                stages.append(stage)
+                steps[id(stage)] = ChainStep(tuple(own), name)
+                continue
+            i = absorbed_at(kind, stages, [modules[j] for j in own], self.root)
+            taken = steps[id(stages[i])]
+            if taken.composite is not None:
+                raise ConfigError(self.root.child(kind.section), f"the {kind.section} list refines a product of "
+                                  f"{stages[i].identity}, itself a list", "a composite takes in one module's stage")
+            stage = composite_stage(kind, [modules[j] for j in own], self.root, stages[i])
+            steps[id(stage)] = ChainStep((*taken.slots, *own), name)
+            stages[i] = stage
         return Template(tuple(steps[id(stage)] for stage in order(stages)))
 
 

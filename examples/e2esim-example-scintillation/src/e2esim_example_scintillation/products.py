@@ -33,4 +33,5 @@ class Scintillation:
 
 SCINTILLATION = Product(
     "ionosphere.scintillation", Scintillation,
-    "amplitude scintillation of the case: S4 index and independent patterns per estimate", scalars="scintillation")
+    "amplitude scintillation of the case: S4 index and independent patterns per estimate", scalars="scintillation",
+    units=(("s4|independent_patterns|factor_variance", "1"),))
