@@ -78,5 +78,5 @@ def test_a_model_variant_copies_no_cache_into_the_journal():
     model = _joint()
     model.contributions()  # fills the cache with variants and their node terms
     variant = dataclasses.replace(model, looks=100)
-    header, payload = plaindata.encode(variant, PACKAGES)
+    _, payload = plaindata.encode(variant, PACKAGES)
     assert len(payload) < 200_000
