@@ -112,9 +112,9 @@ def _simulate_fast(scene, system, errs, omega, rng, looks, n_noise, reference, c
         c_hat = scene.sample_covariance(rng, looks, m)
     errors, ref = {}, {}
     for ch in channels:
-        a = effective_weights(errs.delta, errs.f, omega, ch, errs.gain)  # (M, 3)
-        form = "mi,ij,mj->m" if c_hat.ndim == 2 else "mi,mij,mj->m"
-        q = np.real(np.einsum(form, a, c_hat, a.conj()))
+        gain = errs.gain if system.has_gain_error else 1.0  # all ones otherwise: no product needed
+        a = effective_weights(errs.delta, errs.f, omega, ch, gain)  # (M, 3)
+        q = hermitian_form(a, c_hat)
         q = np.clip(q, 0.0, None)  # a C a^H >= 0; clip rounding noise only
         nu2 = system.noise_power * estimator_noise_factor(ch)
         if nu2 > 0:
@@ -126,6 +126,22 @@ def _simulate_fast(scene, system, errs, omega, rng, looks, n_noise, reference, c
         ref[ch] = np.real(c_hat[..., idx, idx]) if reference == "scene" else _population_sigma(scene, ch)
         errors[ch] = sigma_hat - (ref[ch][:, None] if np.ndim(ref[ch]) else ref[ch])
     return errors, ref
+
+
+def hermitian_form(a: np.ndarray, c: np.ndarray) -> np.ndarray:
+    """Re(a C a^H) per row of ``a`` (M, 3) for a Hermitian C (3, 3) or (M, 3, 3): the diagonal terms and twice
+    the real part of the upper triangle, in real arithmetic (several times faster than a three-operand einsum,
+    the same value to rounding)."""
+    ar, ai = a.real, a.imag
+    cr, ci = c.real, c.imag
+    q = 0.0
+    for i in range(3):
+        q = q + cr[..., i, i] * (ar[:, i] * ar[:, i] + ai[:, i] * ai[:, i])
+        for j in range(i + 1, 3):  # 2 Re(a_i C_ij a_j^*)
+            re = ar[:, i] * ar[:, j] + ai[:, i] * ai[:, j]  # Re(a_i a_j^*)
+            im = ai[:, i] * ar[:, j] - ar[:, i] * ai[:, j]  # Im(a_i a_j^*)
+            q = q + 2 * (cr[..., i, j] * re - ci[..., i, j] * im)
+    return q
 
 
 def _simulate_brute_force(scene, system, errs, omega, rng, looks, n_noise, reference, channels, scene_vectors):

@@ -193,15 +193,17 @@ def effective_weights(
     d = [0.0, 0.0, 0.0, 0.0]  # w^T D, element by element (only rows with non-zero weight)
     for r in np.flatnonzero(w):
         for col, entry in enumerate(_distortion_row(delta, f, r)):
-            d[col] = d[col] + w[r] * entry
+            term = w[r] * entry
+            d[col] = term if np.isscalar(d[col]) and d[col] == 0.0 else d[col] + term
     omega = np.asarray(omega, dtype=float)
     c, s = np.cos(omega), np.sin(omega)
     cs = c * s
     cross = (d[2] - d[1]) * cs
-    a = np.stack(
-        [d[0] * c * c + cross - d[3] * s * s, d[1] + d[2] + 0 * c, -d[0] * s * s + cross + d[3] * c * c], -1
-    )
-    return np.asarray(gain)[..., None] * a
+    first, last = d[0] * c * c + cross - d[3] * s * s, -d[0] * s * s + cross + d[3] * c * c
+    a = np.empty(np.broadcast_shapes(np.shape(first), np.shape(last)) + (3,), complex)  # filled, not stacked
+    a[..., 0], a[..., 1], a[..., 2] = first, d[1] + d[2], last
+    gain = np.asarray(gain)
+    return a if gain.ndim == 0 and gain == 1.0 else gain[..., None] * a
 
 
 def _distortion_row(delta, f, r):

@@ -5,7 +5,9 @@ numbers, strings, lists, mappings, numpy arrays of plain dtypes, arrays of such 
 allowed classes, filled field by field without calling any of their code. So a crafted journal can give
 wrong numbers at worst; it cannot run code. The encoding is generic (any dataclass-like object of e2esim
 or of a registered plug-in), so it follows changes to the result types without a schema to maintain,
-and round-trips exactly: floats through ``repr``, arrays byte for byte, shared references kept.
+and round-trips exactly: floats through ``repr``, arrays byte for byte, shared references kept. Fields a class
+names in ``plain_transient`` are caches of what its other fields determine: they are not stored and come back
+as empty dicts.
 
 Layout of one encoded value: ``(header, payload)``; ``header`` is a JSON text ``{"tree": ..., "arrays":
 [[dtype, shape] or [dtype, shape, "read-only"], ...]}``, ``payload`` the arrays' bytes back to back, in C order.
@@ -120,6 +122,8 @@ class _Encoder:
             raise NotPlainData(f"an object of type {module}.{cls.__qualname__}")
         fields = dict(vars(v)) if hasattr(v, "__dict__") else {}
         fields.update((name, getattr(v, name)) for name in slot_names(cls) if hasattr(v, name))
+        for name in getattr(cls, "plain_transient", ()):  # caches: not stored, decoded empty
+            fields.pop(name, None)
         if not fields and not hasattr(v, "__dict__"):
             raise NotPlainData(f"an object without fields, {module}.{cls.__qualname__}")
         node = self._remember(v, {"$": "o", "c": f"{module}:{cls.__qualname__}", "f": []})
@@ -323,6 +327,9 @@ class _Decoder:
                 obj.__dict__[name] = value
             else:
                 raise BadPlainData(f"{node['c'][:80]!r} has no field {name!r}")
+        for name in getattr(cls, "plain_transient", ()):  # a cache the encoder left out: empty again
+            if hasattr(obj, "__dict__"):
+                obj.__dict__.setdefault(name, {})
         return obj
 
     def _class(self, path) -> type:

@@ -110,9 +110,12 @@ def stack_joint_moments(scene: StackScene, errors: StackSystemErrors, faraday: S
     tr_q2y, tr_qyqy, csys, off = np.zeros(vec), np.zeros(vec), np.zeros(vec), np.zeros(mat)
     for value in np.unique(dv):
         key = (float(value), bool(correct_copol), need_cross)
-        if key not in cache:
-            cache[key] = joint_node_terms(scene, errors, faraday, combination, float(np.sqrt(value)), correct_copol,
-                                          need_cross)
+        if key not in cache or (cache[key]["y0"] is None and _needs_signal(cache[key], need_cross, reference, looks)):
+            t = joint_node_terms(scene, errors, faraday, combination, float(np.sqrt(value)), correct_copol,
+                                 need_cross)
+            if not _needs_signal(t, need_cross, reference, looks):
+                t["y0"] = None  # the largest of the terms (G N^2 9 complex), not read here: not kept in the cache
+            cache[key] = t
         t = cache[key]
         sel = dv == value
         mono = monomials(xs[sel], es[sel])  # (6, S)
@@ -124,7 +127,7 @@ def stack_joint_moments(scene: StackScene, errors: StackSystemErrors, faraday: S
         spread_m[sel] = np.einsum("sgp,sgq,g->spq", node_mean, node_mean, w)
         v[sel] = np.einsum("ks,kgpq,g->spq", mono, t["cov"], w)
         tr_q2y[sel] = np.einsum("ks,kgp,g->sp", mono, t["trq2y"], w)
-        if t["cov4"] is not None or need_cross or (reference == "population" and looks is not None):
+        if _needs_signal(t, need_cross, reference, looks):
             y0 = np.einsum("ks,kgnmpq->sgnmpq", mono, t["y0"])  # passes' signal covariances, no gain factors
             if t["cov4"] is not None:  # Cov over the passes' own gains of the conditional means
                 kappa = np.diagonal(q.T[None, None, :, :, None, None] * y0, axis1=-2, axis2=-1)  # (S, G, N, N, 3)
@@ -169,6 +172,12 @@ def stack_joint_moments(scene: StackScene, errors: StackSystemErrors, faraday: S
     expected_covariance = g1 * expected + (nu2 * tr_q)[..., :, None] * np.eye(3)
     return StackJointMoments(mean, covariance, values, mu - values, bias_noise, bias_gain, v, veta, spread, cov_gain,
                              finite, expected_covariance)
+
+
+def _needs_signal(terms: dict, need_cross: bool, reference: str, looks: int | None) -> bool:
+    """Whether the moments read the passes' signal covariances ``y0``: for the passes' own gains, the speckle cross
+    term of a combination of rank > 1, or the population reference's finite looks."""
+    return terms["cov4"] is not None or need_cross or (reference == "population" and looks is not None)
 
 
 __all__ = ["StackJointMoments", "joint_node_terms", "stack_joint_moments"]

@@ -63,6 +63,7 @@ class StackModelBase:
     notes: tuple = ()
     unavailable: str | None = None
     _memo: dict = field(default_factory=dict, repr=False, compare=False)
+    plain_transient = ("_memo",)  # a cache of evaluations (node terms of every level searched): not journalled
 
     @property
     def includes_speckle(self) -> bool:
