@@ -62,7 +62,7 @@ def _yaml(value) -> str:
 
 
 def render() -> str:
-    from e2esim.runner.limits import MAX_MAP_CASES
+    from e2esim.limits import MAX_MAP_CASES
     from e2esim.runner.map_sweep import MAP_PARAMS
     from e2esim.runner.scenario import (
         DEFAULT_MODULES,

@@ -22,10 +22,10 @@ from e2esim.errors import ResultsFileError, UserError
 from e2esim.io.h5_datasets import TABLE_ATTR
 from e2esim.io.safe_h5 import H5Reader
 from e2esim.io.scalar_units import scalar_unit
+from e2esim.limits import MAX_CASES, MAX_MAP_CASES, MAX_STORED_SCENARIO_BYTES, MAX_STORED_SCENARIO_VALUES
 from e2esim.requirements.verdict import STATUSES
 from e2esim.results import Results
 from e2esim.runner.joined_labels import JoinedLabels
-from e2esim.runner.limits import MAX_CASES, MAX_MAP_CASES, MAX_STORED_SCENARIO_BYTES, MAX_STORED_SCENARIO_VALUES
 from e2esim.runner.yaml_loader import load_plain_yaml
 
 MAX_RESULT_CASES = max(MAX_CASES, MAX_MAP_CASES)

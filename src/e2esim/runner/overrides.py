@@ -14,7 +14,7 @@ validates is the value that runs. The rule for keys that a sweep sets:
 from __future__ import annotations
 
 from e2esim.errors import ConfigError, Location
-from e2esim.runner.limits import shorten
+from e2esim.limits import shorten
 from e2esim.runner.yaml_loader import parse_scalar
 
 EXAMPLE = "expected e.g. --set instrument.crosstalk.level_db=-28"

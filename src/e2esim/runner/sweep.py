@@ -16,9 +16,9 @@ from typing import Any
 import numpy as np
 
 from e2esim.errors import ConfigError, Location
+from e2esim.limits import MAX_CASES, SPLIT_ADVICE, check_count, shorten
 from e2esim.params import Param, unknown_key_error, validate_section
 from e2esim.runner.joined_labels import NO_PART, SEPARATOR, JoinedLabels, numbered
-from e2esim.runner.limits import MAX_CASES, SPLIT_ADVICE, check_count, shorten
 
 SWEEP_PARAMS = (
     Param("mode", "str", "grid: every combination of the parameter lists; zip: the lists side by side",
