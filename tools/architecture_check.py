@@ -48,6 +48,7 @@ LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
             "e2esim",
             "e2esim.errors",
             "e2esim.limits",
+            "e2esim.distinct",
             "e2esim.units",
             "e2esim.settings",
             "e2esim.params",

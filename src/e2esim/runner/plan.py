@@ -23,9 +23,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from e2esim.distinct import distinct_rows
 from e2esim.errors import Location
 from e2esim.runner.chain import calibration_stage, order, requirement_stage
-from e2esim.runner.distinct import distinct_rows
 
 SETTINGS = "simulation"
 _CHUNK = 1 << 20  # cases whose template is found in one vectorised pass
