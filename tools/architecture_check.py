@@ -49,6 +49,8 @@ LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
             "e2esim.errors",
             "e2esim.limits",
             "e2esim.distinct",
+            "e2esim.atomic",
+            "e2esim.input_files",
             "e2esim.units",
             "e2esim.settings",
             "e2esim.params",

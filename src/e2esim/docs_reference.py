@@ -176,7 +176,7 @@ def main(argv=None) -> int:
     argv = sys.argv[1:] if argv is None else argv
     text = render()
     if argv:
-        from e2esim.io.atomic import write_text_atomic
+        from e2esim.atomic import write_text_atomic
 
         write_text_atomic(argv[0], text)
     else:
