@@ -24,7 +24,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from e2esim.io.error_budget import source_name
+from e2esim.requirements.source_names import source_name
 
 SYSTEMATIC = "systematic"
 ASSUMED = "assumed"
