@@ -51,6 +51,7 @@ LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
             "e2esim.distinct",
             "e2esim.atomic",
             "e2esim.input_files",
+            "e2esim.key_paths",
             "e2esim.units",
             "e2esim.settings",
             "e2esim.value_text",

@@ -26,7 +26,6 @@ from e2esim.block import Values
 from e2esim.case import Case, Products, Services
 from e2esim.errors import UserError
 from e2esim.io.array_cache import open_cache
-from e2esim.io.provenance import dependency_versions, source_commit
 from e2esim.runner.columns import (
     RequirementColumns,
     case_notes,
@@ -36,6 +35,7 @@ from e2esim.runner.columns import (
     source_group_column,
 )
 from e2esim.runner.progress import CaseProgress
+from e2esim.runner.provenance import dependency_versions, source_commit
 from e2esim.runner.records import case_scalars
 from e2esim.runner.result_table import ResultTable
 from e2esim.runner.scenario import ResolvedScenario
