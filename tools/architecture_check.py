@@ -104,6 +104,7 @@ LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
         (
             "e2esim.runner.outputs",
             "e2esim.results",
+            "e2esim.compare",
             "e2esim.testing",
             "e2esim.docs_reference",
             "e2esim.api",
