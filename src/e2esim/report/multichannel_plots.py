@@ -21,7 +21,7 @@ def plot_estimator_comparison(result, folder: Path, options: dict) -> list:
     sigma_hv, sigma_vv (mean and 3 SD, analytic) of each group."""
     from e2esim.report.labels import wrapped
     from e2esim.report.plot_base import save as _save
-    from e2esim.report.plots import _colors
+    from e2esim.report.plots import series_colors
     from e2esim.runner.sweep import case_labels
 
     key = next((k for k in result.scenario.sweep_keys if k.endswith("estimator")), None)
@@ -38,7 +38,7 @@ def plot_estimator_comparison(result, folder: Path, options: dict) -> list:
     width = 0.8 / len(estimators)
     x = np.arange(len(groups))
     limit = None
-    for j, (est, color) in enumerate(zip(estimators, _colors(len(estimators)))):
+    for j, (est, color) in enumerate(zip(estimators, series_colors(len(estimators)))):
         for i, cases in enumerate(groups.values()):
             c = cases.get(est)
             if c is None:
@@ -55,12 +55,13 @@ def plot_estimator_comparison(result, folder: Path, options: dict) -> list:
     ax.set_xticks(x, list(groups), fontsize=7)
     ax.set_ylabel(wrapped(f"{result.requirement_names[0]} (%)", 50), fontsize=8)
     ax.set_ylim(0, _CAP_PERCENT * 1.45)
-    handles = [Patch(facecolor=col, edgecolor="k", label=est) for est, col in zip(estimators, _colors(len(estimators)))]
+    colors = series_colors(len(estimators))
+    handles = [Patch(facecolor=col, edgecolor="k", label=est) for est, col in zip(estimators, colors)]
     handles.append(Patch(facecolor="w", edgecolor="k", hatch="//", label="fails"))
     ax.legend(handles=handles, fontsize=7, title="estimator", title_fontsize=7)
     ax.grid(alpha=0.3, axis="y")
     width_ch = 0.8 / len(_CHANNELS)
-    for j, (ch, color) in enumerate(zip(_CHANNELS, _colors(len(_CHANNELS)))):
+    for j, (ch, color) in enumerate(zip(_CHANNELS, series_colors(len(_CHANNELS)))):
         for i, cases in enumerate(groups.values()):
             s = next(iter(cases.values())).scalars
             if f"{ch}.analytic.relative_mean_percent" not in s:

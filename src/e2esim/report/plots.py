@@ -86,7 +86,7 @@ def plot_tradeoff(result, folder: Path, options: dict) -> list:
     styles = {"over": "-", "under": "--"}
     for ax, c in zip(axes.ravel(), cases):
         verdicts = [v for v in c.verdicts if v.curves]
-        for v, color in zip(verdicts, _colors(len(verdicts))):
+        for v, color in zip(verdicts, series_colors(len(verdicts))):
             x = v.curves["crosstalk_db"]
             for side in ("over", "under"):
                 key = f"{side}.imbalance_db"
@@ -139,10 +139,10 @@ def plot_contributions(result, folder: Path, options: dict) -> list:
     linestyles = ["-", "--", ":", "-."]
     for (label, cases), ls in zip(groups.items(), linestyles * 10):
         x = np.array([c.inputs[x_key] for c in cases], dtype=float)
-        for (part, key), color in zip(bias_parts.items(), _colors(3)):
+        for (part, key), color in zip(bias_parts.items(), series_colors(3)):
             frac = [c.scalars[key] / c.scalars["analytic.mean"] for c in cases]
             ax_b.plot(x, frac, ls, color=color, label=f"{part}, {label}")
-        for (part, key), color in zip(var_parts.items(), _colors(3)):
+        for (part, key), color in zip(var_parts.items(), series_colors(3)):
             frac = [c.scalars[key] / c.scalars["analytic.variance"] for c in cases]
             ax_v.plot(x, frac, ls, color=color, label=f"{part}, {label}")
     ax_b.set_ylabel("fraction of the mean error")
@@ -228,6 +228,6 @@ def make_plots(result, folder: Path, warnings: list | None = None) -> list:
     return out
 
 
-def _colors(n: int) -> list:
+def series_colors(n: int) -> list:
     cmap = plt.get_cmap("tab10")
     return [cmap(i % 10) for i in range(max(n, 1))]
