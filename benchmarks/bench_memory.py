@@ -7,7 +7,7 @@ Faraday-rotation spreads (200,000 cases). Each variant runs twice, with 20 Farad
 (70,000 cases): the same scenes, instruments and error budgets (the run's catalogs of distinct values, bounded
 by ``e2esim.runner.blocks.CATALOG_ENTRIES``: docs/architecture.md), and blocks of the same size (4096 cases,
 on two workers too), fewer cases. What grows per case is the difference of the two peaks over the difference
-of their case counts: the figure the documentation states (``e2esim.runner.limits.MEMORY_PER_CASE_BYTES``).
+of their case counts: the figure the documentation states (``e2esim.limits.MEMORY_PER_CASE_BYTES``).
 The peak of the larger run over its cases is printed beside it (fixed costs and catalogs included).
 
 Variants (the requirements of the scenario): ``minimal`` (the reference: the lightest chain, no error budget, a
@@ -221,7 +221,7 @@ def main() -> None:
     if args.make_journal:
         make_journal(*args.make_journal)
         return
-    from e2esim.runner.limits import MEMORY_PER_CASE_BYTES
+    from e2esim.limits import MEMORY_PER_CASE_BYTES
 
     agb = args.agb or (150 if args.quick else 500)
     chosen = args.variants or ",".join(v for v in VARIANTS if not (args.quick and v == "tradeoff_curve"))
@@ -233,7 +233,7 @@ def main() -> None:
     say(f"machine: {os.cpu_count()} cores, load average {load:.2f} at the start")
     say(f"memory per case of e2esim run, main process (ru_maxrss): {agb} AGB x 20 crosstalk x {SPREADS[1]} "
         f"Faraday-rotation spreads against {SPREADS[0]} spreads; documented: <= {MEMORY_PER_CASE_BYTES} bytes per "
-        "case (e2esim.runner.limits.MEMORY_PER_CASE_BYTES)")
+        "case (e2esim.limits.MEMORY_PER_CASE_BYTES)")
     reference = None
     with tempfile.TemporaryDirectory() as tmp:
         for name in (["minimal"] if "minimal" in names else []) + [n for n in names if n != "minimal"]:

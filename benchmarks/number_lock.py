@@ -72,6 +72,7 @@ def results_h5_content(run_folder: Path) -> dict:
     import numpy as np
 
     from e2esim.io.results_reader import read_results
+    from e2esim.results import Results
 
     out: dict = {}
 
@@ -93,7 +94,7 @@ def results_h5_content(run_folder: Path) -> dict:
         f.visititems(lambda name, obj: tables.add(f"{name.rpartition('/')[0]}/{text(obj.attrs['text'])}")
                      if isinstance(obj, h5py.Dataset) and "text" in obj.attrs else None)
         f.visititems(visit)
-    return {"labels": list(read_results(run_folder).labels), "datasets": out}
+    return {"labels": list(read_results(run_folder, Results).labels), "datasets": out}
 
 
 class Comparison:

@@ -216,7 +216,7 @@ def make_results_case(seed: int) -> tuple:
 
 def check_results(path: Path) -> None:
     import e2esim
-    from e2esim.io.compare import compare_report
+    from e2esim.compare import compare_report
 
     with hang_guard(HANG_S):
         try:

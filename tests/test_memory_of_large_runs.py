@@ -21,9 +21,9 @@ import numpy as np
 import pytest
 import yaml
 
+from e2esim.limits import MAX_CASES, MAX_MAP_CASES, MEMORY_PER_CASE_BYTES
 from e2esim.runner import run as run_module
 from e2esim.runner.journal import Journal
-from e2esim.runner.limits import MAX_CASES, MAX_MAP_CASES, MEMORY_PER_CASE_BYTES
 from e2esim.runner.run import run_scenario
 from e2esim.runner.scenario import Scenario
 from e2esim.runner.spill import SpilledBlock

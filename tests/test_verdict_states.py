@@ -13,7 +13,7 @@ import yaml
 
 import e2esim
 from e2esim.cli import main
-from e2esim.io.compare import compare_report
+from e2esim.compare import compare_report
 from e2esim.requirements.verdict import RequirementVerdict, RequirementVerdictsBlock
 from e2esim.results import results_of
 from e2esim.runner.run import run_scenario

@@ -77,7 +77,7 @@ def open_results(path) -> Results:
     """The ``Results`` of a run folder or its results.h5 file."""
     from e2esim.io.results_reader import read_results
 
-    return read_results(path)
+    return read_results(path, Results)
 
 
 def _describe(scenario) -> str:

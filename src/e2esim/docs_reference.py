@@ -61,8 +61,8 @@ def _yaml(value) -> str:
 
 
 def render() -> str:
+    from e2esim.limits import MAX_MAP_CASES
     from e2esim.maps.grid import MAP_PARAMS
-    from e2esim.runner.limits import MAX_MAP_CASES
     from e2esim.runner.sections import output_params
     from e2esim.runner.sweep import SWEEP_PARAMS
     from e2esim.settings import SIMULATION_PARAMS
@@ -172,7 +172,7 @@ def main(argv=None) -> int:
     argv = sys.argv[1:] if argv is None else argv
     text = render()
     if argv:
-        from e2esim.io.atomic import write_text_atomic
+        from e2esim.atomic import write_text_atomic
 
         write_text_atomic(argv[0], text)
     else:

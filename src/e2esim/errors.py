@@ -125,7 +125,7 @@ class ModuleLookupError(UserError, LookupError):
 
 
 class LimitError(UserError):
-    """An input beyond one of the validation limits (``e2esim.runner.limits``): the message names the
+    """An input beyond one of the validation limits (``e2esim.limits``): the message names the
     number, the limit and, where the work is legitimate, how to run it."""
 
 

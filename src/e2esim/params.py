@@ -1,7 +1,8 @@
 """Parameter declarations: each module declares its parameters once, here is what checks them.
 
 A module class lists ``Param`` and ``ParamGroup`` objects in its ``params`` attribute, together with the
-constraints between them (``ExactlyOneOf``, ``AtMostOneOf``, ``Requires``, ``Ordered``). The same
+constraints between them (``ExactlyOneOf``, ``AtMostOneOf``, ``Requires``, ``Ordered``: ``e2esim.param_constraints``,
+imported from here). The same
 declaration validates a YAML section and a Python call (``Module(**values)``), fills in defaults and
 generates docs/scenario-reference.md. Values are checked for type, bounds, choices and length, and
 every complaint is a ``ConfigError`` naming the key path, the value and what is allowed (the models are
@@ -16,6 +17,7 @@ an ISLR in Ahmed et al. 2014) is declared with ``convert=False`` and keeps its d
 
 from __future__ import annotations
 
+import dataclasses
 import difflib
 import math
 from collections.abc import Callable, Iterable, Mapping, Sequence
@@ -24,8 +26,17 @@ from typing import Any
 
 import numpy as np
 
-from e2esim.errors import ConfigError, Location, ModuleLookupError
+from e2esim.errors import ConfigError, Location
+from e2esim.param_components import build_component, validate_component
+from e2esim.param_constraints import AtMostOneOf, Constraint, ExactlyOneOf, Ordered, Requires
 from e2esim.units import db_to_linear
+from e2esim.value_text import LARGEST_NUMBER, number_text, value_text
+
+__all__ = [  # the constraints live in e2esim.param_constraints; this is where modules import them from
+    "REQUIRED", "SI_UNITS", "AtMostOneOf", "Constraint", "ExactlyOneOf", "Ordered", "Param", "ParamGroup", "Requires",
+    "SIUnit", "find_param", "iter_constraints", "iter_params", "to_si", "unknown_key_error", "validate_section",
+    "with_defaults",
+]
 
 
 class _Required:
@@ -120,7 +131,7 @@ class Param:
         if value is None:
             return None
         if self.type == "module":
-            return _build_component(self, value)
+            return build_component(self, value)
         unit = SI_UNITS.get(self.unit)
         if unit is None or not self.convert:
             return value
@@ -163,11 +174,11 @@ class Param:
         lo_sym = "<=" if self.minimum is not None else "<"
         hi_sym = "<=" if self.maximum is not None else "<"
         if lo is not None and hi is not None:
-            return f"with {_fmt(lo)} {lo_sym} value {hi_sym} {_fmt(hi)}{unit}"
+            return f"with {number_text(lo)} {lo_sym} value {hi_sym} {number_text(hi)}{unit}"
         if lo is not None:
-            return f"{'>=' if lo_sym == '<=' else '>'} {_fmt(lo)}{unit}"
+            return f"{'>=' if lo_sym == '<=' else '>'} {number_text(lo)}{unit}"
         if hi is not None:
-            return f"{hi_sym} {_fmt(hi)}{unit}"
+            return f"{hi_sym} {number_text(hi)}{unit}"
         return f"in {self.unit}" if self.unit else ""
 
     def validate(self, value: Any, where: Location) -> Any:
@@ -178,42 +189,42 @@ class Param:
             raise ConfigError(where, "null is not allowed", self.describe_allowed())
         if self.length is not None or self.variable_length:
             if isinstance(value, (str, bytes)) or not isinstance(value, Sequence):
-                raise ConfigError(where, f"{_show(value)} is not a list", self.describe_allowed())
+                raise ConfigError(where, f"{value_text(value)} is not a list", self.describe_allowed())
             if (self.length is not None and len(value) != self.length) or len(value) == 0:
                 raise ConfigError(
-                    where, f"{_show(value)} has {len(value)} items", self.describe_allowed()
+                    where, f"{value_text(value)} has {len(value)} items", self.describe_allowed()
                 )
             return tuple(self._validate_item(v, where.child(i)) for i, v in enumerate(value))
         return self._validate_item(value, where)
 
     def _validate_item(self, value: Any, where: Location) -> Any:
         if self.type == "module":
-            return _validate_component(self, value, where)
+            return validate_component(self, value, where)
         if self.type == "bool":
             if not isinstance(value, bool):
-                raise ConfigError(where, f"{_show(value)} has the wrong type", self.describe_allowed())
+                raise ConfigError(where, f"{value_text(value)} has the wrong type", self.describe_allowed())
             return value
         if self.type == "str":
             if not isinstance(value, str):
-                raise ConfigError(where, f"{_show(value)} has the wrong type", self.describe_allowed())
+                raise ConfigError(where, f"{value_text(value)} has the wrong type", self.describe_allowed())
             if self.choices is not None and value not in self.choices:
                 hint = difflib.get_close_matches(value, [str(c) for c in self.choices], n=1)
-                problem = f"{_show(value)} is not allowed"
+                problem = f"{value_text(value)} is not allowed"
                 if hint:
                     problem += f" (did you mean {hint[0]!r}?)"
                 raise ConfigError(where, problem, self.describe_allowed())
             return value
         # numbers
         if isinstance(value, bool) or not isinstance(value, (int, float)):
-            raise ConfigError(where, f"{_show(value)} has the wrong type", self.describe_allowed())
+            raise ConfigError(where, f"{value_text(value)} has the wrong type", self.describe_allowed())
         if isinstance(value, float) and not math.isfinite(value):
-            raise ConfigError(where, f"{_show(value)} is not a finite number", self.describe_allowed())
-        if isinstance(value, int) and not -_LARGEST < value < _LARGEST:
-            raise ConfigError(where, f"{_show(value)} is too large", self.describe_allowed())
+            raise ConfigError(where, f"{value_text(value)} is not a finite number", self.describe_allowed())
+        if isinstance(value, int) and not -LARGEST_NUMBER < value < LARGEST_NUMBER:
+            raise ConfigError(where, f"{value_text(value)} is too large", self.describe_allowed())
         if self.type == "int":
             if isinstance(value, float):
                 if not value.is_integer():
-                    raise ConfigError(where, f"{_show(value)} is not an integer", self.describe_allowed())
+                    raise ConfigError(where, f"{value_text(value)} is not an integer", self.describe_allowed())
                 value = int(value)
         else:
             value = float(value)
@@ -223,9 +234,9 @@ class Param:
             or (self.exclusive_minimum is not None and value <= self.exclusive_minimum)
             or (self.exclusive_maximum is not None and value >= self.exclusive_maximum)
         ):
-            raise ConfigError(where, f"{_show(value)} is out of range", self.describe_allowed())
+            raise ConfigError(where, f"{value_text(value)} is out of range", self.describe_allowed())
         if self.choices is not None and value not in self.choices:
-            raise ConfigError(where, f"{_show(value)} is not allowed", self.describe_allowed())
+            raise ConfigError(where, f"{value_text(value)} is not allowed", self.describe_allowed())
         return value
 
 
@@ -280,7 +291,7 @@ def validate_section(
     if values is None:
         values = {}
     if not isinstance(values, Mapping):
-        raise ConfigError(where, f"{_show(values)} is not a mapping", "expected key: value pairs")
+        raise ConfigError(where, f"{value_text(values)} is not a mapping", "expected key: value pairs")
     known = {p.name: p for p in params if not isinstance(p, Constraint)}
     ignore = set(ignore)
     for key in values:
@@ -362,160 +373,4 @@ def find_param(params: Sequence, dotted: str):
 
 
 def _replace(p: Param, **changes) -> Param:
-    from dataclasses import replace
-
-    return replace(p, **changes)
-
-
-def _fmt(x: float) -> str:
-    short = f"{x:g}"
-    return str(x) if isinstance(x, int) and float(short) != x else short  # an integer bound is shown exactly
-
-
-_LARGEST = 10**300  # integers beyond this are not numbers a scenario means (and overflow a float)
-_SHOW_CHARS = 80  # a value quoted in a message is cut to about this length
-
-
-def _show(value: Any) -> str:
-    """A value as a message quotes it: YAML-like, on one line, cut to ``_SHOW_CHARS``."""
-    if isinstance(value, str):
-        text = repr(value)
-    elif isinstance(value, bool):
-        text = "true" if value else "false"
-    elif isinstance(value, (list, tuple)):
-        text = "[" + ", ".join(_show(v) for v in value[:20]) + (", ...]" if len(value) > 20 else "]")
-    elif isinstance(value, Mapping):
-        text = "a mapping"
-    elif isinstance(value, int) and not -_LARGEST < value < _LARGEST:
-        text = f"an integer of {len(str(abs(value))) if abs(value) < 10**4000 else 'over 4000'} digits"
-    else:
-        text = repr(value) if not isinstance(value, (int, float)) else _fmt(value)
-    return text if len(text) <= _SHOW_CHARS else text[:_SHOW_CHARS] + "..."
-
-
-# Components named by a parameter (type "module") ----------------------------------------------------
-def _validate_component(param: Param, value: Any, where: Location) -> dict:
-    """A component given by its type name or a mapping ``{type: ..., <its parameters>}``; returned as the
-    complete mapping (its defaults filled in), so the configuration stays plain data."""
-    section = {"type": value} if isinstance(value, str) else value
-    if not isinstance(section, Mapping) or not isinstance(section.get("type"), str):
-        raise ConfigError(where, f"{_show(value)} is not a {param.kind} type", param.describe_allowed())
-    cls = _lookup_component(param, section["type"], where.child("type") if not isinstance(value, str) else where)
-    module = cls.from_config(section, where)
-    return {"type": section["type"], **module.config}
-
-
-def _lookup_component(param: Param, type_name: str, where: Location):
-    from e2esim import registry  # here: the registry imports the module base, which imports this file
-
-    try:
-        return registry.lookup(param.kind, type_name)
-    except ModuleLookupError as exc:
-        raise ConfigError(where, str(exc)) from exc
-
-
-def _build_component(param: Param, section: Mapping | str):
-    section = {"type": section} if isinstance(section, str) else section
-    cls = _lookup_component(param, section["type"], Location(f"parameter {param.name}"))
-    return cls(**{k: v for k, v in section.items() if k != "type"})
-
-
-# Constraints between parameters ------------------------------------------------------------------
-class Constraint:
-    """A rule between parameters of one section, declared in its ``params`` next to them and checked with
-    them (so docs/scenario-reference.md lists it too)."""
-
-    names: tuple = ()
-
-    def check(self, values: Mapping, where: Location) -> None:  # pragma: no cover - abstract
-        raise NotImplementedError
-
-    def describe(self) -> str:  # pragma: no cover - abstract
-        raise NotImplementedError
-
-    def __eq__(self, other: object) -> bool:
-        return type(self) is type(other) and vars(self) == vars(other)
-
-    def __hash__(self) -> int:
-        return hash((type(self), self.names))
-
-    def __repr__(self) -> str:
-        return f"{type(self).__name__}({self.describe()})"
-
-
-def _given(values: Mapping, names) -> list:
-    return [n for n in names if values.get(n) is not None]
-
-
-class ExactlyOneOf(Constraint):
-    """Exactly one of the named parameters is given (not null)."""
-
-    def __init__(self, *names: str):
-        self.names = tuple(names)
-
-    def check(self, values, where):
-        given = _given(values, self.names)
-        if len(given) != 1:
-            problem = "none of them is given" if not given else f"{', '.join(given)} are all given"
-            raise ConfigError(where.child(given[1] if given else self.names[0]), problem,
-                              f"give exactly one of {', '.join(self.names)}")
-
-    def describe(self) -> str:
-        return f"exactly one of {', '.join(self.names)}"
-
-
-class AtMostOneOf(Constraint):
-    """At most one of the named parameters is given (not null)."""
-
-    def __init__(self, *names: str):
-        self.names = tuple(names)
-
-    def check(self, values, where):
-        given = _given(values, self.names)
-        if len(given) > 1:
-            raise ConfigError(where.child(given[1]), f"{', '.join(given)} are all given",
-                              f"give at most one of {', '.join(self.names)}")
-
-    def describe(self) -> str:
-        return f"at most one of {', '.join(self.names)}"
-
-
-class Requires(Constraint):
-    """``name`` must be given (not null) when parameter ``when`` has the value ``equals``."""
-
-    def __init__(self, name: str, when: str, equals: Any):
-        self.names = (name, when)
-        self.name, self.when, self.equals = name, when, equals
-
-    def check(self, values, where):
-        if values.get(self.when) == self.equals and values.get(self.name) is None:
-            raise ConfigError(where.child(self.name), f"is null, but {self.when} is {_show(self.equals)}",
-                              f"give {self.name} when {self.when} is {_show(self.equals)}")
-
-    def describe(self) -> str:
-        return f"{self.name} is required when {self.when} is {_show(self.equals)}"
-
-
-class Ordered(Constraint):
-    """``lower < upper`` for two parameters, or ``value[0] < value[1]`` for one two-item parameter."""
-
-    def __init__(self, lower: str, upper: str | None = None):
-        self.names = (lower,) if upper is None else (lower, upper)
-        self.lower, self.upper = lower, upper
-
-    def check(self, values, where):
-        if self.upper is None:
-            pair = values.get(self.lower)
-            if pair is not None and not pair[0] < pair[1]:
-                raise ConfigError(where.child(self.lower), f"{_show(list(pair))} is not an increasing range",
-                                  "expected [low, high] with low < high")
-            return
-        lo, hi = values.get(self.lower), values.get(self.upper)
-        if lo is not None and hi is not None and not lo < hi:
-            raise ConfigError(where.child(self.lower), f"{_show(lo)} is not below {self.upper} = {_show(hi)}",
-                              f"expected {self.lower} < {self.upper}")
-
-    def describe(self) -> str:
-        if self.upper is None:
-            return f"{self.lower} is an increasing range"
-        return f"{self.lower} < {self.upper}"
+    return dataclasses.replace(p, **changes)

@@ -233,12 +233,12 @@ def _grid_groups(sweep) -> list:
     if not isinstance(sweep, dict) or not isinstance(sweep.get("parameters"), dict) or sweep.get("mode") == "zip":
         return []
     from e2esim.errors import Location
-    from e2esim.runner.sweep import _sweep_values
+    from e2esim.runner.sweep import sweep_values
 
     out = []
     for key, spec in sweep["parameters"].items():
         keys = tuple(k.strip() for k in str(key).split(","))
-        out.append((keys, len(_sweep_values(spec, Location("<sweep>", ())))))
+        out.append((keys, len(sweep_values(spec, Location("<sweep>", ())))))
     return out
 
 

@@ -21,7 +21,7 @@ from e2esim.distortion.montecarlo import simulate
 from e2esim.faraday.distribution import ConstantFaraday, GaussianFaraday
 from e2esim.faraday.estimator_modules import BickelBatesEstimator
 from e2esim.polarimetry.simulate import SystemState
-from e2esim.polarimetry.system_model import _kron, distortion_operator, effective_weights
+from e2esim.polarimetry.system_model import batched_kron, distortion_operator, effective_weights
 
 BB = BickelBatesEstimator()  # the default estimator of FaradayStep
 
@@ -56,7 +56,7 @@ def test_residual_decomposition_is_exact(rng):
     steps = [TransponderStep(TRANSPONDERS), FaradayStep(BB), QueganStep(looks=10_000, iterations=2)]
     ctx, res = _run(rng, steps, n=200)
     t = ctx.truth
-    corrected = _kron(np.swapaxes(ctx.p_transmit, -1, -2), ctx.p_receive) @ t.operator()
+    corrected = batched_kron(np.swapaxes(ctx.p_transmit, -1, -2), ctx.p_receive) @ t.operator()
     rebuilt = res.gain[:, None, None] * distortion_operator(res.delta, res.f, np.zeros(ctx.size))
     np.testing.assert_allclose(rebuilt, corrected, atol=1e-12)
 

@@ -11,8 +11,8 @@ from __future__ import annotations
 import numpy as np
 
 from e2esim.block import Catalog, Factor
+from e2esim.distinct import distinct_rows
 from e2esim.errors import PhysicsInputError
-from e2esim.runner.distinct import distinct_rows
 
 BUDGET_CATALOG_ENTRIES = 1 << 14
 """Budgets a stage keeps for later blocks (in each process) before it starts afresh: 16,384. A budget of three

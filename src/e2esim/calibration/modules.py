@@ -21,6 +21,7 @@ from e2esim.calibration.targets import TARGET_NAMES, Calibrators, target_matrix
 from e2esim.calibration.transponder import GAUGES
 from e2esim.errors import PhysicsInputError
 from e2esim.faraday.distribution import GaussianFaraday
+from e2esim.key_paths import override_path
 from e2esim.module import Module, fail
 from e2esim.params import Param
 from e2esim.polarimetry.system_model import to_vector
@@ -39,8 +40,6 @@ def rotation_only_setting(strategy, key: str) -> bool:
     """Whether ``key`` sets a parameter of a ``faraday_correction`` step of ``strategy`` (a ``CalibrationStrategy``)
     whose other steps correct no polarimetric distortion: it then changes only the Faraday rotation left in the data
     (the "rotation_invariant" record of ``e2esim.calibration.record``), not the residual system errors."""
-    from e2esim.runner.overrides import override_path
-
     path = override_path(key)
     modules = getattr(strategy, "modules", ())
     if not all(type(m) in (FaradayCorrection, NoCalibration, RadiometricCalibration) for m in modules):

@@ -28,7 +28,7 @@ import numpy as np
 from e2esim.calibration.quegan1994 import transform_covariance
 from e2esim.instrument.system_errors import SystemErrorModel, SystemErrorSamples
 from e2esim.polarimetry.simulate import SystemState, sample_measured_covariance
-from e2esim.polarimetry.system_model import ESTIMATOR_WEIGHTS, _kron, faraday_matrix
+from e2esim.polarimetry.system_model import ESTIMATOR_WEIGHTS, batched_kron, faraday_matrix
 from e2esim.units import linear_to_db
 
 STEP_KINDS = ("faraday", "polarimetric", "gain")
@@ -116,7 +116,7 @@ def residual(ctx: PipelineContext) -> ResidualSamples:
     rr, tr = xr / gr[:, None, None], xt / gt[:, None, None]
     delta = np.stack([rr[:, 1, 0], rr[:, 0, 1], tr[:, 0, 1], tr[:, 1, 0]], -1)
     f = np.stack([rr[:, 1, 1], tr[:, 1, 1]], -1)
-    g = _kron(np.swapaxes(ctx.p_transmit, -1, -2), ctx.p_receive)  # vec(P_r N P_t) = g vec(N)
+    g = batched_kron(np.swapaxes(ctx.p_transmit, -1, -2), ctx.p_receive)  # vec(P_r N P_t) = g vec(N)
     w = ESTIMATOR_WEIGHTS["hv"]
     noise_factor = 2 * np.sum(np.abs(np.einsum("i,nij->nj", w, g)) ** 2, -1)
     return ResidualSamples(delta, f, gr * gt, noise_factor, ctx.diagnostics)

@@ -41,10 +41,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from e2esim.errors import PhysicsInputError
-from e2esim.faraday.estimators import _check_window, block_mean
+from e2esim.faraday.estimators import block_mean, check_window
 from e2esim.polarimetry.simulate import QuadPolImage
 from e2esim.polarimetry.small_matrices import inverse2
-from e2esim.polarimetry.system_model import _kron
+from e2esim.polarimetry.system_model import batched_kron
 
 
 @dataclass(frozen=True)
@@ -122,7 +122,7 @@ def _root_near_one(x) -> np.ndarray:
 
 def transform_covariance(cov: np.ndarray, p_receive: np.ndarray, p_transmit: np.ndarray) -> np.ndarray:
     """Covariance of vec(P_r M P_t): ``G C G^H`` with ``G = P_t^T kron P_r`` (column-major vec)."""
-    g = _kron(np.swapaxes(p_transmit, -1, -2), p_receive)
+    g = batched_kron(np.swapaxes(p_transmit, -1, -2), p_receive)
     return g @ cov @ np.swapaxes(g.conj(), -1, -2)
 
 
@@ -166,7 +166,7 @@ def _normalise(m: np.ndarray) -> np.ndarray:
 
 def block_covariances(image: QuadPolImage, window: tuple | None = None) -> np.ndarray:
     """Sample covariances ``<m m^H>`` of (hh, hv, vh, vv) over non-overlapping windows, (..., 4, 4)."""
-    window = _check_window(window, image.shape)
+    window = check_window(window, image.shape)
     ch = (image.hh, image.hv, image.vh, image.vv)
     out = None
     for i in range(4):

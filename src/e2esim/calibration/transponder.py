@@ -42,7 +42,7 @@ from e2esim.calibration.targets import Calibrators, operator_covariance
 from e2esim.errors import PhysicsInputError
 from e2esim.polarimetry.simulate import SystemState
 from e2esim.polarimetry.small_matrices import hermitian_inverse_factor
-from e2esim.polarimetry.system_model import _kron, distortion_rows, faraday_matrix, to_vector
+from e2esim.polarimetry.system_model import batched_kron, distortion_rows, faraday_matrix, to_vector
 
 GAUGES = ("min_crosstalk", "reciprocal", "faraday_prior")
 _START_ANGLES = np.pi * np.arange(-8, 8) / 16  # coarse Omega grid over one period (F(pi) = -I leaves M unchanged)
@@ -90,7 +90,7 @@ class TransponderSolution:
 def _faraday_part(omega, svec) -> np.ndarray:
     """``u_k = (F^T kron F) vec(S_k)``, (..., K, 4): constant while Omega is held."""
     rot = faraday_matrix(omega)
-    k0 = _kron(np.swapaxes(rot, -1, -2), rot)
+    k0 = batched_kron(np.swapaxes(rot, -1, -2), rot)
     return np.einsum("...ij,kj->...ki", k0, svec)
 
 
@@ -187,7 +187,7 @@ def solve_transponder(
     y = to_vector(responses)  # (..., K, 4)
     omega0, u = _start_angle(y, svec, batch)
     rot = faraday_matrix(omega0)
-    faraday_kron = _kron(np.swapaxes(rot, -1, -2), rot)  # the operator's Faraday factor, fixed with Omega
+    faraday_kron = batched_kron(np.swapaxes(rot, -1, -2), rot)  # the operator's Faraday factor, fixed with Omega
     z = np.zeros(batch + (7,), complex)
     z[..., 4:6] = 1.0
     z[..., 6] = _gain_ls(y, u)

@@ -27,7 +27,7 @@ import numpy as np
 
 from e2esim.distortion.expansion import estimate_channels, estimator_entries
 from e2esim.distortion.faraday_correction import FaradayCorrection
-from e2esim.distortion.montecarlo import METHODS, _to_matrices
+from e2esim.distortion.montecarlo import METHODS, reciprocal_matrices
 from e2esim.distortion.polarimetric_moments import NOISE_FACTORS
 from e2esim.polarimetry.system_model import faraday_matrix, measured_matrix
 
@@ -153,7 +153,7 @@ def _brute_force(scene, errs, omega, omega_hat, sigma_n, rng, looks, n_noise, re
     if reference == "scene":
         s = scene_vectors if scene_vectors is not None else scene.sample(rng, looks)
         looks = s.shape[0]
-        fixed = _to_matrices(s)[None]  # (1, L, 2, 2)
+        fixed = reciprocal_matrices(s)[None]  # (1, L, 2, 2)
         ref = np.einsum("ki,kj->ij", s, s.conj()) / looks
     else:
         ref = np.asarray(scene.matrix)
@@ -161,7 +161,7 @@ def _brute_force(scene, errs, omega, omega_hat, sigma_n, rng, looks, n_noise, re
     per_chunk = max(1, _BRUTE_FORCE_CHUNK // max(looks, 1))
     for start in range(0, m, per_chunk):
         sl = slice(start, min(start + per_chunk, m))
-        true = fixed if reference == "scene" else _to_matrices(scene.sample(rng, (sl.stop - sl.start, looks)))
+        true = fixed if reference == "scene" else reciprocal_matrices(scene.sample(rng, (sl.stop - sl.start, looks)))
         signal = measured_matrix(true, errs.delta[sl, None, :], errs.f[sl, None, :], omega[sl, None],
                                  gain=errs.gain[sl, None])  # (k, L, 2, 2)
         back = None if omega_hat is None else faraday_matrix(-omega_hat[sl])[:, None]

@@ -150,7 +150,7 @@ def _simulate_brute_force(scene, system, errs, omega, rng, looks, n_noise, refer
     if reference == "scene":
         s = scene_vectors if scene_vectors is not None else scene.sample(rng, looks)
         looks = s.shape[0]
-        fixed_scene = _to_matrices(s)  # (L, 2, 2)
+        fixed_scene = reciprocal_matrices(s)  # (L, 2, 2)
     sigma_n = system.noise_power
     sums = {ch: np.zeros((m, n_noise)) for ch in channels}
     per_chunk = max(1, _BRUTE_FORCE_CHUNK // max(looks, 1))
@@ -160,7 +160,7 @@ def _simulate_brute_force(scene, system, errs, omega, rng, looks, n_noise, refer
         if reference == "scene":
             true = fixed_scene[None]  # (1, L, 2, 2)
         else:
-            true = _to_matrices(scene.sample(rng, (k, looks)))  # (k, L, 2, 2)
+            true = reciprocal_matrices(scene.sample(rng, (k, looks)))  # (k, L, 2, 2)
         signal = measured_matrix(
             true,
             errs.delta[sl, None, :],
@@ -187,7 +187,7 @@ def _simulate_brute_force(scene, system, errs, omega, rng, looks, n_noise, refer
     return errors, ref
 
 
-def _to_matrices(vectors: np.ndarray) -> np.ndarray:
+def reciprocal_matrices(vectors: np.ndarray) -> np.ndarray:
     """(..., 3) reciprocal vectors (hh, hv, vv) -> (..., 2, 2) matrices [[hh, hv], [hv, vv]]."""
     hh, hv, vv = vectors[..., 0], vectors[..., 1], vectors[..., 2]
     return np.stack([np.stack([hh, hv], -1), np.stack([hv, vv], -1)], -2)

@@ -23,11 +23,11 @@ import numpy as np
 
 from e2esim.errors import PhysicsInputError
 from e2esim.faraday.estimators import (
-    _Z_A,
-    _Z_B,
     AMBIGUITY_PERIOD,
+    Z_A,
+    Z_B,
     BickelBates,
-    _check_window,
+    check_window,
 )
 from e2esim.faraday.theory import bickel_bates_variance
 from e2esim.polarimetry.simulate import (
@@ -102,7 +102,7 @@ class ChirpSlopeEstimator:
     def estimate(self, image: QuadPolImage, window: tuple | None = None) -> ChirpFaradayEstimate:
         """From an SLC image sampled at the bandwidth: per (azimuth, range) block, FFT in range, the
         cross-spectrum of the circular channels summed over azimuth and over the bins of each sub-band."""
-        window = _check_window(window, image.shape) or image.shape
+        window = check_window(window, image.shape) or image.shape
         wy, wx = window
         if wx < 2 * self.subbands:
             raise PhysicsInputError(f"a range window of {wx} samples cannot be split into {self.subbands} sub-bands")
@@ -111,8 +111,8 @@ class ChirpSlopeEstimator:
             raise PhysicsInputError(f"window {window} is larger than the image {image.shape}")
         m = image.vector()[: ny * wy, : nx * wx]
         blocks = m.reshape(ny, wy, nx, wx, 4)
-        za = np.fft.fft(blocks @ _Z_A, axis=3)
-        zb = np.fft.fft(blocks @ _Z_B, axis=3)
+        za = np.fft.fft(blocks @ Z_A, axis=3)
+        zb = np.fft.fft(blocks @ Z_B, axis=3)
         cross = (za * np.conj(zb)).sum(axis=1)  # (ny, nx, wx) summed over azimuth
         freq = self.bandwidth_hz * np.fft.fftfreq(wx)
         order = np.argsort(freq)

@@ -113,7 +113,7 @@ def site_path_integrals(geometry, f107_levels, settings: SlantSettings, cache=No
     """Path integrals of every acquisition of an ``AcquisitionGeometry``; ``cache`` (an object with ``get`` and
     ``put``, e.g. ``e2esim.io.array_cache.ArrayCache``, handed in by the runner) keeps them between runs."""
     dates = [d.astype("datetime64[D]").item() for d in geometry.time_utc]
-    desc = {"f107": [float(f) for f in f107_levels], "settings": _settings_description(settings)}
+    desc = {"f107": [float(f) for f in f107_levels], "settings": settings_description(settings)}
     arrays = {"target": geometry.target_ecef, "satellite": geometry.satellite_ecef,
               "time": geometry.time_utc.astype("int64")}
     if cache is not None:
@@ -140,7 +140,7 @@ def site_path_integrals(geometry, f107_levels, settings: SlantSettings, cache=No
     return result
 
 
-def _settings_description(settings: SlantSettings) -> dict:
+def settings_description(settings: SlantSettings) -> dict:
     return {"method": settings.method, "shell_height_m": settings.shell_height_m,
             "bottom_height_m": settings.bottom_height_m, "layer_step_m": settings.layer_step_m,
             "field_step_m": settings.field_step_m, "fof2_model": settings.fof2_model,

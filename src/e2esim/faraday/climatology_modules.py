@@ -29,6 +29,7 @@ from e2esim.ionosphere.klobuchar import KLOBUCHAR_ALPHA_DEFAULT, KLOBUCHAR_BETA_
 from e2esim.ionosphere.slant import METHODS, PathIntegrals, SlantSettings
 from e2esim.ionosphere.variability import DEFAULT_TEC_VARIABILITY
 from e2esim.module import Stage, fail
+from e2esim.orbit.geometry import ray_points
 from e2esim.params import Ordered, Param, ParamGroup, Requires
 
 SOLAR_PRESETS = {"min": 70.0, "max": 180.0}
@@ -167,8 +168,6 @@ class _ThinShellIonosphere(_GeometryIonosphere):
         """Vertical TEC (electrons/m^2) at pierce points (lat, lon in rad) of ``geometry``'s acquisitions."""
 
     def integrals(self, geometry, cache) -> PathIntegrals:
-        from e2esim.orbit.geometry import ray_points
-
         h = self.si["shell_height_m"]
         ray = ray_points(geometry.target_ecef, geometry.satellite_ecef, np.array([h]))
         k = geometry.target_ecef - geometry.satellite_ecef

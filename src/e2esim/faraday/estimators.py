@@ -36,8 +36,8 @@ AMBIGUITY_PERIOD = np.pi / 2
 """Both estimators give Omega modulo pi/2: F(pi/2) S F(pi/2) swaps S_hh and -S_vv, another valid target."""
 
 # Linear combinations of (hh, hv, vh, vv) used by the estimators.
-_Z_A = np.array([1j, 1, -1, 1j])  # (M_hv - M_vh) + j (M_hh + M_vv)
-_Z_B = np.array([1j, -1, 1, 1j])  # (M_vh - M_hv) + j (M_hh + M_vv)
+Z_A = np.array([1j, 1, -1, 1j])  # (M_hv - M_vh) + j (M_hh + M_vv)
+Z_B = np.array([1j, -1, 1, 1j])  # (M_vh - M_hv) + j (M_hh + M_vv)
 _CO_SUM = np.array([1, 0, 0, 1])  # M_hh + M_vv
 _CROSS_DIFF = np.array([0, -1, 1, 0])  # M_vh - M_hv
 
@@ -78,7 +78,7 @@ def block_mean(x: np.ndarray, window: tuple | None) -> np.ndarray:
     return x.reshape(x.shape[:-2] + (ny, wy, nx, wx)).mean(axis=(-3, -1))
 
 
-def _check_window(window, shape) -> tuple | None:
+def check_window(window, shape) -> tuple | None:
     if window is None:
         return None
     if len(window) != 2 or any(int(w) != w or w < 1 for w in window):
@@ -98,7 +98,7 @@ class FaradayRotationEstimator(ABC):
 
     def estimate(self, image: QuadPolImage, window: tuple | None = None) -> FaradayRotationEstimate:
         """Per-window estimates from an image; window = (azimuth, range) pixels, None for the whole image."""
-        window = _check_window(window, image.shape)
+        window = check_window(window, image.shape)
         channels = (image.hh, image.hv, image.vh, image.vv)
         combos: dict = {}  # each linear combination of the channels formed once
 
@@ -151,7 +151,7 @@ class BickelBates(FaradayRotationEstimator):
     """
 
     name = "bickel_bates"
-    statistics: ClassVar[dict] = {"ab": (_Z_A, _Z_B), "aa": (_Z_A, _Z_A), "bb": (_Z_B, _Z_B)}
+    statistics: ClassVar[dict] = {"ab": (Z_A, Z_B), "aa": (Z_A, Z_A), "bb": (Z_B, Z_B)}
 
     def finish(self, moments, looks):
         ab = moments["ab"]

@@ -19,7 +19,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from e2esim.errors import PhysicsInputError
-from e2esim.faraday.climatology import _settings_description
+from e2esim.faraday.climatology import settings_description
 from e2esim.ionosphere.propagation import faraday_rotation_integral
 from e2esim.ionosphere.slant import SlantSettings, path_integrals
 from e2esim.ionosphere.variability import lognormal_nodes
@@ -178,7 +178,7 @@ def compute_global_climatology(orbit: SunSynchronousOrbit, step_deg: float = 2.0
     stack = {k: np.moveaxis(v, 1, 0) for k, v in stack.items()}
     return GlobalClimatology(lat, lon, months, tuple(passes), tuple(orbit.pass_label(p) for p in passes),
                              tuple(float(f) for f in f107), np.asarray(incidence_deg, float), stack["faraday"],
-                             stack["stec"], stack["vtec"], year, _settings_description(settings),
+                             stack["stec"], stack["vtec"], year, settings_description(settings),
                              time.perf_counter() - start)
 
 
@@ -197,7 +197,7 @@ def global_climatology(orbit: SunSynchronousOrbit, step_deg: float = 2.0, months
             "step_deg": step_deg, "months": list(months), "passes": list(passes), "f107": [float(f) for f in f107],
             "incidence_deg": [float(i) for i in incidence_deg], "year": year,
             "lat_range": [float(x) for x in lat_range], "lon_range": [float(x) for x in lon_range],
-            "settings": _settings_description(settings)}
+            "settings": settings_description(settings)}
     if cache is not None:
         stored = cache.get("global", desc, None, ("lat_deg", "lon_deg", "months", "f107", "incidence_deg", "faraday",
                                                   "stec", "vtec", "year"))

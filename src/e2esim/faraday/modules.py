@@ -11,7 +11,7 @@ import numpy as np
 
 from e2esim import products as P
 from e2esim.faraday.distribution import ConstantFaraday, EmpiricalFaraday, GaussianFaraday
-from e2esim.io.samples import read_samples_file
+from e2esim.faraday.samples_file import read_samples_file
 from e2esim.module import Stage, fail
 from e2esim.params import ExactlyOneOf, Param
 

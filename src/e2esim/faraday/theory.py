@@ -24,9 +24,9 @@ from __future__ import annotations
 import numpy as np
 
 from e2esim.errors import PhysicsInputError
-from e2esim.faraday.estimators import _Z_A, _Z_B, AMBIGUITY_PERIOD, wrap_error
+from e2esim.faraday.estimators import AMBIGUITY_PERIOD, Z_A, Z_B, wrap_error
 from e2esim.polarimetry.simulate import SystemState, measured_covariance, reciprocal_covariance4
-from e2esim.polarimetry.system_model import _kron, faraday_matrix
+from e2esim.polarimetry.system_model import batched_kron, faraday_matrix
 
 VARIANCE_FORMS = ("exact", "asymptotic", "printed")
 _EXACT_MAX_LOOKS = 1000  # beyond, exact exceeds asymptotic by < 1 % for gamma >= 0.3 (~ (1 + 0.6 (1 - g^2)/g^2) / L)
@@ -131,7 +131,7 @@ def bickel_bates_variance(snr, looks, form: str = "exact"):
 def bickel_bates_limit(scene, state: SystemState, noise_power: float = 0.0) -> np.ndarray:
     """The estimate for an infinite window, ``arg(a^T C_M b*) / 4`` (rad), exact for any system errors."""
     cov = measured_covariance(scene, state, noise_power)
-    return np.angle(np.einsum("i,...ij,j->...", _Z_A, cov, np.conj(_Z_B))) / 4
+    return np.angle(np.einsum("i,...ij,j->...", Z_A, cov, np.conj(Z_B))) / 4
 
 
 def bickel_bates_bias(scene, state: SystemState, noise_power: float = 0.0) -> np.ndarray:
@@ -163,12 +163,12 @@ def bickel_bates_bias_first_order(scene, delta, f, omega) -> np.ndarray:
     """
     omega = np.asarray(omega, dtype=float)
     rot = faraday_matrix(omega)
-    k0 = _kron(np.swapaxes(rot, -1, -2), rot)
+    k0 = batched_kron(np.swapaxes(rot, -1, -2), rot)
     q = k0 @ reciprocal_covariance4(scene) @ np.swapaxes(k0.conj(), -1, -2)
     d1 = _first_order_distortion(delta, f)
     dq = d1 @ q + q @ np.swapaxes(d1.conj(), -1, -2)
-    num = np.einsum("i,...ij,j->...", _Z_A, dq, np.conj(_Z_B))
-    den = np.einsum("i,...ij,j->...", _Z_A, q, np.conj(_Z_B))
+    num = np.einsum("i,...ij,j->...", Z_A, dq, np.conj(Z_B))
+    den = np.einsum("i,...ij,j->...", Z_A, q, np.conj(Z_B))
     return np.imag(num / den) / 4
 
 

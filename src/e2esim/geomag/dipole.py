@@ -17,6 +17,7 @@ from __future__ import annotations
 import numpy as np
 
 from e2esim.geomag.igrf import IGRF_REFERENCE_RADIUS
+from e2esim.orbit.frames import ecef_to_enu, to_ecef
 
 
 def dipole_moment_vector(g10: float, g11: float = 0.0, h11: float = 0.0, aligned: bool = False) -> np.ndarray:
@@ -45,8 +46,6 @@ def dipole_field_ecef(position, moment, reference_radius: float = IGRF_REFERENCE
 def dipole_field_spherical(r, theta, phi, moment, reference_radius: float = IGRF_REFERENCE_RADIUS):
     """(B_r, B_theta, B_phi) (T, up/south/east) of a centred dipole at radius r (m), colatitude and
     longitude (rad), for comparison with the n = 1 terms of ``igrf_geocentric``."""
-    from e2esim.orbit.frames import ecef_to_enu, to_ecef
-
     lat = np.pi / 2 - np.asarray(theta, float)
     b = dipole_field_ecef(to_ecef(lat, phi, r), moment, reference_radius)
     enu = ecef_to_enu(b, lat, phi)

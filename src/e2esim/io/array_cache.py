@@ -3,7 +3,7 @@
 Physics kernels (the Faraday-rotation climatologies) never import it: the runner hands them an
 ``ArrayCache`` (or None) through the stage, and they call ``get`` and ``put``. The location is a module
 parameter; by default ``$E2ESIM_CACHE``, else ``$XDG_CACHE_HOME/e2esim``, else ``~/.cache/e2esim``. Files are
-written atomically (``e2esim.io.atomic``), so an interrupted run never leaves a half-written table, and hold
+written atomically (``e2esim.atomic``), so an interrupted run never leaves a half-written table, and hold
 plain numeric arrays only (nothing is unpickled or executed on reading). The key includes the cache schema
 version and the PyIRI version.
 
@@ -27,9 +27,9 @@ from pathlib import Path
 import numpy as np
 
 import e2esim
+from e2esim.atomic import atomic_path
 from e2esim.errors import E2ESimWarning
-from e2esim.io.atomic import atomic_path
-from e2esim.io.input_files import NotARegularFile, regular_file_stat
+from e2esim.input_files import NotARegularFile, regular_file_stat
 
 SCHEMA_VERSION = 2
 """Bumped whenever what is stored, or how it is computed, changes. 2: the checksum and the producing versions

@@ -18,24 +18,7 @@ GROUP_ORDER = ("systematic", "random", "regression", "model", "assumed")
 UNIT_KEYS = {"%": "percent", "t/ha": "t_ha"}
 """The ending of a contribution key for a requirement unit (``e2esim.requirements.attribution``)."""
 
-SOURCE_NAMES = {
-    "crosstalk": "crosstalk", "channel_imbalance": "channel imbalance", "noise": "noise",
-    "faraday_rotation": "Faraday rotation", "gain": "gain error", "speckle_noise": "speckle and noise",
-    "temporal": "temporal variability", "calibration": "radiometric calibration",
-    "area_projection": "area projection", "regression": "regression (retrieval model)",
-    "model": "model (retrieval exponents and coefficients)",
-    "system_distortions": "system distortions", "noise_bias": "noise bias",
-    "faraday_difference": "Faraday-rotation difference", "system_instability": "system instability",
-    "temporal_decorrelation": "temporal decorrelation",
-    "assumed_random": "random terms (assumed)", "assumed_retrieval": "retrieval model (assumed)",
-}
-"""Words for the source names of the built-in models; another source is shown by its name."""
-
 AGB_STATS = ("mean_percent", "sd_percent", "rmse_percent", "variance_share")
-
-
-def source_name(source: str) -> str:
-    return SOURCE_NAMES.get(source, source.replace("_", " "))
 
 
 def unit_key(unit: str) -> str:

@@ -11,8 +11,8 @@ import json
 import numpy as np
 import yaml
 
+from e2esim.atomic import atomic_path
 from e2esim.block import Values
-from e2esim.io.atomic import atomic_path
 from e2esim.io.guarded_h5 import guarded_h5_file
 from e2esim.io.h5_datasets import code_dtype, coded_values, put, put_coded, put_text
 from e2esim.io.scalar_units import detail_unit, run_products, scalar_description, scalar_unit

@@ -22,12 +22,11 @@ from e2esim.errors import ResultsFileError, UserError
 from e2esim.io.h5_datasets import TABLE_ATTR
 from e2esim.io.safe_h5 import H5Reader
 from e2esim.io.scalar_units import scalar_unit
+from e2esim.limits import MAX_CASES, MAX_MAP_CASES, MAX_STORED_SCENARIO_BYTES, MAX_STORED_SCENARIO_VALUES
 from e2esim.maps.grid import LAT_KEYS, LON_KEYS, MONTH_KEY, PASS_KEY, SOLAR_KEY, map_axes, map_section, map_settings
 from e2esim.maps.netcdf import grid_positions
 from e2esim.requirements.verdict import STATUSES
-from e2esim.results import Results
 from e2esim.runner.joined_labels import JoinedLabels
-from e2esim.runner.limits import MAX_CASES, MAX_MAP_CASES, MAX_STORED_SCENARIO_BYTES, MAX_STORED_SCENARIO_VALUES
 from e2esim.runner.yaml_loader import load_plain_yaml
 
 MAX_RESULT_CASES = max(MAX_CASES, MAX_MAP_CASES)
@@ -44,13 +43,15 @@ def results_path(path) -> Path:
     return path
 
 
-def read_results(path) -> Results:
+def read_results(path, results_type):
+    """The results of a run folder or its results.h5 as a ``results_type`` (``e2esim.results.Results``, which the
+    caller hands in: io sits below the results facade)."""
     path = results_path(path)
     with H5Reader(path) as h5, h5.guard():
-        return _read(h5, path)
+        return _read(h5, path, results_type)
 
 
-def _read(h5: H5Reader, path: Path) -> Results:
+def _read(h5: H5Reader, path: Path, results_type):
     if h5.get("cases", h5py.Group, required=False) is None or h5.get("provenance", h5py.Group, required=False) is None:
         raise ResultsFileError(f"{path}: not an e2esim results file (no /cases or /provenance)")
     provenance = {k: _attr(v) for k, v in h5.attributes(h5.file).items() if k not in _ROOT_ATTRS}
@@ -76,7 +77,7 @@ def _read(h5: H5Reader, path: Path) -> Results:
     for name, ds in h5.members(h5.get("cases/results", h5py.Group)):
         scalars[name] = h5.read(ds, "fiub", (n,)).astype(float)
         units[name] = h5.text_attribute(ds, "units") or scalar_unit(name, tuple(req_units))
-    out = Results(
+    out = results_type(
         scenario_name=h5.text_attribute(h5.file, "scenario_name") or path.parent.name, sweep_keys=sweep_keys,
         labels=labels, inputs=inputs, scalars=scalars, units=units, requirements=names, requirement_units=req_units,
         requirement_sources=_texts(h5, req, "sources", (r,), required=False) or ["all"] * r,

@@ -29,8 +29,8 @@ import h5py
 import numpy as np
 
 from e2esim.errors import ResultsFileError, UserError
-from e2esim.io.input_files import check_regular
-from e2esim.runner.limits import MAX_H5_CHUNKS, MAX_H5_DECOMPRESSED_BYTES, shorten
+from e2esim.input_files import check_regular
+from e2esim.limits import MAX_H5_CHUNKS, MAX_H5_DECOMPRESSED_BYTES, shorten
 
 FILTERS = {h5py.h5z.FILTER_DEFLATE: "deflate", h5py.h5z.FILTER_SHUFFLE: "shuffle",
            h5py.h5z.FILTER_FLETCHER32: "fletcher32"}

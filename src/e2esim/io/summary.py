@@ -11,7 +11,7 @@ import math
 
 import numpy as np
 
-from e2esim.io.atomic import write_text_atomic
+from e2esim.atomic import write_text_atomic
 from e2esim.io.error_budget import agb_budget, source_groups, verdict_budget
 from e2esim.runner.no_effect import no_effect
 

@@ -23,7 +23,7 @@ import math
 from dataclasses import dataclass
 
 from e2esim.errors import PhysicsInputError
-from e2esim.runner.limits import MAX_DATES, shorten
+from e2esim.limits import MAX_DATES, shorten
 
 PHASES = ("commissioning", "tomographic", "interferometric", "mission")
 
@@ -119,7 +119,7 @@ class MissionTimeline:
 
 def period_dates(start: str, end: str, step_days: float) -> list:
     """Dates from ``start`` to ``end`` (ISO, inclusive) every ``step_days`` days, at most
-    ``e2esim.runner.limits.MAX_DATES`` of them. Errors name the argument at fault (``PhysicsInputError.key``)."""
+    ``e2esim.limits.MAX_DATES`` of them. Errors name the argument at fault (``PhysicsInputError.key``)."""
     a, b = _parse_date(start, "start"), _parse_date(end, "end")
     if b < a:
         raise PhysicsInputError(f"period end {end} is before its start {start}", key="end")

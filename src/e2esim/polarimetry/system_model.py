@@ -113,10 +113,10 @@ def distortion_operator(delta: np.ndarray, f: np.ndarray, omega: np.ndarray) -> 
     rx = receive_distortion(delta, f)
     tx = transmit_distortion(delta, f)
     rot = faraday_matrix(omega)
-    return _kron(np.swapaxes(tx, -1, -2), rx) @ _kron(np.swapaxes(rot, -1, -2), rot)
+    return batched_kron(np.swapaxes(tx, -1, -2), rx) @ batched_kron(np.swapaxes(rot, -1, -2), rot)
 
 
-def _kron(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+def batched_kron(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Batched Kronecker product of 2x2 matrices: shape ``(..., 4, 4)``."""
     out = a[..., :, None, :, None] * b[..., None, :, None, :]
     return out.reshape(out.shape[:-4] + (4, 4))

@@ -10,10 +10,11 @@ from pathlib import Path
 import matplotlib.pyplot as plt
 import numpy as np
 
-from e2esim.io.error_budget import source_groups, source_name, verdict_budget
+from e2esim.io.error_budget import source_groups, verdict_budget
 from e2esim.report.outliers import axis_cut, mark_cut
 from e2esim.report.plot_base import PlotSkipped, save
 from e2esim.report.sweep_layout import case_row_height, case_ticks
+from e2esim.requirements.source_names import source_name
 
 MAX_BAR_CASES = 30
 GROUP_HATCH = {"systematic": "", "random": "//", "regression": "..", "model": "xx", "assumed": "\\\\"}

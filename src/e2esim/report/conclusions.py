@@ -3,12 +3,13 @@ far off is the worst case, and which error source contributes most there (from i
 
 from __future__ import annotations
 
-from e2esim.io.error_budget import agb_budget, source_groups, source_name, unit_key
+from e2esim.io.error_budget import agb_budget, source_groups, unit_key
 from e2esim.io.summary import requirement_overview
 from e2esim.report.blocks import fmt, status_badge
 from e2esim.report.outliers import error_meaning
 from e2esim.report.tables import coverage_words
 from e2esim.report.uncertainty import with_standard_error
+from e2esim.requirements.source_names import source_name
 
 
 def conclusions(result) -> list:

@@ -11,6 +11,8 @@ from pathlib import Path
 
 import matplotlib
 
+from e2esim.report.sweep_layout import facet_axes, legend, series_offsets, style, sweep_layout
+
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
@@ -123,8 +125,6 @@ def _interval_deg(fr) -> tuple:
 
 def _faraday_against_sweep(result, folder, options, cases) -> list:
     """Mean and 2.275-97.725 % interval of Omega against the sweep (every case, any number of them)."""
-    from e2esim.report.sweep_layout import facet_axes, legend, series_offsets, style, sweep_layout
-
     layout = sweep_layout(result, options, cases)
     if layout.x_key is None:
         raise PlotSkipped(f"{len(cases)} cases (more than histogram_cases = {options.get('histogram_cases', 12)}) "

@@ -15,6 +15,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from e2esim.report.blocks import fmt
+
 OUTLIER_FACTOR = 10.0
 """A value is an outlier beyond this many times the largest magnitude of the values that are not."""
 AXIS_ROOM = 1.15
@@ -88,8 +90,6 @@ def mark_cut(ax, positions, values, cut: AxisCut | None, unit: str, horizontal: 
 def error_meaning(error: float, unit: str) -> str:
     """What a relative error beyond ``LARGE_PERCENT`` means, for a headline that prints it: ``an error of
     1.79e+07 %, about 1.8e+05 times the true value``; "" for any other value."""
-    from e2esim.report.blocks import fmt
-
     if unit != "%" or not np.isfinite(error) or abs(error) < LARGE_PERCENT:
         return ""
     return f"an error of {fmt(float(error), 3)} %, about {abs(error) / 100:.2g} times the true value"

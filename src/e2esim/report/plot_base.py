@@ -22,7 +22,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 from matplotlib.layout_engine import PlaceHolderLayoutEngine
 
-from e2esim.io.atomic import atomic_path
+from e2esim.atomic import atomic_path
 
 DPI = 110
 

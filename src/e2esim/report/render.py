@@ -23,7 +23,7 @@ from jinja2 import Environment, PackageLoader, select_autoescape
 from markdown_it import MarkdownIt
 from markupsafe import Markup, escape
 
-from e2esim.io.atomic import write_text_atomic
+from e2esim.atomic import write_text_atomic
 from e2esim.report.blocks import Badge, Details, Heading, Image, Paragraph, Table, Warning
 from e2esim.report.document import build_report
 from e2esim.report.safe_markdown import literal, one_line, safe_inline

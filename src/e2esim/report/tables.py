@@ -3,10 +3,11 @@ Carlo. Every column says which error sources it covers; verdicts are badges."""
 
 from __future__ import annotations
 
-from e2esim.io.error_budget import agb_budget, source_groups, source_name, unit_key, verdict_budget
+from e2esim.io.error_budget import agb_budget, source_groups, unit_key, verdict_budget
 from e2esim.io.summary import requirement_overview
 from e2esim.report.blocks import Table, fmt, status_badge
 from e2esim.report.uncertainty import with_standard_error
+from e2esim.requirements.source_names import source_name
 
 LEVEL_NAMES = {"crosstalk": "crosstalk", "channel_imbalance": "channel imbalance", "nesz": "NESZ"}
 

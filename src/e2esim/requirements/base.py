@@ -10,6 +10,8 @@ import numpy as np
 
 from e2esim.module import Module, fail
 from e2esim.params import Param, ParamGroup
+from e2esim.requirements.checked_model import error_model_of
+from e2esim.requirements.coverage import assumed_contributions
 from e2esim.requirements.verdict import RequirementVerdict
 from e2esim.retrieval.agb_error import AGBError
 
@@ -89,13 +91,6 @@ class Requirement(Module):
         """The verdict of this requirement on ``case``."""
 
 
-def error_model_of(case):
-    """The single-channel error model the case's AGB error maps: the one the retrieval names (a channel or a
-    channel combination of a multi-channel model), else ``backscatter.error``."""
-    model = getattr(case["agb.error"], "error_model", None)
-    return model if model is not None else case["backscatter.error"]
-
-
 def checked_error(requirement: Requirement, case) -> AGBError:
     """The AGB error a requirement checks: from every source the chain computes (``computed``, ``all``; with the
     requirement's assumed terms, ``with_assumed``), or only from the systematic error of the propagation's error
@@ -122,8 +117,6 @@ def with_assumed(requirement: Requirement, agb: AGBError) -> AGBError:
     """``agb`` with the requirement's assumed terms (``e2esim.requirements.coverage.assumed_contributions``) added to
     the variance of the relative sigma error, as the retrieval adds the random-error budget
     (``e2esim.retrieval.combine``); analytic only: the Monte Carlo samples are left out (a verdict note says so)."""
-    from e2esim.requirements.coverage import assumed_contributions
-
     extra = assumed_contributions(requirement, agb)
     if not extra:
         return agb

@@ -24,7 +24,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from e2esim.io.error_budget import source_name
+from e2esim.requirements.checked_model import error_model_of
+from e2esim.requirements.source_names import source_name
 
 SYSTEMATIC = "systematic"
 ASSUMED = "assumed"
@@ -73,8 +74,6 @@ def verdict_coverage(requirement, case) -> tuple:
     """(coverage, coverage_text, missing) of ``requirement`` on ``case`` (one case, or a block read through
     ``e2esim.block.BlockView``: then the sources are those of every case of the block); ``missing``: the groups
     that ``sources: all`` needs and the coverage lacks (``missing_terms``)."""
-    from e2esim.requirements.base import error_model_of
-
     model = error_model_of(case)
     terms = chain_terms(case, model)
     which = setting(requirement)

@@ -20,9 +20,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from e2esim.distinct import distinct_rows
 from e2esim.errors import ConfigError
 from e2esim.requirements.coverage import assumed_values, setting
-from e2esim.runner.distinct import distinct_rows
 
 TERMS = ("systematic", "speckle", "temporal", "random", "regression", "model")
 """Term names a stage may declare (``agb_error_terms``)."""

@@ -16,6 +16,9 @@ from dataclasses import replace
 
 import numpy as np
 
+from e2esim.distortion.validation import sample_moments
+from e2esim.retrieval import sampling_error as se
+
 
 class SampledAnswers:
     """Mixin of ``AGBError``: standard errors of its mean, RMSE, quantiles and exceedance probabilities."""
@@ -39,8 +42,6 @@ class SampledAnswers:
 
     def sampling_standard_error(self, statistic: str, *args):
         """Monte Carlo sampling standard error of ``statistic`` (``e2esim.retrieval.sampling_error``)."""
-        from e2esim.retrieval import sampling_error as se
-
         q, m = self.samples, self.realisations
         if statistic == "mean":
             return se.mean_standard_error(q, m)
@@ -101,8 +102,6 @@ def uncertainty_scalars(agb, quantiles: dict) -> dict:
 def relative_moments(relative_samples) -> tuple:
     """(mean, its SE, SD, its SE) of Monte Carlo relative sigma errors ((M, N) or (M,)), cluster-robust over the
     M realisations (``e2esim.distortion.validation.sample_moments``; SE of the SD by the delta method)."""
-    from e2esim.distortion.validation import sample_moments
-
     m = sample_moments(relative_samples)
     sd = float(np.sqrt(max(m["variance"], 0.0)))
     return m["mean"], m["mean_se"], sd, (m["variance_se"] / (2 * sd) if sd > 0 else 0.0)

@@ -31,6 +31,7 @@ import numpy as np
 
 from e2esim.retrieval.agb_error import AGBContribution, AGBError, RelativeErrorMap
 from e2esim.retrieval.model_error import draw_log_errors, scale_factors
+from e2esim.retrieval.sampling_error import proportion_standard_error
 
 BUDGET_DESCRIPTIONS = {
     "speckle_noise": "speckle, thermal and multiplicative noise at the product's looks (Ahmed et al. 2014, eq. 21)",
@@ -207,7 +208,6 @@ def _saturation(mapping, mean, sd, sigma, relative, variance_se: float = 0.0) ->
     sampling error (``e2esim.retrieval.sampling_error``) and that, in quadrature."""
     from scipy import special
 
-    from e2esim.retrieval.sampling_error import proportion_standard_error
 
     out, errors = [], []
     threshold = mapping.saturation_threshold()

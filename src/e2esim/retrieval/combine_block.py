@@ -13,12 +13,12 @@ import numpy as np
 
 from e2esim.block import CaseRandom, Factor
 from e2esim.case import Case
+from e2esim.distinct import distinct_rows
 from e2esim.errors import ConfigError
 from e2esim.retrieval.agb_error import AGBContribution
 from e2esim.retrieval.agb_error_block import AGBErrorBlock
 from e2esim.retrieval.campaign_ensemble import RegressionUncertainty
 from e2esim.retrieval.combine import budget_contributions, random_total_variance
-from e2esim.runner.distinct import distinct_rows
 
 
 def combined_agb_error_block(model, budget, exponent, regression=None) -> AGBErrorBlock | None:

@@ -44,8 +44,8 @@ from e2esim.retrieval.models import (
     FitResult,
     Inversion,
     RetrievalModel,
-    _safe_inverse,
     ols_batch,
+    safe_inverse,
 )
 
 CHANNELS = ("hh", "hv", "vv")
@@ -330,7 +330,7 @@ class LogLinearModel(RetrievalModel):
         sigma_r = resid.T @ resid / dof  # (3, 3)
         if space == "log":
             model = model.with_residual_covariance(sigma_r)
-            xtx_inv = _safe_inverse(design[0].T @ design[0])
+            xtx_inv = safe_inverse(design[0].T @ design[0])
             cov_k = np.zeros((3, 3))
             cov_k[:k, :k] = xtx_inv  # a fixed n_pq has zero variance
             cov = np.kron(sigma_r, cov_k)
@@ -343,4 +343,4 @@ class LogLinearModel(RetrievalModel):
         jac = model.param_jacobian(agb, incidence_rad=incidence_rad).reshape(-1, _N_CH * 3)
         n, p = jac.shape
         s2 = float(np.sum(resid**2) / (n - p))
-        return s2 * _safe_inverse(jac.T @ jac), s2
+        return s2 * safe_inverse(jac.T @ jac), s2

@@ -318,14 +318,14 @@ class RetrievalModel(ABC):
         n, p = jac.shape[0], jac.shape[-1]
         s2 = float(np.sum(w * resid**2) / (n - p))
         info = jac.T @ (w[:, None] * jac)
-        return s2 * _safe_inverse(info), s2
+        return s2 * safe_inverse(info), s2
 
 
 def _take(covariates: dict, idx) -> dict:
     return {k: (None if v is None else np.asarray(v)[idx]) for k, v in covariates.items()}
 
 
-def _safe_inverse(matrix: np.ndarray) -> np.ndarray:
+def safe_inverse(matrix: np.ndarray) -> np.ndarray:
     """Inverse of a symmetric positive (semi-)definite matrix; +inf variances where it is singular."""
     try:
         inv = np.linalg.inv(matrix)

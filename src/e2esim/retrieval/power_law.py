@@ -30,9 +30,10 @@ from e2esim.retrieval.models import (
     RetrievalModel,
     ols_batch,
 )
+from e2esim.scene.biome_power_laws import BIOME_EXPONENTS as SCENE_EXPONENTS
 
-BIOME_EXPONENTS = {"boreal": 2.2, "tropical": 1.9}
-"""Power-law exponent p by biome, Men et al. (2021), Section III-D and Table III."""
+# The truth's exponents by biome (e2esim.scene.biome_power_laws): the estimator assumes them unless given its own.
+BIOME_EXPONENTS = SCENE_EXPONENTS
 
 
 def sigma_relative_error(agb_relative_error, exponent):

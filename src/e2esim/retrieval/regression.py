@@ -24,7 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from e2esim.errors import PhysicsInputError
-from e2esim.retrieval.models import FitResult, RetrievalModel
+from e2esim.retrieval.models import BELOW_RANGE, INVERTED, SATURATED, FitResult, Inversion, RetrievalModel
 
 CRITICAL_KINDS = ("normal", "t")
 
@@ -226,8 +226,6 @@ def _interp_crossing(m0, m1, v0, v1, target):
 
 
 def _invert_single_channel(model, s, channel, agb_max):
-    from e2esim.retrieval.models import BELOW_RANGE, INVERTED, SATURATED, Inversion
-
     ln_l, a = model.ln_l[channel], model.a[channel]
     positive = s > 0
     with np.errstate(divide="ignore", over="ignore"):

@@ -20,8 +20,8 @@ import numpy as np
 
 from e2esim.block import Batched, Block, CaseRandom, Catalog, Factor
 from e2esim.case import Case, Products
+from e2esim.distinct import distinct_rows
 from e2esim.module import fast_path
-from e2esim.runner.distinct import distinct_rows
 
 CATALOG_ENTRIES = 1 << 16
 """Distinct values a product's catalog holds before the run's catalogs start afresh (module docstring)."""

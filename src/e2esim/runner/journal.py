@@ -36,8 +36,8 @@ from pathlib import Path
 import numpy as np
 
 import e2esim
+from e2esim.atomic import write_text_atomic
 from e2esim.errors import OutputExistsError, OutputFolderError
-from e2esim.io.atomic import write_text_atomic
 from e2esim.runner.interrupts import interrupts_deferred
 from e2esim.runner.journal_check import BadRecord, check_block
 from e2esim.runner.journal_records import FORMAT, VERSION, corrupt, read_manifest, records

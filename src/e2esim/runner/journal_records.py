@@ -19,8 +19,8 @@ import zlib
 from pathlib import Path
 
 from e2esim.errors import JournalError
-from e2esim.io.input_files import open_regular, read_limited
-from e2esim.runner.limits import MAX_CASES, MAX_JOURNAL_RECORD_BYTES, MAX_MAP_CASES
+from e2esim.input_files import open_regular, read_limited
+from e2esim.limits import MAX_CASES, MAX_JOURNAL_RECORD_BYTES, MAX_MAP_CASES
 
 RECORDS = "cases.journal"
 MANIFEST = "manifest.json"

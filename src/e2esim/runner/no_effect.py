@@ -30,8 +30,8 @@ from dataclasses import asdict, dataclass, replace
 
 import numpy as np
 
+from e2esim.distinct import distinct_rows
 from e2esim.params import Param, find_param
-from e2esim.runner.distinct import distinct_rows
 from e2esim.runner.overrides import override_path, value_at
 from e2esim.runner.variation import Contexts, column_products, is_sampled
 

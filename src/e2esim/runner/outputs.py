@@ -17,7 +17,7 @@ import tempfile
 from pathlib import Path
 
 from e2esim.errors import OutputExistsError, OutputFolderError
-from e2esim.io.atomic import write_text_atomic
+from e2esim.atomic import write_text_atomic
 from e2esim.io.results_h5 import write_results
 from e2esim.io.summary import write_summary
 from e2esim.maps.grid import is_map_sweep
@@ -32,7 +32,7 @@ OUTPUT_LIST = ".e2esim-outputs.json"
 ASIDE = ".e2esim-previous-"
 """Prefix of the folder where ``--force`` sets the previous run's outputs aside until the new ones are complete."""
 _ASIDE_PREFIXES = (ASIDE, ".e2esim-trash-")  # the second: the trash of an e2esim that deleted at once
-_TEMP = re.compile(r"^\..+\.[A-Za-z0-9_]{8}\.tmp$")  # e2esim.io.atomic: ".<name>.<random>.tmp"
+_TEMP = re.compile(r"^\..+\.[A-Za-z0-9_]{8}\.tmp$")  # e2esim.atomic: ".<name>.<random>.tmp"
 _LIST_LIMIT = 1_000_000  # bytes: a list of a few hundred file names is a few kB
 
 

@@ -20,7 +20,8 @@ import copy
 from typing import Any
 
 from e2esim.errors import ConfigError, Location
-from e2esim.runner.limits import shorten
+from e2esim.key_paths import override_path
+from e2esim.limits import shorten
 from e2esim.runner.yaml_loader import parse_scalar
 
 EXAMPLE = "expected e.g. --set instrument.crosstalk.level_db=-28"
@@ -38,18 +39,6 @@ def split_assignment(assignment: str, flag: str, where: Location) -> tuple[str, 
         raise ConfigError(where, f"{flag} {shorten(repr(key))}: the key has an empty part",
                           "expected dotted names, e.g. instrument.crosstalk.level_db")
     return key, text, path
-
-
-def override_path(key: str) -> tuple:
-    """Key path of a dotted override key; under ``sweep.parameters`` and ``sweep.cases.I`` the rest of
-    the key is one sweep key (``sweep.parameters.scene.agb_t_ha`` -> ("sweep", "parameters",
-    "scene.agb_t_ha"))."""
-    parts = key.split(".")
-    if parts[:2] == ["sweep", "parameters"] and len(parts) > 2:
-        return ("sweep", "parameters", ".".join(parts[2:]))
-    if parts[:2] == ["sweep", "cases"] and len(parts) > 3 and parts[2].isdigit():
-        return ("sweep", "cases", int(parts[2]), ".".join(parts[3:]))
-    return tuple(int(p) if p.isdigit() else p for p in parts)
 
 
 NOT_GIVEN = object()

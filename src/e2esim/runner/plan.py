@@ -25,9 +25,9 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from e2esim import registry
+from e2esim.distinct import distinct_rows
 from e2esim.errors import ConfigError, Location
 from e2esim.runner.chain import absorbed_at, composite_kinds, composite_stage, order
-from e2esim.runner.distinct import distinct_rows
 
 SETTINGS = "simulation"
 _CHUNK = 1 << 20  # cases whose template is found in one vectorised pass

@@ -10,7 +10,7 @@ from __future__ import annotations
 import re
 
 from e2esim.errors import ConfigError, Location
-from e2esim.runner.limits import shorten
+from e2esim.limits import shorten
 
 MODULE_NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*(\.[A-Za-z_][A-Za-z0-9_]*)*$")
 

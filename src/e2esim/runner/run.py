@@ -17,6 +17,7 @@ import sys
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from datetime import datetime, timezone
+from functools import cached_property
 
 import numpy as np
 from tqdm.auto import tqdm
@@ -26,7 +27,6 @@ from e2esim.block import Values
 from e2esim.case import Case, Products, Services
 from e2esim.errors import UserError
 from e2esim.io.array_cache import open_cache
-from e2esim.io.provenance import dependency_versions, source_commit
 from e2esim.runner.columns import (
     RequirementColumns,
     case_notes,
@@ -36,6 +36,7 @@ from e2esim.runner.columns import (
     source_group_column,
 )
 from e2esim.runner.progress import CaseProgress
+from e2esim.runner.provenance import dependency_versions, source_commit
 from e2esim.runner.records import case_scalars
 from e2esim.runner.result_table import ResultTable
 from e2esim.runner.scenario import ResolvedScenario
@@ -205,22 +206,18 @@ class ScenarioResult:
     blocks: list
     provenance: dict = field(default_factory=dict)
 
-    @property
+    @cached_property
     def cases(self) -> ResultCases:
-        if "_cases" not in self.__dict__:
-            self.__dict__["_cases"] = ResultCases(self.scenario, self.blocks)
-        return self.__dict__["_cases"]
+        return ResultCases(self.scenario, self.blocks)
 
     @property
     def requirement_names(self) -> list:
         return self.scenario.requirement_names
 
-    @property
+    @cached_property
     def table(self) -> ResultTable:
         """Every case's scalars and verdicts as columns in case order (``e2esim.runner.result_table``)."""
-        if "_table" not in self.__dict__:
-            self.__dict__["_table"] = ResultTable.of(self.blocks, len(self.scenario.cases))
-        return self.__dict__["_table"]
+        return ResultTable.of(self.blocks, len(self.scenario.cases))
 
     @property
     def keeps_products(self) -> bool:

@@ -16,10 +16,10 @@ from typing import Any
 import numpy as np
 
 from e2esim.errors import ConfigError, Location
+from e2esim.limits import MAX_CASES, SPLIT_ADVICE, check_count, shorten
 from e2esim.maps.grid import map_table
 from e2esim.params import Param, unknown_key_error, validate_section
 from e2esim.runner.joined_labels import NO_PART, SEPARATOR, JoinedLabels, numbered
-from e2esim.runner.limits import MAX_CASES, SPLIT_ADVICE, check_count, shorten
 
 SWEEP_PARAMS = (
     Param("mode", "str", "grid: every combination of the parameter lists; zip: the lists side by side",
@@ -171,7 +171,7 @@ def sweep_table(sweep: Any, where: Location, scenario: dict | None = None) -> Sw
     for key, spec in params.items():
         here = where.child("parameters").child(key)
         subkeys = tuple(k.strip() for k in str(key).split(","))
-        items = _sweep_values(spec, here)
+        items = sweep_values(spec, here)
         if len(subkeys) > 1:  # "a.b, c.d": [[a1, c1], [a2, c2]] varies the keys together
             for i, item in enumerate(items):
                 if not isinstance(item, list) or len(item) != len(subkeys):
@@ -216,7 +216,7 @@ def _cases_table(cases: Any, where: Location) -> SweepTable:
     return SweepTable("cases", tuple(groups), table)
 
 
-def _sweep_values(spec: Any, where: Location) -> list:
+def sweep_values(spec: Any, where: Location) -> list:
     if isinstance(spec, list):
         if not spec:
             raise ConfigError(where, "is an empty list", "expected at least one value")

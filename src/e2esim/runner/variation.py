@@ -22,7 +22,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from e2esim.runner.distinct import distinct_rows
+from e2esim.distinct import distinct_rows
 
 SAMPLED_PARTS = frozenset({"montecarlo", "comparison"})
 """Name parts of the output columns drawn from the case's random stream."""

@@ -10,7 +10,7 @@ Differences from ``yaml.safe_load``, all in the user's favour:
   are refused, and keys that YAML reads as numbers, booleans or null must be quoted;
 * merge keys (``<<: *defaults``) work as in YAML 1.1: the keys of the merged mappings are added where the
   mapping does not set them itself;
-* the limits of ``e2esim.runner.limits`` hold before anything is built: file size, nesting depth and the
+* the limits of ``e2esim.limits`` hold before anything is built: file size, nesting depth and the
   number of values after aliases are expanded (so an alias bomb is refused, not expanded).
 """
 
@@ -25,7 +25,7 @@ from pathlib import Path
 import yaml
 
 from e2esim.errors import LimitError, ScenarioFileError
-from e2esim.runner.limits import MAX_DEPTH, MAX_DOCUMENT_BYTES, MAX_NODES, shorten
+from e2esim.limits import MAX_DEPTH, MAX_DOCUMENT_BYTES, MAX_NODES, shorten
 
 
 class _Loader(yaml.SafeLoader):

@@ -23,7 +23,7 @@ import numpy as np
 
 from e2esim.errors import MissingExtraError, PhysicsInputError
 from e2esim.extras import optional_import
-from e2esim.io.input_files import NotARegularFile, regular_file_stat
+from e2esim.input_files import NotARegularFile, regular_file_stat
 
 MAX_MAP_PIXELS = 100_000_000
 """Pixels of an AGB map read into memory: 1e8 (400 MB as float32; a global map at 0.036 deg, 4 km). Finer maps

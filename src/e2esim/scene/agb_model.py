@@ -22,7 +22,7 @@ from __future__ import annotations
 import numpy as np
 
 from e2esim.errors import PhysicsInputError
-from e2esim.retrieval.power_law import BIOME_EXPONENTS
+from e2esim.scene.biome_power_laws import BIOME_EXPONENTS
 from e2esim.scene.covariance import ScatteringCovariance
 from e2esim.scene.table1 import TABLE1_FORESTS
 

@@ -15,9 +15,9 @@ import numpy as np
 
 from e2esim.errors import PhysicsInputError
 from e2esim.params import Ordered, Param
-from e2esim.retrieval.power_law import BIOME_EXPONENTS
 from e2esim.scene.agb_map import AGBMap, read_agb_map
 from e2esim.scene.biome_bands import BOREAL_LAT_RANGE_DEG, DEFAULT_FORESTS, NO_FOREST, TROPIC_LAT_DEG, band_biome
+from e2esim.scene.biome_power_laws import BIOME_EXPONENTS
 from e2esim.scene.table1 import TABLE1_FORESTS
 
 _TROPICAL = tuple(k for k, v in TABLE1_FORESTS.items() if v[0] == "tropical")

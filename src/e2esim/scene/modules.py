@@ -7,8 +7,8 @@ import numpy as np
 from e2esim import products as P
 from e2esim.module import Stage
 from e2esim.params import Param
-from e2esim.retrieval.power_law import BIOME_EXPONENTS
 from e2esim.scene.agb_model import forest_covariance
+from e2esim.scene.biome_power_laws import BIOME_EXPONENTS
 from e2esim.scene.covariance import ScatteringCovariance
 from e2esim.scene.table1 import TABLE1_FORESTS
 

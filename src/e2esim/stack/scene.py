@@ -18,6 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from e2esim.errors import PhysicsInputError
+from e2esim.polarimetry.simulate import matrix_root
 from e2esim.scene.covariance import ScatteringCovariance
 from e2esim.stack.acquisitions import AcquisitionStack
 from e2esim.stack.rvog import ForestStructure, split_covariance
@@ -112,7 +113,6 @@ class StackScene(_StackBlocks):
     def sample(self, rng: np.random.Generator, size) -> np.ndarray:
         """Joint scattering vectors of all passes ~ CN(0, C), shape ``size + (N, 3)``."""
         size = (size,) if np.isscalar(size) else tuple(size)
-        from e2esim.polarimetry.simulate import matrix_root
 
         root = matrix_root(self.matrix)
         xi = (rng.standard_normal(size + (3 * self.passes,)) + 1j * rng.standard_normal(size + (3 * self.passes,)))

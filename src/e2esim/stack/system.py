@@ -19,6 +19,7 @@ import numpy as np
 
 from e2esim.errors import PhysicsInputError
 from e2esim.instrument.system_errors import SystemErrorModel
+from e2esim.stack.quadratic_form import error_structure
 from e2esim.units import db_to_linear
 
 _AMPLITUDE_PER_DB = np.log(10.0) / 20.0  # d ln(amplitude) / d(power in dB)
@@ -62,8 +63,6 @@ class StackSystemErrors:
     @functools.cached_property
     def kernel_structure(self) -> tuple:
         """``e2esim.stack.quadratic_form.error_structure`` of the unit covariances (computed once)."""
-        from e2esim.stack.quadratic_form import error_structure
-
         return error_structure(*self.unit_covariances())
 
     @property

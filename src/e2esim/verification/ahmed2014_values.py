@@ -7,7 +7,7 @@ or Section III-A, never copied from the table it is compared with.
 
 from __future__ import annotations
 
-from e2esim.verification.published import Published
+from e2esim.verification.records import Published
 
 _AHMED = "e2esim.verification.ahmed2014"
 _T3 = "Ahmed, Siqueira & Hensley (2014), Table III"

@@ -24,6 +24,7 @@ from e2esim.retrieval.power_law import BIOME_EXPONENTS, sigma_relative_error
 from e2esim.scene.covariance import ScatteringCovariance
 from e2esim.scene.table1 import TABLE1_FORESTS
 from e2esim.units import THREE_SIGMA_AMPLITUDE, db_to_linear, level_db_from_variance, variance_from_level_db
+from e2esim.verification.men2021_values import TABLE2_ROWS
 from e2esim.verification.published import Computed
 
 RHO = 0.9  # Section IV: correlation coefficient of both pairs, phase 0 (the most stringent case)
@@ -96,8 +97,6 @@ def fig6_crosstalk_limit(record):
 @functools.cache
 def table2_case(row: int, seed: int = TABLE2_SEED, form: str = "paper") -> dict:
     """Monte Carlo vs analytic relative differences for Table II row ``row`` (1-based), in percent."""
-    from e2esim.verification.men2021_values import TABLE2_ROWS
-
     xt, ci, forest_name, fr_deg, _, _ = TABLE2_ROWS[row - 1]
     scene = forest(forest_name)
     sys_model = system(xt, ci)
@@ -133,8 +132,6 @@ def table2_pooled(what: str) -> dict:
     numbers, and all ten printed bias differences are positive (errata E12): its mean is given the SE of fully
     correlated rows, the mean of the row SEs.
     """
-    from e2esim.verification.men2021_values import TABLE2_ROWS
-
     rows = [table2_case(i) for i in range(1, len(TABLE2_ROWS) + 1)]
     ses = [c[f"{what}_rel_se"] for c in rows]
     return {"value": float(np.mean([c[f"{what}_rel_diff"] for c in rows])),

@@ -7,7 +7,7 @@ fail.
 
 from __future__ import annotations
 
-from e2esim.verification.published import Published
+from e2esim.verification.records import Published
 
 _SEC6 = "e2esim.verification.men2021_sec6"
 _CITE = "Men et al. (2021), Section VI (and VII)"

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from e2esim.verification.published import Published
+from e2esim.verification.records import Published
 
 _MEN = "e2esim.verification.men2021"
 _TABLE3 = "Men et al. (2021), Table III and Section III-D (eq. 16)"

@@ -12,7 +12,8 @@ from dataclasses import replace
 import numpy as np
 
 from e2esim.ionosphere.constants import CHARGE_TO_MASS_OVER_C, FARADAY_CONSTANT, RANGE_DELAY_CONSTANT
-from e2esim.ionosphere.geolocation import TABLE1_ASSUMPTIONS, excluded_zone
+from e2esim.ionosphere.geolocation import TABLE1_ASSUMPTIONS, b_dot_k_profile, delay_error_threshold, excluded_zone
+from e2esim.verification.quegan2018_values import TABLE1
 
 
 def omega_over_range_delay(record):
@@ -55,9 +56,6 @@ def _alternative_zones(snr_db: int, looks: int) -> tuple:
 
 @functools.cache
 def _grid_zones(change: tuple) -> dict:
-    from e2esim.ionosphere.geolocation import b_dot_k_profile, delay_error_threshold
-    from e2esim.verification.quegan2018_values import TABLE1
-
     a = replace(TABLE1_ASSUMPTIONS, **dict(change))
     lat = np.linspace(-20.0, 20.0, 4001)
     quoted, bk = b_dot_k_profile(a, lat)

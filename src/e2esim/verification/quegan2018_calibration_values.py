@@ -4,7 +4,7 @@
 
 from __future__ import annotations
 
-from e2esim.verification.published import Published
+from e2esim.verification.records import Published
 
 _CAL = "e2esim.verification.quegan2018_calibration"
 

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from e2esim.verification.published import Published
+from e2esim.verification.records import Published
 
 _Q = "e2esim.verification.quegan2018"
 _TABLE1 = "Quegan et al. (2018), Section 6 and Table 1 (eqs. 5, 6, 8; centred dipole)"

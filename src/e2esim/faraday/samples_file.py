@@ -1,4 +1,5 @@
-"""Read a 1-D list of numbers from a user's file (a text file, one value per line, or a .npy array).
+"""Read the Faraday-rotation samples file of `ionosphere.faraday_samples`: a 1-D list of numbers from a user's file
+(a text file, one value per line, or a .npy array).
 
 Errors name the file and the problem, never its content: a scenario pointed at a system file must not
 print that file's first line. ``.npy`` files are read without pickle (``allow_pickle=False``).

@@ -1,0 +1,171 @@
+"""The layers hold: import cycles, imports up the layers, long files and private imports no worse than the ratchet.
+
+tools/architecture_check.py counts them from the imports of src/ (issue 27, "Done when"); the ratchet
+(tools/architecture_ratchet.json) holds each figure at its value after the last clean-up, so a change that adds an
+import up the layers, a cycle, a long file or a private import fails here. docs/architecture.md ("Layers") shows
+the layer table the count uses.
+"""
+
+import importlib.metadata
+import importlib.util
+import json
+import re
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def _load_tool():
+    spec = importlib.util.spec_from_file_location("architecture_check", ROOT / "tools" / "architecture_check.py")
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = module  # dataclasses look their module up by name
+    spec.loader.exec_module(module)
+    return module
+
+
+arch = _load_tool()
+RATCHET = json.loads((ROOT / "tools" / "architecture_ratchet.json").read_text())
+
+
+@pytest.fixture(scope="module")
+def figures():
+    return arch.measure(ROOT / "src", duplicates=False)
+
+
+def test_src_is_no_worse_than_the_ratchet(figures):
+    counts = figures.counts()
+    assert set(RATCHET) <= set(counts)
+    assert arch.worse_than(counts, RATCHET) == {}, arch.report(figures, listing=True)
+
+
+def test_every_module_has_a_layer(figures):
+    assert figures.unplaced == []
+    assert figures.modules > 200  # the count read the whole package
+
+
+def test_duplicated_blocks_no_worse_than_the_ratchet():
+    count = arch.count_duplicates(ROOT / "src")
+    if count is None:
+        pytest.skip("the duplicates command is not on this machine")
+    assert count <= RATCHET["duplicated_blocks"]
+
+
+def _docs_layers():
+    text = (ROOT / "docs" / "architecture.md").read_text()
+    section = text.split("\n## Layers\n", 1)[1].split("\n## ", 1)[0]
+    rows = [line for line in section.splitlines() if line.startswith("| ") and not line.startswith("| layer")]
+    return tuple(
+        (cells[0], tuple(re.findall(r"`([^`]+)`", cells[2])))
+        for cells in ([c.strip() for c in row.strip("|").split("|")] for row in rows)
+    )
+
+
+def test_the_docs_show_the_layer_table_the_count_uses():
+    assert _docs_layers() == arch.LAYERS
+
+
+def test_every_registered_module_is_a_stage():
+    stages = [name for name, _ in arch.LAYERS].index("stages")
+    modules = {
+        ep.module for ep in importlib.metadata.entry_points(group="e2esim.modules") if ep.module.startswith("e2esim.")
+    }
+    assert len(modules) > 15
+    assert {m: arch.layer_of(m) for m in modules} == dict.fromkeys(modules, stages)
+
+
+def _write(root: Path, files: dict[str, str]) -> Path:
+    for name, text in files.items():
+        path = root / "src" / name
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text(text)
+    return root / "src"
+
+
+# A small package laid out like e2esim: a physics kernel, a runner module and a module of the frame.
+CLEAN = {
+    "e2esim/__init__.py": "",
+    "e2esim/errors.py": "class UserError(Exception):\n    pass\n",
+    "e2esim/orbit/__init__.py": "",
+    "e2esim/orbit/timeline.py": "from e2esim.errors import UserError\n",
+    "e2esim/runner/__init__.py": "",
+    "e2esim/runner/limits.py": "from e2esim.orbit.timeline import UserError\nMAX_DATES = 3\n",
+    "e2esim/runner/run.py": "from e2esim.runner import limits\n",
+}
+
+
+def test_a_clean_package_counts_nothing(tmp_path):
+    counts = arch.measure(_write(tmp_path, CLEAN), duplicates=False).counts()
+    assert counts["up_arrows"] == counts["import_cycles"] == counts["private_imports"] == 0
+    assert counts["function_level_imports"] == counts["files_over_400_lines"] == 0
+    assert arch.worse_than(counts, RATCHET) == {}
+
+
+def test_an_import_up_the_layers_fails_the_ratchet(tmp_path):
+    # a physics kernel importing the runner, inside a function: an up-arrow (and a cycle with limits.py)
+    src = _write(
+        tmp_path,
+        {
+            **CLEAN,
+            "e2esim/orbit/timeline.py": (
+                "from e2esim.errors import UserError\n\n\ndef dates():\n"
+                "    from e2esim.runner.limits import MAX_DATES\n\n    return MAX_DATES\n"
+            ),
+        },
+    )
+    figures = arch.measure(src, duplicates=False)
+    assert [(i.importer, i.imported) for i in figures.up_arrows] == [("e2esim.orbit.timeline", "e2esim.runner.limits")]
+    assert figures.cycles == [["e2esim.orbit.timeline", "e2esim.runner.limits"]]
+    assert figures.counts()["function_level_imports"] == 1
+    ratchet = dict.fromkeys(RATCHET, 0)
+    assert set(arch.worse_than(figures.counts(), ratchet)) == {"up_arrows", "import_cycles", "function_level_imports"}
+
+
+def test_a_cycle_fails_the_ratchet_unless_a_lazy_import_closes_it(tmp_path):
+    cycle = {
+        **CLEAN,
+        "e2esim/runner/run.py": "from e2esim.runner import limits\n",
+        "e2esim/runner/limits.py": "def f():\n    from e2esim.runner.run import limits\n",
+    }
+    figures = arch.measure(_write(tmp_path / "a", cycle), duplicates=False)
+    assert figures.cycles == [["e2esim.runner.limits", "e2esim.runner.run"]]
+    assert arch.worse_than(figures.counts(), dict.fromkeys(RATCHET, 0)) == {
+        "import_cycles": (1, 0),
+        "function_level_imports": (1, 0),
+    }
+    lazy = {
+        **cycle,
+        "e2esim/runner/limits.py": "def f():\n    from e2esim.runner.run import limits  # lazy: start-up time\n",
+    }
+    counts = arch.measure(_write(tmp_path / "b", lazy), duplicates=False).counts()
+    assert counts["import_cycles"] == 0 and counts["lazy_imports"] == counts["function_level_imports"] == 1
+
+
+def test_type_only_imports_close_no_cycle_but_count_as_arrows(tmp_path):
+    files = {
+        **CLEAN,
+        "e2esim/orbit/timeline.py": (
+            "from typing import TYPE_CHECKING\n\nif TYPE_CHECKING:\n    from e2esim.runner.run import limits\n"
+        ),
+    }
+    figures = arch.measure(_write(tmp_path, files), duplicates=False)
+    assert figures.cycles == []
+    assert [(i.importer, i.imported) for i in figures.up_arrows] == [("e2esim.orbit.timeline", "e2esim.runner.run")]
+
+
+def test_private_names_and_long_files_are_counted(tmp_path):
+    files = {
+        **CLEAN,
+        "e2esim/errors.py": "_HIDDEN = 1\n" + "x = 1\n" * 400,
+        "e2esim/orbit/timeline.py": "from e2esim.errors import _HIDDEN, __doc__\n",
+    }
+    counts = arch.measure(_write(tmp_path, files), duplicates=False).counts()
+    assert counts["private_imports"] == 1 and counts["files_over_400_lines"] == 1
+
+
+def test_a_module_placed_twice_is_an_error():
+    layers = (("low", ("e2esim.a",)), ("high", ("e2esim.a",)))
+    with pytest.raises(ValueError, match="placed twice"):
+        arch.layer_of("e2esim.a.b", layers)

@@ -1,0 +1,421 @@
+"""Count how src/ is built: import cycles, arrows up the layers, long files, function-level and private imports.
+
+The figures of the "Done when" of issue 27, counted from the imports of src/e2esim with ``ast``, module-level and
+function-level imports alike:
+
+* **import cycles**: strongly connected components of more than one module in the graph of runtime imports
+  (an import under ``if TYPE_CHECKING:`` never runs and is left out; so is a function-level import whose line
+  carries the marker ``# lazy: start-up time``, kept out of the module level only so that a command starts fast);
+* **up-arrows**: imports (distinct importer and imported module) from a lower layer of ``LAYERS`` to a higher
+  one, every import counted, lazy and type-only ones too (docs/architecture.md, "Layers", is this table);
+* **files over 400 lines**;
+* **function-level imports**: import statements inside a function (the lazy ones among them said apart);
+* **private names across modules**: ``from e2esim.x import _name`` (dunder names excepted), each importer and
+  name once;
+* **duplicated blocks**: the pairs of places sharing 6 or more lines, as the ``duplicates`` command on this
+  machine counts them (``duplicates --repo src --most 200``); "unavailable" where there is no such command.
+
+Run ``python tools/architecture_check.py`` (``--list`` names every offender; ``--json`` prints the figures);
+tests/test_architecture.py holds the figures to the ratchet in tools/architecture_ratchet.json.
+"""
+
+from __future__ import annotations
+
+import argparse
+import ast
+import fnmatch
+import json
+import re
+import shutil
+import subprocess
+import sys
+from dataclasses import dataclass, field
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+PACKAGE = "e2esim"
+MAX_LINES = 400
+LAZY_MARKER = "# lazy: start-up time"
+
+# The layers, lowest first. A module imports from its own layer and the layers below it. A pattern is a dotted
+# name (the module, or a package and every module in it) or a glob with "*". A module is placed by the most
+# specific pattern that matches it: its own name, then a glob, then the longest package name.
+# docs/architecture.md ("Layers") shows this table.
+LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
+    (
+        "frame",
+        (
+            "e2esim",
+            "e2esim.errors",
+            "e2esim.limits",
+            "e2esim.distinct",
+            "e2esim.atomic",
+            "e2esim.input_files",
+            "e2esim.key_paths",
+            "e2esim.units",
+            "e2esim.settings",
+            "e2esim.value_text",
+            "e2esim.params",
+            "e2esim.param_constraints",
+            "e2esim.param_components",
+            "e2esim.plugin_import",
+            "e2esim.registry",
+            "e2esim.module",
+            "e2esim.case",
+            "e2esim.block",
+            "e2esim.error_model",
+            "e2esim.extras",
+            "e2esim.kinds",
+        ),
+    ),
+    (
+        "physics",
+        (
+            "e2esim.geomag",
+            "e2esim.orbit",
+            "e2esim.ionosphere",
+            "e2esim.polarimetry",
+            "e2esim.scene",
+            "e2esim.instrument",
+            "e2esim.faraday",
+            "e2esim.distortion",
+            "e2esim.stack",
+            "e2esim.budget",
+            "e2esim.calibration",
+            "e2esim.retrieval",
+            "e2esim.requirements",
+            "e2esim.error_terms",
+        ),
+    ),
+    (
+        "stages",
+        (
+            "e2esim.products",
+            "e2esim.*.modules",
+            "e2esim.*.*_modules",
+            "e2esim.*.stage",
+            "e2esim.faraday.global_lookup",
+            "e2esim.stack.retrieval",
+            "e2esim.stack.multichannel_retrieval",
+        ),
+    ),
+    ("runner", ("e2esim.runner", "e2esim.maps", "e2esim.maps.grid")),
+    ("io", ("e2esim.io", "e2esim.maps.netcdf")),
+    ("report", ("e2esim.report", "e2esim.verification", "e2esim.maps.plots")),
+    (
+        "front",
+        (
+            "e2esim.runner.outputs",
+            "e2esim.runner.folder_run",
+            "e2esim.results",
+            "e2esim.compare",
+            "e2esim.testing",
+            "e2esim.docs_reference",
+            "e2esim.api",
+            "e2esim.cli",
+            "e2esim.__main__",
+        ),
+    ),
+)
+
+
+def _specificity(pattern: str, module: str) -> tuple[int, int]:
+    kind = 2 if pattern == module else 1 if "*" in pattern else 0
+    return kind, len(pattern.replace("*", ""))
+
+
+def _matches(pattern: str, module: str) -> bool:
+    if "*" in pattern:
+        return fnmatch.fnmatchcase(module, pattern)
+    return module == pattern or (pattern != PACKAGE and module.startswith(pattern + "."))
+
+
+def layer_of(module: str, layers=LAYERS) -> int | None:
+    """Index in ``layers`` of the layer of ``module`` (None: unplaced); two equally specific matches are an error."""
+    best: list[tuple[tuple[int, int], int, str]] = []
+    for index, (_, patterns) in enumerate(layers):
+        best += [(_specificity(p, module), index, p) for p in patterns if _matches(p, module)]
+    if not best:
+        return None
+    best.sort(reverse=True)
+    if len(best) > 1 and best[0][0] == best[1][0] and best[0][1] != best[1][1]:
+        raise ValueError(f"{module} is placed twice, by {best[0][2]!r} and {best[1][2]!r}")
+    return best[0][1]
+
+
+@dataclass(frozen=True)
+class Import:
+    importer: str
+    imported: str
+    name: str  # the imported name ("" for `import x`)
+    line: int
+    in_function: bool
+    type_only: bool
+    lazy: bool
+
+
+@dataclass
+class Figures:
+    cycles: list[list[str]] = field(default_factory=list)
+    up_arrows: list[Import] = field(default_factory=list)
+    long_files: dict[str, int] = field(default_factory=dict)
+    function_imports: list[Import] = field(default_factory=list)
+    private_imports: list[Import] = field(default_factory=list)
+    unplaced: list[str] = field(default_factory=list)
+    duplicates: int | None = None
+    modules: int = 0
+    lines: int = 0
+
+    def counts(self) -> dict[str, int | None]:
+        return {
+            "import_cycles": len(self.cycles),
+            "up_arrows": len(self.up_arrows),
+            "files_over_400_lines": len(self.long_files),
+            "function_level_imports": len({(i.importer, i.line) for i in self.function_imports}),
+            "lazy_imports": len({(i.importer, i.line) for i in self.function_imports if i.lazy}),
+            "private_imports": len({(i.importer, i.name) for i in self.private_imports}),
+            "unplaced_modules": len(self.unplaced),
+            "duplicated_blocks": self.duplicates,
+        }
+
+
+def module_files(src: Path, package: str = PACKAGE) -> dict[str, Path]:
+    """Every module of ``package`` under ``src``, by dotted name (a package by the name of its __init__)."""
+    files = {}
+    for path in sorted((src / package).rglob("*.py")):
+        parts = list(path.relative_to(src).with_suffix("").parts)
+        if parts[-1] == "__init__":
+            parts = parts[:-1]
+        files[".".join(parts)] = path
+    return files
+
+
+def _type_checking_nodes(tree: ast.AST) -> set[int]:
+    ids = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.If) and "TYPE_CHECKING" in ast.unparse(node.test):
+            ids |= {id(n) for stmt in node.body for n in ast.walk(stmt)}
+    return ids
+
+
+def _function_nodes(tree: ast.AST) -> set[int]:
+    return {
+        id(n)
+        for f in ast.walk(tree)
+        if isinstance(f, (ast.FunctionDef, ast.AsyncFunctionDef, ast.Lambda))
+        for n in ast.walk(f)
+        if n is not f
+    }
+
+
+def imports_of(module: str, path: Path, modules: dict[str, Path], package: str = PACKAGE) -> list[Import]:
+    """The imports of one module of ``package``, each resolved to the module it loads (a submodule where the
+    imported name is one, else the module or package named)."""
+    text = path.read_text(encoding="utf-8")
+    lines = text.splitlines()
+    tree = ast.parse(text, filename=str(path))
+    in_function, type_only = _function_nodes(tree), _type_checking_nodes(tree)
+    is_package = path.name == "__init__.py"
+    found = []
+    for node in ast.walk(tree):
+        if isinstance(node, ast.ImportFrom):
+            if node.level:
+                base = module.split(".") if is_package else module.split(".")[:-1]
+                base = base[: len(base) - (node.level - 1)]
+                source = ".".join(base + ([node.module] if node.module else []))
+            else:
+                source = node.module or ""
+            targets = [
+                (f"{source}.{a.name}" if f"{source}.{a.name}" in modules else source, a.name) for a in node.names
+            ]
+        elif isinstance(node, ast.Import):
+            targets = [(a.name, "") for a in node.names]
+        else:
+            continue
+        statement = "\n".join(lines[node.lineno - 1 : (node.end_lineno or node.lineno)])
+        for target, name in targets:
+            if target == package or target.startswith(package + "."):
+                found.append(
+                    Import(
+                        module,
+                        target,
+                        name,
+                        node.lineno,
+                        id(node) in in_function,
+                        id(node) in type_only,
+                        LAZY_MARKER in statement,
+                    )
+                )
+    return found
+
+
+def strongly_connected(graph: dict[str, set[str]]) -> list[list[str]]:
+    """Tarjan's strongly connected components of more than one node (iterative), each sorted."""
+    index: dict[str, int] = {}
+    low: dict[str, int] = {}
+    on_stack: set[str] = set()
+    stack: list[str] = []
+    components = []
+    counter = 0
+    for root in sorted(graph):
+        if root in index:
+            continue
+        work = [(root, iter(sorted(graph.get(root, ()))))]
+        index[root] = low[root] = counter
+        counter += 1
+        stack.append(root)
+        on_stack.add(root)
+        while work:
+            node, children = work[-1]
+            for child in children:
+                if child not in index:
+                    index[child] = low[child] = counter
+                    counter += 1
+                    stack.append(child)
+                    on_stack.add(child)
+                    work.append((child, iter(sorted(graph.get(child, ())))))
+                    break
+                if child in on_stack:
+                    low[node] = min(low[node], index[child])
+            else:
+                work.pop()
+                if work:
+                    low[work[-1][0]] = min(low[work[-1][0]], low[node])
+                if low[node] == index[node]:
+                    component = []
+                    while True:
+                        member = stack.pop()
+                        on_stack.discard(member)
+                        component.append(member)
+                        if member == node:
+                            break
+                    if len(component) > 1:
+                        components.append(sorted(component))
+    return sorted(components)
+
+
+def count_duplicates(src: Path) -> int | None:
+    """Pairs of places sharing 6+ lines, by the machine's ``duplicates`` command; None where it is absent."""
+    command = shutil.which("duplicates")
+    if command is None:
+        return None
+    out = subprocess.run(
+        [command, "--repo", str(src), "--most", "200", "--seconds", "120"],
+        capture_output=True,
+        text=True,
+        check=False,
+        timeout=300,
+    ).stdout
+    first = out.splitlines()[0] if out.strip() else ""
+    if first.startswith("no duplicates"):
+        return 0
+    match = re.match(r"(\d+) pairs? of places", first)
+    if match is None or "incomplete:" in out:
+        return None
+    return int(match.group(1))
+
+
+def measure(src: Path = ROOT / "src", package: str = PACKAGE, layers=LAYERS, duplicates: bool = True) -> Figures:
+    """The figures of ``package`` under ``src``."""
+    modules = module_files(src, package)
+    figures = Figures(modules=len(modules))
+    graph: dict[str, set[str]] = {m: set() for m in modules}
+    up: dict[tuple[str, str], Import] = {}
+    for module, path in modules.items():
+        n_lines = len(path.read_text(encoding="utf-8").splitlines())
+        figures.lines += n_lines
+        if n_lines > MAX_LINES:
+            figures.long_files[str(path.relative_to(src))] = n_lines
+        own_layer = layer_of(module, layers)
+        if own_layer is None:
+            figures.unplaced.append(module)
+        for imp in imports_of(module, path, modules, package):
+            if imp.in_function:
+                figures.function_imports.append(imp)
+            if imp.name.startswith("_") and not imp.name.startswith("__") and imp.imported != module:
+                figures.private_imports.append(imp)
+            if imp.imported == module or imp.imported not in modules:
+                continue
+            if not imp.type_only and not imp.lazy:
+                graph[module].add(imp.imported)
+            target_layer = layer_of(imp.imported, layers)
+            if own_layer is not None and target_layer is not None and target_layer > own_layer:
+                up.setdefault((module, imp.imported), imp)
+    figures.cycles = strongly_connected(graph)
+    figures.up_arrows = sorted(up.values(), key=lambda i: (i.importer, i.imported))
+    if duplicates:
+        figures.duplicates = count_duplicates(src)
+    return figures
+
+
+# The targets of issue 27 ("Done when"); None: no target, the figure is reported.
+TARGETS = {
+    "import_cycles": 0,
+    "up_arrows": 3,
+    "files_over_400_lines": 0,
+    "function_level_imports": None,
+    "lazy_imports": None,
+    "private_imports": 0,
+    "unplaced_modules": 0,
+    "duplicated_blocks": 15,
+}
+
+
+RATCHET = ROOT / "tools" / "architecture_ratchet.json"
+
+
+def worse_than(counts: dict[str, int | None], ratchet: dict[str, int]) -> dict[str, tuple[int, int]]:
+    """The figures above their ratchet, {name: (figure, ratchet)}; a figure not counted (None) is not judged."""
+    return {
+        name: (counts[name], limit)
+        for name, limit in ratchet.items()
+        if counts.get(name) is not None and counts[name] > limit
+    }
+
+
+def report(figures: Figures, listing: bool = False) -> str:
+    rows = [f"{figures.modules} modules, {figures.lines} lines"]
+    for name, value in figures.counts().items():
+        target = TARGETS.get(name)
+        shown = "unavailable" if value is None else str(value)
+        verdict = "" if target is None or value is None else ("  ok" if value <= target else "  over")
+        rows.append(f"{name:24s} {shown:>11s}   target {'-' if target is None else '<= ' + str(target)}{verdict}")
+    if listing:
+        rows += ["", "cycles:"] + ["  " + " ".join(c) for c in figures.cycles]
+        rows += ["up-arrows:"] + [
+            f"  {i.importer}:{i.line} ({LAYERS[layer_of(i.importer)][0]}) -> {i.imported} "
+            f"({LAYERS[layer_of(i.imported)][0]})"
+            for i in figures.up_arrows
+        ]
+        rows += ["files over 400 lines:"] + [f"  {p}: {n}" for p, n in figures.long_files.items()]
+        rows += ["function-level imports:"] + [
+            f"  {i.importer}:{i.line} -> {i.imported} {i.name}{'  (lazy)' if i.lazy else ''}"
+            for i in figures.function_imports
+        ]
+        rows += ["private names:"] + [
+            f"  {i.importer}:{i.line} -> {i.imported} {i.name}" for i in figures.private_imports
+        ]
+        rows += ["unplaced modules:"] + [f"  {m}" for m in figures.unplaced]
+    return "\n".join(rows)
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--src", type=Path, default=ROOT / "src", help="the folder holding the package")
+    parser.add_argument("--list", action="store_true", help="name every cycle, up-arrow and offending import")
+    parser.add_argument("--json", action="store_true", help="print the figures as JSON")
+    parser.add_argument("--no-duplicates", action="store_true", help="skip the duplicates count")
+    parser.add_argument("--ratchet", action="store_true", help=f"exit 1 where a figure is worse than {RATCHET.name}")
+    args = parser.parse_args(argv)
+    figures = measure(args.src, duplicates=not args.no_duplicates)
+    print(json.dumps(figures.counts(), indent=1) if args.json else report(figures, args.list))
+    if args.ratchet:
+        worse = worse_than(figures.counts(), json.loads(RATCHET.read_text()))
+        for name, (value, limit) in worse.items():
+            print(f"worse than the ratchet: {name} {value} > {limit}", file=sys.stderr)
+        return 1 if worse else 0
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
