@@ -89,11 +89,11 @@ class Requirement(Module):
         """The verdict of this requirement on ``case``."""
 
 
-def error_model_of(case):
-    """The single-channel error model the case's AGB error maps: the one the retrieval names (a channel or a
-    channel combination of a multi-channel model), else ``backscatter.error``."""
-    model = getattr(case["agb.error"], "error_model", None)
-    return model if model is not None else case["backscatter.error"]
+def agb_error_of(case) -> AGBError:
+    """The case's AGB error, which answers every question a requirement asks (``e2esim.retrieval.agb_variants``);
+    one that names no error model (a plug-in retrieval's) maps the case's ``backscatter.error``."""
+    agb = case["agb.error"]
+    return agb if agb.error_model is not None else dataclasses.replace(agb, error_model=case["backscatter.error"])
 
 
 def checked_error(requirement: Requirement, case) -> AGBError:
@@ -101,27 +101,16 @@ def checked_error(requirement: Requirement, case) -> AGBError:
     requirement's assumed terms, ``with_assumed``), or only from the systematic error of the propagation's error
     model, system distortions, Faraday rotation and noise (``systematic``, the criterion of Men et al. 2021),
     leaving out the random-error budget, the regression uncertainty and the model term (the uncertainty of
-    the retrieval's exponents and coefficients)."""
-    agb = case["agb.error"]
-    if requirement.si["sources"] != "systematic":
-        return with_assumed(requirement, agb)
-    if all(c.group == "systematic" for c in agb.contributions):
-        return agb  # nothing but the propagation's error (and its parts): already the systematic error
-    model = error_model_of(case)
-    m = model.current() if model.unavailable is None else None
-    if np.ndim(agb.exponent):  # a block of cases (e2esim.retrieval.agb_error_block): analytic only
-        return dataclasses.replace(agb, sigma_hv=np.asarray(model.value, dtype=float), error_mean=np.asarray(m.mean),
-                                   error_sd=np.asarray(m.sd), contributions=(), saturated_fraction=())
-    return AGBError.from_sigma_errors(
-        agb.exponent, model.value, None if m is None else float(m.mean), None if m is None else float(m.sd),
-        model.relative_samples(), agb.mapping, error_model=agb.error_model,
-    )
+    the retrieval's exponents and coefficients): ``AGBError.systematic``."""
+    agb = agb_error_of(case)
+    if requirement.si["sources"] == "systematic":
+        return agb.systematic()
+    return with_assumed(requirement, agb)
 
 
 def with_assumed(requirement: Requirement, agb: AGBError) -> AGBError:
-    """``agb`` with the requirement's assumed terms (``e2esim.requirements.coverage.assumed_contributions``) added to
-    the variance of the relative sigma error, as the retrieval adds the random-error budget
-    (``e2esim.retrieval.combine``); analytic only: the Monte Carlo samples are left out (a verdict note says so)."""
+    """``agb`` with the requirement's assumed terms (``e2esim.requirements.coverage.assumed_contributions``) added
+    (``AGBError.with_terms``); analytic only: the Monte Carlo samples are left out (a verdict note says so)."""
     from e2esim.requirements.coverage import assumed_contributions
 
     extra = assumed_contributions(requirement, agb)
@@ -130,10 +119,7 @@ def with_assumed(requirement: Requirement, agb: AGBError) -> AGBError:
     if agb.error_mean is None:
         raise fail(requirement, "the assumed terms are combined with the analytic AGB error, which this simulation "
                    "mode does not compute", "use simulation mode analytic or both", key="assumed")
-    added = sum(c.relative_variance for c in extra)
-    sd = np.sqrt(np.square(np.asarray(agb.error_sd, dtype=float)) + np.square(np.asarray(agb.sigma_hv)) * added)
-    return dataclasses.replace(agb, error_sd=plain(sd), samples=None, contributions=tuple(agb.contributions) + extra,
-                               saturated_fraction=tuple((b, f) for b, f in agb.saturated_fraction if b != "montecarlo"))
+    return agb.with_terms(extra)
 
 
 def basis_of(requirement: Requirement, case, agb: AGBError) -> str:

@@ -47,7 +47,7 @@ def combined_agb_error_block(model, budget, exponent, regression=None) -> AGBErr
     m = model.current()
     var = np.asarray(m.variance, dtype=float) + s**2 * (rand_var + reg_var)
     return AGBErrorBlock(np.asarray(exponent, dtype=float), s, np.asarray(m.mean, dtype=float),
-                         np.sqrt(np.maximum(var, 0.0)), None, None, systematic + random_ + reg)
+                         np.sqrt(np.maximum(var, 0.0)), None, None, systematic + random_ + reg, error_model=model)
 
 
 def _budget_terms(budget) -> tuple:

@@ -151,7 +151,8 @@ class PowerLawRetrieval(_Retrieval):
         s = np.asarray(model.value, dtype=float)
         if budget is None and self.campaign.mode == "none":
             m = model.current()
-            return {"agb.error": AGBErrorBlock(p, s, np.asarray(m.mean, dtype=float), np.asarray(m.sd, dtype=float))}
+            return {"agb.error": AGBErrorBlock(p, s, np.asarray(m.mean, dtype=float), np.asarray(m.sd, dtype=float),
+                                                error_model=model)}
         regression = None
         if self.campaign.mode != "none":
             agb = combine_block.gather_agb(self, scene)
