@@ -15,11 +15,12 @@ kept as an ``AGBContribution`` so that reports can show which one dominates.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import cached_property
 
 import numpy as np
 
+from e2esim.block import Batched
 from e2esim.errors import PhysicsInputError
 from e2esim.retrieval.agb_uncertainty import SampledAnswers, relative_moments, uncertainty_scalars
 from e2esim.retrieval.agb_variants import ErrorVariants
@@ -62,7 +63,7 @@ class AGBContribution:
 
 
 @dataclass(frozen=True)
-class AGBError(ErrorVariants, SampledAnswers):
+class AGBError(ErrorVariants, SampledAnswers, Batched):
     """Relative AGB error ``q = AGB_hat / AGB - 1`` implied by the sigma_hv error.
 
     exponent : power-law exponent p (for other models the local exponent 1 / (d ln sigma / d ln AGB),
@@ -132,7 +133,7 @@ class AGBError(ErrorVariants, SampledAnswers):
 
     # Quantiles, exceedance, RMSE ----------------------------------------------------------
     # The analytic answers are element-wise in the fields, which may carry a leading case axis (a block of
-    # sweep cases, ``AGBErrorBlock``): a case gets the same numbers alone or in a block.
+    # sweep cases, the case axis below): a case gets the same numbers alone or in a block.
     def quantile(self, probability, basis: str = "analytic"):
         """Relative AGB error q_P with P(q <= q_P) = probability (shape C + the shape of ``probability``)."""
         probability = np.asarray(probability, dtype=float)
@@ -241,6 +242,75 @@ class AGBError(ErrorVariants, SampledAnswers):
         if not self.contributions:
             return None
         return max(self.contributions, key=lambda c: c.relative_mean**2 + max(c.relative_variance, 0.0)).name
+
+    # The case axis ---------------------------------------------------------------------------------------------
+    # A block of sweep cases is one ``AGBError`` whose fields are arrays over its cases (analytic: exponent,
+    # sigma_hv, error_mean, error_sd of shape (B,), contributions with (B,) means and variances, the error model a
+    # block of them); one case has numbers, a block of one.
+    def __bool__(self) -> bool:
+        return True
+
+    def __len__(self) -> int:
+        return len(self.exponent) if np.ndim(self.exponent) else 1
+
+    def item(self, i: int) -> AGBError:
+        """The one-case ``AGBError`` of case ``i``, as the per-case engine makes it."""
+        if not np.ndim(self.exponent):
+            return self
+        return AGBError(float(self.exponent[i]), float(self.sigma_hv[i]), _at(self.error_mean, i),
+                        _at(self.error_sd, i), None, self.mapping,
+                        tuple(AGBContribution(c.name, c.group, float(c.relative_mean[i]), float(c.relative_variance[i]),
+                                              c.description, None if c.uncertainty is None else c.uncertainty.item(i))
+                              for c in self.contributions),
+                        tuple((basis, float(np.asarray(f)[i])) for basis, f in self.saturated_fraction),
+                        None if self.error_model is None else self.error_model.item(i))
+
+    def take(self, positions) -> AGBError:
+        def at(x):
+            return None if x is None else x[positions]
+
+        return replace(self, exponent=self.exponent[positions], sigma_hv=self.sigma_hv[positions],
+                       error_mean=at(self.error_mean), error_sd=at(self.error_sd),
+                       contributions=tuple(replace(c, relative_mean=c.relative_mean[positions],
+                                                   relative_variance=c.relative_variance[positions],
+                                                   uncertainty=None if c.uncertainty is None
+                                                   else c.uncertainty.take(positions)) for c in self.contributions),
+                       saturated_fraction=tuple((b, np.asarray(f)[positions]) for b, f in self.saturated_fraction),
+                       error_model=None if self.error_model is None else self.error_model.take(positions))
+
+    @classmethod
+    def concatenate(cls, parts: list) -> AGBError:
+        first = parts[0]
+
+        def joined(get):
+            return np.concatenate([np.asarray(get(p)) for p in parts])
+
+        def joined_term(k, c):
+            return replace(c, relative_mean=joined(lambda p: p.contributions[k].relative_mean),
+                           relative_variance=joined(lambda p: p.contributions[k].relative_variance),
+                           uncertainty=None if c.uncertainty is None else type(c.uncertainty).concatenate(
+                               [p.contributions[k].uncertainty for p in parts]))
+
+        return replace(first, exponent=joined(lambda p: p.exponent), sigma_hv=joined(lambda p: p.sigma_hv),
+                       error_mean=joined(lambda p: p.error_mean), error_sd=joined(lambda p: p.error_sd),
+                       contributions=tuple(joined_term(k, c) for k, c in enumerate(first.contributions)),
+                       saturated_fraction=tuple((b, joined(lambda p, k=k: p.saturated_fraction[k][1]))
+                                                for k, (b, _) in enumerate(first.saturated_fraction)),
+                       error_model=None if first.error_model is None else type(first.error_model).concatenate(
+                           [p.error_model for p in parts]))
+
+    def scalar_columns(self) -> dict:
+        """The output scalars of every case of a block: {name: (B,) array}."""
+        n = len(self)
+        return {name: np.broadcast_to(np.asarray(value, dtype=float), (n,)) for name, value in self.scalars().items()}
+
+    def source_groups(self) -> dict:
+        """{contribution name: its group}, the same for every case."""
+        return {c.name: c.group for c in self.contributions}
+
+
+def _at(values, i: int):
+    return None if values is None else float(values[i])
 
 
 def binomial_interval(successes: int, trials: int, confidence: float = 0.95) -> tuple[float, float]:
