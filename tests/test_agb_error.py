@@ -82,3 +82,19 @@ def test_short_hermite_rule_agrees_with_the_64_node_rule_where_it_is_used():
     wide = gauss_hermite.power_law_q_moments(0.0, 0.2 * sigma, 2.2, sigma)  # beyond: the 64-node rule itself
     x = (0.0 + 0.2 * sigma * nodes) / sigma
     assert wide[1] == gauss_hermite.hermite_average(agb_relative_error(x, 2.2) ** 2)
+
+
+def test_one_type_for_a_case_and_a_block_of_cases():
+    """A block of cases is one AGBError with a leading case axis; a case is a block of one; taking and joining cases
+    keeps every case's numbers (issue 27, Build 1)."""
+    one = AGBError.from_sigma_errors(2.2, 0.05, 5e-4, 1e-3)
+    assert len(one) == 1 and one.item(0) is one and bool(one)
+    block = AGBError(np.array([2.2, 1.9, 2.2]), np.array([0.05, 0.04, 0.03]), np.array([5e-4, -2e-4, 1e-3]),
+                     np.array([1e-3, 2e-3, 5e-4]))
+    assert len(block) == 3
+    rmse = block.rmse()
+    for i in range(3):
+        assert block.item(i).rmse() == rmse[i]  # element-wise: the same number alone and in the block
+    joined = AGBError.concatenate([block.take(np.array([2])), block.take(np.array([0, 1]))])
+    assert np.array_equal(joined.rmse(), rmse[[2, 0, 1]])
+    assert np.array_equal(block.scalar_columns()["analytic.rmse_percent"], 100 * rmse)
