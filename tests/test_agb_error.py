@@ -62,23 +62,39 @@ def test_binomial_interval_covers_the_proportion():
 
 
 def test_short_hermite_rule_agrees_with_the_64_node_rule_where_it_is_used():
-    """The 16-node rule serves cases with sd / (sigma + mean) <= 0.1 (agb_error._SHORT_RULE_LARGEST_SPREAD): there
+    """The 16-node rule serves cases with sd / (sigma + mean) <= 0.1 (gauss_hermite._SHORT_RULE_LARGEST_SPREAD): there
     its E[q] and E[q^2] match the 64-node rule to 1e-14 relative (or of sqrt(E[q^2]) when E[q] is near zero)."""
-    from e2esim.retrieval import agb_error
+    from e2esim.retrieval import gauss_hermite
 
     sigma = 0.05
-    spread = np.linspace(0.0, agb_error._SHORT_RULE_LARGEST_SPREAD, 11)
+    spread = np.linspace(0.0, gauss_hermite._SHORT_RULE_LARGEST_SPREAD, 11)
     mean = sigma * np.array([-0.3, -0.05, 0.0, 0.05, 0.3])[:, None, None]
     p = np.array([0.5, 1.0, 1.9, 2.2, 3.0, 5.0])[:, None]
     sd = spread * (sigma + mean)
-    m, ms = agb_error._power_law_q_moments(mean, sd, p, sigma)
-    nodes = agb_error._HERMITE_NODES
+    m, ms = gauss_hermite.power_law_q_moments(mean, sd, p, sigma)
+    nodes = gauss_hermite.HERMITE_NODES
     x = (mean[..., None] + sd[..., None] * nodes) / sigma
     q = agb_relative_error(x, p[..., None])
-    m64, ms64 = agb_error.hermite_average(q), agb_error.hermite_average(q**2)
+    m64, ms64 = gauss_hermite.hermite_average(q), gauss_hermite.hermite_average(q**2)
     scale = np.sqrt(ms64)
     assert np.all(np.abs(m - m64) <= 1e-14 * np.maximum(np.abs(m64), scale))
     assert np.all(np.abs(ms - ms64) <= 1e-14 * ms64)
-    wide = agb_error._power_law_q_moments(0.0, 0.2 * sigma, 2.2, sigma)  # beyond: the 64-node rule itself
+    wide = gauss_hermite.power_law_q_moments(0.0, 0.2 * sigma, 2.2, sigma)  # beyond: the 64-node rule itself
     x = (0.0 + 0.2 * sigma * nodes) / sigma
-    assert wide[1] == agb_error.hermite_average(agb_relative_error(x, 2.2) ** 2)
+    assert wide[1] == gauss_hermite.hermite_average(agb_relative_error(x, 2.2) ** 2)
+
+
+def test_one_type_for_a_case_and_a_block_of_cases():
+    """A block of cases is one AGBError with a leading case axis; a case is a block of one; taking and joining cases
+    keeps every case's numbers (issue 27, Build 1)."""
+    one = AGBError.from_sigma_errors(2.2, 0.05, 5e-4, 1e-3)
+    assert len(one) == 1 and one.item(0) is one and bool(one)
+    block = AGBError(np.array([2.2, 1.9, 2.2]), np.array([0.05, 0.04, 0.03]), np.array([5e-4, -2e-4, 1e-3]),
+                     np.array([1e-3, 2e-3, 5e-4]))
+    assert len(block) == 3
+    rmse = block.rmse()
+    for i in range(3):
+        assert block.item(i).rmse() == rmse[i]  # element-wise: the same number alone and in the block
+    joined = AGBError.concatenate([block.take(np.array([2])), block.take(np.array([0, 1]))])
+    assert np.array_equal(joined.rmse(), rmse[[2, 0, 1]])
+    assert np.array_equal(block.scalar_columns()["analytic.rmse_percent"], 100 * rmse)

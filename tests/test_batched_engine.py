@@ -110,8 +110,8 @@ def test_batched_stages_are_used_for_the_analytic_chain():
     resolved = Scenario(yaml.safe_load(SWEEP), "blocks.yaml").resolve()
     products = BlockRun(resolved.plan, np.arange(24), default_services()).run()
     kinds = {name: type(value).__name__ for name, value in products.items()}
-    assert kinds["backscatter.error"] == "HVErrorModelBlock" and kinds["agb.error"] == "AGBErrorBlock"
-    assert kinds["verdicts"] == "RequirementVerdictsBlock"
+    assert kinds["backscatter.error"] == "HVErrorModelBlock" and kinds["agb.error"] == "AGBError"
+    assert kinds["verdicts"] == "RequirementVerdicts"
     assert kinds["instrument"] == "Factor" and len(products["instrument"].values) == 4  # once per distinct one
 
 
@@ -304,8 +304,8 @@ def test_the_error_budget_and_the_agb_error_it_enters_run_batched_with_the_per_c
     resolved = Scenario(yaml.safe_load(BUDGET_SWEEP), "budget.yaml").resolve()
     products = _budget_products(resolved)
     kinds = {name: type(value).__name__ for name, value in products.items()}
-    assert kinds["backscatter.budget"] == "Factor" and kinds["agb.error"] == "AGBErrorBlock"
-    assert kinds["verdicts"] == "RequirementVerdictsBlock"
+    assert kinds["backscatter.budget"] == "Factor" and kinds["agb.error"] == "AGBError"
+    assert kinds["verdicts"] == "RequirementVerdicts"
     assert len(set(products["backscatter.budget"].index.tolist())) == 6  # one per scene and instrument, not per case
     groups = products["agb.error"].source_groups()
     assert [g for g in groups.values()] == ["systematic"] * 3 + ["random"] * 4
@@ -337,7 +337,7 @@ def _with_regression(monkeypatch, draws: bool):
 def test_a_regression_term_runs_batched_unless_it_draws_from_the_cases_generator(monkeypatch, draws):
     resolved = _with_regression(monkeypatch, draws)
     products = _budget_products(resolved)
-    assert type(products["agb.error"]).__name__ == ("Factor" if draws else "AGBErrorBlock")
+    assert type(products["agb.error"]).__name__ == ("Factor" if draws else "AGBError")
     regression = [c.relative_variance for c in (products["agb.error"].item(k).contributions for k in range(12))
                   for c in c if c.name == "regression"]
     assert len(set(regression)) == (12 if draws else 3)  # a draw per case, or one per scene

@@ -244,25 +244,25 @@ def test_margins_and_axis_crossings_stop_at_the_edge():
     # a loose bound (+2000 % AGB): the crossings of the axes lie beyond the HV model's validity range
     from e2esim.distortion.validity import VALIDITY
     from e2esim.requirements.margins import axis_crossings, level_margins, tradeoff_curves
-    from e2esim.requirements.tradeoff import AGBRequirement, axis_limits
+    from e2esim.requirements.tradeoff import AGBRequirement, ModelBound, axis_limits
     from e2esim.units import level_db_from_variance
 
     model = HVErrorModel(forest("boreal_200"), system(), GaussianFaraday(np.pi / 3, np.radians(5.0)), looks=100_000)
-    reqs = [AGBRequirement(20.0, 0.99865, "over", 2.2)]
+    reqs = [ModelBound(AGBRequirement(20.0, 0.99865, "over", 2.2), model)]
     edge = VALIDITY["hv_complete"].edge_db
-    uncapped = axis_limits(reqs[0], model)  # where the root finding alone puts them: beyond the edge
+    uncapped = axis_limits(reqs[0].requirement, model)  # where the root finding alone puts them: beyond the edge
     assert level_db_from_variance(uncapped["crosstalk_limit"], "three_sigma_amplitude") > edge
-    axes = axis_crossings(reqs, model, "three_sigma_amplitude")
+    axes = axis_crossings(reqs, "three_sigma_amplitude")
     assert axes["validity_edge_db"] == pytest.approx(edge)
     assert axes["over.crosstalk_axis_db"] == np.inf and axes["over.imbalance_axis_db"] == np.inf
-    margins = level_margins(reqs, model, "three_sigma_amplitude")
+    margins = level_margins(reqs, "three_sigma_amplitude")
     assert margins["crosstalk.limit_db"] == np.inf and np.isfinite(margins["nesz.limit_db"])
-    curves = tradeoff_curves(reqs, model, "three_sigma_amplitude", (-40.0, 0.0), 9)
+    curves = tradeoff_curves(reqs, "three_sigma_amplitude", (-40.0, 0.0), 9)
     beyond = curves["crosstalk_db"] > edge
     assert beyond.any() and np.all(np.isnan(curves["over.imbalance_db"][beyond]))
     assert np.all(np.isnan(curves["over.imbalance_db"]) | (curves["over.imbalance_db"] <= edge + 1e-9))
     # a tight bound: the limits are inside the range, and found as before
-    tight = level_margins([AGBRequirement(0.2, 0.99865, "over", 2.2)], model, "three_sigma_amplitude")
+    tight = level_margins([ModelBound(AGBRequirement(0.2, 0.99865, "over", 2.2), model)], "three_sigma_amplitude")
     assert -25.0 < tight["crosstalk.limit_db"] < edge
 
 

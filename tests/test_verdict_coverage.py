@@ -181,7 +181,7 @@ def test_assumed_terms_give_the_same_verdicts_batched_and_per_case():
     from e2esim.runner.run import default_services
 
     products = BlockRun(resolved.plan, np.arange(6), default_services()).run()
-    assert type(products["verdicts"]).__name__ == "RequirementVerdictsBlock"  # the fast path holds the terms
+    assert type(products["verdicts"]).__name__ == "RequirementVerdicts"  # the fast path (not a Factor) holds the terms
     for a, b in zip(batched.cases, per_case.cases):
         for v, w in zip(a.verdicts, b.verdicts):
             assert (v.name, v.status, v.value, v.margin, v.coverage, v.coverage_text, v.details) == (

@@ -14,7 +14,7 @@ import yaml
 import e2esim
 from e2esim.cli import main
 from e2esim.compare import compare_report
-from e2esim.requirements.verdict import RequirementVerdict, RequirementVerdictsBlock
+from e2esim.requirements.verdict import RequirementVerdict, RequirementVerdicts
 from e2esim.results import results_of
 from e2esim.runner.run import run_scenario
 from e2esim.runner.scenario import Scenario
@@ -79,7 +79,7 @@ def test_a_verdict_that_does_not_apply_has_no_margin_and_does_not_pass():
     assert (v.status, v.passed, v.reason) == ("not_applicable", False, "outside") and np.isnan(v.margin)
     w = RequirementVerdict("r", True, 12.0, 20.0, 8.0, "t/ha", "analytic", reason="outside")
     assert (w.status, w.passed, w.margin, w.reason) == ("pass", True, 8.0, "")
-    block = RequirementVerdictsBlock((RequirementVerdict(
+    block = RequirementVerdicts((RequirementVerdict(
         "r", np.array([True, True, False]), np.array([1.0, 186.0, 30.0]), 20.0, np.array([19.0, -166.0, -10.0]),
         "t/ha", "analytic", applicable=np.array([True, False, True]), reason="outside"),), 3)
     assert [block.item(i)[0].status for i in range(3)] == ["pass", "not_applicable", "fail"]

@@ -281,9 +281,9 @@ def cmd_reproduce(args) -> int:
 
 def cmd_compare(args) -> int:
     from e2esim.api import open_results
+    from e2esim.atomic import write_text_atomic
     from e2esim.compare import compare_report
     from e2esim.errors import OutputFolderError
-    from e2esim.atomic import write_text_atomic
 
     if not args.rtol >= 0:
         raise UserError(f"--rtol {args.rtol}: expected a relative tolerance >= 0")

@@ -29,8 +29,8 @@ from e2esim import registry
 from e2esim.errors import ConfigError, Location, ModuleLookupError, PhysicsInputError
 from e2esim.extras import require_extra
 from e2esim.faraday.global_climatology import grid_axes
-from e2esim.params import Ordered, Param, find_param, to_si, validate_section
 from e2esim.limits import MAX_MAP_CASES, check_count
+from e2esim.params import Ordered, Param, find_param, to_si, validate_section
 from e2esim.scene.forest_cover import DEFAULT_FOREST_GROUPS, FOREST_GROUPS, PRODUCTS
 
 MONTHS = tuple(range(1, 13))

@@ -21,9 +21,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from e2esim.atomic import atomic_path
 from e2esim.errors import one_line
 from e2esim.extras import optional_import
-from e2esim.atomic import atomic_path
 from e2esim.io.scalar_units import scalar_description, scalar_unit
 from e2esim.maps.grid import (
     LAT_KEYS,

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import dataclasses
 from abc import abstractmethod
 from typing import ClassVar
 
@@ -10,7 +9,7 @@ import numpy as np
 
 from e2esim.module import Module, fail
 from e2esim.params import Param, ParamGroup
-from e2esim.requirements.checked_model import error_model_of
+from e2esim.requirements.checked_model import agb_error_of
 from e2esim.requirements.coverage import assumed_contributions
 from e2esim.requirements.verdict import RequirementVerdict
 from e2esim.retrieval.agb_error import AGBError
@@ -96,37 +95,23 @@ def checked_error(requirement: Requirement, case) -> AGBError:
     requirement's assumed terms, ``with_assumed``), or only from the systematic error of the propagation's error
     model, system distortions, Faraday rotation and noise (``systematic``, the criterion of Men et al. 2021),
     leaving out the random-error budget, the regression uncertainty and the model term (the uncertainty of
-    the retrieval's exponents and coefficients)."""
-    agb = case["agb.error"]
-    if requirement.si["sources"] != "systematic":
-        return with_assumed(requirement, agb)
-    if all(c.group == "systematic" for c in agb.contributions):
-        return agb  # nothing but the propagation's error (and its parts): already the systematic error
-    model = error_model_of(case)
-    m = model.current() if model.unavailable is None else None
-    if np.ndim(agb.exponent):  # a block of cases (e2esim.retrieval.agb_error_block): analytic only
-        return dataclasses.replace(agb, sigma_hv=np.asarray(model.value, dtype=float), error_mean=np.asarray(m.mean),
-                                   error_sd=np.asarray(m.sd), contributions=(), saturated_fraction=())
-    return AGBError.from_sigma_errors(
-        agb.exponent, model.value, None if m is None else float(m.mean), None if m is None else float(m.sd),
-        model.relative_samples(), agb.mapping, error_model=agb.error_model,
-    )
+    the retrieval's exponents and coefficients): ``AGBError.systematic``."""
+    agb = agb_error_of(case)
+    if requirement.si["sources"] == "systematic":
+        return agb.systematic()
+    return with_assumed(requirement, agb)
 
 
 def with_assumed(requirement: Requirement, agb: AGBError) -> AGBError:
-    """``agb`` with the requirement's assumed terms (``e2esim.requirements.coverage.assumed_contributions``) added to
-    the variance of the relative sigma error, as the retrieval adds the random-error budget
-    (``e2esim.retrieval.combine``); analytic only: the Monte Carlo samples are left out (a verdict note says so)."""
+    """``agb`` with the requirement's assumed terms (``e2esim.requirements.coverage.assumed_contributions``) added
+    (``AGBError.with_terms``); analytic only: the Monte Carlo samples are left out (a verdict note says so)."""
     extra = assumed_contributions(requirement, agb)
     if not extra:
         return agb
     if agb.error_mean is None:
         raise fail(requirement, "the assumed terms are combined with the analytic AGB error, which this simulation "
                    "mode does not compute", "use simulation mode analytic or both", key="assumed")
-    added = sum(c.relative_variance for c in extra)
-    sd = np.sqrt(np.square(np.asarray(agb.error_sd, dtype=float)) + np.square(np.asarray(agb.sigma_hv)) * added)
-    return dataclasses.replace(agb, error_sd=plain(sd), samples=None, contributions=tuple(agb.contributions) + extra,
-                               saturated_fraction=tuple((b, f) for b, f in agb.saturated_fraction if b != "montecarlo"))
+    return agb.with_terms(extra)
 
 
 def basis_of(requirement: Requirement, case, agb: AGBError) -> str:

@@ -1,10 +1,12 @@
-"""Which error model a requirement reads: the one the case's AGB error maps (``AGBError.error_model``)."""
+"""The AGB error a requirement reads, with the error model it maps (``AGBError.error_model``)."""
 
 from __future__ import annotations
 
+import dataclasses
 
-def error_model_of(case):
-    """The single-channel error model the case's AGB error maps: the one the retrieval names (a channel or a
-    channel combination of a multi-channel model), else ``backscatter.error``."""
-    model = getattr(case["agb.error"], "error_model", None)
-    return model if model is not None else case["backscatter.error"]
+
+def agb_error_of(case):
+    """The case's AGB error, which answers every question a requirement asks (``e2esim.retrieval.agb_variants``);
+    one that names no error model (a plug-in retrieval's) maps the case's ``backscatter.error``."""
+    agb = case["agb.error"]
+    return agb if agb.error_model is not None else dataclasses.replace(agb, error_model=case["backscatter.error"])

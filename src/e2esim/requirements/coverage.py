@@ -24,7 +24,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from e2esim.requirements.checked_model import error_model_of
+from e2esim.requirements.checked_model import agb_error_of
 from e2esim.requirements.source_names import source_name
 
 SYSTEMATIC = "systematic"
@@ -74,8 +74,7 @@ def verdict_coverage(requirement, case) -> tuple:
     """(coverage, coverage_text, missing) of ``requirement`` on ``case`` (one case, or a block read through
     ``e2esim.block.BlockView``: then the sources are those of every case of the block); ``missing``: the groups
     that ``sources: all`` needs and the coverage lacks (``missing_terms``)."""
-    model = error_model_of(case)
-    terms = chain_terms(case, model)
+    terms = chain_terms(case, agb_error_of(case).error_model)
     which = setting(requirement)
     assumed = assumed_values(requirement)
     covered = [t for t in terms if t[1] == SYSTEMATIC] if which == SYSTEMATIC else list(terms)

@@ -1,5 +1,6 @@
 """How far each error level may degrade before a requirement fails, and the crosstalk/channel-imbalance
-trade-off curves: root finding on the propagation's error model (``e2esim.requirements.tradeoff``).
+trade-off curves: root finding on the bounds' violation at changed levels of the error model (``AGBBound``: asked
+of the AGB error; ``ModelBound``: of an error model alone; ``e2esim.requirements.tradeoff``).
 
 Neither runs past the measured validity range of the error model's analytic moments (``ErrorModel.validity``,
 docs/theory/validity.md): a limit or axis crossing beyond its edge is reported as +inf ("holds as far as the
@@ -11,13 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from e2esim.distortion.validity import describe_level
-from e2esim.requirements.tradeoff import (
-    TRADEOFF_LEVELS,
-    axis_limits,
-    first_failing_level,
-    requirement_violation,
-    tradeoff_curve,
-)
+from e2esim.requirements.tradeoff import TRADEOFF_LEVELS, bound_axis_limits, bound_tradeoff_curve, first_failing_level
 from e2esim.units import level_db_from_variance, variance_from_level_db
 
 INSTRUMENT_LEVELS = ("crosstalk", "channel_imbalance")
@@ -70,7 +65,7 @@ def _edge_db(model, convention: str) -> dict:
     return {} if edge is None else {"validity_edge_db": float(level_db_from_variance(edge, convention))}
 
 
-def level_margins(requirements, model, convention: str, stated_db: dict | None = None) -> dict:
+def level_margins(bounds, convention: str, stated_db: dict | None = None) -> dict:
     """Levels (dB) at which the verdict flips, each level of the error model varied alone, and their margins.
 
     ``<level>.limit_db``: the level where the first of the requirement's sides starts to fail (NaN if it
@@ -82,15 +77,16 @@ def level_margins(requirements, model, convention: str, stated_db: dict | None =
     for one case, arrays over the cases of a block (the error model's ``value`` has their shape).
     """
     stated_db = stated_db or {}
+    model = bounds[0].model
     cases = np.shape(model.value)
     edge = validity_edge(model)
     out = _edge_db(model, convention)
     for level, current in model.levels.items():
         conv = convention if level in INSTRUMENT_LEVELS else "variance"
         limits = []
-        for req in requirements:
-            def violation(levels, req=req, level=level):
-                return requirement_violation(req, model, **{level: levels})
+        for bound in bounds:
+            def violation(levels, bound=bound, level=level):
+                return bound.violation_at(**{level: levels})
             limits.append(first_failing_level(violation, cases))
         limit = np.minimum.reduce(limits)
         limit = np.where(np.any(np.isnan(limits), axis=0), np.nan, limit)
@@ -121,29 +117,30 @@ def has_tradeoff_plane(model) -> bool:
     return all(level in model.levels for level in TRADEOFF_LEVELS)
 
 
-def axis_crossings(requirements, model, convention: str) -> dict:
+def axis_crossings(bounds, convention: str) -> dict:
     """Where each trade-off curve meets the axes (Men et al. 2021, Section V-B points 3 and 6), in dB:
     the largest channel imbalance with no crosstalk and the largest crosstalk with no channel imbalance (+inf
     beyond the model's validity edge)."""
+    model = bounds[0].model
     edge = validity_edge(model)
     out = _edge_db(model, convention)
-    for req in requirements:
-        limits = {k: _capped(np.asarray(v, dtype=float), edge) for k, v in axis_limits(req, model).items()}
+    for req in bounds:
+        limits = {k: _capped(np.asarray(v, dtype=float), edge) for k, v in bound_axis_limits(req).items()}
         with np.errstate(divide="ignore", invalid="ignore"):
             out[f"{req.side}.imbalance_axis_db"] = _plain(level_db_from_variance(limits["imbalance_limit"], convention))
             out[f"{req.side}.crosstalk_axis_db"] = _plain(level_db_from_variance(limits["crosstalk_limit"], convention))
     return out
 
 
-def tradeoff_curves(requirements, model, convention: str, crosstalk_db_range, points: int) -> dict:
+def tradeoff_curves(bounds, convention: str, crosstalk_db_range, points: int) -> dict:
     """The trade-off curve of every side: channel imbalance (dB) against crosstalk (dB), in ``convention``; NaN
     where either level would be beyond the model's validity edge."""
     x_db = np.linspace(*crosstalk_db_range, points)
     x = variance_from_level_db(x_db, convention)
-    edge = validity_edge(model)
+    edge = validity_edge(bounds[0].model)
     curves = {"crosstalk_db": x_db}
-    for req in requirements:
-        v_eps = tradeoff_curve(req, model, x)
+    for req in bounds:
+        v_eps = bound_tradeoff_curve(req, x)
         if edge is not None:
             v_eps = np.where((v_eps > edge) | (x > edge), np.nan, v_eps)
         with np.errstate(divide="ignore", invalid="ignore"):

@@ -5,8 +5,8 @@
 AGB error stays below a limit. ``agb_rmse_absolute``: the same in t/ha (NISAR). Each verdict carries the
 contribution of every error source (``e2esim.requirements.attribution``) and, on request, how far each
 error level may degrade and the crosstalk/channel-imbalance trade-off curve
-(``e2esim.requirements.margins``): all from the propagation's error model, so they work for any
-propagation module that provides one.
+(``e2esim.requirements.margins``): all asked of the case's AGB error (``e2esim.retrieval.agb_variants``), which
+holds the propagation's error model, so they work for any propagation module that provides one.
 """
 
 from __future__ import annotations
@@ -24,7 +24,6 @@ from e2esim.requirements.base import (
     Requirement,
     basis_of,
     checked_error,
-    error_model_of,
     largest,
     plain,
     scope_suffix,
@@ -39,7 +38,7 @@ from e2esim.requirements.margins import (
     tradeoff_curves,
     validity_note,
 )
-from e2esim.requirements.tradeoff import AGBRequirement
+from e2esim.requirements.tradeoff import AGBBound
 from e2esim.requirements.uncertainty import largest_side, verdict_uncertainty
 from e2esim.requirements.verdict import RequirementVerdict
 
@@ -115,34 +114,29 @@ class AGBErrorBound(Requirement):
         details.update(sure)
         notes.extend(sure_notes)
         verdict_curves = {}
-        model = error_model_of(case)
+        model = agb.error_model
         if (c["level_margins"] or c["tradeoff_curve"]) and model.unavailable is not None:
             notes.append(f"no level margins or trade-off curve: {model.unavailable}")
         elif c["level_margins"] or c["tradeoff_curve"]:
-            extra = plain(np.maximum(np.asarray(agb.error_sd) ** 2 - np.asarray(model.current().variance), 0.0))
-            reqs = [AGBRequirement(bound, conf, side, agb.exponent,
-                                   relative_threshold=None if agb.mapping is None else agb.sigma_threshold(
-                                       bound if side == "over" else -bound),
-                                   extra_variance=extra)
-                    for side in self.sides()]
+            bounds = [AGBBound(agb, bound, conf, side) for side in self.sides()]
             convention = level_convention(case)
             if validity_note(model) is not None:
                 notes.append(validity_note(model))
             if c["level_margins"]:
-                details.update(level_margins(reqs, model, convention, stated_levels_db(case)))
+                details.update(level_margins(bounds, convention, stated_levels_db(case)))
             if c["tradeoff_curve"] and not has_tradeoff_plane(model):
                 notes.append("no trade-off curve: the error model has no crosstalk and channel-imbalance levels "
                              f"(its levels: {', '.join(model.levels) or 'none'})")
             elif c["tradeoff_curve"]:
-                verdict_curves = tradeoff_curves(reqs, model, convention, c["curve_crosstalk_db"], c["curve_points"])
-                details.update(axis_crossings(reqs, model, convention))
+                verdict_curves = tradeoff_curves(bounds, convention, c["curve_crosstalk_db"], c["curve_points"])
+                details.update(axis_crossings(bounds, convention))
         sides = self.sides()
 
         def checked_value(agb_error):
             qs = [plain(agb_error.quantile(conf if side == "over" else 1 - conf)) * PERCENT for side in sides]
             return largest([q if side == "over" else -q for q, side in zip(qs, sides)])
 
-        contributions, why_not = attribution(case, checked_value, agb)
+        contributions, why_not = attribution(checked_value, agb)
         details.update(contributions)
         return RequirementVerdict(
             name=self.label,
@@ -191,7 +185,7 @@ class AGBRelativeRMSE(Requirement):
             {b: agb.standard_error("rmse", b) * PERCENT for b in bases},
             agb.sampling_standard_error("rmse") * PERCENT if agb.has("montecarlo") else None, limit - value, "%")
         details.update(sure)
-        contributions, notes = attribution(case, lambda agb_error: agb_error.rmse("analytic") * PERCENT, agb)
+        contributions, notes = attribution(lambda agb_error: agb_error.rmse("analytic") * PERCENT, agb)
         details.update(contributions)
         return RequirementVerdict(self.label, truth(value <= limit), value, limit, limit - value, "%", basis,
                                   details, dominant=dominant(details), notes=tuple(notes) + sure_notes)
@@ -234,7 +228,7 @@ class AGBAbsoluteRMSE(Requirement):
         value = agb.rmse(basis) * agb_true
         bases = [b for b in ("analytic", "montecarlo") if agb.has(b)]
         details = {f"{b}.rmse_t_ha": agb.rmse(b) * agb_true for b in bases}
-        contributions, notes = attribution(case, lambda a: a.rmse("analytic") * agb_true, agb, unit="t_ha")
+        contributions, notes = attribution(lambda a: a.rmse("analytic") * agb_true, agb, unit="t_ha")
         details.update(contributions)
         below = self.config["applies_below_t_ha"]
         applies = True if below is None else truth(np.asarray(agb_true) < below)

@@ -9,7 +9,7 @@ import numpy as np
 from e2esim import products as P
 from e2esim.kinds import Kind
 from e2esim.module import fast_path
-from e2esim.requirements.verdict import RequirementVerdicts, RequirementVerdictsBlock
+from e2esim.requirements.verdict import RequirementVerdicts
 
 _CURVE_CASES = 32
 """Cases whose trade-off curves are traced at once (a few tens of MB of temporaries)."""
@@ -81,11 +81,11 @@ class RequirementSet:
             part = block if size >= len(block) else block.take(np.arange(start, min(start + size, len(block))))
             try:
                 view = BlockView(part)
-                parts.append(RequirementVerdictsBlock(tuple(with_coverage(r, r.evaluate(view), view)
-                                                            for r in self.requirements), len(part)))
+                parts.append(RequirementVerdicts(tuple(with_coverage(r, r.evaluate(view), view)
+                                                       for r in self.requirements), len(part)))
             except (NotBatched, ConfigError):
                 return None
-        return {"verdicts": parts[0] if len(parts) == 1 else RequirementVerdictsBlock.concatenate(parts)}
+        return {"verdicts": parts[0] if len(parts) == 1 else RequirementVerdicts.concatenate(parts)}
 
 
 KIND = Kind("requirement", "verdict of a mission requirement on the AGB error", 80, "requirements",

@@ -107,6 +107,40 @@ def requirement_violation(requirement: AGBRequirement, model, **levels):
     return requirement.violation(m.mean, m.sd, model.value)
 
 
+@dataclass(frozen=True)
+class AGBBound:
+    """A requirement module's one-sided bound, asked of the AGB error it checks: ``AGBError.bound_violation`` at
+    the error model's changed levels (eq. 19 with every source the AGB error holds). What the margins and
+    trade-off curves of the requirement modules solve."""
+
+    agb: object
+    bound: float
+    confidence: float
+    side: str
+
+    @property
+    def model(self):
+        return self.agb.error_model
+
+    def violation_at(self, **levels):
+        return self.agb.bound_violation(self.bound, self.confidence, self.side, **levels)
+
+
+@dataclass(frozen=True)
+class ModelBound:
+    """An ``AGBRequirement`` asked of an error model alone (stand-alone trade-off studies, the verification)."""
+
+    requirement: AGBRequirement
+    model: object
+
+    @property
+    def side(self) -> str:
+        return self.requirement.side
+
+    def violation_at(self, **levels):
+        return requirement_violation(self.requirement, self.model, **levels)
+
+
 def first_failing_level(violation, shape=(), search_range=LEVEL_SEARCH_RANGE) -> np.ndarray:
     """Smallest level V in ``search_range`` at which ``violation(V) > 0``, element-wise.
 
@@ -162,33 +196,43 @@ TRADEOFF_LEVELS = ("crosstalk", "channel_imbalance")
 
 
 def tradeoff_curve(requirement: AGBRequirement, model, crosstalk_levels) -> np.ndarray:
+    """``bound_tradeoff_curve`` of ``requirement`` on the error model alone."""
+    return bound_tradeoff_curve(ModelBound(requirement, model), crosstalk_levels)
+
+
+def bound_tradeoff_curve(bound, crosstalk_levels) -> np.ndarray:
     """Channel-imbalance level V_eps on the trade-off curve for each crosstalk level V_delta.
 
-    By root finding on the error model's moments (``first_failing_level``): V_eps is the largest
+    By root finding on ``bound.violation_at`` (``first_failing_level``): V_eps is the largest
     channel-imbalance variance that still meets the requirement. NaN where the crosstalk level alone
     already breaks it; +inf where no channel-imbalance level up to 1 does.
     """
     x = np.atleast_1d(np.asarray(crosstalk_levels, dtype=float))
-    cases = np.shape(model.value)  # () for one case, (B,) for a block
+    cases = np.shape(bound.model.value)  # () for one case, (B,) for a block
     levels = x.reshape((1,) * len(cases) + x.shape + (1,))
 
     def violation(v_eps):
-        return requirement_violation(requirement, model, crosstalk=levels, channel_imbalance=v_eps)
+        return bound.violation_at(crosstalk=levels, channel_imbalance=v_eps)
 
     return first_failing_level(violation, cases + x.shape)
 
 
 def axis_limits(requirement: AGBRequirement, model) -> dict:
+    """``bound_axis_limits`` of ``requirement`` on the error model alone."""
+    return bound_axis_limits(ModelBound(requirement, model))
+
+
+def bound_axis_limits(bound) -> dict:
     """Where the trade-off curve meets the axes: the largest V_eps with no crosstalk and the largest
     V_delta with no channel imbalance (variances). Men et al. (2021), Section V-B, points 3 and 6."""
 
     def imbalance_alone(v):
-        return requirement_violation(requirement, model, crosstalk=0.0, channel_imbalance=v)
+        return bound.violation_at(crosstalk=0.0, channel_imbalance=v)
 
     def crosstalk_alone(v):
-        return requirement_violation(requirement, model, crosstalk=v, channel_imbalance=0.0)
+        return bound.violation_at(crosstalk=v, channel_imbalance=0.0)
 
-    cases = np.shape(model.value)
+    cases = np.shape(bound.model.value)
     return {
         "imbalance_limit": _plain(first_failing_level(imbalance_alone, cases)),
         "crosstalk_limit": _plain(first_failing_level(crosstalk_alone, cases)),

@@ -28,7 +28,7 @@ class RequirementVerdict:
     (``e2esim.requirements.coverage``); coverage_text : the same in words, with what the chain leaves out.
 
     A verdict that does not apply is normalised on construction: ``passed`` False, ``margin`` NaN. For a block of
-    cases (``RequirementVerdictsBlock``) the numbers, ``passed`` and ``applicable`` are arrays over the cases.
+    cases (``RequirementVerdicts`` of a block) the numbers, ``passed`` and ``applicable`` are arrays over the cases.
     """
 
     name: str
@@ -84,23 +84,33 @@ def passed_scalar(passed, applicable):
 
 
 @dataclass(frozen=True)
-class RequirementVerdicts:
-    """The verdicts of a case, in the order of the scenario's ``requirements`` (product ``verdicts``)."""
+class RequirementVerdicts(Batched):
+    """The verdicts of the requirements, in the order of the scenario's ``requirements`` (product ``verdicts``).
+
+    verdicts : one ``RequirementVerdict`` per requirement. n : the cases they answer for: 1 for a case, B for a
+    block of sweep cases, whose verdicts' numbers, ``passed``, ``applicable`` and dominant sources are arrays over
+    the cases (or one value for all). Iterating and indexing go over the requirements, ``len`` counts the cases
+    (``e2esim.block.Batched``).
+    """
 
     verdicts: tuple = ()
+    n: int = 1
 
     def __iter__(self):
         return iter(self.verdicts)
 
+    def __bool__(self) -> bool:
+        return True
+
     def __len__(self) -> int:
-        return len(self.verdicts)
+        return self.n
 
     def __getitem__(self, i) -> RequirementVerdict:
         return self.verdicts[i]
 
     def scalars(self) -> dict:
         """``requirement<i>.passed`` (1 passes, 0 fails, NaN not applicable), ``.value`` and ``.margin`` (NaN not
-        applicable) in each requirement's unit."""
+        applicable) in each requirement's unit, of one case."""
         out = {}
         for i, v in enumerate(self.verdicts):
             out[f"requirement{i}.passed"] = float(passed_scalar(v.passed, v.applicable))
@@ -108,30 +118,18 @@ class RequirementVerdicts:
             out[f"requirement{i}.margin"] = v.margin
         return out
 
-
-@dataclass(frozen=True, eq=False)
-class RequirementVerdictsBlock(Batched):
-    """The verdicts of a block of B cases (``e2esim.block.Batched``): ``RequirementVerdict``s whose numbers,
-    verdicts and dominant sources are arrays over the cases (or one value for all), in scenario order."""
-
-    verdicts: tuple
-    n: int
-
-    def __len__(self) -> int:
-        return self.n
-
     def item(self, i: int) -> RequirementVerdicts:
         return RequirementVerdicts(tuple(_verdict_at(v, i) for v in self.verdicts))
 
-    def take(self, positions) -> RequirementVerdictsBlock:
+    def take(self, positions) -> RequirementVerdicts:
         positions = np.asarray(positions)
-        return RequirementVerdictsBlock(tuple(_verdict_take(v, positions) for v in self.verdicts), len(positions))
+        return RequirementVerdicts(tuple(_verdict_take(v, positions) for v in self.verdicts), len(positions))
 
     @classmethod
-    def concatenate(cls, parts: list) -> RequirementVerdictsBlock:
+    def concatenate(cls, parts: list) -> RequirementVerdicts:
         n = sum(p.n for p in parts)
-        return RequirementVerdictsBlock(tuple(_verdict_join([p.verdicts[j] for p in parts], [p.n for p in parts])
-                                              for j in range(len(parts[0].verdicts))), n)
+        return RequirementVerdicts(tuple(_verdict_join([p.verdicts[j] for p in parts], [p.n for p in parts])
+                                         for j in range(len(parts[0].verdicts))), n)
 
     def scalar_columns(self) -> dict:
         out = {}

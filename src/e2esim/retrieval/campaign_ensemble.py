@@ -51,7 +51,7 @@ class RegressionUncertainty:
     (x = e / sigma units). standard_error : its standard error, sd / sqrt(K). spread : {"p16", "p50", "p84"}
     quantiles of the per-campaign relative SD. campaigns : K drawn; failed : how many of them were left out.
 
-    For a block of sweep cases (``e2esim.retrieval.agb_error_block``) every field is a (B,) array over the cases
+    For a block of sweep cases (an ``AGBError`` with a case axis) every field is a (B,) array over the cases
     (``gathered``, ``item``, ``take``); the properties are element-wise, so a case gets the same numbers alone or in
     a block."""
 

@@ -152,7 +152,7 @@ def systematic_agb_error(model, exponent: float) -> AGBError:
     ``exponent`` (no budget, no regression: the chain of Men et al. 2021)."""
     m = model.current() if model.unavailable is None else None
     return AGBError.from_sigma_errors(exponent, model.value, None if m is None else float(m.mean),
-                                      None if m is None else float(m.sd), model.relative_samples())
+                                      None if m is None else float(m.sd), model.relative_samples(), error_model=model)
 
 
 def combined_agb_error(case, exponent: float, mapping: RelativeErrorMap | None = None,
@@ -199,7 +199,7 @@ def combined_agb_error(case, exponent: float, mapping: RelativeErrorMap | None =
         reg_se = 0.0 if regression is None or regression.uncertainty is None else regression.uncertainty.standard_error
         saturated, errors = _saturation(mapping, mean, sd, s, relative, reg_se)
     return AGBError.from_sigma_errors(exponent, s, mean, sd, relative, mapping, contributions, saturated,
-                                      saturated_standard_error=errors)
+                                      error_model=model, saturated_standard_error=errors)
 
 
 def _saturation(mapping, mean, sd, sigma, relative, variance_se: float = 0.0) -> tuple:

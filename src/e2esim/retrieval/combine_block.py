@@ -15,14 +15,13 @@ from e2esim.block import CaseRandom, Factor
 from e2esim.case import Case
 from e2esim.distinct import distinct_rows
 from e2esim.errors import ConfigError
-from e2esim.retrieval.agb_error import AGBContribution
-from e2esim.retrieval.agb_error_block import AGBErrorBlock
+from e2esim.retrieval.agb_error import AGBContribution, AGBError
 from e2esim.retrieval.campaign_ensemble import RegressionUncertainty
 from e2esim.retrieval.combine import budget_contributions, random_total_variance
 
 
-def combined_agb_error_block(model, budget, exponent, regression=None) -> AGBErrorBlock | None:
-    """The ``AGBErrorBlock`` of B analytic cases: ``model`` the block's error model (``Batched``, analytic),
+def combined_agb_error_block(model, budget, exponent, regression=None) -> AGBError | None:
+    """The ``AGBError`` of B analytic cases: ``model`` the block's error model (``Batched``, analytic),
     ``budget`` the block's budgets (``Factor``) or None, ``exponent`` (B,), ``regression`` an ``AGBContribution``
     with (B,) fields or None. None when the budgets' terms differ between cases (then case by case)."""
     s = np.asarray(model.value, dtype=float)
@@ -46,8 +45,8 @@ def combined_agb_error_block(model, budget, exponent, regression=None) -> AGBErr
     reg_var = regression.relative_variance if regression is not None else 0.0
     m = model.current()
     var = np.asarray(m.variance, dtype=float) + s**2 * (rand_var + reg_var)
-    return AGBErrorBlock(np.asarray(exponent, dtype=float), s, np.asarray(m.mean, dtype=float),
-                         np.sqrt(np.maximum(var, 0.0)), None, None, systematic + random_ + reg)
+    return AGBError(np.asarray(exponent, dtype=float), s, np.asarray(m.mean, dtype=float),
+                         np.sqrt(np.maximum(var, 0.0)), None, None, systematic + random_ + reg, error_model=model)
 
 
 def _budget_terms(budget) -> tuple:

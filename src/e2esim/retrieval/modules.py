@@ -17,7 +17,7 @@ from e2esim import products as P
 from e2esim.errors import ConfigError, PhysicsInputError
 from e2esim.module import Stage, fail
 from e2esim.params import Ordered, Param, ParamGroup
-from e2esim.retrieval.agb_error import RelativeErrorMap
+from e2esim.retrieval.agb_error import AGBError, RelativeErrorMap
 from e2esim.retrieval.combine import combined_agb_error, systematic_agb_error
 from e2esim.retrieval.loglinear import LogLinearModel
 from e2esim.retrieval.power_law import BIOME_EXPONENTS, PowerLaw
@@ -132,13 +132,12 @@ class PowerLawRetrieval(_Retrieval):
         return self.combine(case, p, None, regression, model_term=model_term)
 
     def forward_block(self, block):
-        """``forward`` for a block of cases at once when the error is analytic for every case (``AGBErrorBlock``):
-        the propagation's error alone, or combined with the error budget (``combine_block``) and a regression
-        term that draws nothing from the case's generator (the same for every case of a scene); None (case by
-        case) otherwise."""
+        """``forward`` for a block of cases at once when the error is analytic for every case (an ``AGBError`` over
+        the block's cases): the propagation's error alone, or combined with the error budget (``combine_block``) and
+        a regression term that draws nothing from the case's generator (the same for every case of a scene); None
+        (case by case) otherwise."""
         from e2esim.block import Batched, Factor
         from e2esim.retrieval import combine_block
-        from e2esim.retrieval.agb_error_block import AGBErrorBlock
 
         model, scene, budget = block["backscatter.error"], block["scene.covariance"], block.get("backscatter.budget")
         if (not isinstance(model, Batched) or model.unavailable is not None or not isinstance(scene, Factor)
@@ -151,7 +150,8 @@ class PowerLawRetrieval(_Retrieval):
         s = np.asarray(model.value, dtype=float)
         if budget is None and self.campaign.mode == "none":
             m = model.current()
-            return {"agb.error": AGBErrorBlock(p, s, np.asarray(m.mean, dtype=float), np.asarray(m.sd, dtype=float))}
+            return {"agb.error": AGBError(p, s, np.asarray(m.mean, dtype=float), np.asarray(m.sd, dtype=float),
+                                           error_model=model)}
         regression = None
         if self.campaign.mode != "none":
             agb = combine_block.gather_agb(self, scene)

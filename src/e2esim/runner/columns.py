@@ -229,7 +229,7 @@ def requirement_columns(verdicts, n: int) -> list:
         return []
     if isinstance(verdicts, Batched):
         return verdicts.columns()
-    count = len(verdicts.values[0]) if verdicts.values else 0
+    count = len(verdicts.values[0].verdicts) if verdicts.values else 0
     return [RequirementColumns.from_verdicts([v[j] for v in verdicts.values]).take(verdicts.index)
             for j in range(count)]
 

@@ -16,8 +16,8 @@ import stat
 import tempfile
 from pathlib import Path
 
-from e2esim.errors import OutputExistsError, OutputFolderError
 from e2esim.atomic import write_text_atomic
+from e2esim.errors import OutputExistsError, OutputFolderError
 from e2esim.io.results_h5 import write_results
 from e2esim.io.summary import write_summary
 from e2esim.maps.grid import is_map_sweep

@@ -10,8 +10,8 @@ from __future__ import annotations
 
 from e2esim import registry
 from e2esim.errors import ConfigError, Location, ModuleLookupError
-from e2esim.params import find_param, iter_params, validate_section
 from e2esim.limits import check_monte_carlo
+from e2esim.params import find_param, iter_params, validate_section
 from e2esim.runner.overrides import dotted_path, set_path
 from e2esim.runner.plan import Slot, SweepPlan, combinations, number_shapes
 from e2esim.runner.sections import (

@@ -17,8 +17,8 @@ from typing import Any
 
 from e2esim import registry
 from e2esim.errors import ConfigError, Location, ScenarioFileError
-from e2esim.params import unknown_key_error, validate_section
 from e2esim.limits import check_plain, shorten
+from e2esim.params import unknown_key_error, validate_section
 from e2esim.runner.overrides import (
     NOT_GIVEN,
     check_not_swept,
