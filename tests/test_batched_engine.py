@@ -110,7 +110,7 @@ def test_batched_stages_are_used_for_the_analytic_chain():
     resolved = Scenario(yaml.safe_load(SWEEP), "blocks.yaml").resolve()
     products = BlockRun(resolved.plan, np.arange(24), default_services()).run()
     kinds = {name: type(value).__name__ for name, value in products.items()}
-    assert kinds["backscatter.error"] == "HVErrorModelBlock" and kinds["agb.error"] == "AGBErrorBlock"
+    assert kinds["backscatter.error"] == "HVErrorModel" and kinds["agb.error"] == "AGBErrorBlock"
     assert kinds["verdicts"] == "RequirementVerdictsBlock"
     assert kinds["instrument"] == "Factor" and len(products["instrument"].values) == 4  # once per distinct one
 

@@ -6,11 +6,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from e2esim.block import Batched
+from e2esim.block import Batched, Block
 from e2esim.budget.modules import BackscatterErrorBudget
 from e2esim.distortion.modules import HVBackscatterErrorPropagation
 from e2esim.errors import Location
-from e2esim.module import fast_path
+from e2esim.module import batched_run, fast_path
 from e2esim.requirements.modules import AGBErrorBound
 from e2esim.requirements.stage import RequirementSet
 from e2esim.retrieval.modules import PowerLawRetrieval
@@ -28,21 +28,22 @@ class OwnForward(HVBackscatterErrorPropagation):
 
 class OwnForwardAndBlock(OwnForward):
     type_name = "own_forward_and_block"
-
-    def forward_block(self, block):
-        return super().forward_block(block)
+    forward_takes_blocks = True  # it says its forward takes blocks
 
 
 class WrongBlock(HVBackscatterErrorPropagation):
-    """A fast path that does not describe ``forward`` (it gives the cases in reverse order): check_module must
-    say so."""
+    """A forward whose answer for a block does not describe its cases (it gives them in reverse order):
+    check_module must say so."""
 
     type_name = "wrong_block"
+    forward_takes_blocks = True
 
-    def forward_block(self, block):
-        out = super().forward_block(block)
-        reverse = np.arange(len(block))[::-1]
-        return None if out is None else {name: value.take(reverse) for name, value in out.items()}
+    def forward(self, case):
+        out = super().forward(case)
+        if not isinstance(case, Block):
+            return out
+        reverse = np.arange(len(case))[::-1]
+        return {name: value.take(reverse) for name, value in out.items()}
 
 
 class OwnExponent(PowerLawRetrieval):
@@ -60,14 +61,14 @@ class OwnEvaluate(AGBErrorBound):
 
 
 def test_a_subclass_that_overrides_forward_does_not_inherit_the_fast_path():
-    assert fast_path(HVBackscatterErrorPropagation()) is not None
-    assert fast_path(OwnForward()) is None
-    assert fast_path(OwnForwardAndBlock()) is not None  # it says its forward_block describes its forward
+    assert batched_run(HVBackscatterErrorPropagation()) is not None
+    assert batched_run(OwnForward()) is None
+    assert batched_run(OwnForwardAndBlock()) is not None  # it says its forward takes blocks
 
 
 def test_overriding_a_hook_of_the_fast_path_turns_it_off():
-    assert fast_path(PowerLawRetrieval()) is not None
-    assert fast_path(OwnExponent()) is None
+    assert batched_run(PowerLawRetrieval()) is not None
+    assert batched_run(OwnExponent()) is None
 
 
 def test_a_requirement_that_overrides_evaluate_is_evaluated_case_by_case():

@@ -101,6 +101,14 @@ class Case:
     def get(self, name: str, default: Any = None) -> Any:
         return self.products.get(name, default)
 
+    def column(self, name: str, label: str, get) -> Any:
+        """``get`` of the product ``name``: what a stage reads from it, in the form a block of cases gives with its
+        case axis (``e2esim.block.Block.column``); ``label`` names it there."""
+        return get(self.products[name])
+
+    def per_case(self, why: str) -> None:
+        """Nothing: a case alone is always evaluated (a ``Block`` hands such cases back to run one by one)."""
+
     def adding(self, new: Mapping) -> Case:
         """The case with ``new`` products added (``Products.adding``)."""
         return replace(self, products=self.products.adding(new))
