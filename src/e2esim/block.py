@@ -142,6 +142,9 @@ class Batched:
     def __len__(self) -> int:
         raise NotImplementedError
 
+    def __bool__(self) -> bool:  # a product, whatever its number of cases (a one-case product may have no length)
+        return True
+
     def item(self, i: int):
         raise NotImplementedError
 
@@ -306,6 +309,11 @@ class Block:
         """Hand the block back to the engine, which then runs its cases one by one (``why`` says what needs a case
         alone: a Monte Carlo, a case the batched equations do not describe)."""
         raise NotBatched(why)
+
+    @staticmethod
+    def product_of(batched):
+        """The block's product as made, with its case axis (``Case.product_of`` gives a case alone its item)."""
+        return batched
 
     @property
     def index(self) -> str:

@@ -109,6 +109,18 @@ class Case:
     def per_case(self, why: str) -> None:
         """Nothing: a case alone is always evaluated (a ``Block`` hands such cases back to run one by one)."""
 
+    def __len__(self) -> int:  # a case is a block of one (``e2esim.block.Block``)
+        return 1
+
+    def sweep_values(self, key: str) -> np.ndarray | None:
+        """The case's sweep value of ``key`` as a block of one gives it, (1,); None when the sweep does not set it."""
+        return np.asarray([self.inputs[key]]) if key in self.inputs else None
+
+    def product_of(self, batched) -> Any:
+        """The case's product from the product of a block of one made for it (``batched.item(0)``): a stage that
+        builds its product with a case axis gives a case alone its one-case product."""
+        return batched.item(0)
+
     def adding(self, new: Mapping) -> Case:
         """The case with ``new`` products added (``Products.adding``)."""
         return replace(self, products=self.products.adding(new))
