@@ -109,3 +109,39 @@ def test_the_power_law_with_an_error_budget_is_block_invariant():
     case = reference_case(("scene.covariance", "backscatter.error", "instrument"))
     case = case.adding(BackscatterErrorBudget(temporal={"sd_percent": 5.0}).forward(case))
     assert check_block_invariance(PowerLawRetrieval(), case)
+
+
+class HandsBack(HVBackscatterErrorPropagation):
+    """A forward that takes blocks but needs every case alone."""
+
+    type_name = "hands_back"
+    forward_takes_blocks = True
+
+    def forward(self, case):
+        case.per_case("every case alone")
+        return super().forward(case)
+
+
+def test_one_forward_answers_for_a_block_as_for_each_case_alone():
+    """Issue 27, Build 1: hv_backscatter_error has one forward; on a block it gives one HVErrorModel with the case
+    axis, whose every answer (moments, sources removed, contributions) is bit for bit the case's alone."""
+    from e2esim.distortion.error_model import HVErrorModel
+    from e2esim.testing import reference_block
+
+    block, cases = reference_block(HVBackscatterErrorPropagation.needs)
+    assert batched_run(HandsBack())(block) is None  # handed back: the engine runs the cases one by one
+    model = batched_run(HVBackscatterErrorPropagation())(block)["backscatter.error"]
+    assert type(model) is HVErrorModel and len(model) == len(cases) == 4
+    columns = model.scalar_columns()
+    for k, case in enumerate(cases):
+        alone = HVBackscatterErrorPropagation().forward(case)["backscatter.error"]
+        assert type(alone) is HVErrorModel and len(alone) == 1
+        assert {name: columns[name][k] for name in columns} == alone.scalars()
+        for source in alone.sources:
+            variant, in_block = alone.without(source), model.without(source)
+            if variant is alone:  # not active in this case: the block marks it
+                assert in_block.inactive[k], source
+            else:
+                assert in_block.current().variance[k] == variant.current().variance, source
+        for name, part in alone.contributions().items():
+            assert model.contributions()[name].variance[k] == part.variance, name
