@@ -39,6 +39,8 @@ CONTRIBUTION_DESCRIPTIONS = {
 }
 _LEVEL_SOURCES = {"crosstalk": 0, "channel_imbalance": 1, "noise": 2}  # rows of the batched variants
 _NO_ROTATION = ConstantFaraday(0.0)
+_LEVEL_NAMES = {"crosstalk": {"crosstalk": 0.0}, "channel_imbalance": {"imbalance": 0.0},
+                "noise": {"noise_power": 0.0}}  # SystemErrorModel.with_levels of each level source removed
 
 
 class SystemLevels:
@@ -154,7 +156,8 @@ class HVErrorModel(Batched, SystemLevels, ErrorModel):
         if source == "gain":
             if self.alone and inp.no_gain_error:
                 return self
-            return self._variant(dataclasses.replace(inp, gain=(np.ones(shape), np.ones(shape))), inp.no_gain_error)
+            return self._variant(dataclasses.replace(inp, gain=(np.ones(shape), np.ones(shape))), inp.no_gain_error,
+                                 system=lambda s: dataclasses.replace(s, gain_offset_db=0.0, gain_sd_db=0.0))
         # the three level sources in one vectorised evaluation: [no crosstalk, no imbalance, no noise]
         xs, es, ns = inp.levels
         if "level variants" not in self._memo:
@@ -165,7 +168,8 @@ class HVErrorModel(Batched, SystemLevels, ErrorModel):
         row = _LEVEL_SOURCES[source]
         levels = [xs, es, ns]
         levels[row] = 0.0 if self.alone else np.zeros(shape)
-        variant = self._variant(dataclasses.replace(inp, levels=tuple(levels)), np.zeros(shape, dtype=bool))
+        variant = self._variant(dataclasses.replace(inp, levels=tuple(levels)), np.zeros(shape, dtype=bool),
+                                system=lambda s: s.with_levels(**_LEVEL_NAMES[source]))
         variant._memo["current"] = _row(self._memo["level variants"], row, len(shape))
         return variant
 
@@ -179,12 +183,18 @@ class HVErrorModel(Batched, SystemLevels, ErrorModel):
             else:
                 weights = _NO_ROTATION.even_quadrature()[1]
                 averaging = np.broadcast_to(weights, shape + weights.shape)
-            self._memo["no faraday"] = self._variant(dataclasses.replace(inp, averaging=averaging), inp.no_rotation)
+            self._memo["no faraday"] = self._variant(dataclasses.replace(inp, averaging=averaging), inp.no_rotation,
+                                                     faraday=lambda f: _NO_ROTATION)
         return self._memo["no faraday"]
 
-    def _variant(self, inputs: MomentInputs, inactive) -> HVErrorModel:
+    def _variant(self, inputs: MomentInputs, inactive, **products) -> HVErrorModel:
+        """The model with ``inputs``; a case alone also with its products changed as ``products`` say ({field:
+        function of the product}), so that they describe the variant (a block keeps the block's products)."""
+        if not self.alone:
+            return dataclasses.replace(self, _memo={}, inputs=inputs, inactive=inactive)
+        changed = {name: change(getattr(self, name)) for name, change in products.items()}
         return dataclasses.replace(self, montecarlo=None, gaussianity=None, notes=(), _memo={}, inputs=inputs,
-                                   inactive=None if self.alone else inactive)
+                                   **changed)
 
     # Contributions ---------------------------------------------------------------------------------
     def contributions(self) -> dict:
