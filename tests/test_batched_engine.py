@@ -110,8 +110,8 @@ def test_batched_stages_are_used_for_the_analytic_chain():
     resolved = Scenario(yaml.safe_load(SWEEP), "blocks.yaml").resolve()
     products = BlockRun(resolved.plan, np.arange(24), default_services()).run()
     kinds = {name: type(value).__name__ for name, value in products.items()}
-    assert kinds["backscatter.error"] == "HVErrorModelBlock" and kinds["agb.error"] == "AGBError"
-    assert kinds["verdicts"] == "RequirementVerdicts"
+    assert kinds["backscatter.error"] == "HVErrorModel" and kinds["agb.error"] == "AGBError"
+    assert kinds["verdicts"] == "RequirementVerdicts" and kinds["calibration"] == "CalibrationRecord"
     assert kinds["instrument"] == "Factor" and len(products["instrument"].values) == 4  # once per distinct one
 
 
@@ -304,8 +304,8 @@ def test_the_error_budget_and_the_agb_error_it_enters_run_batched_with_the_per_c
     resolved = Scenario(yaml.safe_load(BUDGET_SWEEP), "budget.yaml").resolve()
     products = _budget_products(resolved)
     kinds = {name: type(value).__name__ for name, value in products.items()}
-    assert kinds["backscatter.budget"] == "Factor" and kinds["agb.error"] == "AGBError"
-    assert kinds["verdicts"] == "RequirementVerdicts"
+    assert kinds["backscatter.error"] == "HVErrorModel" and kinds["agb.error"] == "AGBError"
+    assert kinds["verdicts"] == "RequirementVerdicts" and kinds["calibration"] == "CalibrationRecord"
     assert len(set(products["backscatter.budget"].index.tolist())) == 6  # one per scene and instrument, not per case
     groups = products["agb.error"].source_groups()
     assert [g for g in groups.values()] == ["systematic"] * 3 + ["random"] * 4

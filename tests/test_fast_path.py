@@ -6,11 +6,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from e2esim.block import Batched
+from e2esim.block import Batched, Block
 from e2esim.budget.modules import BackscatterErrorBudget
 from e2esim.distortion.modules import HVBackscatterErrorPropagation
 from e2esim.errors import Location
-from e2esim.module import fast_path
+from e2esim.module import batched_run, fast_path
 from e2esim.requirements.modules import AGBErrorBound
 from e2esim.requirements.stage import RequirementSet
 from e2esim.retrieval.modules import PowerLawRetrieval
@@ -28,21 +28,22 @@ class OwnForward(HVBackscatterErrorPropagation):
 
 class OwnForwardAndBlock(OwnForward):
     type_name = "own_forward_and_block"
-
-    def forward_block(self, block):
-        return super().forward_block(block)
+    forward_takes_blocks = True  # it says its forward takes blocks
 
 
 class WrongBlock(HVBackscatterErrorPropagation):
-    """A fast path that does not describe ``forward`` (it gives the cases in reverse order): check_module must
-    say so."""
+    """A forward whose answer for a block does not describe its cases (it gives them in reverse order):
+    check_module must say so."""
 
     type_name = "wrong_block"
+    forward_takes_blocks = True
 
-    def forward_block(self, block):
-        out = super().forward_block(block)
-        reverse = np.arange(len(block))[::-1]
-        return None if out is None else {name: value.take(reverse) for name, value in out.items()}
+    def forward(self, case):
+        out = super().forward(case)
+        if not isinstance(case, Block):
+            return out
+        reverse = np.arange(len(case))[::-1]
+        return {name: value.take(reverse) for name, value in out.items()}
 
 
 class OwnExponent(PowerLawRetrieval):
@@ -60,14 +61,14 @@ class OwnEvaluate(AGBErrorBound):
 
 
 def test_a_subclass_that_overrides_forward_does_not_inherit_the_fast_path():
-    assert fast_path(HVBackscatterErrorPropagation()) is not None
-    assert fast_path(OwnForward()) is None
-    assert fast_path(OwnForwardAndBlock()) is not None  # it says its forward_block describes its forward
+    assert batched_run(HVBackscatterErrorPropagation()) is not None
+    assert batched_run(OwnForward()) is None
+    assert batched_run(OwnForwardAndBlock()) is not None  # it says its forward takes blocks
 
 
 def test_overriding_a_hook_of_the_fast_path_turns_it_off():
-    assert fast_path(PowerLawRetrieval()) is not None
-    assert fast_path(OwnExponent()) is None
+    assert batched_run(PowerLawRetrieval()) is not None
+    assert batched_run(OwnExponent()) is None
 
 
 def test_a_requirement_that_overrides_evaluate_is_evaluated_case_by_case():
@@ -108,3 +109,39 @@ def test_the_power_law_with_an_error_budget_is_block_invariant():
     case = reference_case(("scene.covariance", "backscatter.error", "instrument"))
     case = case.adding(BackscatterErrorBudget(temporal={"sd_percent": 5.0}).forward(case))
     assert check_block_invariance(PowerLawRetrieval(), case)
+
+
+class HandsBack(HVBackscatterErrorPropagation):
+    """A forward that takes blocks but needs every case alone."""
+
+    type_name = "hands_back"
+    forward_takes_blocks = True
+
+    def forward(self, case):
+        case.per_case("every case alone")
+        return super().forward(case)
+
+
+def test_one_forward_answers_for_a_block_as_for_each_case_alone():
+    """Issue 27, Build 1: hv_backscatter_error has one forward; on a block it gives one HVErrorModel with the case
+    axis, whose every answer (moments, sources removed, contributions) is bit for bit the case's alone."""
+    from e2esim.distortion.error_model import HVErrorModel
+    from e2esim.testing import reference_block
+
+    block, cases = reference_block(HVBackscatterErrorPropagation.needs)
+    assert batched_run(HandsBack())(block) is None  # handed back: the engine runs the cases one by one
+    model = batched_run(HVBackscatterErrorPropagation())(block)["backscatter.error"]
+    assert type(model) is HVErrorModel and len(model) == len(cases) == 4
+    columns = model.scalar_columns()
+    for k, case in enumerate(cases):
+        alone = HVBackscatterErrorPropagation().forward(case)["backscatter.error"]
+        assert type(alone) is HVErrorModel and len(alone) == 1
+        assert {name: columns[name][k] for name in columns} == alone.scalars()
+        for source in alone.sources:
+            variant, in_block = alone.without(source), model.without(source)
+            if variant is alone:  # not active in this case: the block marks it
+                assert in_block.inactive[k], source
+            else:
+                assert in_block.current().variance[k] == variant.current().variance, source
+        for name, part in alone.contributions().items():
+            assert model.contributions()[name].variance[k] == part.variance, name

@@ -24,7 +24,7 @@ def test_a_block_of_map_cases_gets_each_cases_own_climatology_and_scene(quick_ru
     products = BlockRun(plan, indices, default_services()).run()
     faraday = products["faraday.geophysical"]
     assert isinstance(faraday, FaradayClimatologyBlock) and products["faraday.residual"] is faraday
-    columns, weights, trig = faraday.scalar_columns(), faraday.even_quadrature_weights(), faraday.trig_moments()
+    columns, weights, trig = faraday.scalar_columns(), faraday.even_quadrature()[1], faraday.trig_moments()
     seen = np.isfinite(faraday.faraday).sum(-1)
     picks = {0, len(indices) - 1, int(np.argmin(seen)), int(np.argmax(seen))}  # cells seen at fewer positions
     for k in sorted(picks):

@@ -142,6 +142,9 @@ class Batched:
     def __len__(self) -> int:
         raise NotImplementedError
 
+    def __bool__(self) -> bool:  # a product, whatever its number of cases (a one-case product may have no length)
+        return True
+
     def item(self, i: int):
         raise NotImplementedError
 
@@ -290,6 +293,35 @@ class Block:
 
     def get(self, name: str, default=None):
         return self.products.get(name, default)
+
+    def column(self, name: str, label: str, get):
+        """``get`` of every case's product ``name`` with the case axis first, as ``Case.column`` gives it for one
+        case, so that a stage's ``forward`` reads a block as it reads a case: a ``Factor``'s distinct values are
+        each read once (once per run in a catalog, under ``label``); a ``Batched`` product, which holds every
+        case, answers ``get`` itself. A tuple from ``get`` gives a tuple of columns."""
+        product = self[name]
+        if not isinstance(product, Factor):
+            return get(product)
+        table = product.table(label, get)
+        return tuple(x[product.index] for x in table) if isinstance(table, tuple) else table[product.index]
+
+    def per_case(self, why: str) -> None:
+        """Hand the block back to the engine, which then runs its cases one by one (``why`` says what needs a case
+        alone: a Monte Carlo, a case the batched equations do not describe)."""
+        raise NotBatched(why)
+
+    @staticmethod
+    def product_of(batched):
+        """The block's product as made, with its case axis (``Case.product_of`` gives a case alone its item)."""
+        return batched
+
+    @property
+    def index(self) -> str:
+        return f"{int(self.indices[0])} (and others of its block)"
+
+    @property
+    def rng(self):
+        raise NotBatched("a stage draws random numbers: each case has its own generator")
 
     def take(self, positions) -> Block:
         """The block of the cases at ``positions``."""

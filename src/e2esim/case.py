@@ -101,6 +101,26 @@ class Case:
     def get(self, name: str, default: Any = None) -> Any:
         return self.products.get(name, default)
 
+    def column(self, name: str, label: str, get) -> Any:
+        """``get`` of the product ``name``: what a stage reads from it, in the form a block of cases gives with its
+        case axis (``e2esim.block.Block.column``); ``label`` names it there."""
+        return get(self.products[name])
+
+    def per_case(self, why: str) -> None:
+        """Nothing: a case alone is always evaluated (a ``Block`` hands such cases back to run one by one)."""
+
+    def __len__(self) -> int:  # a case is a block of one (``e2esim.block.Block``)
+        return 1
+
+    def sweep_values(self, key: str) -> np.ndarray | None:
+        """The case's sweep value of ``key`` as a block of one gives it, (1,); None when the sweep does not set it."""
+        return np.asarray([self.inputs[key]]) if key in self.inputs else None
+
+    def product_of(self, batched) -> Any:
+        """The case's product from the product of a block of one made for it (``batched.item(0)``): a stage that
+        builds its product with a case axis gives a case alone its one-case product."""
+        return batched.item(0)
+
     def adding(self, new: Mapping) -> Case:
         """The case with ``new`` products added (``Products.adding``)."""
         return replace(self, products=self.products.adding(new))

@@ -181,6 +181,11 @@ class Stage(Module, ABC):
     needs: ClassVar[tuple] = ()
     uses: ClassVar[tuple] = ()
     provides: ClassVar[tuple] = ()
+    forward_takes_blocks: ClassVar[bool] = False
+    """True when ``forward`` also takes a block of cases (``e2esim.block.Block``: products with a case axis, read
+    with ``case.column``) and answers for all of them at once, or hands the block back (``case.per_case``); the
+    batched engine then gives it whole blocks (``batched_run``). A subclass that overrides ``forward`` without
+    saying so runs case by case."""
     fast_path_hooks: ClassVar[tuple] = ()
     """Methods besides ``forward`` that an optional ``forward_block`` (a batched ``forward`` over a block of
     cases) relies on: a subclass that overrides one of them, or ``forward``, without its own ``forward_block``
@@ -245,6 +250,25 @@ def fast_path(obj, fast: str = "forward_block", reference: str = "forward"):
         if owner is not None and not issubclass(fast_class, owner):
             return None
     return getattr(obj, fast)
+
+
+def batched_run(stage):
+    """How the batched engine runs ``stage`` on a ``Block``: ``block -> {product: Factor or Batched}``, or None
+    from it when the stage hands the block back (its cases then run one by one); None when it runs case by case.
+    That is ``forward`` itself where the class of the ``forward`` in force says it takes blocks
+    (``forward_takes_blocks``, checked as ``fast_path`` checks), else a ``forward_block`` that describes it."""
+    if fast_path(stage, "forward_takes_blocks", "forward") is None:
+        return fast_path(stage)
+
+    def run(block):
+        from e2esim.block import NotBatched  # the engine's types, needed only when it runs blocks
+
+        try:
+            return stage.forward(block)
+        except NotBatched:
+            return None
+
+    return run
 
 
 def fail(module: Module, problem: str, allowed: str | None = None, key: str | None = None) -> ConfigError:

@@ -11,7 +11,7 @@ and pickles; and what the module does on a representative case made by e2esim's 
 * a ``Requirement``: ``evaluate`` returns a ``RequirementVerdict``, deterministically;
 * block invariance (stages and requirements, in the spirit of scikit-learn's subset-invariance check): where the
   batched engine would use a fast path (``forward_block``, a requirement's ``batched`` evaluation; see
-  ``e2esim.module.fast_path``), every case of a block of varied cases (``BLOCK_VARIANTS``) gets bit for bit the
+  ``e2esim.module.batched_run``), every case of a block of varied cases (``BLOCK_VARIANTS``) gets bit for bit the
   output scalars and verdicts it gets alone;
 * a ``CalibrationModule``: its steps are ``CalibrationStep`` objects and the strategy made of it is
   deterministic;
@@ -108,7 +108,7 @@ def reference_block(needs=(), uses=(), case: Case | None = None, variants=BLOCK_
     one, else case by case (a ``Factor``); and the same cases one by one. Products of ``case`` that the default
     chain does not make are added to every case. Returns ``(block, cases)``."""
     from e2esim.block import Block, Factor
-    from e2esim.module import fast_path
+    from e2esim.module import batched_run
     from e2esim.runner.chain import assemble
 
     chains = [assemble(_chain_modules(v), Location("reference chain")) for v in variants]
@@ -120,7 +120,7 @@ def reference_block(needs=(), uses=(), case: Case | None = None, variants=BLOCK_
     for stages in zip(*chains):
         if wanted <= set(products):
             break
-        fast = fast_path(stages[0]) if all(s == stages[0] for s in stages) else None
+        fast = batched_run(stages[0]) if all(s == stages[0] for s in stages) else None
         new = fast(Block(np.arange(n), settings, dict(products), cases[0].services)) if fast else None
         if new is None:
             made = [stage.forward(c) for stage, c in zip(stages, cases)]
@@ -136,16 +136,16 @@ def reference_block(needs=(), uses=(), case: Case | None = None, variants=BLOCK_
 
 
 def check_block_invariance(stage, case: Case | None = None, variants=BLOCK_VARIANTS) -> bool:
-    """Assert that ``stage``'s fast path (``e2esim.module.fast_path``) gives every case of a block of varied cases
+    """Assert that ``stage``'s fast path (``e2esim.module.batched_run``) gives every case of a block of varied cases
     (``reference_block``) bit for bit the output scalars, and verdicts, that ``forward`` gives the case alone.
     ``stage`` is a ``Stage``, or a requirement set (``e2esim.requirements.stage.RequirementSet``). Returns whether a
     fast path was checked (False: the stage has none, or it declined these cases)."""
     from e2esim.case import Products
-    from e2esim.module import fast_path
+    from e2esim.module import batched_run
     from e2esim.runner.columns import scalar_columns
     from e2esim.runner.records import case_scalars
 
-    fast = fast_path(stage)
+    fast = batched_run(stage)
     if fast is None:
         return False
     block, cases = reference_block(stage.needs, stage.uses, case, variants)

@@ -214,17 +214,9 @@ class BackscatterErrorBudget(Stage):
         why) when the error model already counts speckle or a budget cannot be made."""
         from e2esim.budget.block import block_budgets
 
-        model = block.get("backscatter.error")
-        if model is not None and "speckle_noise" in self.si["include"] and _any_speckle(model):
+        if "backscatter.error" in block and "speckle_noise" in self.si["include"] and np.any(
+                block.column("backscatter.error", "includes speckle", lambda model: model.includes_speckle)):
             return None
         made = block_budgets(block, self._made, lambda scene, inst: self.budget_of(scene, self._inputs_with(inst)))
         return None if made is None else {"backscatter.budget": made}
 
-
-def _any_speckle(model) -> bool:
-    """Whether any case's error model (a block product) already counts speckle."""
-    from e2esim.block import Factor
-
-    if isinstance(model, Factor):
-        return bool(model.gather(lambda m: m.includes_speckle, dtype=bool).any())
-    return bool(np.any(model.includes_speckle))

@@ -23,6 +23,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from e2esim.block import Batched
 from e2esim.calibration.pipeline import ResidualSampler, fit_residual_model
 from e2esim.calibration.steps import FaradayStepResult
 from e2esim.faraday.distribution import ConstantFaraday, EmpiricalFaraday
@@ -41,8 +42,9 @@ class StepSummary:
 
 
 @dataclass(frozen=True)
-class CalibrationRecord:
-    """The calibration strategy applied to a case and what it leaves.
+class CalibrationRecord(Batched):
+    """The calibration strategy applied to a case and what it leaves. Without steps, also that of a block of
+    cases (``e2esim.block.Batched``): its raw products are then the block's, and ``item`` gives a case's record.
 
     raw_system, raw_faraday : the instrument's errors and the geophysical Faraday rotation before
         calibration. scene : the target the distributed-target steps use. steps : pipeline steps in order;
@@ -63,6 +65,13 @@ class CalibrationRecord:
     residual: dict = field(default_factory=dict)
     representation: str = "raw"
     declared: bool = True
+
+    def __len__(self) -> int:
+        return len(self.raw_system)
+
+    def item(self, i: int) -> CalibrationRecord:
+        scene = None if self.scene is None else self.scene.item(i)
+        return replace(self, raw_system=self.raw_system.item(i), raw_faraday=self.raw_faraday.item(i), scene=scene)
 
     def extended(self, name: str, step) -> CalibrationRecord:
         return replace(self, steps=self.steps + (step,), names=self.names + (name,))

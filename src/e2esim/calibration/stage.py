@@ -38,9 +38,18 @@ class CalibrationStrategy:
     def identity(self) -> str:
         return "the calibration strategy"
 
+    forward_takes_blocks = True
+
     def forward(self, case) -> dict:
+        """The record and the residual products of a case; of a block of cases at once when there is no
+        calibration section (the residual products are then the raw ones themselves, and the record, with the
+        case axis of the block's products, makes each case's when asked). Steps are simulated case by case."""
+        if self.modules:
+            case.per_case("calibration steps are simulated for each case")
         system, faraday = case["system"], case["faraday.geophysical"]
         record = CalibrationRecord(system, faraday, case.get("scene.covariance"), declared=bool(self.modules))
+        if not self.modules:  # what ``simulate`` gives without steps, with no generator asked for
+            return {"calibration": record, "system.residual": system, "faraday.residual": faraday}
         for module in self.modules:
             for name, step in module.steps(case):
                 record = record.extended(name, step)
@@ -48,17 +57,6 @@ class CalibrationStrategy:
         # a transponder calibration has corrected), and the record keeps a summary of every step.
         record, residual_system, residual_faraday = record.simulate(case.rng, case.settings.realisations)
         return {"calibration": record, "system.residual": residual_system, "faraday.residual": residual_faraday}
-
-    def forward_block(self, block):
-        """``forward`` for a block of cases when there is no calibration section: the residual products are the
-        raw ones themselves (``UncalibratedBlock``); None (case by case) when there are steps to simulate."""
-        if self.modules:
-            return None
-        from e2esim.calibration.record_block import UncalibratedBlock
-
-        system, faraday = block["system"], block["faraday.geophysical"]
-        record = UncalibratedBlock(system, faraday, block.get("scene.covariance"))
-        return {"calibration": record, "system.residual": system, "faraday.residual": faraday}
 
 
 KIND = Kind("calibration", "a calibration strategy (list of steps) and the residual errors it leaves", 50,

@@ -20,13 +20,11 @@ Quegan et al. 2018 eq. 11) is applied to both forms exactly.
 
 from __future__ import annotations
 
-import dataclasses
 import functools
 from dataclasses import dataclass, fields
 
 import numpy as np
 
-from e2esim.block import Batched
 from e2esim.distortion.first_order import (
     SceneTerms,
     bias_terms,
@@ -131,7 +129,8 @@ class MomentInputs:
     C_eps12 C), the correlation structure at unit levels (``SystemErrorModel.unit_structure``). levels :
     (V_delta, V_eps, sigma_n), shape C. gain : (E|A|^2, E|A|^4), shape C. averaging : the quadrature
     weights over Omega, C+(G,), for the complete form; the trig moments of eq. (9) (shape C each) for the
-    paper form.
+    paper form. no_rotation, no_gain_error : shape C, where Omega is 0 without spread and where the system has
+    no absolute gain error (the sources an error model cannot remove there).
     """
 
     terms: SceneTerms
@@ -139,34 +138,15 @@ class MomentInputs:
     levels: tuple
     gain: tuple
     averaging: object
+    no_rotation: object = False
+    no_gain_error: object = False
 
     @classmethod
     def of(cls, scene, system, faraday, form: str) -> MomentInputs:
         averaging = faraday.trig_moments() if form == "paper" else faraday.even_quadrature()[1]
         return cls(SceneTerms.from_covariance(scene), system.unit_structure,
                    (system.crosstalk_level, system.imbalance_level, system.noise_power),
-                   system.gain_power_moments, averaging)
-
-    @classmethod
-    def gather(cls, scene, system, faraday, form: str) -> MomentInputs:
-        """The inputs of a block of cases from its scene, system and Faraday-rotation products (``Factor``s of
-        ``e2esim.block``), each distinct value read once (and once per run when they come from a catalog); the
-        Faraday rotation may be a batched product that gives ``even_quadrature_weights`` and ``trig_moments``
-        of every case."""
-        terms = scene.table("moment terms", lambda v: dataclasses.astuple(SceneTerms.from_covariance(v)))
-        parts = system.table("moment system", lambda v: (*v.unit_structure, v.crosstalk_level, v.imbalance_level,
-                                                         v.noise_power, *v.gain_power_moments))
-        if isinstance(faraday, Batched):  # a block of distributions (FaradayClimatologyBlock)
-            averaging = faraday.trig_moments() if form == "paper" else faraday.even_quadrature_weights()
-        elif form == "paper":
-            trig = faraday.table("moment trig", lambda v: tuple(v.trig_moments().values()))
-            averaging = dict(zip(("c4", "s4", "c2s2", "cs"), (x[faraday.index] for x in trig)))
-        else:
-            averaging = faraday.table("moment weights", lambda v: v.even_quadrature()[1])[faraday.index]
-        at = system.index
-        return cls(SceneTerms(*(x[scene.index] for x in terms)), tuple(x[at] for x in parts[:5]),
-                   tuple(x[at].astype(float) for x in parts[5:8]), tuple(x[at].astype(float) for x in parts[8:]),
-                   averaging)
+                   system.gain_power_moments, averaging, no_rotation(faraday), not system.has_gain_error)
 
     @classmethod
     def stack(cls, rows: list) -> MomentInputs:
@@ -184,7 +164,8 @@ class MomentInputs:
             averaging = {k: column(lambda r, k=k: r.averaging[k]) for k in first.averaging}
         else:
             averaging = column(lambda r: r.averaging)
-        return cls(terms, structure, levels, gain, averaging)
+        return cls(terms, structure, levels, gain, averaging, column(lambda r: r.no_rotation),
+                   column(lambda r: r.no_gain_error))
 
     def take(self, index) -> MomentInputs:
         """The rows ``index`` (an integer array) of a block."""
@@ -192,7 +173,8 @@ class MomentInputs:
         averaging = ({k: v[index] for k, v in self.averaging.items()} if isinstance(self.averaging, dict)
                      else self.averaging[index])
         return MomentInputs(terms, tuple(x[index] for x in self.structure), tuple(x[index] for x in self.levels),
-                            tuple(x[index] for x in self.gain), averaging)
+                            tuple(x[index] for x in self.gain), averaging, np.asarray(self.no_rotation)[index],
+                            np.asarray(self.no_gain_error)[index])
 
     @staticmethod
     def concatenate(parts: list) -> MomentInputs:
@@ -203,11 +185,19 @@ class MomentInputs:
                      if isinstance(first.averaging, dict) else np.concatenate([p.averaging for p in parts]))
         return MomentInputs(terms, *(tuple(np.concatenate([getattr(p, name)[i] for p in parts])
                                            for i in range(len(getattr(first, name))))
-                                     for name in ("structure", "levels", "gain")), averaging)
+                                     for name in ("structure", "levels", "gain")), averaging,
+                            *(np.concatenate([getattr(p, name) for p in parts]) for name in ("no_rotation",
+                                                                                             "no_gain_error")))
 
     @property
     def case_ndim(self) -> int:
         return np.ndim(self.levels[0])
+
+
+def no_rotation(faraday):
+    """Whether the Faraday rotation is 0 without spread (its mean and SD are 0); element-wise where they are
+    arrays."""
+    return (faraday.mean_rad == 0.0) & (faraday.sd_rad == 0.0)
 
 
 def _expand(x, extra: int, trailing: int = 0):

@@ -15,7 +15,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from e2esim.distortion.analytic import HVErrorMoments, hv_error_moments
+from e2esim.block import Batched, Values, join
+from e2esim.distortion.analytic import HVErrorMoments, MomentInputs, check_settings, moments_of
 from e2esim.distortion.montecarlo import MonteCarloErrors
 from e2esim.distortion.validation import compare_with_analytic, sample_moments
 from e2esim.distortion.validity import VALIDITY, ValidityRange
@@ -37,6 +38,9 @@ CONTRIBUTION_DESCRIPTIONS = {
     "noise_bias": "thermal-noise bias sigma_n/2 of the HV estimate and its spread over the simulated looks",
 }
 _LEVEL_SOURCES = {"crosstalk": 0, "channel_imbalance": 1, "noise": 2}  # rows of the batched variants
+_NO_ROTATION = ConstantFaraday(0.0)
+_LEVEL_NAMES = {"crosstalk": {"crosstalk": 0.0}, "channel_imbalance": {"imbalance": 0.0},
+                "noise": {"noise_power": 0.0}}  # SystemErrorModel.with_levels of each level source removed
 
 
 class SystemLevels:
@@ -67,14 +71,17 @@ class SystemLevels:
 
 
 @dataclass(frozen=True, eq=False)
-class HVErrorModel(SystemLevels, ErrorModel):
-    """Error of sigma_hv_hat for one scene, system-error model and Faraday-rotation distribution.
+class HVErrorModel(Batched, SystemLevels, ErrorModel):
+    """Error of sigma_hv_hat for one case, or for a block of cases with a leading case axis.
 
     scene, system, faraday : what the error is computed for (the residual system and Faraday rotation
-        after calibration). form, looks, reference : settings of the analytic moments
-        (``hv_error_moments``). montecarlo : simulated errors, or None. gaussianity : statistics of the
-        simulated errors (Fig. 2), or None. notes : remarks for the report. unavailable : why the analytic
-        moments cannot be evaluated (None: they can).
+        after calibration): one case's products, or a block's (``e2esim.block``), for ``item``. form, looks,
+        reference : settings of the analytic moments (``hv_error_moments``). montecarlo : simulated errors, or
+        None. gaussianity : statistics of the simulated errors (Fig. 2), or None. notes : remarks for the report.
+        unavailable : why the analytic moments cannot be evaluated (None: they can). inputs : the
+        ``MomentInputs`` of the moments, case shape () or (B,) (None: those of scene, system and faraday, one
+        case). inactive : for a model with a source removed (``without``), where that source was not active
+        (a case alone is then its own variant).
     """
 
     scene: ScatteringCovariance
@@ -88,6 +95,8 @@ class HVErrorModel(SystemLevels, ErrorModel):
     notes: tuple = ()
     unavailable: str | None = None
     _memo: dict = field(default_factory=dict, repr=False, compare=False)
+    inputs: MomentInputs | None = None
+    inactive: object = None
 
     channel = "hv"
 
@@ -97,17 +106,39 @@ class HVErrorModel(SystemLevels, ErrorModel):
         return VALIDITY["hv_" + self.form]
 
     @property
-    def value(self) -> float:
-        return self.scene.sigma_hv
+    def moment_inputs(self) -> MomentInputs:
+        if self.inputs is not None:
+            return self.inputs
+        if "inputs" not in self._memo:
+            self._memo["inputs"] = MomentInputs.of(self.scene, self.system, self.faraday, self.form)
+        return self._memo["inputs"]
+
+    @property
+    def alone(self) -> bool:
+        """One case (no case axis)."""
+        return self.inputs is None or np.ndim(self.inputs.levels[0]) == 0
+
+    @property
+    def value(self):
+        return self.scene.sigma_hv if self.inputs is None else self.inputs.terms.sigma_hv
+
+    @property
+    def levels(self) -> dict:
+        if self.inputs is None:
+            return SystemLevels.levels.fget(self)
+        xs, es, ns = self.inputs.levels
+        return {"crosstalk": xs, "channel_imbalance": es, "nesz": ns}
 
     # Moments ---------------------------------------------------------------------------------------
     def moments(self, crosstalk=None, channel_imbalance=None, nesz=None, **unknown) -> HVErrorMoments:
-        """``hv_error_moments`` with the levels V_delta, V_eps and sigma_n replaced where given (broadcast)."""
+        """``hv_error_moments`` with the levels V_delta, V_eps and sigma_n replaced where given (broadcast; with a
+        case axis, aligned on it)."""
         if unknown:
             raise TypeError(f"unknown levels {', '.join(unknown)}; this model has {', '.join(LEVELS)}")
         self.check_available()
-        return hv_error_moments(self.scene, self.system, self.faraday, self.form, self.looks, self.reference,
-                                crosstalk_level=crosstalk, imbalance_level=channel_imbalance, noise_power=nesz)
+        check_settings(self.form, self.reference)
+        return moments_of(self.moment_inputs, self.form, self.looks, self.reference, crosstalk_level=crosstalk,
+                          imbalance_level=channel_imbalance, noise_power=nesz)
 
     def current(self) -> HVErrorMoments:
         if "current" not in self._memo:
@@ -116,41 +147,63 @@ class HVErrorModel(SystemLevels, ErrorModel):
 
     # Sources removed (``SystemLevels.without``) ----------------------------------------------------
     def _without(self, source: str) -> HVErrorModel:
-        sysm, fr = self.system, self.faraday
+        """The model with ``source`` removed; a case alone where it is not active is its own variant, a block marks
+        those cases (``inactive``)."""
+        inp = self.moment_inputs
+        shape = np.shape(inp.levels[0])
         if source == "faraday_rotation":
-            return self if fr.mean_rad == 0.0 and fr.sd_rad == 0.0 else self._no_faraday()
+            return self if self.alone and inp.no_rotation else self._no_faraday()
         if source == "gain":
-            return self if not sysm.has_gain_error else self._variant(
-                system=dataclasses.replace(sysm, gain_offset_db=0.0, gain_sd_db=0.0))
+            if self.alone and inp.no_gain_error:
+                return self
+            return self._variant(dataclasses.replace(inp, gain=(np.ones(shape), np.ones(shape))), inp.no_gain_error,
+                                 system=lambda s: dataclasses.replace(s, gain_offset_db=0.0, gain_sd_db=0.0))
         # the three level sources in one vectorised evaluation: [no crosstalk, no imbalance, no noise]
+        xs, es, ns = inp.levels
         if "level variants" not in self._memo:
-            self._memo["level variants"] = self.moments(
-                crosstalk=np.array([0.0, sysm.crosstalk_level, sysm.crosstalk_level]),
-                channel_imbalance=np.array([sysm.imbalance_level, 0.0, sysm.imbalance_level]),
-                nesz=np.array([sysm.noise_power, sysm.noise_power, 0.0]),
-            )
+            z = np.zeros(shape)
+            self._memo["level variants"] = self.moments(crosstalk=np.stack([z, xs, xs], -1),
+                                                        channel_imbalance=np.stack([es, z, es], -1),
+                                                        nesz=np.stack([ns, ns, z], -1))
         row = _LEVEL_SOURCES[source]
-        levels = {"crosstalk": 0.0} if source == "crosstalk" else (
-            {"imbalance": 0.0} if source == "channel_imbalance" else {"noise_power": 0.0})
-        variant = self._variant(system=sysm.with_levels(**levels))
-        variant._memo["current"] = _row(self._memo["level variants"], row)
+        levels = [xs, es, ns]
+        levels[row] = 0.0 if self.alone else np.zeros(shape)
+        variant = self._variant(dataclasses.replace(inp, levels=tuple(levels)), np.zeros(shape, dtype=bool),
+                                system=lambda s: s.with_levels(**_LEVEL_NAMES[source]))
+        variant._memo["current"] = _row(self._memo["level variants"], row, len(shape))
         return variant
 
     def _no_faraday(self) -> HVErrorModel:
+        """The model without Faraday rotation (also where there is none: the contributions' reference)."""
         if "no faraday" not in self._memo:
-            self._memo["no faraday"] = self._variant(faraday=ConstantFaraday(0.0))
+            inp = self.moment_inputs
+            shape = np.shape(inp.levels[0])
+            if self.form == "paper":
+                averaging = {k: np.full(shape, v) for k, v in _NO_ROTATION.trig_moments().items()}
+            else:
+                weights = _NO_ROTATION.even_quadrature()[1]
+                averaging = np.broadcast_to(weights, shape + weights.shape)
+            self._memo["no faraday"] = self._variant(dataclasses.replace(inp, averaging=averaging), inp.no_rotation,
+                                                     faraday=lambda f: _NO_ROTATION)
         return self._memo["no faraday"]
 
-    def _variant(self, **changes) -> HVErrorModel:
-        return dataclasses.replace(self, montecarlo=None, gaussianity=None, notes=(), _memo={}, **changes)
+    def _variant(self, inputs: MomentInputs, inactive, **products) -> HVErrorModel:
+        """The model with ``inputs``; a case alone also with its products changed as ``products`` say ({field:
+        function of the product}), so that they describe the variant (a block keeps the block's products)."""
+        if not self.alone:
+            return dataclasses.replace(self, _memo={}, inputs=inputs, inactive=inactive)
+        changed = {name: change(getattr(self, name)) for name, change in products.items()}
+        return dataclasses.replace(self, montecarlo=None, gaussianity=None, notes=(), _memo={}, inputs=inputs,
+                                   **changed)
 
     # Contributions ---------------------------------------------------------------------------------
     def contributions(self) -> dict:
         """The error split into system distortions (the same system with no Faraday rotation), what the
         Faraday rotation adds to it (FR alone leaves the symmetrised HV unchanged, so it acts only through the
         distortions) and the noise bias sigma_n/2 with its spread over the looks; they add up to the mean
-        and variance exactly."""
-        return split_contributions(self.current(), self._no_faraday().current(), float)
+        and variance exactly. Arrays over the case axis of a block."""
+        return split_contributions(self.current(), self._no_faraday().current(),
+                                   float if self.alone else np.asarray)
 
     # Monte Carlo -----------------------------------------------------------------------------------
     def relative_samples(self) -> np.ndarray | None:
@@ -184,6 +237,42 @@ class HVErrorModel(SystemLevels, ErrorModel):
             out.update({f"comparison.{name}": value for name, value in cmp.items()})
         return out
 
+    # A block of cases (``e2esim.block.Batched``): analytic cases only ---------------------------------------
+    def __len__(self) -> int:
+        return 1 if self.alone else len(self.inputs.levels[0])
+
+    def item(self, i: int) -> HVErrorModel:
+        """Case i's one-case model, with the moments the block computed for it."""
+        if self.alone:
+            return self
+        model = HVErrorModel(self.scene.item(i), self.system.item(i), self.faraday.item(i), self.form, self.looks,
+                             self.reference)
+        if "current" in self._memo:
+            model._memo["current"] = _row(self._memo["current"], i, 0)
+        return model
+
+    def take(self, positions) -> HVErrorModel:
+        return dataclasses.replace(self, scene=self.scene.take(positions), system=self.system.take(positions),
+                                   faraday=self.faraday.take(positions), inputs=self.inputs.take(positions),
+                                   inactive=None if self.inactive is None else self.inactive[positions], _memo={})
+
+    @classmethod
+    def concatenate(cls, parts: list) -> HVErrorModel:
+        first = parts[0]
+        if any((p.form, p.looks, p.reference) != (first.form, first.looks, first.reference) for p in parts):
+            raise ValueError("blocks of error models with different settings cannot be joined")
+        return dataclasses.replace(first, scene=join([p.scene for p in parts]), system=join([p.system for p in parts]),
+                                   faraday=join([p.faraday for p in parts]),
+                                   inputs=MomentInputs.concatenate([p.inputs for p in parts]),
+                                   inactive=None if first.inactive is None else np.concatenate(
+                                       [p.inactive for p in parts]), _memo={})
+
+    def scalar_columns(self) -> dict:
+        return dict(analytic_scalars(self.current()))
+
+    def note_column(self) -> Values:
+        return Values.repeated(self.notes, len(self))
+
 
 def split_contributions(m, m0, convert=np.asarray) -> dict:
     """``HVErrorModel.contributions`` from the moments ``m`` of the model and ``m0`` of the same model without
@@ -208,10 +297,12 @@ def analytic_scalars(m) -> dict:
     return out
 
 
-def _row(moments: HVErrorMoments, i: int) -> HVErrorMoments:
-    """Element ``i`` of moments evaluated over a vector of levels."""
+def _row(moments: HVErrorMoments, i: int, case_ndim: int) -> HVErrorMoments:
+    """Element ``i`` of the last axis of moments evaluated over a vector of levels (or over the cases of a block,
+    ``case_ndim`` 0), arrays with more than ``case_ndim`` axes."""
     values = {f.name: getattr(moments, f.name) for f in dataclasses.fields(moments)}
-    return HVErrorMoments(**{k: (v[i] if isinstance(v, np.ndarray) and v.ndim else v) for k, v in values.items()})
+    return HVErrorMoments(**{k: (v[..., i] if isinstance(v, np.ndarray) and v.ndim > case_ndim else v)
+                             for k, v in values.items()})
 
 
 __all__ = ["LEVELS", "SOURCES", "ErrorModelUnavailable", "HVErrorModel"]

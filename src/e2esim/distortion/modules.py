@@ -2,12 +2,15 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 
 from e2esim import products as P
-from e2esim.distortion.analytic import FORMS, REFERENCES
+from e2esim.distortion.analytic import FORMS, REFERENCES, MomentInputs, no_rotation
 from e2esim.distortion.error_model import HVErrorModel
 from e2esim.distortion.faraday_correction import HV_UNCHANGED_BY_ROTATION
+from e2esim.distortion.first_order import SceneTerms
 from e2esim.distortion.montecarlo import METHODS, gaussianity, simulate
 from e2esim.distortion.validity import (
     VALIDITY,
@@ -100,7 +103,28 @@ class HVBackscatterErrorPropagation(Stage):
         """The measured validity range of the analytic form used (docs/theory/validity.md)."""
         return VALIDITY["hv_" + self.si["variance_form"]]
 
+    forward_takes_blocks = True
+
     def forward(self, case):
+        """The error model of a case, or of a block of analytic cases at once (``e2esim.block.Block``; the
+        one-case model of each is what it gets alone). A Monte Carlo, and cases the analytic model does not
+        describe plainly (levels beyond its validity range, a caveat, a scene that is not reflection symmetric),
+        run case by case (``analytic_use`` reports them)."""
+        c, s = self.si, case.settings
+        validity = self.validity
+        plain = case.column("system.residual", f"plain analytic, {validity.model}",
+                            lambda v: in_plain_range(v, validity))
+        symmetric = case.column("scene.covariance", "reflection symmetric", lambda v: v.is_reflection_symmetric())
+        if s.montecarlo or not s.analytic or not (np.all(plain) and np.all(symmetric)):
+            case.per_case("a Monte Carlo, or cases beyond the plain analytic model")
+            return self._forward_case(case)
+        looks = s.looks if c["variance_form"] == "complete" else None
+        model = HVErrorModel(case["scene.covariance"], case["system.residual"], case["faraday.residual"],
+                             c["variance_form"], looks, c["reference"], inputs=moment_inputs(case, c["variance_form"]))
+        model.current()  # evaluated here, once: every later stage reads it
+        return {"backscatter.error": model}
+
+    def _forward_case(self, case):
         c, s = self.si, case.settings
         scene, system, faraday = case["scene.covariance"], case["system.residual"], case["faraday.residual"]
         mc = gauss = None
@@ -123,26 +147,23 @@ class HVBackscatterErrorPropagation(Stage):
                                  notes, unavailable, model._memo)
         return {"backscatter.error": model}
 
-    def forward_block(self, block):
-        """``forward`` for a block of analytic cases at once (``HVErrorModelBlock``); None (case by case) for a
-        Monte Carlo, and for cases the analytic model does not describe plainly (levels beyond its validity range, a
-        caveat, a scene that is not reflection symmetric): ``forward`` reports those."""
-        from e2esim.block import Factor
-        from e2esim.distortion.error_model_block import HVErrorModelBlock, block_inputs
 
-        c, s = self.si, block.settings
-        scene, system, faraday = block["scene.covariance"], block["system.residual"], block["faraday.residual"]
-        batched_faraday = hasattr(faraday, "even_quadrature_weights")  # FaradayClimatologyBlock
-        if s.montecarlo or not s.analytic or not all(isinstance(p, Factor) for p in (scene, system)) or not (
-                isinstance(faraday, Factor) or batched_faraday):
-            return None
-        validity = self.validity
-        plain = system.table(f"plain analytic, {validity.model}", lambda v: in_plain_range(v, validity))
-        symmetric = scene.table("reflection symmetric", lambda v: v.is_reflection_symmetric())
-        if not (plain[system.index].all() and symmetric[scene.index].all()):
-            return None
-        looks = s.looks if c["variance_form"] == "complete" else None
-        model = HVErrorModelBlock(scene, system, faraday, block_inputs(scene, system, faraday, c["variance_form"]),
-                                  c["variance_form"], looks, c["reference"])
-        model.current()
-        return {"backscatter.error": model}
+_TRIG = ("c4", "s4", "c2s2", "cs")  # FaradayDistribution.trig_moments, in its order
+
+
+def moment_inputs(case, form: str) -> MomentInputs:
+    """The ``MomentInputs`` of the case's scene, residual system and Faraday rotation (``MomentInputs.of``), with
+    the case axis of a block: each distinct product read once (``case.column``)."""
+    terms = case.column("scene.covariance", "moment terms",
+                        lambda v: dataclasses.astuple(SceneTerms.from_covariance(v)))
+    system = case.column("system.residual", "moment system", lambda v: (
+        *v.unit_structure, float(v.crosstalk_level), float(v.imbalance_level), float(v.noise_power),
+        *v.gain_power_moments, not v.has_gain_error))
+    if form == "paper":
+        averaging = dict(zip(_TRIG, case.column("faraday.residual", "moment trig",
+                                                lambda v: tuple(v.trig_moments()[k] for k in _TRIG))))
+    else:
+        averaging = case.column("faraday.residual", "moment weights", lambda v: v.even_quadrature()[1])
+    still = case.column("faraday.residual", "no rotation", no_rotation)
+    return MomentInputs(SceneTerms(*terms), tuple(system[:5]), tuple(system[5:8]), tuple(system[8:10]), averaging,
+                        still, system[10])

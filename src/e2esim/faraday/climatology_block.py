@@ -19,7 +19,7 @@ import numpy as np
 
 from e2esim.block import Batched
 from e2esim.faraday.climatology import FaradayClimatology, climatology_from_integrals
-from e2esim.faraday.distribution import _EVEN_WEIGHTS, PERCENTILES
+from e2esim.faraday.distribution import _EVEN_WEIGHTS, EVEN_NODES, PERCENTILES
 from e2esim.ionosphere.propagation import faraday_rotation_integral, range_delay
 from e2esim.ionosphere.slant import PathIntegrals
 from e2esim.ionosphere.variability import lognormal_nodes
@@ -93,9 +93,13 @@ class FaradayClimatologyBlock(Batched):
             out[f"omega_p{p:g}_deg".replace(".", "_")] = np.degrees(s["percentiles"][:, k])
         return out
 
-    def even_quadrature_weights(self) -> np.ndarray:
-        """``FaradayDistribution.even_quadrature`` weights of every case, (B, 5): ``sum_j w_j u_j^k = E[u^k]``,
-        u = cos 2 Omega, k = 0..4, from phi_2, phi_4, phi_6, phi_8."""
+    def even_quadrature(self) -> tuple:
+        """``FaradayDistribution.even_quadrature`` of every case: the nodes u_j = cos 2 Omega_j (5,) and the
+        weights (B, 5), ``sum_j w_j u_j^k = E[u^k]``, k = 0..4."""
+        return EVEN_NODES, self._even_weights()
+
+    def _even_weights(self) -> np.ndarray:
+        """The weights of ``even_quadrature`` from phi_2, phi_4, phi_6, phi_8."""
         phi = self._statistics()["phi"]
         moments = np.stack([np.ones(len(self)), phi[:, 0], (1 + phi[:, 1]) / 2, (3 * phi[:, 0] + phi[:, 2]) / 4,
                             (3 + 4 * phi[:, 1] + phi[:, 3]) / 8], axis=-1)
@@ -108,10 +112,15 @@ class FaradayClimatologyBlock(Batched):
         return {"c4": (3 + 4 * cos2 + cos4) / 8, "s4": (3 - 4 * cos2 + cos4) / 8, "c2s2": (1 - cos4) / 8,
                 "cs": sin2 / 2}
 
-    def no_rotation(self) -> np.ndarray:
-        """(B,) True where Omega is 0 with no spread (its mean and SD are 0)."""
-        s = self._statistics()
-        return (s["mean"] == 0.0) & (s["sd"] == 0.0)
+    @property
+    def mean_rad(self) -> np.ndarray:
+        """The mean of Omega of every case (rad), (B,)."""
+        return self._statistics()["mean"]
+
+    @property
+    def sd_rad(self) -> np.ndarray:
+        """The SD of Omega of every case (rad), (B,)."""
+        return self._statistics()["sd"]
 
     # The statistics, by sample count ---------------------------------------------------------------------
     def _statistics(self) -> dict:

@@ -18,10 +18,10 @@ from functools import lru_cache
 import numpy as np
 
 from e2esim import products as P
-from e2esim.block import Values, gather
+from e2esim.block import Values
 from e2esim.errors import PhysicsInputError
 from e2esim.faraday.cell_lookup import cell_integrals, month_table
-from e2esim.faraday.climatology_block import FaradayClimatologyBlock, cell_climatology
+from e2esim.faraday.climatology_block import FaradayClimatologyBlock
 from e2esim.faraday.climatology_modules import SOLAR_PRESETS
 from e2esim.geomag.field import FIELD_KINDS, FieldModel
 from e2esim.geomag.igrf import IGRF_MODELS
@@ -145,25 +145,14 @@ class GlobalClimatologyLookup(Stage):
                            c["table_lat_range_deg"], c["table_lon_range_deg"], cache=services.cache_for(c["cache_dir"]),
                            executor=services.executor, progress=services.progress)
 
-    def forward(self, case):
-        c, v = self.si, self.case_values(case)
-        try:
-            pass_name, pass_label, f107 = self.when(v["pass"], v["solar"])
-            found = cell_integrals(self.table(case.services, v["month"], f107), PASSES.index(pass_name),
-                                   v["lat_deg"], v["lon_deg"])
-        except PhysicsInputError as exc:
-            raise fail(self, str(exc), key=exc.key) from exc
-        self._check_seen(found["faraday"][None], [v["lat_deg"]], [pass_label])
-        clim = cell_climatology(found["faraday"], found["stec"], found["vtec"], case["instrument"].centre_frequency_hz,
-                                f107, c["tec_variability"], c["variability_nodes"], c["method"], pass_label,
-                                v["lat_deg"], v["lon_deg"], v["month"])
-        return {"faraday.geophysical": clim}
+    forward_takes_blocks = True
 
-    def forward_block(self, block):
-        """``forward`` for a block of cases at once: each month, pass and solar level's table read for all of
-        its cells in one look-up (``FaradayClimatologyBlock``)."""
-        c, v = self.si, self.block_values(block)
-        n = len(block)
+    def forward(self, case):
+        """The climatology of a case's cell, month, pass and solar level; of a block of cases at once (each month,
+        pass and solar level's table read for all of its cells in one look-up: ``FaradayClimatologyBlock``, whose
+        ``item`` is a case's ``FaradayClimatology``)."""
+        c, v = self.si, self.block_values(case)
+        n = len(case)
         arrays = {name: np.full((n, len(self.incidence_deg)), np.nan) for name in ("faraday", "stec", "vtec")}
         f107, labels = np.empty(n), np.empty(n, dtype=object)
         when = Values.of(list(zip(v["month"].tolist(), v["pass"].tolist(), v["solar"].tolist())))
@@ -171,18 +160,18 @@ class GlobalClimatologyLookup(Stage):
             rows = np.flatnonzero(when.index == code)
             try:
                 pass_name, labels[rows], f107[rows] = self.when(pass_given, solar)
-                found = cell_integrals(self.table(block.services, month, f107[rows[0]]), PASSES.index(pass_name),
+                found = cell_integrals(self.table(case.services, month, f107[rows[0]]), PASSES.index(pass_name),
                                        v["lat_deg"][rows].astype(float), v["lon_deg"][rows].astype(float))
             except PhysicsInputError as exc:
                 raise fail(self, str(exc), key=exc.key) from exc
             for name, values in arrays.items():
                 values[rows] = found[name]
         self._check_seen(arrays["faraday"], v["lat_deg"], labels)
-        frequency = gather(block["instrument"], lambda instrument: instrument.centre_frequency_hz)
-        return {"faraday.geophysical": FaradayClimatologyBlock(
-            arrays["faraday"], arrays["stec"], arrays["vtec"], frequency, f107, v["lat_deg"].astype(float),
-            v["lon_deg"].astype(float), v["month"].astype(int), labels, c["tec_variability"], c["variability_nodes"],
-            c["method"])}
+        frequency = case.column("instrument", "centre frequency", lambda instrument: instrument.centre_frequency_hz)
+        return {"faraday.geophysical": case.product_of(FaradayClimatologyBlock(
+            arrays["faraday"], arrays["stec"], arrays["vtec"], np.broadcast_to(np.asarray(frequency, float), (n,)),
+            f107, v["lat_deg"].astype(float), v["lon_deg"].astype(float), v["month"].astype(int), labels,
+            c["tec_variability"], c["variability_nodes"], c["method"]))}
 
     def _check_seen(self, faraday, lat_deg, pass_label) -> None:
         """Refuse a case whose pass sees its cell at no swath position (faraday: (cases, positions), NaN where

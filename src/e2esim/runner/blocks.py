@@ -21,7 +21,7 @@ import numpy as np
 from e2esim.block import Batched, Block, CaseRandom, Catalog, Factor
 from e2esim.case import Case, Products
 from e2esim.distinct import distinct_rows
-from e2esim.module import fast_path
+from e2esim.module import batched_run
 
 CATALOG_ENTRIES = 1 << 16
 """Distinct values a product's catalog holds before the run's catalogs start afresh (module docstring)."""
@@ -135,7 +135,7 @@ class BlockRun:
         stage_codes, stages = self.plan.stage_codes(step, self.objects)
         results, positions = [], []
         by_case = np.ones(len(self.indices), dtype=bool)  # cases left for forward
-        if any(fast_path(stage) is not None for stage in stages.values()):
+        if any(batched_run(stage) is not None for stage in stages.values()):
             parts = distinct_rows(np.stack([stage_codes, self.settings_codes], -1))[2]
             for part in range(parts.max() + 1):
                 where = np.flatnonzero(parts == part)
@@ -160,7 +160,7 @@ class BlockRun:
         return self.plan.settings_slot.objects[int(self.settings_codes[position])]
 
     def _run_batched(self, stage, settings, where: np.ndarray) -> dict | None:
-        batched = fast_path(stage)
+        batched = batched_run(stage)
         if batched is None:
             return None
         products = self.products if len(where) == len(self.indices) else {

@@ -73,17 +73,12 @@ class AGBMapScene(Stage):
         return replace(forest_covariance(biome, agb_t_ha, self.si["exponent"]),
                        label=f"{biome} {agb_t_ha:.4g} t/ha (AGB map)")
 
-    def forward(self, case):
-        v = self.case_values(case)
-        try:
-            return {"scene.covariance": self.scene_at(v["lat_deg"], v["lon_deg"])}
-        except PhysicsInputError as exc:
-            raise fail(self, str(exc), key=exc.key) from exc
+    forward_takes_blocks = True
 
-    def forward_block(self, block):
-        """``forward`` for a block of cases: the forest of every cell looked up at once, each forest's scene
-        made once per run (a ``Factor``)."""
-        v = self.block_values(block)
+    def forward(self, case):
+        """The forest of the case's cell; of every cell of a block at once, each forest's scene made once per run
+        (a ``Factor``)."""
+        v = self.block_values(case)
         lat, lon = v["lat_deg"].astype(float), v["lon_deg"].astype(float)
         biome, agb = self.source.forest(lat, lon)
         none = np.flatnonzero(biome == NO_FOREST)
@@ -94,4 +89,4 @@ class AGBMapScene(Stage):
                 raise fail(self, str(exc), key=exc.key) from exc
         forests = Values.of(list(zip(biome.tolist(), agb.tolist())))
         codes = np.array([self._code(b, a) for b, a in forests.values], dtype=np.int64)
-        return {"scene.covariance": Factor(self._scenes, codes[forests.index])}
+        return {"scene.covariance": case.product_of(Factor(self._scenes, codes[forests.index]))}
