@@ -16,6 +16,7 @@ from e2esim.cli import main
 from e2esim.compare import compare_report
 from e2esim.requirements.verdict import RequirementVerdict, RequirementVerdicts
 from e2esim.results import results_of
+from e2esim.runner.columns import batched_requirement_columns
 from e2esim.runner.run import run_scenario
 from e2esim.runner.scenario import Scenario
 
@@ -84,7 +85,7 @@ def test_a_verdict_that_does_not_apply_has_no_margin_and_does_not_pass():
         "t/ha", "analytic", applicable=np.array([True, False, True]), reason="outside"),), 3)
     assert [block.item(i)[0].status for i in range(3)] == ["pass", "not_applicable", "fail"]
     assert [block.item(i)[0].reason for i in range(3)] == ["", "outside", ""]
-    columns = block.columns()[0]
+    columns = batched_requirement_columns(block)[0]
     assert columns.status.tolist() == ["pass", "not_applicable", "fail"]
     np.testing.assert_array_equal(columns.margin, [19.0, np.nan, -10.0])
     np.testing.assert_array_equal(block.scalar_columns()["requirement0.passed"], [1.0, np.nan, 0.0])

@@ -6,7 +6,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from e2esim.block import Batched, Values
+from e2esim.block import Batched
 
 STATUSES = ("pass", "fail", "not_applicable")
 """The three states of a verdict: the checked value meets the limit, it does not, or the requirement does not apply
@@ -139,42 +139,13 @@ class RequirementVerdicts(Batched):
             out[f"requirement{i}.margin"] = np.broadcast_to(np.asarray(v.margin, dtype=float), (self.n,))
         return out
 
-    def columns(self) -> list:
-        """``e2esim.runner.columns.RequirementColumns`` per requirement."""
-        from e2esim.runner.columns import Column, RequirementColumns
-
-        n, out = self.n, []
-        for v in self.verdicts:
-            curves = Values([_curves_at(v.curves, i) for i in range(n)], np.arange(n)) if v.curves else None
-            applicable = np.broadcast_to(np.asarray(v.applicable, dtype=bool), (n,))
-            out.append(RequirementColumns(
-                name=Values.repeated(v.name, n), passed=np.broadcast_to(np.asarray(v.passed, dtype=bool), (n,)),
-                value=_floats(v.value, n), limit=_floats(v.limit, n), margin=_floats(v.margin, n),
-                unit=Values.repeated(v.unit, n), basis=Values.repeated(v.basis, n),
-                dominant=_names(v.dominant, n), notes=Values.repeated(tuple(v.notes), n),
-                details={k: Column(_floats(x, n)) for k, x in v.details.items()}, curves=curves,
-                applicable=applicable, reason=Values(["", v.reason], (~applicable).astype(np.int64)),
-                coverage=Values.repeated(tuple(v.coverage), n), coverage_text=Values.repeated(v.coverage_text, n)))
-        return out
-
-
-def _names(dominant, n: int) -> Values:
-    """The dominant source of every case: one name, or an array of names (``attribution.dominant``)."""
-    if isinstance(dominant, np.ndarray):
-        names, index = np.unique(dominant.astype(str), return_inverse=True)
-        return Values(names.tolist(), np.ravel(index))
-    return Values.repeated(dominant, n)
-
-
-def _floats(x, n: int) -> np.ndarray:
-    return np.broadcast_to(np.asarray(x, dtype=float), (n,))
-
 
 def _at(x, i: int):
     return x[i] if isinstance(x, np.ndarray) and x.ndim else x
 
 
-def _curves_at(curves: dict, i: int) -> dict:
+def curves_at(curves: dict, i: int) -> dict:
+    """Case ``i``'s trade-off curves of a verdict whose curves carry the case axis (2-D) or are shared (1-D)."""
     return {name: (c[i] if c.ndim == 2 else c) for name, c in curves.items()}
 
 
@@ -182,7 +153,7 @@ def _verdict_at(v: RequirementVerdict, i: int) -> RequirementVerdict:
     return RequirementVerdict(
         name=v.name, passed=bool(_at(v.passed, i)), value=float(_at(v.value, i)), limit=float(_at(v.limit, i)),
         margin=float(_at(v.margin, i)), unit=v.unit, basis=v.basis,
-        details={k: float(_at(x, i)) for k, x in v.details.items()}, curves=_curves_at(v.curves, i),
+        details={k: float(_at(x, i)) for k, x in v.details.items()}, curves=curves_at(v.curves, i),
         dominant=str(_at(v.dominant, i)), notes=v.notes, applicable=bool(_at(v.applicable, i)), reason=v.reason,
         coverage=v.coverage, coverage_text=v.coverage_text)
 

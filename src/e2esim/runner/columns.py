@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from e2esim.block import Batched, Catalog, Factor, Values
-from e2esim.requirements.verdict import RequirementVerdict, status_of
+from e2esim.requirements.verdict import RequirementVerdict, curves_at, status_of
 from e2esim.runner.records import DECLARATIONS
 
 
@@ -228,10 +228,40 @@ def requirement_columns(verdicts, n: int) -> list:
     if verdicts is None:
         return []
     if isinstance(verdicts, Batched):
-        return verdicts.columns()
+        return batched_requirement_columns(verdicts)
     count = len(verdicts.values[0].verdicts) if verdicts.values else 0
     return [RequirementColumns.from_verdicts([v[j] for v in verdicts.values]).take(verdicts.index)
             for j in range(count)]
+
+
+def batched_requirement_columns(verdicts) -> list:
+    """``RequirementColumns`` per requirement of a ``RequirementVerdicts`` with a case axis (its fields arrays of
+    the block's cases, or one value shared by all of them)."""
+    n, out = verdicts.n, []
+    for v in verdicts.verdicts:
+        curves = Values([curves_at(v.curves, i) for i in range(n)], np.arange(n)) if v.curves else None
+        applicable = np.broadcast_to(np.asarray(v.applicable, dtype=bool), (n,))
+        out.append(RequirementColumns(
+            name=Values.repeated(v.name, n), passed=np.broadcast_to(np.asarray(v.passed, dtype=bool), (n,)),
+            value=_floats(v.value, n), limit=_floats(v.limit, n), margin=_floats(v.margin, n),
+            unit=Values.repeated(v.unit, n), basis=Values.repeated(v.basis, n),
+            dominant=_names(v.dominant, n), notes=Values.repeated(tuple(v.notes), n),
+            details={k: Column(_floats(x, n)) for k, x in v.details.items()}, curves=curves,
+            applicable=applicable, reason=Values(["", v.reason], (~applicable).astype(np.int64)),
+            coverage=Values.repeated(tuple(v.coverage), n), coverage_text=Values.repeated(v.coverage_text, n)))
+    return out
+
+
+def _names(dominant, n: int) -> Values:
+    """The dominant source of every case: one name, or an array of names (``attribution.dominant``)."""
+    if isinstance(dominant, np.ndarray):
+        names, index = np.unique(dominant.astype(str), return_inverse=True)
+        return Values(names.tolist(), np.ravel(index))
+    return Values.repeated(dominant, n)
+
+
+def _floats(x, n: int) -> np.ndarray:
+    return np.broadcast_to(np.asarray(x, dtype=float), (n,))
 
 
 def case_notes(model, n: int) -> Values:
