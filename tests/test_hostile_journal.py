@@ -154,6 +154,7 @@ def _drop_field(path, name):
     return change
 
 
+BLOCK_RESULT = "e2esim.runner.case_results:BlockResult"
 COLUMN, VALUES, REQ = "e2esim.runner.columns:Column", "e2esim.block:Values", "e2esim.runner.columns:RequirementColumns"
 CRAFTED = {
     "a column that is a Values": (_swap_class(COLUMN, VALUES), "not a column of values"),
@@ -161,19 +162,19 @@ CRAFTED = {
     "a scene that is a distribution": (_swap_class("e2esim.scene.covariance:ScatteringCovariance",
                                                    "e2esim.faraday.distribution:GaussianFaraday"),
                                        "must be a ScatteringCovariance"),
-    "the block a Column": (_swap_class("e2esim.runner.run:BlockResult", COLUMN), "not a block of results"),
+    "the block a Column": (_swap_class(BLOCK_RESULT, COLUMN), "not a block of results"),
     "a column without values": (_drop_field(COLUMN, "values"), "lack their field values"),
     "a product without a field": (_drop_field("e2esim.distortion.error_model:HVErrorModel", "faraday"),
                                   "without its field faraday"),
     "column values as text": (_field_value(COLUMN, "values", "text"), "not a one-dimensional array"),
-    "notes that are numbers": (_field_value("e2esim.runner.run:BlockResult", "notes", 3), "not a column of values"),
-    "requirements a mapping": (_field_value("e2esim.runner.run:BlockResult", "requirements",
+    "notes that are numbers": (_field_value(BLOCK_RESULT, "notes", 3), "not a column of values"),
+    "requirements a mapping": (_field_value(BLOCK_RESULT, "requirements",
                                             {"$": "d", "i": [], "id": 10**6}), "2 requirements"),
-    "one requirement": (lambda doc, p: _first_object(doc["tree"], "e2esim.runner.run:BlockResult")["f"].__setitem__(
+    "one requirement": (lambda doc, p: _first_object(doc["tree"], BLOCK_RESULT)["f"].__setitem__(
         2, ["requirements", {"$": "l", "i": [], "id": 10**6}]), "2 requirements"),
     "a field of the wrong type": (_field_value("e2esim.distortion.montecarlo:MonteCarloErrors", "looks", "many"),
                                   "the field looks of a MonteCarloErrors is a str"),
-    "a set of objects without fields": (_field_value("e2esim.runner.run:BlockResult", "notes", {"$": "s", "i": [
+    "a set of objects without fields": (_field_value(BLOCK_RESULT, "notes", {"$": "s", "i": [
         {"$": "o", "c": "e2esim.faraday.distribution:GaussianFaraday", "f": [], "id": 10**6}]}), "does not decode"),
     "a code pointing nowhere": (lambda doc, payload: None, None),  # set below: needs the payload
 }

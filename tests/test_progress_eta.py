@@ -135,11 +135,12 @@ def test_a_serial_run_with_a_bar_hands_its_stages_one(monkeypatch, shown):
     """Blocks run in this process get the progress bar for long kernels (the global climatology's months) when
     the run shows a bar: they used to get none, so the climatology build drew nothing."""
     import e2esim
-    from e2esim.runner import run
+    from e2esim.runner import executors
 
     asked = []
-    original = run.default_services
-    monkeypatch.setattr(run, "default_services", lambda progress=False: asked.append(progress) or original(progress))
+    original = executors.default_services
+    monkeypatch.setattr(executors, "default_services",
+                        lambda progress=False: asked.append(progress) or original(progress))
     scenario = Path(__file__).resolve().parents[1] / "scenarios" / "men2021_fig1.yaml"
     e2esim.run(scenario, set={"simulation.mode": "analytic"}, progress=shown)
     assert asked == [shown]

@@ -86,7 +86,7 @@ def reference_case(needs=(), uses=(), settings: SimulationSettings = SMALL, seed
     the default chain (``DEFAULT_CHAIN``, no calibration; ``variant``: changes to its configurations, as in
     ``BLOCK_VARIANTS``) and stopped as soon as it has them."""
     from e2esim.runner.chain import assemble
-    from e2esim.runner.run import checked_products
+    from e2esim.runner.stage_products import checked_products
 
     chain = assemble(_chain_modules(variant), Location("reference chain"))
     makeable = {p.name for stage in chain for p in stage.provides}
@@ -254,7 +254,7 @@ def _with_rng(case: Case, seed: int) -> Case:
 
 def _check_stage(module, copy, case) -> None:
     from e2esim.runner.records import case_scalars
-    from e2esim.runner.run import checked_products
+    from e2esim.runner.stage_products import checked_products
 
     name = type(module).__name__
     case = case or reference_case(module.needs, module.uses)

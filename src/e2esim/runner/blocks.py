@@ -22,6 +22,7 @@ from e2esim.block import Batched, Block, CaseRandom, Catalog, Factor
 from e2esim.case import Case, Products
 from e2esim.distinct import distinct_rows
 from e2esim.module import batched_run
+from e2esim.runner.stage_products import checked_products
 
 CATALOG_ENTRIES = 1 << 16
 """Distinct values a product's catalog holds before the run's catalogs start afresh (module docstring)."""
@@ -230,8 +231,6 @@ class BlockRun:
         return random
 
     def _forward(self, stage, settings, position: int, random) -> dict:
-        from e2esim.runner.run import checked_products
-
         index = int(self.indices[position])
         case = Case(index=index, inputs=_LazyInputs(self.plan.table, index), settings=settings, rng=random,
                     products=_CaseProducts(self.products, position), services=self.services)

@@ -23,7 +23,11 @@ from concurrent.futures.process import BrokenProcessPool
 
 from e2esim.errors import UserError
 from e2esim.extras import optional_import
+from e2esim.runner.blocks import StageMemo
+from e2esim.runner.cases import default_services, run_block
 from e2esim.runner.interrupts import interrupts_deferred, worker_signals
+from e2esim.runner.journal import encode_block
+from e2esim.runner.plaindata import allowed_packages
 
 _PR_SET_PDEATHSIG = 1  # linux/prctl.h
 _PARENT_POLL_S = 0.5
@@ -50,8 +54,6 @@ def run_blocks(resolved, tasks: list, take, workers: int = 1, scheduler: str | N
     if scheduler:
         check_scheduler_address(scheduler)
     if packages is None and frames and (scheduler or workers > 1):
-        from e2esim.runner.plaindata import allowed_packages
-
         packages = allowed_packages()
     options = (engine, keep_products, packages)
     if scheduler:
@@ -90,9 +92,6 @@ class _SerialBlocks:
         self.resolved, self.tasks, self.options, self.progress = resolved, tasks, options, progress
 
     def __iter__(self):
-        from e2esim.runner.blocks import StageMemo
-        from e2esim.runner.run import default_services, run_block
-
         engine, keep_products, _ = self.options
         services, memo = default_services(self.progress), StageMemo()
         for number, indices in enumerate(self.tasks):
@@ -181,10 +180,6 @@ def run_block_remote(indices, options: tuple, resolved=None) -> tuple:
     (e2esim.runner.journal), is what the main process appends to the journal as it is. The scenario comes with
     the call (dask) or was set once when the worker started (``_start_worker``). No frame when ``packages`` is
     None (no journal)."""
-    from e2esim.runner.blocks import StageMemo
-    from e2esim.runner.journal import encode_block
-    from e2esim.runner.run import default_services, run_block
-
     engine, keep_products, packages = options
     if resolved is None:
         resolved = _WORKER["resolved"]

@@ -25,6 +25,7 @@ import numpy as np
 from e2esim.block import Values
 from e2esim.case import Products
 from e2esim.requirements.uncertainty import AGREE, MOMENTS, SHAPE
+from e2esim.runner.case_results import BlockResult
 from e2esim.runner.columns import Column, RequirementColumns
 
 CODED_DETAILS = {"basis_disagreement": (AGREE, SHAPE, MOMENTS)}
@@ -37,8 +38,6 @@ class BadRecord(ValueError):
 
 def check_block(block, resolved, packages: frozenset) -> None:
     """Raise ``BadRecord`` unless ``block`` is a ``BlockResult`` of the run ``resolved`` as the run makes it."""
-    from e2esim.runner.run import BlockResult
-
     if type(block) is not BlockResult:
         raise BadRecord(f"it holds a {type(block).__name__}, not a block of results")
     _fields(block, "the block")

@@ -20,27 +20,24 @@ from datetime import datetime, timezone
 from functools import cached_property
 
 import numpy as np
-from tqdm.auto import tqdm
 
 import e2esim
-from e2esim.block import Values
-from e2esim.case import Case, Products, Services
 from e2esim.errors import UserError
-from e2esim.io.array_cache import open_cache
-from e2esim.runner.columns import (
-    RequirementColumns,
-    case_notes,
-    dict_columns,
-    requirement_columns,
-    scalar_columns,
-    source_group_column,
-)
+from e2esim.runner.case_results import BlockResult, CaseResult
+from e2esim.runner.cases import case_generator, default_services, run_block, run_case
+from e2esim.runner.executors import run_blocks
 from e2esim.runner.progress import CaseProgress
 from e2esim.runner.provenance import dependency_versions, source_commit
-from e2esim.runner.records import case_scalars
 from e2esim.runner.result_table import ResultTable
 from e2esim.runner.scenario import ResolvedScenario
 from e2esim.runner.spill import SPILL_ABOVE_CASES, SpilledBlock, SpillFile, spill_block
+from e2esim.runner.stage_products import checked_products
+
+__all__ = [  # the runner's public names, those of its parts included (cases, case_results, stage_products)
+    "BLOCK_CASES", "ENGINES", "KEEP_PRODUCTS_UP_TO", "MONTE_CARLO_BLOCK_CASES", "BlockResult", "CaseResult",
+    "ScenarioResult", "block_tasks", "case_generator", "checked_products", "default_services", "run_block",
+    "run_case", "run_scenario",
+]
 
 ENGINES = ("batched", "per_case")
 BLOCK_CASES = 4096
@@ -51,84 +48,6 @@ MONTE_CARLO_BLOCK_CASES = 4
 KEEP_PRODUCTS_UP_TO = 2000
 """Runs of at most this many cases keep every case's products (for the report's per-case plots and for
 ``CaseResult.get``); larger runs keep their columns only."""
-
-
-@dataclass
-class CaseResult:
-    """Outcome of one case: its inputs, the products its stages made (when kept) and the flattened scalars
-    (``e2esim.runner.records``)."""
-
-    index: int
-    inputs: dict
-    label: str
-    products: Products
-    scalars: dict
-    verdict_list: tuple | None = None
-    note_list: tuple | None = None
-    groups: dict | None = None
-
-    def get(self, name: str, default=None):
-        """The product ``name`` of this case, or ``default``."""
-        return self.products.get(name, default)
-
-    @property
-    def verdicts(self) -> tuple:
-        """The requirement verdicts, in scenario order (empty without requirements)."""
-        if self.verdict_list is not None:
-            return self.verdict_list
-        verdicts = self.products.get("verdicts")
-        return tuple(verdicts) if verdicts is not None else ()
-
-    @property
-    def notes(self) -> tuple:
-        """Remarks of the propagation's error model (e.g. why the analytic model was not used)."""
-        if self.note_list is not None:
-            return self.note_list
-        model = self.products.get("backscatter.error")
-        return tuple(getattr(model, "notes", ())) if model is not None else ()
-
-
-@dataclass
-class BlockResult:
-    """The results of a block of cases as columns (``e2esim.runner.columns``).
-
-    indices : the cases (B,). scalars : {name: Column}. requirements : ``RequirementColumns`` per requirement.
-    notes : the error model's notes per case. groups : {source: group} of the AGB error's contributions per
-    case (``Values``). products : every case's ``Products`` when kept, else None.
-    """
-
-    indices: np.ndarray
-    scalars: dict
-    requirements: list
-    notes: Values
-    groups: Values
-    products: list | None = None
-
-    def __len__(self) -> int:
-        return len(self.indices)
-
-    def case(self, k: int, inputs: dict, label: str) -> CaseResult:
-        """The ``CaseResult`` of the block's k-th case."""
-        scalars = {name: float(c.values[k]) for name, c in self.scalars.items() if c.has(k)}
-        return CaseResult(int(self.indices[k]), inputs, label,
-                          self.products[k] if self.products is not None else Products(), scalars,
-                          tuple(r.verdict(k) for r in self.requirements), tuple(self.notes[k]), self.groups[k])
-
-    def without_products(self) -> BlockResult:
-        return BlockResult(self.indices, self.scalars, self.requirements, self.notes, self.groups)
-
-    @classmethod
-    def from_cases(cls, results: list) -> BlockResult:
-        """From one-case results of the per-case runner (``run_case``)."""
-        n = len(results)
-        scalars = dict_columns([r.scalars for r in results])
-        count = len(results[0].verdicts) if results else 0
-        requirements = [RequirementColumns.from_verdicts([r.verdicts[j] for r in results]) for j in range(count)]
-        groups = [{c.name: c.group for c in getattr(r.products.get("agb.error"), "contributions", ())}
-                  for r in results]
-        return cls(np.array([r.index for r in results], dtype=np.int64), scalars, requirements,
-                   Values.of([tuple(r.notes) for r in results]), Values(groups, np.arange(n)),
-                   [r.products for r in results])
 
 
 REMEMBER_CASES_UP_TO = 10_000
@@ -238,66 +157,6 @@ class ScenarioResult:
         return {k: [c.inputs.get(k) for c in self.scenario.cases] for k in self.scenario.sweep_keys}
 
 
-def case_generator(seed: int, index: int) -> np.random.Generator:
-    """The random generator of case ``index`` for root ``seed``."""
-    return np.random.Generator(np.random.PCG64(np.random.SeedSequence(seed, spawn_key=(index,))))
-
-
-def default_services(progress: bool = False) -> Services:
-    """What the runner hands to stages: the array cache of a module's setting, and a progress bar for long
-    kernels on the command line."""
-    return Services(cache=open_cache, progress=_progress_bar if progress else None)
-
-
-def _progress_bar(iterable, total=None, description=""):
-    return tqdm(iterable, total=total, desc=description, leave=False)
-
-
-def run_case(spec, services: Services | None = None) -> CaseResult:
-    """Pass one case through its chain of stages (``e2esim.module.Stage``): each stage reads the products it
-    needs and returns its own, which are added to the case (never overwritten)."""
-    case = Case(index=spec.index, inputs=spec.inputs, settings=spec.settings,
-                rng=case_generator(spec.settings.seed, spec.index), services=services or default_services())
-    for stage in spec.chain:
-        case = case.adding(checked_products(stage, stage.forward(case)))
-    declared = {p.name: p for stage in spec.chain for p in stage.provides}  # plug-in products included
-    return CaseResult(spec.index, spec.inputs, spec.label, case.products, case_scalars(case.products, declared))
-
-
-def checked_products(stage, new) -> dict:
-    """``new`` if it holds exactly the products ``stage`` declares, each of its declared type."""
-    declared = {p.name: p for p in stage.provides}
-    if not isinstance(new, dict) or set(new) != set(declared):
-        got = ", ".join(new) if isinstance(new, dict) else type(new).__name__
-        raise TypeError(f"{stage.identity} returned {got or 'nothing'}; it declares {', '.join(declared) or 'nothing'}")
-    for name, value in new.items():
-        declared[name].check(value, stage.identity)
-    return new
-
-
-def run_block(resolved: ResolvedScenario, indices, engine: str = "batched", keep_products: bool = False,
-              services: Services | None = None, memo=None) -> BlockResult:
-    """The results of the cases ``indices`` (one chain template) of ``resolved``."""
-    from e2esim.runner.blocks import BlockRun
-
-    services = services or default_services()
-    if engine == "per_case":
-        result = BlockResult.from_cases([run_case(resolved.cases[int(i)], services) for i in indices])
-        return result if keep_products else result.without_products()
-    run = BlockRun(resolved.plan, indices, services, memo)
-    products = run.run()
-    n = len(run.indices)
-    declared = {p.name: p for step in run.template.steps
-                for p in resolved.plan.stage(step, run.objects[0]).provides}
-    kept = None
-    if keep_products:
-        kept = [Products({name: value.item(k) for name, value in products.items()}) for k in range(n)]
-    return BlockResult(run.indices, scalar_columns(products, n, declared),
-                       requirement_columns(products.get("verdicts"), n),
-                       case_notes(products.get("backscatter.error"), n),
-                       source_group_column(products.get("agb.error"), n), kept)
-
-
 def block_tasks(resolved: ResolvedScenario, todo: np.ndarray, workers: int = 1) -> list:
     """The blocks to run: the cases ``todo`` (sorted) split by chain template, in runs of at most the block
     size, small enough that every worker gets several."""
@@ -339,8 +198,6 @@ def run_scenario(
         default: for runs of more than ``SPILL_ABOVE_CASES`` cases that keep no products), in a temporary file
         in ``spill_folder`` (default: the system's temporary folder).
     """
-    from e2esim.runner.executors import run_blocks
-
     if engine not in ENGINES:
         raise UserError(f"engine {engine!r}: expected one of {', '.join(ENGINES)}")
     n = len(resolved.cases)

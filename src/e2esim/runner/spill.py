@@ -27,6 +27,7 @@ import numpy as np
 
 from e2esim.block import Values
 from e2esim.errors import OutputFolderError
+from e2esim.runner.case_results import BlockResult
 from e2esim.runner.columns import Column, RequirementColumns
 
 SPILL_ABOVE_CASES = 10_000
@@ -121,8 +122,6 @@ class SpilledBlock:
 
     def load(self):
         """The whole block in memory, a ``BlockResult``."""
-        from e2esim.runner.run import BlockResult
-
         return BlockResult(self.indices, dict(self.scalars.items()), [r.load() for r in self.requirements],
                            self.notes, self.groups)
 

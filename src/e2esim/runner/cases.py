@@ -1,0 +1,63 @@
+"""Running cases: one case through its chain (``run_case``, the reference path) and a block of cases of one chain
+template (``run_block``, batched or case by case), with the services the runner hands to stages."""
+
+from __future__ import annotations
+
+import numpy as np
+from tqdm.auto import tqdm
+
+from e2esim.case import Case, Products, Services
+from e2esim.io.array_cache import open_cache
+from e2esim.runner.blocks import BlockRun
+from e2esim.runner.case_results import BlockResult, CaseResult
+from e2esim.runner.columns import case_notes, requirement_columns, scalar_columns, source_group_column
+from e2esim.runner.records import case_scalars
+from e2esim.runner.scenario import ResolvedScenario
+from e2esim.runner.stage_products import checked_products
+
+
+def case_generator(seed: int, index: int) -> np.random.Generator:
+    """The random generator of case ``index`` for root ``seed``."""
+    return np.random.Generator(np.random.PCG64(np.random.SeedSequence(seed, spawn_key=(index,))))
+
+
+def default_services(progress: bool = False) -> Services:
+    """What the runner hands to stages: the array cache of a module's setting, and a progress bar for long
+    kernels on the command line."""
+    return Services(cache=open_cache, progress=_progress_bar if progress else None)
+
+
+def _progress_bar(iterable, total=None, description=""):
+    return tqdm(iterable, total=total, desc=description, leave=False)
+
+
+def run_case(spec, services: Services | None = None) -> CaseResult:
+    """Pass one case through its chain of stages (``e2esim.module.Stage``): each stage reads the products it
+    needs and returns its own, which are added to the case (never overwritten)."""
+    case = Case(index=spec.index, inputs=spec.inputs, settings=spec.settings,
+                rng=case_generator(spec.settings.seed, spec.index), services=services or default_services())
+    for stage in spec.chain:
+        case = case.adding(checked_products(stage, stage.forward(case)))
+    declared = {p.name: p for stage in spec.chain for p in stage.provides}  # plug-in products included
+    return CaseResult(spec.index, spec.inputs, spec.label, case.products, case_scalars(case.products, declared))
+
+
+def run_block(resolved: ResolvedScenario, indices, engine: str = "batched", keep_products: bool = False,
+              services: Services | None = None, memo=None) -> BlockResult:
+    """The results of the cases ``indices`` (one chain template) of ``resolved``."""
+    services = services or default_services()
+    if engine == "per_case":
+        result = BlockResult.from_cases([run_case(resolved.cases[int(i)], services) for i in indices])
+        return result if keep_products else result.without_products()
+    run = BlockRun(resolved.plan, indices, services, memo)
+    products = run.run()
+    n = len(run.indices)
+    declared = {p.name: p for step in run.template.steps
+                for p in resolved.plan.stage(step, run.objects[0]).provides}
+    kept = None
+    if keep_products:
+        kept = [Products({name: value.item(k) for name, value in products.items()}) for k in range(n)]
+    return BlockResult(run.indices, scalar_columns(products, n, declared),
+                       requirement_columns(products.get("verdicts"), n),
+                       case_notes(products.get("backscatter.error"), n),
+                       source_group_column(products.get("agb.error"), n), kept)
