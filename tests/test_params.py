@@ -63,3 +63,20 @@ def test_biomass_preset_defaults_come_from_the_declaration():
     assert m.config["channel_imbalance"]["level_db"] == -34.0
     assert m.config["nesz_db"] == -27.0 and m.config["centre_frequency_mhz"] == 435.0
     assert m.model.crosstalk_rho13 == 0.9 and m.description.name == "BIOMASS"
+
+
+def test_a_module_parameter_brings_its_lookup():
+    """A parameter naming a module type looks it up through the lookup its declaring module hands in (the
+    registry's), so that parameters never import the registry (no import cycle: tests/test_architecture.py)."""
+    from e2esim import registry
+
+    with pytest.raises(TypeError, match="'module' parameter needs a kind"):
+        Param("estimator", "module", "d", lookup=registry.lookup)
+    with pytest.raises(TypeError, match=r"'module' parameter needs a lookup \(e2esim.registry.lookup\)"):
+        Param("estimator", "module", "d", kind="faraday_estimator")
+    with pytest.raises(TypeError, match="needs a lookup"):
+        Param("looks", "int", "d", lookup=registry.lookup)
+    asked = []
+    param = Param("estimator", "module", "d", kind="faraday_estimator",
+                  lookup=lambda kind, name: asked.append((kind, name)) or registry.lookup(kind, name))
+    assert param.validate("freeman", Location("x"))["type"] == "freeman" and asked == [("faraday_estimator", "freeman")]

@@ -22,10 +22,8 @@ def validate_component(param, value: Any, where: Location) -> dict:
 
 
 def _lookup_component(param, type_name: str, where: Location):
-    from e2esim import registry  # here: the registry imports the module base, which imports e2esim.params
-
     try:
-        return registry.lookup(param.kind, type_name)
+        return param.lookup(param.kind, type_name)
     except ModuleLookupError as exc:
         raise ConfigError(where, str(exc)) from exc
 

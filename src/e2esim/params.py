@@ -91,6 +91,8 @@ class Param:
     nullable : ``null`` is allowed (it means "not given" or "automatic", as ``doc`` says).
     convert : convert to SI (``SI_UNITS``); False keeps a value whose formula is written in its own unit.
     kind : for type "module": the registry kind of the component named (e.g. "faraday_estimator").
+    lookup : for type "module": ``lookup(kind, type_name) -> class`` (``e2esim.registry.lookup``), handed in by the
+        module that declares the parameter, so that parameters (below the registry) never import it.
     """
 
     name: str
@@ -108,12 +110,16 @@ class Param:
     nullable: bool = False
     convert: bool = True
     kind: str | None = None
+    lookup: Callable | None = field(default=None, compare=False, repr=False)
 
     def __post_init__(self):
         if self.type not in _TYPE_NAMES:
             raise TypeError(f"Param {self.name!r}: unknown type {self.type!r}")
         if (self.type == "module") != (self.kind is not None):
             raise TypeError(f"Param {self.name!r}: a 'module' parameter needs a kind, and only it has one")
+        if (self.type == "module") != (self.lookup is not None):
+            raise TypeError(f"Param {self.name!r}: a 'module' parameter needs a lookup (e2esim.registry.lookup), "
+                            "and only it has one")
         unit = SI_UNITS.get(self.unit)
         if unit is not None and self.convert and not self.name.endswith(unit.suffix):
             raise TypeError(f"Param {self.name!r} in {self.unit} must end with {unit.suffix!r} (or set convert=False)")

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from e2esim import registry
 from e2esim.calibration.radiometric import (
     UNIFORM_ARRAY_BEAM_SHAPING,
     absolute_gain_error_db,
@@ -95,7 +96,7 @@ class FaradayCorrection(CalibrationModule):
     params = (
         Param("estimator", "module", "Faraday-rotation estimator: a faraday_estimator type (bickel_bates, freeman, "
               "chirp_slope) or a mapping with its type and parameters, e.g. {type: chirp_slope, subbands: 8}",
-              default="bickel_bates", kind="faraday_estimator"),
+              default="bickel_bates", kind="faraday_estimator", lookup=registry.lookup),
         Param("looks", "int", "independent samples in the estimation window (10^4: 2 km x 2 km for BIOMASS, "
               "Quegan et al. 2018, Sect. 6)", default=10_000, minimum=1, maximum=10**9),
         Param("prior", "str", "prior that resolves the pi/2 ambiguity: the ionosphere module's mean, or a "
