@@ -14,6 +14,8 @@ import time
 from pathlib import Path
 
 import pytest
+from cli_processes import e2esim_process as _cli
+from cli_processes import wait_for as _wait_for
 from test_output_folder import SMALL, _alive, _children, _run
 from test_output_folder import _scenario as _small
 from test_parallel_and_resume import _saved
@@ -27,16 +29,6 @@ from e2esim.runner.outputs import ASIDE
 posix_only = pytest.mark.skipif(os.name != "posix", reason="symbolic links, signals and rlimits of POSIX")
 
 
-def _cli(*args, limit_bytes=None, **kw):
-    """``e2esim`` in a fresh interpreter, with a file-size limit (RLIMIT_FSIZE) when asked."""
-
-    def limited():
-        import resource
-
-        resource.setrlimit(resource.RLIMIT_FSIZE, (limit_bytes, resource.getrlimit(resource.RLIMIT_FSIZE)[1]))
-
-    return subprocess.Popen([sys.executable, "-m", "e2esim", *map(str, args)], stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE, text=True, preexec_fn=limited if limit_bytes else None, **kw)
 
 
 def _outside(tmp_path) -> tuple:
@@ -250,14 +242,6 @@ def test_a_worker_killed_by_sigkill_is_one_message_and_the_run_resumes(tmp_path)
     assert json.loads((out / "summary.json").read_text())["resumed_cases"] == saved
 
 
-def _wait_for(predicate, proc, timeout=120):
-    start = time.monotonic()
-    while not predicate():
-        if proc.poll() is not None:
-            pytest.fail(f"the run ended early: {proc.stderr.read()}")
-        if time.monotonic() - start > timeout:
-            pytest.fail("timed out")
-        time.sleep(0.02)
 
 
 # -------------------------------------------------------------------------------- item 12: interrupts

@@ -14,12 +14,12 @@ from __future__ import annotations
 
 import contextlib
 import io
-import signal
 import tempfile
 from pathlib import Path
 
 import pytest
 import yaml
+from hostile_files import hang_guard
 from hypothesis import HealthCheck, given, note, seed, settings
 from hypothesis import strategies as st
 
@@ -209,22 +209,6 @@ def make_case(seed: int) -> tuple[str, list]:
     return text, sets
 
 
-@contextlib.contextmanager
-def _hang_guard(seconds: int):
-    def _raise(signum, frame):
-        raise TimeoutError(f"validation took more than {seconds} s: a hang")
-
-    if not hasattr(signal, "SIGALRM"):  # pragma: no cover - Windows: no guard
-        yield
-        return
-    old = signal.signal(signal.SIGALRM, _raise)
-    signal.alarm(seconds)
-    try:
-        yield
-    finally:
-        signal.alarm(0)
-        signal.signal(signal.SIGALRM, old)
-
 
 _FOLDER = Path(tempfile.mkdtemp(prefix="e2esim-fuzz-"))
 
@@ -234,7 +218,7 @@ def check_validate(text: str, sets: list) -> None:
     path = _FOLDER / "scenario.yaml"
     path.write_text(text, encoding="utf-8", errors="surrogatepass")
     out, err = io.StringIO(), io.StringIO()
-    with _hang_guard(HANG_S), contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+    with hang_guard(HANG_S), contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
         status = main(["validate", str(path), *(f"--set={s}" for s in sets)])
     message = err.getvalue()
     assert status in (0, 2), (status, message)

@@ -6,12 +6,13 @@ import errno
 import json
 import os
 import signal
-import subprocess
 import sys
 import time
 from pathlib import Path
 
 import pytest
+from cli_processes import e2esim_process as _cli
+from cli_processes import wait_for as _wait_for
 from test_parallel_and_resume import _scenario as _sweep
 
 from e2esim.cli import main
@@ -42,19 +43,8 @@ def _run(*args, capsys=None):
     return status, (capsys.readouterr().err if capsys else "")
 
 
-def _cli(*args, **kw):
-    return subprocess.Popen([sys.executable, "-m", "e2esim", *map(str, args)], stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE, text=True, **kw)
 
 
-def _wait_for(predicate, proc, timeout=120):
-    start = time.monotonic()
-    while not predicate():
-        if proc.poll() is not None:
-            pytest.fail(f"the run ended early: {proc.stderr.read()}")
-        if time.monotonic() - start > timeout:
-            pytest.fail("timed out")
-        time.sleep(0.02)
 
 
 def test_two_concurrent_runs_one_result_one_refusal(tmp_path, capsys):

@@ -3,12 +3,11 @@ sweep resumes without recomputing finished cases and leaves no corrupt file."""
 
 import json
 import signal
-import subprocess
-import sys
 import time
 from pathlib import Path
 
 import pytest
+from cli_processes import e2esim_process as _cli
 
 from e2esim.runner.run import run_scenario
 from e2esim.runner.scenario import Scenario
@@ -58,9 +57,6 @@ def test_dask_local_cluster_gives_the_serial_numbers(tmp_path):
     assert on_dask.provenance["executor"].startswith("dask tcp://")
 
 
-def _cli(*args, **kw):
-    return subprocess.Popen([sys.executable, "-m", "e2esim", *args], stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE, text=True, **kw)
 
 
 def _saved(journal: Path) -> int:
