@@ -14,6 +14,7 @@ import zlib
 
 import numpy as np
 import pytest
+from cli_processes import stop_leftovers
 
 from helpers import TEST_SEED
 from quick_runs import SCENARIOS, quick_overrides
@@ -43,6 +44,13 @@ def pytest_collection_modifyitems(config, items):
 
 def pytest_report_header(config):
     return f"e2esim test seed: {TEST_SEED} (set E2ESIM_TEST_SEED=<int> or random)"
+
+
+@pytest.fixture(autouse=True)
+def _no_run_left_behind():
+    """A run a test started through tests/cli_processes.py ends with the test, passed or failed."""
+    yield
+    stop_leftovers()
 
 
 @pytest.fixture

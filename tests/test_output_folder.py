@@ -11,6 +11,7 @@ import time
 from pathlib import Path
 
 import pytest
+from cli_processes import children as _children
 from cli_processes import e2esim_process as _cli
 from cli_processes import wait_for as _wait_for
 from test_parallel_and_resume import _scenario as _sweep
@@ -199,19 +200,6 @@ def test_unreachable_scheduler_leaves_no_journal(tmp_path, capsys, monkeypatch):
     assert status == 2 and "cannot connect to the dask scheduler at tcp://127.0.0.1:9" in err
     assert list(out.iterdir()) == []
     assert _run(scenario, "-o", out, capsys=capsys)[0] == 0  # not "an interrupted run"
-
-
-def _children(pid: int) -> set:
-    """PIDs whose parent is ``pid`` (Linux /proc)."""
-    out = set()
-    for stat in Path("/proc").glob("[0-9]*/stat"):
-        try:
-            fields = stat.read_text().rsplit(")", 1)[1].split()
-        except OSError:
-            continue
-        if int(fields[1]) == pid:
-            out.add(int(stat.parent.name))
-    return out
 
 
 def _alive(pid: int) -> bool:
