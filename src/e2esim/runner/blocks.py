@@ -1,14 +1,14 @@
 """Run a block of sweep cases through their chain of stages at once (``e2esim.block``).
 
 For each stage of the chain template the block's cases are split by the stage object they use and their
-settings (usually one of each). A stage with a batched implementation (``Stage.forward_block``) gets the whole
-part at once and returns ``Batched`` products. Any other stage, or a batched one that declines (returns
-None), runs through ``forward`` exactly as in the per-case runner, once per distinct combination of the
-products it reads: cases that share them share the result, unless the stage drew random numbers, in which case
-it runs for every case with the case's own generator (``CaseRandom``), so Monte Carlo numbers are those of the
-per-case runner. The distinct values of every product are kept across blocks in catalogs (``StageMemo``), with
-what was made from which, for stages that drew nothing: the 10 000 instruments of a million-case sweep are each
-made once, and read once (``e2esim.block.Catalog``).
+settings (usually one of each). A stage whose ``forward`` takes blocks (``Stage.forward_takes_blocks``) gets
+the whole part at once and returns ``Batched`` products. Any other stage, or a batched one that hands the block
+back (``Block.per_case``), runs through ``forward`` exactly as in the per-case runner, once per distinct
+combination of the products it reads: cases that share them share the result, unless the stage drew random
+numbers, in which case it runs for every case with the case's own generator (``CaseRandom``), so Monte Carlo
+numbers are those of the per-case runner. The distinct values of every product are kept across blocks in
+catalogs (``StageMemo``), with what was made from which, for stages that drew nothing: the 10 000 instruments of
+a million-case sweep are each made once, and read once (``e2esim.block.Catalog``).
 """
 
 from __future__ import annotations
@@ -261,10 +261,11 @@ def _cataloged(product) -> bool:
 
 def _checked_block(stage, new, n: int) -> dict:
     if not isinstance(new, dict):
-        raise TypeError(f"{stage.identity}: forward_block returned a {type(new).__name__}, not a dict of products")
+        raise TypeError(f"{stage.identity}: forward returned a {type(new).__name__} for a block, not a dict of "
+                        "products")
     for name, value in new.items():
         if not isinstance(value, (Factor, Batched)) or len(value) != n:
-            raise TypeError(f"{stage.identity}: forward_block returned {name!r} as a {type(value).__name__} for "
+            raise TypeError(f"{stage.identity}: forward returned for a block {name!r} as a {type(value).__name__} for "
                             f"{len(value) if hasattr(value, '__len__') else '?'} cases; expected a Factor or Batched "
                             f"product for {n}")
     return new
