@@ -24,6 +24,23 @@ from dataclasses import dataclass
 import numpy as np
 
 
+class IdentityKey:
+    """A dictionary key naming an object by its identity that holds the object: unlike its ``id()``, which another
+    object may get once the first is gone, this key cannot come to name another object while it lives. For
+    values that compare by content badly or not at all (products holding arrays)."""
+
+    __slots__ = ("value",)
+
+    def __init__(self, value):
+        self.value = value
+
+    def __hash__(self) -> int:
+        return id(self.value)
+
+    def __eq__(self, other) -> bool:
+        return isinstance(other, IdentityKey) and other.value is self.value
+
+
 class Catalog(list):
     """The distinct values of a product over the blocks of a run (in this process), each once, with what has been
     derived from them (``table``): blocks refer to them by number (``Factor``), so a value made for an earlier
@@ -32,18 +49,20 @@ class Catalog(list):
 
     def __init__(self):
         super().__init__()
-        self._codes: dict = {}  # id -> number (the values are kept in the list, so their ids stay theirs)
+        self._codes: dict = {}  # IdentityKey(value) -> number
         self._tables: dict = {}
         self.volatile = False
 
     def __reduce__(self):
-        # the numbers are keyed by this process's ids: a copy numbers the same values afresh, in the same order
+        # a copy numbers the same values afresh, in the same order
         return _catalog_of, (list(self), self.volatile)
 
     def add(self, value) -> int:
-        code = self._codes.get(id(value))
+        """The number of ``value`` (this very object) in the catalog, added when new."""
+        key = IdentityKey(value)
+        code = self._codes.get(key)
         if code is None:
-            code = self._codes[id(value)] = len(self)
+            code = self._codes[key] = len(self)
             self.append(value)
         return code
 
@@ -219,10 +238,11 @@ class Values:
         distinct, index = [], np.empty(len(values), dtype=np.int64)
         for k, value in enumerate(values):
             try:
-                key = ("=", value) if value.__hash__ is not None else ("id", id(value))
+                key = ("=", value) if value.__hash__ is not None else IdentityKey(value)
                 code = codes.get(key)
             except TypeError:  # a tuple holding a mapping, say
-                key, code = ("id", id(value)), codes.get(("id", id(value)))
+                key = IdentityKey(value)
+                code = codes.get(key)
             if code is None:
                 code = codes[key] = len(distinct)
                 distinct.append(value)
@@ -372,4 +392,4 @@ class CaseRandom:
         return getattr(self._generator, name)
 
 
-__all__ = ["Batched", "Block", "CaseRandom", "Catalog", "Factor", "NotBatched", "Values", "join"]
+__all__ = ["Batched", "Block", "CaseRandom", "Catalog", "Factor", "IdentityKey", "NotBatched", "Values", "join"]

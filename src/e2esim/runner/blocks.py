@@ -18,7 +18,7 @@ from types import MappingProxyType
 
 import numpy as np
 
-from e2esim.block import Batched, Block, CaseRandom, Catalog, Factor
+from e2esim.block import Batched, Block, CaseRandom, Catalog, Factor, IdentityKey
 from e2esim.case import Case, Products
 from e2esim.distinct import distinct_rows
 from e2esim.module import batched_run
@@ -187,7 +187,7 @@ class BlockRun:
         else:
             keys, first, inverse = distinct_rows(keys[:, None])
             keys = keys[:, 0]
-            known_keys, known_codes = self.memo.made.get(id(step), (np.zeros(0, np.int64),
+            known_keys, known_codes = self.memo.made.get(IdentityKey(step), (np.zeros(0, np.int64),
                                                                      np.zeros((0, len(provided)), np.int64)))
         inverse = np.ravel(inverse)
         codes = np.empty((len(first), len(provided)), dtype=np.int64)
@@ -218,7 +218,7 @@ class BlockRun:
         if keys is not None and new:
             all_keys = np.concatenate([known_keys, keys[new]])
             order = np.argsort(all_keys, kind="stable")
-            self.memo.made[id(step)] = (all_keys[order], np.concatenate([known_codes, codes[new]])[order])
+            self.memo.made[IdentityKey(step)] = (all_keys[order], np.concatenate([known_codes, codes[new]])[order])
         per_case = codes[inverse]
         for m, row in own.items():
             per_case[m] = row
