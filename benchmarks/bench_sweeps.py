@@ -145,13 +145,15 @@ def end_to_end(resolve, folder: Path, workers: int = 1, spill: bool | None = Non
     """Resolve, run (batched engine, on ``workers`` local processes) and write the outputs into ``folder``; the
     seconds of each, the total, the case count, the peak resident memory (GiB) after the run and after the
     outputs, and the largest peak of a worker process (0 for a serial run). spill : as ``run_scenario``."""
+    from e2esim.io.array_cache import open_cache
     from e2esim.runner.outputs import write_outputs
     from e2esim.runner.run import run_scenario
 
     t0 = time.perf_counter()
     resolved = resolve()
     t1 = time.perf_counter()
-    result = run_scenario(resolved, progress=False, workers=workers, spill=spill, spill_folder=folder)  # as e2esim run
+    result = run_scenario(resolved, progress=False, workers=workers, spill=spill, spill_folder=folder,
+                          cache=open_cache)  # as e2esim run
     t2 = time.perf_counter()
     peak_run = peak_gib()
     write_outputs(result, folder)

@@ -9,6 +9,7 @@ own sizes.
 from __future__ import annotations
 
 import math
+import pickle
 
 import numpy as np
 import pytest
@@ -153,6 +154,23 @@ def test_a_catalog_keeps_each_value_once_and_extends_its_tables():
     assert np.array_equal(factor.gather(mean, name="mean"), [0.2, 0.1, 0.2]) and len(calls) == 2
     catalog.add(GaussianFaraday(0.3, 0.0))
     assert np.array_equal(catalog.table("mean", mean), [0.1, 0.2, 0.3]) and len(calls) == 3  # the new one only
+
+
+def test_a_catalog_keys_its_values_by_keys_that_hold_them():
+    """Issue 27, Build 7: no id()-keyed memo: a key names its object by identity and keeps it, so it cannot come to
+    name another object; an equal but different object is another value."""
+    from e2esim.block import IdentityKey
+
+    a = GaussianFaraday(0.1, 0.0)
+    twin = GaussianFaraday(0.1, 0.0)
+    assert IdentityKey(a) == IdentityKey(a) and IdentityKey(a) != IdentityKey(twin) and IdentityKey(a) != id(a)
+    catalog = Catalog()
+    assert [catalog.add(a), catalog.add(twin), catalog.add(a)] == [0, 1, 0]
+    assert all(isinstance(key, IdentityKey) for key in catalog._codes)
+    first, second = (key.value for key in catalog._codes)
+    assert first is a and second is twin
+    copy = pickle.loads(pickle.dumps(catalog))
+    assert len(copy) == 2 and copy.add(copy[1]) == 1
 
 
 def test_the_five_node_average_is_exact_for_polynomials_of_degree_4_in_cos_2_omega(rng):

@@ -18,7 +18,7 @@ from e2esim.testing import check_block_invariance, check_module
 
 
 class OwnForward(HVBackscatterErrorPropagation):
-    """A plug-in that follows docs/writing-a-module.md §3: its own forward, the parent's forward_block."""
+    """A plug-in that follows docs/writing-a-module.md §3: its own forward, the parent's forward_takes_blocks."""
 
     type_name = "own_forward"
 
@@ -145,3 +145,51 @@ def test_one_forward_answers_for_a_block_as_for_each_case_alone():
                 assert in_block.current().variance[k] == variant.current().variance, source
         for name, part in alone.contributions().items():
             assert model.contributions()[name].variance[k] == part.variance, name
+
+
+class OwnBudgetForward(BackscatterErrorBudget):
+    type_name = "own_budget_forward"
+
+    def forward(self, case):
+        return super().forward(case)
+
+
+class OwnVerdictsForward(RequirementSet):
+    def forward(self, case):
+        return super().forward(case)
+
+
+@pytest.mark.parametrize("cls", [PowerLawRetrieval, BackscatterErrorBudget, RequirementSet])
+def test_the_folded_stages_have_one_forward_that_takes_blocks(cls):
+    """Issue 27, Build 1: no stage keeps a second, batched method beside its forward."""
+    assert not hasattr(cls, "forward_block") and cls.forward_takes_blocks
+
+
+def test_a_subclass_of_a_folded_stage_that_overrides_forward_runs_case_by_case():
+    assert batched_run(BackscatterErrorBudget()) is not None and batched_run(OwnBudgetForward()) is None
+    assert batched_run(RequirementSet([AGBErrorBound()], Location("t"))) is not None
+    assert batched_run(OwnVerdictsForward([AGBErrorBound()], Location("t"))) is None
+
+
+def test_a_block_reads_its_products_by_declared_form():
+    """Block.common, factor and batched (the typed reads that replaced FactorView and BlockView): a text every case
+    shares, the distinct values, a product with its case axis; NotBatched where the block does not have that form."""
+    from e2esim.block import Factor, NotBatched
+    from e2esim.testing import reference_block, reference_case
+
+    block, cases = reference_block(("agb.error",))
+    assert block.alone is False and cases[0].alone is True
+    assert block.batched("agb.error") is block["agb.error"]
+    scenes = block.factor("scene.covariance")
+    assert isinstance(scenes, Factor) and [scenes.item(k) for k in range(len(block))] == [
+        c["scene.covariance"] for c in cases]
+    with pytest.raises(NotBatched, match="carries a case axis"):
+        block.factor("agb.error")
+    with pytest.raises(NotBatched, match="made case by case"):
+        block.batched("scene.covariance")
+    assert block.common("scene.covariance", "kind", lambda v: type(v).__name__) == "ScatteringCovariance"
+    with pytest.raises(NotBatched, match="AGB differs"):
+        block.common("scene.covariance", "AGB", lambda v: v.agb_t_ha)
+    alone = reference_case(("scene.covariance",))
+    assert alone.factor("scene.covariance").item(0) is alone["scene.covariance"]
+    assert alone.common("scene.covariance", "AGB", lambda v: v.agb_t_ha) == alone["scene.covariance"].agb_t_ha

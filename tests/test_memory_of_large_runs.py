@@ -137,6 +137,7 @@ def test_a_resumed_run_reads_its_journal_one_record_at_a_time_and_keeps_none(sma
 
 def test_the_budget_catalog_starts_afresh_beyond_its_limit_and_gives_the_same_numbers(monkeypatch, small_blocks):
     from e2esim.budget import block as budget_block
+    from e2esim.budget import modules as budget_modules
 
     monkeypatch.setattr(run_module, "BLOCK_CASES", 8)  # 48 cases in 6 blocks, each with new scene-instrument pairs
     expected = run_scenario(_resolved(3), progress=False)
@@ -144,12 +145,12 @@ def test_the_budget_catalog_starts_afresh_beyond_its_limit_and_gives_the_same_nu
     sizes = []
     original = budget_block.block_budgets
 
-    def watched(block, made, budget_of):
-        made_now = original(block, made, budget_of)
+    def watched(scenes, instruments, made, budget_of):
+        made_now = original(scenes, instruments, made, budget_of)
         sizes.append(len(made["catalog"]))
         return made_now
 
-    monkeypatch.setattr(budget_block, "block_budgets", watched)
+    monkeypatch.setattr(budget_modules, "block_budgets", watched)  # as the stage calls it
     got = run_scenario(_resolved(3), progress=False)
     assert len(sizes) == 6 and max(sizes) <= 5 + 8
     assert any(b < a for a, b in itertools.pairwise(sizes)), sizes  # started afresh at least once

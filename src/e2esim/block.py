@@ -5,14 +5,14 @@ The runner evaluates sweeps block by block (``e2esim.runner.blocks``). A product
 * ``Factor``: the block's distinct values (ordinary one-case products) and, per case, which one it has. Most
   stages make few distinct values per block (the 100 scenes of a sweep over 100 AGB levels), so a stage without
   a batched implementation runs once per distinct combination of what it reads, not once per case;
-* ``Batched``: one object holding arrays with a leading case axis, made by a stage's ``forward_block`` (the
-  error model, the AGB error and the verdicts of the analytic chain), so that the arithmetic of a whole block
-  is a few numpy operations.
+* ``Batched``: one object holding arrays with a leading case axis, made by a stage whose ``forward`` takes blocks
+  (the error model, the AGB error and the verdicts of the analytic chain), so that the arithmetic of a whole
+  block is a few numpy operations.
 
 Either form gives any case's one-case product (``item``), which is what the per-case runner would have made;
-a stage with a batched implementation reads either form (``gather``). ``CaseRandom`` gives a case its own
-generator, created on first use, so that stages that draw nothing cost nothing and the runner can tell which
-stages drew (their results are per case; the others' are shared).
+a stage whose ``forward`` takes blocks reads either form (``Block.column``, ``common``, ``factor``, ``batched``).
+``CaseRandom`` gives a case its own generator, created on first use, so that stages that draw nothing cost
+nothing and the runner can tell which stages drew (their results are per case; the others' are shared).
 """
 
 from __future__ import annotations
@@ -24,6 +24,23 @@ from dataclasses import dataclass
 import numpy as np
 
 
+class IdentityKey:
+    """A dictionary key naming an object by its identity that holds the object: unlike its ``id()``, which another
+    object may get once the first is gone, this key cannot come to name another object while it lives. For
+    values that compare by content badly or not at all (products holding arrays)."""
+
+    __slots__ = ("value",)
+
+    def __init__(self, value):
+        self.value = value
+
+    def __hash__(self) -> int:
+        return id(self.value)
+
+    def __eq__(self, other) -> bool:
+        return isinstance(other, IdentityKey) and other.value is self.value
+
+
 class Catalog(list):
     """The distinct values of a product over the blocks of a run (in this process), each once, with what has been
     derived from them (``table``): blocks refer to them by number (``Factor``), so a value made for an earlier
@@ -32,18 +49,20 @@ class Catalog(list):
 
     def __init__(self):
         super().__init__()
-        self._codes: dict = {}  # id -> number (the values are kept in the list, so their ids stay theirs)
+        self._codes: dict = {}  # IdentityKey(value) -> number
         self._tables: dict = {}
         self.volatile = False
 
     def __reduce__(self):
-        # the numbers are keyed by this process's ids: a copy numbers the same values afresh, in the same order
+        # a copy numbers the same values afresh, in the same order
         return _catalog_of, (list(self), self.volatile)
 
     def add(self, value) -> int:
-        code = self._codes.get(id(value))
+        """The number of ``value`` (this very object) in the catalog, added when new."""
+        key = IdentityKey(value)
+        code = self._codes.get(key)
         if code is None:
-            code = self._codes[id(value)] = len(self)
+            code = self._codes[key] = len(self)
             self.append(value)
         return code
 
@@ -219,10 +238,11 @@ class Values:
         distinct, index = [], np.empty(len(values), dtype=np.int64)
         for k, value in enumerate(values):
             try:
-                key = ("=", value) if value.__hash__ is not None else ("id", id(value))
+                key = ("=", value) if value.__hash__ is not None else IdentityKey(value)
                 code = codes.get(key)
             except TypeError:  # a tuple holding a mapping, say
-                key, code = ("id", id(value)), codes.get(("id", id(value)))
+                key = IdentityKey(value)
+                code = codes.get(key)
             if code is None:
                 code = codes[key] = len(distinct)
                 distinct.append(value)
@@ -243,21 +263,9 @@ class Values:
         return Values(values, np.concatenate(indices) if indices else np.zeros(0, dtype=np.int64))
 
 
-def item(product, i: int):
-    """Case i's one-case value of a block product."""
-    return product.item(i)
-
-
 def join(parts: list):
     """Block products of consecutive parts (all ``Factor``s or all of one ``Batched`` type) as one."""
     return _concatenate(parts, [len(p) for p in parts])
-
-
-def gather(product, get, dtype=float) -> np.ndarray:
-    """``get`` of every case's one-case value of a ``Factor`` (once per distinct value), (B,) array."""
-    if isinstance(product, Factor):
-        return product.gather(get, dtype)
-    return np.asarray([get(product.item(i)) for i in range(len(product))], dtype=dtype)
 
 
 @dataclass(frozen=True, eq=False)
@@ -305,6 +313,38 @@ class Block:
         table = product.table(label, get)
         return tuple(x[product.index] for x in table) if isinstance(table, tuple) else table[product.index]
 
+    alone = False
+    """Not a case alone: cases with a case axis (``Case.alone`` is True)."""
+
+    def common(self, name: str, label: str, get):
+        """``get`` of the product ``name``, a value every case of the block shares (text, a flag: ``Case.common``
+        gives a case's), read once per distinct value; ``NotBatched`` where the cases differ (they then run one by
+        one). ``label`` says what it is."""
+        product = self[name]
+        if not isinstance(product, Factor):
+            return get(product)
+        values = [get(product.values[int(k)]) for k in np.unique(product.index)]
+        first = values[0]
+        if any(v != first for v in values[1:]):
+            raise NotBatched(f"{label} differs between the block's cases")
+        return first
+
+    def factor(self, name: str) -> Factor:
+        """The product ``name`` as the ``Factor`` of its distinct values; ``NotBatched`` when it carries a case axis
+        instead (``Case.factor`` gives a case alone's as a block of one)."""
+        product = self[name]
+        if not isinstance(product, Factor):
+            raise NotBatched(f"{name} carries a case axis, not distinct values")
+        return product
+
+    def batched(self, name: str):
+        """The product ``name`` with its case axis (a stage's batched answer); ``NotBatched`` when it was made case by
+        case (a ``Factor`` of one-case values)."""
+        product = self[name]
+        if isinstance(product, Factor):
+            raise NotBatched(f"{name} was made case by case")
+        return product
+
     def per_case(self, why: str) -> None:
         """Hand the block back to the engine, which then runs its cases one by one (``why`` says what needs a case
         alone: a Monte Carlo, a case the batched equations do not describe)."""
@@ -334,48 +374,6 @@ class NotBatched(Exception):
     """A batched implementation cannot take this block as a whole (it then runs case by case)."""
 
 
-class FactorView:
-    """A ``Factor`` read like one product whose attributes are arrays over the block's cases: numbers become (B,)
-    arrays (each read once per distinct value); text or None must be the same in every case (else
-    ``NotBatched``)."""
-
-    def __init__(self, factor: Factor):
-        self._factor = factor
-
-    def __getattr__(self, name):
-        values = [getattr(v, name) for v in self._factor.values]
-        if all(isinstance(v, (int, float, np.integer, np.floating)) and not isinstance(v, bool) for v in values):
-            return np.asarray(values, dtype=float)[self._factor.index]
-        first = values[0]
-        if all(v == first for v in values[1:]) if isinstance(first, (str, bool, type(None))) else False:
-            return first
-        raise NotBatched(f"{name} differs between the block's cases")
-
-
-class BlockView:
-    """A block read the way a stage reads one case (``block[name]``, ``get``, ``in``, ``settings``): batched
-    products as they are, the others as ``FactorView``s. Code written with element-wise numpy operations then
-    answers for every case at once."""
-
-    def __init__(self, block: Block):
-        self.block = block
-        self.settings = block.settings
-
-    def __getitem__(self, name):
-        value = self.block[name]
-        return FactorView(value) if isinstance(value, Factor) else value
-
-    def __contains__(self, name) -> bool:
-        return name in self.block
-
-    def get(self, name, default=None):
-        return self[name] if name in self.block else default
-
-    @property
-    def index(self) -> str:
-        return f"{int(self.block.indices[0])} (and others of its block)"
-
-
 class CaseRandom:
     """The generator of one case, ``numpy.random.Generator(PCG64(SeedSequence(seed, spawn_key=(index,))))``,
     created when a stage first uses it; ``uses`` counts attribute look-ups, so the runner can tell whether a
@@ -394,5 +392,4 @@ class CaseRandom:
         return getattr(self._generator, name)
 
 
-__all__ = ["Batched", "Block", "BlockView", "CaseRandom", "Catalog", "Factor", "FactorView", "NotBatched", "Values",
-           "gather", "item", "join"]
+__all__ = ["Batched", "Block", "CaseRandom", "Catalog", "Factor", "IdentityKey", "NotBatched", "Values", "join"]

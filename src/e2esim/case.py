@@ -15,6 +15,7 @@ from typing import Any
 
 import numpy as np
 
+from e2esim.block import Factor
 from e2esim.settings import SimulationSettings
 
 
@@ -105,6 +106,19 @@ class Case:
         """``get`` of the product ``name``: what a stage reads from it, in the form a block of cases gives with its
         case axis (``e2esim.block.Block.column``); ``label`` names it there."""
         return get(self.products[name])
+
+    alone = True
+    """A case alone (a ``Block`` says False): a stage's ``forward`` that takes blocks evaluates it with its one-case
+    equations."""
+
+    def common(self, name: str, label: str, get) -> Any:
+        """``get`` of the product ``name``: a value every case of a block must share (text, a flag), as
+        ``e2esim.block.Block.common`` gives it."""
+        return get(self.products[name])
+
+    def factor(self, name: str) -> Factor:
+        """The product ``name`` as a block of one gives it: a ``Factor`` of its one value."""
+        return Factor.single(self.products[name], 1)
 
     def per_case(self, why: str) -> None:
         """Nothing: a case alone is always evaluated (a ``Block`` hands such cases back to run one by one)."""

@@ -187,9 +187,9 @@ class Stage(Module, ABC):
     batched engine then gives it whole blocks (``batched_run``). A subclass that overrides ``forward`` without
     saying so runs case by case."""
     fast_path_hooks: ClassVar[tuple] = ()
-    """Methods besides ``forward`` that an optional ``forward_block`` (a batched ``forward`` over a block of
-    cases) relies on: a subclass that overrides one of them, or ``forward``, without its own ``forward_block``
-    runs case by case (``fast_path``)."""
+    """Methods besides ``forward`` that its answer for a block of cases relies on (where it reads them for a case
+    alone only): a subclass that overrides one of them, or ``forward``, without saying again that its ``forward``
+    takes blocks runs case by case (``fast_path``)."""
     case_params: ClassVar[tuple] = ()
     """Parameters a sweep may set without a module per value (the cell, month and pass of a map sweep): the
     runner builds one module, with the first case's values, and the stage reads each case's own value with
@@ -231,13 +231,13 @@ def _owner(cls: type, name: str) -> type | None:
     return next((c for c in cls.__mro__ if name in vars(c)), None)
 
 
-def fast_path(obj, fast: str = "forward_block", reference: str = "forward"):
+def fast_path(obj, fast: str = "forward_takes_blocks", reference: str = "forward"):
     """``obj``'s fast (batched) member ``fast`` when it describes the ``reference`` in force, else None.
 
     A batched method is only the one-case method evaluated over a block when the class that defines the
     ``reference`` in force also defines the fast member (or a subclass of it does). A subclass that overrides
-    ``forward`` but inherits its parent's ``forward_block`` would otherwise get the parent's numbers from the
-    batched engine. A class also names, in ``fast_path_hooks``, the methods its fast member relies on as
+    ``forward`` but inherits its parent's ``forward_takes_blocks`` would otherwise get the parent's numbers from
+    the batched engine. A class also names, in ``fast_path_hooks``, the methods its fast member relies on as
     ``reference`` does (``PowerLawRetrieval.case_exponent``, say): overriding one of them below the fast
     member's class turns the fast path off too. The case then runs per case (``reference``), which is the
     reference path."""
@@ -256,9 +256,9 @@ def batched_run(stage):
     """How the batched engine runs ``stage`` on a ``Block``: ``block -> {product: Factor or Batched}``, or None
     from it when the stage hands the block back (its cases then run one by one); None when it runs case by case.
     That is ``forward`` itself where the class of the ``forward`` in force says it takes blocks
-    (``forward_takes_blocks``, checked as ``fast_path`` checks), else a ``forward_block`` that describes it."""
+    (``forward_takes_blocks``, checked as ``fast_path`` checks)."""
     if fast_path(stage, "forward_takes_blocks", "forward") is None:
-        return fast_path(stage)
+        return None
 
     def run(block):
         from e2esim.block import NotBatched  # the engine's types, needed only when it runs blocks

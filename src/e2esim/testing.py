@@ -10,7 +10,7 @@ and pickles; and what the module does on a representative case made by e2esim's 
   deterministic for a given random generator (compared through the products' output scalars);
 * a ``Requirement``: ``evaluate`` returns a ``RequirementVerdict``, deterministically;
 * block invariance (stages and requirements, in the spirit of scikit-learn's subset-invariance check): where the
-  batched engine would use a fast path (``forward_block``, a requirement's ``batched`` evaluation; see
+  batched engine would use a fast path (a ``forward`` that takes blocks, a requirement's ``batched`` evaluation; see
   ``e2esim.module.batched_run``), every case of a block of varied cases (``BLOCK_VARIANTS``) gets bit for bit the
   output scalars and verdicts it gets alone;
 * a ``CalibrationModule``: its steps are ``CalibrationStep`` objects and the strategy made of it is

@@ -12,7 +12,6 @@ import numpy as np
 
 from e2esim.block import Catalog, Factor
 from e2esim.distinct import distinct_rows
-from e2esim.errors import PhysicsInputError
 
 BUDGET_CATALOG_ENTRIES = 1 << 14
 """Budgets a stage keeps for later blocks (in each process) before it starts afresh: 16,384. A budget of three
@@ -21,34 +20,35 @@ so these take about 110 MB at most, where the runner's ``CATALOG_ENTRIES`` would
 more distinct scene-instrument pairs again and again makes a returning pair's budget anew (about 0.4 ms)."""
 
 
-def block_budgets(block, made: dict, budget_of) -> Factor | None:
-    """The budgets of every case of ``block`` as a ``Factor``; None when the scene or the instrument is not a
-    ``Factor`` or a budget cannot be made (the per-case run then says which case).
+def block_budgets(scene: Factor, inst: Factor | None, made: dict, budget_of) -> Factor:
+    """The budgets of every case of a block (its scenes and instruments, ``Factor``s; ``inst`` None without an
+    instrument) as a ``Factor``. Raises ``PhysicsInputError`` where a budget cannot be made.
 
-    made : the stage's memory across blocks, {(id(scene), id(instrument)): (number, scene, instrument)} and
-    the catalog of its budgets under "catalog" (the products are kept with their numbers, so that their ids
-    stay theirs; started afresh beyond ``BUDGET_CATALOG_ENTRIES`` budgets). budget_of : (scene, instrument or
-    None) -> budget.
+    made : the stage's memory across blocks: the catalogs of scenes and instruments it was made from ("from"),
+    {(scene number, instrument number): budget number} and the catalog of its budgets ("catalog"). Numbers in the
+    run's catalogs, which hold their values, name a value for as long as the catalog lives; values that are no
+    run's catalog (a case alone) are not remembered. Started afresh beyond ``BUDGET_CATALOG_ENTRIES`` budgets, or
+    when the run's catalogs start afresh. budget_of : (scene, instrument or None) -> budget.
     """
-    scene, inst = block["scene.covariance"], block.get("instrument")
-    if not isinstance(scene, Factor) or (inst is not None and not isinstance(inst, Factor)):
-        return None
-    if len(made.get("catalog", ())) > BUDGET_CATALOG_ENTRIES:  # start afresh, as the runner's catalogs do
-        made.clear()
+    sources = (scene.values, None if inst is None else inst.values)
+    remembered = isinstance(scene.values, Catalog) and (inst is None or isinstance(inst.values, Catalog))
+    if not remembered:
+        made = {}
+    before = made.get("from", (None, None))
+    if (len(made.get("catalog", ())) > BUDGET_CATALOG_ENTRIES
+            or before[0] is not sources[0] or before[1] is not sources[1]):
+        made.clear()  # start afresh, as the runner's catalogs do
+        made["from"] = sources
     catalog = made.setdefault("catalog", Catalog())
+    codes_of = made.setdefault("codes", {})
     inst_index = np.zeros(len(scene), dtype=np.int64) if inst is None else inst.index
     pairs, first, inverse = distinct_rows(np.stack([scene.index, inst_index], -1))
     codes = np.empty(len(first), dtype=np.int64)
     for k, (s, i) in enumerate(pairs):
-        scene_value = scene.values[int(s)]
-        inst_value = None if inst is None else inst.values[int(i)]
-        key = (id(scene_value), id(inst_value))
-        known = made.get(key)
-        if known is None or known[1] is not scene_value or known[2] is not inst_value:  # (ids of another process)
-            try:
-                budget = budget_of(scene_value, inst_value)
-            except PhysicsInputError:
-                return None
-            known = made[key] = (catalog.add(budget), scene_value, inst_value)
-        codes[k] = known[0]
+        key = (int(s), int(i))
+        code = codes_of.get(key)
+        if code is None:
+            budget = budget_of(scene.values[int(s)], None if inst is None else inst.values[int(i)])
+            code = codes_of[key] = catalog.add(budget)
+        codes[k] = code
     return Factor(catalog, codes[np.ravel(inverse)])

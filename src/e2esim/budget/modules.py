@@ -16,6 +16,7 @@ from __future__ import annotations
 import numpy as np
 
 from e2esim import products as P
+from e2esim.budget.block import block_budgets
 from e2esim.budget.geometry import slant_range_spherical
 from e2esim.budget.presets import PRESETS
 from e2esim.budget.result import COMBINATIONS, GROUPS, BudgetInputs, backscatter_budget
@@ -114,10 +115,10 @@ class BackscatterErrorBudget(Stage):
     needs = ("scene.covariance",)
     uses = ("backscatter.error", "instrument")
     provides = (P.BACKSCATTER_BUDGET,)
-    fast_path_hooks = ("inputs_for",)  # forward_block reads the instrument alone, through _inputs_with
+    fast_path_hooks = ("inputs_for",)  # forward reads the instrument alone, through _inputs_with
 
     def setup(self):
-        self._made = {}  # the budgets made by forward_block, by scene and instrument (e2esim.budget.block)
+        self._made = {}  # the budgets made so far in the run, by scene and instrument (e2esim.budget.block)
         self.base = self._base_inputs()
         try:
             self.base.check()
@@ -190,33 +191,31 @@ class BackscatterErrorBudget(Stage):
                 changes["bandwidth_hz"] = inst.bandwidth_hz
         return self.base.replace(**changes) if changes else self.base
 
+    forward_takes_blocks = True
+
     def forward(self, case):
-        model = case.get("backscatter.error")
-        if model is not None and model.includes_speckle and "speckle_noise" in self.si["include"]:
+        """The budget of a case's scene and instrument; of a block at once, made once per distinct pair of them in
+        the run (``block_budgets``: a ``Factor``). A block whose error model already counts speckle, or with a
+        budget that cannot be made, runs case by case, where this says why."""
+        if "backscatter.error" in case and "speckle_noise" in self.si["include"] and np.any(
+                case.column("backscatter.error", "includes speckle", lambda model: model.includes_speckle)):
+            case.per_case("speckle counted twice")
             raise fail(self, "speckle would be counted twice: the propagation's error model already draws a new "
                        "speckle pattern per realisation (hv_backscatter_error with reference 'population')",
                        "use reference: scene in hv_backscatter_error, or leave speckle_noise out of include",
                        key="include")
+        instruments = case.factor("instrument") if "instrument" in case else None
+        inputs_of = (lambda inst: self.inputs_for(case)) if case.alone else self._inputs_with
         try:
-            return {"backscatter.budget": self.budget_of(case["scene.covariance"], self.inputs_for(case))}
+            made = block_budgets(case.factor("scene.covariance"), instruments, self._made,
+                                 lambda scene, inst: self.budget_of(scene, inputs_of(inst)))
         except PhysicsInputError as exc:
+            case.per_case("a budget cannot be made")
             raise fail(self, f"case {case.index}: {exc}") from exc
+        return {"backscatter.budget": case.product_of(made)}
 
     def budget_of(self, scene, inputs: BudgetInputs):
         """The budget of ``scene``'s HH, HV and VV backscatter with ``inputs``."""
         sigma = np.array([scene.sigma_hh, scene.sigma_hv, scene.sigma_vv])
         return backscatter_budget(inputs, sigma).with_(channels=_CHANNELS, groups=tuple(self.si["include"]),
                                                        speckle_distribution=self.si["speckle_distribution"])
-
-    def forward_block(self, block):
-        """``forward`` for a block at once: the budget depends on the scene and the instrument alone, so it is made
-        once per distinct pair of them in the run (``block_budgets``); None (case by case, where ``forward`` says
-        why) when the error model already counts speckle or a budget cannot be made."""
-        from e2esim.budget.block import block_budgets
-
-        if "backscatter.error" in block and "speckle_noise" in self.si["include"] and np.any(
-                block.column("backscatter.error", "includes speckle", lambda model: model.includes_speckle)):
-            return None
-        made = block_budgets(block, self._made, lambda scene, inst: self.budget_of(scene, self._inputs_with(inst)))
-        return None if made is None else {"backscatter.budget": made}
-

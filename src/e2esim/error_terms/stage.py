@@ -6,7 +6,7 @@ Its ``forward`` runs that stage's ``forward`` and hands the error model through 
 the previous model with its source (``ErrorTerm.wrap``); the chain sees only the wrapped model. So every later
 stage (the budget, the retrieval, the requirements) asks the model with every term in it, and the propagation's
 own model is never a product of the case (``e2esim.error_terms.wrapped.innermost`` finds it under the wrappers).
-Without error terms the chain has no such stage. The composite has no batched ``forward_block``: a case with
+Without error terms the chain has no such stage. The composite's ``forward`` takes no blocks: a case with
 error terms runs case by case in both engines (the reference path), so both give the same numbers.
 """
 

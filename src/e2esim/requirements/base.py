@@ -77,8 +77,9 @@ class Requirement(Module):
     needs: ClassVar[tuple] = ("agb.error", "backscatter.error")
     uses: ClassVar[tuple] = ("instrument",)
     batched: ClassVar[bool] = False
-    """``evaluate`` also takes a block of cases read through ``e2esim.block.BlockView`` (element-wise numpy
-    operations throughout, no ``float()`` of what it reads): the requirement set then evaluates whole blocks."""
+    """``evaluate`` also takes a block of cases (``e2esim.block.Block``: the AGB error and the error model with
+    their case axis, other products read with ``case.column`` or ``case.common``; element-wise numpy operations
+    throughout, no ``float()`` of what it reads): the requirement set then evaluates whole blocks."""
 
     @property
     @abstractmethod

@@ -71,8 +71,8 @@ def chain_terms(case, model) -> list:
 
 
 def verdict_coverage(requirement, case) -> tuple:
-    """(coverage, coverage_text, missing) of ``requirement`` on ``case`` (one case, or a block read through
-    ``e2esim.block.BlockView``: then the sources are those of every case of the block); ``missing``: the groups
+    """(coverage, coverage_text, missing) of ``requirement`` on ``case`` (one case, or a block,
+    ``e2esim.block.Block``: then the sources are those of every case of the block); ``missing``: the groups
     that ``sources: all`` needs and the coverage lacks (``missing_terms``)."""
     terms = chain_terms(case, agb_error_of(case).error_model)
     which = setting(requirement)

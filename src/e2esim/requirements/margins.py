@@ -21,20 +21,22 @@ INSTRUMENT_LEVELS = ("crosstalk", "channel_imbalance")
 
 def level_convention(case) -> str:
     """The dB convention of the instrument's crosstalk and channel-imbalance levels ("variance" if unknown)."""
-    inst = case.get("instrument")
-    return inst.level_convention if inst is not None else "variance"
+    if "instrument" not in case:
+        return "variance"
+    return case.common("instrument", "level convention", lambda inst: inst.level_convention)
 
 
 def stated_levels_db(case) -> dict:
     """The levels the scenario states for the instrument, before calibration, in dB: crosstalk and channel
     imbalance in the instrument's convention (omitted when the two use different conventions: no single
-    convention to compare them in), the NESZ (dB)."""
-    inst = case.get("instrument")
-    if inst is None:
+    convention to compare them in), the NESZ (dB). For a block of cases, arrays over its cases."""
+    if "instrument" not in case:
         return {}
-    out = {"nesz": inst.nesz_db}
-    if inst.convention != "mixed":
-        out.update(crosstalk=inst.crosstalk_db, channel_imbalance=inst.imbalance_db)
+    out = {"nesz": case.column("instrument", "NESZ (dB)", lambda inst: float(inst.nesz_db))}
+    if case.common("instrument", "stated convention", lambda inst: inst.convention) != "mixed":
+        out["crosstalk"], out["channel_imbalance"] = case.column(
+            "instrument", "stated crosstalk and imbalance (dB)",
+            lambda inst: (float(inst.crosstalk_db), float(inst.imbalance_db)))
     return out
 
 

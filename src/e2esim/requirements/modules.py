@@ -218,8 +218,9 @@ class AGBAbsoluteRMSE(Requirement):
         return c["name"] or f"AGB RMSE <= {c['max_t_ha']:g} t/ha{scope}{scope_suffix(c)}"
 
     def evaluate(self, case):
-        agb_true = case["scene.covariance"].agb_t_ha
-        if agb_true is None or np.any(np.equal(agb_true, None)):
+        agb_true = case.column("scene.covariance", "scene AGB",
+                               lambda v: np.nan if v.agb_t_ha is None else float(v.agb_t_ha))
+        if np.any(np.isnan(agb_true)):
             raise fail(self, "needs a scene with an AGB (agb_t_ha)",
                        "use a scene type that states its AGB, or give scene.agb_t_ha")
         agb = checked_error(self, case)

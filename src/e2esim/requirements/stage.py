@@ -7,6 +7,7 @@ import dataclasses
 import numpy as np
 
 from e2esim import products as P
+from e2esim.errors import ConfigError
 from e2esim.kinds import Kind
 from e2esim.module import fast_path
 from e2esim.requirements.verdict import RequirementVerdicts
@@ -59,33 +60,35 @@ class RequirementSet:
     def modules(self) -> tuple:
         return self.requirements
 
+    forward_takes_blocks = True
+
     def forward(self, case) -> dict:
+        """The verdicts of a case; of a block at once (``RequirementVerdicts`` with the case axis) when every
+        requirement evaluates blocks (``batched``) and the block's AGB error carries the case axis (analytic).
+        Otherwise, or when one of them cannot take the block as a whole, case by case (the per-case run then says
+        why)."""
+        if not case.alone:
+            return {"verdicts": self._block_verdicts(case)}
         return {"verdicts": RequirementVerdicts(tuple(with_coverage(r, r.evaluate(case), case)
                                                       for r in self.requirements))}
 
-    def forward_block(self, block):
-        """The verdicts of a block at once, when every requirement evaluates blocks (``batched``) and the block's
-        AGB error is batched (analytic); None (case by case) otherwise, or when one of them cannot take the block
-        as a whole (the per-case run then says why, case by case)."""
-        from e2esim.block import Batched, BlockView, NotBatched
-        from e2esim.errors import ConfigError
-
-        if not isinstance(block.get("agb.error"), Batched) or not all(
+    def _block_verdicts(self, block) -> RequirementVerdicts:
+        if "agb.error" not in block or not all(
                 fast_path(r, "batched", "evaluate") and r.si.get("basis", "auto") != "montecarlo"
                 for r in self.requirements):
-            return None
+            block.per_case("a requirement evaluates cases alone")
+        block.batched("agb.error")  # analytic: made for the block at once
         # a trade-off curve holds (cases x points x root-finding levels x quadrature nodes) numbers: in parts
         size = _CURVE_CASES if any(r.config.get("tradeoff_curve") for r in self.requirements) else len(block)
         parts = []
         for start in range(0, len(block), size):
             part = block if size >= len(block) else block.take(np.arange(start, min(start + size, len(block))))
             try:
-                view = BlockView(part)
-                parts.append(RequirementVerdicts(tuple(with_coverage(r, r.evaluate(view), view)
+                parts.append(RequirementVerdicts(tuple(with_coverage(r, r.evaluate(part), part)
                                                        for r in self.requirements), len(part)))
-            except (NotBatched, ConfigError):
-                return None
-        return {"verdicts": parts[0] if len(parts) == 1 else RequirementVerdicts.concatenate(parts)}
+            except ConfigError:
+                block.per_case("a requirement cannot take the block as a whole")
+        return parts[0] if len(parts) == 1 else RequirementVerdicts.concatenate(parts)
 
 
 KIND = Kind("requirement", "verdict of a mission requirement on the AGB error", 80, "requirements",

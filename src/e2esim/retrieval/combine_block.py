@@ -1,6 +1,6 @@
 """``combined_agb_error`` for a block of analytic sweep cases: the same sums, element-wise over the case axis.
 
-The power law's batched engine (``PowerLawRetrieval.forward_block``) combines, for every case of a block at once,
+The power law's forward for a block (``PowerLawRetrieval._block_error``) combines, for every case of a block at once,
 the systematic error of the propagation's block error model, the random-error budget of each case (a ``Factor``:
 its terms read once per distinct budget) and the regression term, exactly as ``combine.combined_agb_error`` does
 for one case: the same contributions in the same order, the same operations on the same numbers, so each case

@@ -17,6 +17,7 @@ from e2esim import products as P
 from e2esim.errors import ConfigError, PhysicsInputError
 from e2esim.module import Stage, fail
 from e2esim.params import Ordered, Param, ParamGroup
+from e2esim.retrieval import combine_block
 from e2esim.retrieval.agb_error import AGBError, RelativeErrorMap
 from e2esim.retrieval.combine import combined_agb_error, systematic_agb_error
 from e2esim.retrieval.loglinear import LogLinearModel
@@ -96,7 +97,7 @@ class PowerLawRetrieval(_Retrieval):
               default=None, exclusive_minimum=0.0, maximum=10.0, nullable=True),
         _REGRESSION,
     )
-    # forward_block reads the scene's exponent and AGB alone, and adds no model term
+    # a block's forward reads the scene's exponent and AGB alone, and adds no model term
     fast_path_hooks = ("case_exponent", "case_agb", "model_term")
 
     def exponent_for(self, scene) -> float:
@@ -119,7 +120,17 @@ class PowerLawRetrieval(_Retrieval):
         of Men et al. (2021) does not propagate the uncertainty of its exponent (``stack_power_law`` does)."""
         return None
 
+    forward_takes_blocks = True
+
     def forward(self, case):
+        """The AGB error of a case; of a block of analytic cases at once (``_block_error``: an ``AGBError`` with the
+        case axis, each case's bitwise the one it gets alone). A Monte Carlo, a regression term that draws from the
+        case's generator and scenes the batched sums do not describe run case by case."""
+        if not case.alone:
+            made = self._block_error(case)
+            if made is not None:
+                return {"agb.error": made}
+            case.per_case("a Monte Carlo, a regression that draws, or scenes the batched sums do not describe")
         model = case["backscatter.error"]
         p = self.case_exponent(case)
         model_term = self.model_term(case, p)
@@ -131,27 +142,23 @@ class PowerLawRetrieval(_Retrieval):
             regression = self.regression(case, PowerLaw.through(agb, model.value, p), agb)
         return self.combine(case, p, None, regression, model_term=model_term)
 
-    def forward_block(self, block):
-        """``forward`` for a block of cases at once when the error is analytic for every case (an ``AGBError`` over
-        the block's cases): the propagation's error alone, or combined with the error budget (``combine_block``) and
-        a regression term that draws nothing from the case's generator (the same for every case of a scene); None
-        (case by case) otherwise."""
-        from e2esim.block import Batched, Factor
-        from e2esim.retrieval import combine_block
-
-        model, scene, budget = block["backscatter.error"], block["scene.covariance"], block.get("backscatter.budget")
-        if (not isinstance(model, Batched) or model.unavailable is not None or not isinstance(scene, Factor)
-                or not (budget is None or isinstance(budget, Factor))):
+    def _block_error(self, block) -> AGBError | None:
+        """The ``AGBError`` of a block when the error is analytic for every case: the propagation's error alone, or
+        combined with the error budget (``combine_block``) and a regression term that draws nothing from the case's
+        generator (the same for every case of a scene); None (case by case) otherwise."""
+        model, scene = block.batched("backscatter.error"), block.factor("scene.covariance")
+        budget = block.factor("backscatter.budget") if "backscatter.budget" in block else None
+        if model.unavailable is not None:
             return None
-        try:
-            p = scene.gather(self.exponent_for, name=f"power-law exponent {id(self)}")
+        try:  # the exponent of each scene, read once per run (named by what it depends on: the class and setting)
+            p = scene.gather(self.exponent_for, name=f"power-law exponent, {type(self).__qualname__} "
+                             f"{self.si['exponent']!r}")
         except ConfigError:
             return None  # case by case, where forward says which scene
         s = np.asarray(model.value, dtype=float)
         if budget is None and self.campaign.mode == "none":
             m = model.current()
-            return {"agb.error": AGBError(p, s, np.asarray(m.mean, dtype=float), np.asarray(m.sd, dtype=float),
-                                           error_model=model)}
+            return AGBError(p, s, np.asarray(m.mean, dtype=float), np.asarray(m.sd, dtype=float), error_model=model)
         regression = None
         if self.campaign.mode != "none":
             agb = combine_block.gather_agb(self, scene)
@@ -159,8 +166,7 @@ class PowerLawRetrieval(_Retrieval):
                 self, block, s, agb, p, lambda a, sigma, exponent: PowerLaw.through(a, sigma, exponent))
             if regression is None:
                 return None
-        error = combine_block.combined_agb_error_block(model, budget, p, regression)
-        return None if error is None else {"agb.error": error}
+        return combine_block.combined_agb_error_block(model, budget, p, regression)
 
 
 class SaturatingRetrieval(_Retrieval):

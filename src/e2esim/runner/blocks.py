@@ -1,14 +1,14 @@
 """Run a block of sweep cases through their chain of stages at once (``e2esim.block``).
 
 For each stage of the chain template the block's cases are split by the stage object they use and their
-settings (usually one of each). A stage with a batched implementation (``Stage.forward_block``) gets the whole
-part at once and returns ``Batched`` products. Any other stage, or a batched one that declines (returns
-None), runs through ``forward`` exactly as in the per-case runner, once per distinct combination of the
-products it reads: cases that share them share the result, unless the stage drew random numbers, in which case
-it runs for every case with the case's own generator (``CaseRandom``), so Monte Carlo numbers are those of the
-per-case runner. The distinct values of every product are kept across blocks in catalogs (``StageMemo``), with
-what was made from which, for stages that drew nothing: the 10 000 instruments of a million-case sweep are each
-made once, and read once (``e2esim.block.Catalog``).
+settings (usually one of each). A stage whose ``forward`` takes blocks (``Stage.forward_takes_blocks``) gets
+the whole part at once and returns ``Batched`` products. Any other stage, or a batched one that hands the block
+back (``Block.per_case``), runs through ``forward`` exactly as in the per-case runner, once per distinct
+combination of the products it reads: cases that share them share the result, unless the stage drew random
+numbers, in which case it runs for every case with the case's own generator (``CaseRandom``), so Monte Carlo
+numbers are those of the per-case runner. The distinct values of every product are kept across blocks in
+catalogs (``StageMemo``), with what was made from which, for stages that drew nothing: the 10 000 instruments of
+a million-case sweep are each made once, and read once (``e2esim.block.Catalog``).
 """
 
 from __future__ import annotations
@@ -18,7 +18,7 @@ from types import MappingProxyType
 
 import numpy as np
 
-from e2esim.block import Batched, Block, CaseRandom, Catalog, Factor
+from e2esim.block import Batched, Block, CaseRandom, Catalog, Factor, IdentityKey
 from e2esim.case import Case, Products
 from e2esim.distinct import distinct_rows
 from e2esim.module import batched_run
@@ -187,7 +187,7 @@ class BlockRun:
         else:
             keys, first, inverse = distinct_rows(keys[:, None])
             keys = keys[:, 0]
-            known_keys, known_codes = self.memo.made.get(id(step), (np.zeros(0, np.int64),
+            known_keys, known_codes = self.memo.made.get(IdentityKey(step), (np.zeros(0, np.int64),
                                                                      np.zeros((0, len(provided)), np.int64)))
         inverse = np.ravel(inverse)
         codes = np.empty((len(first), len(provided)), dtype=np.int64)
@@ -218,7 +218,7 @@ class BlockRun:
         if keys is not None and new:
             all_keys = np.concatenate([known_keys, keys[new]])
             order = np.argsort(all_keys, kind="stable")
-            self.memo.made[id(step)] = (all_keys[order], np.concatenate([known_codes, codes[new]])[order])
+            self.memo.made[IdentityKey(step)] = (all_keys[order], np.concatenate([known_codes, codes[new]])[order])
         per_case = codes[inverse]
         for m, row in own.items():
             per_case[m] = row
@@ -261,10 +261,11 @@ def _cataloged(product) -> bool:
 
 def _checked_block(stage, new, n: int) -> dict:
     if not isinstance(new, dict):
-        raise TypeError(f"{stage.identity}: forward_block returned a {type(new).__name__}, not a dict of products")
+        raise TypeError(f"{stage.identity}: forward returned a {type(new).__name__} for a block, not a dict of "
+                        "products")
     for name, value in new.items():
         if not isinstance(value, (Factor, Batched)) or len(value) != n:
-            raise TypeError(f"{stage.identity}: forward_block returned {name!r} as a {type(value).__name__} for "
+            raise TypeError(f"{stage.identity}: forward returned for a block {name!r} as a {type(value).__name__} for "
                             f"{len(value) if hasattr(value, '__len__') else '?'} cases; expected a Factor or Batched "
                             f"product for {n}")
     return new

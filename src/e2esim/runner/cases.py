@@ -7,7 +7,6 @@ import numpy as np
 from tqdm.auto import tqdm
 
 from e2esim.case import Case, Products, Services
-from e2esim.io.array_cache import open_cache
 from e2esim.runner.blocks import BlockRun
 from e2esim.runner.case_results import BlockResult, CaseResult
 from e2esim.runner.columns import case_notes, requirement_columns, scalar_columns, source_group_column
@@ -21,10 +20,11 @@ def case_generator(seed: int, index: int) -> np.random.Generator:
     return np.random.Generator(np.random.PCG64(np.random.SeedSequence(seed, spawn_key=(index,))))
 
 
-def default_services(progress: bool = False) -> Services:
-    """What the runner hands to stages: the array cache of a module's setting, and a progress bar for long
-    kernels on the command line."""
-    return Services(cache=open_cache, progress=_progress_bar if progress else None)
+def default_services(progress: bool = False, cache=None) -> Services:
+    """What the runner hands to stages: the array cache of a module's setting (``cache(setting)``, handed in by
+    whoever runs the scenario: the front doors give ``e2esim.io.array_cache.open_cache``; None: no cache), and a
+    progress bar for long kernels on the command line."""
+    return Services(cache=cache, progress=_progress_bar if progress else None)
 
 
 def _progress_bar(iterable, total=None, description=""):

@@ -14,6 +14,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from e2esim.errors import OutputFolderError, UserError
+from e2esim.io.array_cache import open_cache
 from e2esim.runner.executors import WorkerLost, check_scheduler_address
 from e2esim.runner.interrupts import RunInterrupted, stop_signals_as_interrupts
 from e2esim.runner.journal import Journal
@@ -41,7 +42,7 @@ def run_into_folder(resolved, folder, force: bool = False, resume: bool = False,
     """
     check_executor(workers, scheduler)
     options = {"progress": progress, "command": command, "workers": workers, "scheduler": scheduler,
-               "engine": engine}
+               "engine": engine, "cache": open_cache}  # the array cache, handed to the stages through their services
     if folder is None:
         if resume:
             raise UserError("resume: continuing an interrupted run needs its output folder")

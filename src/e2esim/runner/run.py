@@ -186,6 +186,7 @@ def run_scenario(
     keep_products: bool | None = None,
     spill: bool | None = None,
     spill_folder=None,
+    cache=None,
 ) -> ScenarioResult:
     """Run every case (serially, on ``workers`` local processes or on the dask cluster at ``scheduler``)
     with a progress bar; return the results with their provenance.
@@ -196,7 +197,9 @@ def run_scenario(
         "per_case" (the reference). keep_products : keep every case's products (default: for runs of at most
         ``KEEP_PRODUCTS_UP_TO`` cases). spill : keep the finished blocks on disk (``e2esim.runner.spill``;
         default: for runs of more than ``SPILL_ABOVE_CASES`` cases that keep no products), in a temporary file
-        in ``spill_folder`` (default: the system's temporary folder).
+        in ``spill_folder`` (default: the system's temporary folder). cache : ``cache(setting)`` -> the array cache
+        of a module's cache setting, handed to the stages through their services (``e2esim.case.Services``; the
+        front doors give ``e2esim.io.array_cache.open_cache``); None: every table is computed afresh.
     """
     if engine not in ENGINES:
         raise UserError(f"engine {engine!r}: expected one of {', '.join(ENGINES)}")
@@ -224,7 +227,7 @@ def run_scenario(
 
     try:
         run_blocks(resolved, block_tasks(resolved, todo, workers if not scheduler else 8), take, workers, scheduler,
-                   engine=engine, keep_products=keep, frames=journal is not None, progress=progress)
+                   engine=engine, keep_products=keep, frames=journal is not None, progress=progress, cache=cache)
     finally:
         bar.close()
     blocks.sort(key=lambda b: int(b.indices[0]))
