@@ -54,6 +54,26 @@ class Products(Mapping):
         return Products({**self._values, **new})
 
 
+class LazyMapping(Mapping):
+    """A mapping whose values are made when read, over names known beforehand (``_names``): iteration, length and
+    membership read the names alone, so that ``name in m`` makes no value."""
+
+    __slots__ = ()
+
+    def _names(self):
+        """The collection (list, dict, ...) that holds the names."""
+        raise NotImplementedError
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self._names())
+
+    def __len__(self) -> int:
+        return len(self._names())
+
+    def __contains__(self, name) -> bool:
+        return name in self._names()
+
+
 @dataclass(frozen=True)
 class Services:
     """What the runner hands to stages and, through them, to physics kernels (which import none of it).

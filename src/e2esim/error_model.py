@@ -232,6 +232,11 @@ def _channel_moments(joint, i: int) -> Moments:
     return Moments(np.asarray(joint.mean)[..., i], np.clip(np.asarray(joint.covariance)[..., i, i], 0.0, None))
 
 
+def _of_source(name: str) -> property:
+    """A read-only property that is the source model's attribute ``name``."""
+    return property(lambda self: getattr(self.source, name), doc=f"The source model's ``{name}``.")
+
+
 class DerivedErrorModel(ErrorModel):
     """A single-channel error model computed from a ``MultiChannelErrorModel``: one of its channels
     (``ChannelView``) or a function of all of them (e.g. the log-AGB error of a multi-channel retrieval).
@@ -253,29 +258,12 @@ class DerivedErrorModel(ErrorModel):
     def rebuilt(self, source: MultiChannelErrorModel) -> DerivedErrorModel:
         """The same reduction of another source model."""
 
-    @property
-    def levels(self) -> dict:
-        return self.source.levels
-
-    @property
-    def sources(self) -> tuple:
-        return self.source.sources
-
-    @property
-    def unavailable(self) -> str | None:
-        return self.source.unavailable
-
-    @property
-    def includes_speckle(self) -> bool:
-        return self.source.includes_speckle
-
-    @property
-    def notes(self) -> tuple:
-        return self.source.notes
-
-    @property
-    def validity(self):
-        return self.source.validity
+    levels = _of_source("levels")
+    sources = _of_source("sources")
+    unavailable = _of_source("unavailable")
+    includes_speckle = _of_source("includes_speckle")
+    notes = _of_source("notes")
+    validity = _of_source("validity")
 
     def moments(self, **levels) -> Moments:
         self.check_available()

@@ -19,7 +19,7 @@ import numpy as np
 
 from e2esim.block import Batched
 from e2esim.faraday.climatology import FaradayClimatology, climatology_from_integrals
-from e2esim.faraday.distribution import _EVEN_WEIGHTS, EVEN_NODES, PERCENTILES
+from e2esim.faraday.distribution import EVEN_NODES, EVEN_WEIGHTS, PERCENTILES
 from e2esim.ionosphere.propagation import faraday_rotation_integral, range_delay
 from e2esim.ionosphere.slant import PathIntegrals
 from e2esim.ionosphere.variability import lognormal_nodes
@@ -103,7 +103,7 @@ class FaradayClimatologyBlock(Batched):
         phi = self._statistics()["phi"]
         moments = np.stack([np.ones(len(self)), phi[:, 0], (1 + phi[:, 1]) / 2, (3 * phi[:, 0] + phi[:, 2]) / 4,
                             (3 + 4 * phi[:, 1] + phi[:, 3]) / 8], axis=-1)
-        return np.matmul(_EVEN_WEIGHTS[None], moments[:, :, None])[:, :, 0]  # _EVEN_WEIGHTS @ moments, case by case
+        return np.matmul(EVEN_WEIGHTS[None], moments[:, :, None])[:, :, 0]  # EVEN_WEIGHTS @ moments, case by case
 
     def trig_moments(self) -> dict:
         """``FaradayDistribution.trig_moments`` of every case, Men et al. (2021), eq. (9a-d): {name: (B,)}."""

@@ -36,7 +36,8 @@ _EVEN_U = np.cos(np.pi * (2 * np.arange(5) + 1) / 10)  # Chebyshev points of [-1
 EVEN_NODES = 0.5 * np.arccos(_EVEN_U)
 """Nodes Omega_j (rad) of ``FaradayDistribution.even_quadrature``, the same for every distribution."""
 EVEN_NODES.setflags(write=False)
-_EVEN_WEIGHTS = np.linalg.inv(np.vander(_EVEN_U, 5, increasing=True).T)  # w = V^-T E[u^k]
+EVEN_WEIGHTS = np.linalg.inv(np.vander(_EVEN_U, 5, increasing=True).T)  # w = V^-T E[u^k]
+"""Weights of ``even_quadrature``: ``EVEN_WEIGHTS @ (E[u^k], k = 0..4)``, u = cos(2 Omega), at ``EVEN_NODES``."""
 
 
 PERCENTILES = (0.135, 2.275, 5.0, 25.0, 50.0, 75.0, 95.0, 97.725, 99.865)
@@ -124,7 +125,7 @@ class FaradayDistribution(ABC):
             phi = np.real(self.circular_moment(np.array([2.0, 4.0, 6.0, 8.0])))
             moments = np.array([1.0, phi[0], (1 + phi[1]) / 2, (3 * phi[0] + phi[2]) / 4,
                                 (3 + 4 * phi[1] + phi[3]) / 8])
-            weights = _EVEN_WEIGHTS @ moments
+            weights = EVEN_WEIGHTS @ moments
             weights.setflags(write=False)
             memo["even"] = (EVEN_NODES, weights)
         return memo["even"]

@@ -170,16 +170,5 @@ class NisarInstrument(GaussianErrorsInstrument):
 
     type_name = "nisar"
     summary = "NASA-ISRO NISAR L-band preset: 1257 MHz, 20 MHz, NESZ -25 dB; distortion levels as BIOMASS"
-    params = with_defaults(
-        GaussianErrorsInstrument.params,
-        {
-            "name": "NISAR",
-            "crosstalk.level_db": -30.0,
-            "crosstalk.correlation_magnitude": 0.9,
-            "channel_imbalance.level_db": -34.0,
-            "channel_imbalance.correlation_magnitude": 0.9,
-            "nesz_db": -25.0,
-            "centre_frequency_mhz": 1257.0,
-            "bandwidth_mhz": 20.0,
-        },
-    )
+    params = with_defaults(BiomassInstrument.params,  # the distortion levels stay BIOMASS's
+                           {"name": "NISAR", "nesz_db": -25.0, "centre_frequency_mhz": 1257.0, "bandwidth_mhz": 20.0})

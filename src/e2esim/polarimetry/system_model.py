@@ -44,24 +44,24 @@ def faraday_matrix(omega: np.ndarray) -> np.ndarray:
     return np.stack([np.stack([c, s], -1), np.stack([-s, c], -1)], -2)
 
 
-def receive_distortion(delta: np.ndarray, f: np.ndarray) -> np.ndarray:
-    """Receive-side distortion ``[[1, delta2], [delta1, f1]]``, Quegan et al. (2018), eq. (11)."""
+def _distortion(delta: np.ndarray, f: np.ndarray, upper: int, lower: int, diagonal: int) -> np.ndarray:
+    """``[[1, delta[upper]], [delta[lower], f[diagonal]]]`` over the leading axes of delta and f together."""
     delta, f = np.asarray(delta), np.asarray(f)
     one = np.ones(np.broadcast_shapes(delta.shape[:-1], f.shape[:-1]), dtype=complex)
     return np.stack(
-        [np.stack([one, delta[..., 1] * one], -1), np.stack([delta[..., 0] * one, f[..., 0] * one], -1)],
+        [np.stack([one, delta[..., upper] * one], -1), np.stack([delta[..., lower] * one, f[..., diagonal] * one], -1)],
         -2,
     )
+
+
+def receive_distortion(delta: np.ndarray, f: np.ndarray) -> np.ndarray:
+    """Receive-side distortion ``[[1, delta2], [delta1, f1]]``, Quegan et al. (2018), eq. (11)."""
+    return _distortion(delta, f, upper=1, lower=0, diagonal=0)
 
 
 def transmit_distortion(delta: np.ndarray, f: np.ndarray) -> np.ndarray:
     """Transmit-side distortion ``[[1, delta3], [delta4, f2]]``, Quegan et al. (2018), eq. (11)."""
-    delta, f = np.asarray(delta), np.asarray(f)
-    one = np.ones(np.broadcast_shapes(delta.shape[:-1], f.shape[:-1]), dtype=complex)
-    return np.stack(
-        [np.stack([one, delta[..., 2] * one], -1), np.stack([delta[..., 3] * one, f[..., 1] * one], -1)],
-        -2,
-    )
+    return _distortion(delta, f, upper=2, lower=3, diagonal=1)
 
 
 def measured_matrix(

@@ -11,14 +11,14 @@ from pathlib import Path
 
 import matplotlib
 
-from e2esim.report.sweep_layout import facet_axes, legend, series_offsets, style, sweep_layout
+from e2esim.report.sweep_layout import facet_axes, label_facet, legend, series_offsets, style, sweep_layout
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 
 from e2esim.faraday.distribution import EmpiricalFaraday
-from e2esim.report.plot_base import PlotSkipped, save_png
+from e2esim.report.plot_base import PlotSkipped, panel_grid, save_png
 
 
 def plot_global_maps(fr_map, path, quantity: str = "mean_abs_deg", title: str | None = None) -> str:
@@ -89,10 +89,8 @@ def plot_faraday_distributions(result, folder: Path, options: dict) -> list:
         raise PlotSkipped("no case has a Faraday-rotation distribution (no ionosphere stage)")
     if len(cases) > options.get("histogram_cases", 12):
         return _faraday_against_sweep(result, folder, options, cases)
-    ncol = min(4, len(cases))
-    nrow = -(-len(cases) // ncol)
-    fig, axes = plt.subplots(nrow, ncol, figsize=(3.6 * ncol, 2.8 * nrow), squeeze=False)
-    for ax, c in zip(axes.ravel(), cases):
+    fig, axes = panel_grid(len(cases), 4, (3.6, 2.8))
+    for ax, c in zip(axes, cases):
         fr = c.get("faraday.geophysical")
         if isinstance(fr, EmpiricalFaraday):
             ax.hist(np.degrees(fr.samples), bins=40, weights=fr.probabilities, color="0.6", histtype="stepfilled")
@@ -105,9 +103,7 @@ def plot_faraday_distributions(result, folder: Path, options: dict) -> list:
         ax.set_title(c.label, fontsize=7)
         ax.set_xlabel("Ω (deg)", fontsize=8)
         ax.tick_params(labelsize=7)
-    for ax in axes.ravel()[len(cases):]:
-        ax.axis("off")
-    axes.ravel()[0].legend(fontsize=6)
+    axes[0].legend(fontsize=6)
     fig.tight_layout()
     return [(save_png(fig, Path(folder) / "faraday_distributions.png"),
              "Distribution of the one-way Faraday rotation of each case before any correction (all acquisitions, "
@@ -139,11 +135,7 @@ def _faraday_against_sweep(result, folder, options, cases) -> list:
             ax.errorbar(layout.x_values(series.cases) + dx, mean, yerr=[mean - lo, hi - mean], fmt="-",
                         marker=st["marker"], ms=3.5, capsize=2, lw=1, color=st["color"], label=series.label)
         ax.axhline(0, color="k", lw=0.6)
-        ax.set_title(facet.title, fontsize=8)
-        ax.set_xlabel(layout.x_label, fontsize=8)
-        ax.set_ylabel("one-way Faraday rotation Ω (deg)", fontsize=8)
-        ax.grid(alpha=0.3)
-        ax.tick_params(labelsize=7)
+        label_facet(ax, layout, facet, "one-way Faraday rotation Ω (deg)")
     legend(axes[0][0], len(layout.facets[0].series))
     fig.tight_layout()
     return [(save_png(fig, Path(folder) / "faraday_distributions.png"),

@@ -13,6 +13,7 @@ place (see ``save_png``).
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import matplotlib
@@ -40,6 +41,17 @@ def colors(n: int) -> list:
     """``n`` colours of the report's plots (matplotlib's tab10, repeated after ten)."""
     cmap = plt.get_cmap("tab10")
     return [cmap(i % 10) for i in range(max(n, 1))]
+
+
+def panel_grid(n: int, max_columns: int, panel_size: tuple) -> tuple:
+    """A figure of ``n`` panels of ``panel_size`` (inches), at most ``max_columns`` a row: (figure, its ``n`` axes
+    in reading order); the spare axes of the last row are switched off."""
+    ncol = min(max_columns, n)
+    nrow = math.ceil(n / ncol)
+    fig, axes = plt.subplots(nrow, ncol, figsize=(panel_size[0] * ncol, panel_size[1] * nrow), squeeze=False)
+    for ax in axes.ravel()[n:]:
+        ax.axis("off")
+    return fig, axes.ravel()[:n]
 
 
 def save(fig, folder: Path, name: str, tight: bool | None = None) -> str:

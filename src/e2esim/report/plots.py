@@ -8,7 +8,6 @@ contributions of each error source (Figs. 9-10); plus requirement margins and AG
 from __future__ import annotations
 
 import contextlib
-import math
 import sys
 from pathlib import Path
 
@@ -24,7 +23,7 @@ from e2esim.io.summary import LARGE_RUN_CASES
 from e2esim.maps.grid import is_map_sweep
 from e2esim.report.labels import wrapped
 from e2esim.report.map_plots import SITE_KEYS
-from e2esim.report.plot_base import PlotSkipped, colors, figure_settings, save
+from e2esim.report.plot_base import PlotSkipped, colors, figure_settings, panel_grid, save
 from e2esim.report.sweep_layout import legend, sweep_layout
 from e2esim.units import level_db_from_variance
 
@@ -41,10 +40,8 @@ def plot_error_histograms(result, folder: Path, options: dict) -> list:
         else ""
     )
     cases = shown
-    ncol = min(3, len(cases))
-    nrow = math.ceil(len(cases) / ncol)
-    fig, axes = plt.subplots(nrow, ncol, figsize=(4 * ncol, 3 * nrow), squeeze=False)
-    for ax, c in zip(axes.ravel(), cases):
+    fig, axes = panel_grid(len(cases), 3, (4, 3))
+    for ax, c in zip(axes, cases):
         model = c.get("backscatter.error")
         e = np.ravel(model.samples())
         ax.hist(e, bins=60, density=True, color="0.7", histtype="stepfilled")
@@ -57,9 +54,7 @@ def plot_error_histograms(result, folder: Path, options: dict) -> list:
         ax.set_title(wrapped(c.label, 50), fontsize=8)
         ax.set_xlabel("error of $\\sigma_{hv}$ (m$^2$/m$^2$)", fontsize=8)
         ax.tick_params(labelsize=7)
-    for ax in axes.ravel()[len(cases):]:
-        ax.axis("off")
-    axes.ravel()[0].legend(fontsize=7)
+    axes[0].legend(fontsize=7)
     fig.tight_layout()
     return [(save(fig, folder, "error_histograms"),
              "Histograms of the simulated σ_hv errors with the Gaussian of the same mean and variance (red) and "
@@ -77,11 +72,9 @@ def plot_tradeoff(result, folder: Path, options: dict) -> list:
         raise PlotSkipped("no verdict has a trade-off curve (set tradeoff_curve: true in an agb_error_bound "
                           "requirement; the error model needs crosstalk and channel-imbalance levels)")
     cases = every[:12]
-    ncol = min(2, len(cases))
-    nrow = math.ceil(len(cases) / ncol)
-    fig, axes = plt.subplots(nrow, ncol, figsize=(6 * ncol, 4.5 * nrow), squeeze=False)
+    fig, axes = panel_grid(len(cases), 2, (6, 4.5))
     styles = {"over": "-", "under": "--"}
-    for ax, c in zip(axes.ravel(), cases):
+    for ax, c in zip(axes, cases):
         verdicts = [v for v in c.verdicts if v.curves]
         for v, color in zip(verdicts, colors(len(verdicts))):
             x = v.curves["crosstalk_db"]
@@ -101,8 +94,6 @@ def plot_tradeoff(result, folder: Path, options: dict) -> list:
         ax.set_title(wrapped(c.label, 70), fontsize=9)
         ax.grid(alpha=0.3)
         ax.legend(fontsize=6)
-    for ax in axes.ravel()[len(cases):]:
-        ax.axis("off")
     fig.tight_layout()
     more = f" The first {len(cases)} of {len(every)} cases are shown." if len(every) > len(cases) else ""
     return [(save(fig, folder, "tradeoff"),

@@ -120,6 +120,15 @@ def facet_axes(layout: SweepLayout, width: float = 5.0, height: float = 3.6, row
     return fig, out
 
 
+def label_facet(ax, layout: SweepLayout, facet: Facet, y_label: str) -> None:
+    """The facet's panel titled and labelled (the sweep variable on x) in the report's small type, on a light grid."""
+    ax.set_title(facet.title, fontsize=8)
+    ax.set_xlabel(layout.x_label, fontsize=8)
+    ax.set_ylabel(y_label, fontsize=8)
+    ax.grid(alpha=0.3)
+    ax.tick_params(labelsize=7)
+
+
 def series_offsets(layout: SweepLayout, facet: Facet) -> list:
     """Horizontal offsets that keep series sharing x values from hiding each other (a dodge of 1.2 % of the
     x range per series)."""

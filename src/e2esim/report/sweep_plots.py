@@ -14,6 +14,7 @@ from e2esim.report.sweep_layout import (
     case_row_height,
     case_ticks,
     facet_axes,
+    label_facet,
     legend,
     series_offsets,
     style,
@@ -155,11 +156,7 @@ def plot_agb_error_vs_sweep(result, folder: Path, options: dict) -> list:
         if cut:
             ax.set_ylim(*cut.limits(every))
         ax.axhline(0, color="k", lw=0.8)
-        ax.set_title(facet.title, fontsize=8)
-        ax.set_xlabel(layout.x_label, fontsize=8)
-        ax.set_ylabel("relative AGB error, computed sources (%)", fontsize=8)
-        ax.grid(alpha=0.3)
-        ax.tick_params(labelsize=7)
+        label_facet(ax, layout, facet, "relative AGB error, computed sources (%)")
     legend(axes[0][0], len(layout.facets[0].series))
     fig.tight_layout()
     return [(save(fig, folder, "agb_error_vs_sweep"),

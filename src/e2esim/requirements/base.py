@@ -61,8 +61,15 @@ def scope_suffix(config: dict) -> str:
     return SCOPE_SUFFIXES[config["sources"]]
 
 
+NAME_PARAM = Param("name", "str", "label in reports (null: generated)", default=None, nullable=True)
 BASIS_PARAM = Param("basis", "str", "analytic Gaussian model or Monte Carlo samples (auto: analytic when computed)",
                     default="auto", choices=BASES)
+
+
+def agb_requirement_params(*own, after: tuple = ()) -> tuple:
+    """The parameters of an AGB requirement: its name, its own ``own`` (its limit), the basis, the sources checked
+    and the assumed terms every AGB requirement takes, then ``after``."""
+    return (NAME_PARAM, *own, BASIS_PARAM, SOURCES_PARAM, ASSUMED_PARAM, *after)
 
 
 class Requirement(Module):

@@ -17,11 +17,9 @@ from e2esim.module import fail
 from e2esim.params import Param
 from e2esim.requirements.attribution import attribution, dominant
 from e2esim.requirements.base import (
-    ASSUMED_PARAM,
-    BASIS_PARAM,
     PERCENT,
-    SOURCES_PARAM,
     Requirement,
+    agb_requirement_params,
     basis_of,
     checked_error,
     largest,
@@ -46,31 +44,29 @@ from e2esim.requirements.verdict import RequirementVerdict
 class AGBErrorBound(Requirement):
     """P(AGB overestimated by more than bound) and/or P(underestimated by more than bound) <= 1 - confidence."""
 
-    kind = "requirement"
     type_name = "agb_error_bound"
     batched = True
     summary = "relative AGB error within +-bound with one-sided confidence (Men et al. 2021, eq. 19)"
-    params = (
-        Param("name", "str", "label in reports (null: generated)", default=None, nullable=True),
+    params = agb_requirement_params(
         Param("bound_percent", "float", "largest allowed relative AGB error", default=20.0, unit="%",
               exclusive_minimum=0.0, exclusive_maximum=100.0),
         Param("confidence_percent", "float", "one-sided confidence that the bound holds", default=99.865,
               unit="%", exclusive_minimum=50.0, exclusive_maximum=100.0),
         Param("side", "str", "bound overestimation, underestimation or both", default="both",
               choices=("over", "under", "both")),
-        BASIS_PARAM,
-        SOURCES_PARAM,
-        ASSUMED_PARAM,
-        Param("level_margins", "bool",
-              "find by root finding how far crosstalk, channel imbalance and NESZ may degrade before the "
-              "verdict flips (analytic model)", default=False),
-        Param("tradeoff_curve", "bool", "trace the crosstalk/channel-imbalance trade-off curve (eq. 19) and "
-              "report where it meets the axes", default=False),
-        Param("curve_crosstalk_db", "float", "crosstalk range of the trade-off curve, in the instrument's "
-              "level convention", default=(-50.0, -10.0), unit="dB", length=2, minimum=-200.0, maximum=0.0,
-              convert=False),
-        Param("curve_points", "int", "points on the trade-off curve", default=121, minimum=2, maximum=100000),
+        after=(
+            Param("level_margins", "bool",
+                  "find by root finding how far crosstalk, channel imbalance and NESZ may degrade before the "
+                  "verdict flips (analytic model)", default=False),
+            Param("tradeoff_curve", "bool", "trace the crosstalk/channel-imbalance trade-off curve (eq. 19) and "
+                  "report where it meets the axes", default=False),
+            Param("curve_crosstalk_db", "float", "crosstalk range of the trade-off curve, in the instrument's "
+                  "level convention", default=(-50.0, -10.0), unit="dB", length=2, minimum=-200.0, maximum=0.0,
+                  convert=False),
+            Param("curve_points", "int", "points on the trade-off curve", default=121, minimum=2, maximum=100000),
+        ),
     )
+
     @property
     def label(self) -> str:
         c = self.config
@@ -156,18 +152,11 @@ class AGBErrorBound(Requirement):
 class AGBRelativeRMSE(Requirement):
     """sqrt(E[q^2]) <= limit, q the relative AGB error (bias and spread together)."""
 
-    kind = "requirement"
     type_name = "agb_rmse"
     batched = True
     summary = "root-mean-square relative AGB error below a limit"
-    params = (
-        Param("name", "str", "label in reports (null: generated)", default=None, nullable=True),
-        Param("max_percent", "float", "largest allowed RMS relative AGB error", default=20.0, unit="%",
-              exclusive_minimum=0.0),
-        BASIS_PARAM,
-        SOURCES_PARAM,
-        ASSUMED_PARAM,
-    )
+    params = agb_requirement_params(Param("max_percent", "float", "largest allowed RMS relative AGB error",
+                                          default=20.0, unit="%", exclusive_minimum=0.0))
 
     @property
     def label(self) -> str:
@@ -195,19 +184,14 @@ class AGBAbsoluteRMSE(Requirement):
     """sqrt(E[(AGB_hat - AGB)^2]) <= limit in t/ha, e.g. NISAR's "20 Mg/ha RMS at 1 ha for AGB < 100 Mg/ha"
     (the NISAR L2 biomass requirement, NISAR Science Users' Handbook, NASA/JPL 2019); 1 Mg/ha = 1 t/ha."""
 
-    kind = "requirement"
     type_name = "agb_rmse_absolute"
     batched = True
     summary = "root-mean-square AGB error below a limit in t/ha (e.g. NISAR: 20 t/ha for AGB < 100 t/ha)"
-    params = (
-        Param("name", "str", "label in reports (null: generated)", default=None, nullable=True),
+    params = agb_requirement_params(
         Param("max_t_ha", "float", "largest allowed RMS AGB error", default=20.0, unit="t/ha", exclusive_minimum=0.0),
         Param("applies_below_t_ha", "float", "the requirement applies to AGB below this (null: to every AGB); "
               "cases at or above it are not applicable: no pass, no fail, no margin", default=None, unit="t/ha",
               exclusive_minimum=0.0, nullable=True),
-        BASIS_PARAM,
-        SOURCES_PARAM,
-        ASSUMED_PARAM,
     )
     needs = (*Requirement.needs, "scene.covariance")
 

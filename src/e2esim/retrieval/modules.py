@@ -55,6 +55,7 @@ _AGB = Param("agb_t_ha", "float", "AGB the case's backscatter error is applied a
              default=None, unit="t/ha", exclusive_minimum=0.0, nullable=True)
 _CAP = Param("agb_max_t_ha", "float", "largest AGB the model returns: estimates beyond it count as saturated",
              default=1000.0, unit="t/ha", exclusive_minimum=0.0)
+_INVERTED_MODEL = (_AGB, _CAP, _REGRESSION)  # what a model inverted numerically takes besides its coefficients
 
 
 class _Retrieval(Stage):
@@ -184,9 +185,7 @@ class SaturatingRetrieval(_Retrieval):
         Param("beta2", "float", "low-AGB scale", default=0.008, unit="m2/m2"),
         Param("alpha", "float", "fixed exponent alpha (0.2 in the paper)", default=ALPHA_DEFAULT, exclusive_minimum=0.0,
               maximum=1.0),
-        _AGB,
-        _CAP,
-        _REGRESSION,
+        *_INVERTED_MODEL,
     )
 
     def setup(self):
@@ -230,9 +229,7 @@ class LogLinearRetrieval(_Retrieval):
               minimum=-0.49, maximum=0.99),
         Param("incidence_deg", "float", "local incidence angle theta", default=30.0, unit="deg", minimum=0.0,
               exclusive_maximum=90.0),
-        _AGB,
-        _CAP,
-        _REGRESSION,
+        *_INVERTED_MODEL,
     )
 
     def setup(self):

@@ -19,7 +19,7 @@ from types import MappingProxyType
 import numpy as np
 
 from e2esim.block import Batched, Block, CaseRandom, Catalog, Factor, IdentityKey
-from e2esim.case import Case, Products
+from e2esim.case import Case, LazyMapping, Products
 from e2esim.distinct import distinct_rows
 from e2esim.module import batched_run
 from e2esim.runner.stage_products import checked_products
@@ -70,7 +70,7 @@ class _LazyInputs(Mapping):
         return len(self._all())
 
 
-class _CaseProducts(Products):
+class _CaseProducts(LazyMapping, Products):
     """One case's products of a block, made from the block's products when a stage reads them."""
 
     __slots__ = ("_block", "_made", "_position")
@@ -87,14 +87,8 @@ class _CaseProducts(Products):
             self._made[name] = self._block[name].item(self._position)
         return self._made[name]
 
-    def __iter__(self):
-        return iter(self._block)
-
-    def __len__(self) -> int:
-        return len(self._block)
-
-    def __contains__(self, name) -> bool:
-        return name in self._block
+    def _names(self):
+        return self._block
 
     def get(self, name, default=None):
         return self[name] if name in self._block else default

@@ -24,7 +24,7 @@ from e2esim.runner.sections import (
     section_kinds,
     top_level_keys,
 )
-from e2esim.runner.sweep import _ABSENT
+from e2esim.runner.sweep import NOT_SET
 from e2esim.settings import SIMULATION_PARAMS, SimulationSettings
 
 
@@ -45,7 +45,7 @@ class PlanBuilder:
                 if path[0] in NOT_SWEEPABLE or path[0] not in top_level_keys():
                     raise ConfigError(Location(self.source, ("sweep", key), self.lines), f"cannot sweep over {key!r}",
                                       "sweep keys start with a module section, requirements or simulation")
-                value = next((v[p] for v in group.values if v[p] is not _ABSENT), None)
+                value = next((v[p] for v in group.values if v[p] is not NOT_SET), None)
                 set_path(dict(self.raw), path, value, Location(self.source, path, self.lines), copy_on_write=True)
                 keys.append((key, path, g, p))
         cache: dict = {PRISTINE: object_ids(self.raw)}
@@ -111,7 +111,7 @@ class PlanBuilder:
         except ModuleLookupError:
             return []  # reported where the section is built
         per_case = [k for k, r in zip(mine, rest) if len(r) == 1 and r[0] in getattr(cls, "case_params", ())
-                    and all(v[k[3]] is not _ABSENT for v in table.groups[k[2]].values)]
+                    and all(v[k[3]] is not NOT_SET for v in table.groups[k[2]].values)]
         for _, key_path, g, p in per_case:
             param = find_param(cls.params, key_path[-1])
             where = Location(self.source, key_path[:-1], self.lines)
@@ -128,7 +128,7 @@ class PlanBuilder:
         for key, path, g, p in [*keys, *per_case]:
             position = combo[slot.groups.index(g)] if g in slot.groups else codes[g]
             value = table.groups[g].values[position][p]
-            if value is _ABSENT:
+            if value is NOT_SET:
                 continue
             set_path(config, path, value, Location(self.source, path, lines), copy_on_write=True)
             lines[path] = f"sweep case {first}: {key}={value!r}"

@@ -18,6 +18,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from e2esim.block import Values
+from e2esim.case import LazyMapping
 from e2esim.runner.columns import Column, join_field, take_field
 
 
@@ -143,7 +144,7 @@ class JoinedRequirement:
         return joined if self.order is None else joined.take(self.order)
 
 
-class JoinedColumns(Mapping):
+class JoinedColumns(LazyMapping):
     """{name: ``Column``} over consecutive blocks, each joined in case order when read (not kept).
 
     parts : per block, {name: ``Column``} of its cases (a block may lack a name: NaN there). sizes : the blocks'
@@ -162,14 +163,8 @@ class JoinedColumns(Mapping):
         column = Column.concatenate([p.get(name) for p in self.parts], self.sizes)
         return column if self.order is None else column.take(self.order)
 
-    def __iter__(self):
-        return iter(self.names)
-
-    def __len__(self) -> int:
-        return len(self.names)
-
-    def __contains__(self, name) -> bool:
-        return name in self.names
+    def _names(self):
+        return self.names
 
 
 def text_column(values: Values) -> np.ndarray:

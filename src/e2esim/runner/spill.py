@@ -26,6 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from e2esim.block import Values
+from e2esim.case import LazyMapping
 from e2esim.errors import OutputFolderError
 from e2esim.runner.case_results import BlockResult
 from e2esim.runner.columns import Column, RequirementColumns
@@ -126,7 +127,7 @@ class SpilledBlock:
                            self.notes, self.groups)
 
 
-class SpilledColumns(Mapping):
+class SpilledColumns(LazyMapping):
     """{name: ``Column``} of a spilled block, each read back when asked for. The columns present in every case
     (nearly all) are rows of one array on disk, so that the block keeps a row number per name, not a reference
     per column."""
@@ -156,14 +157,8 @@ class SpilledColumns(Mapping):
         values, present = ref
         return Column(self._spill.get(values), None if present is None else self._spill.get(present))
 
-    def __iter__(self):
-        return iter(self._refs)
-
-    def __len__(self) -> int:
-        return len(self._refs)
-
-    def __contains__(self, name) -> bool:
-        return name in self._refs
+    def _names(self):
+        return self._refs
 
 
 class SpilledValues:

@@ -93,7 +93,7 @@ class SweepTable:
         out = {}
         for group, code in zip(self.groups, self.codes([index])[0]):
             for key, value in zip(group.keys, group.values[code]):
-                if value is not _ABSENT:
+                if value is not NOT_SET:
                     out[key] = value
         return out
 
@@ -102,7 +102,7 @@ class SweepTable:
         ``cases`` does not set it), made from the distinct values of its group."""
         g, k = next((g, group.keys.index(key)) for g, group in enumerate(self.groups) if key in group.keys)
         if key not in self._distinct:
-            distinct = [None if values[k] is _ABSENT else values[k] for values in self.groups[g].values]
+            distinct = [None if values[k] is NOT_SET else values[k] for values in self.groups[g].values]
             self._distinct[key] = np.asarray(distinct, dtype=None if None not in distinct else object)
         return self._distinct[key][self.codes(indices)[:, g]]
 
@@ -124,7 +124,7 @@ class SweepTable:
         """{sweep key: (its distinct values, (n,) position of every case's value among them)}, None for a case of
         ``cases`` that does not set the key."""
         codes = self.codes(np.arange(self.n)) if self.layout != "none" else np.zeros((1, 0), dtype=np.int64)
-        return {key: ([None if values[k] is _ABSENT else values[k] for values in group.values], codes[:, g])
+        return {key: ([None if values[k] is NOT_SET else values[k] for values in group.values], codes[:, g])
                 for g, group in enumerate(self.groups) for k, key in enumerate(group.keys)}
 
 
@@ -133,7 +133,8 @@ class _Absent:
         return ABSENT
 
 
-_ABSENT = _Absent()
+NOT_SET = _Absent()
+"""The value of a key a case of ``sweep.cases`` does not set (shown as ``ABSENT``)."""
 
 
 def expand_sweep(sweep: Any, where: Location, scenario: dict | None = None) -> tuple[list, tuple]:
@@ -206,7 +207,7 @@ def _cases_table(cases: Any, where: Location) -> SweepTable:
         positions: dict = {}
         values: list = []
         for i, row in enumerate(rows):
-            value = row.get(key, _ABSENT)
+            value = row.get(key, NOT_SET)
             text = _text(value)
             if text not in positions:
                 positions[text] = len(values)

@@ -13,16 +13,24 @@ from e2esim.scene.covariance import ScatteringCovariance
 from e2esim.scene.table1 import TABLE1_FORESTS
 
 
-class Table1ForestScene(Stage):
-    """One of the five forests of Men et al. (2021), Table I."""
+class _FixedScene(Stage):
+    """A scene whose parameters fix its covariance: ``setup`` makes it (``covariance``), every case looks at it."""
 
     kind = "scene"
+    provides = (P.SCENE,)
+
+    def forward(self, case):
+        return {"scene.covariance": self.covariance}
+
+
+class Table1ForestScene(_FixedScene):
+    """One of the five forests of Men et al. (2021), Table I."""
+
     type_name = "table1_forest"
     summary = "P-band forest covariance from Men et al. (2021), Table I (boreal 50/200/350, tropical 338/341 t/ha)"
     params = (
         Param("forest", "str", "Table I forest", default="boreal_200", choices=tuple(TABLE1_FORESTS)),
     )
-    provides = (P.SCENE,)
 
     def setup(self):
         biome, agb, hh, hv, vv, r, theta = TABLE1_FORESTS[self.si["forest"]]
@@ -31,14 +39,10 @@ class Table1ForestScene(Stage):
             label=f"{biome} {agb:g} t/ha (Men et al. 2021, Table I)",
         )
 
-    def forward(self, case):
-        return {"scene.covariance": self.covariance}
 
-
-class ForestAGBScene(Stage):
+class ForestAGBScene(_FixedScene):
     """Covariance that varies continuously with AGB (e2esim.scene.agb_model), for sweeps over AGB."""
 
-    kind = "scene"
     type_name = "forest_agb_model"
     summary = "forest covariance continuous in AGB: power-law sigma_hv, co-pol terms interpolated from Table I"
     params = (
@@ -48,24 +52,19 @@ class ForestAGBScene(Stage):
         Param("exponent", "float", "power-law exponent p of sigma_hv(AGB); null: the biome's (2.2, 1.9)",
               default=None, exclusive_minimum=0.0, nullable=True),
     )
-    provides = (P.SCENE,)
 
     def setup(self):
         c = self.si
         self.covariance = forest_covariance(c["biome"], c["agb_t_ha"], c["exponent"])
 
-    def forward(self, case):
-        return {"scene.covariance": self.covariance}
 
-
-class CovarianceScene(Stage):
+class CovarianceScene(_FixedScene):
     """A user-given reciprocal covariance in the basis (hh, hv, vv), in backscattering-coefficient units.
 
     Reflection symmetry (zero HH-HV and HV-VV correlation) is the default; non-zero values are accepted
     and handled by the Monte Carlo, while the analytic error model refuses them.
     """
 
-    kind = "scene"
     type_name = "covariance"
     summary = "user-given 3x3 covariance (hh, hv, vv): powers and complex correlations, checked Hermitian PSD"
     params = (
@@ -91,7 +90,6 @@ class CovarianceScene(Stage):
         Param("biome", "str", "biome label (sets the default power-law exponent: boreal, tropical)",
               default=None, nullable=True),
     )
-    provides = (P.SCENE,)
 
     def setup(self):
         c = self.si
@@ -107,6 +105,3 @@ class CovarianceScene(Stage):
             dtype=complex,
         )
         self.covariance = ScatteringCovariance(m, agb_t_ha=c["agb_t_ha"], biome=c["biome"], label="user covariance")
-
-    def forward(self, case):
-        return {"scene.covariance": self.covariance}

@@ -78,25 +78,22 @@ def pass_gain_products(passes: int, beta: float) -> tuple[np.ndarray, np.ndarray
     return pair, quad - pair[:, :, None, None] * pair[None, None, :, :]
 
 
-def evaluation_levels(errors: StackSystemErrors, faraday: StackFaraday, reference: str, crosstalk_level=None,
-                      imbalance_level=None, noise_power=None, difference_variance=None) -> tuple:
-    """(V_delta, V_epsilon, sigma_n, sigma_D^2) broadcast together, the case's own where None; checks the
-    reference."""
+def evaluation_levels(errors: StackSystemErrors, faraday: StackFaraday, combination: PassCombination,
+                      reference: str, looks: int | None, crosstalk_level=None, imbalance_level=None, noise_power=None,
+                      difference_variance=None) -> tuple:
+    """(V_delta, V_epsilon, sigma_n, sigma_D^2) broadcast together, the case's own where None; then (rank one,
+    first-order speckle cross term needed) of eq. (16): a single combination has the exact E[q^2]; a
+    combination of rank > 1 against the population needs the kernel's ``csys``. Checks the reference."""
     if reference not in REFERENCES:
         raise ValueError(f"reference must be one of {REFERENCES}, got {reference!r}")
     system = errors.system
-    return np.broadcast_arrays(
+    levels = np.broadcast_arrays(
         np.asarray(system.crosstalk_level if crosstalk_level is None else crosstalk_level, float),
         np.asarray(system.imbalance_level if imbalance_level is None else imbalance_level, float),
         np.asarray(system.noise_power if noise_power is None else noise_power, float),
         np.asarray(faraday.difference_sd**2 if difference_variance is None else difference_variance, float))
-
-
-def speckle_form(combination: PassCombination, reference: str, looks: int | None) -> tuple[bool, bool]:
-    """(rank one, first-order speckle cross term needed) of eq. (16): a single combination has the exact
-    E[q^2]; a combination of rank > 1 against the population needs the kernel's ``csys``."""
     rank_one = combination.weights.shape[0] == 1
-    return rank_one, reference == "population" and looks is not None and not rank_one
+    return (*levels, rank_one, reference == "population" and looks is not None and not rank_one)
 
 
 def node_terms(scene: StackScene, errors: StackSystemErrors, faraday: StackFaraday, combination: PassCombination,
@@ -132,11 +129,10 @@ def stack_hv_moments(scene: StackScene, errors: StackSystemErrors, faraday: Stac
     difference_variance : sigma_D^2 (rad^2), the variance of the Faraday-rotation difference of two passes.
     All broadcast together. cache : a dict kept by the caller for the node terms of each sigma_D.
     """
-    xs, es, ns, dv = evaluation_levels(errors, faraday, reference, crosstalk_level, imbalance_level, noise_power,
-                                       difference_variance)
-    shape = xs.shape
-    q = combination.matrix
-    rank_one, need_cross = speckle_form(combination, reference, looks)
+    xs, es, ns, dv, rank_one, need_cross = evaluation_levels(errors, faraday, combination, reference, looks,
+                                                             crosstalk_level, imbalance_level, noise_power,
+                                                             difference_variance)
+    shape, q = xs.shape, combination.matrix
     cache = {} if cache is None else cache
     parts = {k: np.zeros(shape) for k in ("mu", "mu2", "v", "veta", "tr_q2y", "tr_qyqy", "csys")}
     for value in np.unique(dv):
@@ -190,5 +186,5 @@ def stack_hv_moments(scene: StackScene, errors: StackSystemErrors, faraday: Stac
         var_finite_looks=finite + z)
 
 
-__all__ = ["MONOMIALS", "REFERENCES", "StackHVMoments", "evaluation_levels", "node_terms", "pass_nodes", "speckle_form",
+__all__ = ["MONOMIALS", "REFERENCES", "StackHVMoments", "evaluation_levels", "node_terms", "pass_nodes",
            "stack_hv_moments"]

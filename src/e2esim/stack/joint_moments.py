@@ -31,7 +31,7 @@ import numpy as np
 
 from e2esim.distortion.channel_moments import unit_covariances
 from e2esim.distortion.polarimetric_moments import NOISE_FACTORS
-from e2esim.stack.analytic import evaluation_levels, pass_nodes, speckle_form
+from e2esim.stack.analytic import evaluation_levels, pass_nodes
 from e2esim.stack.channel_forms import channel_node_polynomials
 from e2esim.stack.combination import PassCombination
 from e2esim.stack.faraday import StackFaraday
@@ -98,11 +98,10 @@ def stack_joint_moments(scene: StackScene, errors: StackSystemErrors, faraday: S
     own Faraday rotation before the passes are combined (the operational order), else not corrected.
     cache : a dict kept by the caller for the node terms of each sigma_D. totals_only : return (mean,
     covariance) only."""
-    xs, es, ns, dv = evaluation_levels(errors, faraday, reference, crosstalk_level, imbalance_level, noise_power,
-                                       difference_variance)
-    shape = xs.shape
-    q = combination.matrix
-    rank_one, need_cross = speckle_form(combination, reference, looks)
+    xs, es, ns, dv, rank_one, need_cross = evaluation_levels(errors, faraday, combination, reference, looks,
+                                                             crosstalk_level, imbalance_level, noise_power,
+                                                             difference_variance)
+    shape, q = xs.shape, combination.matrix
     cache = {} if cache is None else cache
     vec, mat = shape + (3,), shape + (3, 3)
     mu, spread_m, v, veta, expected = (np.zeros(vec), np.zeros(mat), np.zeros(mat), np.zeros(mat),
