@@ -30,6 +30,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.integrate import quad
 from scipy.special import gamma as gamma_fn
 from scipy.special import gammaln, kv
 
@@ -125,8 +126,6 @@ def gps_phase_index(c_kl, spectral_index, outer_scale_m, cutoff_scale_m=1000.0, 
     scales shorter than ``cutoff_scale_m`` (0.1 Hz at a pierce-point speed of about 100 m/s): the variance of
     Phi_1 above kappa_c = 2 pi / cutoff (vertical path). The index the published high-latitude climatologies give
     (docs/theory/scintillation.md, eq. S5), which anchors the climatology's strength."""
-    from scipy.integrate import quad  # lazy: start-up time
-
     wavelength = 299792458.0 / frequency_hz
     kc = 2.0 * math.pi / cutoff_scale_m
 
@@ -136,5 +135,15 @@ def gps_phase_index(c_kl, spectral_index, outer_scale_m, cutoff_scale_m=1000.0, 
     return math.sqrt(quad(integrand, kc, np.inf, limit=200)[0])
 
 
-__all__ = ["ELECTRON_RADIUS_M", "PhaseScreen", "SPECTRAL_INDEX_RANGE", "check_screen", "gps_phase_index",
-           "matern_decorrelation", "phase_spectrum", "phase_variance", "spectral_constant", "structure_function"]
+__all__ = [
+    "ELECTRON_RADIUS_M",
+    "SPECTRAL_INDEX_RANGE",
+    "PhaseScreen",
+    "check_screen",
+    "gps_phase_index",
+    "matern_decorrelation",
+    "phase_spectrum",
+    "phase_variance",
+    "spectral_constant",
+    "structure_function",
+]
