@@ -107,3 +107,20 @@ def test_a_scenario_with_the_three_terms_runs_and_attributes(tmp_path, capsys):
     covers = str(summary["requirements"])
     for source in ("scintillation sigma0", "scintillation calibration", "scintillation faraday"):
         assert source in covers
+
+
+def test_the_scenario_report_says_whether_each_term_is_negligible(quick_run):
+    """The report of scenarios/biomass_scintillation.yaml answers the seed's claim per term: one sentence per term
+    derived from its attribution (the Faraday-rotation term is negligible everywhere on this meridian; the sigma0
+    term is not at 75 N), and the IRF statistics of theory and Monte Carlo are in the results."""
+    result, folder = quick_run("biomass_scintillation")
+    report = (folder / "report.md").read_text()
+    lines = [line for line in report.splitlines() if line.startswith("**Error term:**")]
+    assert len(lines) == 3
+    faraday = next(line for line in lines if "scintillation faraday" in line)
+    assert "negligible" in faraday and f"in {len(result.cases)} of {len(result.cases)} cases" in faraday
+    sigma0 = next(line for line in lines if "scintillation sigma0" in line)
+    assert "lat_deg=75" in sigma0.partition("; not in ")[2]
+    scalars = result.cases[0].scalars
+    assert any(k.endswith("scintillation_sigma0.mc_peak_loss_median_db") for k in scalars)
+    assert any(k.endswith("scintillation_sigma0.peak_loss_median_db") for k in scalars)
