@@ -124,3 +124,29 @@ def test_the_scenario_report_says_whether_each_term_is_negligible(quick_run):
     scalars = result.cases[0].scalars
     assert any(k.endswith("scintillation_sigma0.mc_peak_loss_median_db") for k in scalars)
     assert any(k.endswith("scintillation_sigma0.peak_loss_median_db") for k in scalars)
+
+
+def test_a_map_cell_without_an_orbit_stage_gets_its_screen_from_its_parameters():
+    """A map sweep's chain has no geometry product: the term builds the cell's acquisitions from lat_deg, lon_deg,
+    month and pass (what a map sweep sets), and says what is missing when they are not given."""
+    from e2esim.errors import ConfigError
+    from e2esim.scintillation.modules import ScintillationSigma0
+    from e2esim.testing import reference_case
+
+    full = reference_case(("instrument",))
+
+    class MapCase:  # what a map sweep's case holds: no geometry
+        settings, rng = full.settings, full.rng
+
+        @staticmethod
+        def get(name, default=None):
+            return full.get(name, default) if name != "geometry" else default
+
+    case = MapCase()
+    term = ScintillationSigma0(lat_deg=72.0, lon_deg=100.0, month=1, **{"pass": "dusk"})
+    outputs = dict(term.effect(case, None).outputs)
+    assert outputs["geomagnetic_latitude_deg"] == pytest.approx(63.0, abs=1.5)
+    quiet = dict(ScintillationSigma0(lat_deg=10.0, lon_deg=100.0, month=1).effect(case, None).outputs)
+    assert outputs["peak_loss_median_db"] > 5.0 * quiet["peak_loss_median_db"] > 0.0
+    with pytest.raises(ConfigError, match="names no map cell"):
+        ScintillationSigma0().effect(case, None)

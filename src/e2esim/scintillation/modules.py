@@ -27,6 +27,7 @@ from e2esim.module import fail
 from e2esim.orbit.frames import EARTH_MEAN_RADIUS
 from e2esim.params import Param
 from e2esim.scintillation.acquisitions import ScreenSettings, acquisition_screens, mixture_quantiles
+from e2esim.scintillation.cell import cell_acquisitions
 from e2esim.scintillation.climatology import SOLAR_PRESETS
 from e2esim.scintillation.effects import CalibratorFactor, DistributedTargetFactor, FaradayLeakage
 from e2esim.scintillation.faraday_window import parallel_field, window_variance
@@ -50,14 +51,23 @@ SCREEN_PARAMS = (
     Param("drift_m_s", "float", "along-track drift of the irregularities", default=0.0, unit="m/s"),
     Param("azimuth_resolution_m", "float", "single-look azimuth (Rayleigh) resolution rho_a of the SAR", default=8.3,
           unit="m", exclusive_minimum=0.0),
+    Param("lat_deg", "float", "latitude of a map cell, used when the chain has no geometry product (a map sweep "
+          "sets it; null: the geometry's acquisitions)", default=None, nullable=True, unit="deg", minimum=-90.0,
+          maximum=90.0, convert=False),
+    Param("lon_deg", "float", "east longitude of that cell", default=None, nullable=True, unit="deg",
+          minimum=-180.0, maximum=360.0, convert=False),
+    Param("month", "int", "month of that cell's acquisitions (the 15th)", default=None, nullable=True, minimum=1,
+          maximum=12),
+    Param("pass", "str", "pass of that cell's acquisitions: dawn (06 h) or dusk (18 h)", default="dawn",
+          choices=("dawn", "dusk")),
 )
 
 
 class ScintillationTerm(ErrorTerm):
     """What the three terms share: the screen's settings, the acquisitions' screens and the IRF scalars."""
 
-    needs = ("geometry",)
-    uses = ("instrument",)
+    needs: tuple = ()
+    uses = ("geometry", "instrument")
 
     def screen_settings(self, case) -> ScreenSettings:
         si = self.si
@@ -67,9 +77,20 @@ class ScintillationTerm(ErrorTerm):
         return ScreenSettings(sunspots, si["percentile"], si["spectral_index"], si["c_kl"], si["outer_scale_m"],
                               si["screen_height_m"], si["drift_m_s"], frequency, si["azimuth_resolution_m"])
 
+    def acquisitions(self, case):
+        """The case's ``geometry``, else the acquisitions of the cell the parameters name (``cell``)."""
+        geometry = case.get("geometry")
+        if geometry is not None:
+            return geometry
+        si = self.si
+        if si["lat_deg"] is None or si["lon_deg"] is None or si["month"] is None:
+            raise fail(self, "the chain has no geometry product (no orbit section) and the term names no map cell",
+                       "add an orbit section, or give lat_deg, lon_deg and month (a map sweep sets them)")
+        return cell_acquisitions(si["lat_deg"], si["lon_deg"], si["month"], si["pass"])
+
     def screens(self, case, site_lat=None, site_lon=None):
         try:
-            return acquisition_screens(case["geometry"], self.screen_settings(case), site_lat, site_lon)
+            return acquisition_screens(self.acquisitions(case), self.screen_settings(case), site_lat, site_lon)
         except PhysicsInputError as exc:
             raise fail(self, str(exc), None, key=exc.key) from exc
 
@@ -86,7 +107,7 @@ class ScintillationTerm(ErrorTerm):
                     (f"shift_{tag}_m", q["shift_cells"] * self.si["azimuth_resolution_m"]),
                     (f"islr_{tag}_db", q["islr_db"])]
         if case.settings.montecarlo:
-            mc = mixture_monte_carlo(case.rng, case["geometry"], self.screen_settings(case), screens)
+            mc = mixture_monte_carlo(case.rng, self.acquisitions(case), self.screen_settings(case), screens)
             out += [(f"mc_{name}", value) for name, value in mc.items()]
         return tuple(out)
 
@@ -133,7 +154,7 @@ class ScintillationCalibration(ScintillationTerm):
 
     def effect(self, case, model):
         screens = self.screens(case, self.si["site_lat_rad"], self.si["site_lon_rad"])
-        mean_z, second_z = peak_log_loss(case.rng, case["geometry"], self.screen_settings(case), screens)
+        mean_z, second_z = peak_log_loss(case.rng, self.acquisitions(case), self.screen_settings(case), screens)
         mean_y = float(np.sum(screens.weight * mean_z))
         var_y = float(np.sum(screens.weight * second_z)) - mean_y * mean_y
         outputs = (("calibrator_peak_loss_mean_db", 10.0 / math.log(10.0) * mean_y),
