@@ -8,18 +8,18 @@ import pytest
 import yaml
 
 from e2esim.cli import main
-from e2esim.scintillation.effects import CalibratorFactor, DistributedTargetFactor, FaradayLeakage
+from e2esim.scintillation.effects import CKL_LEVEL, CalibratorFactor, DistributedTargetFactor, FaradayLeakage
 
 PER_ACQUISITION = dict(weight=(0.5, 0.3, 0.2), shape=(2.0, 1.2, 0.8), scale=(0.01, 0.05, 0.3),
                        shift_sd_cells=(0.05, 0.2, 1.5), halo_share=(0.01, 0.03, 0.1))
 FACTORS = {
-    "distributed": DistributedTargetFactor("s", 1.0, cell_fraction=8.3 / 200.0, contrast=0.7, **PER_ACQUISITION),
-    "calibrator": CalibratorFactor("c", 1.0, mean_log=0.05, var_log=0.01),
+    "distributed": DistributedTargetFactor("s", CKL_LEVEL, cell_fraction=8.3 / 200.0, contrast=0.7, **PER_ACQUISITION),
+    "calibrator": CalibratorFactor("c", CKL_LEVEL, mean_log=0.05, var_log=0.01),
 }
 
 
 @pytest.mark.parametrize("name", list(FACTORS))
-@pytest.mark.parametrize("level", [1.0, 2.5])
+@pytest.mark.parametrize("level", [CKL_LEVEL, 2.5 * CKL_LEVEL])
 def test_factor_moments_agree_with_the_factor_s_draws(name, level, rng):
     """E[g] and Var[g] of eq. S19/S20 (mixture over acquisitions, gamma Laplace transform, log-normal) against the
     sample moments of the term's own draws at that level: z-tests, any seed."""
@@ -39,18 +39,18 @@ def test_no_irregularities_and_a_homogeneous_forest_change_nothing():
     for effect in FACTORS.values():
         mean, var = effect.factor_moments(0.0)
         assert float(mean) == 1.0 and float(var) == 0.0
-    homogeneous = DistributedTargetFactor("s", 1.0, cell_fraction=0.04, contrast=0.0, **PER_ACQUISITION)
+    homogeneous = DistributedTargetFactor("s", CKL_LEVEL, cell_fraction=0.04, contrast=0.0, **PER_ACQUISITION)
     assert not homogeneous.active
-    assert float(homogeneous.factor_moments(1.0)[0]) == 1.0
+    assert float(homogeneous.factor_moments(CKL_LEVEL)[0]) == 1.0
 
 
 def test_faraday_leakage_is_the_expected_sine_square():
     """N = E[sin^2(2 delta)] / 4 (sigma_hh + sigma_vv + 2 Re C_hhvv) on HV only (eq. S21), with E[sin^2 2 delta] of
     a Gaussian delta checked by quadrature-free sampling (z-test) and the closed form (1 - exp(-8 s^2)) / 2."""
     s2 = (1e-4, 4e-3)
-    effect = FaradayLeakage("f", 1.0, scale=(0.0, 1.0, 0.0), looks=100, weight=(0.25, 0.75), window_variance=s2,
+    effect = FaradayLeakage("f", CKL_LEVEL, scale=(0.0, 1.0, 0.0), looks=100, weight=(0.25, 0.75), window_variance=s2,
                             copol_power=0.3)
-    power = effect._power(1.0, np.array([0.1, 0.02, 0.08]))
+    power = effect._power(CKL_LEVEL, np.array([0.1, 0.02, 0.08]))
     closed = sum(w * 0.5 * (1.0 - math.exp(-8.0 * v)) for w, v in zip((0.25, 0.75), s2, strict=True)) / 4.0 * 0.3
     assert power[0] == 0.0 and power[2] == 0.0 and power[1] == pytest.approx(closed, rel=1e-12)
     rng = np.random.default_rng(7)

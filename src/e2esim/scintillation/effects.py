@@ -1,9 +1,10 @@
 """The radiometric consequences of scintillation as ``Effect``s of the error model (``e2esim.error_terms.effects``).
 
-Each effect's level is a multiplier m of the climatology's C_kL (1 = as the climatology says; 0 = no
-irregularities): the structure function is linear in C_kL, so the residual phase Y ~ Gamma(k, m theta), the shift
-and the Faraday-rotation spread scale as sqrt(m), and a requirement margin on the level says how many times stronger
-the irregularities may be before the requirement fails. Per-acquisition parameters are tuples (n,) with the
+Each effect's level is CKL_LEVEL times a multiplier m of the climatology's C_kL (m = 1 as the climatology says; 0:
+no irregularities): the structure function is linear in C_kL, so the residual phase Y ~ Gamma(k, m theta), the shift
+and the Faraday-rotation spread scale as sqrt(m), and a requirement's level margin (``<source>.margin_db``) is
+10 log10 of the factor by which the irregularities may strengthen before the requirement fails. The scale CKL_LEVEL
+puts the climatology at -40 dB, inside the margins' search range (levels up to 1, so factors up to 10^4). Per-acquisition parameters are tuples (n,) with the
 acquisitions' probability weights ``weight``; the moments are those of the mixture (a random acquisition),
 E[g] = sum w_i E_i[g], Var[g] = sum w_i (Var_i[g] + E_i[g]^2) - E[g]^2 (docs/theory/scintillation.md, eq. S18).
 """
@@ -16,6 +17,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from e2esim.error_terms.effects import AddedPower, IntensityFactor
+
+CKL_LEVEL = 1e-4
+"""The level of a scintillation effect at the climatology's C_kL (module docstring)."""
 
 
 def _arrays(*values):
@@ -61,7 +65,7 @@ class DistributedTargetFactor(IntensityFactor):
 
     def factor_moments(self, level):
         w, k, theta, sx, q = _arrays(self.weight, self.shape, self.scale, self.shift_sd_cells, self.halo_share)
-        m = np.asarray(level, dtype=float)[..., None]
+        m = np.asarray(level, dtype=float)[..., None] / CKL_LEVEL
         a, c = self.cell_fraction, self.contrast
         sxm, thm = sx * np.sqrt(m), theta * m
         e1, e2 = (1.0 + thm) ** -k, (1.0 + 2.0 * thm) ** -k
@@ -72,7 +76,8 @@ class DistributedTargetFactor(IntensityFactor):
 
     def factors(self, rng, shape):
         w, k, theta, sx, q = _arrays(self.weight, self.shape, self.scale, self.shift_sd_cells, self.halo_share)
-        sx, theta = sx * math.sqrt(self.level), theta * self.level
+        m = self.level / CKL_LEVEL
+        sx, theta = sx * math.sqrt(m), theta * m
         pick = rng.choice(w.size, size=shape, p=w)
         x = sx[pick] * rng.standard_normal(shape)
         y = np.where(theta[pick] > 0.0, rng.gamma(k[pick], np.where(theta[pick] > 0.0, theta[pick], 1.0)), 0.0)
@@ -95,12 +100,16 @@ class CalibratorFactor(IntensityFactor):
     outputs: tuple = ()
 
     def factor_moments(self, level):
-        m = np.asarray(level, dtype=float)
+        m = np.asarray(level, dtype=float) / CKL_LEVEL
         mu, s2 = m * self.mean_log, m * m * self.var_log
-        return np.exp(mu + s2 / 2.0), np.exp(2.0 * mu + s2) * np.expm1(s2)
+        # far beyond the climatology (a margin's search) the gain error is astronomic, but kept finite (exponents
+        # capped at 300) so that the bounds' arithmetic stays defined
+        return (np.exp(np.minimum(mu + s2 / 2.0, 300.0)),
+                np.exp(np.minimum(2.0 * mu + s2, 300.0)) * np.expm1(np.minimum(s2, 300.0)))
 
     def factors(self, rng, shape):
-        return np.exp(self.level * (self.mean_log + math.sqrt(self.var_log) * rng.standard_normal(shape)))
+        m = self.level / CKL_LEVEL
+        return np.exp(m * (self.mean_log + math.sqrt(self.var_log) * rng.standard_normal(shape)))
 
 
 @dataclass(frozen=True)
@@ -122,9 +131,9 @@ class FaradayLeakage(AddedPower):
 
     def _power(self, level, values):
         w, s2 = _arrays(self.weight, self.window_variance)
-        m = np.asarray(level, dtype=float)[..., None]
+        m = np.asarray(level, dtype=float)[..., None] / CKL_LEVEL
         n = np.sum(w * 0.5 * (1.0 - np.exp(-8.0 * m * s2)), axis=-1) / 4.0 * self.copol_power
         return n[..., None] * np.asarray(self.scale, dtype=float) * np.ones_like(values)
 
 
-__all__ = ["CalibratorFactor", "DistributedTargetFactor", "FaradayLeakage"]
+__all__ = ["CKL_LEVEL", "CalibratorFactor", "DistributedTargetFactor", "FaradayLeakage"]

@@ -9,7 +9,8 @@ map sets it per case from the site, the passes, the season and the solar activit
 * ``scintillation_calibration``: the gain error a point calibrator seen through the screen leaves (eq. S20);
 * ``scintillation_faraday``: co-pol leakage into HV from the Faraday-rotation spread inside the window (eq. S21).
 
-Their level is the multiplier of the climatology's C_kL (1 as given). Their output scalars
+Their level is ``CKL_LEVEL`` (1e-4) times the multiplier of the climatology's C_kL, so a level margin is the factor
+(in dB) by which the irregularities may strengthen. Their output scalars
 (``backscatter.error.<source>.*``, docs/output-format.md) give the screen and the azimuth-response statistics of the
 case (median and 90th percentile over acquisitions and screen realisations, weak-scatter theory; with the Monte Carlo
 of the azimuth compression beside it when the simulation mode includes it).
@@ -29,7 +30,7 @@ from e2esim.params import Param
 from e2esim.scintillation.acquisitions import ScreenSettings, acquisition_screens, mixture_quantiles
 from e2esim.scintillation.cell import cell_acquisitions
 from e2esim.scintillation.climatology import SOLAR_PRESETS
-from e2esim.scintillation.effects import CalibratorFactor, DistributedTargetFactor, FaradayLeakage
+from e2esim.scintillation.effects import CKL_LEVEL, CalibratorFactor, DistributedTargetFactor, FaradayLeakage
 from e2esim.scintillation.faraday_window import parallel_field, window_variance
 from e2esim.scintillation.irf_monte_carlo import mixture_monte_carlo, peak_log_loss
 
@@ -129,7 +130,7 @@ class ScintillationSigma0(ScintillationTerm):
     def effect(self, case, model):
         screens = self.screens(case)
         return DistributedTargetFactor(
-            self.source, 1.0, "scintillation: energy moved out of the product cell (distributed target)",
+            self.source, CKL_LEVEL, "scintillation: energy moved out of the product cell (distributed target)",
             weight=tuple(screens.weight), shape=tuple(screens.shape), scale=tuple(screens.scale),
             shift_sd_cells=tuple(screens.shift_sd_cells),
             halo_share=tuple(screens.halo_share(self.si["cell_length_m"] / self.si["azimuth_resolution_m"])),
@@ -159,7 +160,7 @@ class ScintillationCalibration(ScintillationTerm):
         var_y = float(np.sum(screens.weight * second_z)) - mean_y * mean_y
         outputs = (("calibrator_peak_loss_mean_db", 10.0 / math.log(10.0) * mean_y),
                    *self.irf_outputs(case, screens))
-        return CalibratorFactor(self.source, 1.0, "scintillation: calibrator peak loss (gain error)",
+        return CalibratorFactor(self.source, CKL_LEVEL, "scintillation: calibrator peak loss (gain error)",
                                 mean_log=mean_y, var_log=max(var_y, 0.0) / self.si["calibrations"], outputs=outputs)
 
 
@@ -188,7 +189,7 @@ class ScintillationFaraday(ScintillationTerm):
         copol = float(np.real(c[0, 0] + c[2, 2] + 2.0 * c[0, 2]))
         channels = getattr(model, "channels", None) or (model.channel,)
         outputs = (("faraday_spread_rms_deg", float(np.degrees(np.sqrt(np.sum(screens.weight * s2))))),)
-        return FaradayLeakage(self.source, 1.0, "scintillation: Faraday-rotation spread inside the window",
+        return FaradayLeakage(self.source, CKL_LEVEL, "scintillation: Faraday-rotation spread inside the window",
                               scale=tuple(1.0 if ch == "hv" else 0.0 for ch in channels), looks=case.settings.looks,
                               weight=tuple(screens.weight), window_variance=tuple(s2), copol_power=copol,
                               outputs=outputs)
