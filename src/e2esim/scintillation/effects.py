@@ -4,7 +4,8 @@ Each effect's level is CKL_LEVEL times a multiplier m of the climatology's C_kL 
 no irregularities): the structure function is linear in C_kL, so the residual phase Y ~ Gamma(k, m theta), the shift
 and the Faraday-rotation spread scale as sqrt(m), and a requirement's level margin (``<source>.margin_db``) is
 10 log10 of the factor by which the irregularities may strengthen before the requirement fails. The scale CKL_LEVEL
-puts the climatology at -40 dB, inside the margins' search range (levels up to 1, so factors up to 10^4). Per-acquisition parameters are tuples (n,) with the
+puts the climatology at -40 dB, inside the margins' search range (levels up to 1, so factors up to 10^4).
+Per-acquisition parameters are tuples (n,) with the
 acquisitions' probability weights ``weight``; the moments are those of the mixture (a random acquisition),
 E[g] = sum w_i E_i[g], Var[g] = sum w_i (Var_i[g] + E_i[g]^2) - E[g]^2 (docs/theory/scintillation.md, eq. S18).
 """
