@@ -85,6 +85,7 @@ LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
             "e2esim.retrieval",
             "e2esim.requirements",
             "e2esim.error_terms",
+            "e2esim.scintillation",
         ),
     ),
     (

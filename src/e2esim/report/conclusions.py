@@ -36,6 +36,43 @@ def conclusions(result) -> list:
     return out
 
 
+NEGLIGIBLE_SHARE = 0.1
+"""An error term is called negligible in a case where it moves the checked value by less than this share of the
+requirement's limit (its attribution: the value with and without it)."""
+
+
+def error_term_sentences(result) -> list:
+    """One sentence per requirement and error term of the ``error_terms`` list: the largest change of the checked
+    value it causes, and in how many cases it is negligible (``NEGLIGIBLE_SHARE`` of the limit), naming the cases
+    where it is not."""
+    modules = result.scenario.cases[0].modules if result.scenario.cases else ()
+    sources = [m.source for m in modules if getattr(m, "kind", None) == "error_terms" and hasattr(m, "source")]
+    out = []
+    for j, name in enumerate(result.requirement_names):
+        for source in dict.fromkeys(sources):
+            rows = []
+            for case in result.cases:
+                v = case.verdicts[j]
+                share = v.details.get(f"contribution.{source}_{unit_key(v.unit)}")
+                if share is not None and v.limit is not None:
+                    rows.append((abs(float(share)), case, v))
+            if not rows:
+                continue
+            worst, case, v = max(rows, key=lambda r: r[0])
+            unit = "percentage points" if v.unit == "%" else v.unit
+            small = [r for r in rows if r[0] < NEGLIGIBLE_SHARE * abs(float(r[2].limit))]
+            large = [r[1].label for r in rows if r[0] >= NEGLIGIBLE_SHARE * abs(float(r[2].limit))]
+            sentence = (f"{source_name(source)} changes the checked value of {name} by at most {fmt(worst, 3)} "
+                        f"{unit} (case {case.index}: {case.label}); it is negligible (below a tenth of the limit, "
+                        f"{fmt(NEGLIGIBLE_SHARE * abs(float(v.limit)), 3)} {unit}) in {len(small)} of {len(rows)} "
+                        "cases")
+            if large:
+                sentence += f"; not in {', '.join(large[:4])}" + (f" and {len(large) - 4} more" if len(large) > 4
+                                                                    else "")
+            out.append(sentence + ".")
+    return out
+
+
 def _dominant_clause(case, v) -> str:
     if not v.dominant:
         return ""

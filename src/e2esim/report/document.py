@@ -28,7 +28,7 @@ from e2esim.report.blocks import (
     fmt,
     table_blocks,
 )
-from e2esim.report.conclusions import conclusions
+from e2esim.report.conclusions import conclusions, error_term_sentences
 from e2esim.report.no_effect_section import no_effect_section
 from e2esim.report.outliers import error_meaning
 from e2esim.report.sensitivity_table import SENSITIVITY_NOTE, exponent_sensitivity_table
@@ -74,6 +74,7 @@ def build_report(result, plots: list, warnings: list = ()) -> list:
     blocks = [Heading(1, sc.output.get("title") or sc.name)]
     if result.requirement_names:
         blocks += [Heading(2, "Conclusions")] + [Paragraph(f"{b} {sentence}") for b, sentence in conclusions(result)]
+        blocks += [Paragraph(f"**Error term:** {sentence}") for sentence in error_term_sentences(result)]
         blocks += [Paragraph(f"**How sure:** {name}: {flag}") for j, name in enumerate(result.requirement_names)
                    for flag in uncertainty_flags(result, j)]
         blocks += [Heading(2, "Requirement verdicts"), tables.verdict_table(result), Paragraph(_scope_note(result))]

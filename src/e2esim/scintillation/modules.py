@@ -1,0 +1,198 @@
+"""The scintillation error terms (kind ``error_terms``): the radiometric consequences of ionospheric scintillation.
+
+Each term reads the case's ``geometry`` (every acquisition: pierce point, local time, date, incidence) and, through
+the climatology, the screen each acquisition sees at the term's solar activity (``acquisitions``), so a sweep or a
+map sets it per case from the site, the passes, the season and the solar activity. Three terms, one consequence each
+(docs/theory/scintillation.md, Section 5):
+
+* ``scintillation_sigma0``: sigma0 of a distributed target (energy moved out of the product cell; eq. S19);
+* ``scintillation_calibration``: the gain error a point calibrator seen through the screen leaves (eq. S20);
+* ``scintillation_faraday``: co-pol leakage into HV from the Faraday-rotation spread inside the window (eq. S21).
+
+Their level is ``CKL_LEVEL`` (1e-4) times the multiplier of the climatology's C_kL, so a level margin is the factor
+(in dB) by which the irregularities may strengthen. Their output scalars
+(``backscatter.error.<source>.*``, docs/output-format.md) give the screen and the azimuth-response statistics of the
+case (median and 90th percentile over acquisitions and screen realisations, weak-scatter theory; with the Monte Carlo
+of the azimuth compression beside it when the simulation mode includes it).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from e2esim.error_terms.modules import ErrorTerm, source_param
+from e2esim.errors import PhysicsInputError
+from e2esim.module import fail
+from e2esim.orbit.frames import EARTH_MEAN_RADIUS
+from e2esim.params import Param
+from e2esim.scintillation.acquisitions import ScreenSettings, acquisition_screens, mixture_quantiles
+from e2esim.scintillation.cell import cell_acquisitions
+from e2esim.scintillation.climatology import SOLAR_PRESETS
+from e2esim.scintillation.effects import CKL_LEVEL, CalibratorFactor, DistributedTargetFactor, FaradayLeakage
+from e2esim.scintillation.faraday_window import parallel_field, window_variance
+from e2esim.scintillation.irf_monte_carlo import mixture_monte_carlo, peak_log_loss
+
+SCREEN_PARAMS = (
+    Param("solar", "str", "solar activity: 12-month sunspot number 10 (min) or 150 (max)", default="max",
+          choices=tuple(SOLAR_PRESETS)),
+    Param("sunspot_number", "float", "12-month sunspot number R instead of the preset of `solar` (null: the preset)",
+          default=None, nullable=True, minimum=0.0, maximum=250.0),
+    Param("percentile", "float", "percentile of the day-to-day spread of C_kL (50: the median screen)", default=50.0,
+          unit="%", exclusive_minimum=0.0, exclusive_maximum=100.0, convert=False),
+    Param("c_kl", "float", "height-integrated strength C_kL (SI, m^-(p + 3)) instead of the climatology (null: the "
+          "climatology)", default=None, nullable=True, minimum=0.0),
+    Param("spectral_index", "float", "phase spectral index p = 2 nu of the power law (Rino 1979), 1 < p < 5",
+          default=2.67, exclusive_minimum=1.0, exclusive_maximum=5.0),
+    Param("outer_scale_km", "float", "outer scale L_0 of the irregularities", default=10.0, unit="km",
+          exclusive_minimum=0.0),
+    Param("screen_height_km", "float", "height of the phase screen (below the orbit)", default=350.0, unit="km",
+          exclusive_minimum=0.0),
+    Param("drift_m_s", "float", "along-track drift of the irregularities", default=0.0, unit="m/s"),
+    Param("azimuth_resolution_m", "float", "single-look azimuth (Rayleigh) resolution rho_a of the SAR", default=8.3,
+          unit="m", exclusive_minimum=0.0),
+    Param("lat_deg", "float", "latitude of a map cell, used when the chain has no geometry product (a map sweep "
+          "sets it; null: the geometry's acquisitions)", default=None, nullable=True, unit="deg", minimum=-90.0,
+          maximum=90.0, convert=False),
+    Param("lon_deg", "float", "east longitude of that cell", default=None, nullable=True, unit="deg",
+          minimum=-180.0, maximum=360.0, convert=False),
+    Param("month", "int", "month of that cell's acquisitions (the 15th)", default=None, nullable=True, minimum=1,
+          maximum=12),
+    Param("pass", "str", "pass of that cell's acquisitions: dawn (06 h) or dusk (18 h)", default="dawn",
+          choices=("dawn", "dusk")),
+)
+
+
+class ScintillationTerm(ErrorTerm):
+    """What the three terms share: the screen's settings, the acquisitions' screens and the IRF scalars."""
+
+    needs: tuple = ()
+    uses = ("geometry", "instrument")
+
+    def screen_settings(self, case) -> ScreenSettings:
+        si = self.si
+        sunspots = SOLAR_PRESETS[si["solar"]] if si["sunspot_number"] is None else si["sunspot_number"]
+        instrument = case.get("instrument")
+        frequency = 435e6 if instrument is None else float(instrument.centre_frequency_hz)
+        return ScreenSettings(sunspots, si["percentile"], si["spectral_index"], si["c_kl"], si["outer_scale_m"],
+                              si["screen_height_m"], si["drift_m_s"], frequency, si["azimuth_resolution_m"])
+
+    def acquisitions(self, case):
+        """The case's ``geometry``, else the acquisitions of the cell the parameters name (``cell``)."""
+        geometry = case.get("geometry")
+        if geometry is not None:
+            return geometry
+        si = self.si
+        if si["lat_deg"] is None or si["lon_deg"] is None or si["month"] is None:
+            raise fail(self, "the chain has no geometry product (no orbit section) and the term names no map cell",
+                       "add an orbit section, or give lat_deg, lon_deg and month (a map sweep sets them)")
+        return cell_acquisitions(si["lat_deg"], si["lon_deg"], si["month"], si["pass"])
+
+    def screens(self, case, site_lat=None, site_lon=None):
+        try:
+            return acquisition_screens(self.acquisitions(case), self.screen_settings(case), site_lat, site_lon)
+        except PhysicsInputError as exc:
+            raise fail(self, str(exc), None, key=exc.key) from exc
+
+    def irf_outputs(self, case, screens) -> tuple:
+        """(name, value) pairs: the screen and the response statistics of the case (module docstring)."""
+        w = screens.weight
+        out = [("geomagnetic_latitude_deg", float(np.degrees(np.sum(w * screens.magnetic_latitude)))),
+               ("log10_ckl_mean", float(np.sum(w * screens.log10_ckl))),
+               ("weak_scatter_fraction", float(np.sum(w * screens.weak))),
+               ("mean_irf_peak_loss_db", float(np.sum(w * screens.mean_irf_peak_loss_db)))]
+        for tag, prob in (("median", 0.5), ("p90", 0.9)):
+            q = mixture_quantiles(screens, prob)
+            out += [(f"peak_loss_{tag}_db", q["peak_loss_db"]), (f"resolution_ratio_{tag}", q["resolution_ratio"]),
+                    (f"shift_{tag}_m", q["shift_cells"] * self.si["azimuth_resolution_m"]),
+                    (f"islr_{tag}_db", q["islr_db"])]
+        if case.settings.montecarlo:
+            mc = mixture_monte_carlo(case.rng, self.acquisitions(case), self.screen_settings(case), screens)
+            out += [(f"mc_{name}", value) for name, value in mc.items()]
+        return tuple(out)
+
+
+class ScintillationSigma0(ScintillationTerm):
+    """sigma0 of a distributed target through the screen (``DistributedTargetFactor``): energy that the shift and
+    the halo move out of the product cell, replaced by the neighbours' in proportion to 1 - contrast."""
+
+    type_name = "scintillation_sigma0"
+    summary = "scintillation: sigma0 bias and spread of a distributed target (energy leaving the product cell)"
+    params = (*SCREEN_PARAMS,
+              Param("cell_length_m", "float", "azimuth length of the product cell (200 m: the BIOMASS AGB product)",
+                    default=200.0, unit="m", exclusive_minimum=0.0),
+              Param("contrast", "float", "1 - (sigma0 of the surroundings and ambiguity zones) / (sigma0 of the "
+                    "cell): 0 a homogeneous forest, 1 dark surroundings (the upper bound)", default=1.0,
+                    minimum=0.0, maximum=1.0),
+              source_param("scintillation_sigma0"))
+
+    def effect(self, case, model):
+        screens = self.screens(case)
+        return DistributedTargetFactor(
+            self.source, CKL_LEVEL, "scintillation: energy moved out of the product cell (distributed target)",
+            weight=tuple(screens.weight), shape=tuple(screens.shape), scale=tuple(screens.scale),
+            shift_sd_cells=tuple(screens.shift_sd_cells),
+            halo_share=tuple(screens.halo_share(self.si["cell_length_m"] / self.si["azimuth_resolution_m"])),
+            cell_fraction=self.si["azimuth_resolution_m"] / self.si["cell_length_m"], contrast=self.si["contrast"],
+            outputs=self.irf_outputs(case, screens))
+
+
+class ScintillationCalibration(ScintillationTerm):
+    """The gain error left by calibrating on the peak power of a point calibrator seen through the screen
+    (``CalibratorFactor``), at the calibration site (default New Norcia, the BIOMASS transponder)."""
+
+    type_name = "scintillation_calibration"
+    summary = "scintillation: gain error from the peak loss of a point calibrator (transponder, corner reflector)"
+    params = (*SCREEN_PARAMS,
+              Param("site_lat_deg", "float", "geocentric latitude of the calibration site (New Norcia by default)",
+                    default=-31.05, unit="deg", minimum=-90.0, maximum=90.0),
+              Param("site_lon_deg", "float", "longitude of the calibration site (New Norcia by default)",
+                    default=116.19, unit="deg", minimum=-360.0, maximum=360.0),
+              Param("calibrations", "int", "number of calibrator acquisitions the gain is averaged over",
+                    default=2, minimum=1),
+              source_param("scintillation_calibration"))
+
+    def effect(self, case, model):
+        screens = self.screens(case, self.si["site_lat_rad"], self.si["site_lon_rad"])
+        mean_z, second_z = peak_log_loss(case.rng, self.acquisitions(case), self.screen_settings(case), screens)
+        mean_y = float(np.sum(screens.weight * mean_z))
+        var_y = float(np.sum(screens.weight * second_z)) - mean_y * mean_y
+        outputs = (("calibrator_peak_loss_mean_db", 10.0 / math.log(10.0) * mean_y),
+                   *self.irf_outputs(case, screens))
+        return CalibratorFactor(self.source, CKL_LEVEL, "scintillation: calibrator peak loss (gain error)",
+                                mean_log=mean_y, var_log=max(var_y, 0.0) / self.si["calibrations"], outputs=outputs)
+
+
+class ScintillationFaraday(ScintillationTerm):
+    """Co-polarised power leaking into HV from the spread of the Faraday rotation inside the estimation window
+    (``FaradayLeakage``)."""
+
+    type_name = "scintillation_faraday"
+    summary = "scintillation: co-pol leakage into HV from the Faraday-rotation spread inside its window"
+    needs = ("geometry", "scene.covariance")
+    params = (*SCREEN_PARAMS,
+              Param("window_km", "float", "side of the Faraday-rotation estimation window on the ground (Quegan "
+                    "et al. 2018, Section 2: 2 km)", default=2.0, unit="km", exclusive_minimum=0.0),
+              source_param("scintillation_faraday"))
+
+    def effect(self, case, model):
+        geometry = case["geometry"]
+        settings = self.screen_settings(case)
+        screens = self.screens(case)
+        orbit_height = geometry.orbit.radius_m - EARTH_MEAN_RADIUS
+        b_par = parallel_field(geometry, settings.height_m)
+        s2 = window_variance(self.si["window_m"], b_par, settings.frequency_hz, 10.0 ** screens.log10_ckl,
+                             settings.spectral_index, settings.outer_scale_m, settings.height_m, orbit_height,
+                             screens.zenith)
+        c = np.asarray(case["scene.covariance"].matrix)
+        copol = float(np.real(c[0, 0] + c[2, 2] + 2.0 * c[0, 2]))
+        channels = getattr(model, "channels", None) or (model.channel,)
+        outputs = (("faraday_spread_rms_deg", float(np.degrees(np.sqrt(np.sum(screens.weight * s2))))),)
+        return FaradayLeakage(self.source, CKL_LEVEL, "scintillation: Faraday-rotation spread inside the window",
+                              scale=tuple(1.0 if ch == "hv" else 0.0 for ch in channels), looks=case.settings.looks,
+                              weight=tuple(screens.weight), window_variance=tuple(s2), copol_power=copol,
+                              outputs=outputs)
+
+
+__all__ = ["ScintillationCalibration", "ScintillationFaraday", "ScintillationSigma0", "ScintillationTerm"]
