@@ -36,6 +36,7 @@ QUICK = {
                            "ionosphere.table_lat_range_deg=[-30,70]", "ionosphere.table_lon_range_deg=[-20,60]",
                            "requirements.0.max_percent=29"),  # a region at 10 deg; a limit the boreal cells fail
     "biomass_multichannel": (*_MC, "requirements.0.curve_points=9"),
+    "biomass_rfi": ("sweep.parameters.error_terms.0.band_fraction_percent=[0,20]",),  # the ends of the range
     "nisar_lband": ("simulation.realisations=200", "simulation.looks=2000", "orbit.acquisitions.step_days=120",
                     "orbit.swath_samples=2", "ionosphere.variability_nodes=2"),
     "uavsar_ahmed2014": _REGRESSION,

@@ -66,6 +66,7 @@ class _Wrapped:
 
     def scalars(self) -> dict:
         out = dict(self.base.scalars())
+        out.update(self.effect.outputs)
         if self.unavailable is None:
             m = self.current()
             out["analytic.with_error_terms_mean"] = float(m.mean)
