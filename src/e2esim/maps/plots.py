@@ -27,6 +27,9 @@ from e2esim.report.plot_base import PlotSkipped, save, save_drawn
 
 MONTH_NAMES = ("Jan", "Feb", "Mar", "Apr", "May", "Jun", "Jul", "Aug", "Sep", "Oct", "Nov", "Dec")
 PASS_FAIL = ListedColormap(["#d7301f", "#1a9850"])
+CELL_STATES = ListedColormap(["#d7301f", "#1a9850", "0.45", "#6a51a3"])
+"""Colours of a cell's state (``requirement<j>_state`` of results.nc): fails, passes, not applicable, not acquired."""
+STATE_NAMES = ("fails", "passes", "not applicable", "not acquired")
 LAND_GREY = "0.86"
 
 
@@ -63,10 +66,20 @@ def _quantities(ds, result) -> list:
             out.append((f"map_agb_error{j if j else ''}", f"AGB error checked by '{name}' ({verdict.unit}; limit "
                         f"{limit:g}{', the black line' if shown else ''})", v, "YlOrRd", low, high,
                         limit if shown else None))
-        if f"requirement{j}_passed" in ds:
+        if f"requirement{j}_state" in ds:
+            out.append((f"map_verdict{j if j else ''}", f"verdict of '{name}': green passes, red fails, dark grey "
+                        "not applicable, purple not acquired", _states(ds[f"requirement{j}_state"].values),
+                        CELL_STATES, -0.5, 3.5, None))
+        elif f"requirement{j}_passed" in ds:
             out.append((f"map_verdict{j if j else ''}", f"verdict of '{name}': green passes, red fails",
                         ds[f"requirement{j}_passed"].values, PASS_FAIL, -0.5, 1.5, None))
     return out
+
+
+def _states(values) -> np.ndarray:
+    """Cell states as floats, NaN where there is no case (the fill value -1 in memory, NaN once read back)."""
+    v = np.asarray(values, float)
+    return np.where(v >= 0, v, np.nan)
 
 
 def _range(values, limit=None) -> tuple:
@@ -96,11 +109,22 @@ def plot_map_sweep(result, folder: Path, options: dict) -> list:
                     panels.show(values[s, p], cmap, vmin, vmax, limit, f"{title}\n{pass_name} pass, solar {solar}")
                     name = save_drawn(panels.fig, folder, f"{stem}_{pass_name}_{solar}")
                     out.append((name, f"Map of the {title}, {pass_name} pass, solar {solar}, one panel per month; "
-                                "grey: land left out of the sweep (no forest, or no forest class), white: ocean. "
+                                "light grey: land left out of the sweep (no forest, or no forest class), white: ocean"
+                                f"{_not_acquired_note(ds)}. "
                                 f"Cells of {panels.step:g} deg."))
     finally:
         plt.close(panels.fig)
     return out
+
+
+def _not_acquired_note(ds) -> str:
+    """What the map leaves out as not acquired, for a caption ("" without an acquisition mask)."""
+    if "not_acquired_mask" not in ds.attrs:
+        return ""
+    return (f"; not acquired: {ds.attrs['not_acquired_mask']} ({int(ds.attrs['not_acquired_cells'])} forest cells, "
+            f"{float(ds.attrs['not_acquired_forest_area_km2']) / 1e6:.2f} million km² of forest, "
+            f"{100 * float(ds.attrs['not_acquired_forest_area_fraction']):.1f} % of the map's), purple on the verdict "
+            "maps and left out of every share")
 
 
 class MonthPanels:
@@ -157,6 +181,8 @@ class MonthPanels:
         self.bar = bar = self.fig.colorbar(ScalarMappable(Normalize(vmin, vmax), cmap), cax=cax)
         if cmap is PASS_FAIL:
             bar.set_ticks([0, 1], labels=["fails", "passes"])
+        elif cmap is CELL_STATES:
+            bar.set_ticks([0, 1, 2, 3], labels=list(STATE_NAMES))
         if limit is not None and np.isfinite(limit):
             bar.ax.axhline(limit, color="k", lw=1.5)
         bar.ax.tick_params(labelsize=7)
@@ -209,4 +235,4 @@ def plot_map_fraction(result, folder: Path, options: dict) -> list:
     return [(save(fig, folder, "map_fraction"),
              "Share of the forest area of the map that meets each requirement, by month: the forest areas (cell "
              "area, cos latitude, times forest fraction) of the passing cells over those of every swept cell, for "
-             "each pass and solar level.")]
+             f"each pass and solar level{_not_acquired_note(ds)}.")]
