@@ -20,7 +20,7 @@ from e2esim.maps.acquisition import (
     in_polygon,
 )
 from e2esim.maps.grid import map_grid
-from e2esim.maps.netcdf import cell_states
+from e2esim.maps.netcdf import cell_states, verdict_changes
 from e2esim.runner.scenario import Scenario
 from quick_runs import SCENARIOS
 
@@ -185,3 +185,43 @@ def test_a_map_run_marks_the_zones_not_acquired_everywhere_it_reports(tmp_path):
     report = (folder / "report.md").read_text()
     assert f"Not acquired: {excluded['cells']} forest cells" in report
     assert "not acquired" in report and (folder / "map_verdict_dawn_max.png").is_file()
+
+
+def test_verdict_changes_of_an_error_term():
+    """1 where the cell fails with the source and passes without it (margin without >= 0), -1 the reverse, 0 the
+    same, -2 without a verdict."""
+    passed = np.array([0.0, 1.0, 1.0, 0.0, np.nan])
+    without = np.array([0.5, -0.1, 0.2, -0.3, 1.0])
+    assert verdict_changes(passed, without).tolist() == [1, -1, 0, 0, -2]
+
+
+def test_a_map_shows_where_an_error_term_changes_the_verdict(tmp_path):
+    """Any error term switched on in a map sweep (here the rfi term, by --set): results.nc has, per requirement and
+    per source, where it changes the verdict in each month (the margin without it is the margin plus its
+    contribution) and the share of the forest area it breaks; the report maps it (issue 24, Build 6)."""
+    overrides = {"sweep.map.step_deg": 30, "ionosphere.grid_step_deg": 30, "sweep.map.months": [1, 7],
+                 "sweep.map.passes": ["dawn"], "sweep.map.not_acquired": "none", "output.plots": ["global_maps"],
+                 "error_terms": [{"type": "rfi", "band_fraction_percent": 20.0, "compensated": True, "looks": 92}]}
+    run = api.run(SCENARIOS / "biomass_global_map.yaml", set=overrides, output=tmp_path / "run")
+    folder = tmp_path / "run"
+    margin = np.asarray(run.margin[:, 1], float)
+    contribution = np.asarray(run.details[1]["contribution.rfi_looks_percent"], float)
+    assert np.any(margin < 0) and np.any(margin + contribution >= 0)  # the lost looks break the verdict somewhere
+    with xr.open_dataset(folder / "results.nc") as ds:
+        change = ds["requirement1_changed_by_rfi_looks"]
+        assert change.attrs["flag_meanings"] == "rescues unchanged breaks"
+        values = change.values
+        lat, lon = np.asarray(run.inputs["scene.lat_deg"]), np.asarray(run.inputs["scene.lon_deg"])
+        month = np.asarray(run.inputs["ionosphere.month"])
+        for k in range(len(margin)):
+            cell = values[0, 0, [1, 7].index(int(month[k])), np.searchsorted(ds["lat"].values, lat[k]),
+                          np.searchsorted(ds["lon"].values, lon[k])]
+            assert cell == (1 if margin[k] < 0 <= margin[k] + contribution[k] else 0)
+        assert np.all(values[np.isnan(ds["requirement1_passed"].values)] == -2) or \
+            np.all(np.isnan(values[np.isnan(ds["requirement1_passed"].values)]))
+        broken = ds["requirement1_broken_by_rfi_looks_area_fraction"].values
+        assert np.all((broken > 0) & (broken <= 1))
+        notch = ds["requirement1_changed_by_rfi_notch"].values  # compensated: changes nothing
+        assert np.all(notch[np.isfinite(notch)] <= 0) and not np.any(notch == 1)
+    assert (folder / "map_change1_rfi_looks_dawn_max.png").is_file()
+    assert not (folder / "map_change1_rfi_notch_dawn_max.png").exists()

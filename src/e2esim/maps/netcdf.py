@@ -65,6 +65,9 @@ class MapColumns:
     units: dict
     requirements: list
     provenance: dict
+    term_margins: dict = None
+    """{(j, source): (n,) margin of requirement j without the error term's source} for every source of the
+    chain's error terms (``margin + contribution.<source>``; ``term_margins``): where a term changes the verdict."""
 
     @classmethod
     def of(cls, result) -> MapColumns:
@@ -75,7 +78,22 @@ class MapColumns:
         return cls(result.scenario.name, result.scenario.resolved, result.input_columns(),
                    {k: table.scalar(k).astype(float, copy=False) for k in names},
                    {k: scalar_unit(k, requirement_units) for k in names}, list(result.requirement_names),
-                   dict(result.provenance))
+                   dict(result.provenance), term_margins(result))
+
+
+def term_margins(result) -> dict:
+    """{(j, source): margin of requirement j without ``source`` per case} for the sources of the error terms of the
+    run's chain (``ErrorTerm.sources``): the margin plus the source's contribution (the checked value less the
+    value without it, ``e2esim.requirements.attribution``), NaN where a case has no attribution."""
+    cases = result.scenario.cases
+    sources = [s for m in (cases[0].modules if cases else ()) if m.kind == "error_terms" for s in m.sources]
+    table, out = result.table, {}
+    for j, r in enumerate(table.requirements if table.n else ()):
+        for source in sources:
+            key = next((k for k in r.details if k.startswith(f"contribution.{source}_")), None)
+            if key is not None:
+                out[(j, source)] = np.asarray(r.margin, float) + table.detail(j, key)
+    return out
 
 
 def map_dataset_of(result):
@@ -150,6 +168,20 @@ def map_dataset(results):
             data[f"requirement{j}_state"] = xr.Variable(DIMS, cell_states(data[key].values, has_case, not_acquired),
                                                         attrs=STATE_ATTRS | {"long_name": f"state of each cell for "
                                                                              f"requirement {j}: {name}"})
+    for (j, source), margin in (getattr(results, "term_margins", None) or {}).items():
+        passed = data.get(_var_name(f"requirement{j}.passed", {}))
+        if passed is not None:
+            without = np.full(shape, np.nan)
+            without[index] = margin
+            name = results.requirements[j]
+            change = verdict_changes(passed.values, without)
+            data[f"requirement{j}_changed_by_{source}"] = xr.Variable(DIMS, change, attrs=CHANGE_ATTRS | {
+                "long_name": f"where the error source {source} changes the verdict of requirement {j}: {name}"})
+            broken = np.where(change > -2, (change == 1).astype(float), np.nan)
+            data[f"requirement{j}_broken_by_{source}_area_fraction"] = xr.Variable(
+                DIMS[:3], area_fraction(broken, forest_weight), attrs={
+                    "units": "1", "long_name": f"share of the swept forest area that fails requirement {j} only "
+                    f"because of the error source {source}: {name}"})
     coords = {
         "solar": ("solar", np.array(solar, dtype=object), {"long_name": "solar activity level"}),
         "pass": ("pass", np.array(passes, dtype=object), {"long_name": "satellite pass (by its equator crossing)"}),
@@ -179,6 +211,22 @@ STATE_ATTRS = {"units": "1", "flag_values": np.array([0, 1, 2, 3], np.int8),
                "comment": "fill (-1): no case (ocean, no forest, or a latitude the pass does not see); not_acquired: a "
                "forest cell in the acquisition mask (sweep.map.not_acquired*)"}
 """Attributes of the ``requirement<j>_state`` variables: the four states of a map cell."""
+
+
+CHANGE_ATTRS = {"units": "1", "flag_values": np.array([-1, 0, 1], np.int8), "_FillValue": np.int8(-2),
+                "flag_meanings": "rescues unchanged breaks",
+                "comment": "1 (breaks): fails with the error term's source, passes without it; -1 (rescues): passes "
+                "with it, fails without it (an offsetting bias); 0: the same verdict; fill (-2): no verdict"}
+"""Attributes of the ``requirement<j>_changed_by_<source>`` variables (``verdict_changes``)."""
+
+
+def verdict_changes(passed, margin_without) -> np.ndarray:
+    """Per cell: 1 where the verdict fails (``passed`` 0) and passes without the source (its margin without it
+    >= 0), -1 where the reverse, 0 where the same, -2 where there is no verdict (NaN)."""
+    without = margin_without >= 0.0
+    with np.errstate(invalid="ignore"):
+        change = np.where(passed > 0.5, np.where(without, 0, -1), np.where(without, 1, 0))
+    return np.where(np.isfinite(passed) & np.isfinite(margin_without), change, -2).astype(np.int8)
 
 
 def cell_states(passed, has_case, not_acquired) -> np.ndarray:

@@ -30,6 +30,8 @@ PASS_FAIL = ListedColormap(["#d7301f", "#1a9850"])
 CELL_STATES = ListedColormap(["#d7301f", "#1a9850", "0.45", "#6a51a3"])
 """Colours of a cell's state (``requirement<j>_state`` of results.nc): fails, passes, not applicable, not acquired."""
 STATE_NAMES = ("fails", "passes", "not applicable", "not acquired")
+CHANGES = ListedColormap(["#2b8cbe", "#ffffbf", "#e66101"])
+"""Colours of ``requirement<j>_changed_by_<source>``: the source rescues the verdict, leaves it, breaks it."""
 LAND_GREY = "0.86"
 
 
@@ -73,6 +75,14 @@ def _quantities(ds, result) -> list:
         elif f"requirement{j}_passed" in ds:
             out.append((f"map_verdict{j if j else ''}", f"verdict of '{name}': green passes, red fails",
                         ds[f"requirement{j}_passed"].values, PASS_FAIL, -0.5, 1.5, None))
+        for key in [k for k in ds.data_vars if str(k).startswith(f"requirement{j}_changed_by_")]:
+            source = str(key)[len(f"requirement{j}_changed_by_"):]
+            v = ds[key].values.astype(float)
+            if not np.any(np.abs(v[v >= -1]) > 0):
+                continue  # the source changes no verdict anywhere: results.nc says so, no figure
+            out.append((f"map_change{j if j else ''}_{source}", f"where the error source {source} changes the verdict "
+                        f"of '{name}': orange it fails only with it, blue it passes only with it",
+                        np.where(v >= -1, v, np.nan), CHANGES, -1.5, 1.5, None))
     return out
 
 
@@ -183,6 +193,8 @@ class MonthPanels:
             bar.set_ticks([0, 1], labels=["fails", "passes"])
         elif cmap is CELL_STATES:
             bar.set_ticks([0, 1, 2, 3], labels=list(STATE_NAMES))
+        elif cmap is CHANGES:
+            bar.set_ticks([-1, 0, 1], labels=["passes only with it", "unchanged", "fails only with it"])
         if limit is not None and np.isfinite(limit):
             bar.ax.axhline(limit, color="k", lw=1.5)
         bar.ax.tick_params(labelsize=7)
