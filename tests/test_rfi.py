@@ -160,3 +160,16 @@ def test_bad_fraction_maps_exit_with_status_2(tmp_path, capsys, layout):
     assert main(["validate", str(file)]) == 2
     err = capsys.readouterr().err
     assert "error_terms[0].fraction_map" in err and str(path) in err and expected in err
+
+
+@pytest.mark.parametrize("value", [120.0, -5.0])
+def test_an_affected_fraction_over_1_or_negative_exits_with_status_2(tmp_path, capsys, value):
+    """Issue 24, Done when: an affected fraction over 1 (100 %) or negative: a message naming the file, the key and
+    the value, exit status 2."""
+    scenario = {k: v for k, v in SCENARIO.items() if k != "sweep"}
+    scenario["error_terms"] = [{"type": "rfi", "band_fraction_percent": value}]
+    file = tmp_path / "s.yaml"
+    file.write_text(yaml.safe_dump(scenario))
+    assert main(["validate", str(file)]) == 2
+    err = capsys.readouterr().err
+    assert f"{file}" in err and f"error_terms[0].band_fraction_percent: {value:g}" in err

@@ -76,6 +76,9 @@ class RFITerm(ErrorTerm):
         super().setup()
         c = self.si
         self.raster = None
+        # the notched response of a fixed fraction, once per module (one per distinct configuration of a sweep)
+        self.notch = None if c["fraction_map"] else notch_response(c["band_fraction_fraction"] or 0.0,
+                                                                     c["notch_position"])
         if c["fraction_map"]:
             path = Path(c["fraction_map"]).expanduser()
             scenario = self.location.source
@@ -110,7 +113,7 @@ class RFITerm(ErrorTerm):
         c, name = self.si, self.source
         notch_source, looks_source, residual_source = self.sources
         f_b, f_t = self.band_fraction(case), c["time_fraction_fraction"]
-        notch = notch_response(f_b, c["notch_position"])
+        notch = self.notch or notch_response(f_b, c["notch_position"])
         looks = c["looks"] or case.settings.looks
         kept = notch.looks_factor * (1.0 - f_t)
         gain = notch.energy_ratio * (1.0 - f_t)
