@@ -1,7 +1,8 @@
 """Report plots of map sweeps (``e2esim.maps.grid``): ``global_maps``, filled latitude-longitude maps of
-the Faraday rotation, the sigma_hv error, the AGB error and the verdict for every month (panels), pass and solar
-level (one figure each); ``map_fraction``, the share of the forest area that meets each requirement, by month
-(each cell weighted by its forest area, ``forest_area_weight`` of the map dataset).
+the Faraday rotation, the sigma_hv error, the AGB error and the verdict (the cell's state: passes, fails, not
+applicable, not acquired) for every month (panels), pass and solar level (one figure each), and where each source
+of the chain's error terms changes a verdict; ``map_fraction``, the share of the forest area that meets each
+requirement, by month (each cell weighted by its forest area, ``forest_area_weight`` of the map dataset).
 
 Both draw the map dataset of the run (``e2esim.maps.netcdf.map_dataset_of``, the content of results.nc): the
 report computes nothing physical (an area weight is bookkeeping; the sigma_hv error is shown relative to sigma_hv).
