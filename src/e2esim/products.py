@@ -142,7 +142,9 @@ BACKSCATTER_ERROR = Product(
     units=((r"analytic\.(mean|sd|bias_\w+)", SIGMA), (r"analytic\.(variance|var_\w+)", SIGMA_SQUARED),
            (r"montecarlo\.(mean|sd|mean_se)", SIGMA), (r"montecarlo\.(variance|variance_se)", SIGMA_SQUARED),
            (r"montecarlo\.(samples|realisations)", COUNT),
-           (r"montecarlo\.(skewness|excess_kurtosis|ks_distance)", DIMENSIONLESS), (r"comparison\.\w+", DIMENSIONLESS)))
+           (r"montecarlo\.(skewness|excess_kurtosis|ks_distance)", DIMENSIONLESS), (r"comparison\.\w+", DIMENSIONLESS),
+           (r"error_term\.\w+\.(band_fraction|time_fraction|energy_ratio|looks_factor|resolution_ratio)",
+            DIMENSIONLESS)))
 BACKSCATTER_BUDGET = Product(
     "backscatter.budget", BackscatterBudget,
     "random-error budget of sigma0 at the product scale (Ahmed et al. 2014): relative SDs of speckle and noise, "

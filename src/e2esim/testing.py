@@ -302,8 +302,9 @@ def _check_error_term(module, copy, case) -> None:
     name = type(module).__name__
     case = case or reference_case(("backscatter.error", *module.needs), module.uses)
     models = [m.wrap(case["backscatter.error"], _with_rng(case, 123)) for m in (module, copy)]
-    assert module.source in models[0].sources and module.source in models[0].levels, (
-        f"{name}: the wrapped model lacks the source {module.source!r}")
+    for source in module.sources:
+        assert source in models[0].sources and source in models[0].levels, (
+            f"{name}: the wrapped model lacks the source {source!r}")
     assert _fingerprint(models[0].scalars()) == _fingerprint(models[1].scalars()), (
         f"{name}.wrap is not deterministic for a given rng")
 

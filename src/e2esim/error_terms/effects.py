@@ -36,6 +36,9 @@ class Effect(ABC):
     level: float
     description: str = ""
     draws: tuple | None = None
+    outputs: tuple = ()
+    """(name, value) pairs: output scalars the term reports beside the model's (e.g. the notched impulse
+    response's metrics of ``e2esim.error_terms.rfi_modules``)."""
 
     @abstractmethod
     def joint(self, mean, cov, values, level):
@@ -103,6 +106,21 @@ class GammaFactor(IntensityFactor):
 
     def factors(self, rng, shape):
         return rng.gamma(1.0 / self.level, self.level, shape)
+
+
+@dataclass(frozen=True)
+class FixedGain(IntensityFactor):
+    """A known gain loss: every channel's intensity multiplied by ``g = 1 - level`` (no spread), e.g. the energy a
+    notch filter removes from a distributed target's spectrum when the processor does not restore it
+    (docs/theory/rfi.md). With E[g] = 1 - level and Var[g] = 0 the equations of ``IntensityFactor`` give
+    E[e'_p] = m_p g - sigma_p level and Cov[e'_p, e'_q] = g^2 C_pq."""
+
+    def factor_moments(self, level):
+        lv = np.asarray(level, dtype=float)
+        return 1.0 - lv, np.zeros_like(lv)
+
+    def factors(self, rng, shape):
+        return np.full(shape, 1.0 - self.level)
 
 
 @dataclass(frozen=True)
@@ -192,4 +210,4 @@ class ExtraVariance(Effect):
         return relative + math.sqrt(self.level) * self.draws[0]
 
 
-__all__ = ["AddedPower", "Effect", "ExtraVariance", "GammaFactor", "IntensityFactor", "LogNormalGain"]
+__all__ = ["AddedPower", "Effect", "ExtraVariance", "FixedGain", "GammaFactor", "IntensityFactor", "LogNormalGain"]

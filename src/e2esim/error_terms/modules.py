@@ -45,6 +45,11 @@ class ErrorTerm(Module):
     def source(self) -> str:
         return self.si["source"]
 
+    @property
+    def sources(self) -> tuple:
+        """The sources (and levels) the term adds: its ``source``; a term that adds several says which."""
+        return (self.source,)
+
     def effect(self, case, model):
         """The ``Effect`` of this term on ``model`` (the error model it wraps) in ``case``."""
         raise NotImplementedError

@@ -37,10 +37,10 @@ class ErrorTermStack:
         self.provides = propagation.provides
         self.needs = _union([propagation.needs, *(t.needs for t in self.terms)])
         self.uses = tuple(n for n in _union([propagation.uses, *(t.uses for t in self.terms)]) if n not in own)
-        sources = [t.source for t in self.terms]
+        sources = [s for t in self.terms for s in t.sources]
         repeated = sorted({s for s in sources if sources.count(s) > 1})
         if repeated:
-            term = next(t for t in self.terms if t.source == repeated[0])
+            term = next(t for t in self.terms if repeated[0] in t.sources)
             raise ConfigError(term.location.child("source"), f"two error terms have the source {repeated[0]!r}",
                               "give each error term its own source name")
         for term in self.terms:

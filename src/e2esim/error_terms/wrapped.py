@@ -66,8 +66,7 @@ class _Wrapped:
 
     def scalars(self) -> dict:
         out = dict(self.base.scalars())
-        # an effect may state what it was computed from (e.g. the screen of a scintillation term): <source>.<name>
-        out.update({f"{self.effect.source}.{name}": value for name, value in getattr(self.effect, "outputs", ())})
+        out.update(self.effect.outputs)
         if self.unavailable is None:
             m = self.current()
             out["analytic.with_error_terms_mean"] = float(m.mean)

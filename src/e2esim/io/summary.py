@@ -13,6 +13,7 @@ import numpy as np
 
 from e2esim.atomic import write_text_atomic
 from e2esim.io.error_budget import agb_budget, source_groups, verdict_budget
+from e2esim.maps.netcdf import not_acquired_summary
 from e2esim.runner.no_effect import no_effect
 
 
@@ -84,6 +85,9 @@ def summary_dict(result) -> dict:
     head = {"scenario": result.scenario.name, **result.provenance, "n_cases": n,
             "requirements": requirement_overview(result),
             "settings_without_effect": [f.as_dict() for f in no_effect(result)]}
+    excluded = not_acquired_summary(result)  # a map sweep's cells the mission does not acquire
+    if excluded is not None:
+        head["not_acquired"] = excluded
     if n > LARGE_RUN_CASES:
         return _clean({**head, "cases_omitted": f"{n} cases, more than {LARGE_RUN_CASES}: every case's inputs, "
                        "results and verdicts are in results.h5", "cases": []})

@@ -6,7 +6,9 @@ The grid is that of the global climatology (``e2esim.faraday.global_climatology.
 ``min_land_percent`` of it, GSHHG shoreline: ``e2esim.scene.land_mask``), when at least ``min_forest_percent``
 of it is forest in the land-cover product ``forest_cover`` (MODIS 2019 IGBP classes:
 ``e2esim.scene.forest_cover``; deserts, ice and water are never forest) and, with ``forest_only``, when the
-scenario's scene (type ``agb_map``) gives it a forest class (``e2esim.scene.map_forest``). A cell stands for
+scenario's scene (type ``agb_map``) gives it a forest class (``e2esim.scene.map_forest``), and when the mission
+acquires it (``not_acquired``: a cell in the acquisition mask, ``e2esim.maps.acquisition``, is "not acquired",
+``MapGrid.not_acquired``, and has no case). A cell stands for
 its forest area (its area times its forest fraction) in the share of the forest that meets a requirement
 (``e2esim.maps.netcdf``). Each case sets
 
@@ -30,6 +32,7 @@ from e2esim.errors import ConfigError, Location, ModuleLookupError, PhysicsInput
 from e2esim.extras import require_extra
 from e2esim.faraday.global_climatology import grid_axes
 from e2esim.limits import MAX_MAP_CASES, check_count
+from e2esim.maps.acquisition import PRESETS, not_acquired_cells
 from e2esim.params import Ordered, Param, find_param, to_si, validate_section
 from e2esim.scene.forest_cover import DEFAULT_FOREST_GROUPS, FOREST_GROUPS, PRODUCTS
 
@@ -60,6 +63,13 @@ MAP_PARAMS = (
           choices=("dawn", "dusk", "ascending", "descending")),
     Param("solar", "str", "solar activity levels (min: F10.7 70 sfu, max: 180 sfu, f107: the ionosphere's f107_sfu)",
           default=("max",), variable_length=True, choices=("min", "max", "f107")),
+    Param("not_acquired", "str", "where the mission does not acquire (cells left out as 'not acquired'): none, or "
+          "tracking_radars (North America, Europe and the Arctic; e2esim.maps.acquisition)", default="none",
+          choices=PRESETS),
+    Param("not_acquired_polygon_deg", "float", "a polygon of cells not acquired: lon1, lat1, lon2, lat2, ... (deg, "
+          "at least three vertices)", default=None, nullable=True, variable_length=True, unit="deg", convert=False),
+    Param("not_acquired_file", "str", "NetCDF raster of cells not acquired: variable not_acquired (1 not acquired, "
+          "0 acquired) over lat and lon", default=None, nullable=True),
     Ordered("lat_range_deg"),
     Ordered("lon_range_deg"),
 )
@@ -88,6 +98,8 @@ class MapGrid:
     passes: tuple
     solar: tuple
     seen: dict
+    not_acquired: np.ndarray | None = None
+    """Cells (bool, n_lat x n_lon) that would be swept but lie in the acquisition mask (none swept)."""
 
 
 def map_section(sweep) -> dict | None:
@@ -132,8 +144,10 @@ def map_grid(section, where: Location, scenario: dict | None = None) -> MapGrid:
         if m["forest_only"]:
             swept &= _forest_cells(scenario, lat, lon, where)
         seen = _seen_latitudes(scenario, lat, passes, where) or seen
+    not_acquired = swept & not_acquired_cells(m, lat, lon, where)
+    swept &= ~not_acquired
     return MapGrid(lat, lon, float(m["step_deg"]), land, forest, swept, tuple(dict.fromkeys(m["months"])), passes,
-                   tuple(dict.fromkeys(m["solar"])), seen)
+                   tuple(dict.fromkeys(m["solar"])), seen, not_acquired)
 
 
 def map_axes(m: dict) -> tuple:
@@ -167,7 +181,8 @@ def map_table(section, where: Location, scenario: dict | None = None) -> tuple:
     i, j = np.nonzero(grid.swept)
     n = i.size * len(grid.months) * len(grid.passes) * len(grid.solar)
     if n == 0:
-        raise ConfigError(where, "no cell of the grid is swept (no land, or no forest, in the region)",
+        raise ConfigError(where, "no cell of the grid is swept (no land, or no forest, in the region, or none "
+                          "acquired)",
                           "widen lat_range_deg / lon_range_deg, lower min_forest_percent, or set land_only or "
                           "forest_only to false or forest_cover to none")
     check_count("map sweep cases", n, MAX_MAP_CASES, where.describe())

@@ -22,9 +22,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from e2esim.atomic import atomic_path
-from e2esim.errors import one_line
+from e2esim.errors import ConfigError, Location, PhysicsInputError, one_line
 from e2esim.extras import optional_import
 from e2esim.io.scalar_units import scalar_description, scalar_unit
+from e2esim.maps.acquisition import describe_mask, excluded_forest, not_acquired_cells
 from e2esim.maps.grid import (
     LAT_KEYS,
     LON_KEYS,
@@ -33,7 +34,9 @@ from e2esim.maps.grid import (
     SOLAR_KEY,
     forest_cover_citation,
     grid_of_section,
+    map_grid,
     map_section,
+    map_settings,
 )
 
 DIMS = ("solar", "pass", "month", "lat", "lon")
@@ -62,6 +65,9 @@ class MapColumns:
     units: dict
     requirements: list
     provenance: dict
+    term_margins: dict = None
+    """{(j, source): (n,) margin of requirement j without the error term's source} for every source of the
+    chain's error terms (``margin + contribution.<source>``; ``term_margins``): where a term changes the verdict."""
 
     @classmethod
     def of(cls, result) -> MapColumns:
@@ -72,7 +78,22 @@ class MapColumns:
         return cls(result.scenario.name, result.scenario.resolved, result.input_columns(),
                    {k: table.scalar(k).astype(float, copy=False) for k in names},
                    {k: scalar_unit(k, requirement_units) for k in names}, list(result.requirement_names),
-                   dict(result.provenance))
+                   dict(result.provenance), term_margins(result))
+
+
+def term_margins(result) -> dict:
+    """{(j, source): margin of requirement j without ``source`` per case} for the sources of the error terms of the
+    run's chain (``ErrorTerm.sources``): the margin plus the source's contribution (the checked value less the
+    value without it, ``e2esim.requirements.attribution``), NaN where a case has no attribution."""
+    cases = result.scenario.cases
+    sources = [s for m in (cases[0].modules if cases else ()) if m.kind == "error_terms" for s in m.sources]
+    table, out = result.table, {}
+    for j, r in enumerate(table.requirements if table.n else ()):
+        for source in sources:
+            key = next((k for k in r.details if k.startswith(f"contribution.{source}_")), None)
+            if key is not None:
+                out[(j, source)] = np.asarray(r.margin, float) + table.detail(j, key)
+    return out
 
 
 def map_dataset_of(result):
@@ -126,13 +147,41 @@ def map_dataset(results):
     data["forest_area_weight"] = xr.Variable(("lat", "lon"), forest_weight, attrs={
         "units": "1", "long_name": "forest area of each swept cell: cos(latitude) times its forest fraction, 0 where "
         "not swept" + (" (forest_cover none: every swept cell wholly forest)" if cover == "none" else "")})
+    mask_text = describe_mask(settings)
+    not_acquired = _not_acquired(section, results.resolved_scenario, settings, lat, lon) if mask_text else \
+        np.zeros(swept.shape, bool)
+    if mask_text:
+        data["not_acquired"] = xr.Variable(("lat", "lon"), not_acquired.astype(np.int8), attrs={
+            "units": "1", "flag_values": np.array([0, 1], np.int8), "flag_meanings": "acquired_or_not_forest "
+            "not_acquired", "long_name": "forest cells the mission does not acquire (the acquisition mask), left "
+            "out of the sweep and of the share meeting each requirement", "comment": f"mask: {mask_text}"})
+    has_case = np.zeros(shape, bool)
+    has_case[index] = True
     for j, name in enumerate(results.requirements):
         key = _var_name(f"requirement{j}.passed", {})
         if key in data:
             data[f"requirement{j}_area_fraction"] = xr.Variable(
                 DIMS[:3], area_fraction(data[key].values, forest_weight), attrs={
                     "units": "1", "long_name": f"share of the swept forest area meeting requirement {j}: {name}",
-                    "comment": "sum of forest_area_weight over cells that pass / over cells with a verdict"})
+                    "comment": "sum of forest_area_weight over cells that pass / over cells with a verdict; cells "
+                    "not acquired have none and are left out"})
+            data[f"requirement{j}_state"] = xr.Variable(DIMS, cell_states(data[key].values, has_case, not_acquired),
+                                                        attrs=STATE_ATTRS | {"long_name": f"state of each cell for "
+                                                                             f"requirement {j}: {name}"})
+    for (j, source), margin in (getattr(results, "term_margins", None) or {}).items():
+        passed = data.get(_var_name(f"requirement{j}.passed", {}))
+        if passed is not None:
+            without = np.full(shape, np.nan)
+            without[index] = margin
+            name = results.requirements[j]
+            change = verdict_changes(passed.values, without)
+            data[f"requirement{j}_changed_by_{source}"] = xr.Variable(DIMS, change, attrs=CHANGE_ATTRS | {
+                "long_name": f"where the error source {source} changes the verdict of requirement {j}: {name}"})
+            broken = np.where(change > -2, (change == 1).astype(float), np.nan)
+            data[f"requirement{j}_broken_by_{source}_area_fraction"] = xr.Variable(
+                DIMS[:3], area_fraction(broken, forest_weight), attrs={
+                    "units": "1", "long_name": f"share of the swept forest area that fails requirement {j} only "
+                    f"because of the error source {source}: {name}"})
     coords = {
         "solar": ("solar", np.array(solar, dtype=object), {"long_name": "solar activity level"}),
         "pass": ("pass", np.array(passes, dtype=object), {"long_name": "satellite pass (by its equator crossing)"}),
@@ -149,7 +198,67 @@ def map_dataset(results):
                                                                    "long_name": "F10.7 solar radio flux"})
     ds = xr.Dataset(data, coords=coords)
     ds.attrs.update(_global_attrs(results, step))
+    if mask_text:
+        excluded = excluded_forest(not_acquired, swept, forest, lat, step)
+        ds.attrs.update({"not_acquired_mask": mask_text, "not_acquired_cells": excluded["cells"],
+                         "not_acquired_forest_area_km2": excluded["forest_area_km2"],
+                         "not_acquired_forest_area_fraction": excluded["forest_area_fraction"]})
     return ds
+
+
+STATE_ATTRS = {"units": "1", "flag_values": np.array([0, 1, 2, 3], np.int8),
+               "flag_meanings": "fails passes not_applicable not_acquired", "_FillValue": np.int8(-1),
+               "comment": "fill (-1): no case (ocean, no forest, or a latitude the pass does not see); not_acquired: a "
+               "forest cell in the acquisition mask (sweep.map.not_acquired*)"}
+"""Attributes of the ``requirement<j>_state`` variables: the four states of a map cell."""
+
+
+CHANGE_ATTRS = {"units": "1", "flag_values": np.array([-1, 0, 1], np.int8), "_FillValue": np.int8(-2),
+                "flag_meanings": "rescues unchanged breaks",
+                "comment": "1 (breaks): fails with the error term's source, passes without it; -1 (rescues): passes "
+                "with it, fails without it (an offsetting bias); 0: the same verdict; fill (-2): no verdict"}
+"""Attributes of the ``requirement<j>_changed_by_<source>`` variables (``verdict_changes``)."""
+
+
+def verdict_changes(passed, margin_without) -> np.ndarray:
+    """Per cell: 1 where the verdict fails (``passed`` 0) and passes without the source (its margin without it
+    >= 0), -1 where the reverse, 0 where the same, -2 where there is no verdict (NaN)."""
+    without = margin_without >= 0.0
+    with np.errstate(invalid="ignore"):
+        change = np.where(passed > 0.5, np.where(without, 0, -1), np.where(without, 1, 0))
+    return np.where(np.isfinite(passed) & np.isfinite(margin_without), change, -2).astype(np.int8)
+
+
+def cell_states(passed, has_case, not_acquired) -> np.ndarray:
+    """State (int8, DIMS) of every cell: 0 fails, 1 passes, 2 not applicable (a case without a verdict), 3 not
+    acquired, -1 no case (``passed``: 1, 0 or NaN per cell; ``not_acquired``: (lat, lon))."""
+    state = np.where(has_case, np.where(np.isnan(passed), 2, (passed > 0.5).astype(np.int8)), -1).astype(np.int8)
+    state[..., not_acquired] = 3
+    return state
+
+
+def _not_acquired(section, scenario, settings, lat, lon) -> np.ndarray:
+    """The cells the map sweep left out as not acquired (``MapGrid.not_acquired``): from the run's scenario, or, if
+    its sections cannot be read here again (a moved AGB map), the mask over the land and forest cells."""
+    where = Location(key_path=("sweep", "map"))
+    try:
+        return map_grid(section, where, scenario).not_acquired
+    except (ConfigError, PhysicsInputError, OSError):
+        _, _, _, land, forest, _ = grid_of_section(section)
+        eligible = (np.nan_to_num(land, nan=1.0) >= settings["min_land_percent"] / 100.0) & (forest > 0)
+        return eligible & not_acquired_cells(settings, lat, lon, where)
+
+
+def not_acquired_summary(result) -> dict | None:
+    """What a map sweep left out as not acquired (``ScenarioResult``): {mask, cells, forest_area_km2,
+    forest_area_fraction} from its map dataset, or None without an acquisition mask."""
+    section = map_section(getattr(result.scenario, "raw", {}).get("sweep"))
+    if section is None or not describe_mask(map_settings(section)):
+        return None
+    attrs = map_dataset_of(result).attrs
+    return {"mask": attrs["not_acquired_mask"], "cells": int(attrs["not_acquired_cells"]),
+            "forest_area_km2": float(attrs["not_acquired_forest_area_km2"]),
+            "forest_area_fraction": float(attrs["not_acquired_forest_area_fraction"])}
 
 
 def area_fraction(passed, weight) -> np.ndarray:

@@ -1,7 +1,8 @@
 """Report plots of map sweeps (``e2esim.maps.grid``): ``global_maps``, filled latitude-longitude maps of
-the Faraday rotation, the sigma_hv error, the AGB error and the verdict for every month (panels), pass and solar
-level (one figure each); ``map_fraction``, the share of the forest area that meets each requirement, by month
-(each cell weighted by its forest area, ``forest_area_weight`` of the map dataset).
+the Faraday rotation, the sigma_hv error, the AGB error and the verdict (the cell's state: passes, fails, not
+applicable, not acquired) for every month (panels), pass and solar level (one figure each), and where each source
+of the chain's error terms changes a verdict; ``map_fraction``, the share of the forest area that meets each
+requirement, by month (each cell weighted by its forest area, ``forest_area_weight`` of the map dataset).
 
 Both draw the map dataset of the run (``e2esim.maps.netcdf.map_dataset_of``, the content of results.nc): the
 report computes nothing physical (an area weight is bookkeeping; the sigma_hv error is shown relative to sigma_hv).
@@ -27,6 +28,11 @@ from e2esim.report.plot_base import PlotSkipped, save, save_drawn
 
 MONTH_NAMES = ("Jan", "Feb", "Mar", "Apr", "May", "Jun", "Jul", "Aug", "Sep", "Oct", "Nov", "Dec")
 PASS_FAIL = ListedColormap(["#d7301f", "#1a9850"])
+CELL_STATES = ListedColormap(["#d7301f", "#1a9850", "0.45", "#6a51a3"])
+"""Colours of a cell's state (``requirement<j>_state`` of results.nc): fails, passes, not applicable, not acquired."""
+STATE_NAMES = ("fails", "passes", "not applicable", "not acquired")
+CHANGES = ListedColormap(["#2b8cbe", "#ffffbf", "#e66101"])
+"""Colours of ``requirement<j>_changed_by_<source>``: the source rescues the verdict, leaves it, breaks it."""
 LAND_GREY = "0.86"
 
 
@@ -63,10 +69,28 @@ def _quantities(ds, result) -> list:
             out.append((f"map_agb_error{j if j else ''}", f"AGB error checked by '{name}' ({verdict.unit}; limit "
                         f"{limit:g}{', the black line' if shown else ''})", v, "YlOrRd", low, high,
                         limit if shown else None))
-        if f"requirement{j}_passed" in ds:
+        if f"requirement{j}_state" in ds:
+            out.append((f"map_verdict{j if j else ''}", f"verdict of '{name}': green passes, red fails, dark grey "
+                        "not applicable, purple not acquired", _states(ds[f"requirement{j}_state"].values),
+                        CELL_STATES, -0.5, 3.5, None))
+        elif f"requirement{j}_passed" in ds:
             out.append((f"map_verdict{j if j else ''}", f"verdict of '{name}': green passes, red fails",
                         ds[f"requirement{j}_passed"].values, PASS_FAIL, -0.5, 1.5, None))
+        for key in [k for k in ds.data_vars if str(k).startswith(f"requirement{j}_changed_by_")]:
+            source = str(key)[len(f"requirement{j}_changed_by_"):]
+            v = ds[key].values.astype(float)
+            if not np.any(np.abs(v[v >= -1]) > 0):
+                continue  # the source changes no verdict anywhere: results.nc says so, no figure
+            out.append((f"map_change{j if j else ''}_{source}", f"where the error source {source} changes the verdict "
+                        f"of '{name}': orange it fails only with it, blue it passes only with it",
+                        np.where(v >= -1, v, np.nan), CHANGES, -1.5, 1.5, None))
     return out
+
+
+def _states(values) -> np.ndarray:
+    """Cell states as floats, NaN where there is no case (the fill value -1 in memory, NaN once read back)."""
+    v = np.asarray(values, float)
+    return np.where(v >= 0, v, np.nan)
 
 
 def _range(values, limit=None) -> tuple:
@@ -96,11 +120,22 @@ def plot_map_sweep(result, folder: Path, options: dict) -> list:
                     panels.show(values[s, p], cmap, vmin, vmax, limit, f"{title}\n{pass_name} pass, solar {solar}")
                     name = save_drawn(panels.fig, folder, f"{stem}_{pass_name}_{solar}")
                     out.append((name, f"Map of the {title}, {pass_name} pass, solar {solar}, one panel per month; "
-                                "grey: land left out of the sweep (no forest, or no forest class), white: ocean. "
+                                "light grey: land left out of the sweep (no forest, or no forest class), white: ocean"
+                                f"{_not_acquired_note(ds)}. "
                                 f"Cells of {panels.step:g} deg."))
     finally:
         plt.close(panels.fig)
     return out
+
+
+def _not_acquired_note(ds) -> str:
+    """What the map leaves out as not acquired, for a caption ("" without an acquisition mask)."""
+    if "not_acquired_mask" not in ds.attrs:
+        return ""
+    return (f"; not acquired: {ds.attrs['not_acquired_mask']} ({int(ds.attrs['not_acquired_cells'])} forest cells, "
+            f"{float(ds.attrs['not_acquired_forest_area_km2']) / 1e6:.2f} million km² of forest, "
+            f"{100 * float(ds.attrs['not_acquired_forest_area_fraction']):.1f} % of the map's), purple on the verdict "
+            "maps and left out of every share")
 
 
 class MonthPanels:
@@ -157,6 +192,10 @@ class MonthPanels:
         self.bar = bar = self.fig.colorbar(ScalarMappable(Normalize(vmin, vmax), cmap), cax=cax)
         if cmap is PASS_FAIL:
             bar.set_ticks([0, 1], labels=["fails", "passes"])
+        elif cmap is CELL_STATES:
+            bar.set_ticks([0, 1, 2, 3], labels=list(STATE_NAMES))
+        elif cmap is CHANGES:
+            bar.set_ticks([-1, 0, 1], labels=["passes only with it", "unchanged", "fails only with it"])
         if limit is not None and np.isfinite(limit):
             bar.ax.axhline(limit, color="k", lw=1.5)
         bar.ax.tick_params(labelsize=7)
@@ -209,4 +248,4 @@ def plot_map_fraction(result, folder: Path, options: dict) -> list:
     return [(save(fig, folder, "map_fraction"),
              "Share of the forest area of the map that meets each requirement, by month: the forest areas (cell "
              "area, cos latitude, times forest fraction) of the passing cells over those of every swept cell, for "
-             "each pass and solar level.")]
+             f"each pass and solar level{_not_acquired_note(ds)}.")]

@@ -14,6 +14,7 @@ import numpy as np
 
 from e2esim.io.summary import LARGE_RUN_CASES, requirement_overview
 from e2esim.maps.grid import is_map_sweep
+from e2esim.maps.netcdf import not_acquired_summary
 from e2esim.report import tables
 from e2esim.report.assumptions import assumption_rows
 from e2esim.report.blocks import (
@@ -86,8 +87,8 @@ def build_report(result, plots: list, warnings: list = ()) -> list:
         blocks += [Heading(2, "Scenario"), Paragraph(sc.description.strip())]
     if is_map_sweep(sc):  # thousands of cells: the maps and results.nc instead of per-case tables
         return blocks + _assumptions_section(result) + _plots_section(plots, warnings) + [
-            Heading(2, "Cases"), Paragraph(MAP_CASES_NOTE.format(n=len(result.cases)))] + _note_counts(result) \
-            + _provenance_section(result)
+            Heading(2, "Cases"), Paragraph(MAP_CASES_NOTE.format(n=len(result.cases)))] + _not_acquired(result) \
+            + _note_counts(result) + _provenance_section(result)
     if _large(result):
         return blocks + _assumptions_section(result) + _plots_section(plots, warnings) + [
             Heading(2, "Cases"), Paragraph(LARGE_CASES_NOTE.format(n=len(result.cases), most=LARGE_RUN_CASES))] \
@@ -128,6 +129,18 @@ MAP_CASES_NOTE = ("This map sweep has {n} cases (cells x months x passes x solar
 LARGE_CASES_NOTE = ("This run has {n} cases, more than {most}: the per-case tables and plots are left out of the "
                     "report and summary.json; every case's inputs, results and verdicts are in results.h5 "
                     "(`e2esim.open_results`, then `to_dataframe()` or `to_xarray()`).")
+
+
+def _not_acquired(result) -> list:
+    """The paragraph on a map sweep's cells the mission does not acquire (none without an acquisition mask)."""
+    excluded = not_acquired_summary(result)
+    if excluded is None:
+        return []
+    return [Paragraph(f"Not acquired: {excluded['cells']} forest cells lie where the mission does not acquire "
+                      f"({excluded['mask']}): {excluded['forest_area_km2'] / 1e6:.2f} million km² of forest, "
+                      f"{100 * excluded['forest_area_fraction']:.1f} % of the forest area of the map. They have no "
+                      "cases, show as not acquired on the verdict maps (`requirement<j>_state` = 3 in results.nc) and "
+                      "are left out of the share of the forest area meeting each requirement.")]
 
 
 def _large(result) -> bool:

@@ -95,6 +95,10 @@ class ScintillationTerm(ErrorTerm):
         except PhysicsInputError as exc:
             raise fail(self, str(exc), None, key=exc.key) from exc
 
+    def named(self, pairs) -> tuple:
+        """``pairs`` as output scalars of this term: ``<source>.<name>`` (``Effect.outputs`` holds full keys)."""
+        return tuple((f"{self.source}.{name}", value) for name, value in pairs)
+
     def irf_outputs(self, case, screens) -> tuple:
         """(name, value) pairs: the screen and the response statistics of the case (module docstring)."""
         w = screens.weight
@@ -135,7 +139,7 @@ class ScintillationSigma0(ScintillationTerm):
             shift_sd_cells=tuple(screens.shift_sd_cells),
             halo_share=tuple(screens.halo_share(self.si["cell_length_m"] / self.si["azimuth_resolution_m"])),
             cell_fraction=self.si["azimuth_resolution_m"] / self.si["cell_length_m"], contrast=self.si["contrast"],
-            outputs=self.irf_outputs(case, screens))
+            outputs=self.named(self.irf_outputs(case, screens)))
 
 
 class ScintillationCalibration(ScintillationTerm):
@@ -161,7 +165,8 @@ class ScintillationCalibration(ScintillationTerm):
         outputs = (("calibrator_peak_loss_mean_db", 10.0 / math.log(10.0) * mean_y),
                    *self.irf_outputs(case, screens))
         return CalibratorFactor(self.source, CKL_LEVEL, "scintillation: calibrator peak loss (gain error)",
-                                mean_log=mean_y, var_log=max(var_y, 0.0) / self.si["calibrations"], outputs=outputs)
+                                mean_log=mean_y, var_log=max(var_y, 0.0) / self.si["calibrations"],
+                                outputs=self.named(outputs))
 
 
 class ScintillationFaraday(ScintillationTerm):
@@ -192,7 +197,7 @@ class ScintillationFaraday(ScintillationTerm):
         return FaradayLeakage(self.source, CKL_LEVEL, "scintillation: Faraday-rotation spread inside the window",
                               scale=tuple(1.0 if ch == "hv" else 0.0 for ch in channels), looks=case.settings.looks,
                               weight=tuple(screens.weight), window_variance=tuple(s2), copol_power=copol,
-                              outputs=outputs)
+                              outputs=self.named(outputs))
 
 
 __all__ = ["ScintillationCalibration", "ScintillationFaraday", "ScintillationSigma0", "ScintillationTerm"]
