@@ -144,9 +144,10 @@ def test_a_map_cell_without_an_orbit_stage_gets_its_screen_from_its_parameters()
 
     case = MapCase()
     term = ScintillationSigma0(lat_deg=72.0, lon_deg=100.0, month=1, **{"pass": "dusk"})
-    outputs = dict(term.effect(case, None).outputs)
-    assert outputs["geomagnetic_latitude_deg"] == pytest.approx(63.0, abs=1.5)
+    outputs = dict(term.effect(case, None).outputs)  # full output keys: <source>.<name>
+    assert outputs["scintillation_sigma0.geomagnetic_latitude_deg"] == pytest.approx(63.0, abs=1.5)
     quiet = dict(ScintillationSigma0(lat_deg=10.0, lon_deg=100.0, month=1).effect(case, None).outputs)
-    assert outputs["peak_loss_median_db"] > 5.0 * quiet["peak_loss_median_db"] > 0.0
+    key = "scintillation_sigma0.peak_loss_median_db"
+    assert outputs[key] > 5.0 * quiet[key] > 0.0
     with pytest.raises(ConfigError, match="names no map cell"):
         ScintillationSigma0().effect(case, None)
