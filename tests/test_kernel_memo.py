@@ -80,3 +80,15 @@ def test_the_memo_is_bounded_and_starts_empty_in_another_process():
     assert memo.get("big") is None
     back = pickle.loads(pickle.dumps(memo))
     assert len(back) == 0 and back.max_bytes == memo.max_bytes
+
+
+def test_the_joint_totals_read_the_diagonal_alone_and_equal_the_full_moments_bit_for_bit():
+    from e2esim.stack.joint_moments import stack_joint_moments
+
+    model = _models(StackJointErrorModel, None)
+    args = (model.scene, model.errors, model.faraday, model.combination, model.looks, model.reference, True,
+            np.array([[1e-5], [1e-3]]), np.array([1e-4, 1e-2, 1e-1]))
+    full = stack_joint_moments(*args, difference_variance=np.array([[[1e-3]], [[0.2]]]))
+    mean, cov = stack_joint_moments(*args, difference_variance=np.array([[[1e-3]], [[0.2]]]), totals_only=True)
+    np.testing.assert_array_equal(mean, full.mean)
+    np.testing.assert_array_equal(cov, full.covariance)

@@ -115,15 +115,19 @@ def stack_joint_moments(scene: StackScene, errors: StackSystemErrors, faraday: S
                                  need_cross, memo)
             if not _needs_signal(t, need_cross, reference, looks):
                 t["y0"] = None  # the largest of the terms (G N^2 9 complex), not read here: not kept in the cache
+            t["mean_diagonal"] = np.real(np.diagonal(t["mean"], axis1=-2, axis2=-1))  # (6, G, 3): E q_p
             cache[key] = t
         t = cache[key]
         sel = dv == value
         mono = monomials(xs[sel], es[sel])  # (6, S)
         w = t["weights"]
-        node_matrix = np.einsum("ks,kgpq->sgpq", mono, t["mean"])  # E[sum Q eta eta A C A^H | Omega]
-        node_mean = np.real(np.diagonal(node_matrix, axis1=-2, axis2=-1))  # (S, G, 3)
+        if totals_only:  # the diagonal alone (the same sums over the monomials, to the bit): no expected covariance
+            node_mean = np.einsum("ks,kgp->sgp", mono, t["mean_diagonal"])  # (S, G, 3)
+        else:
+            node_matrix = np.einsum("ks,kgpq->sgpq", mono, t["mean"])  # E[sum Q eta eta A C A^H | Omega]
+            node_mean = np.real(np.diagonal(node_matrix, axis1=-2, axis2=-1))  # (S, G, 3)
+            expected[sel] = np.einsum("sgpq,g->spq", node_matrix, w)
         mu[sel] = np.einsum("sgp,g->sp", node_mean, w)
-        expected[sel] = np.einsum("sgpq,g->spq", node_matrix, w)
         spread_m[sel] = np.einsum("sgp,sgq,g->spq", node_mean, node_mean, w)
         v[sel] = np.einsum("ks,kgpq,g->spq", mono, t["cov"], w)
         tr_q2y[sel] = np.einsum("ks,kgp,g->sp", mono, t["trq2y"], w)
