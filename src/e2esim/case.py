@@ -60,7 +60,7 @@ class KernelMemo:
     the bytes of the arrays it holds (the least recently used go first); a value is the kernel's own result, so a
     number never depends on whether it was found. Sent to another process, it starts empty there."""
 
-    def __init__(self, max_bytes: int = 160 * 2**20):
+    def __init__(self, max_bytes: int = 64 * 2**20):
         self.max_bytes = max_bytes
         self._values: dict = {}  # key -> (value, bytes), least recently used first
         self._bytes = 0
