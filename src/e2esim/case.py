@@ -74,6 +74,42 @@ class LazyMapping(Mapping):
         return name in self._names()
 
 
+class KernelMemo:
+    """What a run's kernels computed, kept in memory and found again by the content it was computed from (a key a
+    kernel derives from the bytes of its inputs, never an id()): cases of a sweep that share a geometry share the
+    work (the node terms of the stack's moments at each searched Faraday-rotation difference, issue 28). Bounded by
+    the bytes of the arrays it holds (the least recently used go first); a value is the kernel's own result, so a
+    number never depends on whether it was found. Sent to another process, it starts empty there."""
+
+    def __init__(self, max_bytes: int = 64 * 2**20):
+        self.max_bytes = max_bytes
+        self._values: dict = {}  # key -> (value, bytes), least recently used first
+        self._bytes = 0
+
+    def get(self, key, default=None):
+        item = self._values.pop(key, None)
+        if item is None:
+            return default
+        self._values[key] = item  # most recently used last
+        return item[0]
+
+    def __setitem__(self, key, value) -> None:
+        size = sum(getattr(v, "nbytes", 0) for v in (value.values() if isinstance(value, dict) else (value,)))
+        if size > self.max_bytes:
+            return
+        old = self._values.pop(key, None)
+        self._bytes += size - (old[1] if old else 0)
+        self._values[key] = (value, size)
+        while self._bytes > self.max_bytes:  # the least recently used first
+            self._bytes -= self._values.pop(next(iter(self._values)))[1]
+
+    def __len__(self) -> int:
+        return len(self._values)
+
+    def __reduce__(self):
+        return (KernelMemo, (self.max_bytes,))
+
+
 @dataclass(frozen=True)
 class Services:
     """What the runner hands to stages and, through them, to physics kernels (which import none of it).
@@ -89,6 +125,8 @@ class Services:
     cache: Callable | None = None
     progress: Callable | None = None
     executor: Any = None
+    memo: Any = None
+    """A ``KernelMemo`` (or None): what the kernels of this run computed, found again by value across cases."""
 
     def cache_for(self, setting):
         return None if self.cache is None else self.cache(setting)

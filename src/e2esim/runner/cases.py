@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 from tqdm.auto import tqdm
 
-from e2esim.case import Case, Products, Services
+from e2esim.case import Case, KernelMemo, Products, Services
 from e2esim.runner.blocks import BlockRun
 from e2esim.runner.case_results import BlockResult, CaseResult
 from e2esim.runner.columns import case_notes, requirement_columns, scalar_columns, source_group_column
@@ -22,9 +22,9 @@ def case_generator(seed: int, index: int) -> np.random.Generator:
 
 def default_services(progress: bool = False, cache=None) -> Services:
     """What the runner hands to stages: the array cache of a module's setting (``cache(setting)``, handed in by
-    whoever runs the scenario: the front doors give ``e2esim.io.array_cache.open_cache``; None: no cache), and a
-    progress bar for long kernels on the command line."""
-    return Services(cache=cache, progress=_progress_bar if progress else None)
+    whoever runs the scenario: the front doors give ``e2esim.io.array_cache.open_cache``; None: no cache), a
+    progress bar for long kernels on the command line, and the run's kernel memo (``KernelMemo``)."""
+    return Services(cache=cache, progress=_progress_bar if progress else None, memo=KernelMemo())
 
 
 def _progress_bar(iterable, total=None, description=""):

@@ -20,6 +20,7 @@ then, as in the complete single-pass form (``e2esim.distortion.analytic``):
 
 from __future__ import annotations
 
+import hashlib
 from dataclasses import dataclass, fields
 
 import numpy as np
@@ -97,16 +98,50 @@ def evaluation_levels(errors: StackSystemErrors, faraday: StackFaraday, combinat
 
 
 def node_terms(scene: StackScene, errors: StackSystemErrors, faraday: StackFaraday, combination: PassCombination,
-               difference_sd: float, population_cross: bool = False) -> dict:
+               difference_sd: float, population_cross: bool = False, memo=None) -> dict:
     """The kernel's coefficients at the Faraday-rotation nodes of one difference SD (rad), with the nodes'
     weights: what ``stack_hv_moments`` evaluates at any crosstalk, channel-imbalance and noise levels. Cached
-    by the error model per difference SD."""
+    by the error model per difference SD, and across cases by ``memo`` (``memoised``)."""
     nodes = pass_nodes(scene, errors, faraday, difference_sd)
-    out = node_polynomials(scene.blocks(), combination.matrix, nodes.pop("omega"),
-                           errors.pass_correlation(scene.passes), errors.kernel_structure, nodes["pair"],
-                           population_cross, full_signal=nodes["pair"] is not None or population_cross)
+    out = memoised(memo, node_polynomials, scene.blocks(), combination.matrix, nodes.pop("omega"),
+                   errors.pass_correlation(scene.passes), errors.kernel_structure, nodes["pair"], population_cross,
+                   nodes["pair"] is not None or population_cross)
     out.update(nodes)
     return out
+
+
+def memoised(memo, kernel, *inputs) -> dict:
+    """``kernel(*inputs)`` (a dict of arrays), found in ``memo`` (the run's ``KernelMemo``, or None) by the content
+    of ``inputs`` (arrays by dtype, shape and bytes; dicts, tuples, numbers and None by value): the cases of a
+    sweep with one geometry (scene, errors, rotation nodes, combination) share their node terms. A new dict is
+    returned each time; its arrays are the kernel's, never written to."""
+    if memo is None:
+        return kernel(*inputs)
+    digest = hashlib.sha256(kernel.__qualname__.encode())
+    _digest_update(digest, inputs)
+    key = (kernel.__module__, digest.hexdigest())
+    found = memo.get(key)
+    if found is None:
+        found = kernel(*inputs)
+        memo[key] = found
+    return dict(found)
+
+
+def _digest_update(digest, value) -> None:
+    if isinstance(value, dict):
+        _digest_update(digest, [(str(k), value[k]) for k in sorted(value)])
+    elif isinstance(value, (tuple, list)):
+        digest.update(f"({len(value)}".encode())
+        for item in value:
+            _digest_update(digest, item)
+    elif isinstance(value, np.ndarray):
+        a = np.ascontiguousarray(value)
+        digest.update(f"a{a.dtype.str}{a.shape}".encode())
+        digest.update(a.tobytes())
+    elif value is None or isinstance(value, (bool, int, float, complex, str)):
+        digest.update(f"{type(value).__name__}:{value!r};".encode())
+    else:
+        raise TypeError(f"cannot key a kernel memo by a {type(value).__name__}")
 
 
 def pass_nodes(scene: StackScene, errors: StackSystemErrors, faraday: StackFaraday, difference_sd: float) -> dict:
@@ -122,12 +157,13 @@ def pass_nodes(scene: StackScene, errors: StackSystemErrors, faraday: StackFarad
 def stack_hv_moments(scene: StackScene, errors: StackSystemErrors, faraday: StackFaraday,
                      combination: PassCombination, looks: int | None = None, reference: str = "scene",
                      crosstalk_level=None, imbalance_level=None, noise_power=None, difference_variance=None,
-                     cache: dict | None = None) -> StackHVMoments:
+                     cache: dict | None = None, memo=None) -> StackHVMoments:
     """Mean and variance of the multi-pass HV error (module docstring), levels replaced where given.
 
     crosstalk_level, imbalance_level : V_delta, V_epsilon. noise_power : sigma_n (m^2/m^2).
     difference_variance : sigma_D^2 (rad^2), the variance of the Faraday-rotation difference of two passes.
-    All broadcast together. cache : a dict kept by the caller for the node terms of each sigma_D.
+    All broadcast together. cache : a dict kept by the caller for the node terms of each sigma_D. memo : the run's
+    ``KernelMemo`` (or None), node terms shared by value across cases.
     """
     xs, es, ns, dv, rank_one, need_cross = evaluation_levels(errors, faraday, combination, reference, looks,
                                                              crosstalk_level, imbalance_level, noise_power,
@@ -138,7 +174,7 @@ def stack_hv_moments(scene: StackScene, errors: StackSystemErrors, faraday: Stac
     for value in np.unique(dv):
         key = (float(value), need_cross)
         if key not in cache:
-            cache[key] = node_terms(scene, errors, faraday, combination, float(np.sqrt(value)), need_cross)
+            cache[key] = node_terms(scene, errors, faraday, combination, float(np.sqrt(value)), need_cross, memo)
         t = cache[key]
         sel = dv == value
         mono = monomials(xs[sel], es[sel])  # (6, S)
@@ -186,5 +222,5 @@ def stack_hv_moments(scene: StackScene, errors: StackSystemErrors, faraday: Stac
         var_finite_looks=finite + z)
 
 
-__all__ = ["MONOMIALS", "REFERENCES", "StackHVMoments", "evaluation_levels", "node_terms", "pass_nodes",
+__all__ = ["MONOMIALS", "REFERENCES", "StackHVMoments", "evaluation_levels", "memoised", "node_terms", "pass_nodes",
            "stack_hv_moments"]

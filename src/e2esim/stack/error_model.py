@@ -45,7 +45,7 @@ class StackHVErrorModel(StackModelBase, ErrorModel):
         self.check_available()
         cache = self._memo.setdefault("node terms", {})
         return stack_hv_moments(self.scene, self.errors, self.faraday, self.combination, self.looks, self.reference,
-                                crosstalk, channel_imbalance, nesz, faraday_difference, cache)
+                                crosstalk, channel_imbalance, nesz, faraday_difference, cache, self.kernel_memo)
 
     def current(self) -> StackHVMoments:
         if "current" not in self._memo:

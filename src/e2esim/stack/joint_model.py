@@ -53,7 +53,7 @@ class StackJointErrorModel(StackModelBase, MultiChannelErrorModel):
         cache = self._memo.setdefault("node terms", {})
         return stack_joint_moments(self.scene, self.errors, self.faraday, self.combination, self.looks,
                                    self.reference, self.correct_copol, crosstalk, channel_imbalance, nesz,
-                                   faraday_difference, cache, totals_only)
+                                   faraday_difference, cache, totals_only, self.kernel_memo)
 
     def joint_moments(self, crosstalk=None, channel_imbalance=None, nesz=None, faraday_difference=None,
                       **unknown) -> JointMoments:

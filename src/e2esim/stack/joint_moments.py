@@ -31,7 +31,7 @@ import numpy as np
 
 from e2esim.distortion.channel_moments import unit_covariances
 from e2esim.distortion.polarimetric_moments import NOISE_FACTORS
-from e2esim.stack.analytic import evaluation_levels, pass_nodes
+from e2esim.stack.analytic import evaluation_levels, memoised, pass_nodes
 from e2esim.stack.channel_forms import channel_node_polynomials
 from e2esim.stack.combination import PassCombination
 from e2esim.stack.faraday import StackFaraday
@@ -70,10 +70,10 @@ class StackJointMoments:
 
 def joint_node_terms(scene: StackScene, errors: StackSystemErrors, faraday: StackFaraday,
                      combination: PassCombination, difference_sd: float, correct_copol: bool,
-                     population_cross: bool = False) -> dict:
+                     population_cross: bool = False, memo=None) -> dict:
     """The kernel's coefficients at the Faraday-rotation nodes of one difference SD (rad), with the nodes'
     weights and the passes' gain products: what ``stack_joint_moments`` evaluates at any level (cached by the
-    error model per difference SD)."""
+    error model per difference SD, and across cases by ``memo``, ``stack.analytic.memoised``)."""
     nodes = pass_nodes(scene, errors, faraday, difference_sd)
     omega, omega_hat = nodes.pop("omega"), None
     if correct_copol:  # corrected with Omega_hat = Omega - dW: the nodes of Omega times those of dW
@@ -81,9 +81,9 @@ def joint_node_terms(scene: StackScene, errors: StackSystemErrors, faraday: Stac
         omega = np.repeat(omega, len(weights), axis=0)
         omega_hat = omega - np.tile(residual, (len(nodes["weights"]), 1))
         nodes["weights"] = np.outer(nodes["weights"], weights).ravel()
-    out = channel_node_polynomials(scene.blocks(), combination.matrix, omega, omega_hat,
-                                   errors.pass_correlation(scene.passes), unit_covariances(errors.system),
-                                   nodes["pair"], population_cross)
+    out = memoised(memo, channel_node_polynomials, scene.blocks(), combination.matrix, omega, omega_hat,
+                   errors.pass_correlation(scene.passes), unit_covariances(errors.system), nodes["pair"],
+                   population_cross)
     out.update(nodes)
     return out
 
@@ -92,12 +92,12 @@ def stack_joint_moments(scene: StackScene, errors: StackSystemErrors, faraday: S
                         combination: PassCombination, looks: int | None = None, reference: str = "scene",
                         correct_copol: bool = True, crosstalk_level=None, imbalance_level=None, noise_power=None,
                         difference_variance=None, cache: dict | None = None,
-                        totals_only: bool = False) -> StackJointMoments | tuple:
+                        totals_only: bool = False, memo=None) -> StackJointMoments | tuple:
     """Joint moments of the (hh, hv, vv) errors (module docstring), levels replaced where given (broadcast
     together, as ``stack_hv_moments``). correct_copol : every pass's co-polarised channels rotated back by its
     own Faraday rotation before the passes are combined (the operational order), else not corrected.
     cache : a dict kept by the caller for the node terms of each sigma_D. totals_only : return (mean,
-    covariance) only."""
+    covariance) only. memo : the run's ``KernelMemo`` (or None), node terms shared by value across cases."""
     xs, es, ns, dv, rank_one, need_cross = evaluation_levels(errors, faraday, combination, reference, looks,
                                                              crosstalk_level, imbalance_level, noise_power,
                                                              difference_variance)
@@ -111,18 +111,22 @@ def stack_joint_moments(scene: StackScene, errors: StackSystemErrors, faraday: S
         key = (float(value), bool(correct_copol), need_cross)
         if key not in cache or (cache[key]["y0"] is None and _needs_signal(cache[key], need_cross, reference, looks)):
             t = joint_node_terms(scene, errors, faraday, combination, float(np.sqrt(value)), correct_copol,
-                                 need_cross)
+                                 need_cross, memo)
             if not _needs_signal(t, need_cross, reference, looks):
                 t["y0"] = None  # the largest of the terms (G N^2 9 complex), not read here: not kept in the cache
+            t["mean_diagonal"] = np.real(np.diagonal(t["mean"], axis1=-2, axis2=-1))  # (6, G, 3): E q_p
             cache[key] = t
         t = cache[key]
         sel = dv == value
         mono = monomials(xs[sel], es[sel])  # (6, S)
         w = t["weights"]
-        node_matrix = np.einsum("ks,kgpq->sgpq", mono, t["mean"])  # E[sum Q eta eta A C A^H | Omega]
-        node_mean = np.real(np.diagonal(node_matrix, axis1=-2, axis2=-1))  # (S, G, 3)
+        if totals_only:  # the diagonal alone (the same sums over the monomials, to the bit): no expected covariance
+            node_mean = np.einsum("ks,kgp->sgp", mono, t["mean_diagonal"])  # (S, G, 3)
+        else:
+            node_matrix = np.einsum("ks,kgpq->sgpq", mono, t["mean"])  # E[sum Q eta eta A C A^H | Omega]
+            node_mean = np.real(np.diagonal(node_matrix, axis1=-2, axis2=-1))  # (S, G, 3)
+            expected[sel] = np.einsum("sgpq,g->spq", node_matrix, w)
         mu[sel] = np.einsum("sgp,g->sp", node_mean, w)
-        expected[sel] = np.einsum("sgpq,g->spq", node_matrix, w)
         spread_m[sel] = np.einsum("sgp,sgq,g->spq", node_mean, node_mean, w)
         v[sel] = np.einsum("ks,kgpq,g->spq", mono, t["cov"], w)
         tr_q2y[sel] = np.einsum("ks,kgp,g->sp", mono, t["trq2y"], w)

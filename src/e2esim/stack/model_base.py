@@ -15,6 +15,7 @@ from __future__ import annotations
 import dataclasses
 import math
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -63,7 +64,9 @@ class StackModelBase:
     notes: tuple = ()
     unavailable: str | None = None
     _memo: dict = field(default_factory=dict, repr=False, compare=False)
-    plain_transient = ("_memo",)  # a cache of evaluations (node terms of every level searched): not journalled
+    kernel_memo: Any = field(default=None, repr=False, compare=False)
+    """The run's ``KernelMemo`` (``case.services.memo``) or None: node terms found again by value across cases."""
+    plain_transient = ("_memo", "kernel_memo")  # caches of evaluations (node terms of every level searched)
 
     @property
     def includes_speckle(self) -> bool:

@@ -283,7 +283,7 @@ class StackBackscatterError(Stage):
         extra = {"correct_copol": c["correct_copol_faraday"]} if joint else {}
         kind = StackJointErrorModel if joint else StackHVErrorModel
         model = kind(scene, errors, stack_faraday, combination, s.looks, c["reference"], notes=notes,
-                     unavailable=unavailable, **extra)
+                     unavailable=unavailable, kernel_memo=case.services.memo, **extra)
         if unavailable is None:  # evaluated here, once: every later stage reads it
             model.current()
         if s.montecarlo:
@@ -294,7 +294,7 @@ class StackBackscatterError(Stage):
                                 s.noise_realisations, c["reference"], c["correct_copol_faraday"])
             gauss = gaussianity(mc.hv) if c["gaussianity"] and np.ravel(mc.hv).size >= 20 else None
             model = kind(scene, errors, stack_faraday, combination, s.looks, c["reference"], mc, gauss, notes,
-                         unavailable, model._memo, **extra)
+                         unavailable, model._memo, case.services.memo, **extra)
         return {"backscatter.error": model}
 
 

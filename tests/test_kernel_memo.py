@@ -1,0 +1,94 @@
+"""The run's kernel memo (``e2esim.case.KernelMemo``, issue 28): the node terms of the multi-pass moments found again
+by value across cases give the numbers of a computation without it, bit for bit; it is bounded, keyed by content
+(never by an object's id) and starts empty in another process."""
+
+import dataclasses
+import pickle
+
+import numpy as np
+
+from e2esim.case import KernelMemo
+from e2esim.stack import analytic
+from e2esim.stack import combination as combos
+from e2esim.stack.error_model import StackHVErrorModel
+from e2esim.stack.joint_model import StackJointErrorModel
+from stack_helpers import rich_system, site_scene, stack_errors
+
+SEARCHED = np.array([1e-6, 1e-3, 1e-2, 0.3])  # Faraday-rotation difference variances, as a margin search asks
+
+
+def _models(kind, memo, difference_deg=6.0, correlation=0.5):
+    scene = site_scene("boreal", "interferometric")
+    errors, faraday = stack_errors(rich_system(1e-3, 2e-3), correlation, difference_deg)
+    return kind(scene=scene, errors=errors, faraday=faraday, looks=200, reference="population",
+                combination=combos.interpolated(scene.acquisitions.kz_rad_m), kernel_memo=memo)
+
+
+def _hv(model):
+    m = model.moments(crosstalk=np.array([[1e-4], [1e-3]]), faraday_difference=SEARCHED)
+    return [np.asarray(getattr(m, f.name)) for f in dataclasses.fields(m)]
+
+
+def _joint(model):
+    m = model.joint_moments(crosstalk=np.array([[1e-4], [1e-3]]), faraday_difference=SEARCHED)
+    return [m.mean, m.covariance]
+
+
+def test_node_terms_shared_between_cases_equal_those_computed_alone_bit_for_bit():
+    for kind, values in ((StackHVErrorModel, _hv), (StackJointErrorModel, _joint)):
+        memo = KernelMemo()
+        first = values(_models(kind, memo))
+        filled = len(memo)
+        assert filled == len(SEARCHED)  # one entry per searched difference
+        # a second case of the same geometry (another Faraday-rotation difference of its own) finds them all
+        second = values(_models(kind, memo, difference_deg=30.0))
+        assert len(memo) == filled
+        alone = values(_models(kind, None, difference_deg=30.0))
+        for a, b in zip(second, alone):
+            np.testing.assert_array_equal(a, b)
+        for a, b in zip(first, values(_models(kind, None))):
+            np.testing.assert_array_equal(a, b)
+        # another geometry (stable errors: other pass correlations) is a new key, never a stale hit
+        values(_models(kind, memo, correlation=1.0))
+        assert len(memo) == 2 * filled
+
+
+def test_the_key_is_the_content_of_the_inputs():
+    calls = []
+
+    def kernel(a, flag):
+        calls.append(1)
+        return {"x": a * 2.0}
+
+    memo = KernelMemo()
+    one = analytic.memoised(memo, kernel, np.arange(3.0), True)
+    two = analytic.memoised(memo, kernel, np.arange(3.0), True)  # another array of the same content
+    assert len(calls) == 1 and two is not one and two["x"] is one["x"]
+    analytic.memoised(memo, kernel, np.arange(3.0), False)
+    analytic.memoised(memo, kernel, np.arange(3), True)  # same numbers, another dtype
+    analytic.memoised(memo, kernel, np.arange(3.0).reshape(1, 3), True)  # another shape
+    assert len(calls) == 4
+
+
+def test_the_memo_is_bounded_and_starts_empty_in_another_process():
+    memo = KernelMemo(max_bytes=3 * 800)
+    for k in range(5):
+        memo[k] = {"a": np.zeros(100)}  # 800 bytes each
+        assert memo.get(0) is not None  # the most recently used stays
+    assert len(memo) == 3 and memo.get(1) is None and memo.get(4) is not None
+    memo["big"] = {"a": np.zeros(1000)}  # larger than the bound: not kept
+    assert memo.get("big") is None
+    back = pickle.loads(pickle.dumps(memo))
+    assert len(back) == 0 and back.max_bytes == memo.max_bytes
+
+
+def test_the_joint_totals_read_the_diagonal_alone_and_equal_the_full_moments_bit_for_bit():
+    from e2esim.stack.joint_moments import stack_joint_moments
+
+    model = _models(StackJointErrorModel, None)
+    args = (model.scene, model.errors, model.faraday, model.combination, model.looks, model.reference, True,
+            np.array([[1e-5], [1e-3]]), np.array([1e-4, 1e-2, 1e-1]))
+    full = stack_joint_moments(*args, difference_variance=np.array([[[1e-3]], [[0.2]]]))
+    mean, cov = stack_joint_moments(*args, difference_variance=np.array([[[1e-3]], [[0.2]]]), totals_only=True)
+    np.testing.assert_array_equal(mean, full.mean)
+    np.testing.assert_array_equal(cov, full.covariance)
