@@ -165,10 +165,13 @@ def _scope_note(result) -> str:
 
 def _budget_section(result, plots) -> list:
     out = [Heading(2, "Error budget"), Paragraph(
-        "How much each error source adds to each requirement's checked value: the value minus the value with that "
-        "source removed (analytic model; the parts interact and quantiles are not additive, so they need not add "
-        "up). Systematic: system distortions, Faraday rotation, noise; random: the error budget of the product "
-        "(speckle and noise, temporal variability, calibration, area projection); regression: the retrieval "
+        "The part of each requirement's checked value each error source accounts for: its share of the mean square "
+        "of the σ error (RMSE) or of its Gaussian quantile (bounds), by the Euler principle, carried to the checked "
+        "value in proportion, so that the parts add up to it (analytic model; docs/theory/error-budget.md). "
+        "'not attributed' is the part no single source accounts for, where the error model couples its sources; "
+        "it is zero where they add. The tables also give, in brackets, how much the value falls when the source "
+        "alone is removed. Systematic: system distortions, Faraday rotation, noise; random: the error budget of the "
+        "product (speckle and noise, temporal variability, calibration, area projection); regression: the retrieval "
         "model's calibration uncertainty; model: the uncertainty of the retrieval's exponents and coefficients away "
         "from their calibration.")]
     out += [Image(name, caption) for name, caption in plots if name == "error_budget.png"]
@@ -177,7 +180,7 @@ def _budget_section(result, plots) -> list:
     for j, name in enumerate(result.requirement_names):
         table = tables.budget_table(result, j)
         if table is not None:
-            out += table_blocks(f"{name}: contribution of each source", table)
+            out += table_blocks(f"{name}: share of each source (removal)", table)
     agb = tables.agb_budget_table(result)
     if agb is not None:
         out += table_blocks("Relative AGB error each source causes on its own", agb, (

@@ -15,7 +15,7 @@ import numpy as np
 
 from e2esim.module import fail
 from e2esim.params import Param
-from e2esim.requirements.attribution import attribution, dominant
+from e2esim.requirements.attribution import attribution, can_attribute, dominant
 from e2esim.requirements.base import (
     ASSUMED_PARAM,
     BASIS_PARAM,
@@ -38,6 +38,7 @@ from e2esim.requirements.margins import (
     tradeoff_curves,
     validity_note,
 )
+from e2esim.requirements.shares import bound_shares, rms_parts, shares
 from e2esim.requirements.tradeoff import AGBBound
 from e2esim.requirements.uncertainty import largest_side, verdict_uncertainty
 from e2esim.requirements.verdict import RequirementVerdict
@@ -138,6 +139,10 @@ class AGBErrorBound(Requirement):
 
         contributions, why_not = attribution(checked_value, agb)
         details.update(contributions)
+        if can_attribute(agb):
+            side_values = {side: (1.0 if side == "over" else -1.0) * plain(
+                agb.quantile(conf if side == "over" else 1 - conf)) for side in sides}
+            details.update(bound_shares(value, agb, conf, sides, side_values, "percent"))
         return RequirementVerdict(
             name=self.label,
             passed=truth(value <= c["bound_percent"]),
@@ -187,6 +192,8 @@ class AGBRelativeRMSE(Requirement):
         details.update(sure)
         contributions, notes = attribution(lambda agb_error: agb_error.rmse("analytic") * PERCENT, agb)
         details.update(contributions)
+        if can_attribute(agb):
+            details.update(shares(value, *rms_parts(agb), "percent"))
         return RequirementVerdict(self.label, truth(value <= limit), value, limit, limit - value, "%", basis,
                                   details, dominant=dominant(details), notes=tuple(notes) + sure_notes)
 
@@ -230,6 +237,8 @@ class AGBAbsoluteRMSE(Requirement):
         details = {f"{b}.rmse_t_ha": agb.rmse(b) * agb_true for b in bases}
         contributions, notes = attribution(lambda a: a.rmse("analytic") * agb_true, agb, unit="t_ha")
         details.update(contributions)
+        if can_attribute(agb):
+            details.update(shares(value, *rms_parts(agb), "t_ha"))
         below = self.config["applies_below_t_ha"]
         applies = True if below is None else truth(np.asarray(agb_true) < below)
         sure, sure_notes = verdict_uncertainty(
