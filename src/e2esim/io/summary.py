@@ -12,6 +12,7 @@ import math
 import numpy as np
 
 from e2esim.atomic import write_text_atomic
+from e2esim.io.allocation_table import allocation_overview
 from e2esim.io.error_budget import agb_budget, source_groups, verdict_budget
 from e2esim.runner.no_effect import no_effect
 
@@ -70,6 +71,9 @@ def requirement_overview(result) -> list:
             "worst_case": worst,
             "worst_case_label": labels[worst] if worst is not None else None,
         })
+        allocation = allocation_overview(result, j)
+        if allocation is not None:
+            rows[-1]["allocation"] = allocation
     return rows
 
 

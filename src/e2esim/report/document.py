@@ -12,6 +12,7 @@ import inspect
 
 import numpy as np
 
+from e2esim.io.allocation_table import allocation_overview
 from e2esim.io.summary import LARGE_RUN_CASES, requirement_overview
 from e2esim.maps.grid import is_map_sweep
 from e2esim.report import tables
@@ -77,6 +78,7 @@ def build_report(result, plots: list, warnings: list = ()) -> list:
         blocks += [Paragraph(f"**How sure:** {name}: {flag}") for j, name in enumerate(result.requirement_names)
                    for flag in uncertainty_flags(result, j)]
         blocks += [Heading(2, "Requirement verdicts"), tables.verdict_table(result), Paragraph(_scope_note(result))]
+        blocks += _allocation_blocks(result)
         blocks += _budget_section(result, plots)
     else:
         blocks += [Paragraph("The scenario states no requirements.")]
@@ -161,6 +163,24 @@ def _scope_note(result) -> str:
             "regression or retrieval-model term, computed or stated as assumed) or the **system errors** only. "
             "N/A: the requirement does not apply to the case (outside its stated range); such cases have no margin "
             "and are not counted as passing.")
+
+
+def _allocation_blocks(result) -> list:
+    out = []
+    for j, name in enumerate(result.requirement_names):
+        table = tables.allocation_table(result, j)
+        if table is not None:
+            worst = allocation_overview(result, j)["case"]
+            out += table_blocks(f"{name}: allocation", table,
+                                ALLOCATION_NOTE.format(case=f"{worst}: {result.labels[worst]}"))
+    return out
+
+
+ALLOCATION_NOTE = (
+    "What the requirement allots to each error source (`allocation_percent` or `allocation_share`), its current best "
+    "estimate (the source's share of the checked value: the estimates add up to it, see Error budget) and the margin "
+    "(allocation − estimate; negative: the source overruns its allocation), at the requirement's worst case ({case}); "
+    "the last column is the smallest margin of the source over the cases, and where.")
 
 
 def _budget_section(result, plots) -> list:

@@ -3,6 +3,7 @@ Carlo. Every column says which error sources it covers; verdicts are badges."""
 
 from __future__ import annotations
 
+from e2esim.io.allocation_table import allocation_overview
 from e2esim.io.error_budget import (
     agb_budget,
     budget_source_name,
@@ -64,6 +65,31 @@ def budget_table(result, j: int) -> Table | None:
         body.append((f"{c.index}: {c.label}", fmt(v.value, 3), status_badge(v.status))
                     + tuple(_budget_cell(by_source.get(s)) for s, _ in sources) + ((fmt(rest, 3),) if shared else ()))
     return Table(header, tuple(body))
+
+
+def allocation_table(result, j: int) -> Table | None:
+    """Requirement j's allocation table at its worst case (``e2esim.io.allocation_table``): per source allocation,
+    current best estimate (its share of the checked value) and margin, the smallest margin over the cases, then the
+    total; None when it states no allocation."""
+    table = allocation_overview(result, j)
+    if table is None:
+        return None
+    unit, labels = table["unit"], result.labels
+
+    def cell(x):
+        return "–" if x is None else fmt(x, 3)
+
+    body = [(source_name(r["source"]) if r["source"] != "interactions" else "not attributed (coupled sources)",
+             cell(r["allocation"]), cell(r["estimate"]), cell(r["margin"]),
+             "–" if r["worst_case"] is None else f"{cell(r['worst_margin'])} ({r['worst_case']}: "
+             f"{labels[r['worst_case']]})") for r in table["rows"]]
+    if table["unallocated"]:
+        body.append(("not allocated", cell(table["unallocated"]), "", "", ""))
+    total = table["total"]
+    body.append(("**total**", f"**{cell(total['allocation'])}**", f"**{cell(total['estimate'])}**",
+                 f"**{cell(total['margin'])}**", ""))
+    return Table(("error source", f"allocation ({unit})", f"current best estimate ({unit})", f"margin ({unit})",
+                  f"smallest margin over the cases ({unit})"), tuple(body))
 
 
 def _budget_cell(row) -> str:
@@ -176,6 +202,7 @@ def contribution_key(verdict, source: str) -> str:
 
 __all__ = [
     "agb_budget_table",
+    "allocation_table",
     "budget_table",
     "case_table",
     "comparison_table",

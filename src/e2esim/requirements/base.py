@@ -9,6 +9,7 @@ import numpy as np
 
 from e2esim.module import Module, fail
 from e2esim.params import Param, ParamGroup
+from e2esim.requirements.allocation import check_allocation
 from e2esim.requirements.checked_model import agb_error_of
 from e2esim.requirements.coverage import assumed_contributions
 from e2esim.requirements.verdict import RequirementVerdict
@@ -79,6 +80,9 @@ class Requirement(Module):
     batched: ClassVar[bool] = False
     """``evaluate`` also takes a block of cases read through ``e2esim.block.BlockView`` (element-wise numpy
     operations throughout, no ``float()`` of what it reads): the requirement set then evaluates whole blocks."""
+
+    def setup(self):
+        check_allocation(self)
 
     @property
     @abstractmethod

@@ -15,6 +15,7 @@ import numpy as np
 
 from e2esim.module import fail
 from e2esim.params import Param
+from e2esim.requirements.allocation import ALLOCATION_PARAMS, allocation_details
 from e2esim.requirements.attribution import attribution, can_attribute, dominant
 from e2esim.requirements.base import (
     ASSUMED_PARAM,
@@ -71,6 +72,7 @@ class AGBErrorBound(Requirement):
               "level convention", default=(-50.0, -10.0), unit="dB", length=2, minimum=-200.0, maximum=0.0,
               convert=False),
         Param("curve_points", "int", "points on the trade-off curve", default=121, minimum=2, maximum=100000),
+        *ALLOCATION_PARAMS,
     )
     @property
     def label(self) -> str:
@@ -143,6 +145,7 @@ class AGBErrorBound(Requirement):
             side_values = {side: (1.0 if side == "over" else -1.0) * plain(
                 agb.quantile(conf if side == "over" else 1 - conf)) for side in sides}
             details.update(bound_shares(value, agb, conf, sides, side_values, "percent"))
+        details.update(allocation_details(self, details, agb.sources(), c["bound_percent"], value, "percent"))
         return RequirementVerdict(
             name=self.label,
             passed=truth(value <= c["bound_percent"]),
@@ -172,6 +175,7 @@ class AGBRelativeRMSE(Requirement):
         BASIS_PARAM,
         SOURCES_PARAM,
         ASSUMED_PARAM,
+        *ALLOCATION_PARAMS,
     )
 
     @property
@@ -194,6 +198,7 @@ class AGBRelativeRMSE(Requirement):
         details.update(contributions)
         if can_attribute(agb):
             details.update(shares(value, *rms_parts(agb), "percent"))
+        details.update(allocation_details(self, details, agb.sources(), limit, value, "percent"))
         return RequirementVerdict(self.label, truth(value <= limit), value, limit, limit - value, "%", basis,
                                   details, dominant=dominant(details), notes=tuple(notes) + sure_notes)
 
@@ -215,6 +220,7 @@ class AGBAbsoluteRMSE(Requirement):
         BASIS_PARAM,
         SOURCES_PARAM,
         ASSUMED_PARAM,
+        *ALLOCATION_PARAMS,
     )
     needs = (*Requirement.needs, "scene.covariance")
 
@@ -239,6 +245,7 @@ class AGBAbsoluteRMSE(Requirement):
         details.update(contributions)
         if can_attribute(agb):
             details.update(shares(value, *rms_parts(agb), "t_ha"))
+        details.update(allocation_details(self, details, agb.sources(), limit, value, "t_ha"))
         below = self.config["applies_below_t_ha"]
         applies = True if below is None else truth(np.asarray(agb_true) < below)
         sure, sure_notes = verdict_uncertainty(
