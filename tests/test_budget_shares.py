@@ -9,9 +9,9 @@ import pytest
 
 from e2esim.distortion.error_model import HVErrorModel
 from e2esim.faraday.distribution import ConstantFaraday, GaussianFaraday
+from e2esim.requirements.shares import bound_shares, quantile_parts, rms_parts, shares
 from e2esim.retrieval.agb_error import AGBContribution, AGBError
 from e2esim.retrieval.gauss_hermite import standard_normal_quantile
-from e2esim.requirements.shares import bound_shares, quantile_parts, rms_parts, shares
 from helpers import forest, system
 from quick_runs import scenario_names
 
