@@ -88,6 +88,8 @@ def summary_dict(result) -> dict:
     head = {"scenario": result.scenario.name, **result.provenance, "n_cases": n,
             "requirements": requirement_overview(result),
             "settings_without_effect": [f.as_dict() for f in no_effect(result)]}
+    if getattr(result, "sensitivity", None):
+        head["sensitivity"] = result.sensitivity
     if n > LARGE_RUN_CASES:
         return _clean({**head, "cases_omitted": f"{n} cases, more than {LARGE_RUN_CASES}: every case's inputs, "
                        "results and verdicts are in results.h5", "cases": []})

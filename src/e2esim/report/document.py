@@ -32,6 +32,7 @@ from e2esim.report.blocks import (
 from e2esim.report.conclusions import conclusions
 from e2esim.report.no_effect_section import no_effect_section
 from e2esim.report.outliers import error_meaning
+from e2esim.report.sensitivity_plots import sensitivity_blocks
 from e2esim.report.sensitivity_table import SENSITIVITY_NOTE, exponent_sensitivity_table
 from e2esim.report.uncertainty import uncertainty_flags
 
@@ -206,6 +207,8 @@ def _budget_section(result, plots) -> list:
         out += table_blocks("Relative AGB error each source causes on its own", agb, (
             "RMSE of the relative AGB error from the source alone, and its share of the variance of the relative "
             "σ_hv error (scalars `agb.contribution.<source>.*`)."))
+    out += [Image(name, caption) for name, caption in plots if name == "sensitivity.png"]
+    out += sensitivity_blocks(result)
     sensitivity = exponent_sensitivity_table(result)
     if sensitivity is not None:
         out += table_blocks("Sensitivity of the AGB error to the retrieval's exponents", sensitivity, SENSITIVITY_NOTE)
