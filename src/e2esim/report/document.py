@@ -201,7 +201,7 @@ def _budget_section(result, plots) -> list:
     for j, name in enumerate(result.requirement_names):
         table = tables.budget_table(result, j)
         if table is not None:
-            out += table_blocks(f"{name}: share of each source (removal)", table)
+            out += table_blocks(f"{name}: contribution of each source (share; removal in brackets)", table)
     agb = tables.agb_budget_table(result)
     if agb is not None:
         out += table_blocks("Relative AGB error each source causes on its own", agb, (

@@ -19,7 +19,7 @@ from e2esim.params import AtMostOneOf, Param
 ALLOCATION_PARAMS = (
     Param("allocation_percent", "mapping", "what the requirement allots to each error source, {source: value} "
           "in the requirement's own unit (% or t/ha); the report, summary.json and results.h5 compare each with the "
-          "source's share of the checked value", default=None, nullable=True, minimum=0.0, convert=False),
+          "source's share of the checked value", default=None, unit="%", nullable=True, minimum=0.0, convert=False),
     Param("allocation_share", "mapping", "the same as fractions of the requirement's limit, {source: fraction}; "
           "they must sum to at most 1", default=None, nullable=True, minimum=0.0, maximum=1.0),
     AtMostOneOf("allocation_percent", "allocation_share"),
