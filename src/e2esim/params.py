@@ -48,7 +48,8 @@ REQUIRED = _Required()
 """Marker for a parameter that has no default and must be given."""
 
 _TYPE_NAMES = {"float": "a number", "int": "an integer", "bool": "true or false", "str": "a string",
-               "module": "a module type name or a mapping with a 'type' key"}
+               "module": "a module type name or a mapping with a 'type' key",
+               "mapping": "a mapping of names to numbers"}
 
 
 @dataclass(frozen=True)
@@ -80,7 +81,7 @@ class Param:
 
     name : key in YAML and keyword in Python; the unit goes in the name at the YAML edge
         (``level_db``, ``mean_deg``).
-    type : "float", "int", "bool" or "str".
+    type : "float", "int", "bool", "str", "module" or "mapping" ({name: number}, each number within the bounds).
     doc : one line saying what it is.
     default : value used when the key is absent; ``REQUIRED`` if it must be given.
     unit : unit of the value as written in YAML ("dB", "deg", "t/ha", "m2/m2", "" if none).
@@ -206,6 +207,14 @@ class Param:
     def _validate_item(self, value: Any, where: Location) -> Any:
         if self.type == "module":
             return validate_component(self, value, where)
+        if self.type == "mapping":  # {name: number}, each number checked as a "float" of the same bounds
+            if not isinstance(value, Mapping):
+                raise ConfigError(where, f"{value_text(value)} is not a mapping", self.describe_allowed())
+            number = _replace(self, type="float")
+            for key in value:
+                if not isinstance(key, str):
+                    raise ConfigError(where, f"the name {value_text(key)} is not a string", self.describe_allowed())
+            return {key: number._validate_item(v, where.child(key)) for key, v in value.items()}
         if self.type == "bool":
             if not isinstance(value, bool):
                 raise ConfigError(where, f"{value_text(value)} has the wrong type", self.describe_allowed())

@@ -2,6 +2,8 @@
 
 Nothing physical is computed here; the rows are read from what the chain wrote:
 
+* per verdict, from its shares (``share.<source>_<unit>``, ``e2esim.requirements.shares``): the part of the
+  checked value each source accounts for, summing to it with ``share.interactions_<unit>``;
 * per verdict, from its attribution (``contribution.<source>_<unit>`` in the details,
   ``e2esim.requirements.attribution``): how much the checked value falls when the source is removed, in the
   requirement's unit. A requirement on the systematic error lists only the error model's sources;
@@ -12,6 +14,9 @@ Nothing physical is computed here; the rows are read from what the chain wrote:
 """
 
 from __future__ import annotations
+
+from e2esim.requirements.shares import INTERACTIONS
+from e2esim.requirements.source_names import source_name
 
 SYSTEMATIC = "systematic"
 GROUP_ORDER = ("systematic", "random", "regression", "model", "assumed")
@@ -32,15 +37,23 @@ def source_groups(case) -> dict:
 
 
 def verdict_budget(verdict, groups: dict) -> list:
-    """[{source, group, contribution, unit}] of one verdict, largest first within each group."""
+    """[{source, group, contribution, share, unit}] of one verdict, largest first within each group: ``share`` is
+    the source's part of the checked value (``share.<source>_<unit>``, the parts and ``interactions_share`` sum to
+    it; None where the verdict has no shares)."""
     suffix = "_" + unit_key(verdict.unit)
     rows = []
     for key, value in verdict.details.items():
         if key.startswith("contribution.") and key.endswith(suffix):
             source = key[len("contribution."):-len(suffix)]
             rows.append({"source": source, "group": groups.get(source, SYSTEMATIC), "contribution": value,
-                         "unit": verdict.unit})
+                         "share": verdict.details.get(f"share.{source}{suffix}"), "unit": verdict.unit})
     return sorted(rows, key=lambda r: (_group_rank(r["group"]), -abs(r["contribution"])))
+
+
+def interactions_share(verdict):
+    """The part of a verdict's checked value no single source accounts for (``share.interactions_<unit>``:
+    where the error model couples its sources), or None where the verdict has no shares."""
+    return verdict.details.get(f"share.{INTERACTIONS}_{unit_key(verdict.unit)}")
 
 
 def agb_budget(scalars: dict, groups: dict) -> list:
@@ -56,3 +69,22 @@ def agb_budget(scalars: dict, groups: dict) -> list:
 
 def _group_rank(group: str) -> int:
     return GROUP_ORDER.index(group) if group in GROUP_ORDER else len(GROUP_ORDER)
+
+
+def corrects_faraday(case) -> bool:
+    """Whether the case's calibration corrects Faraday rotation (a step named ``*faraday*``): its error model then
+    carries the residual rotation after correction (``faraday.residual``), not the geophysical one."""
+    record = case.get("calibration")
+    return any("faraday" in str(name) for name in getattr(record, "names", ()))
+
+
+def budget_source_name(source: str, cases) -> str:
+    """A source's words in a budget of ``cases``: Faraday rotation says whether it is the residual after correction
+    (in every case, some of them, or none)."""
+    words = source_name(source)
+    if source != "faraday_rotation":
+        return words
+    corrected = [corrects_faraday(c) for c in cases]
+    if corrected and all(corrected):
+        return f"{words} (residual after correction)"
+    return f"{words} (residual after correction where corrected)" if any(corrected) else words

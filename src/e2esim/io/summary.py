@@ -12,6 +12,7 @@ import math
 import numpy as np
 
 from e2esim.atomic import write_text_atomic
+from e2esim.io.allocation_table import allocation_overview
 from e2esim.io.error_budget import agb_budget, source_groups, verdict_budget
 from e2esim.maps.netcdf import not_acquired_summary
 from e2esim.runner.no_effect import no_effect
@@ -71,6 +72,9 @@ def requirement_overview(result) -> list:
             "worst_case": worst,
             "worst_case_label": labels[worst] if worst is not None else None,
         })
+        allocation = allocation_overview(result, j)
+        if allocation is not None:
+            rows[-1]["allocation"] = allocation
     return rows
 
 
@@ -88,6 +92,8 @@ def summary_dict(result) -> dict:
     excluded = not_acquired_summary(result)  # a map sweep's cells the mission does not acquire
     if excluded is not None:
         head["not_acquired"] = excluded
+    if getattr(result, "sensitivity", None):
+        head["sensitivity"] = result.sensitivity
     if n > LARGE_RUN_CASES:
         return _clean({**head, "cases_omitted": f"{n} cases, more than {LARGE_RUN_CASES}: every case's inputs, "
                        "results and verdicts are in results.h5", "cases": []})

@@ -1,7 +1,7 @@
-"""Report plot ``error_budget``: for every requirement, how much each error source adds to the checked value
-(the verdict's attribution, ``e2esim.io.error_budget``), as stacked horizontal bars per case with the
-checked value and the limit. Sweeps of more than ``MAX_BAR_CASES`` cases show three cases: the worst, the
-median and the best."""
+"""Report plot ``error_budget``: for every requirement, the part of the checked value each error source accounts for
+(the verdict's shares, which sum to it, or where it has none its attribution; ``e2esim.io.error_budget``), as
+stacked horizontal bars per case with the checked value and the limit. Sweeps of more than ``MAX_BAR_CASES``
+cases show three cases: the worst, the median and the best."""
 
 from __future__ import annotations
 
@@ -10,11 +10,11 @@ from pathlib import Path
 import matplotlib.pyplot as plt
 import numpy as np
 
-from e2esim.io.error_budget import source_groups, verdict_budget
+from e2esim.io.error_budget import budget_source_name, interactions_share, source_groups, verdict_budget
 from e2esim.report.outliers import axis_cut, mark_cut
 from e2esim.report.plot_base import PlotSkipped, save
 from e2esim.report.sweep_layout import case_row_height, case_ticks
-from e2esim.requirements.source_names import source_name
+from e2esim.requirements.source_names import coupling_words
 
 MAX_BAR_CASES = 30
 GROUP_HATCH = {"systematic": "", "random": "//", "regression": "..", "model": "xx", "assumed": "\\\\"}
@@ -52,6 +52,7 @@ def plot_error_budget(result, folder: Path, options: dict) -> list:
                              gridspec_kw={"height_ratios": heights})
     drawn: dict = {}
     notes = []
+    coupled: set = set()
     for ax, (j, cases, which, rows) in zip(axes[:, 0], panels):
         unit = cases[0].verdicts[j].unit
         checked = np.array([c.verdicts[j].value for c in cases])
@@ -61,7 +62,7 @@ def plot_error_budget(result, folder: Path, options: dict) -> list:
         for y, (c, case_rows) in enumerate(zip(cases, rows)):
             right = left = 0.0
             for r in case_rows:
-                value = r["contribution"]
+                value = _part(r)
                 if not np.isfinite(value) or value == 0.0:
                     continue
                 start = right if value > 0 else left + value
@@ -69,15 +70,19 @@ def plot_error_budget(result, folder: Path, options: dict) -> list:
                 if hi > lo:
                     bar = ax.barh(y, hi - lo, left=lo, color=colours[r["source"]], edgecolor="white",
                                   hatch=GROUP_HATCH.get(r["group"], ""), height=0.7)
-                    drawn.setdefault(f"{source_name(r['source'])} ({r['group']})", bar)
+                    drawn.setdefault(f"{budget_source_name(r['source'], cases)} ({r['group']})", bar)
                 right, left = (right + value, left) if value > 0 else (right, left + value)
             v = c.verdicts[j]
-            rest = v.value - right - left
-            if np.isfinite(rest) and rest > 0 and right > 0:
-                lo, hi = clip([right, right + rest])
+            shared = interactions_share(v)
+            rest = v.value - right - left if shared is None else shared
+            if np.isfinite(rest) and rest != 0 and (shared is not None or (rest > 0 and right > 0)):
+                start = right if rest > 0 else left + rest
+                lo, hi = clip([start, start + abs(rest)])
                 if hi > lo:
                     bar = ax.barh(y, hi - lo, left=lo, color="0.85", edgecolor="0.6", height=0.7)
-                    drawn.setdefault("not attributed to one source (interactions)", bar)
+                    drawn.setdefault("not attributed to one source (coupled sources)", bar)
+                    if shared is not None and abs(rest) > 0.01 * abs(v.value):
+                        coupled.update(r["source"] for r in case_rows if _part(r))
             ax.plot(clip([v.value])[0], y, "kd", ms=5)
         mark_cut(ax, range(len(cases)), checked, cut, unit)
         if cut:
@@ -93,16 +98,22 @@ def plot_error_budget(result, folder: Path, options: dict) -> list:
     fig.legend(list(drawn.values()), list(drawn.keys()), loc="lower center", ncol=3, fontsize=7,
                bbox_to_anchor=(0.5, -0.01 - 0.025 * (len(drawn) // 3)))
     fig.tight_layout()
+    why = (f" Where grey exceeds 1 % of the checked value: {coupling_words(sorted(coupled))}." if coupled else "")
     return [(save(fig, folder, "error_budget"),
-             "Error budget of each requirement: how much the checked value falls when one error source is removed "
-             "(bars, hatched: random-error budget; dotted: regression; cross-hatched: retrieval model; back-hatched: "
-             "assumed), the checked value (black diamond) and the limit (red dashed line). The parts need not add up: "
-             "the sources interact and quantiles are not additive; grey is the part no single source accounts for."
-             + "".join(notes))]
+             "Error budget of each requirement: the part of the checked value each error source accounts for (bars, "
+             "hatched: random-error budget; dotted: regression; cross-hatched: retrieval model; back-hatched: "
+             "assumed), the checked value (black diamond) and the limit (red dashed line). The parts add up to the "
+             "checked value: each source's share of the mean square (RMSE) or of the Gaussian quantile (bounds) of "
+             "the σ error, by the Euler principle (docs/theory/error-budget.md); grey is the part no single source "
+             "accounts for, where the error model couples its sources (zero where they add)." + why + "".join(notes))]
+
+
+def _part(row) -> float:
+    """The length of a source's bar: its share of the checked value (its removal attribution where it has none)."""
+    return row["contribution"] if row.get("share") is None else row["share"]
 
 
 def _stack_ends(case_rows) -> list:
     """Where a case's stacked bars end, on either side of zero (what the axis must reach)."""
-    right = sum(r["contribution"] for r in case_rows if np.isfinite(r["contribution"]) and r["contribution"] > 0)
-    left = sum(r["contribution"] for r in case_rows if np.isfinite(r["contribution"]) and r["contribution"] < 0)
-    return [right, left]
+    parts = [_part(r) for r in case_rows if np.isfinite(_part(r))]
+    return [sum(p for p in parts if p > 0), sum(p for p in parts if p < 0)]

@@ -12,6 +12,7 @@ import inspect
 
 import numpy as np
 
+from e2esim.io.allocation_table import allocation_overview
 from e2esim.io.summary import LARGE_RUN_CASES, requirement_overview
 from e2esim.maps.grid import is_map_sweep
 from e2esim.maps.netcdf import not_acquired_summary
@@ -32,6 +33,7 @@ from e2esim.report.blocks import (
 from e2esim.report.conclusions import conclusions, error_term_sentences
 from e2esim.report.no_effect_section import no_effect_section
 from e2esim.report.outliers import error_meaning
+from e2esim.report.sensitivity_plots import sensitivity_blocks
 from e2esim.report.sensitivity_table import SENSITIVITY_NOTE, exponent_sensitivity_table
 from e2esim.report.uncertainty import uncertainty_flags
 
@@ -79,6 +81,7 @@ def build_report(result, plots: list, warnings: list = ()) -> list:
         blocks += [Paragraph(f"**How sure:** {name}: {flag}") for j, name in enumerate(result.requirement_names)
                    for flag in uncertainty_flags(result, j)]
         blocks += [Heading(2, "Requirement verdicts"), tables.verdict_table(result), Paragraph(_scope_note(result))]
+        blocks += _allocation_blocks(result)
         blocks += _budget_section(result, plots)
     else:
         blocks += [Paragraph("The scenario states no requirements.")]
@@ -177,12 +180,33 @@ def _scope_note(result) -> str:
             "and are not counted as passing.")
 
 
+def _allocation_blocks(result) -> list:
+    out = []
+    for j, name in enumerate(result.requirement_names):
+        table = tables.allocation_table(result, j)
+        if table is not None:
+            worst = allocation_overview(result, j)["case"]
+            out += table_blocks(f"{name}: allocation", table,
+                                ALLOCATION_NOTE.format(case=f"{worst}: {result.labels[worst]}"))
+    return out
+
+
+ALLOCATION_NOTE = (
+    "What the requirement allots to each error source (`allocation_percent` or `allocation_share`), its current best "
+    "estimate (the source's share of the checked value: the estimates add up to it, see Error budget) and the margin "
+    "(allocation − estimate; negative: the source overruns its allocation), at the requirement's worst case ({case}); "
+    "the last column is the smallest margin of the source over the cases, and where.")
+
+
 def _budget_section(result, plots) -> list:
     out = [Heading(2, "Error budget"), Paragraph(
-        "How much each error source adds to each requirement's checked value: the value minus the value with that "
-        "source removed (analytic model; the parts interact and quantiles are not additive, so they need not add "
-        "up). Systematic: system distortions, Faraday rotation, noise; random: the error budget of the product "
-        "(speckle and noise, temporal variability, calibration, area projection); regression: the retrieval "
+        "The part of each requirement's checked value each error source accounts for: its share of the mean square "
+        "of the σ error (RMSE) or of its Gaussian quantile (bounds), by the Euler principle, carried to the checked "
+        "value in proportion, so that the parts add up to it (analytic model; docs/theory/error-budget.md). "
+        "'not attributed' is the part no single source accounts for, where the error model couples its sources; "
+        "it is zero where they add. The tables also give, in brackets, how much the value falls when the source "
+        "alone is removed. Systematic: system distortions, Faraday rotation, noise; random: the error budget of the "
+        "product (speckle and noise, temporal variability, calibration, area projection); regression: the retrieval "
         "model's calibration uncertainty; model: the uncertainty of the retrieval's exponents and coefficients away "
         "from their calibration.")]
     out += [Image(name, caption) for name, caption in plots if name == "error_budget.png"]
@@ -191,12 +215,14 @@ def _budget_section(result, plots) -> list:
     for j, name in enumerate(result.requirement_names):
         table = tables.budget_table(result, j)
         if table is not None:
-            out += table_blocks(f"{name}: contribution of each source", table)
+            out += table_blocks(f"{name}: contribution of each source (share; removal in brackets)", table)
     agb = tables.agb_budget_table(result)
     if agb is not None:
         out += table_blocks("Relative AGB error each source causes on its own", agb, (
             "RMSE of the relative AGB error from the source alone, and its share of the variance of the relative "
             "σ_hv error (scalars `agb.contribution.<source>.*`)."))
+    out += [Image(name, caption) for name, caption in plots if name == "sensitivity.png"]
+    out += sensitivity_blocks(result)
     sensitivity = exponent_sensitivity_table(result)
     if sensitivity is not None:
         out += table_blocks("Sensitivity of the AGB error to the retrieval's exponents", sensitivity, SENSITIVITY_NOTE)

@@ -170,6 +170,8 @@ def requested_plots(result) -> list:
         wanted.append("site_map")
     if result.requirement_names:
         wanted = [*ALWAYS_PLOTS, *wanted]
+    if getattr(result, "sensitivity", None):  # output.sensitivity: true
+        wanted.append("sensitivity")
     return list(dict.fromkeys(wanted))
 
 

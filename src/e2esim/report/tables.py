@@ -3,7 +3,15 @@ Carlo. Every column says which error sources it covers; verdicts are badges."""
 
 from __future__ import annotations
 
-from e2esim.io.error_budget import agb_budget, source_groups, unit_key, verdict_budget
+from e2esim.io.allocation_table import allocation_overview
+from e2esim.io.error_budget import (
+    agb_budget,
+    budget_source_name,
+    interactions_share,
+    source_groups,
+    unit_key,
+    verdict_budget,
+)
 from e2esim.io.summary import requirement_overview
 from e2esim.report.blocks import Table, fmt, status_badge
 from e2esim.report.uncertainty import with_standard_error
@@ -38,22 +46,58 @@ def verdict_table(result) -> Table:
 
 
 def budget_table(result, j: int) -> Table | None:
-    """Requirement j: per case, how much each source adds to the checked value (removal attribution)."""
+    """Requirement j: per case, each source's share of the checked value (``share.*``, summing to it with the part
+    not attributed) and, in brackets, how much the value falls without it (removal attribution)."""
     cases = result.cases
     rows = [verdict_budget(c.verdicts[j], source_groups(c)) for c in cases]
     sources = list(dict.fromkeys((r["source"], r["group"]) for case_rows in rows for r in case_rows))
     if not sources:
         return None
     unit = cases[0].verdicts[j].unit
+    rests = [interactions_share(c.verdicts[j]) for c in cases]
+    shared = any(r is not None for r in rests)
     header = ("case", f"checked value ({unit})", "verdict") + tuple(
-        f"{source_name(s)} [{g}] ({unit})" for s, g in sources)
+        f"{budget_source_name(s, cases)} [{g}] ({unit})" for s, g in sources) + (("not attributed",) if shared else ())
     body = []
-    for c, case_rows in zip(cases, rows):
+    for c, case_rows, rest in zip(cases, rows, rests):
         v = c.verdicts[j]
-        by_source = {r["source"]: r["contribution"] for r in case_rows}
+        by_source = {r["source"]: r for r in case_rows}
         body.append((f"{c.index}: {c.label}", fmt(v.value, 3), status_badge(v.status))
-                    + tuple(fmt(by_source.get(s), 3) for s, _ in sources))
+                    + tuple(_budget_cell(by_source.get(s)) for s, _ in sources) + ((fmt(rest, 3),) if shared else ()))
     return Table(header, tuple(body))
+
+
+def allocation_table(result, j: int) -> Table | None:
+    """Requirement j's allocation table at its worst case (``e2esim.io.allocation_table``): per source allocation,
+    current best estimate (its share of the checked value) and margin, the smallest margin over the cases, then the
+    total; None when it states no allocation."""
+    table = allocation_overview(result, j)
+    if table is None:
+        return None
+    unit, labels = table["unit"], result.labels
+
+    def cell(x):
+        return "–" if x is None else fmt(x, 3)
+
+    body = [(source_name(r["source"]) if r["source"] != "interactions" else "not attributed (coupled sources)",
+             cell(r["allocation"]), cell(r["estimate"]), cell(r["margin"]),
+             "–" if r["worst_case"] is None else f"{cell(r['worst_margin'])} ({r['worst_case']}: "
+             f"{labels[r['worst_case']]})") for r in table["rows"]]
+    if table["unallocated"]:
+        body.append(("not allocated", cell(table["unallocated"]), "", "", ""))
+    total = table["total"]
+    body.append(("**total**", f"**{cell(total['allocation'])}**", f"**{cell(total['estimate'])}**",
+                 f"**{cell(total['margin'])}**", ""))
+    return Table(("error source", f"allocation ({unit})", f"current best estimate ({unit})", f"margin ({unit})",
+                  f"smallest margin over the cases ({unit})"), tuple(body))
+
+
+def _budget_cell(row) -> str:
+    if row is None:
+        return "–"
+    if row["share"] is None:
+        return fmt(row["contribution"], 3)
+    return f"{fmt(row['share'], 3)} ({fmt(row['contribution'], 3)})"
 
 
 def agb_budget_table(result) -> Table | None:
@@ -158,6 +202,7 @@ def contribution_key(verdict, source: str) -> str:
 
 __all__ = [
     "agb_budget_table",
+    "allocation_table",
     "budget_table",
     "case_table",
     "comparison_table",

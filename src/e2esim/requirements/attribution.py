@@ -7,6 +7,11 @@ import numpy as np
 from e2esim.retrieval.agb_error import AGBError
 
 
+def can_attribute(agb: AGBError) -> bool:
+    """Whether the sources of ``agb`` can be taken away one by one (an analytic AGB error of an available model)."""
+    return agb.error_model.unavailable is None and agb.error_mean is not None
+
+
 def attribution(value_of, agb: AGBError, unit: str = "percent") -> tuple[dict, tuple]:
     """How much each error source adds to a requirement's checked value, and why not, if it cannot be said.
 
@@ -19,7 +24,7 @@ def attribution(value_of, agb: AGBError, unit: str = "percent") -> tuple[dict, t
     requirement checks; ``unit`` ends the keys, ``contribution.<source>_<unit>``. Returns (contributions, notes).
     """
     model = agb.error_model
-    if model.unavailable is not None or agb.error_mean is None:
+    if not can_attribute(agb):
         return {}, (f"no attribution to error sources: {model.unavailable or 'no analytic AGB error'}",)
     base = value_of(agb)
     out = {}

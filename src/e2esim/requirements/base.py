@@ -9,6 +9,7 @@ import numpy as np
 
 from e2esim.module import Module, fail
 from e2esim.params import Param, ParamGroup
+from e2esim.requirements.allocation import check_allocation
 from e2esim.requirements.checked_model import agb_error_of
 from e2esim.requirements.coverage import assumed_contributions
 from e2esim.requirements.verdict import RequirementVerdict
@@ -87,6 +88,9 @@ class Requirement(Module):
     """``evaluate`` also takes a block of cases (``e2esim.block.Block``: the AGB error and the error model with
     their case axis, other products read with ``case.column`` or ``case.common``; element-wise numpy operations
     throughout, no ``float()`` of what it reads): the requirement set then evaluates whole blocks."""
+
+    def setup(self):
+        check_allocation(self)
 
     @property
     @abstractmethod

@@ -15,7 +15,8 @@ import numpy as np
 
 from e2esim.module import fail
 from e2esim.params import Param
-from e2esim.requirements.attribution import attribution, dominant
+from e2esim.requirements.allocation import ALLOCATION_PARAMS, allocation_details
+from e2esim.requirements.attribution import attribution, can_attribute, dominant
 from e2esim.requirements.base import (
     PERCENT,
     Requirement,
@@ -36,6 +37,7 @@ from e2esim.requirements.margins import (
     tradeoff_curves,
     validity_note,
 )
+from e2esim.requirements.shares import bound_shares, rms_parts, shares
 from e2esim.requirements.tradeoff import AGBBound
 from e2esim.requirements.uncertainty import largest_side, verdict_uncertainty
 from e2esim.requirements.verdict import RequirementVerdict
@@ -64,6 +66,7 @@ class AGBErrorBound(Requirement):
                   "level convention", default=(-50.0, -10.0), unit="dB", length=2, minimum=-200.0, maximum=0.0,
                   convert=False),
             Param("curve_points", "int", "points on the trade-off curve", default=121, minimum=2, maximum=100000),
+            *ALLOCATION_PARAMS,
         ),
     )
 
@@ -134,6 +137,11 @@ class AGBErrorBound(Requirement):
 
         contributions, why_not = attribution(checked_value, agb)
         details.update(contributions)
+        if can_attribute(agb):
+            side_values = {side: (1.0 if side == "over" else -1.0) * plain(
+                agb.quantile(conf if side == "over" else 1 - conf)) for side in sides}
+            details.update(bound_shares(value, agb, conf, sides, side_values, "percent"))
+        details.update(allocation_details(self, details, agb.sources(), c["bound_percent"], value, "percent"))
         return RequirementVerdict(
             name=self.label,
             passed=truth(value <= c["bound_percent"]),
@@ -156,7 +164,8 @@ class AGBRelativeRMSE(Requirement):
     batched = True
     summary = "root-mean-square relative AGB error below a limit"
     params = agb_requirement_params(Param("max_percent", "float", "largest allowed RMS relative AGB error",
-                                          default=20.0, unit="%", exclusive_minimum=0.0))
+                                          default=20.0, unit="%", exclusive_minimum=0.0),
+                                    after=ALLOCATION_PARAMS)
 
     @property
     def label(self) -> str:
@@ -176,6 +185,9 @@ class AGBRelativeRMSE(Requirement):
         details.update(sure)
         contributions, notes = attribution(lambda agb_error: agb_error.rmse("analytic") * PERCENT, agb)
         details.update(contributions)
+        if can_attribute(agb):
+            details.update(shares(value, *rms_parts(agb), "percent"))
+        details.update(allocation_details(self, details, agb.sources(), limit, value, "percent"))
         return RequirementVerdict(self.label, truth(value <= limit), value, limit, limit - value, "%", basis,
                                   details, dominant=dominant(details), notes=tuple(notes) + sure_notes)
 
@@ -192,6 +204,7 @@ class AGBAbsoluteRMSE(Requirement):
         Param("applies_below_t_ha", "float", "the requirement applies to AGB below this (null: to every AGB); "
               "cases at or above it are not applicable: no pass, no fail, no margin", default=None, unit="t/ha",
               exclusive_minimum=0.0, nullable=True),
+        after=ALLOCATION_PARAMS,
     )
     needs = (*Requirement.needs, "scene.covariance")
 
@@ -215,6 +228,9 @@ class AGBAbsoluteRMSE(Requirement):
         details = {f"{b}.rmse_t_ha": agb.rmse(b) * agb_true for b in bases}
         contributions, notes = attribution(lambda a: a.rmse("analytic") * agb_true, agb, unit="t_ha")
         details.update(contributions)
+        if can_attribute(agb):
+            details.update(shares(value, *rms_parts(agb), "t_ha"))
+        details.update(allocation_details(self, details, agb.sources(), limit, value, "t_ha"))
         below = self.config["applies_below_t_ha"]
         applies = True if below is None else truth(np.asarray(agb_true) < below)
         sure, sure_notes = verdict_uncertainty(

@@ -30,6 +30,7 @@ from e2esim.runner.progress import CaseProgress
 from e2esim.runner.provenance import dependency_versions, source_commit
 from e2esim.runner.result_table import ResultTable
 from e2esim.runner.scenario import ResolvedScenario
+from e2esim.runner.sensitivity import parameter_sensitivity
 from e2esim.runner.spill import SPILL_ABOVE_CASES, SpilledBlock, SpillFile, spill_block
 from e2esim.runner.stage_products import checked_products
 
@@ -124,6 +125,8 @@ class ScenarioResult:
     scenario: ResolvedScenario
     blocks: list
     provenance: dict = field(default_factory=dict)
+    sensitivity: dict | None = None
+    """The elasticities of the checked values (``output.sensitivity``; ``e2esim.runner.sensitivity``), or None."""
 
     @cached_property
     def cases(self) -> ResultCases:
@@ -249,7 +252,9 @@ def run_scenario(
         provenance["executor"] = f"dask {scheduler}" if scheduler else f"{workers} local processes"
     if resumed:
         provenance["resumed_cases"] = int(resumed)
-    return ScenarioResult(resolved, blocks, provenance)
+    result = ScenarioResult(resolved, blocks, provenance)
+    result.sensitivity = parameter_sensitivity(result, run_scenario)
+    return result
 
 
 __all__ = ["BLOCK_CASES", "ENGINES", "BlockResult", "CaseResult", "ResultCases", "ScenarioResult",

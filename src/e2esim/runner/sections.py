@@ -55,6 +55,9 @@ def output_params(distribution: str | None = None) -> tuple:
               "tells cases apart); the other swept keys make the panels",
               default=None, nullable=True),
         Param("histogram_cases", "int", "at most this many cases get an error histogram", default=12, minimum=1),
+        Param("sensitivity", "bool", "elasticity of each requirement's checked value to every numeric parameter "
+              "of the chain at its worst case, by central differences (two analytic runs of one case per parameter), "
+              "with a tornado chart and the parameters that buy the most margin", default=False),
     )
 
 
