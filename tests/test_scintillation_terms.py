@@ -151,3 +151,47 @@ def test_a_map_cell_without_an_orbit_stage_gets_its_screen_from_its_parameters()
     assert outputs[key] > 5.0 * quiet[key] > 0.0
     with pytest.raises(ConfigError, match="names no map cell"):
         ScintillationSigma0().effect(case, None)
+
+
+def test_the_map_cell_keys_of_error_terms_are_those_a_map_sweep_sets():
+    """Error terms read a map cell by the sweep keys of e2esim.maps.grid: the two lists must not drift apart."""
+    from e2esim.error_terms.modules import MAP_CELL_KEYS
+    from e2esim.maps.grid import LAT_KEYS, LON_KEYS, MONTH_KEY, PASS_KEY, SOLAR_KEY
+
+    assert MAP_CELL_KEYS == {"lat": LAT_KEYS[0], "lon": LON_KEYS[0], "month": MONTH_KEY, "pass": PASS_KEY,
+                             "solar": SOLAR_KEY}
+
+
+def test_a_map_sweeps_cell_drives_the_scintillation_term():
+    """In a map sweep the term names no cell: it takes latitude, longitude, month, pass and solar level from the
+    case's map keys (an auroral dusk cell at solar maximum scintillates more than the same cell at minimum, and
+    more than an equatorial dawn cell), and its own parameters win where given."""
+    from e2esim.error_terms.modules import MAP_CELL_KEYS
+    from e2esim.scintillation.modules import ScintillationSigma0
+    from e2esim.testing import reference_case
+
+    full = reference_case(("instrument",))
+
+    def cell(lat, month, pass_name, solar):
+        inputs = {MAP_CELL_KEYS["lat"]: lat, MAP_CELL_KEYS["lon"]: 100.0, MAP_CELL_KEYS["month"]: month,
+                  MAP_CELL_KEYS["pass"]: pass_name, MAP_CELL_KEYS["solar"]: solar}
+
+        class MapCase:
+            settings, rng = full.settings, full.rng
+
+            @staticmethod
+            def get(name, default=None):
+                return full.get(name, default) if name != "geometry" else default
+
+        MapCase.inputs = inputs
+        return MapCase()
+
+    key = "scintillation_sigma0.peak_loss_median_db"
+    term = ScintillationSigma0()
+    auroral_max = dict(term.effect(cell(72.0, 1, "dusk", "max"), None).outputs)[key]
+    auroral_min = dict(term.effect(cell(72.0, 1, "dusk", "min"), None).outputs)[key]
+    equatorial = dict(term.effect(cell(10.0, 1, "ascending", "max"), None).outputs)[key]
+    assert auroral_max > auroral_min > 0.0
+    assert auroral_max > 5.0 * equatorial > 0.0
+    pinned = ScintillationSigma0(lat_deg=10.0, solar="max", **{"pass": "dawn"})
+    assert dict(pinned.effect(cell(72.0, 1, "dusk", "min"), None).outputs)[key] == equatorial

@@ -21,6 +21,11 @@ from e2esim.params import Param
 
 _NAME = re.compile(r"^[a-z][a-z0-9_]*$")
 
+MAP_CELL_KEYS = {"lat": "scene.lat_deg", "lon": "scene.lon_deg", "month": "ionosphere.month",
+                 "pass": "ionosphere.pass", "solar": "ionosphere.solar"}
+"""The sweep keys a map sweep sets for each cell (e2esim.maps.grid.MAP_KEYS; a test keeps the two equal): an error
+term that depends on place and time reads its cell from them when the scenario gives none."""
+
 
 def source_param(default: str) -> Param:
     """The ``source`` parameter every term has: the name of its level and source."""

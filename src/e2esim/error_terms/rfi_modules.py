@@ -29,14 +29,14 @@ from __future__ import annotations
 from pathlib import Path
 
 from e2esim.error_terms.effects import AddedPower, ExtraVariance, FixedGain
-from e2esim.error_terms.modules import ErrorTerm, source_param
+from e2esim.error_terms.modules import MAP_CELL_KEYS, ErrorTerm, source_param
 from e2esim.error_terms.notch import POSITIONS, notch_response
 from e2esim.error_terms.wrapped import base_samples_shape, wrapped
 from e2esim.module import fail
 from e2esim.params import AtMostOneOf, Param
 from e2esim.scene.lat_lon_raster import read_lat_lon_raster
 
-CELL_KEYS = ("scene.lat_deg", "scene.lon_deg")
+CELL_KEYS = (MAP_CELL_KEYS["lat"], MAP_CELL_KEYS["lon"])
 """The sweep keys of a map sweep's cell, where a ``fraction_map`` is looked up when the term gives no point."""
 
 

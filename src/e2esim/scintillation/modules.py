@@ -22,7 +22,7 @@ import math
 
 import numpy as np
 
-from e2esim.error_terms.modules import ErrorTerm, source_param
+from e2esim.error_terms.modules import MAP_CELL_KEYS, ErrorTerm, source_param
 from e2esim.errors import PhysicsInputError
 from e2esim.module import fail
 from e2esim.orbit.frames import EARTH_MEAN_RADIUS
@@ -35,8 +35,8 @@ from e2esim.scintillation.faraday_window import parallel_field, window_variance
 from e2esim.scintillation.irf_monte_carlo import mixture_monte_carlo, peak_log_loss
 
 SCREEN_PARAMS = (
-    Param("solar", "str", "solar activity: 12-month sunspot number 10 (min) or 150 (max)", default="max",
-          choices=tuple(SOLAR_PRESETS)),
+    Param("solar", "str", "solar activity: 12-month sunspot number 10 (min) or 150 (max) (null: a map sweep's solar "
+          "level, else max)", default=None, nullable=True, choices=tuple(SOLAR_PRESETS)),
     Param("sunspot_number", "float", "12-month sunspot number R instead of the preset of `solar` (null: the preset)",
           default=None, nullable=True, minimum=0.0, maximum=250.0),
     Param("percentile", "float", "percentile of the day-to-day spread of C_kL (50: the median screen)", default=50.0,
@@ -59,8 +59,8 @@ SCREEN_PARAMS = (
           minimum=-180.0, maximum=360.0, convert=False),
     Param("month", "int", "month of that cell's acquisitions (the 15th)", default=None, nullable=True, minimum=1,
           maximum=12),
-    Param("pass", "str", "pass of that cell's acquisitions: dawn (06 h) or dusk (18 h)", default="dawn",
-          choices=("dawn", "dusk")),
+    Param("pass", "str", "pass of that cell's acquisitions: dawn (06 h) or dusk (18 h) (null: a map sweep's pass, "
+          "else dawn)", default=None, nullable=True, choices=("dawn", "dusk")),
 )
 
 
@@ -72,7 +72,8 @@ class ScintillationTerm(ErrorTerm):
 
     def screen_settings(self, case) -> ScreenSettings:
         si = self.si
-        sunspots = SOLAR_PRESETS[si["solar"]] if si["sunspot_number"] is None else si["sunspot_number"]
+        solar = si["solar"] or (getattr(case, "inputs", None) or {}).get(MAP_CELL_KEYS["solar"]) or "max"
+        sunspots = SOLAR_PRESETS[solar] if si["sunspot_number"] is None else si["sunspot_number"]
         instrument = case.get("instrument")
         frequency = 435e6 if instrument is None else float(instrument.centre_frequency_hz)
         return ScreenSettings(sunspots, si["percentile"], si["spectral_index"], si["c_kl"], si["outer_scale_m"],
@@ -83,11 +84,21 @@ class ScintillationTerm(ErrorTerm):
         geometry = case.get("geometry")
         if geometry is not None:
             return geometry
-        si = self.si
-        if si["lat_deg"] is None or si["lon_deg"] is None or si["month"] is None:
+        cell = self.map_cell(case)
+        if cell["lat"] is None or cell["lon"] is None or cell["month"] is None:
             raise fail(self, "the chain has no geometry product (no orbit section) and the term names no map cell",
                        "add an orbit section, or give lat_deg, lon_deg and month (a map sweep sets them)")
-        return cell_acquisitions(si["lat_deg"], si["lon_deg"], si["month"], si["pass"])
+        return cell_acquisitions(cell["lat"], cell["lon"], cell["month"], cell["pass"])
+
+    def map_cell(self, case) -> dict:
+        """The cell of a chain without geometry: the term's lat_deg, lon_deg, month and pass where given, else the
+        map sweep's cell (``MAP_CELL_KEYS``); a map's ascending pass is BIOMASS's dawn pass (ascending node at
+        06 h), its descending pass the dusk pass."""
+        si, inputs = self.si, getattr(case, "inputs", None) or {}
+        cell = {name: si[key] if si[key] is not None else inputs.get(MAP_CELL_KEYS[name])
+                for name, key in (("lat", "lat_deg"), ("lon", "lon_deg"), ("month", "month"), ("pass", "pass"))}
+        cell["pass"] = {"ascending": "dawn", "descending": "dusk", None: "dawn"}.get(cell["pass"], cell["pass"])
+        return cell
 
     def screens(self, case, site_lat=None, site_lon=None):
         try:
