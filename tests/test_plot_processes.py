@@ -64,3 +64,13 @@ def test_the_plots_of_a_helper_that_dies_are_drawn_here():
         return outcome(name)
 
     assert draw_all(NAMES, draw, helper=True) == [outcome(n) for n in NAMES]
+
+
+def test_without_a_helper_to_be_had_the_plots_are_drawn_here(monkeypatch):
+    import multiprocessing.context
+
+    def no_semaphores(self, *args, **kwargs):
+        raise OSError(38, "Function not implemented")
+
+    monkeypatch.setattr(multiprocessing.context.BaseContext, "Value", no_semaphores)
+    assert draw_all(NAMES, outcome, helper=True) == [outcome(n) for n in NAMES]

@@ -50,10 +50,13 @@ def draw_all(names: list, draw, done=None, helper: bool | None = None) -> list:
     if not helper:
         return [_drawn(draw, name, done) for name in names]
     ctx = multiprocessing.get_context("fork")
-    counter = ctx.Value("i", 0)
-    receive, send = ctx.Pipe(duplex=False)
-    process = ctx.Process(target=_helper, args=(names, draw, counter, send), name="e2esim-plots", daemon=True)
-    process.start()
+    try:
+        counter = ctx.Value("i", 0)  # a semaphore: /dev/shm, which a container may lack
+        receive, send = ctx.Pipe(duplex=False)
+        process = ctx.Process(target=_helper, args=(names, draw, counter, send), name="e2esim-plots", daemon=True)
+        process.start()
+    except OSError:  # no helper to be had: drawn here
+        return [_drawn(draw, name, done) for name in names]
     send.close()  # this process's copy: the pipe ends when the helper's end closes
     outcomes: dict = {}
     try:
