@@ -3,9 +3,11 @@
 Drawing a figure is matplotlib's Python (text layout above all) and holds one core; the plots of a run do not
 depend on one another, so a second process halves the time of a run's plots (biomass_default: 1.8 of its 5 s).
 The helper is forked after the run, so it has the run's results without pickling them; both processes take the
-next plot from a shared counter until none is left, and the helper sends back what each of its plots gave (the
-file names and captions, or why it drew nothing). Every figure is drawn by the same code either way, so the files
-are the same; the list comes back in the order of the plots.
+next plot until none is left, this one from the end of the list and the helper from its start (opposite ends: a
+list whose costliest plot comes last, as biomass_multichannel's twelve-panel trade-off curves after three
+one-panel figures, is not left to one process after the others), and the helper sends back what each of its plots
+gave (the file names and captions, or why it drew nothing). Every figure is drawn by the same code either way, so
+the files are the same; the list comes back in the order of the plots.
 
 Whatever goes wrong in the helper ends in this process as it would without it: a plot whose drawing raised an
 error there (or that the helper took and did not report, because it died) is drawn again here, where the error
@@ -51,7 +53,8 @@ def draw_all(names: list, draw, done=None, helper: bool | None = None) -> list:
         return [_drawn(draw, name, done) for name in names]
     ctx = multiprocessing.get_context("fork")
     try:
-        counter = ctx.Value("i", 0)  # a semaphore: /dev/shm, which a container may lack
+        counter = ctx.Array("i", [0, len(names)])  # [next from the start, one past the next from the end]; a
+        # semaphore guards it: /dev/shm, which a container may lack
         receive, send = ctx.Pipe(duplex=False)
         process = ctx.Process(target=_helper, args=(names, draw, counter, send), name="e2esim-plots", daemon=True)
         process.start()
@@ -60,7 +63,7 @@ def draw_all(names: list, draw, done=None, helper: bool | None = None) -> list:
     send.close()  # this process's copy: the pipe ends when the helper's end closes
     outcomes: dict = {}
     try:
-        while (i := _take(counter, len(names))) is not None:
+        while (i := _take(counter, from_end=True)) is not None:
             outcomes[i] = _drawn(draw, names[i], done)
         for i, outcome in _received(receive):
             if outcome != _FAILED:
@@ -84,14 +87,17 @@ def _drawn(draw, name, done):
     return outcome
 
 
-def _take(counter, count: int) -> int | None:
-    """The index of the next plot nobody has taken, or None."""
+def _take(counter, from_end: bool) -> int | None:
+    """The index of the next plot nobody has taken, from the start or the end of the list, or None."""
     with counter.get_lock():
-        i = counter.value
-        if i >= count:
+        start, end = counter[0], counter[1]
+        if start >= end:
             return None
-        counter.value = i + 1
-    return i
+        if from_end:
+            counter[1] = end - 1
+            return end - 1
+        counter[0] = start + 1
+        return start
 
 
 def _received(receive):
@@ -110,7 +116,7 @@ def _helper(names, draw, counter, send) -> None:
     """In the forked helper: draw the plots nobody has taken, send each outcome, then ``_DONE``. It ends quietly
     when stopped (Ctrl-C reaches the whole process group: this process's parent handles it)."""
     with contextlib.suppress(BaseException):
-        while (i := _take(counter, len(names))) is not None:
+        while (i := _take(counter, from_end=False)) is not None:
             try:
                 outcome = draw(names[i])
             except Exception:  # drawn again by the parent, which raises it
