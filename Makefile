@@ -12,9 +12,9 @@ PIP := $(BIN)/python -m pip install --progress-bar on
 
 define new_venv
 	@$(PYTHON) -c 'import sys; sys.exit(0 if sys.version_info >= (3, 10) else "e2esim needs Python 3.10 or newer (set PYTHON=python3.x)")'
-	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
-	$(BIN)/python -m pip install --quiet 'pip>=21.3'  # editable installs from pyproject.toml (PEP 660)
+	test -x $(BIN)/python || { $(PYTHON) -m venv $(VENV) && $(BIN)/python -m pip install --quiet 'pip>=21.3'; }
 endef
+# (a new venv's pip is brought to 21.3 or newer: editable installs from pyproject.toml, PEP 660)
 
 # The core is installed without compiling every module of its packages (--no-compile: two thirds of the install's
 # CPU time); `make demo` writes the bytecode of the modules it imports (PYTHONDONTWRITEBYTECODE lifted for it).
@@ -24,9 +24,12 @@ $(CORE): pyproject.toml
 	$(BIN)/python -m compileall -q src  # bytecode, as a regular install has (PYTHONDONTWRITEBYTECODE may be set)
 	@touch $(CORE)
 
+# After `make demo` (CORE newer than pyproject.toml) e2esim is installed: only the requirements the extras add are
+# (tools/extra_requirements.py), not e2esim's editable wheel built a second time in a fresh build environment.
 $(STAMP): pyproject.toml
 	$(new_venv)
-	$(PIP) -e ".[test]"
+	if [ $(CORE) -nt pyproject.toml ] && $(BIN)/python tools/extra_requirements.py test > $(VENV)/.e2esim-test-requirements; \
+	then $(PIP) -r $(VENV)/.e2esim-test-requirements; else $(PIP) -e ".[test]"; fi
 	$(BIN)/python -m compileall -q -j 0 src $(VENV)/lib  # also what a core install left uncompiled
 	@touch $(CORE) $(STAMP)
 

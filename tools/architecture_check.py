@@ -50,6 +50,7 @@ LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
             "e2esim.limits",
             "e2esim.distinct",
             "e2esim.atomic",
+            "e2esim.allocator",
             "e2esim.input_files",
             "e2esim.key_paths",
             "e2esim.units",

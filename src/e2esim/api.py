@@ -17,6 +17,7 @@ import json
 import warnings
 from pathlib import Path
 
+from e2esim.allocator import keep_freed_memory
 from e2esim.results import Results, results_of
 from e2esim.runner.folder_run import run_into_folder
 
@@ -44,6 +45,7 @@ def run(scenario, set: dict | None = None, output=None, force: bool = False, pro
     workers, scheduler : run the cases on that many local processes, or on the dask.distributed cluster at
         that address (as ``--workers`` and ``--scheduler``); the same numbers either way.
     """
+    keep_freed_memory()  # as e2esim run: the kernels keep the memory they free (e2esim.allocator)
     assignments = {**(set or {}), **overrides}
     resolved = load_scenario(scenario, assignments).resolve()
     result = run_into_folder(resolved, Path(output) if output is not None else None, force, resume,

@@ -15,6 +15,7 @@ import sys
 import warnings
 
 import e2esim
+from e2esim.allocator import keep_freed_memory
 from e2esim.errors import E2ESimWarning, UserError, one_line
 from e2esim.runner.interrupts import RunInterrupted
 
@@ -123,6 +124,7 @@ def main(argv=None) -> int:
     if args.command is None:
         parser.print_help()
         return 2
+    keep_freed_memory()
     try:
         with _plain_warnings():
             return COMMANDS[args.command](args)

@@ -26,6 +26,9 @@ from matplotlib.layout_engine import PlaceHolderLayoutEngine
 from e2esim.atomic import atomic_path
 
 DPI = 110
+PNG = {"compress_level": 3}
+"""Pillow's PNG settings: zlib level 3 writes the report's figures in 70 % of the time of the default level 6, 1 %
+larger (the same pixels)."""
 
 
 class PlotSkipped(Exception):
@@ -64,7 +67,8 @@ def save_drawn(fig, folder: Path, name: str) -> str:
     ``e2esim.maps.plots.MonthPanels``), as ``folder/name.png`` (atomically); return the file name."""
     path = Path(folder) / f"{name}.png"
     with atomic_path(path) as tmp:
-        matplotlib.image.imsave(tmp, fig.canvas.buffer_rgba(), format="png", origin="upper", dpi=fig.dpi)
+        matplotlib.image.imsave(tmp, fig.canvas.buffer_rgba(), format="png", origin="upper", dpi=fig.dpi,
+                                pil_kwargs=dict(PNG))
     return path.name
 
 
@@ -81,6 +85,6 @@ def save_png(fig, path: Path, tight: bool | None = None) -> str:
         fig.set_layout_engine(None)  # tight_layout has run: no layout left for savefig's extra pass
     path = Path(path)
     with atomic_path(path) as tmp:
-        fig.savefig(tmp, dpi=DPI, format="png", bbox_inches="tight" if tight else None)
+        fig.savefig(tmp, dpi=DPI, format="png", bbox_inches="tight" if tight else None, pil_kwargs=dict(PNG))
     plt.close(fig)
     return path.name

@@ -24,6 +24,7 @@ from e2esim.maps.grid import is_map_sweep
 from e2esim.report.labels import wrapped
 from e2esim.report.map_plots import SITE_KEYS
 from e2esim.report.plot_base import PlotSkipped, colors, figure_settings, panel_grid, save
+from e2esim.report.plot_processes import draw_all
 from e2esim.report.sweep_layout import legend, sweep_layout
 from e2esim.units import level_db_from_variance
 
@@ -175,29 +176,36 @@ def requested_plots(result) -> list:
     return list(dict.fromkeys(wanted))
 
 
-def make_plots(result, folder: Path, warnings: list | None = None, steps=None) -> list:
+def make_plots(result, folder: Path, warnings: list | None = None, steps=None, helper: bool | None = None) -> list:
     """Write the plots of ``result``; return [(file name, caption)]. A requested plot that cannot be drawn is
     reported on standard error and added to ``warnings`` as "<plot>: <why>". ``steps``: a
-    ``e2esim.runner.progress.StepProgress`` that counts each plot, or None."""
+    ``e2esim.runner.progress.StepProgress`` that counts each plot, or None. The plots are drawn by this process
+    and a forked helper at once (``e2esim.report.plot_processes``; ``helper`` False: here only)."""
     options = result.scenario.output
     requested = set(options["plots"]) - {"auto"}
-    out = []
     large = len(result.scenario.cases) > LARGE_RUN_CASES
-    for name in requested_plots(result):
+
+    def draw(name: str) -> tuple:
+        """([(file name, caption)], why nothing was drawn)."""
+        try:
+            if large and name not in COLUMN_PLOTS:
+                raise PlotSkipped(f"the run has {len(result.scenario.cases)} cases, more than {LARGE_RUN_CASES}: "
+                                  "draw from results.h5 (e2esim.open_results, Results.to_xarray)")
+            plot = registry.plot(name)  # a registered plot type (entry-point group e2esim.plots)
+            with figure_settings():
+                return plot(result, folder, options), "the plot function drew nothing for this run"
+        except PlotSkipped as why:
+            return [], str(why)
+        except ModuleLookupError as why:  # a plug-in's plot that cannot be imported
+            return [], str(why)
+
+    def done(name: str) -> None:
         with contextlib.nullcontext() if steps is None else steps.step(name):
-            try:
-                if large and name not in COLUMN_PLOTS:
-                    raise PlotSkipped(f"the run has {len(result.scenario.cases)} cases, more than {LARGE_RUN_CASES}: "
-                                      "draw from results.h5 (e2esim.open_results, Results.to_xarray)")
-                draw = registry.plot(name)  # a registered plot type (entry-point group e2esim.plots)
-                with figure_settings():
-                    made = draw(result, folder, options)
-            except PlotSkipped as why:
-                made, reason = [], str(why)
-            except ModuleLookupError as why:  # a plug-in's plot that cannot be imported
-                made, reason = [], str(why)
-            else:
-                reason = "the plot function drew nothing for this run"
+            pass
+
+    names = requested_plots(result)
+    out = []
+    for name, (made, reason) in zip(names, draw_all(names, draw, done, helper)):
         if made:
             out.extend(made)
         elif name in requested or name in ALWAYS_PLOTS:  # plots of "auto" that do not apply are left out quietly

@@ -19,7 +19,7 @@ from e2esim.runner.executors import WorkerLost, check_scheduler_address
 from e2esim.runner.interrupts import RunInterrupted, stop_signals_as_interrupts
 from e2esim.runner.journal import Journal
 from e2esim.runner.lock import FolderLock
-from e2esim.runner.outputs import aside_note, prepare_folder, write_outputs
+from e2esim.runner.outputs import aside_note, prepare_folder, report_imported_meanwhile, write_outputs
 from e2esim.runner.run import ScenarioResult, run_scenario
 
 
@@ -52,7 +52,9 @@ def run_into_folder(resolved, folder, force: bool = False, resume: bool = False,
         lock = prepare_folder(folder, force, resume)
         try:
             journal = Journal(folder, resolved)
-            result = _run_journalled(resolved, folder, journal, resume, options)
+            # a run in this process: the report's modules are imported meanwhile (none when workers may fork)
+            with report_imported_meanwhile(workers == 1 and not scheduler):
+                result = _run_journalled(resolved, folder, journal, resume, options)
             try:
                 write_outputs(result, folder, progress=progress)
             except KeyboardInterrupt as stop:

@@ -14,6 +14,7 @@ import re
 import shutil
 import stat
 import tempfile
+import threading
 from pathlib import Path
 
 from e2esim.atomic import write_text_atomic
@@ -154,6 +155,35 @@ def _remove_aside(folder: Path) -> None:
         shutil.rmtree(aside, ignore_errors=True)
 
 
+def _report_functions() -> tuple:
+    """(make_plots, requested_plots, write_report), imported here: matplotlib costs half a second at start-up."""
+    from e2esim.report.plots import make_plots, requested_plots
+    from e2esim.report.render import write_report
+
+    return make_plots, requested_plots, write_report
+
+
+@contextlib.contextmanager
+def report_imported_meanwhile(enabled: bool = True):
+    """Import the report's modules (matplotlib above all: half a second) in a thread while the body (a run that
+    computes in this process) goes on, so that its outputs need not wait for them. The thread is joined when the
+    body ends: nothing forks while it may hold an import lock. An import that fails is left for
+    ``write_outputs``, which raises it as usual."""
+    thread = threading.Thread(target=_import_report, name="e2esim-report-import", daemon=True) if enabled else None
+    if thread is not None:
+        thread.start()
+    try:
+        yield
+    finally:
+        if thread is not None:
+            thread.join()
+
+
+def _import_report() -> None:
+    with contextlib.suppress(Exception):
+        _report_functions()
+
+
 def write_outputs(result, folder: Path, progress: bool = False) -> dict:
     """Write every output file; return their paths and the warnings of plots that could not be drawn. On failure
     (a full disk, say) the files of this attempt are removed again and an ``OutputFolderError`` says why; the
@@ -164,9 +194,7 @@ def write_outputs(result, folder: Path, progress: bool = False) -> dict:
         before = {p.name for p in folder.iterdir()}
     except OSError as exc:
         raise OutputFolderError(f"{folder}: cannot create the output folder: {_reason(folder, exc)}") from exc
-    from e2esim.report.plots import make_plots, requested_plots  # here: matplotlib costs a second at start-up
-    from e2esim.report.render import write_report
-
+    make_plots, requested_plots, write_report = _report_functions()
     files = ["results.h5"] + (["results.nc"] if is_map_sweep(result.scenario) else []) + ["summary.json", "report"]
     steps = StepProgress(len(requested_plots(result)) + len(files), "outputs", progress)
     try:
