@@ -12,7 +12,7 @@ The Python API (``e2esim.api``): ``e2esim.run(scenario, **overrides)`` returns a
 __version__ = "0.1.0"
 
 _API = {"run": "e2esim.api", "open_results": "e2esim.api", "load_scenario": "e2esim.api", "Results": "e2esim.results",
-        "solve": "e2esim.flowdown.inverse"}
+        "solve": "e2esim.flowdown.inverse", "allocate": "e2esim.flowdown.allocation"}
 
 
 def __getattr__(name):  # imported on first use: `import e2esim` stays light for the command line
@@ -23,4 +23,4 @@ def __getattr__(name):  # imported on first use: `import e2esim` stays light for
     raise AttributeError(f"module 'e2esim' has no attribute {name!r}")
 
 
-__all__ = ["Results", "__version__", "load_scenario", "open_results", "run", "solve"]
+__all__ = ["Results", "__version__", "allocate", "load_scenario", "open_results", "run", "solve"]

@@ -6,6 +6,7 @@ from pathlib import Path
 
 from e2esim.atomic import write_text_atomic
 from e2esim.errors import UserError
+from e2esim.flowdown.allocation import allocate, allocation_markdown, allocation_yaml
 from e2esim.flowdown.inverse import solve
 from e2esim.flowdown.report import solve_json, solve_lines, solve_markdown
 from e2esim.runner.scenario import Scenario
@@ -46,6 +47,20 @@ def cmd_solve(args) -> int:
     else:
         print("\n".join(solve_lines(name, result)))
     return 0
+
+
+def cmd_allocate(args) -> int:
+
+    scenario = _scenario(args)
+    weights = dict(_pair(w, "--weight", float) for w in args.weight)
+    fixed = dict(_pair(f, "--fix", float) for f in args.fix)
+    sources = dict(_pair(s, "--source", str) for s in args.source) or None
+    result = allocate(scenario, args.requirement, args.split, weights, fixed, sources)
+    name = scenario.raw.get("name", Path(args.scenario).stem)
+    _write(args.output, {"specification.yaml": allocation_yaml(result), "specification.md":
+                         allocation_markdown(name, result)})
+    print(allocation_markdown(name, result), end="")
+    return 0 if result.holds else 1
 
 
 def _pair(text: str, option: str, kind):

@@ -87,12 +87,27 @@ class Evaluator:
         return margins.reshape(len(self.names), self.n, len(values))
 
     def _run(self, raw: dict, rows: int) -> np.ndarray:
-        resolved = Scenario(raw, self.source).resolve()
-        result = run_scenario(resolved, progress=False, keep_products=False, spill=False)
+        try:
+            resolved = Scenario(raw, self.source).resolve()
+            result = run_scenario(resolved, progress=False, keep_products=False, spill=False)
+        except UserError as exc:  # a value of the search range the chain refuses: say where, and what to do
+            keys = ", ".join(key.name for key in self.keys)
+            raise UserError(f"{exc} (while searching {keys}: narrow the search range with --bounds LO HI, or the "
+                            "bounds of the allocate section's source)") from exc
         self.calls += 1
         self.rows += rows
         table = result.table
+        if not hasattr(self, "limits"):
+            self.limits = [np.asarray(r.limit, dtype=float) for r in table.requirements]
+            self.units = [r.unit[0] if len(r.unit) else "" for r in table.requirements]
         return np.array([np.asarray(table.requirements[j].margin, dtype=float) for j in range(len(self.names))])
+
+    def limit(self, j: int) -> float:
+        """Requirement ``j``'s limit (the same in every case; after a first evaluation)."""
+        return float(np.nanmax(self.limits[j]))
+
+    def unit(self, j: int) -> str:
+        return str(self.units[j])
 
     def margins(self, cases: np.ndarray, values: np.ndarray) -> np.ndarray:
         """(R, rows) margins of every requirement: row r is case ``cases[r]`` with the keys at ``values[r]``

@@ -28,6 +28,25 @@ def add_parsers(sub, add_scenario_options) -> None:
     solve.add_argument("--json", action="store_true", help="print the result as JSON")
     add_scenario_options(solve)
 
+    allocate = sub.add_parser(
+        "allocate", help="flow a requirement down to a specification of every source",
+        description="Split requirement N's total among the sources of its error (equal or weighted shares of its "
+                    "variance, some fixed), find the specification of each source's key, check it back through "
+                    "the forward model over every case, and write a specification table (YAML a scenario can "
+                    "include, and Markdown). Sources and keys: the scenario's 'allocate:' section, or --source.")
+    allocate.add_argument("scenario", help="scenario YAML file")
+    allocate.add_argument("--requirement", type=int, default=1, metavar="N", help="the requirement (1 the first)")
+    allocate.add_argument("--split", choices=("equal", "weighted"), default="equal", help="how the total is split")
+    allocate.add_argument("--weight", action="append", default=[], metavar="SOURCE=W", help="weight of a source "
+                                                                                            "(--split weighted)")
+    allocate.add_argument("--fix", action="append", default=[], metavar="KEY=VALUE",
+                          help="keep this source key at VALUE; the others share what it leaves")
+    allocate.add_argument("--source", action="append", default=[], metavar="SOURCE=KEY",
+                          help="a source and the key that sets it (default: the scenario's allocate.sources)")
+    allocate.add_argument("-o", "--output", metavar="DIR", help="write specification.yaml and specification.md "
+                                                                "into DIR")
+    add_scenario_options(allocate)
+
 
 def _command(name: str):
     def run(args) -> int:
@@ -35,4 +54,4 @@ def _command(name: str):
     return run
 
 
-COMMANDS = {"solve": _command("cmd_solve")}
+COMMANDS = {"solve": _command("cmd_solve"), "allocate": _command("cmd_allocate")}
