@@ -9,7 +9,8 @@ checked value of an RMSE or a bound combines independent sources in quadrature, 
 2. fixed sources (``--fix KEY=VALUE``) take what they use, ``value(that source alone)^2 - F_i^2``; the rest of
    ``B_i`` is split equally, or by ``--weight`` (shares ``s_k = w_k / sum w``);
 3. each source's specification is the key's value where the checked value with that source alone reaches
-   ``sqrt(F_i^2 + s_k (B_i - fixed use))`` in case i, the strictest over every case (``e2esim.flowdown.brent`` on the engine's forward model);
+   ``sqrt(F_i^2 + s_k (B_i - fixed use))`` in case i, the strictest over every case (``e2esim.flowdown.brent``
+   on the engine's forward model);
 4. the specification is checked back: every case with every source at its specification, through the forward
    model; ``holds`` says whether every case meets the requirement, and the margins are reported. Where sources
    interact (or a quantile does not add in quadrature) the check says so; it is never assumed.
