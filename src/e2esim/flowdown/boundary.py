@@ -17,6 +17,7 @@ from e2esim.errors import UserError
 from e2esim.flowdown.brent import brent
 from e2esim.flowdown.evaluate import Evaluator
 from e2esim.flowdown.keys import bounds_of
+from e2esim.flowdown.scan import SCAN, scan_brackets
 
 
 @dataclass
@@ -57,14 +58,13 @@ def boundary(loaded, resolved, keys, bounds, points: int) -> BoundaryResult:
     n = evaluator.n
     x = np.linspace(*ranges[0], points)
     (lo, hi) = ranges[1]
-    ends = evaluator.grid_margins(np.concatenate([np.stack([x, np.full(points, lo)], 1),
-                                                  np.stack([x, np.full(points, hi)], 1)]))
-    f_lo, _ = _worst_of(ends[..., :points])
-    f_hi, _ = _worst_of(ends[..., points:])
-    if np.all(f_lo == f_hi):
+    ys = np.linspace(lo, hi, SCAN)
+    grid = np.stack([np.repeat(x, SCAN), np.tile(ys, points)], 1)
+    scan = evaluator.grid_margins(grid)  # (R, n, points * SCAN)
+    worst, _ = _worst_of(scan)
+    state, a, b, f_a, f_b, side_lo, _ = scan_brackets(ys, worst.reshape(points, SCAN))
+    if np.all(state == "no effect"):
         raise UserError(f"--for {keys[1].name}: no effect on any requirement in any case along {keys[0].name}")
-    state = np.where((f_lo >= 0) & (f_hi >= 0), "every value meets it",
-                     np.where((f_lo < 0) & (f_hi < 0), "no value meets it", "met at"))
     todo = np.flatnonzero(state == "met at")
 
     def f(active, y):
@@ -72,11 +72,11 @@ def boundary(loaded, resolved, keys, bounds, points: int) -> BoundaryResult:
         return _worst_of(m)[0]
     y = np.full(points, np.nan)
     if todo.size:
-        y[todo], _ = brent(f, np.full(todo.size, lo), np.full(todo.size, hi), f_lo[todo], f_hi[todo],
-                           1e-6 * (hi - lo))
-    at = np.where(np.isnan(y), np.where(f_lo < f_hi, lo, hi), y)
+        y[todo], _ = brent(f, a[todo], b[todo], f_a[todo], f_b[todo], 1e-6 * (hi - lo))
+    best = np.argmax(worst.reshape(points, SCAN), axis=1)
+    at = np.where(np.isnan(y), ys[best], y)
     _, where = _worst_of(evaluator.grid_margins(np.stack([x, at], 1)))
     binding = [(evaluator.names[w // n], evaluator.labels[w % n]) for w in where]
-    side = [("at most" if a >= 0 else "at least") if s == "met at" else "" for s, a in zip(state, f_lo)]
+    side = [("at most" if g else "at least") if s == "met at" else "" for s, g in zip(state, side_lo)]
     return BoundaryResult(tuple(k.name for k in keys), tuple(ranges), evaluator.labels, evaluator.names, x, y,
                           list(state), side, binding, True, evaluator.calls, evaluator.rows)

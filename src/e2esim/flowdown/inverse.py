@@ -1,18 +1,19 @@
 """The inverse question (issue 23, item 4): at which value of a key is each requirement exactly met?
 
 ``solve(scenario, ["instrument.crosstalk.level_db"])`` finds, for every case (or for the worst case over the sweep,
-``worst_case=True``), the value of one key at which each requirement's margin is zero: the margins at the two ends
-of the search range bracket it, and Brent's method (``e2esim.flowdown.brent``), vectorised over every case and
-requirement, finds it through the engine's forward model (``e2esim.flowdown.evaluate``), a handful of batched runs in
-all. Two keys give the boundary of the region where every requirement holds in every case (``boundary``).
+``worst_case=True``), the value of one key at which each requirement's margin is zero: the margins at ``SCAN``
+points of the search range bracket it (the first sign change from the low end, ``e2esim.flowdown.scan``), and
+Brent's method (``e2esim.flowdown.brent``), vectorised over every case and requirement, finds it through the
+engine's forward model (``e2esim.flowdown.evaluate``), a handful of batched runs in all. Two keys give the
+boundary of the region where every requirement holds in every case (``boundary``).
 
 States, per case and requirement (``STATES``):
 
 * ``met at``: the margin changes sign in the range; ``value`` is where it is zero, ``side`` says which values meet
   it ("at most" or "at least" the value);
-* ``every value meets it`` / ``no value meets it``: the margin has one sign at both ends of the range (the search
+* ``every value meets it`` / ``no value meets it``: the margin has one sign at every scanned point (the search
   range is the parameter's allowed range unless ``bounds`` narrow it);
-* ``no effect``: the margin is the same at both ends (the key does not reach this requirement in this case);
+* ``no effect``: the margin is the same at every scanned point (the key does not reach this requirement here);
 * ``not applicable``: the requirement does not apply to the case (no margin).
 
 Errors (``UserError``, exit status 2): an unknown key, a key that is not one number, a key the sweep sets
@@ -34,6 +35,7 @@ from e2esim.flowdown.boundary import boundary
 from e2esim.flowdown.brent import brent
 from e2esim.flowdown.evaluate import Evaluator
 from e2esim.flowdown.keys import bounds_of, solve_key
+from e2esim.flowdown.scan import SCAN, scan_brackets
 
 STATES = ("met at", "every value meets it", "no value meets it", "no effect", "not applicable")
 XTOL = 1e-6
@@ -44,7 +46,9 @@ XTOL = 1e-6
 class Answer:
     """One requirement over the cases. state, value, side : per case (``STATES``; the key's value where the margin is
     zero, NaN otherwise; "at most" / "at least" / ""). binding : the case whose answer is the strictest (None: no case
-    has one); limit : its value; margins : every case's margin (the requirement's unit) with the key at ``limit``."""
+    has one); limit : its value; margins : every case's margin (the requirement's unit) with the key at ``limit``;
+    crossings : per case, how many sign changes the scan of the range saw (more than one: ``value`` is the first
+    from the low end)."""
 
     requirement: str
     state: list
@@ -53,6 +57,7 @@ class Answer:
     binding: int | None = None
     limit: float = float("nan")
     margins: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    crossings: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=int))
 
 
 @dataclass
@@ -68,17 +73,6 @@ class SolveResult:
     worst_case: bool
     calls: int = 0
     rows: int = 0
-
-
-def _classify(m_lo, m_hi):
-    """State of every element from its margins at the two ends, and the elements to bracket."""
-    state = np.full(m_lo.shape, "met at", dtype=object)
-    nan = np.isnan(m_lo) | np.isnan(m_hi)
-    state[(m_lo >= 0) & (m_hi >= 0)] = "every value meets it"
-    state[(m_lo < 0) & (m_hi < 0)] = "no value meets it"
-    state[~nan & (m_lo == m_hi)] = "no effect"
-    state[nan] = "not applicable"
-    return state
 
 
 def _check_effect(evaluator, state, key, bounds, given):
@@ -110,12 +104,11 @@ def solve(scenario, keys, bounds=None, worst_case: bool = False, points: int = 1
     lo, hi = bounds_of(key, bounds)
     evaluator = Evaluator(loaded, resolved, (key,))
     n, r = evaluator.n, len(evaluator.names)
-    ends = evaluator.grid_margins(np.array([lo, hi]))
-    m_lo, m_hi = ends[..., 0], ends[..., 1]
+    xs = np.linspace(lo, hi, SCAN)
+    scan = evaluator.grid_margins(xs)  # (R, n, SCAN)
     xtol = XTOL * (hi - lo)
     if worst_case:
-        m_lo, m_hi = _worst(m_lo), _worst(m_hi)
-        state = _classify(m_lo, m_hi)
+        state, a, b, fa, fb, side_lo, crossings = scan_brackets(xs, _worst(np.moveaxis(scan, 2, 1)))
         _check_effect(evaluator, state, key.name, (lo, hi), bounds)
         todo = np.flatnonzero(state == "met at")
 
@@ -124,11 +117,11 @@ def solve(scenario, keys, bounds=None, worst_case: bool = False, points: int = 1
             return _worst(m[todo[active], :, np.arange(len(active))])
         roots = np.full(r, np.nan)
         if todo.size:
-            roots[todo], _ = brent(f, np.full(todo.size, lo), np.full(todo.size, hi), m_lo[todo], m_hi[todo], xtol)
+            roots[todo], _ = brent(f, a[todo], b[todo], fa[todo], fb[todo], xtol)
         state, value = np.repeat(state[:, None], n, 1), np.repeat(roots[:, None], n, 1)
-        side_lo = np.repeat((m_lo >= 0)[:, None], n, 1)
+        side_lo, crossings = np.repeat(side_lo[:, None], n, 1), np.repeat(crossings[:, None], n, 1)
     else:
-        state = _classify(m_lo, m_hi)
+        state, a, b, fa, fb, side_lo, crossings = scan_brackets(xs, scan)
         _check_effect(evaluator, state, key.name, (lo, hi), bounds)
         j_todo, i_todo = np.nonzero(state == "met at")
 
@@ -137,11 +130,12 @@ def solve(scenario, keys, bounds=None, worst_case: bool = False, points: int = 1
             return m[j_todo[active], np.arange(len(active))]
         value = np.full((r, n), np.nan)
         if j_todo.size:
-            value[j_todo, i_todo], _ = brent(f, np.full(j_todo.size, lo), np.full(j_todo.size, hi),
-                                             m_lo[j_todo, i_todo], m_hi[j_todo, i_todo], xtol)
-        side_lo = m_lo >= 0
+            value[j_todo, i_todo], _ = brent(f, a[j_todo, i_todo], b[j_todo, i_todo], fa[j_todo, i_todo],
+                                             fb[j_todo, i_todo], xtol)
     side = np.where(state == "met at", np.where(side_lo, "at most", "at least"), "")
     answers = [_answer(evaluator, j, state[j], value[j], side[j], key, n) for j in range(r)]
+    for answer, count in zip(answers, crossings):
+        answer.crossings = count
     return SolveResult(key.name, (lo, hi), evaluator.labels, answers, worst_case, evaluator.calls, evaluator.rows)
 
 
