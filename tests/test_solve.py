@@ -164,3 +164,30 @@ def test_a_solve_section_states_the_question(capsys, scenario_file):
 def test_a_bad_key_from_python_is_a_user_error():
     with pytest.raises(UserError, match="unknown key"):
         e2esim.solve(small(), "instrument.nope")
+
+
+def test_the_scan_brackets_a_region_that_passes_only_inside_the_range():
+    """Margins that fail at both ends of the range and pass in its middle are "met at" the first crossing from the low
+    end (two crossings seen), not "no value meets it"."""
+    from e2esim.flowdown.scan import scan_brackets
+
+    xs = np.linspace(0.0, 8.0, 9)
+    m = np.array([[-3.0, -2.0, -1.0, 1.0, 2.0, 1.0, -1.0, -2.0, -3.0],
+                  xs + 1.0, -xs - 1.0, [2.0] * 9, [np.nan] + [1.0] * 8])
+    state, a, b, fa, fb, side_lo, crossings = scan_brackets(xs, m)
+    assert list(state) == ["met at", "every value meets it", "no value meets it", "no effect", "not applicable"]
+    assert (a[0], b[0], fa[0], fb[0], bool(side_lo[0]), crossings[0]) == (2.0, 3.0, -1.0, 1.0, False, 2)
+
+
+def test_vectorised_brent_finds_every_root_to_its_tolerance():
+    from e2esim.flowdown.brent import brent
+
+    c = np.linspace(0.1, 1.5, 7)
+
+    def g(idx, x):
+        return np.tanh(3 * (x - c[idx])) + 0.1 * (x - c[idx]) ** 3
+    everything = np.arange(7)
+    roots, calls = brent(g, np.full(7, -1.0), np.full(7, 2.0), g(everything, np.full(7, -1.0)),
+                         g(everything, np.full(7, 2.0)), 1e-10)
+    np.testing.assert_allclose(roots, c, atol=1e-10)
+    assert calls < 20
