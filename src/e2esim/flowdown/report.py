@@ -17,7 +17,9 @@ def _answer_text(key: str, answer) -> str:
         return f"no value of {key} meets it (case {answer.binding + 1} fails at every value)"
     if math.isfinite(answer.limit):
         side = "<=" if answer.side[answer.binding] == "at most" else ">="
-        return f"met for {key} {side} {answer.limit:.4g}"
+        several = int(np.max(answer.crossings, initial=0))
+        more = f" (up to {several} sign changes in the range: the first from its low end)" if several > 1 else ""
+        return f"met for {key} {side} {answer.limit:.4g}{more}"
     if states <= {"every value meets it", "not applicable"}:
         return f"every value of {key} meets it"
     if states <= {"no effect", "not applicable"}:
