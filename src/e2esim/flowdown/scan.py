@@ -26,4 +26,5 @@ def scan_brackets(xs: np.ndarray, m: np.ndarray) -> tuple:
 
 SCAN = 9
 """Points of the search range evaluated before root finding (its ends included, one batched run): the first sign
-change from the low end is bracketed, so a region that passes only inside the range is found too."""
+change from the low end is bracketed, so a region that passes only inside the range is found too, if it is wider
+than an eighth of the range (a narrower one can fall between two points: narrow the bounds around it)."""
