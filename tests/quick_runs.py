@@ -49,6 +49,9 @@ QUICK = {
     "nisar_lband": ("simulation.realisations=200", "simulation.looks=2000", "orbit.acquisitions.step_days=120",
                     "orbit.swath_samples=2", "ionosphere.variability_nodes=2"),
     "uavsar_ahmed2014": _REGRESSION,
+    "biomass_fr_requirement": ("orbit.acquisitions.step_days=120", "orbit.swath_samples=2",
+                               "ionosphere.variability_nodes=3", "sweep.parameters.orbit.passes=[dawn]"),
+    "biomass_allocation": (),  # two analytic cases
 }
 """Overrides (``--set``) of each scenario for the default suite; others get ``_MC``."""
 

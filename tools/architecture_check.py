@@ -114,6 +114,7 @@ LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
             "e2esim.testing",
             "e2esim.docs_reference",
             "e2esim.api",
+            "e2esim.flowdown",
             "e2esim.cli",
             "e2esim.__main__",
         ),

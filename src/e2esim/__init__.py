@@ -5,12 +5,14 @@ modules that a scenario names wrap them (``e2esim.module``); the runner, I/O, re
 line sit on top (``e2esim.runner``, ``e2esim.io``, ``e2esim.report``, ``e2esim.cli``).
 
 The Python API (``e2esim.api``): ``e2esim.run(scenario, **overrides)`` returns a ``Results``;
-``e2esim.open_results(path)`` reads a results.h5 back into the same interface.
+``e2esim.open_results(path)`` reads a results.h5 back into the same interface; ``e2esim.solve`` and
+``e2esim.allocate`` flow a requirement down (``e2esim.flowdown``).
 """
 
 __version__ = "0.1.0"
 
-_API = {"run": "e2esim.api", "open_results": "e2esim.api", "load_scenario": "e2esim.api", "Results": "e2esim.results"}
+_API = {"run": "e2esim.api", "open_results": "e2esim.api", "load_scenario": "e2esim.api", "Results": "e2esim.results",
+        "solve": "e2esim.flowdown.inverse", "allocate": "e2esim.flowdown.allocation"}
 
 
 def __getattr__(name):  # imported on first use: `import e2esim` stays light for the command line
@@ -21,4 +23,4 @@ def __getattr__(name):  # imported on first use: `import e2esim` stays light for
     raise AttributeError(f"module 'e2esim' has no attribute {name!r}")
 
 
-__all__ = ["Results", "__version__", "load_scenario", "open_results", "run"]
+__all__ = ["Results", "__version__", "allocate", "load_scenario", "open_results", "run", "solve"]

@@ -17,6 +17,7 @@ import warnings
 import e2esim
 from e2esim.allocator import keep_freed_memory
 from e2esim.errors import E2ESimWarning, UserError, one_line
+from e2esim.flowdown import parsers as flowdown
 from e2esim.runner.interrupts import RunInterrupted
 
 EXAMPLES = """examples:
@@ -27,6 +28,8 @@ EXAMPLES = """examples:
   e2esim modules instrument
   e2esim reproduce men2021 --json
   e2esim compare runs/biomass_default runs/crosstalk_28
+  e2esim solve scenarios/biomass_default.yaml --for instrument.nesz_db --worst-case
+  e2esim allocate scenarios/biomass_allocation.yaml --requirement 1 --split equal
 """
 
 
@@ -102,6 +105,7 @@ def _build_parser() -> argparse.ArgumentParser:
                      help="Markdown report to write (default: comparison.md in the working directory)")
     cmp.add_argument("--rtol", type=float, default=1e-9, metavar="R",
                      help="relative difference below which two numbers agree (default 1e-9)")
+    flowdown.add_parsers(sub, _add_scenario_options)
     return parser
 
 
@@ -302,4 +306,4 @@ def cmd_compare(args) -> int:
 
 
 COMMANDS = {"run": cmd_run, "validate": cmd_validate, "modules": cmd_modules, "reproduce": cmd_reproduce,
-            "compare": cmd_compare}
+            "compare": cmd_compare, **flowdown.COMMANDS}

@@ -43,12 +43,13 @@ def rotation_only_setting(strategy, key: str) -> bool:
     (the "rotation_invariant" record of ``e2esim.calibration.record``), not the residual system errors."""
     path = override_path(key)
     modules = getattr(strategy, "modules", ())
-    if not all(type(m) in (FaradayCorrection, NoCalibration, RadiometricCalibration) for m in modules):
+    if not all(type(m) in (FaradayCorrection, NoCalibration, RadiometricCalibration) or type(m).rotation_only
+               for m in modules):
         return False
     for m in modules:
         where = tuple(m.location.key_path)
         inside = path[:len(where)] == where and path[len(where):][:1] not in ((), ("type",))
-        if isinstance(m, FaradayCorrection) and inside:
+        if (isinstance(m, FaradayCorrection) or type(m).rotation_only) and inside:
             return True
     return False
 
@@ -60,6 +61,7 @@ class CalibrationModule(Module):
     """
 
     kind = "calibration"
+    rotation_only = False  # True: its settings change only the Faraday rotation left in the data (residual_faraday)
     needs = ("system", "faraday.geophysical", "scene.covariance")
     uses = ("instrument",)
 

@@ -29,7 +29,7 @@ from e2esim.calibration.steps import FaradayStepResult
 from e2esim.faraday.distribution import ConstantFaraday, EmpiricalFaraday
 
 _PILOT_MIN, _PILOT_MAX = 2_000, 20_000  # realisations of the pilot run behind the residual model
-REPRESENTATIONS = ("raw", "rotation_invariant", "residual")
+REPRESENTATIONS = ("raw", "rotation_invariant", "residual", "stated")
 
 
 @dataclass(frozen=True)
@@ -84,6 +84,8 @@ class CalibrationRecord(Batched):
         record and the residual system and Faraday rotation the propagation applies."""
         if not self.steps:
             return self, self.raw_system, self.raw_faraday
+        if any(step.kind == "stated" for step in self.steps):
+            return self._simulate_stated(rng, realisations)
         n = int(min(max(realisations, _PILOT_MIN), _PILOT_MAX))
         sampler = self.sampler()
         res = sampler.sample(rng, n)
@@ -103,6 +105,25 @@ class CalibrationRecord(Batched):
             )
         residual = {"gain_offset_db": model.gain_offset_db, "gain_sd_db": model.gain_sd_db}
         return replace(done, residual=residual, representation="rotation_invariant"), model, self.raw_faraday
+
+    def _simulate_stated(self, rng: np.random.Generator, realisations: int) -> tuple:
+        """Simulate the steps that are not stated, then apply the stated residual levels
+        (``e2esim.calibration.stated_steps``), in order, to the residual system they leave."""
+        simulated = [i for i, step in enumerate(self.steps) if step.kind != "stated"]
+        inner = replace(self, steps=tuple(self.steps[i] for i in simulated),
+                        names=tuple(self.names[i] for i in simulated))
+        done, model, faraday = inner.simulate(rng, realisations)
+        results, summaries = list(done.results), list(done.summaries)
+        for i, (name, step) in enumerate(zip(self.names, self.steps)):
+            if step.kind == "stated":
+                model = step.applied_to(model)
+                result = step.result()
+                results.insert(i, result)
+                summaries.insert(i, StepSummary(name, step.kind, result.summary()))
+        residual = {**done.residual, "gain_offset_db": model.gain_offset_db, "gain_sd_db": model.gain_sd_db}
+        representation = "stated" if done.representation == "raw" else done.representation
+        return (replace(done, steps=self.steps, names=self.names, results=tuple(results), summaries=tuple(summaries),
+                        residual=residual, representation=representation), model, faraday)
 
     def faraday_error(self) -> EmpiricalFaraday | None:
         """The Faraday rotation left in the data by the last Faraday-rotation step (Omega - Omega_hat: its

@@ -17,7 +17,7 @@ from e2esim.kinds import Kind
 from e2esim.module import Module, Stage
 from e2esim.params import Param
 
-NOT_SWEEPABLE = ("name", "description", "plugins", "sweep", "output")
+NOT_SWEEPABLE = ("name", "description", "plugins", "sweep", "output", "solve", "allocate")
 
 
 def section_kinds() -> list:
@@ -36,7 +36,8 @@ def kind_of(section: str) -> Kind | None:
 
 
 def top_level_keys() -> tuple:
-    return ("name", "description", "plugins", *module_sections(), "simulation", "sweep", "output")
+    return ("name", "description", "plugins", *module_sections(), "simulation", "sweep", "output",
+            "solve", "allocate")  # the questions of `e2esim solve` and `e2esim allocate` (e2esim.flowdown)
 
 
 def output_params(distribution: str | None = None) -> tuple:
