@@ -36,10 +36,10 @@ QUICK = {
                            "ionosphere.table_lat_range_deg=[-30,70]", "ionosphere.table_lon_range_deg=[-20,60]",
                            "requirements.0.max_percent=29",  # a region at 10 deg; a limit the boreal cells fail
                            "sweep.map.not_acquired=none"),  # its boreal cells are European: test_acquisition_mask
-    "biomass_global_map_scintillation_rfi": ("sweep.map.months=[1]", "sweep.map.lat_range_deg=[50,70]",
-                                             "sweep.map.lon_range_deg=[80,120]",
-                                             "ionosphere.table_lat_range_deg=[50,70]",
-                                             "ionosphere.table_lon_range_deg=[80,120]"),  # Siberia: high latitude
+    "biomass_global_map_scintillation_rfi": ("sweep.map.months=[1]", "sweep.map.lat_range_deg=[60,70]",
+                                             "sweep.map.lon_range_deg=[90,110]",
+                                             "ionosphere.table_lat_range_deg=[60,70]",
+                                             "ionosphere.table_lon_range_deg=[90,110]"),  # Siberia: high latitude
     "biomass_multichannel": (*_MC, "requirements.0.curve_points=9"),
     "biomass_scintillation": ("simulation.realisations=200", "simulation.looks=2000",
                               "orbit.acquisitions.step_days=120", "orbit.swath_samples=1",
