@@ -58,7 +58,6 @@ class DistributedTargetFactor(IntensityFactor):
     cell_fraction: float = 0.0  # a = rho_a / L_c
     halo_share: tuple = ()  # q per acquisition
     contrast: float = 1.0
-    outputs: tuple = ()
 
     @property
     def active(self) -> bool:
@@ -98,7 +97,6 @@ class CalibratorFactor(IntensityFactor):
 
     mean_log: float = 0.0
     var_log: float = 0.0
-    outputs: tuple = ()
 
     def factor_moments(self, level):
         m = np.asarray(level, dtype=float) / CKL_LEVEL
@@ -128,7 +126,6 @@ class FaradayLeakage(AddedPower):
     weight: tuple = ()
     window_variance: tuple = ()
     copol_power: float = 0.0
-    outputs: tuple = ()
 
     def _power(self, level, values):
         w, s2 = _arrays(self.weight, self.window_variance)
