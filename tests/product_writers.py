@@ -45,7 +45,7 @@ def biomass_annotation(crosstalk=(0.0, 0.0, 0.0, 0.0), imbalance=(0.0, 0.0), far
             node.set("units", units)
     rfi = ET.SubElement(root, "rfiMitigation")
     if rfi_percent:
-        lst = ET.SubElement(rfi, "rfiTMReportList")
+        lst = ET.SubElement(rfi, "rfiTMReportList", count=str(len(rfi_percent)))
         for pol, pct in rfi_percent.items():
             rep = ET.SubElement(lst, "rfiTMReport", polarisation=pol)
             ET.SubElement(rep, "percentageAffectedLines").text = repr(float(pct))

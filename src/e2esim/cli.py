@@ -18,7 +18,7 @@ import e2esim
 from e2esim.allocator import keep_freed_memory
 from e2esim.errors import E2ESimWarning, UserError, one_line
 from e2esim.flowdown import parsers as flowdown
-from e2esim.products_io import commands as products_commands
+from e2esim.products_io import parsers as products_commands
 from e2esim.runner.interrupts import RunInterrupted
 
 EXAMPLES = """examples:

@@ -10,6 +10,8 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from e2esim.errors import ConfigError, Location
+from e2esim.runner.cases import run_case
+from e2esim.runner.scenario import Scenario
 
 DEFAULT_FR_WINDOW_LOOKS = 10_000
 """Independent samples in a Faraday-rotation estimation window where the scenario has no faraday_correction
@@ -54,9 +56,6 @@ class Assumptions:
 
 
 def load_assumptions(scenario_path, mission: str) -> Assumptions:
-    from e2esim.runner.cases import run_case  # lazy: start-up time
-    from e2esim.runner.scenario import Scenario  # lazy: start-up time
-
     path = Path(scenario_path) if scenario_path is not None else SHIPPED / f"{mission}.yaml"
     source = str(scenario_path) if scenario_path is not None else f"e2esim:products_io/assumptions/{mission}.yaml"
     resolved = Scenario.load(path).resolve()

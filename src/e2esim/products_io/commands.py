@@ -1,32 +1,14 @@
-"""``e2esim uncertainty``: its parser and its command (the command line imports this module; the work is in
-``e2esim.products_io.uncertainty``)."""
+"""``e2esim uncertainty``: the command (``e2esim.products_io.parsers`` adds its parser to the command line and
+imports this module only when the command runs)."""
 
 from __future__ import annotations
 
 import json
 
-
-def add_parser(sub) -> None:
-    p = sub.add_parser(
-        "uncertainty", help="per-pixel error budget of a BIOMASS L1 or NISAR GCOV product",
-        description="On the product's own grid, the predicted error moments of sigma_hv, the Faraday-rotation "
-                    "estimate's SD (the product's own, or filled), the residual Faraday rotation, the AGB error and "
-                    "the verdict per pixel, as CF NetCDF (uncertainty.nc) and Cloud-Optimised GeoTIFF "
-                    "(uncertainty.tif). What the product does not hold is taken from the scenario and listed in the "
-                    "outputs' attributes (docs/real-data.md). Needs the 'products' extra.")
-    p.add_argument("product", help="a BIOMASS L1 product folder (annotation XML and LUT NetCDF) or a NISAR GCOV "
-                                   "HDF5 file")
-    p.add_argument("--scenario", metavar="FILE", help="scenario whose first case gives the assumptions (default: "
-                                                      "the shipped assumptions of the product's mission)")
-    p.add_argument("-o", "--output", metavar="DIR", default="uncertainty", help="output folder (default: "
-                                                                                "./uncertainty)")
-    p.add_argument("--force", action="store_true", help="replace outputs that exist")
-    p.add_argument("--json", action="store_true", help="print the summary as JSON")
+from e2esim.products_io.uncertainty import write_uncertainty
 
 
 def cmd_uncertainty(args) -> int:
-    from e2esim.products_io.uncertainty import write_uncertainty  # lazy: start-up time
-
     summary = write_uncertainty(args.product, args.output, args.scenario, args.force)
     if args.json:
         print(json.dumps(summary, indent=2, default=str))
@@ -43,6 +25,3 @@ def cmd_uncertainty(args) -> int:
     for path in summary["outputs"]:
         print(f"wrote {path}")
     return 0
-
-
-COMMANDS = {"uncertainty": cmd_uncertainty}

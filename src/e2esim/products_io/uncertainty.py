@@ -6,8 +6,11 @@ from __future__ import annotations
 from pathlib import Path
 
 from e2esim.products_io.assumptions import load_assumptions
+from e2esim.products_io.biomass_l1 import open_biomass
+from e2esim.products_io.nisar_gcov import open_nisar
 from e2esim.products_io.pixel_model import LAYERS, pixel_moments
 from e2esim.products_io.pixels import ProductFileError, ProductPixels
+from e2esim.products_io.uncertainty_files import UncertaintyWriter
 
 PIXELS_PER_BLOCK = 1 << 16
 """Pixels evaluated at once: a block of rows of about this many pixels (at least one row)."""
@@ -17,14 +20,10 @@ def open_product(path) -> ProductPixels:
     """A BIOMASS L1 product (a folder with its annotation XML and LUT NetCDF) or a NISAR GCOV (an HDF5 file)."""
     p = Path(path)
     if p.is_dir():
-        from e2esim.products_io.biomass_l1 import open_biomass  # lazy: start-up time
-
         return open_biomass(p)
     if not p.exists():
         raise ProductFileError(f"{path}: no such file or folder; expected a BIOMASS L1 product folder or a NISAR "
                                "GCOV HDF5 file")
-    from e2esim.products_io.nisar_gcov import open_nisar  # lazy: start-up time
-
     return open_nisar(p)
 
 
@@ -40,8 +39,6 @@ def write_uncertainty(product, output, scenario=None, force: bool = False,
     """Write ``uncertainty.nc`` and ``uncertainty.tif`` into the folder ``output``; return a summary: the paths,
     the grid, the pixels with data, the fraction that passes the bound and every assumption taken from the
     scenario."""
-    from e2esim.products_io.uncertainty_files import UncertaintyWriter  # lazy: start-up time
-
     pixels = open_product(product)
     assumptions = load_assumptions(scenario, pixels.mission)
     attributes = {"title": "e2esim per-pixel uncertainty product", "source_product": str(product),
