@@ -85,7 +85,7 @@ def test_a_failure_while_writing_leaves_no_partial_output(tmp_path, capsys, monk
             raise OSError("disk full")
         return original(block, pixels, assumptions)
 
-    monkeypatch.setattr("e2esim.products_io.uncertainty.pixel_moments", failing)
+    monkeypatch.setattr("e2esim.products_io.block_pool.pixel_moments", failing)
     from e2esim.products_io.uncertainty import write_uncertainty
 
     with pytest.raises(OSError, match="disk full"):
@@ -100,3 +100,9 @@ def test_existing_outputs_need_force(tmp_path, capsys):
     assert main(["uncertainty", str(path), "-o", str(tmp_path / "out")]) == 2
     assert "uncertainty.nc exists; give --force" in capsys.readouterr().err
     assert main(["uncertainty", str(path), "-o", str(tmp_path / "out"), "--force"]) == 0
+
+
+def test_workers_must_be_positive(tmp_path, capsys):
+    assert main(["uncertainty", str(write_gcov(tmp_path / "gcov.h5")), "-o", str(tmp_path / "out"),
+                 "--workers", "0"]) == 2
+    assert "--workers: 0; expected a positive integer" in capsys.readouterr().err

@@ -139,3 +139,16 @@ requirements: [{type: agb_error_bound, sources: systematic, bound_percent: 30, c
     assert out["residual_faraday_rotation_mean"][i] == pytest.approx(np.radians(1.0) - 0.004, rel=RTOL)
     assert out["attrs"]["crosstalk_corrected_by_processor"] == "True"
     assert out["attrs"]["product_faradayRotation_rad"] == pytest.approx(0.004)
+
+
+def test_worker_processes_give_the_numbers_of_one_process(tmp_path):
+    """Blocks evaluated in two processes, a few rows at a time, are written bit for bit as in one process."""
+    from e2esim.products_io.uncertainty import write_uncertainty
+
+    path = write_gcov(tmp_path / "gcov.h5", shape=(15, 20))
+    write_uncertainty(path, tmp_path / "one", pixels_per_block=60)
+    write_uncertainty(path, tmp_path / "two", pixels_per_block=60, workers=2)
+    one, two = layers(tmp_path / "one"), layers(tmp_path / "two")
+    for name in one:
+        if name != "attrs":
+            np.testing.assert_array_equal(one[name], two[name], err_msg=name)

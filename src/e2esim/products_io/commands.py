@@ -9,7 +9,7 @@ from e2esim.products_io.uncertainty import write_uncertainty
 
 
 def cmd_uncertainty(args) -> int:
-    summary = write_uncertainty(args.product, args.output, args.scenario, args.force)
+    summary = write_uncertainty(args.product, args.output, args.scenario, args.force, workers=args.workers)
     if args.json:
         print(json.dumps(summary, indent=2, default=str))
         return 0

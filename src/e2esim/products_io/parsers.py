@@ -21,6 +21,8 @@ def add_parser(sub) -> None:
     p.add_argument("-o", "--output", metavar="DIR", default="uncertainty", help="output folder (default: "
                                                                                 "./uncertainty)")
     p.add_argument("--force", action="store_true", help="replace outputs that exist")
+    p.add_argument("--workers", type=int, default=1, metavar="N", help="processes that evaluate the pixels "
+                                                                        "(default 1: this process)")
     p.add_argument("--json", action="store_true", help="print the summary as JSON")
 
 

@@ -5,10 +5,12 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from e2esim.errors import UserError
 from e2esim.products_io.assumptions import load_assumptions
 from e2esim.products_io.biomass_l1 import open_biomass
+from e2esim.products_io.block_pool import block_layers
 from e2esim.products_io.nisar_gcov import open_nisar
-from e2esim.products_io.pixel_model import LAYERS, pixel_moments
+from e2esim.products_io.pixel_model import LAYERS
 from e2esim.products_io.pixels import ProductFileError, ProductPixels
 from e2esim.products_io.uncertainty_files import UncertaintyWriter
 
@@ -35,10 +37,12 @@ def row_blocks(shape, pixels_per_block: int = PIXELS_PER_BLOCK):
 
 
 def write_uncertainty(product, output, scenario=None, force: bool = False,
-                      pixels_per_block: int = PIXELS_PER_BLOCK) -> dict:
+                      pixels_per_block: int = PIXELS_PER_BLOCK, workers: int = 1) -> dict:
     """Write ``uncertainty.nc`` and ``uncertainty.tif`` into the folder ``output``; return a summary: the paths,
     the grid, the pixels with data, the fraction that passes the bound and every assumption taken from the
-    scenario."""
+    scenario. workers : processes that evaluate the blocks (1: this process)."""
+    if workers < 1:
+        raise UserError(f"--workers: {workers}; expected a positive integer (processes that evaluate the pixels)")
     pixels = open_product(product)
     assumptions = load_assumptions(scenario, pixels.mission)
     attributes = {"title": "e2esim per-pixel uncertainty product", "source_product": str(product),
@@ -51,8 +55,8 @@ def write_uncertainty(product, output, scenario=None, force: bool = False,
     writer = UncertaintyWriter(output, pixels, attributes, force)
     valid = passed = 0
     try:
-        for rows in row_blocks(pixels.shape, pixels_per_block):
-            layers = pixel_moments(pixels.read(rows), pixels, assumptions)
+        blocks = row_blocks(pixels.shape, pixels_per_block)
+        for rows, layers in block_layers(open_product, product, scenario, pixels, assumptions, blocks, workers):
             valid += int((layers["verdict"] != 255).sum())
             passed += int((layers["verdict"] == 1).sum())
             writer.write(rows, layers)
