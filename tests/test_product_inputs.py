@@ -106,3 +106,18 @@ def test_workers_must_be_positive(tmp_path, capsys):
     assert main(["uncertainty", str(write_gcov(tmp_path / "gcov.h5")), "-o", str(tmp_path / "out"),
                  "--workers", "0"]) == 2
     assert "--workers: 0; expected a positive integer" in capsys.readouterr().err
+
+
+def test_a_failure_while_opening_the_outputs_leaves_no_partial_output(tmp_path, monkeypatch):
+    """The NetCDF temporary exists when the GeoTIFF cannot be opened: it is removed."""
+    import rasterio
+
+    def refuse(*args, **kwargs):
+        raise OSError("no space left for the GeoTIFF")
+
+    monkeypatch.setattr(rasterio, "open", refuse)
+    from e2esim.products_io.uncertainty import write_uncertainty
+
+    with pytest.raises(OSError, match="no space left"):
+        write_uncertainty(write_gcov(tmp_path / "gcov.h5"), tmp_path / "out")
+    assert list((tmp_path / "out").iterdir()) == []

@@ -29,7 +29,17 @@ class UncertaintyWriter:
             raise OutputExistsError(f"{existing[0]} exists; give --force to replace it")
         self.folder.mkdir(parents=True, exist_ok=True)
         self.temps = [t.with_name(f".{t.name}.{os.getpid()}.partial") for t in self.targets]
+        self.tiff_temp = self.temps[1].with_name(self.temps[1].name + ".tiled")
         self.pixels = pixels
+        self.nc = self.tiff = None
+        try:
+            self._open(attributes)
+        except BaseException:
+            self.discard()
+            raise
+
+    def _open(self, attributes: dict) -> None:
+        pixels = self.pixels
         netcdf4 = optional_import("netCDF4", "products", "writing the uncertainty product (NetCDF)")
         rasterio = optional_import("rasterio", "products", "writing the uncertainty product (GeoTIFF)")
         self._rasterio = rasterio
@@ -45,7 +55,6 @@ class UncertaintyWriter:
             var.setncatts({"units": units, "long_name": what})
             if pixels.crs is not None:
                 var.grid_mapping = "crs"
-        self.tiff_temp = self.temps[1].with_name(self.temps[1].name + ".tiled")
         profile = {"driver": "GTiff", "width": cols, "height": rows, "count": len(LAYERS), "dtype": "float32",
                    "tiled": True, "blockxsize": 256, "blockysize": 256, "nodata": np.nan, "BIGTIFF": "IF_SAFER"}
         if pixels.geotransform is not None:
@@ -102,9 +111,10 @@ class UncertaintyWriter:
         return [str(t) for t in self.targets]
 
     def discard(self) -> None:
-        for closer in (self.nc.close, self.tiff.close):
+        for handle in (self.nc, self.tiff):
             try:
-                closer()
+                if handle is not None:
+                    handle.close()
             except Exception:  # already closed, or broken by the failure being reported
                 pass
         for temp in (*self.temps, self.tiff_temp):
