@@ -102,7 +102,7 @@ LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
         ),
     ),
     ("runner", ("e2esim.runner", "e2esim.maps", "e2esim.maps.grid")),
-    ("io", ("e2esim.io", "e2esim.maps.netcdf")),
+    ("io", ("e2esim.io", "e2esim.maps.netcdf", "e2esim.products_io")),
     ("report", ("e2esim.report", "e2esim.verification", "e2esim.maps.plots")),
     (
         "front",

@@ -18,6 +18,7 @@ import e2esim
 from e2esim.allocator import keep_freed_memory
 from e2esim.errors import E2ESimWarning, UserError, one_line
 from e2esim.flowdown import parsers as flowdown
+from e2esim.products_io import parsers as products_commands
 from e2esim.runner.interrupts import RunInterrupted
 
 EXAMPLES = """examples:
@@ -106,6 +107,7 @@ def _build_parser() -> argparse.ArgumentParser:
     cmp.add_argument("--rtol", type=float, default=1e-9, metavar="R",
                      help="relative difference below which two numbers agree (default 1e-9)")
     flowdown.add_parsers(sub, _add_scenario_options)
+    products_commands.add_parser(sub)
     return parser
 
 
@@ -306,4 +308,5 @@ def cmd_compare(args) -> int:
 
 
 COMMANDS = {"run": cmd_run, "validate": cmd_validate, "modules": cmd_modules, "reproduce": cmd_reproduce,
-            "compare": cmd_compare, **flowdown.COMMANDS}
+            "compare": cmd_compare, **flowdown.COMMANDS,
+            **products_commands.COMMANDS}

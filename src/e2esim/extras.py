@@ -18,8 +18,8 @@ from e2esim.errors import MissingExtraError
 EXTRAS = {
     "maps": ("map sweeps over the globe (land mask, results.nc) and Results.to_xarray",
              ("xarray", "netCDF4", "roaring_landmask")),
-    "products": ("AGB maps read from product files (NetCDF, GeoTIFF) by scene.agb_map",
-                 ("xarray", "netCDF4", "rioxarray")),
+    "products": ("AGB maps read from product files (NetCDF, GeoTIFF) by scene.agb_map; e2esim uncertainty on a "
+                 "BIOMASS L1 or NISAR GCOV product", ("xarray", "netCDF4", "rioxarray", "rasterio")),
     "cluster": ("sweeps on a dask.distributed cluster (e2esim run --scheduler)", ("distributed",)),
 }
 """{extra: (what it is for, the modules it brings, as imported)}."""

@@ -1,0 +1,152 @@
+"""Small products in the exact layouts the readers of e2esim.products_io take (a few hundred pixels), written from
+the public schemas and writer code, not from the readers: the BIOMASS L1 annotation (BPS XSDs, tests/data/bps_xsd)
+and LUT NetCDF (BPS ``l1_lut_writer.write_lut_file``), and the NISAR GCOV HDF5 (isce3 ``nisar_L2_GCOV.xml``). The
+names come from the layout modules, which the tests also check the files against."""
+
+from __future__ import annotations
+
+import xml.etree.ElementTree as ET
+from pathlib import Path
+
+import h5py
+import netCDF4
+import numpy as np
+
+from e2esim.products_io import biomass_layout as bl
+from e2esim.products_io import nisar_layout as nl
+
+NO_DATA = -9999.0  # the BPS LUT parameter no_pixel_value
+
+
+def biomass_annotation(crosstalk=(0.0, 0.0, 0.0, 0.0), imbalance=(0.0, 0.0), faraday_applied=True,
+                       rfi_percent=None) -> ET.Element:
+    """The root ``mainAnnotation`` with the three sections e2esim reads, in the order and types of the XSD."""
+    root = ET.Element(bl.ANNOTATION_ROOT)
+    pd = ET.SubElement(root, "polarimetricDistortion")
+    for list_name, names, values in (("crossTalkList", bl.CROSSTALK_ELEMENTS, crosstalk),
+                                     ("channelImbalanceList", bl.IMBALANCE_ELEMENTS, imbalance)):
+        lst = ET.SubElement(pd, list_name)
+        for name, value in zip(names, values):
+            node = ET.SubElement(lst, name)
+            ET.SubElement(node, "re").text = repr(float(np.real(value)))
+            ET.SubElement(node, "im").text = repr(float(np.imag(value)))
+    iono = ET.SubElement(root, "ionosphereCorrection")
+    for name, text, units in (("ionosphereHeightUsed", "350000.0", "m"), ("ionosphereHeightEstimated", "-1", "m"),
+                              ("ionosphereHeightEstimationMethodSelected", "NA", None),
+                              ("ionosphereHeightEstimationLatitudeValue", "60.0", "deg"),
+                              ("ionosphereHeightEstimationFlag", "false", None),
+                              ("ionosphereHeightEstimationMethodUsed", "Model", None),
+                              ("gaussianFilterComputationFlag", "true", None),
+                              ("faradayRotationCorrectionApplied", "true" if faraday_applied else "false", None),
+                              ("autofocusShiftsApplied", "false", None)):
+        node = ET.SubElement(iono, name)
+        node.text = text
+        if units:
+            node.set("units", units)
+    rfi = ET.SubElement(root, "rfiMitigation")
+    if rfi_percent:
+        lst = ET.SubElement(rfi, "rfiTMReportList", count=str(len(rfi_percent)))
+        for pol, pct in rfi_percent.items():
+            rep = ET.SubElement(lst, "rfiTMReport", polarisation=pol)
+            ET.SubElement(rep, "percentageAffectedLines").text = repr(float(pct))
+            ET.SubElement(rep, "avgPercentageAffectedSamples").text = "1.0"
+            ET.SubElement(rep, "maxPercentageAffectedSamples").text = "2.0"
+    return root
+
+
+def write_biomass(folder, shape=(12, 20), faraday=None, faraday_std=None, noise=0.002, faraday_applied=True,
+                  crosstalk=(0.0, 0.0, 0.0, 0.0), rfi_percent=None, slc_shape=None, units=None, drop=None,
+                  extra=None) -> Path:
+    """A BIOMASS L1 product folder (annotation.xml, lut.nc). faraday, faraday_std : arrays on the SLC grid (rad)
+    or None (no ionosphereCorrection group; a faraday_std of None with a faraday writes the all-fill layer, as the
+    BPS does). units : {(group, variable): units} to override; drop : (group, variable) or group to leave out;
+    extra : (group, variable) to add."""
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    ET.ElementTree(biomass_annotation(crosstalk, faraday_applied=faraday_applied, rfi_percent=rfi_percent)).write(
+        folder / bl.ANNOTATION_FILE, xml_declaration=True, encoding="utf-8")
+    slc_shape = slc_shape or shape
+    units = units or {}
+    with netCDF4.Dataset(folder / bl.LUT_FILE, "w", format="NETCDF4") as ds:
+        ds.setncattr(bl.LUT_NO_DATA_ATTRIBUTE, NO_DATA)
+        ds.mission = "BIOMASS"
+        for (az, rg), (n_az, n_rg) in ((bl.RGC_AXES, shape), (bl.SLC_AXES, slc_shape)):
+            for name, n, step in ((az, n_az, 0.05), (rg, n_rg, 1e-7)):
+                ds.createDimension(name, n)
+                v = ds.createVariable(name, "f8", (name,))
+                v.units = bl.AXIS_UNITS
+                v[:] = 4.5e-3 * (name.startswith("slant")) + step * np.linspace(0, n - 1, n) * (
+                    (shape[0] - 1) / max(n_az - 1, 1) if name == az else (shape[1] - 1) / max(n_rg - 1, 1))
+        lat = 60.0 + 0.01 * np.arange(shape[0])[:, None] + 0 * np.arange(shape[1])
+        lon = 92.0 + 0.01 * np.arange(shape[1])[None, :] + 0 * lat
+        inc = np.broadcast_to(np.linspace(23.0, 33.75, shape[1]), shape)
+        layers = {("geometry", "latitude"): lat, ("geometry", "longitude"): lon,
+                  ("geometry", "height"): np.zeros(shape), ("geometry", "incidenceAngle"): inc,
+                  ("geometry", "elevationAngle"): inc - 3.0, ("geometry", "terrainSlope"): np.zeros(shape),
+                  ("radiometry", "sigmaNought"): np.sin(np.radians(inc)),
+                  ("radiometry", "gammaNought"): np.tan(np.radians(inc))}
+        for pol in bl.POLARISATIONS:
+            layers[("denoising", f"denoising{pol}")] = np.full(slc_shape, noise)
+        if faraday is not None:
+            layers[("ionosphereCorrection", "faradayRotation")] = faraday
+            layers[("ionosphereCorrection", "faradayRotationStd")] = (
+                np.full(slc_shape, NO_DATA) if faraday_std is None else faraday_std)
+            layers[("ionosphereCorrection", "tec")] = np.full(slc_shape, 10.0)
+        if extra is not None:
+            layers[extra] = np.zeros(shape)
+        for (group, name), values in layers.items():
+            if drop in (group, (group, name)):
+                continue
+            g = ds.groups.get(group) or ds.createGroup(group)
+            axes = bl.SLC_AXES if group in ("ionosphereCorrection", "denoising") else bl.RGC_AXES
+            dtype = "f8" if name in ("latitude", "longitude", "height") else "f4"
+            v = g.createVariable(name, dtype, axes, fill_value=NO_DATA, compression="zlib", complevel=2)
+            other = {"tec": "TECU", "elevationAngle": "deg"}.get(name)  # variables the reader does not need
+            default = bl.LUT_VARIABLES.get(group, {}).get(name, (other,))[0]
+            given = units.get((group, name), default)
+            if given is not None:
+                v.units = given
+            v[:, :] = values
+    return folder
+
+
+def write_gcov(path, shape=(15, 20), seed=0, faraday=0.0, crosstalk=0.0, looks=25.0, nes0=0.003,
+               units=None, drop=None, extra=None, truncate=None) -> Path:
+    """A NISAR GCOV HDF5 with a forest-like covariance (HV 0.02-0.08, HH = 4 HV, VV = 2.5 HV, |rho_hhvv| 0.3)."""
+    rng = np.random.default_rng(seed)
+    rows, cols = shape
+    hv = rng.uniform(0.02, 0.08, shape).astype(np.float32)
+    hh, vv = 4 * hv, 2.5 * hv
+    hhvv = (0.3 * np.sqrt(hh * vv) * np.exp(0.3j)).astype(np.complex64)
+    mask = np.ones(shape, np.uint8)
+    mask[0, 0] = nl.MASK_FILL
+    units = units or {}
+    values = {
+        f"{nl.GRIDS}/HHHH": hh, f"{nl.GRIDS}/HVHV": hv, f"{nl.GRIDS}/VVVV": vv, f"{nl.GRIDS}/HHVV": hhvv,
+        f"{nl.GRIDS}/numberOfLooks": np.full(shape, looks, np.float32),
+        f"{nl.GRIDS}/xCoordinates": 500000.0 + 20.0 * np.arange(cols),
+        f"{nl.GRIDS}/yCoordinates": 6650000.0 - 20.0 * np.arange(rows),
+        **{t: np.full(5, crosstalk, np.complex64) for t in nl.CROSSTALK_TABLES},
+        nl.CROSSTALK_SLANT_RANGE: np.linspace(8e5, 9e5, 5), nl.FARADAY_ROTATION: np.float64(faraday),
+        **{nl.NES0[c]: np.full((3, 4), nes0, np.float32) for c in nl.CHANNELS},
+        nl.NES0_X: np.linspace(499000.0, 501000.0, 4), nl.NES0_Y: np.linspace(6651000.0, 6649000.0, 3),
+        **{nl.RFI_LIKELIHOOD[c]: np.float64(0.1) for c in nl.CHANNELS},
+        **{nl.SCALE_FACTOR[c]: np.float64(1.0) for c in nl.CHANNELS},
+    }
+    if extra is not None:
+        values[extra] = np.zeros(shape, np.float32)
+    with h5py.File(path, "w") as f:
+        for name, value in values.items():
+            if drop is not None and name.startswith(drop):
+                continue
+            ds = f.create_dataset(name, data=value)
+            u = units.get(name, nl.UNITS.get(name, "1"))
+            if u is not None:
+                ds.attrs["units"] = u
+        f.create_dataset(nl.MASK, data=mask)
+        proj = f.create_dataset(nl.PROJECTION, data=np.uint32(32646))
+        proj.attrs["epsg_code"] = np.int32(32646)
+    if truncate is not None:
+        data = Path(path).read_bytes()
+        Path(path).write_bytes(data[: int(len(data) * truncate)])
+    return Path(path)

@@ -1,0 +1,154 @@
+"""``e2esim uncertainty`` on generated products (issue 26, Done when): the per-pixel outputs equal the per-case
+analytic model (``hv_error_moments`` for the pixel's scene, system, Faraday rotation, noise and looks; the
+Bickel-Bates SD; the power law) at a few pixels, and the outputs hold what the product said and what was assumed."""
+
+from __future__ import annotations
+
+import netCDF4
+import numpy as np
+import pytest
+import rasterio
+
+from e2esim.cli import main
+from e2esim.distortion.analytic import hv_error_moments
+from e2esim.faraday.distribution import GaussianFaraday
+from e2esim.faraday.theory import bickel_bates_snr, bickel_bates_variance
+from e2esim.products_io.assumptions import load_assumptions
+from e2esim.retrieval.agb_error import AGBError
+from e2esim.scene.covariance import ScatteringCovariance
+from tests.product_writers import write_biomass, write_gcov
+
+PIXELS = ((0, 1), (5, 7), (11, 19))
+RTOL = 2e-7  # the outputs are float32 (relative rounding 6e-8); the model itself agrees to 1e-15
+
+
+def run(*args) -> int:
+    return main(["uncertainty", *map(str, args)])
+
+
+def layers(folder) -> dict:
+    with netCDF4.Dataset(folder / "uncertainty.nc") as ds:
+        ds.set_auto_mask(False)  # the fills as stored: NaN, and 255 for the verdict
+        return {name: np.asarray(var[:]) for name, var in ds.variables.items()} | {
+            "attrs": {k: ds.getncattr(k) for k in ds.ncattrs()}}
+
+
+def agb_answer(a, sigma_hv, m) -> float:
+    agb = AGBError.from_sigma_errors(a.exponent, sigma_hv, m.mean, np.sqrt(m.variance))
+    return max(abs(agb.quantile(1 - a.confidence)), abs(agb.quantile(a.confidence)))
+
+
+def test_biomass_uncorrected_faraday_rotation_counts_in_full_with_the_filled_sd(tmp_path):
+    """faradayRotationCorrectionApplied false: the data keep the LUT's Faraday rotation (the full error counts);
+    the faradayRotationStd layer is all fill (as the BPS writes it), so its SD is e2esim's Bickel-Bates SD."""
+    fr = np.radians(np.linspace(1.0, 12.0, 240)).reshape(12, 20)
+    noise = np.broadcast_to(np.linspace(0.002, 0.02, 20), (12, 20))  # NESZ -27 to -17 dB across the swath
+    product = write_biomass(tmp_path / "bio", faraday=fr, faraday_applied=False, noise=noise,
+                            rfi_percent={"HH": 3.5})
+    assert run(product, "-o", tmp_path / "out") == 0
+    out = layers(tmp_path / "out")
+    a = load_assumptions(None, "biomass")
+    for i in PIXELS:
+        n = float(np.float32(noise[i]))  # as the LUT stores it
+        sd = np.sqrt(bickel_bates_variance(bickel_bates_snr(a.scene, n), a.fr_window_looks, "asymptotic"))
+        m = hv_error_moments(a.scene, a.system, GaussianFaraday(fr[i], sd), noise_power=n)
+        assert out["faraday_rotation_sd"][i] == pytest.approx(sd, rel=RTOL)
+        assert out["faraday_rotation_sd_source"][i] == 2
+        assert out["residual_faraday_rotation_mean"][i] == pytest.approx(fr[i], rel=RTOL)
+        assert out["sigma_hv_error_mean"][i] == pytest.approx(m.mean, rel=RTOL)
+        assert out["sigma_hv_error_sd"][i] == pytest.approx(np.sqrt(m.variance), rel=RTOL)
+        assert out["agb_relative_error"][i] == pytest.approx(agb_answer(a, a.scene.sigma_hv, m), rel=RTOL)
+        assert out["verdict"][i] == (agb_answer(a, a.scene.sigma_hv, m) <= a.bound)
+    # the noise bias grows across the swath: the near range passes the +-20 % bound, the far range does not
+    assert out["verdict"][:, 0].all() and not out["verdict"][:, -1].any()
+    attrs = out["attrs"]
+    assert attrs["faraday_rotation_corrected_by_processor"] == "False"
+    assert attrs["product_lut_faradayRotationStd"].startswith("empty")
+    assert attrs["product_rfi_percentage_affected_lines_HH"] == pytest.approx(3.5)
+    assert attrs["assumed_power_law_exponent"] == pytest.approx(2.2)
+
+
+def test_biomass_corrected_faraday_rotation_leaves_the_estimate_error_of_its_own_sd(tmp_path):
+    fr = np.full((12, 20), 0.2)
+    own_sd = np.full((12, 20), np.radians(0.5))
+    own_sd[3, 4] = -9999.0  # one no-data value: that pixel's SD is filled
+    product = write_biomass(tmp_path / "bio", faraday=fr, faraday_std=own_sd, faraday_applied=True)
+    assert run(product, "-o", tmp_path / "out") == 0
+    out = layers(tmp_path / "out")
+    assert out["faraday_rotation_sd_source"][0, 0] == 1 and out["faraday_rotation_sd_source"][3, 4] == 2
+    assert out["residual_faraday_rotation_mean"][0, 0] == 0.0
+    assert out["residual_faraday_rotation_sd"][0, 0] == pytest.approx(np.radians(0.5), rel=RTOL)
+    a = load_assumptions(None, "biomass")
+    m = hv_error_moments(a.scene, a.system, GaussianFaraday(0.0, np.radians(0.5)), noise_power=0.002)
+    assert out["sigma_hv_error_mean"][0, 0] == pytest.approx(m.mean, rel=RTOL)
+
+
+def test_nisar_gcov_scene_looks_and_noise_come_from_the_product(tmp_path):
+    """The covariance per pixel, numberOfLooks and nes0 from the GCOV; faradayRotation 0.0 and zero crosstalk
+    tables: not applied, so the scenario's rotation and the raw system errors count in full."""
+    path = write_gcov(tmp_path / "gcov.h5", looks=25.0, nes0=0.003)
+    assert run(path, "-o", tmp_path / "out") == 0
+    out = layers(tmp_path / "out")
+    a = load_assumptions(None, "nisar")
+    import h5py
+
+    from e2esim.products_io import nisar_layout as nl
+
+    with h5py.File(path) as f:
+        hh, hv, vv, hhvv = (f[f"{nl.GRIDS}/{t}"][()] for t in ("HHHH", "HVHV", "VVVV", "HHVV"))
+    for i in PIXELS[1:] + ((14, 19),):
+        c = np.array([[hh[i], 0, hhvv[i]], [0, hv[i], 0], [np.conj(hhvv[i]), 0, vv[i]]], dtype=complex)
+        m = hv_error_moments(ScatteringCovariance(c), a.system, a.faraday, looks=25.0, noise_power=0.003)
+        assert out["sigma_hv_error_mean"][i] == pytest.approx(m.mean, rel=RTOL)
+        assert out["sigma_hv_error_sd"][i] == pytest.approx(np.sqrt(m.variance), rel=RTOL)
+        assert out["agb_relative_error"][i] == pytest.approx(agb_answer(a, float(hv[i]), m), rel=RTOL)
+    assert np.isnan(out["sigma_hv_error_mean"][0, 0]) and out["verdict"][0, 0] == 255  # mask fill
+    assert out["attrs"]["faraday_rotation_corrected_by_processor"] == "False"
+    assert out["attrs"]["crosstalk_corrected_by_processor"] == "False"
+    with rasterio.open(tmp_path / "out" / "uncertainty.tif") as tif:
+        assert tif.crs.to_epsg() == 32646
+        assert tif.descriptions[2] == "sigma_hv_relative_error_mean"
+        np.testing.assert_array_equal(tif.read(3), out["sigma_hv_relative_error_mean"])
+        assert tif.transform.c == pytest.approx(500000.0 - 10.0)
+
+
+def test_corrected_crosstalk_uses_the_scenarios_residual_after_calibration(tmp_path):
+    scenario = tmp_path / "s.yaml"
+    scenario.write_text("""
+scene: {type: table1_forest, forest: boreal_200}
+instrument: {type: nisar}
+ionosphere: {type: gaussian_faraday, mean_deg: 1.0, sd_deg: 0.5}
+calibration:
+  - {type: residual_system, crosstalk_db: -40.0, channel_imbalance_db: -40.0}
+propagation: [{type: hv_backscatter_error}]
+retrieval: {type: power_law, exponent: 2.0}
+requirements: [{type: agb_error_bound, sources: systematic, bound_percent: 30, confidence_percent: 95, side: both}]
+""")
+    path = write_gcov(tmp_path / "gcov.h5", crosstalk=0.01 + 0.002j, faraday=0.004)
+    assert run(path, "--scenario", scenario, "-o", tmp_path / "out") == 0
+    out = layers(tmp_path / "out")
+    a = load_assumptions(scenario, "nisar")
+    assert a.system_residual != a.system and a.bound == pytest.approx(0.3) and a.exponent == 2.0
+    with __import__("h5py").File(path) as f:
+        hh, hv, vv, hhvv = (f[f"/science/LSAR/GCOV/grids/frequencyA/{t}"][()] for t in ("HHHH", "HVHV", "VVVV", "HHVV"))
+    i = (7, 3)
+    c = np.array([[hh[i], 0, hhvv[i]], [0, hv[i], 0], [np.conj(hhvv[i]), 0, vv[i]]], dtype=complex)
+    residual = GaussianFaraday(np.radians(1.0) - 0.004, np.radians(0.5))  # the rotation less what was removed
+    m = hv_error_moments(ScatteringCovariance(c), a.system_residual, residual, looks=25.0, noise_power=0.003)
+    assert out["sigma_hv_error_mean"][i] == pytest.approx(m.mean, rel=RTOL)
+    assert out["residual_faraday_rotation_mean"][i] == pytest.approx(np.radians(1.0) - 0.004, rel=RTOL)
+    assert out["attrs"]["crosstalk_corrected_by_processor"] == "True"
+    assert out["attrs"]["product_faradayRotation_rad"] == pytest.approx(0.004)
+
+
+def test_worker_processes_give_the_numbers_of_one_process(tmp_path):
+    """Blocks evaluated in two processes, a few rows at a time, are written bit for bit as in one process."""
+    from e2esim.products_io.uncertainty import write_uncertainty
+
+    path = write_gcov(tmp_path / "gcov.h5", shape=(15, 20))
+    write_uncertainty(path, tmp_path / "one", pixels_per_block=60)
+    write_uncertainty(path, tmp_path / "two", pixels_per_block=60, workers=2)
+    one, two = layers(tmp_path / "one"), layers(tmp_path / "two")
+    for name in one:
+        if name != "attrs":
+            np.testing.assert_array_equal(one[name], two[name], err_msg=name)
