@@ -31,7 +31,8 @@ from e2esim.orbit.sunsync import SunSynchronousOrbit
 @dataclass(frozen=True)
 class CampaignSetup:
     """Everything a campaign depends on. days : mission length (days). step_days : spacing of the residual
-    dates. commissioning_days : the phase that uses every transponder pass. faraday_residual_rad : SD of the
+    dates. commissioning_days : the phase that uses every transponder pass. schedule_days : the span the schedule
+    covers (no visit used after it; None: the mission). faraday_residual_rad : SD of the
     Faraday rotation left after correction at a visit. drift : {parameter: DriftModel}."""
 
     orbit: SunSynchronousOrbit
@@ -44,6 +45,7 @@ class CampaignSetup:
     commissioning_days: float = 91.0
     faraday_residual_rad: float = np.radians(1.0)
     first_node_s: float = 0.0
+    schedule_days: float | None = None
 
     def __post_init__(self):
         if not self.sites:
@@ -51,6 +53,9 @@ class CampaignSetup:
         names = [s.name for s in self.sites]
         if len(set(names)) != len(names):
             raise PhysicsInputError(f"site names repeat: {names}", key="sites")
+        if self.schedule_days is not None and self.schedule_days > self.days + 1e-6:
+            raise PhysicsInputError(f"a schedule of {self.schedule_days:g} days is longer than the mission "
+                                    f"({self.days:g} days); allowed: at most the mission", key="schedule_years")
 
 
 @dataclass(frozen=True)
@@ -136,7 +141,8 @@ def _used(setup, acq, per_year, opportunity) -> np.ndarray:
     tr = transponder_mask(acq, setup.sites, per_year, setup.commissioning_days, setup.days)
     too = np.isin(acq.site, [names.index(o) for o in opportunity]) & np.array(
         [setup.sites[i].type != "transponder" for i in acq.site], dtype=bool)
-    return tr | too
+    within = acq.day <= (setup.days if setup.schedule_days is None else setup.schedule_days)
+    return (tr | too) & within
 
 
 def margins_db(variance: dict, limits: dict) -> dict:
@@ -183,16 +189,6 @@ def search_schedules(setup: CampaignSetup, limits: dict, max_per_year: int, oppo
     ok = np.flatnonzero(worst >= 0)
     best = None if ok.size == 0 else int(ok[np.lexsort((-worst[ok], cost[ok]))[0]])
     return ScheduleSearch(np.array([n for n, _ in grid]), tuple(c for _, c in grid), cost, worst, best)
-
-
-def check_schedule(setup: CampaignSetup, per_year: int | None, schedule_years: float | None) -> None:
-    """A schedule longer than the mission is an error (``schedule_years``: the span the user asked for)."""
-    if schedule_years is not None and schedule_years * YEAR_DAYS > setup.days + 1e-6:
-        raise PhysicsInputError(f"a schedule of {schedule_years:g} years is longer than the mission "
-                                f"({setup.days / YEAR_DAYS:g} years); allowed: at most the mission length",
-                                key="schedule_years")
-    if per_year is not None and per_year < 0:
-        raise PhysicsInputError(f"transponder passes per year {per_year} must be >= 0", key="transponder_per_year")
 
 
 DEFAULT_DRIFT = {"gain": DriftModel(0.5), "crosstalk": DriftModel(0.01), "imbalance": DriftModel(0.05)}

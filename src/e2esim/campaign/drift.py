@@ -36,19 +36,19 @@ YEAR_DAYS = 365.25
 class DriftModel:
     """Drift of one parameter (units of the parameter: dB for the gain, linear for crosstalk and imbalance).
 
-    initial_sd : s0, the error before the first visit. random_walk_per_day : q, the variance the random walk adds
-    per day. trend_sd_per_year : s_d, the SD of the unknown linear trend per year. seasonal_sd : s_s, the SD of the
-    seasonal term (its RMS over a year). seasonal_period_days : P.
+    initial_sd : s0, the error before the first visit. random_walk_variance_per_day : q, the variance the random
+    walk adds per day. trend_sd_per_year : s_d, the SD of the unknown linear trend per year. seasonal_sd : s_s, the SD
+    of the seasonal term (its RMS over a year). seasonal_period_days : P.
     """
 
     initial_sd: float
-    random_walk_per_day: float = 0.0
+    random_walk_variance_per_day: float = 0.0
     trend_sd_per_year: float = 0.0
     seasonal_sd: float = 0.0
     seasonal_period_days: float = YEAR_DAYS
 
     def __post_init__(self):
-        for name in ("initial_sd", "random_walk_per_day", "trend_sd_per_year", "seasonal_sd"):
+        for name in ("initial_sd", "random_walk_variance_per_day", "trend_sd_per_year", "seasonal_sd"):
             value = getattr(self, name)
             if not (np.isfinite(value) and value >= 0):
                 raise PhysicsInputError(f"drift {name} {value!r} must be a finite number >= 0 (a variance or SD "
@@ -89,7 +89,7 @@ def residual_variance(model: DriftModel, days, visit_days, visit_variance) -> np
     kinds = np.concatenate([np.full(days.size, -1), np.arange(vd.size)])
     order = np.lexsort((kinds < 0, times))  # by time; on the same instant a visit before an output day
     p = np.broadcast_to(model.prior(), (rv.shape[0], 4, 4)).copy()
-    q = model.random_walk_per_day
+    q = model.random_walk_variance_per_day
     out = np.empty((rv.shape[0], days.size))
     obs = model.observation(times)
     last, out_index = 0.0, 0
@@ -116,11 +116,15 @@ def _predict(p, h, q):
 
 
 def _update(p, hvec, r):
-    """Kalman update of S covariances (S, 4, 4) with variances r (S,); r = inf leaves a covariance as it is."""
+    """Kalman update of S covariances (S, 4, 4) with variances r (S,) in Joseph's form (I - K H) P (I - K H)' +
+    K r K', which stays symmetric and positive under a vague prior (Gelb 1974, eq. 4.2-18); r = inf leaves a
+    covariance as it is."""
+    finite = np.isfinite(r)
+    r = np.where(finite, r, 1.0)
     ph = p @ hvec  # (S, 4)
-    with np.errstate(invalid="ignore"):
-        gain = np.where(np.isfinite(r)[:, None], ph / (ph @ hvec + np.where(np.isfinite(r), r, 1.0))[:, None], 0.0)
-    return p - gain[:, :, None] * ph[:, None, :]
+    gain = np.where(finite[:, None], ph / (ph @ hvec + r)[:, None], 0.0)
+    a = np.eye(4) - gain[:, :, None] * hvec[None, None, :]
+    return a @ p @ np.swapaxes(a, 1, 2) + r[:, None, None] * gain[:, :, None] * gain[:, None, :]
 
 
 def simulate_drift(model: DriftModel, days, rng: np.random.Generator, n: int) -> np.ndarray:
@@ -128,6 +132,6 @@ def simulate_drift(model: DriftModel, days, rng: np.random.Generator, n: int) ->
     days = np.asarray(days, float)
     z = rng.multivariate_normal(np.zeros(4), model.prior(), size=n)
     steps = np.diff(np.concatenate([[0.0], days]))
-    walk = np.cumsum(rng.standard_normal((n, days.size)) * np.sqrt(model.random_walk_per_day * steps), axis=1)
+    walk = np.cumsum(rng.standard_normal((n, days.size)) * np.sqrt(model.random_walk_variance_per_day * steps), axis=1)
     w = 2 * np.pi * days / model.seasonal_period_days
     return (z[:, :1] + walk + z[:, 1:2] * days + z[:, 2:3] * np.sin(w) + z[:, 3:4] * np.cos(w))

@@ -16,11 +16,11 @@ import numpy as np
 
 from e2esim.calibration.modules import CalibrationModule
 from e2esim.calibration.stated_steps import StatedResidualResult, StatedResidualStep
-from e2esim.campaign.campaign import CampaignSetup, check_schedule, find_acquisitions, run_campaign, search_schedules
+from e2esim.campaign.campaign import CampaignSetup, find_acquisitions, run_campaign, search_schedules
 from e2esim.campaign.drift import YEAR_DAYS, DriftModel
 from e2esim.campaign.site_file import read_sites_file
 from e2esim.campaign.sites import PARAMETERS, PRESETS
-from e2esim.errors import PhysicsInputError
+from e2esim.errors import ConfigError, PhysicsInputError
 from e2esim.params import Param
 from e2esim.units import LEVEL_CONVENTIONS, THREE_SIGMA_AMPLITUDE, level_db_from_variance, variance_from_level_db
 
@@ -65,11 +65,11 @@ class Campaign(CalibrationModule):
         Param("faraday_residual_deg", "float", "SD of the Faraday rotation left at a visit after its correction "
               "(Quegan et al. 2018, Section 4: better than 1 deg)", default=1.0, minimum=0.0, maximum=45.0),
         Param("transponder_per_year", "int", "transponder passes used per year after commissioning (null: all)",
-              default=2, nullable=True),
+              default=2, nullable=True, minimum=0),
         Param("opportunity", "str", "targets of opportunity used (names of sites; null: all)", default=None,
               variable_length=True, nullable=True),
-        Param("schedule_years", "float", "span the schedule covers (null: the mission)", default=None,
-              nullable=True, unit="years"),
+        Param("schedule_years", "float", "span the schedule covers: no visit used after it (null: the mission)",
+              default=None, nullable=True, unit="years"),
         Param("epoch_day", "float", "the mission day whose residual the chain propagates (null: the worst)",
               default=None, nullable=True, minimum=0.0),
         _drift_param("gain"), _drift_param("crosstalk"), _drift_param("imbalance"),
@@ -105,25 +105,37 @@ class Campaign(CalibrationModule):
                 self.drift[name] = DriftModel(values["initial_sd"], values["random_walk_variance_per_day"],
                                               values["trend_sd_per_year"], values["seasonal_sd"])
             except PhysicsInputError as exc:
-                key = {"random_walk_per_day": "random_walk_variance_per_day"}.get(exc.key, exc.key)
-                raise PhysicsInputError(str(exc), key=f"drift_{name}.{key}") from None
+                raise PhysicsInputError(str(exc), key=f"drift_{name}.{exc.key}") from None
         self.limits = {"crosstalk": float(variance_from_level_db(c["limit_crosstalk_db"], c["convention"])),
                        "imbalance": float(variance_from_level_db(c["limit_imbalance_db"], c["convention"])),
                        "gain": c["limit_gain_sd_db"] ** 2}
         if c["incidence_far_deg"] <= c["incidence_near_deg"]:
             raise PhysicsInputError(f"far incidence {c['incidence_far_deg']} deg must exceed the near one "
                                     f"{c['incidence_near_deg']} deg", key="incidence_far_deg")
+        if c["schedule_years"] is not None and c["schedule_years"] > c["mission_years"]:
+            raise PhysicsInputError(f"a schedule of {c['schedule_years']:g} years is longer than the mission "
+                                    f"({c['mission_years']:g} years); allowed: at most mission_years",
+                                    key="schedule_years")
         if c["epoch_day"] is not None and c["epoch_day"] > c["mission_years"] * YEAR_DAYS:
             raise PhysicsInputError(f"epoch_day {c['epoch_day']:g} is after the mission's end (day "
                                     f"{c['mission_years'] * YEAR_DAYS:g})", key="epoch_day")
+
+    def _where_from(self, message: str) -> str:
+        """The message, naming the sites file when one of its sites is at fault."""
+        file = self.config["sites_file"]
+        preset_names = set(self.config["sites"])
+        for site in self.sites:
+            if f"site {site.name} " in message and site.name not in preset_names and file is not None:
+                return f"{message} (site {site.name!r} of the sites file {file})"
+        return message
 
     def setup_for(self, orbit) -> CampaignSetup:
         c = self.config
         setup = CampaignSetup(orbit, self.sites, self.drift, c["mission_years"] * YEAR_DAYS,
                               math.radians(c["incidence_near_deg"]), math.radians(c["incidence_far_deg"]),
                               c["step_days"], c["commissioning_days"], math.radians(c["faraday_residual_deg"]),
-                              c["first_node_minutes"] * 60.0)
-        check_schedule(setup, c["transponder_per_year"], c["schedule_years"])
+                              c["first_node_minutes"] * 60.0,
+                              None if c["schedule_years"] is None else c["schedule_years"] * YEAR_DAYS)
         return setup
 
     def outcome(self, case) -> CampaignOutcome:
@@ -133,7 +145,10 @@ class Campaign(CalibrationModule):
                repr(case["geometry"].orbit))
         found = memo.get(key) if memo is not None else None
         if found is None:
-            found = compute_outcome(self, self.setup_for(case["geometry"].orbit))
+            try:
+                found = compute_outcome(self, self.setup_for(case["geometry"].orbit))
+            except PhysicsInputError as exc:  # at run time: name the scenario file and the key path here
+                raise ConfigError(exc.location(self.location), self._where_from(str(exc))) from None
             if memo is not None:
                 memo[key] = found
         return found
@@ -144,7 +159,7 @@ class Campaign(CalibrationModule):
         i = int(np.argmin(out.margin)) if day is None else int(np.argmin(np.abs(out.result.days - day)))
         var = {p: float(v[i]) for p, v in out.result.variance.items()}
         step = CampaignResidualStep(var["crosstalk"], var["imbalance"], None, None, math.sqrt(var["gain"]),
-                                    out.scalars(i, self.config["convention"]))
+                                    out.scalars(i, self.config["convention"]), out)
         return [(self.type_name, step)]
 
 
@@ -155,6 +170,9 @@ class CampaignOutcome:
     result: object
     margin: np.ndarray
     search: object
+    limits: dict
+    convention: str
+    site_names: tuple
 
     def scalars(self, i: int, convention: str) -> dict:
         r, s = self.result, self.search
@@ -191,7 +209,8 @@ def compute_outcome(module: Campaign, setup: CampaignSetup) -> CampaignOutcome:
         m = 10 * np.log10(lim / np.maximum(result.variance[p], 1e-300))
         margin = np.minimum(margin, np.where(after, m, np.inf))
     search = search_schedules(setup, module.limits, c["search_max_per_year"], acq=acq)
-    return CampaignOutcome(result, margin, search)
+    return CampaignOutcome(result, margin, search, dict(module.limits), c["convention"],
+                           tuple(site.name for site in setup.sites))
 
 
 @dataclass(frozen=True)
@@ -200,6 +219,15 @@ class CampaignResidualStep(StatedResidualStep):
     also carries the campaign's scalars (the epoch, the worst epoch, the schedule search's answer)."""
 
     campaign: dict = field(default_factory=dict)
+    outcome: object = field(default=None, compare=False, repr=False)
 
-    def result(self) -> StatedResidualResult:
-        return StatedResidualResult({**self.campaign, **super().result().values})
+    def result(self) -> CampaignStepResult:
+        return CampaignStepResult({**self.campaign, **super().result().values}, self.outcome)
+
+
+@dataclass(frozen=True)
+class CampaignStepResult(StatedResidualResult):
+    """The stated levels and the campaign's scalars (``values``), and the whole ``CampaignOutcome`` for the
+    report (the residual series, the visits, the schedule search)."""
+
+    outcome: object = field(default=None, compare=False, repr=False)

@@ -87,7 +87,7 @@ def site_visits(orbit: SunSynchronousOrbit, lat: float, lon: float, days: float,
     rate = argument_of_latitude_rate(orbit)
     period = 2 * np.pi / rate
     revs = np.arange(-1, int(np.ceil(days * DAY_S / period)) + 1)
-    times, passes = [], []
+    times = []
     for p in PASSES:
         # the latitude crossing of the sub-satellite point (beyond the orbit's reach: the nearest approach, u = pi/2)
         u0 = argument_of_latitude(orbit, np.clip(lat, -(np.pi - orbit.inclination_rad),
@@ -98,10 +98,12 @@ def site_visits(orbit: SunSynchronousOrbit, lat: float, lon: float, days: float,
             f1 = _doppler(orbit, t + 1.0, first_node_s, target)
             t = t - f0 / (f1 - f0)
         times.append(t)
-        passes.append(np.full(t.size, p))
-    t = np.concatenate(times)
-    pass_name = np.concatenate(passes)
+    # near the orbit's highest latitude both starts can reach the same closest approach: keep it once, and name
+    # its pass by the direction of the satellite's motion there
+    t = np.unique(np.round(np.concatenate(times), 3))
+    t = t[np.concatenate([[True], np.diff(t) > 60.0])]
     r, v = satellite_state(orbit, t, first_node_s)
+    pass_name = np.where(v[:, 2] >= 0, "ascending", "descending")
     los = r - target
     cos_inc = los @ up / np.linalg.norm(los, axis=-1)
     incidence = np.arccos(np.clip(cos_inc, -1, 1))
