@@ -94,7 +94,7 @@ def transponder_mask(acq: Acquisitions, sites: tuple, per_year: int | None, comm
                      days: float) -> np.ndarray:
     """Which transponder passes a schedule uses: all in commissioning, then ``per_year`` per mission year spread
     evenly over the passes the orbit offers that year (None: all)."""
-    is_tr = np.array([sites[i].type == "transponder" for i in acq.site])
+    is_tr = np.array([site.type == "transponder" for site in sites])[acq.site]
     use = is_tr & (acq.day < commissioning_days)
     after = is_tr & ~use
     if per_year is None:
@@ -140,7 +140,7 @@ def _used(setup, acq, per_year, opportunity) -> np.ndarray:
                                 key="opportunity")
     tr = transponder_mask(acq, setup.sites, per_year, setup.commissioning_days, setup.days)
     too = np.isin(acq.site, [names.index(o) for o in opportunity]) & np.array(
-        [setup.sites[i].type != "transponder" for i in acq.site], dtype=bool)
+        [site.type != "transponder" for site in setup.sites], dtype=bool)[acq.site]
     within = acq.day <= (setup.days if setup.schedule_days is None else setup.schedule_days)
     return (tr | too) & within
 
@@ -168,6 +168,14 @@ class ScheduleSearch:
     best: int | None
 
 
+def _distinct_rows(mask: np.ndarray) -> tuple:
+    """The distinct rows of a boolean matrix and, for each row, the index of its distinct row."""
+    packed = np.ascontiguousarray(np.packbits(mask, axis=1))
+    keys = packed.view(np.dtype((np.void, packed.shape[1]))).ravel()
+    _, first, which = np.unique(keys, return_index=True, return_inverse=True)
+    return mask[first], which
+
+
 def search_schedules(setup: CampaignSetup, limits: dict, max_per_year: int, opportunity_cost: float = 1.0,
                      acq: Acquisitions | None = None) -> ScheduleSearch:
     """Cost = transponder passes per year + ``opportunity_cost`` per target of opportunity used; the answer is the
@@ -182,9 +190,13 @@ def search_schedules(setup: CampaignSetup, limits: dict, max_per_year: int, oppo
     order = np.argsort(acq.day)
     worst = np.full(len(grid), np.inf)
     for p, lim in limits.items():
-        v = residual_variance(setup.drift[p], days, acq.day[order], np.where(used, acq.variance[p], np.inf)[:, order])
+        # schedules that differ only in sites that do not measure p leave the same residual of p: one filter each
+        informative = used[:, order] & np.isfinite(acq.variance[p][order])[None, :]
+        distinct, which = _distinct_rows(informative)
+        v = residual_variance(setup.drift[p], days, acq.day[order],
+                              np.where(distinct, acq.variance[p][order][None, :], np.inf))
         m = margins_db({p: v[:, after]}, {p: lim})[p].min(axis=1)
-        worst = np.minimum(worst, m)
+        worst = np.minimum(worst, m[which])
     cost = np.array([n + opportunity_cost * len(c) for n, c in grid], float)
     ok = np.flatnonzero(worst >= 0)
     best = None if ok.size == 0 else int(ok[np.lexsort((-worst[ok], cost[ok]))[0]])

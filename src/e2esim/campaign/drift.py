@@ -108,23 +108,29 @@ def residual_variance(model: DriftModel, days, visit_days, visit_variance) -> np
 
 
 def _predict(p, h, q):
-    f = np.eye(4)
-    f[0, 1] = h
-    p = f @ p @ f.T
-    p[..., 0, 0] += q * h
+    """P <- F P F' + Q for F = I + h e0 e1' (the trend accumulates into x_lin) and Q = q h e0 e0', written out."""
+    p = p.copy()
+    p[:, 0, :] += h * p[:, 1, :]
+    p[:, :, 0] += h * p[:, :, 1]
+    p[:, 0, 0] += q * h
     return p
 
 
 def _update(p, hvec, r):
     """Kalman update of S covariances (S, 4, 4) with variances r (S,) in Joseph's form (I - K H) P (I - K H)' +
-    K r K', which stays symmetric and positive under a vague prior (Gelb 1974, eq. 4.2-18); r = inf leaves a
-    covariance as it is."""
-    finite = np.isfinite(r)
-    r = np.where(finite, r, 1.0)
-    ph = p @ hvec  # (S, 4)
-    gain = np.where(finite[:, None], ph / (ph @ hvec + r)[:, None], 0.0)
-    a = np.eye(4) - gain[:, :, None] * hvec[None, None, :]
-    return a @ p @ np.swapaxes(a, 1, 2) + r[:, None, None] * gain[:, :, None] * gain[:, None, :]
+    K r K' (Gelb 1974, eq. 4.2-18), computed as two rank-one corrections so that it stays symmetric and positive
+    under a vague prior; a schedule with r = inf (it does not use the visit) is left as it is."""
+    use = np.flatnonzero(np.isfinite(r))
+    if use.size == 0:
+        return p
+    q, r = p[use], r[use]
+    ph = q @ hvec  # (U, 4)
+    gain = ph / (ph @ hvec + r)[:, None]
+    m = q - gain[:, :, None] * ph[:, None, :]  # (I - K H) P, P symmetric
+    mh = m @ hvec
+    p = p.copy()
+    p[use] = m - mh[:, :, None] * gain[:, None, :] + r[:, None, None] * gain[:, :, None] * gain[:, None, :]
+    return p
 
 
 def simulate_drift(model: DriftModel, days, rng: np.random.Generator, n: int) -> np.ndarray:

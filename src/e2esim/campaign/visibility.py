@@ -76,7 +76,7 @@ class SiteVisits:
 
 
 def site_visits(orbit: SunSynchronousOrbit, lat: float, lon: float, days: float, near: float, far: float,
-                first_node_s: float = 0.0, name: str = "site", iterations: int = 4) -> SiteVisits:
+                first_node_s: float = 0.0, name: str = "site", iterations: int = 6) -> SiteVisits:
     """Every pass over (lat, lon) (rad) in ``days`` days that sees it at an incidence in [near, far] (rad) on the
     look side. Raises PhysicsInputError if the orbit cannot reach the latitude."""
     if not 0 < near < far < np.pi / 2:
@@ -96,8 +96,9 @@ def site_visits(orbit: SunSynchronousOrbit, lat: float, lon: float, days: float,
         for _ in range(iterations):  # Newton on the zero-Doppler condition, derivative by a 1 s difference
             f0 = _doppler(orbit, t, first_node_s, target)
             f1 = _doppler(orbit, t + 1.0, first_node_s, target)
-            t = t - f0 / (f1 - f0)
-        times.append(t)
+            step = f0 / (f1 - f0)
+            t = t - step
+        times.append(t[np.abs(step) < 1e-3])  # a start far from any closest approach has not converged: dropped
     # near the orbit's highest latitude both starts can reach the same closest approach: keep it once, and name
     # its pass by the direction of the satellite's motion there
     t = np.unique(np.round(np.concatenate(times), 3))

@@ -33,13 +33,23 @@ def plot_campaign(result, folder: Path, options: dict) -> list:
         raise PlotSkipped("no case has a calibration campaign (calibration type campaign)")
     out = found[0][1]
     folder = Path(folder)
+    s = out.search
+    worst = int(np.argmin(out.margin))
+    if s.best is None:
+        answer = (f"no schedule of up to {int(s.per_year.max())} transponder passes per year and any set of targets "
+                  f"of opportunity keeps the limits (best margin {np.max(s.margin_db):.2f} dB)")
+    else:
+        sites = ", ".join(s.opportunity[s.best]) or "no target of opportunity"
+        answer = (f"the cheapest schedule that keeps the limits: {int(s.per_year[s.best])} transponder passes per "
+                  f"year after commissioning with {sites} (smallest margin {s.margin_db[s.best]:.2f} dB)")
     return [(_timeline(out, found, folder / "campaign_timeline.png"),
-             "Residual crosstalk, channel imbalance and gain left by the campaign against mission time (Kalman filter "
-             "of the visits and the drift model), the flowed-down limits (dashed), every visit used (ticks, one row "
-             "per site), the AGB error of the swept epochs and the worst epoch (red line)."),
+             f"Residual crosstalk, channel imbalance and gain left by the campaign against mission time (Kalman filter "
+             f"of the visits and the drift model), the flowed-down limits (dashed), every visit used (ticks, one row "
+             f"per site), the AGB error of the swept epochs and the worst epoch (red line: day "
+             f"{out.result.days[worst]:.0f}, margin {out.margin[worst]:.2f} dB)."),
             (_tradeoff(out, folder / "campaign_schedules.png"),
-             "Schedule search: the smallest margin of the residuals against their limits after commissioning, per "
-             "transponder passes per year, one line per set of targets of opportunity; the answer circled.")]
+             f"Schedule search: the smallest margin of the residuals against their limits after commissioning, per "
+             f"transponder passes per year, one line per set of targets of opportunity. Answer: {answer} (circled).")]
 
 
 def _timeline(out, found, path) -> str:
