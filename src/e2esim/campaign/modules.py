@@ -49,7 +49,7 @@ class Campaign(CalibrationModule):
     summary = "calibration campaign over the mission: residual crosstalk, imbalance and gain at a mission day"
     needs = ("system", "faraday.geophysical", "geometry")
     params = (
-        Param("sites", "str", "preset calibration sites", default=list(PRESETS), variable_length=True,
+        Param("sites", "str", "preset calibration sites", default=tuple(PRESETS), variable_length=True,
               choices=tuple(PRESETS)),
         Param("sites_file", "str", "YAML file of the user's own sites ('sites:' list), relative to the scenario",
               default=None, nullable=True),
@@ -60,10 +60,13 @@ class Campaign(CalibrationModule):
         Param("step_days", "float", "spacing of the residual dates", default=1.0, exclusive_minimum=0.0),
         Param("first_node_minutes", "float", "an ascending-node crossing after the mission's start, day 0 at 00:00 "
               "UTC (sets where the ground tracks fall)", default=0.0, minimum=0.0, maximum=1440.0),
-        Param("incidence_near_deg", "float", "near incidence of the swath", default=23.0, minimum=1.0, maximum=89.0),
-        Param("incidence_far_deg", "float", "far incidence of the swath", default=33.75, minimum=1.0, maximum=89.0),
+        Param("incidence_near_deg", "float", "near incidence of the swath", default=23.0, unit="deg", minimum=1.0,
+              maximum=89.0),
+        Param("incidence_far_deg", "float", "far incidence of the swath", default=33.75, unit="deg", minimum=1.0,
+              maximum=89.0),
         Param("faraday_residual_deg", "float", "SD of the Faraday rotation left at a visit after its correction "
-              "(Quegan et al. 2018, Section 4: better than 1 deg)", default=1.0, minimum=0.0, maximum=45.0),
+              "(Quegan et al. 2018, Section 4: better than 1 deg)", default=1.0, unit="deg", minimum=0.0,
+              maximum=45.0),
         Param("transponder_per_year", "int", "transponder passes used per year after commissioning (null: all)",
               default=2, nullable=True, minimum=0),
         Param("opportunity", "str", "targets of opportunity used (names of sites; null: all)", default=None,
