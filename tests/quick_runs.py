@@ -52,6 +52,8 @@ QUICK = {
     "biomass_fr_requirement": ("orbit.acquisitions.step_days=120", "orbit.swath_samples=2",
                                "ionosphere.variability_nodes=3", "sweep.parameters.orbit.passes=[dawn]"),
     "biomass_allocation": (),  # two analytic cases
+    "biomass_calibration_campaign": ("calibration.0.step_days=5", "calibration.0.search_max_per_year=2",
+                                     "sweep.parameters.calibration.0.epoch_day=[91,1826]"),
 }
 """Overrides (``--set``) of each scenario for the default suite; others get ``_MC``."""
 

@@ -87,6 +87,7 @@ LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
             "e2esim.requirements",
             "e2esim.error_terms",
             "e2esim.scintillation",
+            "e2esim.campaign",
         ),
     ),
     (

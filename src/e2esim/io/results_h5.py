@@ -13,6 +13,7 @@ import yaml
 
 from e2esim.atomic import atomic_path
 from e2esim.block import Values
+from e2esim.io.campaign_h5 import write_campaign
 from e2esim.io.guarded_h5 import guarded_h5_file
 from e2esim.io.h5_datasets import code_dtype, coded_values, put, put_coded, put_text
 from e2esim.io.scalar_units import detail_unit, run_products, scalar_description, scalar_unit
@@ -71,6 +72,7 @@ def write_results(result, path) -> None:
             _write_samples(arrays, result)
             if not is_map_sweep(result.scenario):  # a map's cells: their swath samples would be 200 000 groups
                 _write_acquisitions(acquisitions, result.cases)
+            write_campaign(f, result.cases)  # issue 25: the campaign's daily residuals, visits and schedules
 
 
 def _write_labels(group, labels) -> None:

@@ -1,0 +1,143 @@
+"""System drift between calibrations and the combination of visits over time (issue 25, item 4).
+
+Drift model of one parameter x (gain in dB; crosstalk or imbalance as a complex number, each of its real and
+imaginary parts following the model independently with half the stated variances):
+
+    x(t) = x0 + d t + a sin(2 pi t / P) + b cos(2 pi t / P) + w(t),
+
+x0 ~ N(0, s0^2) the error left before the campaign, d ~ N(0, s_d^2) an unknown linear trend, (a, b) ~ N(0, s_s^2 / 2)
+each an unknown seasonal term of RMS amplitude s_s / sqrt(2) and period P (one year: temperature), and w a
+random walk, E[(w(t + h) - w(t))^2] = q h. Each visit k measures y_k = x(t_k) + e_k, e_k ~ N(0, r_k).
+
+The visits are combined by the Kalman filter of this state-space model (Kalman 1960; Gelb 1974, Table 4.2-1):
+state z = (x_lin, d, a, b) with x_lin = x0 + d t + w(t) and x = x_lin + a sin + b cos. Because the error left is all
+that is asked, only the covariance recursion runs; it does not depend on the measured values:
+
+    predict  P <- F P F' + Q,  F = I except F[0, 1] = h (the trend accumulates into x_rw), Q = diag(q h, 0, 0, 0);
+    update   K = P H' / (H P H' + r),  P <- (I - K H) P,  H(t) = (1, 0, sin(2 pi t / P), cos(2 pi t / P)),
+
+so the trend reaches x through x_lin (H has 0 for d). The residual variance of the parameter at time t is
+H(t) P(t) H(t)'. With no drift and equal independent visits of variance r it is (1/s0^2 + n/r)^-1, which tends to
+r / n: the closed form of ``tests/test_campaign_drift.py``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from e2esim.errors import PhysicsInputError
+
+YEAR_DAYS = 365.25
+
+
+@dataclass(frozen=True)
+class DriftModel:
+    """Drift of one parameter (units of the parameter: dB for the gain, linear for crosstalk and imbalance).
+
+    initial_sd : s0, the error before the first visit. random_walk_variance_per_day : q, the variance the random
+    walk adds per day. trend_sd_per_year : s_d, the SD of the unknown linear trend per year. seasonal_sd : s_s, the SD
+    of the seasonal term (its RMS over a year). seasonal_period_days : P.
+    """
+
+    initial_sd: float
+    random_walk_variance_per_day: float = 0.0
+    trend_sd_per_year: float = 0.0
+    seasonal_sd: float = 0.0
+    seasonal_period_days: float = YEAR_DAYS
+
+    def __post_init__(self):
+        for name in ("initial_sd", "random_walk_variance_per_day", "trend_sd_per_year", "seasonal_sd"):
+            value = getattr(self, name)
+            if not (np.isfinite(value) and value >= 0):
+                raise PhysicsInputError(f"drift {name} {value!r} must be a finite number >= 0 (a variance or SD "
+                                        f"cannot be negative)", key=name)
+        if not self.seasonal_period_days > 0:
+            raise PhysicsInputError(f"seasonal period {self.seasonal_period_days!r} days must be > 0",
+                                    key="seasonal_period_days")
+
+    def prior(self) -> np.ndarray:
+        """Covariance of z = (x_rw, d [per day], a, b) before any visit."""
+        d = self.trend_sd_per_year / YEAR_DAYS
+        s = self.seasonal_sd**2 / 2
+        return np.diag([self.initial_sd**2, d**2, s, s])
+
+    def observation(self, day) -> np.ndarray:
+        """H(t) for the days ``day`` (shape (..., 4))."""
+        w = 2 * np.pi * np.asarray(day, float) / self.seasonal_period_days
+        one = np.ones_like(w)
+        return np.stack([one, 0 * one, np.sin(w), np.cos(w)], -1)
+
+
+def residual_variance(model: DriftModel, days, visit_days, visit_variance) -> np.ndarray:
+    """Variance of the error left in the parameter on each of ``days`` (from day 0) after the Kalman filter has
+    combined the visits made up to that day (a visit on a day counts from that day on).
+
+    visit_days : (V,) days of the candidate visits (fractional days allowed). visit_variance : r of each visit,
+    (V,), or (S, V) for S schedules at once that use the same candidate visits (inf: the schedule does not use that
+    visit, or it measures nothing). Returns (len(days),), or (S, len(days)).
+    """
+    days = np.asarray(days, float)
+    if np.any(np.diff(days) < 0):
+        raise PhysicsInputError("the output days must be in increasing order")
+    vd = np.asarray(visit_days, float).ravel()
+    rv = np.asarray(visit_variance, float)
+    single = rv.ndim < 2
+    rv = np.broadcast_to(rv, (1, vd.size) if single else (rv.shape[0], vd.size))
+    times = np.concatenate([days, vd])
+    kinds = np.concatenate([np.full(days.size, -1), np.arange(vd.size)])
+    order = np.lexsort((kinds < 0, times))  # by time; on the same instant a visit before an output day
+    p = np.broadcast_to(model.prior(), (rv.shape[0], 4, 4)).copy()
+    q = model.random_walk_variance_per_day
+    out = np.empty((rv.shape[0], days.size))
+    obs = model.observation(times)
+    last, out_index = 0.0, 0
+    for k in order:
+        h = times[k] - last
+        if h > 0:
+            p = _predict(p, h, q)
+            last = times[k]
+        hvec = obs[k]
+        if kinds[k] < 0:
+            out[:, out_index] = np.einsum("i,sij,j->s", hvec, p, hvec)
+            out_index += 1
+        else:
+            p = _update(p, hvec, rv[:, kinds[k]])
+    return out[0] if single else out
+
+
+def _predict(p, h, q):
+    """P <- F P F' + Q for F = I + h e0 e1' (the trend accumulates into x_lin) and Q = q h e0 e0', written out."""
+    p = p.copy()
+    p[:, 0, :] += h * p[:, 1, :]
+    p[:, :, 0] += h * p[:, :, 1]
+    p[:, 0, 0] += q * h
+    return p
+
+
+def _update(p, hvec, r):
+    """Kalman update of S covariances (S, 4, 4) with variances r (S,) in Joseph's form (I - K H) P (I - K H)' +
+    K r K' (Gelb 1974, eq. 4.2-18), computed as two rank-one corrections so that it stays symmetric and positive
+    under a vague prior; a schedule with r = inf (it does not use the visit) is left as it is."""
+    use = np.flatnonzero(np.isfinite(r))
+    if use.size == 0:
+        return p
+    q, r = p[use], r[use]
+    ph = q @ hvec  # (U, 4)
+    gain = ph / (ph @ hvec + r)[:, None]
+    m = q - gain[:, :, None] * ph[:, None, :]  # (I - K H) P, P symmetric
+    mh = m @ hvec
+    p = p.copy()
+    p[use] = m - mh[:, :, None] * gain[:, None, :] + r[:, None, None] * gain[:, :, None] * gain[:, None, :]
+    return p
+
+
+def simulate_drift(model: DriftModel, days, rng: np.random.Generator, n: int) -> np.ndarray:
+    """``n`` realisations of x(t) on ``days`` (sorted, >= 0) drawn from the model itself: (n, len(days))."""
+    days = np.asarray(days, float)
+    z = rng.multivariate_normal(np.zeros(4), model.prior(), size=n)
+    steps = np.diff(np.concatenate([[0.0], days]))
+    walk = np.cumsum(rng.standard_normal((n, days.size)) * np.sqrt(model.random_walk_variance_per_day * steps), axis=1)
+    w = 2 * np.pi * days / model.seasonal_period_days
+    return (z[:, :1] + walk + z[:, 1:2] * days + z[:, 2:3] * np.sin(w) + z[:, 3:4] * np.cos(w))

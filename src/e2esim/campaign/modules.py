@@ -1,0 +1,236 @@
+"""The calibration campaign as a calibration module (issue 25): ``type: campaign`` in the ``calibration`` list.
+
+It runs the campaign over the mission (``e2esim.campaign.campaign``) and states, as ``residual_system`` does, the
+residual crosstalk, channel imbalance and gain error at the mission day ``epoch_day``; sweeping ``epoch_day``
+gives the AGB error and verdict against mission time through the ordinary chain. The campaign is computed once
+per run and settings (the run's kernel memo), whatever the number of epochs swept.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from e2esim.calibration.modules import CalibrationModule
+from e2esim.calibration.stated_steps import StatedResidualResult, StatedResidualStep
+from e2esim.campaign.campaign import CampaignSetup, find_acquisitions, run_campaign, search_schedules
+from e2esim.campaign.drift import YEAR_DAYS, DriftModel
+from e2esim.campaign.site_file import read_sites_file
+from e2esim.campaign.sites import PARAMETERS, PRESETS
+from e2esim.errors import ConfigError, PhysicsInputError
+from e2esim.params import Param
+from e2esim.units import LEVEL_CONVENTIONS, THREE_SIGMA_AMPLITUDE, level_db_from_variance, variance_from_level_db
+
+DRIFT_KEYS = ("initial_sd", "random_walk_variance_per_day", "trend_sd_per_year", "seasonal_sd")
+DRIFT_DEFAULTS = {  # assumed, stated in docs/theory/calibration-campaign.md; gain in dB, the others linear
+    "gain": {"initial_sd": 0.5, "random_walk_variance_per_day": 2e-4, "trend_sd_per_year": 0.1, "seasonal_sd": 0.1},
+    "crosstalk": {"initial_sd": 0.03, "random_walk_variance_per_day": 2e-8, "trend_sd_per_year": 0.003,
+                  "seasonal_sd": 0.0},
+    "imbalance": {"initial_sd": 0.1, "random_walk_variance_per_day": 1e-6, "trend_sd_per_year": 0.01,
+                  "seasonal_sd": 0.01},
+}
+
+
+def _drift_param(name: str) -> Param:
+    unit = "dB" if name == "gain" else "linear"
+    return Param(f"drift_{name}", "mapping", f"drift of the {name} ({unit}): " + ", ".join(DRIFT_KEYS),
+                 default=dict(DRIFT_DEFAULTS[name]), convert=False)
+
+
+class Campaign(CalibrationModule):
+    """The calibration campaign over the mission's life: sites, every pass over them, what each visit measures,
+    the drift between visits combined by a Kalman filter, and the residual at ``epoch_day`` stated as the
+    residual system errors (crosstalk, channel imbalance, gain SD)."""
+
+    type_name = "campaign"
+    summary = "calibration campaign over the mission: residual crosstalk, imbalance and gain at a mission day"
+    needs = ("system", "faraday.geophysical", "geometry")
+    params = (
+        Param("sites", "str", "preset calibration sites", default=tuple(PRESETS), variable_length=True,
+              choices=tuple(PRESETS)),
+        Param("sites_file", "str", "YAML file of the user's own sites ('sites:' list), relative to the scenario",
+              default=None, nullable=True),
+        Param("mission_years", "float", "mission length", default=5.0, unit="years", exclusive_minimum=0.0,
+              maximum=15.0),
+        Param("commissioning_days", "float", "commissioning phase: every transponder pass used", default=91.0,
+              minimum=0.0),
+        Param("step_days", "float", "spacing of the residual dates", default=1.0, exclusive_minimum=0.0),
+        Param("first_node_minutes", "float", "an ascending-node crossing after the mission's start, day 0 at 00:00 "
+              "UTC (sets where the ground tracks fall)", default=0.0, minimum=0.0, maximum=1440.0),
+        Param("incidence_near_deg", "float", "near incidence of the swath", default=23.0, unit="deg", minimum=1.0,
+              maximum=89.0),
+        Param("incidence_far_deg", "float", "far incidence of the swath", default=33.75, unit="deg", minimum=1.0,
+              maximum=89.0),
+        Param("faraday_residual_deg", "float", "SD of the Faraday rotation left at a visit after its correction "
+              "(Quegan et al. 2018, Section 4: better than 1 deg)", default=1.0, unit="deg", minimum=0.0,
+              maximum=45.0),
+        Param("transponder_per_year", "int", "transponder passes used per year after commissioning (null: all)",
+              default=2, nullable=True, minimum=0),
+        Param("opportunity", "str", "targets of opportunity used (names of sites; null: all)", default=None,
+              variable_length=True, nullable=True),
+        Param("schedule_years", "float", "span the schedule covers: no visit used after it (null: the mission)",
+              default=None, nullable=True, unit="years"),
+        Param("epoch_day", "float", "the mission day whose residual the chain propagates (null: the worst)",
+              default=None, nullable=True, minimum=0.0),
+        _drift_param("gain"), _drift_param("crosstalk"), _drift_param("imbalance"),
+        Param("limit_crosstalk_db", "float", "residual crosstalk level that meets the requirement (flowed down)",
+              default=-30.0, unit="dB", maximum=0.0, convert=False),
+        Param("limit_imbalance_db", "float", "residual channel-imbalance level that meets the requirement",
+              default=-25.0, unit="dB", maximum=0.0, convert=False),
+        Param("limit_gain_sd_db", "float", "residual gain SD that meets the requirement", default=0.3,
+              unit="dB", exclusive_minimum=0.0, convert=False),
+        Param("convention", "str", "how the levels map to variances (docs/conventions.md)",
+              default=THREE_SIGMA_AMPLITUDE, choices=LEVEL_CONVENTIONS),
+        Param("search_max_per_year", "int", "largest number of transponder passes per year the search tries",
+              default=6, minimum=0, maximum=52),
+    )
+
+    def setup(self):
+        c = self.config
+        sites = tuple(PRESETS[n] for n in c["sites"])
+        if c["sites_file"] is not None:
+            base = Path(self.location.source).parent if Path(self.location.source).exists() else Path(".")
+            path = Path(c["sites_file"])
+            sites += read_sites_file(path if path.is_absolute() else base / path, key="sites_file")
+        self.sites = sites
+        self.drift = {}
+        for name in PARAMETERS:
+            given = c[f"drift_{name}"]
+            unknown = [k for k in given if k not in DRIFT_KEYS]
+            if unknown:
+                raise PhysicsInputError(f"unknown drift key {unknown[0]!r}; allowed: {', '.join(DRIFT_KEYS)}",
+                                        key=f"drift_{name}.{unknown[0]}")
+            values = {**DRIFT_DEFAULTS[name], **given}
+            try:
+                self.drift[name] = DriftModel(values["initial_sd"], values["random_walk_variance_per_day"],
+                                              values["trend_sd_per_year"], values["seasonal_sd"])
+            except PhysicsInputError as exc:
+                raise PhysicsInputError(str(exc), key=f"drift_{name}.{exc.key}") from None
+        self.limits = {"crosstalk": float(variance_from_level_db(c["limit_crosstalk_db"], c["convention"])),
+                       "imbalance": float(variance_from_level_db(c["limit_imbalance_db"], c["convention"])),
+                       "gain": c["limit_gain_sd_db"] ** 2}
+        if c["incidence_far_deg"] <= c["incidence_near_deg"]:
+            raise PhysicsInputError(f"far incidence {c['incidence_far_deg']} deg must exceed the near one "
+                                    f"{c['incidence_near_deg']} deg", key="incidence_far_deg")
+        if c["schedule_years"] is not None and c["schedule_years"] > c["mission_years"]:
+            raise PhysicsInputError(f"a schedule of {c['schedule_years']:g} years is longer than the mission "
+                                    f"({c['mission_years']:g} years); allowed: at most mission_years",
+                                    key="schedule_years")
+        if c["epoch_day"] is not None and c["epoch_day"] > c["mission_years"] * YEAR_DAYS:
+            raise PhysicsInputError(f"epoch_day {c['epoch_day']:g} is after the mission's end (day "
+                                    f"{c['mission_years'] * YEAR_DAYS:g})", key="epoch_day")
+
+    def _where_from(self, message: str) -> str:
+        """The message, naming the sites file when one of its sites is at fault."""
+        file = self.config["sites_file"]
+        preset_names = set(self.config["sites"])
+        for site in self.sites:
+            if f"site {site.name} " in message and site.name not in preset_names and file is not None:
+                return f"{message} (site {site.name!r} of the sites file {file})"
+        return message
+
+    def setup_for(self, orbit) -> CampaignSetup:
+        c = self.config
+        setup = CampaignSetup(orbit, self.sites, self.drift, c["mission_years"] * YEAR_DAYS,
+                              math.radians(c["incidence_near_deg"]), math.radians(c["incidence_far_deg"]),
+                              c["step_days"], c["commissioning_days"], math.radians(c["faraday_residual_deg"]),
+                              c["first_node_minutes"] * 60.0,
+                              None if c["schedule_years"] is None else c["schedule_years"] * YEAR_DAYS)
+        return setup
+
+    def outcome(self, case) -> CampaignOutcome:
+        """The campaign and the schedule search, once per run and settings (the run's kernel memo)."""
+        memo = getattr(case.services, "memo", None)
+        key = ("campaign", repr(sorted((k, repr(v)) for k, v in self.config.items() if k != "epoch_day")),
+               repr(case["geometry"].orbit))
+        found = memo.get(key) if memo is not None else None
+        if found is None:
+            try:
+                found = compute_outcome(self, self.setup_for(case["geometry"].orbit))
+            except PhysicsInputError as exc:  # at run time: name the scenario file and the key path here
+                raise ConfigError(exc.location(self.location), self._where_from(str(exc))) from None
+            if memo is not None:
+                memo[key] = found
+        return found
+
+    def steps(self, case):
+        out = self.outcome(case)
+        day = self.config["epoch_day"]
+        i = int(np.argmin(out.margin)) if day is None else int(np.argmin(np.abs(out.result.days - day)))
+        var = {p: float(v[i]) for p, v in out.result.variance.items()}
+        step = CampaignResidualStep(var["crosstalk"], var["imbalance"], None, None, math.sqrt(var["gain"]),
+                                    out.scalars(i, self.config["convention"]), out)
+        return [(self.type_name, step)]
+
+
+@dataclass(frozen=True)
+class CampaignOutcome:
+    """What the campaign leaves: the residual series, the smallest margin per date (dB) and the schedule search."""
+
+    result: object
+    margin: np.ndarray
+    search: object
+    limits: dict
+    convention: str
+    site_names: tuple
+
+    def scalars(self, i: int, convention: str) -> dict:
+        r, s = self.result, self.search
+        var = {p: float(v[i]) for p, v in r.variance.items()}
+        worst = int(np.argmin(self.margin))
+        out = {
+            "epoch_day": float(r.days[i]),
+            "residual_crosstalk_db": float(level_db_from_variance(var["crosstalk"], convention)),
+            "residual_imbalance_db": float(level_db_from_variance(var["imbalance"], convention)),
+            "margin_db": float(self.margin[i]),
+            "worst_epoch_day": float(r.days[worst]),
+            "worst_margin_db": float(self.margin[worst]),
+            "visits_used": int(r.used.sum()),
+            "acquisitions": int(r.used.size),
+        }
+        if s.best is None:
+            out["schedule_found"] = 0
+        else:
+            out.update({"schedule_found": 1, "schedule_transponder_per_year": int(s.per_year[s.best]),
+                        "schedule_opportunity_sites": len(s.opportunity[s.best]),
+                        "schedule_margin_db": float(s.margin_db[s.best])})
+        return out
+
+
+def compute_outcome(module: Campaign, setup: CampaignSetup) -> CampaignOutcome:
+    c = module.config
+    acq = find_acquisitions(setup)
+    opportunity = tuple(s.name for s in setup.sites if s.type != "transponder") if c["opportunity"] is None \
+        else tuple(c["opportunity"])
+    result = run_campaign(setup, c["transponder_per_year"], opportunity, acq)
+    after = result.days >= setup.commissioning_days
+    margin = np.full(result.days.size, np.inf)
+    for p, lim in module.limits.items():
+        m = 10 * np.log10(lim / np.maximum(result.variance[p], 1e-300))
+        margin = np.minimum(margin, np.where(after, m, np.inf))
+    search = search_schedules(setup, module.limits, c["search_max_per_year"], acq=acq)
+    return CampaignOutcome(result, margin, search, dict(module.limits), c["convention"],
+                           tuple(site.name for site in setup.sites))
+
+
+@dataclass(frozen=True)
+class CampaignResidualStep(StatedResidualStep):
+    """The campaign's residual levels at the epoch, applied as ``StatedResidualStep`` applies stated ones; its result
+    also carries the campaign's scalars (the epoch, the worst epoch, the schedule search's answer)."""
+
+    campaign: dict = field(default_factory=dict)
+    outcome: object = field(default=None, compare=False, repr=False)
+
+    def result(self) -> CampaignStepResult:
+        return CampaignStepResult({**self.campaign, **super().result().values}, self.outcome)
+
+
+@dataclass(frozen=True)
+class CampaignStepResult(StatedResidualResult):
+    """The stated levels and the campaign's scalars (``values``), and the whole ``CampaignOutcome`` for the
+    report (the residual series, the visits, the schedule search)."""
+
+    outcome: object = field(default=None, compare=False, repr=False)
