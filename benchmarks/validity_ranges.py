@@ -97,9 +97,9 @@ def analytic_single(model, scene, sys_model, fr, correction):
 
 def analytic_stack(model, scene, errors, fr, comb):
     if model == "stack_hv":
-        m = StackHVErrorModel(scene, errors, fr, comb, None, "population").current()
+        m = StackHVErrorModel(scene, errors, fr, comb, reference="population").current()
         return np.atleast_1d(m.mean), np.atleast_1d(m.variance)
-    m = StackJointErrorModel(scene, errors, fr, comb, None, "population", correct_copol=True).current_joint()
+    m = StackJointErrorModel(scene, errors, fr, comb, reference="population", correct_copol=True).current_joint()
     return m.mean, np.diagonal(m.covariance)
 
 

@@ -202,7 +202,8 @@ def test_a_biome_without_a_reference_agb_is_named():
     from helpers import system
 
     scene = ScatteringCovariance.from_powers(0.3, 0.05, 0.2, 0.1, 0.0, agb_t_ha=150.0, biome="temperate")
-    model = PolarimetricErrorModel(scene, system(), GaussianFaraday(0.0, 0.05), FaradayCorrection(), 100_000)
+    model = PolarimetricErrorModel(scene, system(), GaussianFaraday(0.0, 0.05), FaradayCorrection(),
+                                   looks=100_000)
     case = Case(0, {}, SimulationSettings(), np.random.default_rng(0),
                 products=Products({"scene.covariance": scene, "backscatter.error": model}))
     stage = MultiChannelRetrieval(alpha=(0.8, 0.5, 0.1))

@@ -28,7 +28,7 @@ CORRECTED = FaradayCorrection("estimated", GaussianFaraday(0.0, np.radians(0.2))
 
 
 def _model(scene=None, correction=CORRECTED, montecarlo=None, **kw):
-    return PolarimetricErrorModel(scene or forest("boreal_200"), system(), FR, correction, 100_000,
+    return PolarimetricErrorModel(scene or forest("boreal_200"), system(), FR, correction, looks=100_000,
                                   montecarlo=montecarlo, **kw)
 
 
@@ -132,7 +132,7 @@ def test_analytic_agb_error_agrees_with_the_monte_carlo_through_the_inversion(se
         fr = GaussianFaraday(np.pi / 3 if scene.biome == "boreal" else 0.0, np.pi / 36)
         mc = simulate_covariance(scene, system(), fr, np.random.default_rng(seed), 100_000, 10_000,
                                  correction=CORRECTED)
-        model = PolarimetricErrorModel(ScatteringCovariance(mc.reference), system(), fr, CORRECTED, 100_000,
+        model = PolarimetricErrorModel(ScatteringCovariance(mc.reference), system(), fr, CORRECTED, looks=100_000,
                                        montecarlo=mc)
         stage = MultiChannelRetrieval()
         fwd = stage.model_for(scene, scene.agb_t_ha)

@@ -31,8 +31,8 @@ def _model(residual, system=None, difference_deg=4.0, looks=300, reference="popu
     scene = site_scene(site)
     errors = StackSystemErrors(system if system is not None else rich_system(1e-3, 2e-3), 0.5)
     faraday = StackFaraday(BOREAL_FR, np.radians(difference_deg), residual)
-    return StackJointErrorModel(scene, errors, faraday, combos.interpolated(scene.acquisitions.kz_rad_m), looks,
-                                reference)
+    return StackJointErrorModel(scene, errors, faraday, combos.interpolated(scene.acquisitions.kz_rad_m),
+                                looks=looks, reference=reference)
 
 
 def test_no_hv_estimate_sees_the_residual_rotation(rng):

@@ -92,7 +92,8 @@ def test_stable_errors_reduce_to_issue_12_on_the_ground_cancelled_covariance(ref
     scene = site_scene("boreal", temporal=temporal)
     errors, faraday = stack_errors(correlation=1.0, difference_deg=0.0)
     for comb in (combos.subtraction(3, 2, 0), combos.single_date(3, 1)):
-        joint = StackJointErrorModel(scene, errors, faraday, comb, 150, reference, correct_copol=correct)
+        joint = StackJointErrorModel(scene, errors, faraday, comb, looks=150, reference=reference,
+                                     correct_copol=correct)
         # the stack kernel is second order in the errors (eq. 22): the single-pass moments to the same order
         single = functools.partial(
             polarimetric_error_moments, ScatteringCovariance(comb.combined_covariance(scene.blocks())),
@@ -121,7 +122,8 @@ def _agree(rng, site, reference, looks, rho, diff_deg, correct, realisations):
     scene = site_scene(site)
     errors, faraday = stack_errors(rich_system(3e-3, 5e-3, gain_sd_db=0.3), rho, diff_deg)
     comb = combos.interpolated(scene.acquisitions.kz_rad_m)
-    an = StackJointErrorModel(scene, errors, faraday, comb, looks, reference, correct_copol=correct).current_joint()
+    an = StackJointErrorModel(scene, errors, faraday, comb, looks=looks, reference=reference,
+                              correct_copol=correct).current_joint()
     mc = simulate_stack(scene, errors, faraday, comb, rng, looks, realisations, 1, reference, correct)
     s = sample_covariance_moments(np.stack([mc.errors[ch] for ch in ("hh", "hv", "vv")], -1))
     mean_se, cov_se = s["mean_se"], s["covariance_se"]

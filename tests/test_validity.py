@@ -130,9 +130,9 @@ def _departures_at(model, level_db, case, rng):
     errors = StackSystemErrors(sys_model, 1.0)
     simulated = stack_errors(scene, errors, fr, comb, rng, 40_000)
     if model == "stack_hv":
-        m = StackHVErrorModel(scene, errors, fr, comb, None, "population").current()
+        m = StackHVErrorModel(scene, errors, fr, comb, reference="population").current()
         return departures(simulated[:, [1]], np.atleast_1d(m.mean), np.atleast_1d(m.variance))
-    m = StackJointErrorModel(scene, errors, fr, comb, None, "population").current_joint()
+    m = StackJointErrorModel(scene, errors, fr, comb, reference="population").current_joint()
     return departures(simulated, m.mean, np.diagonal(m.covariance))
 
 

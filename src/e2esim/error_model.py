@@ -21,7 +21,7 @@ into single-channel models (docs/architecture.md, "Several channels").
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -147,6 +147,26 @@ class JointContribution:
     mean: np.ndarray
     covariance: np.ndarray
     description: str = ""
+
+
+@dataclass(frozen=True, eq=False, kw_only=True)
+class ModelEvaluation:
+    """The keyword-only fields the built-in error models share (the HV, polarimetric and multi-pass models):
+    how their analytic moments are evaluated and what checked them.
+
+    looks : L, or None for L -> infinity. reference : "scene" (the error of the estimate against the scene's own
+    covariance) or "population" (speckle over the looks counted). montecarlo : the simulated errors of the
+    model's kind, or None. gaussianity : statistics of the simulated HV errors (Men et al. 2021, Fig. 2), or
+    None. notes, unavailable : as ``ErrorModel``. ``_memo`` keeps what the model evaluated, once per object.
+    """
+
+    looks: int | None = None
+    reference: str = "scene"
+    montecarlo: object = None
+    gaussianity: dict | None = None
+    notes: tuple = ()
+    unavailable: str | None = None
+    _memo: dict = field(default_factory=dict, repr=False, compare=False)
 
 
 class MultiChannelErrorModel(ErrorModel):

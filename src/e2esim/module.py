@@ -207,6 +207,21 @@ class Stage(Module, ABC):
         e.g. sigma_hv and the settings of a Faraday-rotation correction."""
         return None
 
+    @classmethod
+    def map_cells(cls, section: Mapping, lat_deg, lon_deg, where: Location):
+        """For a map sweep (``e2esim.maps.grid``), before any case runs: the cells (n_lat, n_lon) of the grid,
+        cell centres ``lat_deg`` (n_lat,) and ``lon_deg`` (n_lon,) in deg, that this stage, configured by its raw
+        ``section``, has something for (the forest of a scene), as a bool array; None (the default): every cell.
+        Bad settings raise ``ConfigError`` at ``where``, the section's location."""
+        return None
+
+    @classmethod
+    def map_latitudes_seen(cls, section: Mapping, lat_deg, passes: tuple, where: Location):
+        """For a map sweep, before any case runs: {pass: bool (n_lat,)}, the latitudes ``lat_deg`` (deg) that each
+        pass of the orbit this stage, configured by its raw ``section``, computes for sees; None (the default):
+        the stage has no orbit, every latitude counts. Bad settings raise ``ConfigError`` at ``where``."""
+        return None
+
     def sweep_key(self, name: str) -> str:
         """The dotted sweep key of parameter ``name`` of this stage's section (``ionosphere.month``)."""
         return ".".join(str(p) for p in (*self.location.key_path, name))

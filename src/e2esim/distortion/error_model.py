@@ -11,16 +11,15 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
 from e2esim.block import Batched, Values, join
 from e2esim.distortion.analytic import HVErrorMoments, MomentInputs, check_settings, moments_of
-from e2esim.distortion.montecarlo import MonteCarloErrors
 from e2esim.distortion.validation import compare_with_analytic, sample_moments
 from e2esim.distortion.validity import VALIDITY, ValidityRange
-from e2esim.error_model import Contribution, ErrorModel, ErrorModelUnavailable
+from e2esim.error_model import Contribution, ErrorModel, ErrorModelUnavailable, ModelEvaluation
 from e2esim.faraday.distribution import ConstantFaraday, FaradayDistribution
 from e2esim.instrument.system_errors import SystemErrorModel
 from e2esim.scene.covariance import ScatteringCovariance
@@ -71,30 +70,22 @@ class SystemLevels:
 
 
 @dataclass(frozen=True, eq=False)
-class HVErrorModel(Batched, SystemLevels, ErrorModel):
+class HVErrorModel(Batched, SystemLevels, ModelEvaluation, ErrorModel):
     """Error of sigma_hv_hat for one case, or for a block of cases with a leading case axis.
 
     scene, system, faraday : what the error is computed for (the residual system and Faraday rotation
-        after calibration): one case's products, or a block's (``e2esim.block``), for ``item``. form, looks,
-        reference : settings of the analytic moments (``hv_error_moments``). montecarlo : simulated errors, or
-        None. gaussianity : statistics of the simulated errors (Fig. 2), or None. notes : remarks for the report.
-        unavailable : why the analytic moments cannot be evaluated (None: they can). inputs : the
-        ``MomentInputs`` of the moments, case shape () or (B,) (None: those of scene, system and faraday, one
-        case). inactive : for a model with a source removed (``without``), where that source was not active
-        (a case alone is then its own variant).
+        after calibration): one case's products, or a block's (``e2esim.block``), for ``item``. form : setting
+        of the analytic moments (``hv_error_moments``), with the keyword-only ``looks`` and ``reference``
+        (``ModelEvaluation``; its ``montecarlo`` is a ``MonteCarloErrors``). inputs : the ``MomentInputs`` of
+        the moments, case shape () or (B,) (None: those of scene, system and faraday, one case). inactive : for
+        a model with a source removed (``without``), where that source was not active (a case alone is then
+        its own variant).
     """
 
     scene: ScatteringCovariance
     system: SystemErrorModel
     faraday: FaradayDistribution
     form: str = "complete"
-    looks: int | None = None
-    reference: str = "scene"
-    montecarlo: MonteCarloErrors | None = None
-    gaussianity: dict | None = None
-    notes: tuple = ()
-    unavailable: str | None = None
-    _memo: dict = field(default_factory=dict, repr=False, compare=False)
     inputs: MomentInputs | None = None
     inactive: object = None
 
@@ -245,8 +236,8 @@ class HVErrorModel(Batched, SystemLevels, ErrorModel):
         """Case i's one-case model, with the moments the block computed for it."""
         if self.alone:
             return self
-        model = HVErrorModel(self.scene.item(i), self.system.item(i), self.faraday.item(i), self.form, self.looks,
-                             self.reference)
+        model = HVErrorModel(self.scene.item(i), self.system.item(i), self.faraday.item(i), self.form,
+                             looks=self.looks, reference=self.reference)
         if "current" in self._memo:
             model._memo["current"] = _row(self._memo["current"], i, 0)
         return model

@@ -120,7 +120,8 @@ class HVBackscatterErrorPropagation(Stage):
             return self._forward_case(case)
         looks = s.looks if c["variance_form"] == "complete" else None
         model = HVErrorModel(case["scene.covariance"], case["system.residual"], case["faraday.residual"],
-                             c["variance_form"], looks, c["reference"], inputs=moment_inputs(case, c["variance_form"]))
+                             c["variance_form"], looks=looks, reference=c["reference"],
+                             inputs=moment_inputs(case, c["variance_form"]))
         model.current()  # evaluated here, once: every later stage reads it
         return {"backscatter.error": model}
 
@@ -134,7 +135,7 @@ class HVBackscatterErrorPropagation(Stage):
                        f"Section III) but case {case.index} has HH-HV or HV-VV correlation",
                        "use simulation.mode: montecarlo for this scene")
         looks = s.looks if c["variance_form"] == "complete" else None
-        model = HVErrorModel(scene, system, faraday, c["variance_form"], looks, c["reference"],
+        model = HVErrorModel(scene, system, faraday, c["variance_form"], looks=looks, reference=c["reference"],
                              notes=notes, unavailable=unavailable)
         if unavailable is None:
             model.current()  # evaluated here, once: every later stage reads it
@@ -143,8 +144,9 @@ class HVBackscatterErrorPropagation(Stage):
                           noise_realisations=s.noise_realisations, reference=c["reference"], method=c["mc_method"])
             if c["gaussianity"] and np.ravel(mc.hv).size >= 20:
                 gauss = gaussianity(mc.hv)
-            model = HVErrorModel(scene, system, faraday, c["variance_form"], looks, c["reference"], mc, gauss,
-                                 notes, unavailable, model._memo)
+            model = HVErrorModel(scene, system, faraday, c["variance_form"], looks=looks, reference=c["reference"],
+                                 montecarlo=mc, gaussianity=gauss, notes=notes, unavailable=unavailable,
+                                 _memo=model._memo)
         return {"backscatter.error": model}
 
 

@@ -16,13 +16,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from e2esim.distortion.covariance_montecarlo import CovarianceSamples
 from e2esim.distortion.error_model import LEVELS, SystemLevels
 from e2esim.distortion.faraday_correction import FaradayCorrection
 from e2esim.distortion.polarimetric_moments import ChannelErrorMoments, error_polynomial, evaluate, evaluate_totals
 from e2esim.distortion.validation import sample_covariance_moments
 from e2esim.distortion.validity import VALIDITY
-from e2esim.error_model import JointContribution, JointMoments, MultiChannelErrorModel
+from e2esim.error_model import JointContribution, JointMoments, ModelEvaluation, MultiChannelErrorModel
 from e2esim.faraday.distribution import ConstantFaraday, FaradayDistribution
 from e2esim.instrument.system_errors import SystemErrorModel
 from e2esim.polarimetry.system_model import RECIPROCAL_CHANNELS
@@ -39,26 +38,19 @@ _LEVEL_ZERO = {"crosstalk": {"crosstalk": 0.0}, "channel_imbalance": {"imbalance
 
 
 @dataclass(frozen=True, eq=False)
-class PolarimetricErrorModel(SystemLevels, MultiChannelErrorModel):
+class PolarimetricErrorModel(SystemLevels, ModelEvaluation, MultiChannelErrorModel):
     """Errors of (sigma_hh, sigma_hv, sigma_vv) for one scene, system-error model and Faraday rotation.
 
     scene, system, faraday : what the error is computed for (the residual system; the Faraday rotation in the
-        data). correction : how the co-polarised channels treat the rotation. looks, reference : as in
-        ``polarimetric_error_moments``. montecarlo : simulated covariances, or None. gaussianity : statistics
-        of the simulated HV errors, or None. notes, unavailable : as ``ErrorModel``.
+        data). correction : how the co-polarised channels treat the rotation. The keyword-only fields are
+        ``ModelEvaluation``'s (looks and reference as in ``polarimetric_error_moments``; ``montecarlo`` is a
+        ``CovarianceSamples``).
     """
 
     scene: ScatteringCovariance
     system: SystemErrorModel
     faraday: FaradayDistribution
     correction: FaradayCorrection = field(default_factory=FaradayCorrection)
-    looks: int | None = None
-    reference: str = "scene"
-    montecarlo: CovarianceSamples | None = None
-    gaussianity: dict | None = None
-    notes: tuple = ()
-    unavailable: str | None = None
-    _memo: dict = field(default_factory=dict, repr=False, compare=False)
 
     channel = "hv"
     channels = RECIPROCAL_CHANNELS

@@ -68,8 +68,8 @@ class PolarimetricErrorPropagation(Stage):
         correction, note = self.correction(case)
         unavailable, notes = analytic_use(self, case, system, VALIDITY["polarimetric"])
         notes = ((note,) if note else ()) + notes
-        model = PolarimetricErrorModel(scene, system, faraday, correction, s.looks, self.si["reference"], notes=notes,
-                                       unavailable=unavailable)
+        model = PolarimetricErrorModel(scene, system, faraday, correction, looks=s.looks,
+                                       reference=self.si["reference"], notes=notes, unavailable=unavailable)
         if unavailable is None:
             model.current_joint()  # evaluated here, once: every later stage reads it
         if s.montecarlo:
@@ -79,6 +79,7 @@ class PolarimetricErrorPropagation(Stage):
             hv = mc.errors[..., 1]
             if self.si["gaussianity"] and np.ravel(hv).size >= 20:
                 gauss = gaussianity(hv)
-            model = PolarimetricErrorModel(scene, system, faraday, correction, s.looks, self.si["reference"], mc,
-                                           gauss, notes, unavailable, model._memo)
+            model = PolarimetricErrorModel(scene, system, faraday, correction, looks=s.looks,
+                                           reference=self.si["reference"], montecarlo=mc, gaussianity=gauss,
+                                           notes=notes, unavailable=unavailable, _memo=model._memo)
         return {"backscatter.error": model}

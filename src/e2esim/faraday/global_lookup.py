@@ -19,7 +19,7 @@ import numpy as np
 
 from e2esim import products as P
 from e2esim.block import Values
-from e2esim.errors import PhysicsInputError
+from e2esim.errors import ConfigError, PhysicsInputError
 from e2esim.faraday.cell_lookup import cell_integrals, month_table
 from e2esim.faraday.climatology_block import FaradayClimatologyBlock
 from e2esim.faraday.climatology_modules import SOLAR_PRESETS
@@ -112,6 +112,16 @@ class GlobalClimatologyLookup(Stage):
     )
 
     case_params = ("lat_deg", "lon_deg", "month", "pass", "solar")  # a map sweep's cells, months and passes
+
+    @classmethod
+    def map_latitudes_seen(cls, section, lat_deg, passes: tuple, where):
+        """{pass: bool (n_lat,)}: the latitudes each pass of this section's orbit sees at some swath position
+        (``visible_latitudes``)."""
+        orbit = orbit_settings(section.get("orbit"), where)
+        try:
+            return {p: visible_latitudes(orbit, lat_deg, p) for p in passes}
+        except PhysicsInputError as exc:  # an orbit without such a pass, impossible incidences
+            raise ConfigError(where.child("orbit"), str(exc)) from exc
 
     def setup(self):
         c = self.si

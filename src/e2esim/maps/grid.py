@@ -28,12 +28,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from e2esim import registry
-from e2esim.errors import ConfigError, Location, ModuleLookupError, PhysicsInputError
+from e2esim.errors import ConfigError, Location, ModuleLookupError
 from e2esim.extras import require_extra
 from e2esim.faraday.global_climatology import grid_axes
 from e2esim.limits import MAX_MAP_CASES, check_count
 from e2esim.maps.acquisition import PRESETS, not_acquired_cells
-from e2esim.params import Ordered, Param, find_param, to_si, validate_section
+from e2esim.params import Ordered, Param, find_param, validate_section
 from e2esim.scene.forest_cover import DEFAULT_FOREST_GROUPS, FOREST_GROUPS, PRODUCTS
 
 MONTHS = tuple(range(1, 13))
@@ -278,35 +278,17 @@ def _pair(value) -> bool:
 
 
 def _seen_latitudes(scenario: dict, lat, passes, where: Location) -> dict | None:
-    """pass -> latitudes (bool) the ionosphere's orbit sees; None unless the ionosphere is global_climatology."""
-    # lazy: the ionosphere's tables and orbits cost 0.1 s at start-up, for runs without a map too
-    from e2esim.faraday.global_lookup import GlobalClimatologyLookup, orbit_settings, visible_latitudes
-
+    """pass -> latitudes (bool) the ionosphere's orbit sees (its stage's ``map_latitudes_seen``); None where it
+    has no orbit."""
     cls, raw = _section_class(scenario, "ionosphere", where)
-    if cls is None or not issubclass(cls, GlobalClimatologyLookup):
+    if cls is None:
         return None
-    here = Location(where.source, ("ionosphere",), where.lines)
-    orbit = orbit_settings(raw.get("orbit"), here)
-    try:
-        return {p: visible_latitudes(orbit, lat, p) for p in passes}
-    except PhysicsInputError as exc:  # an orbit without such a pass, impossible incidences
-        raise ConfigError(here.child("orbit"), str(exc)) from exc
+    return cls.map_latitudes_seen(raw, lat, passes, Location(where.source, ("ionosphere",), where.lines))
 
 
 def _forest_cells(scenario: dict, lat, lon, where: Location) -> np.ndarray:
-    """Cells (n_lat, n_lon) the scenario's ``agb_map`` scene gives a forest class (all, for another scene)."""
-    # lazy: the forest of a map's scene costs 0.06 s at start-up, for runs without a map too
-    from e2esim.scene.map_forest import FOREST_PARAMS, ForestSource
-    from e2esim.scene.map_modules import AGBMapScene
-
+    """Cells (n_lat, n_lon) the scenario's scene gives a forest (its stage's ``map_cells``; all where it says
+    nothing)."""
     cls, raw = _section_class(scenario, "scene", where)
-    if cls is None or not issubclass(cls, AGBMapScene):
-        return np.ones((lat.size, lon.size), bool)
-    here = Location(where.source, ("scene",), where.lines)
-    config = validate_section(FOREST_PARAMS, raw, here, ignore=("type", "lat_deg", "lon_deg"))
-    try:
-        source = ForestSource.from_si(to_si(FOREST_PARAMS, config), where.source)
-    except PhysicsInputError as exc:
-        raise ConfigError(exc.location(here), str(exc)) from exc
-    biome, _ = source.forest(lat[:, None], lon[None, :])
-    return biome != ""
+    cells = None if cls is None else cls.map_cells(raw, lat, lon, Location(where.source, ("scene",), where.lines))
+    return np.ones((lat.size, lon.size), bool) if cells is None else cells

@@ -17,9 +17,9 @@ import numpy as np
 
 from e2esim import products as P
 from e2esim.block import Catalog, Factor, Values
-from e2esim.errors import PhysicsInputError
+from e2esim.errors import ConfigError, PhysicsInputError
 from e2esim.module import Stage, fail
-from e2esim.params import Param
+from e2esim.params import Param, to_si, validate_section
 from e2esim.scene.agb_model import forest_covariance
 from e2esim.scene.covariance import ScatteringCovariance
 from e2esim.scene.map_forest import FOREST_PARAMS, NO_FOREST, ForestSource, check_forest_point
@@ -44,6 +44,17 @@ class AGBMapScene(Stage):
     provides = (P.SCENE,)
 
     case_params = ("lat_deg", "lon_deg")  # a map sweep's cells
+
+    @classmethod
+    def map_cells(cls, section, lat_deg, lon_deg, where):
+        """The cells (n_lat, n_lon) this section's latitude bands and AGB map give a forest class."""
+        config = validate_section(FOREST_PARAMS, section, where, ignore=("type", "lat_deg", "lon_deg"))
+        try:
+            source = ForestSource.from_si(to_si(FOREST_PARAMS, config), where.source)
+        except PhysicsInputError as exc:
+            raise ConfigError(exc.location(where), str(exc)) from exc
+        biome, _ = source.forest(np.asarray(lat_deg)[:, None], np.asarray(lon_deg)[None, :])
+        return biome != ""
 
     def setup(self):
         c = self.si

@@ -20,10 +20,10 @@ from typing import Any
 import numpy as np
 
 from e2esim.distortion.validation import compare_with_analytic, sample_moments
+from e2esim.error_model import ModelEvaluation
 from e2esim.faraday.distribution import ConstantFaraday
 from e2esim.stack.combination import PassCombination
 from e2esim.stack.faraday import StackFaraday
-from e2esim.stack.montecarlo import StackMonteCarloErrors
 from e2esim.stack.scene import StackScene
 from e2esim.stack.system import StackSystemErrors
 from e2esim.stack.temporal import TemporalDecorrelation
@@ -44,27 +44,19 @@ CONTRIBUTION_DESCRIPTIONS = {
 
 
 @dataclass(frozen=True, eq=False)
-class StackModelBase:
+class StackModelBase(ModelEvaluation):
     """The case of a multi-pass error model.
 
     scene : the ``StackScene``. errors : per-pass system errors. faraday : per-pass Faraday rotation.
-    combination : the estimator (``PassCombination``). looks : L, or None for L -> infinity. reference :
-    "scene" or "population". montecarlo : simulated errors of every channel, or None. gaussianity : statistics
-    of the simulated HV errors, or None. notes, unavailable : as ``ErrorModel``.
+    combination : the estimator (``PassCombination``). The keyword-only fields are ``ModelEvaluation``'s
+    (``montecarlo``: a ``StackMonteCarloErrors`` of every channel) and ``kernel_memo``.
     """
 
     scene: StackScene
     errors: StackSystemErrors
     faraday: StackFaraday
     combination: PassCombination
-    looks: int | None = None
-    reference: str = "scene"
-    montecarlo: StackMonteCarloErrors | None = None
-    gaussianity: dict | None = None
-    notes: tuple = ()
-    unavailable: str | None = None
-    _memo: dict = field(default_factory=dict, repr=False, compare=False)
-    kernel_memo: Any = field(default=None, repr=False, compare=False)
+    kernel_memo: Any = field(default=None, repr=False, compare=False, kw_only=True)
     """The run's ``KernelMemo`` (``case.services.memo``) or None: node terms found again by value across cases."""
     plain_transient = ("_memo", "kernel_memo")  # caches of evaluations (node terms of every level searched)
 

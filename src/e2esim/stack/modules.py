@@ -282,7 +282,7 @@ class StackBackscatterError(Stage):
         notes += use_notes
         extra = {"correct_copol": c["correct_copol_faraday"]} if joint else {}
         kind = StackJointErrorModel if joint else StackHVErrorModel
-        model = kind(scene, errors, stack_faraday, combination, s.looks, c["reference"], notes=notes,
+        model = kind(scene, errors, stack_faraday, combination, looks=s.looks, reference=c["reference"], notes=notes,
                      unavailable=unavailable, kernel_memo=case.services.memo, **extra)
         if unavailable is None:  # evaluated here, once: every later stage reads it
             model.current()
@@ -293,8 +293,9 @@ class StackBackscatterError(Stage):
             mc = simulate_stack(scene, errors, stack_faraday, combination, case.rng, s.looks, s.realisations,
                                 s.noise_realisations, c["reference"], c["correct_copol_faraday"])
             gauss = gaussianity(mc.hv) if c["gaussianity"] and np.ravel(mc.hv).size >= 20 else None
-            model = kind(scene, errors, stack_faraday, combination, s.looks, c["reference"], mc, gauss, notes,
-                         unavailable, model._memo, case.services.memo, **extra)
+            model = kind(scene, errors, stack_faraday, combination, looks=s.looks, reference=c["reference"],
+                         montecarlo=mc, gaussianity=gauss, notes=notes, unavailable=unavailable, _memo=model._memo,
+                         kernel_memo=case.services.memo, **extra)
         return {"backscatter.error": model}
 
 
