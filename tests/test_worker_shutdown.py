@@ -84,5 +84,5 @@ def test_a_worker_that_dies_while_it_sends_its_result_ends_the_run_with_a_messag
     monkeypatch.setattr(executors, "run_block_remote", _half_sent_then_killed)
     monkeypatch.setattr(executors, "_LOST_AFTER_S", 0.5, raising=False)
     resolved = Scenario.load(_sweep(tmp_path)).resolve()
-    with pytest.raises(executors.WorkerLost, match=r"ended abruptly while it sent a result \(exit status 1, "):
+    with pytest.raises(executors.WorkerLost, match=r"a worker process ended abruptly \(exit status 1, "):
         executors.run_blocks(resolved, [[0], [1]], lambda block, frame: None, workers=2)

@@ -128,16 +128,18 @@ class _ProcessBlocks:
                 # while it sent a result: then the pool's reader waits for the rest for ever (see ``close``).
                 dead_since = dead_since or time.monotonic()
                 if time.monotonic() - dead_since > _LOST_AFTER_S:
-                    raise WorkerLost(f"a worker process ended abruptly while it sent a result "
-                                     f"({_how_it_ended(self.processes)}); the blocks it was running are lost")
+                    raise self._lost()
 
     def _result(self, future) -> tuple:
         try:
             data, frame = future.result()
         except BrokenProcessPool as exc:
-            raise WorkerLost(f"a worker process ended abruptly ({_how_it_ended(self.processes)}); the blocks it "
-                             "was running are lost") from exc
+            raise self._lost() from exc
         return self.number[future], pickle.loads(data), frame
+
+    def _lost(self) -> WorkerLost:
+        return WorkerLost(f"a worker process ended abruptly ({_how_it_ended(self.processes)}); the blocks it was "
+                          "running are lost")
 
     def finished(self) -> list:
         """The blocks that finished without error (handed over or not)."""
