@@ -10,6 +10,7 @@ joining that thread. Here a worker writes such a half result on purpose, so the 
 import os
 import struct
 import sys
+import threading
 import time
 from pathlib import Path
 
@@ -83,6 +84,32 @@ def test_a_worker_that_dies_while_it_sends_its_result_ends_the_run_with_a_messag
     monkeypatch.setenv(_MARK, str(tmp_path))
     monkeypatch.setattr(executors, "run_block_remote", _half_sent_then_killed)
     monkeypatch.setattr(executors, "_LOST_AFTER_S", 0.5, raising=False)
+    made = []
+
+    class Recorded(executors._ProcessBlocks):  # the run's pool, for the clean-up below
+        def __init__(self, *args):
+            super().__init__(*args)
+            made.append(self)
+
+    monkeypatch.setattr(executors, "_ProcessBlocks", Recorded)
     resolved = Scenario.load(_sweep(tmp_path)).resolve()
-    with pytest.raises(executors.WorkerLost, match=r"a worker process ended abruptly \(exit status 1, "):
-        executors.run_blocks(resolved, [[0], [1]], lambda block, frame: None, workers=2)
+    outcome = []
+
+    def run():
+        try:
+            executors.run_blocks(resolved, [[0], [1]], lambda block, frame: None, workers=2)
+        except BaseException as exc:  # handed to the test's thread
+            outcome.append(exc)
+
+    thread = threading.Thread(target=run, daemon=True)
+    thread.start()
+    thread.join(timeout=60)  # a hang guard: the run ends within a second or waits for ever
+    waited_for_ever = thread.is_alive()
+    if waited_for_ever:  # before the fix: stop the workers and end the pool's read, so that this process can end
+        for process in made[0].processes:
+            process.kill()
+        made[0].pool._result_queue._writer.close()
+        thread.join(timeout=30)
+    assert not waited_for_ever, "the run waits for ever for the result of a worker that died sending it"
+    assert len(outcome) == 1 and isinstance(outcome[0], executors.WorkerLost), outcome
+    assert str(outcome[0]).startswith("a worker process ended abruptly (exit status 1, "), str(outcome[0])
