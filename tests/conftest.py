@@ -7,7 +7,9 @@ scikit-learn's ``global_random_seed``); the seed in use is printed in the test r
 
 from __future__ import annotations
 
+import inspect
 import os
+import re
 import signal
 import tempfile
 import zlib
@@ -17,7 +19,7 @@ import pytest
 from cli_processes import stop_leftovers
 
 from helpers import TEST_SEED
-from quick_runs import SCENARIOS, quick_overrides
+from quick_runs import SCENARIOS, quick_overrides, quick_run_group, scenario_names
 
 
 def pytest_configure(config):
@@ -35,11 +37,28 @@ def pytest_configure(config):
 
 @pytest.hookimpl(tryfirst=True)  # before pytest-xdist reads the groups
 def pytest_collection_modifyitems(config, items):
-    # pytest-xdist (-n, --dist loadgroup): the tests that share the session's quick runs of the shipped
-    # scenarios run on one worker, so each scenario is run once; the other tests spread over the workers.
+    # pytest-xdist (-n, --dist loadgroup): the tests that share a scenario's quick run run on one worker, so each
+    # scenario is run once; the scenarios are split into two groups of about equal cost (quick_runs.GROUP), one
+    # per worker of `make test`; the other tests spread over the workers.
     for item in items:
         if "quick_run" in getattr(item, "fixturenames", ()):
-            item.add_marker(pytest.mark.xdist_group("quick_runs"))
+            item.add_marker(pytest.mark.xdist_group(quick_run_group(_scenarios_used(item))))
+
+
+def _scenarios_used(item) -> list:
+    """The shipped scenarios whose quick runs ``item`` reads: its parameters that name one, and the names it or
+    its fixtures pass to ``quick_run`` as literals."""
+    names = set(scenario_names())
+    params = getattr(getattr(item, "callspec", None), "params", {})
+    used = [v for v in params.values() if isinstance(v, str) and v in names]
+    fixtures = getattr(getattr(item, "_fixtureinfo", None), "name2fixturedefs", {})
+    for function in [item.function] + [d[-1].func for d in fixtures.values() if d]:
+        try:
+            source = inspect.getsource(function)
+        except (OSError, TypeError):
+            continue
+        used += [n for n in re.findall(r"""quick_run\(["'](\w+)["']\)""", source) if n in names]
+    return used
 
 
 def pytest_report_header(config):

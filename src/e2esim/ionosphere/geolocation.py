@@ -22,7 +22,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.optimize import brentq
 
 from e2esim.errors import PhysicsInputError
 from e2esim.faraday.theory import bickel_bates_variance
@@ -119,6 +118,8 @@ def excluded_zone(snr_db: float, looks: float, assumptions: GeolocationAssumptio
     |B.k| equals the threshold on either side by Brent's method; latitudes are returned in the
     assumptions' convention (pierce point or target).
     """
+    from scipy.optimize import brentq  # here: scipy.optimize costs every e2esim process a fifth of a second
+
     thr = delay_error_threshold(snr_db, looks, assumptions)
 
     def bk(lat):
@@ -141,6 +142,8 @@ def excluded_zone(snr_db: float, looks: float, assumptions: GeolocationAssumptio
 
 def zero_line_latitude(assumptions: GeolocationAssumptions = TABLE1_ASSUMPTIONS) -> float:
     """Latitude (deg, the assumptions' convention) where B.k = 0: the centre of the Table 1 zones."""
+    from scipy.optimize import brentq
+
     grid = np.linspace(-20, 20, 401)
     vals = b_dot_k_profile(assumptions, grid)[1]
     i = np.flatnonzero(np.sign(vals[:-1]) != np.sign(vals[1:]))[0]

@@ -31,6 +31,7 @@ from e2esim.runner.plaindata import allowed_packages
 
 _PR_SET_PDEATHSIG = 1  # linux/prctl.h
 _PARENT_POLL_S = 0.5
+_LOST_AFTER_S = 5.0  # a dead worker whose blocks the pool has not marked lost by then died while sending a result
 
 _WORKER: dict = {}  # in a worker process: the scenario it runs blocks of, and its stage memo
 
@@ -117,19 +118,28 @@ class _ProcessBlocks:
         self.processes = list((getattr(self.pool, "_processes", None) or {}).values())
 
     def __iter__(self):
-        pending = set(self.number)
+        pending, dead_since = set(self.number), None
         while pending:
-            done, pending = wait(pending, return_when=FIRST_COMPLETED)
+            done, pending = wait(pending, timeout=_PARENT_POLL_S, return_when=FIRST_COMPLETED)
             for future in done:
                 yield self._result(future)
+            if not done and any(getattr(p, "exitcode", None) is not None for p in self.processes):
+                # The pool marks its blocks lost within milliseconds of a worker's death, unless the worker died
+                # while it sent a result: then the pool's reader waits for the rest for ever (see ``close``).
+                dead_since = dead_since or time.monotonic()
+                if time.monotonic() - dead_since > _LOST_AFTER_S:
+                    raise self._lost()
 
     def _result(self, future) -> tuple:
         try:
             data, frame = future.result()
         except BrokenProcessPool as exc:
-            raise WorkerLost(f"a worker process ended abruptly ({_how_it_ended(self.processes)}); the blocks it "
-                             "was running are lost") from exc
+            raise self._lost() from exc
         return self.number[future], pickle.loads(data), frame
+
+    def _lost(self) -> WorkerLost:
+        return WorkerLost(f"a worker process ended abruptly ({_how_it_ended(self.processes)}); the blocks it was "
+                          "running are lost")
 
     def finished(self) -> list:
         """The blocks that finished without error (handed over or not)."""
@@ -144,6 +154,7 @@ class _ProcessBlocks:
             return
         processes = self.processes + [p for p in (getattr(self.pool, "_processes", None) or {}).values()
                                       if p not in self.processes]
+        results = getattr(self.pool, "_result_queue", None)  # the pool forgets it on shutdown
         self.pool.shutdown(wait=False, cancel_futures=True)
         for process in processes:  # the blocks in flight are dropped, not waited for (a worker writes no file)
             with contextlib.suppress(OSError, ValueError, AttributeError):
@@ -151,6 +162,12 @@ class _ProcessBlocks:
         for process in processes:
             with contextlib.suppress(OSError, ValueError, AttributeError, AssertionError):
                 process.join(timeout=5)
+        # A worker killed while it sent a result (over 16 KiB: header, then body) leaves the pool's result reader
+        # waiting for the rest for ever: this process holds the pipe's writing end too, so no end of file comes,
+        # and the interpreter's exit joins that reader (the rare hang on SIGTERM). With the workers dead, closing
+        # that end ends the read; the pool then ends as for a lost worker.
+        with contextlib.suppress(OSError, AttributeError):
+            results._writer.close()
 
 
 def _how_it_ended(processes: list) -> str:

@@ -17,7 +17,6 @@ import functools
 import math
 
 import numpy as np
-from scipy.optimize import brentq
 from scipy.special import fresnel
 
 
@@ -41,6 +40,8 @@ def defocus_peak(a) -> float:
 def defocus_width(a) -> float:
     """3-dB width (resolution cells) of |h|^2 of eq. S10 (the response stays symmetric about x = 0)."""
     half = 0.5 * defocus_peak(a)
+    from scipy.optimize import brentq  # here: scipy.optimize costs every e2esim process a fifth of a second
+
     return 2.0 * brentq(lambda x: float(defocus_intensity(x, a)) - half, 1e-6, 20.0)
 
 

@@ -30,7 +30,6 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.integrate import quad
 from scipy.special import beta, betainc, gammaln, kv
 from scipy.special import gamma as gamma_fn
 
@@ -131,6 +130,8 @@ def gps_phase_index(c_kl, spectral_index, outer_scale_m, cutoff_scale_m=1000.0, 
 
     def integrand(k):
         return phase_spectrum(k, c_kl, spectral_index, outer_scale_m, wavelength) / math.pi
+
+    from scipy.integrate import quad  # here: scipy.integrate costs every e2esim process a quarter second
 
     return math.sqrt(quad(integrand, kc, np.inf, limit=200)[0])
 
