@@ -50,8 +50,9 @@ QUICK = {
                     "orbit.swath_samples=2", "ionosphere.variability_nodes=2"),
     "uavsar_ahmed2014": _REGRESSION,
     "biomass_fr_requirement": ("orbit.acquisitions.step_days=120", "orbit.swath_samples=2",
-                               "ionosphere.variability_nodes=3", "sweep.parameters.orbit.passes=[dawn]"),
-    "biomass_allocation": (),  # two analytic cases
+                               "ionosphere.variability_nodes=3", "sweep.parameters.orbit.passes=[dawn]",
+                               "output.answer=false"),  # the solve's answer: tests/test_run_answer.py
+    "biomass_allocation": ("output.answer=false",),  # two analytic cases; the answer: tests/test_run_answer.py
 }
 """Overrides (``--set``) of each scenario for the default suite; others get ``_MC``."""
 
