@@ -5,8 +5,10 @@ from __future__ import annotations
 
 import numpy as np
 
+import e2esim
 from e2esim.block import Catalog, Factor
 from e2esim.budget.block import block_budgets
+from e2esim.flowdown import boundary
 from e2esim.requirements.attribution import verdicts_only
 from e2esim.runner.run import run_scenario
 from e2esim.runner.scenario import Scenario
@@ -80,3 +82,18 @@ def test_verdicts_only_gives_the_same_margins_without_the_shares():
         assert not any(k.startswith(("share.", "contribution.")) for k in b.details)
     again = _run(_budget_scenario())  # the switch ends with its block
     assert set(again.table.requirements[0].details) == set(full.table.requirements[0].details)
+
+
+def test_the_boundary_by_continuation_is_the_fully_scanned_one(monkeypatch):
+    """Continuation along the first key (``boundary.COARSE``) gives the boundary of the full scan of every point
+    (COARSE = 1), with fewer rows."""
+    raw = _budget_scenario()
+    raw["sweep"] = {"parameters": {"scene.agb_t_ha": [100, 300]}}
+    args = (raw, [CROSSTALK, "instrument.channel_imbalance.level_db"])
+    kwargs = {"bounds": [(-40, -20), (-45, -15)], "points": 19}
+    fast = e2esim.solve(*args, **kwargs)
+    monkeypatch.setattr(boundary, "COARSE", 1)
+    full = e2esim.solve(*args, **kwargs)
+    np.testing.assert_array_equal(fast.y, full.y)
+    assert fast.state == full.state and fast.side == full.side and fast.binding == full.binding
+    assert "met at" in fast.state and fast.rows < full.rows
