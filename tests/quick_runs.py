@@ -51,8 +51,9 @@ QUICK = {
                     "orbit.swath_samples=2", "ionosphere.variability_nodes=2"),
     "uavsar_ahmed2014": _REGRESSION,
     "biomass_fr_requirement": ("orbit.acquisitions.step_days=120", "orbit.swath_samples=2",
-                               "ionosphere.variability_nodes=3", "sweep.parameters.orbit.passes=[dawn]"),
-    "biomass_allocation": (),  # two analytic cases
+                               "ionosphere.variability_nodes=3", "sweep.parameters.orbit.passes=[dawn]",
+                               "output.answer=false"),  # the solve's answer: tests/test_run_answer.py
+    "biomass_allocation": ("output.answer=false",),  # two analytic cases; the answer: tests/test_run_answer.py
     "biomass_calibration_campaign": ("calibration.0.step_days=5", "calibration.0.search_max_per_year=2",
                                      "sweep.parameters.calibration.0.epoch_day=[91,1826]"),
 }

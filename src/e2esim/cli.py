@@ -220,11 +220,14 @@ def cmd_run(args) -> int:
     folder = output_folder(resolved, args.output)
     result = run_into_folder(resolved, folder, args.force, args.resume, progress=not args.no_progress,
                              command=" ".join(["e2esim"] + sys.argv[1:]), workers=args.workers,
-                             scheduler=args.scheduler, engine="per_case" if args.per_case else "batched")
+                             scheduler=args.scheduler, engine="per_case" if args.per_case else "batched",
+                             answer=flowdown.scenario_answer)
     for finding in no_effect(result):
         print(f"e2esim: warning: {finding.message()}", file=sys.stderr)
     out = sys.stderr if args.json else sys.stdout
     print(f"{resolved.name}: {len(result.cases)} case(s); outputs in {folder}/", file=out)
+    for line in (result.answer or {}).get("lines", []):  # the scenario's own question first
+        print("  answer: " + line.strip(), file=out)
     for line in verdict_lines(result) or ["(no requirements stated)"]:
         print("  " + line, file=out)
     for line in validity_warnings(result):

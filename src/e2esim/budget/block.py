@@ -20,7 +20,7 @@ so these take about 110 MB at most, where the runner's ``CATALOG_ENTRIES`` would
 more distinct scene-instrument pairs again and again makes a returning pair's budget anew (about 0.4 ms)."""
 
 
-def block_budgets(scene: Factor, inst: Factor | None, made: dict, budget_of) -> Factor:
+def block_budgets(scene: Factor, inst: Factor | None, made: dict, budget_of, reads=None) -> Factor:
     """The budgets of every case of a block (its scenes and instruments, ``Factor``s; ``inst`` None without an
     instrument) as a ``Factor``. Raises ``PhysicsInputError`` where a budget cannot be made.
 
@@ -28,7 +28,10 @@ def block_budgets(scene: Factor, inst: Factor | None, made: dict, budget_of) -> 
     {(scene number, instrument number): budget number} and the catalog of its budgets ("catalog"). Numbers in the
     run's catalogs, which hold their values, name a value for as long as the catalog lives; values that are no
     run's catalog (a case alone) are not remembered. Started afresh beyond ``BUDGET_CATALOG_ENTRIES`` budgets, or
-    when the run's catalogs start afresh. budget_of : (scene, instrument or None) -> budget.
+    when the run's catalogs start afresh. budget_of : (scene, instrument or None) -> budget. reads : instrument ->
+    what of it the budget reads (hashable; None: all of it). Instruments that differ only where the budget does
+    not look (a swept crosstalk, a solve's searched key: e2esim.flowdown) then share their budget: it is the same
+    budget, made from the same inputs.
     """
     sources = (scene.values, None if inst is None else inst.values)
     remembered = isinstance(scene.values, Catalog) and (inst is None or isinstance(inst.values, Catalog))
@@ -41,14 +44,38 @@ def block_budgets(scene: Factor, inst: Factor | None, made: dict, budget_of) -> 
         made["from"] = sources
     catalog = made.setdefault("catalog", Catalog())
     codes_of = made.setdefault("codes", {})
-    inst_index = np.zeros(len(scene), dtype=np.int64) if inst is None else inst.index
+    inst_index = np.zeros(len(scene), dtype=np.int64) if inst is None else _read_codes(inst, reads, made)
     pairs, first, inverse = distinct_rows(np.stack([scene.index, inst_index], -1))
     codes = np.empty(len(first), dtype=np.int64)
     for k, (s, i) in enumerate(pairs):
-        key = (int(s), int(i))
+        key = (int(s), int(i), reads is None)  # an instrument number, or a reading's
         code = codes_of.get(key)
         if code is None:
-            budget = budget_of(scene.values[int(s)], None if inst is None else inst.values[int(i)])
+            one = None if inst is None else inst.values[made["read_first"][int(i)] if reads else int(i)]
+            budget = budget_of(scene.values[int(s)], one)
             code = codes_of[key] = catalog.add(budget)
         codes[k] = code
     return Factor(catalog, codes[np.ravel(inverse)])
+
+
+def _read_codes(inst: Factor, reads, made: dict) -> np.ndarray:
+    """Per case, a number for what the budget reads of its instrument: the instrument's own number without
+    ``reads``; with it, one number per distinct reading (``made["read_first"]`` maps it back to an instrument of
+    the catalog that has it), kept with the stage's memory so that numbers mean the same in every block."""
+    if reads is None:
+        return inst.index
+    codes, first = made.setdefault("read_codes", {}), made.setdefault("read_first", [])
+    of_inst = made.setdefault("read_of_inst", {})
+    used, inverse = np.unique(inst.index, return_inverse=True)
+    mapped = np.empty(len(used), dtype=np.int64)
+    for k, i in enumerate(used):
+        code = of_inst.get(int(i))
+        if code is None:
+            reading = reads(inst.values[int(i)])
+            code = codes.get(reading)
+            if code is None:
+                code = codes[reading] = len(first)
+                first.append(int(i))
+            of_inst[int(i)] = code
+        mapped[k] = code
+    return mapped[np.ravel(inverse)]

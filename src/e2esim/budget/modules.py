@@ -181,6 +181,12 @@ class BackscatterErrorBudget(Stage):
 
     def _inputs_with(self, inst) -> BudgetInputs:
         """The budget inputs with the instrument ``inst`` (None: the scenario's and the preset's values)."""
+        changes = self._instrument_reads(inst)
+        return self.base.replace(**changes) if changes else self.base
+
+    def _instrument_reads(self, inst) -> dict:
+        """What the budget takes from the instrument ``inst``: its NESZ and bandwidth unless the scenario gives
+        them (``_inputs_with``)."""
         changes = {}
         ins = self.si["instrument"]
         if inst is not None:
@@ -189,7 +195,11 @@ class BackscatterErrorBudget(Stage):
             if (ins["bandwidth_hz"] is None and ins["range_resolution_m"] is None and inst.bandwidth_hz
                     and np.isfinite(inst.bandwidth_hz)):
                 changes["bandwidth_hz"] = inst.bandwidth_hz
-        return self.base.replace(**changes) if changes else self.base
+        return changes
+
+    def _reading(self, inst) -> tuple:
+        """What the budget reads of ``inst``, hashable: instruments with the same reading share a budget."""
+        return tuple(sorted(self._instrument_reads(inst).items()))
 
     forward_takes_blocks = True
 
@@ -208,7 +218,8 @@ class BackscatterErrorBudget(Stage):
         inputs_of = (lambda inst: self.inputs_for(case)) if case.alone else self._inputs_with
         try:
             made = block_budgets(case.factor("scene.covariance"), instruments, self._made,
-                                 lambda scene, inst: self.budget_of(scene, inputs_of(inst)))
+                                 lambda scene, inst: self.budget_of(scene, inputs_of(inst)),
+                                 None if case.alone else self._reading)
         except PhysicsInputError as exc:
             case.per_case("a budget cannot be made")
             raise fail(self, f"case {case.index}: {exc}") from exc

@@ -2,9 +2,14 @@
 
 For ``points`` values of the first key across its range, the value of the second key at which the smallest margin
 over every requirement and case is zero: Brent's method (``e2esim.flowdown.brent``) over all points at once, each
-step one run of the engine over the sweep times the points (``Evaluator.grid_margins``). As with the trade-off curve
-of Men et al. (2021), Section V-B, which it reproduces for crosstalk and channel imbalance, a point where the second
-key meets (or fails) the requirements over its whole range is reported as such.
+step one run of the engine over the sweep times the points (``Evaluator.grid_margins``). The brackets come from
+the scan of the second key's range (``e2esim.flowdown.scan``) by continuation along the first key: every
+``COARSE``-th point (and the last) is scanned at all ``SCAN`` values; a point between two scanned points whose
+first sign change lies between the same two scan values is evaluated at those two and at the low end only, and
+keeps that bracket when the three agree with it (the same bracket the full scan gives unless the margin changes
+sign twice below it there and nowhere at its neighbours); every other point is scanned in full. As with the
+trade-off curve of Men et al. (2021), Section V-B, which it reproduces for crosstalk and channel imbalance, a point
+where the second key meets (or fails) the requirements over its whole range is reported as such.
 """
 
 from __future__ import annotations
@@ -18,6 +23,9 @@ from e2esim.flowdown.brent import brent
 from e2esim.flowdown.evaluate import Evaluator
 from e2esim.flowdown.keys import bounds_of
 from e2esim.flowdown.scan import SCAN, scan_brackets
+
+COARSE = 8
+"""Every COARSE-th point of the first key is scanned in full; those between by continuation (module docstring)."""
 
 
 @dataclass
@@ -59,10 +67,7 @@ def boundary(loaded, resolved, keys, bounds, points: int) -> BoundaryResult:
     x = np.linspace(*ranges[0], points)
     (lo, hi) = ranges[1]
     ys = np.linspace(lo, hi, SCAN)
-    grid = np.stack([np.repeat(x, SCAN), np.tile(ys, points)], 1)
-    scan = evaluator.grid_margins(grid)  # (R, n, points * SCAN)
-    worst, _ = _worst_of(scan)
-    state, a, b, f_a, f_b, side_lo, _ = scan_brackets(ys, worst.reshape(points, SCAN))
+    state, a, b, f_a, f_b, side_lo, best = _brackets(evaluator, x, ys)
     if np.all(state == "no effect"):
         raise UserError(f"--for {keys[1].name}: no effect on any requirement in any case along {keys[0].name}")
     todo = np.flatnonzero(state == "met at")
@@ -73,10 +78,55 @@ def boundary(loaded, resolved, keys, bounds, points: int) -> BoundaryResult:
     y = np.full(points, np.nan)
     if todo.size:
         y[todo], _ = brent(f, a[todo], b[todo], f_a[todo], f_b[todo], 1e-6 * (hi - lo))
-    best = np.argmax(worst.reshape(points, SCAN), axis=1)
-    at = np.where(np.isnan(y), ys[best], y)
+    at = np.where(np.isnan(y), best, y)
     _, where = _worst_of(evaluator.grid_margins(np.stack([x, at], 1)))
     binding = [(evaluator.names[w // n], evaluator.labels[w % n]) for w in where]
     side = [("at most" if g else "at least") if s == "met at" else "" for s, g in zip(state, side_lo)]
     return BoundaryResult(tuple(k.name for k in keys), tuple(ranges), evaluator.labels, evaluator.names, x, y,
                           list(state), side, binding, True, evaluator.calls, evaluator.rows)
+
+
+def _scan(evaluator, x: np.ndarray, ys: np.ndarray) -> np.ndarray:
+    """(len(x), SCAN) smallest margins over every requirement and case at each point and scan value: one run."""
+    if not len(x):
+        return np.zeros((0, len(ys)))
+    grid = np.stack([np.repeat(x, len(ys)), np.tile(ys, len(x))], 1)
+    return _worst_of(evaluator.grid_margins(grid))[0].reshape(len(x), len(ys))
+
+
+def _brackets(evaluator, x: np.ndarray, ys: np.ndarray) -> tuple:
+    """Per point of ``x``: the state, bracket (a, b), margins there, "at most" side and the best scan value (where
+    the smallest margin is largest; NaN for a point bracketed by continuation, which is "met at"), as
+    ``scan_brackets`` gives them for the full scan of ``ys`` (module docstring)."""
+    points = len(x)
+    out = [np.empty(points, dtype=object)] + [np.full(points, np.nan) for _ in range(4)] + [
+        np.zeros(points, dtype=bool), np.full(points, np.nan)]
+
+    def put(where, worst):
+        state, a, b, f_a, f_b, side_lo, _ = scan_brackets(ys, worst)
+        for k, v in enumerate((state, a, b, f_a, f_b, side_lo, ys[np.argmax(worst, axis=1)])):
+            out[k][where] = v
+    coarse = np.unique(np.r_[np.arange(0, points, COARSE), points - 1])
+    worst = _scan(evaluator, x[coarse], ys)
+    put(coarse, worst)
+    between = np.setdiff1d(np.arange(points), coarse)
+    right = np.searchsorted(coarse, between)
+    first = np.argmax((worst[:, 1:] >= 0) != (worst[:, :-1] >= 0), axis=1)  # per coarse point
+    met = out[0][coarse] == "met at"
+    same = met[right - 1] & met[right] & (first[right - 1] == first[right]) & (
+        out[5][coarse][right - 1] == out[5][coarse][right])
+    guess, k = between[same], first[right[same]]
+    if guess.size:
+        three = evaluator.grid_margins(np.stack([np.repeat(x[guess], 3), np.stack(
+            [np.full(guess.size, ys[0]), ys[k], ys[k + 1]], 1).ravel()], 1))
+        m = _worst_of(three)[0].reshape(guess.size, 3)
+        good = m >= 0
+        ok = (good[:, 0] == good[:, 1]) & (good[:, 1] != good[:, 2])
+        kept = guess[ok]
+        out[0][kept] = "met at"
+        out[1][kept], out[2][kept], out[3][kept], out[4][kept] = ys[k[ok]], ys[k[ok] + 1], m[ok, 1], m[ok, 2]
+        out[5][kept] = good[ok, 1]
+        between = np.setdiff1d(between, kept)
+    if between.size:
+        put(between, _scan(evaluator, x[between], ys))
+    return tuple(out)

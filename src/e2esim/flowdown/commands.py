@@ -7,6 +7,7 @@ from pathlib import Path
 from e2esim.atomic import write_text_atomic
 from e2esim.errors import UserError
 from e2esim.flowdown.allocation import allocate, allocation_markdown, allocation_yaml
+from e2esim.flowdown.answer import stated_solve
 from e2esim.flowdown.inverse import solve
 from e2esim.flowdown.report import solve_json, solve_lines, solve_markdown
 from e2esim.runner.scenario import Scenario
@@ -30,15 +31,9 @@ def _write(folder, files: dict) -> None:
 def cmd_solve(args) -> int:
 
     scenario = _scenario(args)
-    stated = scenario.raw.get("solve") or {}
-    keys = args.keys or list(stated.get("for", []))
+    keys, one, worst = stated_solve(scenario.raw, args.keys, args.bounds, args.worst_case)
     if not keys:
         raise UserError(f"{args.scenario}: give --for KEY (or a 'solve: {{for: [KEY]}}' section in the scenario)")
-    bounds = args.bounds if args.bounds is not None else stated.get("bounds")
-    worst = args.worst_case or bool(stated.get("worst_case", False))
-    if bounds is not None and len(bounds) != len(keys):
-        raise UserError(f"--bounds: give one LO HI pair per --for key ({len(keys)})")
-    one = None if bounds is None else (bounds[0] if len(keys) == 1 else bounds)
     result = solve(scenario, keys, one, worst_case=worst, points=args.points)
     name = scenario.raw.get("name", Path(args.scenario).stem)
     _write(args.output, {"solve.md": solve_markdown(name, result), "solve.json": solve_json(result) + "\n"})

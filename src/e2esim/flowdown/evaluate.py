@@ -6,7 +6,7 @@ the case's sweep inputs and the keys' values, so that a row reads exactly what i
 each distinct configuration once. The margin is the verdict's (positive passes; NaN where the requirement does
 not apply). The chain runs its analytic model (``simulation.mode: analytic``; a scenario that asks for the Monte
 Carlo only is refused: its margins are noisy in the row's random stream) without the level margins and trade-off
-curves of the requirements, which do not change a verdict.
+curves of the requirements and the shares of the error sources (``verdicts_only``), which do not change a verdict.
 """
 
 from __future__ import annotations
@@ -17,6 +17,7 @@ import numpy as np
 
 from e2esim.errors import UserError
 from e2esim.key_paths import override_path
+from e2esim.requirements.attribution import verdicts_only
 from e2esim.runner.run import run_scenario
 from e2esim.runner.scenario import Scenario
 
@@ -46,6 +47,8 @@ class Evaluator:
             raise UserError(f"{scenario.source}: simulation.mode is montecarlo: solve and allocate need the analytic "
                             "model (mode analytic or both); its margins are smooth in the solved keys")
         raw.setdefault("simulation", {})["mode"] = "analytic"
+        if isinstance(raw.get("output"), dict):
+            raw["output"]["sensitivity"] = False  # asked of the run, not of every evaluation
         for module in resolved.cases[0].modules:
             if module.kind == "requirement":
                 names = {p.name for p in type(module).params if hasattr(p, "name")}
@@ -89,7 +92,8 @@ class Evaluator:
     def _run(self, raw: dict, rows: int) -> np.ndarray:
         try:
             resolved = Scenario(raw, self.source).resolve()
-            result = run_scenario(resolved, progress=False, keep_products=False, spill=False)
+            with verdicts_only():  # the margins alone: no shares of the sources
+                result = run_scenario(resolved, progress=False, keep_products=False, spill=False)
         except UserError as exc:  # a value of the search range the chain refuses: say where, and what to do
             keys = ", ".join(key.name for key in self.keys)
             raise UserError(f"{exc} (while searching {keys}: narrow the search range with --bounds LO HI, or the "

@@ -55,3 +55,8 @@ def _command(name: str):
 
 
 COMMANDS = {"solve": _command("cmd_solve"), "allocate": _command("cmd_allocate")}
+
+
+def scenario_answer(resolved):
+    """``e2esim.flowdown.answer.scenario_answer``, imported when ``e2esim run`` calls it."""
+    return importlib.import_module("e2esim.flowdown.answer").scenario_answer(resolved)

@@ -48,6 +48,13 @@ def write_results(result, path) -> None:
         put_text(prov, "scenario_as_given", yaml.safe_dump(result.scenario.raw, sort_keys=False),
                  "the scenario as read, after --set overrides, YAML")
 
+        answer = getattr(result, "answer", None)
+        if answer:  # the scenario's own question, answered by e2esim run (e2esim.flowdown.answer)
+            a = f.create_group("answer")
+            a.attrs["question"] = answer["question"]
+            put_text(a, "text", "\n".join(answer["lines"]), "the answer to the scenario's solve or allocate section")
+            put_text(a, "result", json.dumps(answer["result"]), "the answer as e2esim solve --json prints it, or "
+                     "e2esim allocate's specification, JSON")
         g = f.create_group("cases")
         put(g, "index", np.arange(n, dtype=np.int64), "1", "case number")
         _write_labels(g.create_group("label"), result.labels)

@@ -86,7 +86,8 @@ about 2 kB and 0.2 ms each; past ten thousand cases nobody reads them, and a mil
 
 def summary_dict(result) -> dict:
     n = len(result.scenario.cases)
-    head = {"scenario": result.scenario.name, **result.provenance, "n_cases": n,
+    head = {"scenario": result.scenario.name, **({"answer": result.answer} if getattr(result, "answer", None)
+                                                 else {}), **result.provenance, "n_cases": n,
             "requirements": requirement_overview(result),
             "settings_without_effect": [f.as_dict() for f in no_effect(result)]}
     excluded = not_acquired_summary(result)  # a map sweep's cells the mission does not acquire

@@ -75,6 +75,9 @@ def build_report(result, plots: list, warnings: list = ()) -> list:
     """The blocks of the report of ``result`` with ``plots`` [(file, caption)] and plot ``warnings``."""
     sc = result.scenario
     blocks = [Heading(1, sc.output.get("title") or sc.name)]
+    answer = getattr(result, "answer", None)
+    if answer:  # the scenario's own question (solve or allocate section), answered first
+        blocks += [Heading(2, "Answer")] + [Paragraph(line.strip()) for line in answer["lines"]]
     if result.requirement_names:
         blocks += [Heading(2, "Conclusions")] + [Paragraph(f"{b} {sentence}") for b, sentence in conclusions(result)]
         blocks += [Paragraph(f"**Error term:** {sentence}") for sentence in error_term_sentences(result)]

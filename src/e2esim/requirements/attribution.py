@@ -2,14 +2,33 @@
 
 from __future__ import annotations
 
+from contextlib import contextmanager
+from contextvars import ContextVar
+
 import numpy as np
 
 from e2esim.retrieval.agb_error import AGBError
 
+VERDICTS_ONLY: ContextVar = ContextVar("verdicts_only", default=False)
+"""True while the caller reads the verdicts' margins alone (``verdicts_only``)."""
+
+
+@contextmanager
+def verdicts_only():
+    """Within it, requirements give their verdicts without the contributions and shares of the error sources,
+    which never change a verdict and take most of its time: for the inverse solve, which asks the chain for
+    margins many times over (``e2esim.flowdown.evaluate``). Only for runs in this thread (a serial run)."""
+    token = VERDICTS_ONLY.set(True)
+    try:
+        yield
+    finally:
+        VERDICTS_ONLY.reset(token)
+
 
 def can_attribute(agb: AGBError) -> bool:
-    """Whether the sources of ``agb`` can be taken away one by one (an analytic AGB error of an available model)."""
-    return agb.error_model.unavailable is None and agb.error_mean is not None
+    """Whether the sources of ``agb`` can be taken away one by one (an analytic AGB error of an available model)
+    and are to be (not within ``verdicts_only``)."""
+    return not VERDICTS_ONLY.get() and agb.error_model.unavailable is None and agb.error_mean is not None
 
 
 def attribution(value_of, agb: AGBError, unit: str = "percent") -> tuple[dict, tuple]:
@@ -24,6 +43,8 @@ def attribution(value_of, agb: AGBError, unit: str = "percent") -> tuple[dict, t
     requirement checks; ``unit`` ends the keys, ``contribution.<source>_<unit>``. Returns (contributions, notes).
     """
     model = agb.error_model
+    if VERDICTS_ONLY.get():
+        return {}, ()
     if not can_attribute(agb):
         return {}, (f"no attribution to error sources: {model.unavailable or 'no analytic AGB error'}",)
     base = value_of(agb)

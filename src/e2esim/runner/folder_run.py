@@ -33,12 +33,14 @@ def check_executor(workers: int, scheduler: str | None) -> None:
 
 def run_into_folder(resolved, folder, force: bool = False, resume: bool = False, *, progress: bool = True,
                     command: str | None = None, workers: int = 1, scheduler: str | None = None,
-                    engine: str = "batched") -> ScenarioResult:
+                    engine: str = "batched", answer=None) -> ScenarioResult:
     """Run ``resolved`` and write its outputs into ``folder`` (module docstring); return the run's results.
 
     ``folder`` None writes nothing: the run only (no lock, no journal). Raises ``RunInterrupted`` when stopped,
     ``WorkerLost`` or ``OutputFolderError`` (with the count of saved cases and the way to resume) when a worker or
-    the disk fails, and the ``UserError`` of a folder that cannot be used.
+    the disk fails, and the ``UserError`` of a folder that cannot be used. answer : ``answer(resolved)`` -> the
+    answer to the scenario's own question (``e2esim.flowdown.answer.scenario_answer``) or None, computed after the
+    run and kept as ``result.answer`` for the outputs.
     """
     check_executor(workers, scheduler)
     options = {"progress": progress, "command": command, "workers": workers, "scheduler": scheduler,
@@ -46,7 +48,9 @@ def run_into_folder(resolved, folder, force: bool = False, resume: bool = False,
     if folder is None:
         if resume:
             raise UserError("resume: continuing an interrupted run needs its output folder")
-        return run_scenario(resolved, **options)
+        result = run_scenario(resolved, **options)
+        result.answer = None if answer is None else answer(resolved)
+        return result
     folder = Path(folder)
     with stop_signals_as_interrupts():  # SIGTERM, SIGHUP: ended as Ctrl-C ends a run, finished blocks kept
         lock = prepare_folder(folder, force, resume)
@@ -55,6 +59,7 @@ def run_into_folder(resolved, folder, force: bool = False, resume: bool = False,
             # a run in this process: the report's modules are imported meanwhile (none when workers may fork)
             with report_imported_meanwhile(workers == 1 and not scheduler):
                 result = _run_journalled(resolved, folder, journal, resume, options)
+            result.answer = None if answer is None else answer(resolved)
             try:
                 write_outputs(result, folder, progress=progress)
             except KeyboardInterrupt as stop:

@@ -127,6 +127,9 @@ class ScenarioResult:
     provenance: dict = field(default_factory=dict)
     sensitivity: dict | None = None
     """The elasticities of the checked values (``output.sensitivity``; ``e2esim.runner.sensitivity``), or None."""
+    answer: dict | None = None
+    """The answer to the scenario's solve or allocate section (``e2esim.flowdown.answer``), when ``e2esim run``
+    computed it, or None."""
 
     @cached_property
     def cases(self) -> ResultCases:

@@ -59,6 +59,9 @@ def output_params(distribution: str | None = None) -> tuple:
         Param("sensitivity", "bool", "elasticity of each requirement's checked value to every numeric parameter "
               "of the chain at its worst case, by central differences (two analytic runs of one case per parameter), "
               "with a tornado chart and the parameters that buy the most margin", default=False),
+        Param("answer", "bool", "e2esim run answers the scenario's own question (its solve or allocate section, "
+              "as e2esim solve / e2esim allocate do) and shows the answer first: report, summary.json, results.h5",
+              default=True),
     )
 
 

@@ -1,0 +1,99 @@
+"""What makes the inverse solve fast (issue 23, Speed) gives the numbers it gave before: budgets shared by instruments
+that differ only where the budget does not look, and verdicts without the sources' shares while solving."""
+
+from __future__ import annotations
+
+import numpy as np
+
+import e2esim
+from e2esim.block import Catalog, Factor
+from e2esim.budget.block import block_budgets
+from e2esim.flowdown import boundary
+from e2esim.requirements.attribution import verdicts_only
+from e2esim.runner.run import run_scenario
+from e2esim.runner.scenario import Scenario
+
+CROSSTALK = "instrument.crosstalk.level_db"
+
+
+def _catalog(values) -> Catalog:
+    catalog = Catalog()
+    for v in values:
+        catalog.add(v)
+    return catalog
+
+
+def test_a_budget_is_made_once_per_scene_and_what_it_reads_of_the_instrument():
+    scenes = _catalog([{"scene": "a"}, {"scene": "b"}])
+    instruments = _catalog([{"nesz": 1.0, "crosstalk": c} for c in (-30, -25, -20)] + [{"nesz": 2.0,
+                                                                                          "crosstalk": -30}])
+    made = []
+
+    def budget_of(scene, inst):
+        made.append((scene["scene"], inst["nesz"]))
+        return made[-1]
+    scene = Factor(scenes, np.array([0, 0, 0, 1, 1, 1, 0, 1]))
+    inst = Factor(instruments, np.array([0, 1, 2, 0, 1, 2, 3, 3]))
+    budgets = block_budgets(scene, inst, {}, budget_of, reads=lambda i: i["nesz"])
+    assert sorted(made) == [("a", 1.0), ("a", 2.0), ("b", 1.0), ("b", 2.0)]
+    assert [budgets.item(i) for i in range(8)] == [("a", 1.0)] * 3 + [("b", 1.0)] * 3 + [("a", 2.0), ("b", 2.0)]
+    made.clear()  # without ``reads``: one budget per scene and instrument, as before
+    block_budgets(scene, inst, {}, budget_of)
+    assert len(made) == 8
+
+
+def _budget_scenario() -> dict:
+    return {
+        "name": "budget_shared",
+        "scene": {"type": "forest_agb_model", "biome": "boreal"},
+        "instrument": {"type": "biomass"},
+        "ionosphere": {"type": "gaussian_faraday", "mean_deg": 5, "sd_deg": 5},
+        "propagation": [{"type": "hv_backscatter_error"},
+                        {"type": "backscatter_error_budget", "preset": "biomass_200m"}],
+        "retrieval": {"type": "power_law"},
+        "requirements": [{"type": "agb_error_bound", "sources": "systematic", "bound_percent": 20},
+                         {"type": "agb_rmse", "max_percent": 40}],
+        "simulation": {"mode": "analytic", "seed": 1},
+        "sweep": {"parameters": {"scene.agb_t_ha": [100, 300], CROSSTALK: [-35, -30, -25],
+                                 "instrument.nesz_db": [-27, -20]}},
+    }
+
+
+def _run(raw, engine="batched"):
+    return run_scenario(Scenario(raw, "budget_shared.yaml").resolve(), progress=False, engine=engine)
+
+
+def test_shared_budgets_give_the_per_case_engines_numbers_bit_for_bit():
+    batched, per_case = _run(_budget_scenario()), _run(_budget_scenario(), "per_case")
+    for a, b in zip(batched.table.requirements, per_case.table.requirements):
+        np.testing.assert_array_equal(np.asarray(a.value, float), np.asarray(b.value, float))
+        np.testing.assert_array_equal(np.asarray(a.margin, float), np.asarray(b.margin, float))
+    rmse = np.asarray(batched.table.requirements[1].value, float)
+    assert len(np.unique(rmse)) == 12  # every case its own value: the swept NESZ reaches the budget
+
+
+def test_verdicts_only_gives_the_same_margins_without_the_shares():
+    full = _run(_budget_scenario())
+    with verdicts_only():
+        bare = _run(_budget_scenario())
+    for a, b in zip(full.table.requirements, bare.table.requirements):
+        np.testing.assert_array_equal(np.asarray(a.margin, float), np.asarray(b.margin, float))
+        assert any(k.startswith(("share.", "contribution.")) for k in a.details)
+        assert not any(k.startswith(("share.", "contribution.")) for k in b.details)
+    again = _run(_budget_scenario())  # the switch ends with its block
+    assert set(again.table.requirements[0].details) == set(full.table.requirements[0].details)
+
+
+def test_the_boundary_by_continuation_is_the_fully_scanned_one(monkeypatch):
+    """Continuation along the first key (``boundary.COARSE``) gives the boundary of the full scan of every point
+    (COARSE = 1), with fewer rows."""
+    raw = _budget_scenario()
+    raw["sweep"] = {"parameters": {"scene.agb_t_ha": [100, 300]}}
+    args = (raw, [CROSSTALK, "instrument.channel_imbalance.level_db"])
+    kwargs = {"bounds": [(-40, -20), (-45, -15)], "points": 19}
+    fast = e2esim.solve(*args, **kwargs)
+    monkeypatch.setattr(boundary, "COARSE", 1)
+    full = e2esim.solve(*args, **kwargs)
+    np.testing.assert_array_equal(fast.y, full.y)
+    assert fast.state == full.state and fast.side == full.side and fast.binding == full.binding
+    assert "met at" in fast.state and fast.rows < full.rows
