@@ -22,7 +22,7 @@ def circular_trajectory(orbit: SunSynchronousOrbit, lat_deg, lon_deg, incidence_
     model's local time there, so that local mean solar time = UTC + lon / 15 agrees with it."""
     g = view_geometry(orbit, np.radians(lat_deg), np.radians(lon_deg), np.radians(incidence_deg), pass_name)
     ut_h = float(g.local_time_h) - lon_deg / 15.0  # before 0: the UTC day before the local date
-    t0 = np.datetime64(date, "ns") + np.timedelta64(round(ut_h * 3600e9), "ns")
+    t0 = np.datetime64(date, "ns") + np.timedelta64(round(ut_h * 3600e6) * 1000, "ns")  # whole us, as EO CFI writes
     t = np.arange(-before_s, after_s + step_s / 2, step_s)
     r, v = orbit_state(orbit, float(g.u) + orbit.mean_motion * t, float(g.node_lon) - EARTH_ROTATION_RATE * t)
     return t0 + (t * 1e9).astype("int64").astype("timedelta64[ns]"), r, v, g
