@@ -180,3 +180,13 @@ def test_missing_sgp4_names_the_extra(monkeypatch):
     monkeypatch.setitem(sys.modules, "sgp4.api", None)
     with pytest.raises(MissingExtraError, match=r"optional extra 'orbits'.*pip install 'e2esim\[orbits\]'"):
         tle_trajectory(*VALLADO_2006["00005"][0])
+
+
+@pytest.mark.parametrize("file", ["biomass_like.tle", "biomass_circular_siberia.EOF"])
+def test_orbit_file_modules_conform(file):
+    """Configuration round trip and pickling (a TLE's Satrec is rebuilt from its lines) for workers and resume."""
+    from e2esim.testing import check_module
+    from quick_runs import SCENARIOS
+
+    module = check_module(BiomassOrbitFile, {"file": str(SCENARIOS / "orbits" / file), "site": SITE})
+    assert module.geometry.size == 1

@@ -97,6 +97,10 @@ class TLETrajectory(Trajectory):
     element set's epoch (UTC)."""
 
     satrec: object = None
+    lines: tuple = ()
+
+    def __reduce__(self):  # a Satrec does not pickle: rebuild it from the two lines (workers, the resume journal)
+        return tle_trajectory, (*self.lines, self.source)
 
     def teme(self, t_s):
         """TEME position (m) and velocity (m/s) at ``t_s`` (s since the epoch), with the Julian dates used."""
@@ -131,4 +135,4 @@ def tle_trajectory(line1: str, line2: str, source: str = "TLE") -> TLETrajectory
         "timedelta64[ns]")
     span = TLE_SPAN_DAYS * 86400.0
     return TLETrajectory(source=source, kind="TLE (SGP4, TEME rotated by GMST)", epoch=epoch, start_s=-span,
-                         end_s=span, satrec=sat)
+                         end_s=span, satrec=sat, lines=(line1, line2))
