@@ -150,3 +150,11 @@ def test_bad_nisar_orbit_groups(tmp_path, capsys, pass_vectors, damage, message)
     if damage == "truncated":
         path.write_bytes(path.read_bytes()[:4])
     assert message in _bad(tmp_path, capsys, path)
+
+
+def test_dawn_and_dusk_passes_come_from_the_orbit_plane():
+    """The file's pass over central Siberia is ascending, at dawn (LTAN 06:00): asking for dusk leaves none."""
+    path = SCENARIOS / "orbits" / "biomass_circular_siberia.EOF"
+    assert BiomassOrbitFile(file=str(path), passes="dawn", site=SIBERIA).geometry.pass_name.tolist() == ["ascending"]
+    with pytest.raises(Exception, match=r"does not image site siberia .* 1 on a pass not asked for"):
+        BiomassOrbitFile(file=str(path), passes="dusk", site=SIBERIA)

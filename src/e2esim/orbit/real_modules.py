@@ -27,7 +27,7 @@ from e2esim.orbit.modules import PASS_CHOICES, SITE_PARAMS
 from e2esim.orbit.real.eocfi import read_eocfi_orbit
 from e2esim.orbit.real.nisar import read_nisar_orbit
 from e2esim.orbit.real.passes import SURFACES, site_on_surface, site_passes
-from e2esim.orbit.real.tle import read_tle
+from e2esim.orbit.real.tle import TLETrajectory, read_tle
 from e2esim.orbit.real.trajectory import Trajectory
 from e2esim.orbit.sunsync import PASSES, SunSynchronousOrbit
 from e2esim.params import Ordered, Param, with_defaults
@@ -126,10 +126,13 @@ class OrbitFileModule(Stage):
         except PhysicsInputError as exc:
             raise PhysicsInputError(str(exc), key=exc.key or "file") from exc
         traj = self.trajectory
-        tle = not hasattr(traj, "t_s")
-        start = traj.start_s if c["start"] is None and not tle else 0.0 if c["start"] is None else \
-            _datetime(c["start"], "start", traj)
-        end = (traj.end_s if not tle else start + 3 * 86400.0) if c["end"] is None else _datetime(c["end"], "end", traj)
+        tle = isinstance(traj, TLETrajectory)  # no span of its own: the epoch and 3 days after it (BIOMASS repeat)
+        if c["start"] is not None:
+            start = _datetime(c["start"], "start", traj)
+        else:
+            start = 0.0 if tle else traj.start_s
+        end = _datetime(c["end"], "end", traj) if c["end"] is not None else \
+            min(start + 3 * 86400.0, traj.end_s) if tle else traj.end_s
         for key, value in (("start", start), ("end", end)):
             if not traj.start_s <= value <= traj.end_s:
                 raise PhysicsInputError(
@@ -142,16 +145,14 @@ class OrbitFileModule(Stage):
         lon_deg = ((self.config["site"]["lon_deg"] + 180.0) % 360.0) - 180.0
         site = Site(c["site"]["name"], c["site"]["lat_rad"], np.radians(lon_deg))
         target, normal = site_on_surface(site.lat, site.lon, c["surface"])
-        passes = PASSES if c["passes"] in ("both", "dawn", "dusk") else (c["passes"],)
+        plane = equivalent_circular_orbit(traj, start, c["look_side"], float(np.linalg.norm(traj.state([start])[0])))
+        choice = c["passes"]
+        try:
+            passes = PASSES if choice == "both" else (choice,) if choice in PASSES else (plane.pass_for_label(choice),)
+        except PhysicsInputError as exc:
+            raise PhysicsInputError(str(exc), key="passes") from exc
         found = site_passes(traj, target, normal, start, end, c["look_side"],
                             (c["incidence_near_rad"], c["incidence_far_rad"]), passes)
-        if found.t_s.size:
-            radius = float(np.mean(np.linalg.norm(found.satellite, axis=-1)))
-            self.orbit = equivalent_circular_orbit(traj, float(found.t_s[0]), c["look_side"], radius)
-        if found.t_s.size and c["passes"] in ("dawn", "dusk"):
-            keep = np.where(found.ascending, "ascending", "descending") == self.orbit.pass_for_label(c["passes"])
-            found = type(found)(*(getattr(found, f)[keep] for f in ("t_s", "satellite", "velocity", "incidence",
-                                                                   "ascending")), found.rejected)
         if not found.t_s.size:
             raise PhysicsInputError(
                 f"{traj.source}: the orbit does not image site {site.name} ({np.degrees(site.lat):.2f}, {lon_deg:.2f} "
@@ -159,6 +160,8 @@ class OrbitFileModule(Stage):
                 f"{np.degrees(c['incidence_far_rad']):g} deg between "
                 f"{np.datetime_as_string(traj.instant(start), unit='s')} and "
                 f"{np.datetime_as_string(traj.instant(end), unit='s')} UTC ({found.rejected})", key="file")
+        radius = float(np.mean(np.linalg.norm(found.satellite, axis=-1)))
+        self.orbit = equivalent_circular_orbit(traj, float(found.t_s[0]), c["look_side"], radius)
         if c["pierce_height_m"] >= self.orbit.altitude_m:
             raise PhysicsInputError(f"pierce height {c['pierce_height_m'] / 1e3:g} km is not below the orbit "
                                     f"({self.orbit.altitude_m / 1e3:.1f} km)", key="pierce_height_km")
