@@ -136,6 +136,7 @@ def test_a_tle_with_a_bad_checksum(tmp_path, capsys):
     ("kilometres", "/science/LSAR/GCOV/metadata/orbit/position has units 'kilometers'; expected one of 'meters'"),
     ("epoch", "/science/LSAR/GCOV/metadata/orbit/time has units 'seconds'; expected \"seconds since"),
     ("truncated", "not an HDF5 file"),
+    ("half", "product.h5: not an HDF5 file, or a damaged one (a truncated download?)"),
 ])
 def test_bad_nisar_orbit_groups(tmp_path, capsys, pass_vectors, damage, message):
     import h5py
@@ -147,9 +148,18 @@ def test_bad_nisar_orbit_groups(tmp_path, capsys, pass_vectors, damage, message)
     if damage == "no_position":
         with h5py.File(path, "a") as f:
             del f["/science/LSAR/GCOV/metadata/orbit/position"]
-    if damage == "truncated":
-        path.write_bytes(path.read_bytes()[:4])
+    if damage in ("truncated", "half"):
+        data = path.read_bytes()
+        path.write_bytes(data[:4] if damage == "truncated" else data[: len(data) // 2])
     assert message in _bad(tmp_path, capsys, path)
+
+
+@pytest.mark.parametrize("name, what", [("orbit.EOF", "EO CFI orbit file"), ("orbit", "orbit file")])
+def test_a_fifo_is_refused_not_waited_on(tmp_path, capsys, name, what):
+    import os
+
+    os.mkfifo(tmp_path / name)
+    assert f"{name}: the {what} is a FIFO (named pipe), not a regular file" in _bad(tmp_path, capsys, tmp_path / name)
 
 
 def test_dawn_and_dusk_passes_come_from_the_orbit_plane():

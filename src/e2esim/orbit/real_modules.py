@@ -24,7 +24,7 @@ from e2esim.orbit.acquisition import AcquisitionGeometry, Site
 from e2esim.orbit.frames import EARTH_MEAN_RADIUS, EARTH_ROTATION_RATE, ecef_to_enu, from_ecef
 from e2esim.orbit.geometry import ray_points
 from e2esim.orbit.modules import PASS_CHOICES, SITE_PARAMS
-from e2esim.orbit.real.eocfi import read_eocfi_orbit
+from e2esim.orbit.real.eocfi import file_head, read_eocfi_orbit
 from e2esim.orbit.real.nisar import read_nisar_orbit
 from e2esim.orbit.real.passes import SURFACES, site_on_surface, site_passes
 from e2esim.orbit.real.tle import TLETrajectory, read_tle
@@ -41,11 +41,7 @@ def orbit_format(path: Path) -> str:
     """The format of an orbit file from its suffix, else from its first bytes."""
     if path.suffix.lower() in SUFFIXES:
         return SUFFIXES[path.suffix.lower()]
-    try:
-        with open(path, "rb") as fh:
-            head = fh.read(8)
-    except OSError as exc:
-        raise PhysicsInputError(f"{path}: cannot open the orbit file: {exc.strerror or exc}", key="file") from exc
+    head = file_head(path, "orbit file")
     if head.startswith(b"\x89HDF"):
         return "nisar"
     return "eocfi" if head.lstrip().startswith(b"<") else "tle"

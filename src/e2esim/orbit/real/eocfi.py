@@ -51,6 +51,15 @@ def _child(node, name: str):
     return next((c for c in node if _local(c.tag) == name), None)
 
 
+def file_head(path, what: str, count: int = 8) -> bytes:
+    """The first ``count`` bytes of the regular file ``path`` (a FIFO or folder refused, never waited on)."""
+    fd = open_regular(path, what, PhysicsInputError)
+    try:
+        return read_limited(fd, count)
+    finally:
+        os.close(fd)
+
+
 def read_file_bytes(path, what: str) -> bytes:
     """The bytes of the regular file ``path`` (at most ``MAX_ORBIT_FILE_BYTES``), errors naming ``what``."""
     fd = open_regular(path, what, PhysicsInputError)

@@ -25,10 +25,12 @@ import numpy as np
 
 from e2esim.errors import PhysicsInputError, ResultsFileError
 from e2esim.io.safe_h5 import H5Reader
+from e2esim.orbit.real.eocfi import file_head
 from e2esim.orbit.real.trajectory import StateVectorTrajectory, check_state_vectors
 
 POSITION_UNITS = ("meters", "meter", "m")
 VELOCITY_UNITS = ("meters per second", "meters / second", "meters/second", "m/s", "m s-1", "m.s-1")
+HDF5_SIGNATURE = b"\x89HDF\r\n\x1a\n"
 _EPOCH = re.compile(r"^\s*seconds\s+since\s+(\d{4}-\d\d-\d\d)[T ](\d\d:\d\d:\d\d(?:\.\d+)?)\s*(?:Z|UTC)?\s*$")
 
 
@@ -54,18 +56,14 @@ def find_orbit_group(reader: H5Reader) -> str:
 
 def read_nisar_orbit(path, group: str | None = None) -> StateVectorTrajectory:
     """The state vectors of a NISAR orbit group (module docstring) as an interpolated trajectory."""
-    try:
-        with open(path, "rb") as fh:
-            if fh.read(8) != b"\x89HDF\r\n\x1a\n":
-                raise PhysicsInputError(f"{path}: not an HDF5 file (no HDF5 signature at its start; a truncated "
-                                        "download?); a NISAR product is HDF5")
-    except OSError as exc:
-        raise PhysicsInputError(f"{path}: cannot open the NISAR orbit file: {exc.strerror or exc}") from exc
+    if not file_head(path, "NISAR orbit file").startswith(HDF5_SIGNATURE):
+        raise PhysicsInputError(f"{path}: not an HDF5 file (no HDF5 signature at its start); a NISAR product is HDF5")
     try:
         with H5Reader(path, "NISAR orbit file") as r, r.guard():
             return _read(r, group)
     except ResultsFileError as exc:
-        raise PhysicsInputError(str(exc).replace("results.h5 of an e2esim run", "NISAR product")) from exc
+        text = str(exc).replace("; a NISAR orbit file is the results.h5 of an e2esim run", " (a truncated download?)")
+        raise PhysicsInputError(text) from exc
 
 
 def _read(r: H5Reader, group: str | None) -> StateVectorTrajectory:
@@ -98,7 +96,7 @@ def _read(r: H5Reader, group: str | None) -> StateVectorTrajectory:
     for name in ("orbitType", "interpMethod"):
         node = r.get(f"{base}/{name}", required=False)
         if node is not None:
-            text = r.read_text(node, ())
+            text = r.read_text(node, node.shape)
             kind += f", {name} {str(np.asarray(text).reshape(-1)[0]).strip()}"
     return StateVectorTrajectory(source=str(r.path), kind=kind, epoch=epoch, start_s=float(t[0]), end_s=float(t[-1]),
                                  t_s=np.asarray(t, float), position=np.asarray(pos, float),
