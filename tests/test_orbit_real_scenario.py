@@ -168,3 +168,11 @@ def test_dawn_and_dusk_passes_come_from_the_orbit_plane():
     assert BiomassOrbitFile(file=str(path), passes="dawn", site=SIBERIA).geometry.pass_name.tolist() == ["ascending"]
     with pytest.raises(Exception, match=r"does not image site siberia .* 1 on a pass not asked for"):
         BiomassOrbitFile(file=str(path), passes="dusk", site=SIBERIA)
+
+
+def test_a_tle_without_the_orbits_extra(tmp_path, capsys, monkeypatch):
+    import sys
+
+    monkeypatch.setitem(sys.modules, "sgp4.api", None)
+    err = _bad(tmp_path, capsys, SCENARIOS / "orbits" / "biomass_like.tle")
+    assert "needs the optional extra 'orbits' (sgp4.api is not installed): pip install 'e2esim[orbits]'" in err
