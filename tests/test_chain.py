@@ -85,7 +85,8 @@ def test_validate_reports_a_missing_product_with_exit_status_2(tmp_path, capsys)
     assert main(["validate", str(path)]) == 2
     err = capsys.readouterr().err
     assert f"{path}:3: ionosphere: ionosphere type 'iri_climatology' needs the product 'geometry'" in err
-    assert "modules that provide it: orbit.biomass_orbit, orbit.sun_synchronous" in err
+    assert ("modules that provide it: orbit.biomass_orbit, orbit.biomass_orbit_file, orbit.orbit_file, "
+            "orbit.sun_synchronous") in err
 
 
 def test_products_are_never_replaced_and_are_type_checked():

@@ -171,7 +171,7 @@ def test_latitude_band_and_missing_orbit(tmp_path):
                    "ionosphere": {"type": "iri_climatology", "cache_dir": str(tmp_path)}})
     with pytest.raises(ConfigError, match=r"ionosphere type 'iri_climatology' needs the product 'geometry', which no "
                        r"stage of this chain provides.*modules that provide it: orbit.biomass_orbit, "
-                       r"orbit.sun_synchronous") as info:
+                       r"orbit.biomass_orbit_file, orbit.orbit_file, orbit.sun_synchronous") as info:
         sc.resolve()
     assert "<scenario>: ionosphere" in str(info.value)
 

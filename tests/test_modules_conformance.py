@@ -1,6 +1,7 @@
 """Every registered module passes the conformance check (e2esim.testing)."""
 
 import itertools
+from pathlib import Path
 
 import pytest
 
@@ -9,6 +10,8 @@ from e2esim import registry
 from e2esim.module import Stage
 from e2esim.params import Param
 from e2esim.testing import check_declaration, check_module
+
+_ORBITS = Path(__file__).resolve().parents[1] / "scenarios" / "orbits"
 
 # Configurations for modules whose defaults alone are not a complete configuration.
 CONFIGS = {
@@ -19,6 +22,10 @@ CONFIGS = {
     ("orbit", "sun_synchronous"): {"altitude_km": 747.0, "ltan_hours": 18.0, "incidence_near_deg": 33.0,
                                    "incidence_far_deg": 47.0, "site": {"lat_deg": -0.2, "lon_deg": 11.6}},
     ("orbit", "biomass_orbit"): {"site": {"lat_deg": 60.0, "lon_deg": 92.0}, "acquisitions": {"step_days": 90}},
+    ("orbit", "biomass_orbit_file"): {"file": str(_ORBITS / "biomass_circular_siberia.EOF"),
+                                      "site": {"lat_deg": 60.0, "lon_deg": 92.0}},
+    ("orbit", "orbit_file"): {"file": str(_ORBITS / "biomass_like.tle"), "incidence_near_deg": 23.0,
+                              "incidence_far_deg": 34.0, "site": {"lat_deg": 60.0, "lon_deg": 92.0}},
     ("ionosphere", "user_tec"): {"vtec_tecu": 20.0},
     ("ionosphere", "iri_climatology"): {"cache_dir": "off", "method": "thin_shell", "variability_nodes": 3},
     ("ionosphere", "global_climatology"): {"lat_deg": 5.0, "lon_deg": 15.0, "month": 3, "grid_step_deg": 10.0,

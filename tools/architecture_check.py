@@ -52,6 +52,7 @@ LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
             "e2esim.atomic",
             "e2esim.allocator",
             "e2esim.input_files",
+            "e2esim.io.safe_h5",  # checked reading of a user's HDF5 file: physics readers (NISAR orbits) use it too
             "e2esim.key_paths",
             "e2esim.units",
             "e2esim.settings",

@@ -21,6 +21,7 @@ EXTRAS = {
     "products": ("AGB maps read from product files (NetCDF, GeoTIFF) by scene.agb_map; e2esim uncertainty on a "
                  "BIOMASS L1 or NISAR GCOV product", ("xarray", "netCDF4", "rioxarray", "rasterio")),
     "cluster": ("sweeps on a dask.distributed cluster (e2esim run --scheduler)", ("distributed",)),
+    "orbits": ("two-line element sets propagated with SGP4 (orbit type orbit_file with a TLE)", ("sgp4",)),
 }
 """{extra: (what it is for, the modules it brings, as imported)}."""
 

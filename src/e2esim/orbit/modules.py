@@ -18,7 +18,7 @@ from e2esim.params import Ordered, Param, ParamGroup, with_defaults
 
 PASS_CHOICES = ("both", "ascending", "descending", "dawn", "dusk")
 
-_SITE = ParamGroup("site", "the target imaged", (
+_SITE = SITE_PARAMS = ParamGroup("site", "the target imaged", (
     Param("name", "str", "label of the site", default="site"),
     Param("lat_deg", "float", "geocentric latitude", unit="deg", minimum=-90.0, maximum=90.0),
     Param("lon_deg", "float", "east longitude", unit="deg", minimum=-180.0, maximum=360.0),
