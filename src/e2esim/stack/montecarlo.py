@@ -123,8 +123,7 @@ def simulate_stack(scene: StackScene, errors: StackSystemErrors, faraday: StackF
 
 
 def _combine(combination: PassCombination, w: np.ndarray) -> np.ndarray:
-    """sum_r c_r sum_nm w_rn w_rm^* W[n, :, m, :] = sum_nm Q_mn W[n, :, m, :] for W of shape (..., N, 3, N, 3): the
-    combinations folded into Q (``PassCombination.matrix``) once, then one contraction over the pass pairs (a
-    four-operand einsum over the realisations costs 9x more for the 7 passes of a tomographic stack)."""
-    return np.einsum("nm,...nimj->...ij", combination.matrix.T, w)
+    """sum_r c_r sum_nm w_rn w_rm^* W[n, :, m, :] for W of shape (..., N, 3, N, 3)."""
+    cw = combination.weights
+    return np.einsum("r,rn,rm,...nimj->...ij", combination.coefficients, cw, cw.conj(), w)
 
