@@ -126,3 +126,17 @@ def test_one_scene_needs_enough_looks(rng):
     errors, faraday = stack_errors()
     with pytest.raises(PhysicsInputError, match="needs at least 3N = 9 looks, got 5"):
         simulate_stack(scene, errors, faraday, combos.multi_date(3), rng, 5, 10, 1, "scene")
+
+
+@pytest.mark.parametrize("phase", ["interferometric", "tomographic"])
+def test_the_combined_covariance_of_every_realisation_is_the_sum_over_combinations(rng, phase):
+    # sum_r c_r sum_nm w_rn w_rm^* W[n, :, m, :], the processor's combination written out, for the ground
+    # cancellation (several combinations, complex weights) of 3 and 7 passes
+    from e2esim.stack.montecarlo import _combine
+
+    combination = combos.interpolated(site_scene("boreal", phase).acquisitions.kz_rad_m)
+    n = combination.passes
+    w = rng.standard_normal((5, n, 3, n, 3)) + 1j * rng.standard_normal((5, n, 3, n, 3))
+    written_out = sum(c * np.einsum("n,m,knimj->kij", wr, wr.conj(), w)
+                      for c, wr in zip(combination.coefficients, combination.weights))
+    np.testing.assert_allclose(_combine(combination, w), written_out, rtol=1e-13, atol=1e-13 * np.abs(w).max())

@@ -111,3 +111,37 @@ def test_random_faraday_rotation_tightens_the_crosstalk_limit():
         "crosstalk_limit"
     ]
     assert spread < fixed
+
+
+def _counting(fn):
+    """``fn`` with the number of distinct levels it was asked at (what a costly level pays for)."""
+    seen = set()
+
+    def violation(v):
+        seen.update(np.unique(np.asarray(v)).tolist())
+        return fn(np.asarray(v))
+
+    return violation, seen
+
+
+def test_a_bisected_scan_finds_the_full_scans_limit_bit_for_bit_at_a_fifth_of_the_levels():
+    # each element its own root (in range, below the grid, above it), a block of cases and one case
+    roots = np.array([[3e-7, 1e-13, 2.0], [5e-3, 0.7, 1e-11]])
+    for shape, fn in [((2, 3), lambda v: np.log(v) - np.log(roots)[..., None]),
+                      ((), lambda v: np.tanh(1e3 * (v - 2.5e-5)))]:
+        full, full_seen = _counting(fn)
+        bisected, bisected_seen = _counting(fn)
+        expected = first_failing_level(full, shape)
+        got = first_failing_level(bisected, shape, bisect=True)
+        np.testing.assert_array_equal(got, expected)  # NaN, +inf and the refined roots alike
+        if shape == ():  # the same refinement; the grid's 25 levels become its two ends and five midpoints
+            assert len(bisected_seen) <= len(full_seen) - 25 + 7, (len(bisected_seen), len(full_seen))
+
+
+def test_the_stack_models_margin_over_the_faraday_difference_bisects_its_scan():
+    # the level whose every value needs new Faraday-rotation nodes; the others are scanned in one evaluation
+    from e2esim.stack.error_model import StackHVErrorModel
+    from e2esim.stack.joint_model import StackJointErrorModel
+
+    assert StackHVErrorModel.costly_levels == ("faraday_difference",) == StackJointErrorModel.costly_levels
+    assert HVErrorModel.costly_levels == ()

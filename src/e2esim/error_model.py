@@ -67,6 +67,9 @@ class ErrorModel(ABC):
     notes : remarks for the report (e.g. why the analytic model was not used).
     validity : the measured validity range of the analytic moments (``e2esim.distortion.validity.ValidityRange``:
         margins and trade-off curves search the levels up to its edge), or None when not known.
+    costly_levels : levels whose every value costs the model a computation of its own (new quadrature nodes):
+        a margin's search bisects its scan grid over them instead of evaluating all of it
+        (``e2esim.requirements.tradeoff.first_failing_level``).
     """
 
     channel: str = "hv"
@@ -74,6 +77,7 @@ class ErrorModel(ABC):
     includes_speckle: bool = False
     notes: tuple = ()
     validity = None
+    costly_levels: tuple = ()
 
     @property
     @abstractmethod
@@ -284,6 +288,7 @@ class DerivedErrorModel(ErrorModel):
     includes_speckle = _of_source("includes_speckle")
     notes = _of_source("notes")
     validity = _of_source("validity")
+    costly_levels = _of_source("costly_levels")
 
     def moments(self, **levels) -> Moments:
         self.check_available()

@@ -89,7 +89,7 @@ def level_margins(bounds, convention: str, stated_db: dict | None = None) -> dic
         for bound in bounds:
             def violation(levels, bound=bound, level=level):
                 return bound.violation_at(**{level: levels})
-            limits.append(first_failing_level(violation, cases))
+            limits.append(first_failing_level(violation, cases, bisect=level in getattr(model, "costly_levels", ())))
         limit = np.minimum.reduce(limits)
         limit = np.where(np.any(np.isnan(limits), axis=0), np.nan, limit)
         if level in INSTRUMENT_LEVELS:

@@ -141,12 +141,16 @@ class ModelBound:
         return requirement_violation(self.requirement, self.model, **levels)
 
 
-def first_failing_level(violation, shape=(), search_range=LEVEL_SEARCH_RANGE) -> np.ndarray:
+def first_failing_level(violation, shape=(), search_range=LEVEL_SEARCH_RANGE, bisect: bool = False) -> np.ndarray:
     """Smallest level V in ``search_range`` at which ``violation(V) > 0``, element-wise.
 
     violation : vectorised function of an array of levels of shape ``shape + (k,)`` returning the
         same shape. Returns shape ``shape``: NaN where the requirement already fails at the lowest level,
         +inf where it still holds at the highest.
+    bisect : find the scan's bracket by bisecting the grid (``_bisected_scan``: some five evaluations of one
+        level each instead of one of all 25), for a level whose every value costs a computation of its own
+        (``ErrorModel.costly_levels``); the same bracket, and so the same limit, where the violation changes
+        sign once.
 
     A log-spaced scan brackets the first sign change (two points per decade), then the Illinois variant of
     regula falsi, on log10 V and vectorised over all elements, refines it to a relative precision of about
@@ -155,18 +159,23 @@ def first_failing_level(violation, shape=(), search_range=LEVEL_SEARCH_RANGE) ->
     """
     lo, hi = search_range
     grid = np.linspace(np.log10(lo), np.log10(hi), _SCAN_POINTS)
-    values = violation(np.broadcast_to(10.0**grid, tuple(shape) + grid.shape))
-    fails = values > 0
-    first = np.argmax(fails, axis=-1)
+    if bisect:
+        first, fa, fb, fails_first, fails_any = _bisected_scan(violation, tuple(shape), grid)
+    else:
+        values = violation(np.broadcast_to(10.0**grid, tuple(shape) + grid.shape))
+        fails = values > 0
+        first = np.argmax(fails, axis=-1)
+        below = np.maximum(first - 1, 0)
+        fa = np.take_along_axis(values, below[..., None], -1)[..., 0]
+        fb = np.take_along_axis(values, first[..., None], -1)[..., 0]
+        fails_first, fails_any = fails[..., 0], fails.any(axis=-1)
     result = np.full(shape, np.inf)
-    result[fails[..., 0]] = np.nan
-    todo = fails.any(axis=-1) & ~fails[..., 0]
+    result[fails_first] = np.nan
+    todo = fails_any & ~fails_first
     if not np.any(todo):
         return result
     below = np.maximum(first - 1, 0)
     a, b = grid[below], grid[first]
-    fa = np.take_along_axis(values, below[..., None], -1)[..., 0]
-    fb = np.take_along_axis(values, first[..., None], -1)[..., 0]
     fa, fb = np.where(todo, fa, -1.0), np.where(todo, fb, 1.0)  # harmless brackets where nothing to do
     b = np.where(fa == 0, a, b)  # the lower end is the root itself
     last = np.zeros(shape, dtype=int)  # +1: b moved last step, -1: a moved last step
@@ -189,6 +198,30 @@ def first_failing_level(violation, shape=(), search_range=LEVEL_SEARCH_RANGE) ->
             break
     result[todo] = (10.0 ** (0.5 * (a + b)))[todo]
     return result
+
+
+def _bisected_scan(violation, shape: tuple, grid: np.ndarray) -> tuple:
+    """The scan of ``first_failing_level`` by bisection of its grid: (index of the first failing grid point (0
+    where none is, or the first is), the violation at the point below it and at it, whether the first point fails,
+    whether any does), element-wise. The ends first: NaN's and +inf's cases as the full scan finds them where the
+    violation changes sign once; between a passing and a failing point, the midpoint's sign halves the bracket
+    until its ends are neighbours. Each evaluation is at one level per element, at the grid's own values."""
+    def at(index):
+        return violation((10.0 ** grid[index])[..., None])[..., 0]
+
+    low, high = np.zeros(shape, dtype=int), np.full(shape, grid.size - 1)
+    f_low, f_high = at(low), at(high)
+    fails_first, fails_any = f_low > 0, (f_low > 0) | (f_high > 0)
+    open_ = ~fails_first & fails_any
+    while np.any(open_ & (high - low > 1)):
+        mid = np.where(open_ & (high - low > 1), (low + high) // 2, high)
+        f_mid = at(mid)
+        fail = f_mid > 0
+        moved = open_ & (mid != high)
+        high, f_high = np.where(moved & fail, mid, high), np.where(moved & fail, f_mid, f_high)
+        low, f_low = np.where(moved & ~fail, mid, low), np.where(moved & ~fail, f_mid, f_low)
+    first = np.where(open_, high, 0)
+    return first, f_low, f_high, fails_first, fails_any
 
 
 TRADEOFF_LEVELS = ("crosstalk", "channel_imbalance")

@@ -59,6 +59,8 @@ class StackModelBase(ModelEvaluation):
     kernel_memo: Any = field(default=None, repr=False, compare=False, kw_only=True)
     """The run's ``KernelMemo`` (``case.services.memo``) or None: node terms found again by value across cases."""
     plain_transient = ("_memo", "kernel_memo")  # caches of evaluations (node terms of every level searched)
+    costly_levels = ("faraday_difference",)
+    """Every Faraday-rotation difference needs the node terms computed anew (``ErrorModel.costly_levels``)."""
 
     @property
     def includes_speckle(self) -> bool:
