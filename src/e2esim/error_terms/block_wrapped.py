@@ -12,7 +12,7 @@ then any axes of the levels asked, then the channel axis): each number is, bit f
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 
 import numpy as np
 

@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import math
 import re
-
 from typing import ClassVar
 
 from e2esim.error_terms.block_case import case_of
