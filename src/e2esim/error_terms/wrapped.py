@@ -162,8 +162,10 @@ def wrapped(base: ErrorModel, effect) -> ErrorModel:
 
 
 def with_notes(model, notes: tuple):
-    """The wrapped ``model`` with ``notes`` added to its own (a stage's remarks on how the case ran)."""
-    model.added_notes = (*model.added_notes, *notes)
+    """The wrapped ``model`` with ``notes`` added to its own (a stage's remarks on how the case ran); a model that a
+    plug-in's ``wrap`` made some other way is left as it is."""
+    if isinstance(model, _Wrapped):
+        model.added_notes = (*model.added_notes, *notes)
     return model
 
 
