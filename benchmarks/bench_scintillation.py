@@ -11,7 +11,7 @@ Prints, in one run:
    same run, the per-case engine on a part of that region, each in one process; each as seconds per case (the run of the
    resolved scenario, no outputs written), extrapolated to the full map's case count (counted from the resolved
    scenario) over two cores and printed as such: an estimate, not a measurement of the full map, which
-   ``--full-map`` runs instead (batched engine, two workers; hours at today's speed).
+   ``--full-map`` runs instead (batched engine, two workers; minutes at today's speed).
 Run with ``python benchmarks/bench_scintillation.py`` (``--quick`` for a smoke run; ``--skip-map`` leaves figure 3
 out).
 """
