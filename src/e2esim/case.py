@@ -74,6 +74,56 @@ class LazyMapping(Mapping):
         return name in self._names()
 
 
+class SweepInputs(Mapping):
+    """A case's sweep inputs, read from the sweep table (``e2esim.runner.sweep.SweepTable``, or None: no sweep) when
+    a stage asks (stages seldom do)."""
+
+    def __init__(self, table, index: int):
+        self._table, self._index, self._inputs = table, index, None
+
+    def _all(self) -> dict:
+        if self._inputs is None:
+            self._inputs = {} if self._table is None else self._table.inputs(self._index)
+        return self._inputs
+
+    def __getitem__(self, key):
+        return self._all()[key]
+
+    def __iter__(self):
+        return iter(self._all())
+
+    def __len__(self) -> int:
+        return len(self._all())
+
+
+class ItemProducts(LazyMapping, Products):
+    """One case's products of a block (``e2esim.block``), each made from the block's product (``item``) when a
+    stage reads it."""
+
+    __slots__ = ("_block", "_made", "_position")
+
+    def __init__(self, block_products: Mapping, position: int):
+        super().__init__({})
+        self._block, self._position, self._made = block_products, position, {}
+
+    def __getitem__(self, name):
+        if name not in self._made:
+            if name not in self._block:
+                have = ", ".join(self._block) or "none"
+                raise KeyError(f"product {name!r} is not in the case (products so far: {have})")
+            self._made[name] = self._block[name].item(self._position)
+        return self._made[name]
+
+    def _names(self):
+        return self._block
+
+    def get(self, name, default=None):
+        return self[name] if name in self._block else default
+
+    def __reduce__(self):
+        return (Products, ({name: self[name] for name in self._block},))
+
+
 class KernelMemo:
     """What a run's kernels computed, kept in memory and found again by the content it was computed from (a key a
     kernel derives from the bytes of its inputs, never an id()): cases of a sweep that share a geometry share the

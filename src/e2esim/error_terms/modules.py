@@ -12,11 +12,14 @@ from __future__ import annotations
 
 import math
 import re
+from typing import ClassVar
 
+from e2esim.error_terms.block_case import case_of
+from e2esim.error_terms.block_wrapped import block_wrapped, same_outputs
 from e2esim.error_terms.effects import AddedPower, ExtraVariance, LogNormalGain
 from e2esim.error_terms.wrapped import base_samples_shape, wrapped
 from e2esim.errors import PhysicsInputError
-from e2esim.module import Module, fail
+from e2esim.module import Module, fail, fast_path
 from e2esim.params import Param
 
 _NAME = re.compile(r"^[a-z][a-z0-9_]*$")
@@ -55,19 +58,55 @@ class ErrorTerm(Module):
         """The sources (and levels) the term adds: its ``source``; a term that adds several says which."""
         return (self.source,)
 
+    effects_take_blocks: ClassVar[bool] = False
+    """True when ``case_effects`` (and ``effect``) may be asked for each case of a block from its one-case view
+    (``e2esim.error_terms.block_case``): they read the case only through its products, inputs and settings, and
+    draw from ``case.rng`` only when they must (a draw hands the block back). The stage then wraps a block's
+    batched error model at once (``wrap_block``). A subclass that overrides ``effect``, ``case_effects`` or
+    ``wrap`` without saying so again runs case by case (``e2esim.module.fast_path``), and the run's notes say so."""
+    fast_path_hooks: ClassVar[tuple] = ("effect", "wrap", "wrap_block")
+
     def effect(self, case, model):
         """The ``Effect`` of this term on ``model`` (the error model it wraps) in ``case``."""
         raise NotImplementedError
 
+    def case_effects(self, case, model) -> tuple:
+        """The ``Effect``s of this term in ``case``, wrapped in order: ``(effect(case, model),)``; a term that adds
+        several sources gives one per source."""
+        return (self.effect(case, model),)
+
+    @property
+    def takes_blocks(self) -> bool:
+        """Whether this term's effects may be made from a block's cases (``effects_take_blocks``, as
+        ``e2esim.module.fast_path`` checks it)."""
+        return fast_path(self, "effects_take_blocks", "case_effects") is not None
+
     def wrap(self, model, case):
-        """``model`` with this term's source; its random numbers drawn from ``case.rng`` when the model has
+        """``model`` with this term's sources; their random numbers drawn from ``case.rng`` when the model has
         Monte Carlo samples."""
-        effect = self.effect(case, model)
+        effects = self.case_effects(case, model)
         shape = base_samples_shape(model)
-        if shape is not None:
-            effect = effect.draw(case.rng, shape)
+        for effect in effects:
+            if shape is not None:
+                effect = effect.draw(case.rng, shape)
+            model = self._wrapped(wrapped, model, effect)
+        return model
+
+    def wrap_block(self, model, block):
+        """``model``, the batched single-channel error model of ``block``, with this term's sources in every case:
+        each case's effects from its one-case view and model (``e2esim.error_terms.block_case``); the block is
+        handed back (``NotBatched``) where an effect draws or the cases' effects report different scalars."""
+        per_case = [self.case_effects(case_of(block, i), model.item(i)) for i in range(len(block))]
+        for k in range(len(per_case[0])):
+            effects = [effects[k] for effects in per_case]
+            if not same_outputs(effects):
+                block.per_case(f"{self.identity}: the cases' effects report different output scalars")
+            model = self._wrapped(block_wrapped, model, effects)
+        return model
+
+    def _wrapped(self, make, model, effect):
         try:
-            return wrapped(model, effect)
+            return make(model, effect)
         except ValueError as exc:
             raise fail(self, str(exc), "give the term another source name", key="source") from exc
 
@@ -85,6 +124,8 @@ class AddedNoise(ErrorTerm):
               "remains)", default=False),
         source_param("added_noise"),
     )
+
+    effects_take_blocks = True
 
     def effect(self, case, model):
         return AddedPower(self.source, self.si["power_linear"], "added noise power (Ahmed et al. 2014, eq. 21)",
@@ -104,6 +145,8 @@ class GainError(ErrorTerm):
         source_param("gain_error"),
     )
 
+    effects_take_blocks = True
+
     def effect(self, case, model):
         s = self.si["sd_db"] * math.log(10.0) / 10.0
         return LogNormalGain(self.source, s * s, "multiplicative gain error (log-normal)",
@@ -121,6 +164,8 @@ class ExtraRelativeVariance(ErrorTerm):
               minimum=0.0),
         source_param("extra_variance"),
     )
+
+    effects_take_blocks = True
 
     def effect(self, case, model):
         r = self.si["relative_sd_fraction"]

@@ -31,7 +31,6 @@ from pathlib import Path
 from e2esim.error_terms.effects import AddedPower, ExtraVariance, FixedGain
 from e2esim.error_terms.modules import MAP_CELL_KEYS, ErrorTerm, source_param
 from e2esim.error_terms.notch import POSITIONS, notch_response
-from e2esim.error_terms.wrapped import base_samples_shape, wrapped
 from e2esim.module import fail
 from e2esim.params import AtMostOneOf, Param
 from e2esim.scene.lat_lon_raster import read_lat_lon_raster
@@ -129,17 +128,10 @@ class RFITerm(ErrorTerm):
                 AddedPower(residual_source, residual, "RFI: residual interference power (Ahmed et al. 2014, eq. "
                            "21)", looks=max(int(looks * kept), 1)))
 
-    def wrap(self, model, case):
-        """``model`` with the three sources in turn (random numbers drawn from ``case.rng`` for Monte Carlo)."""
-        shape = base_samples_shape(model)
-        for effect in self.effects(case):
-            if shape is not None:
-                effect = effect.draw(case.rng, shape)
-            try:
-                model = wrapped(model, effect)
-            except ValueError as exc:
-                raise fail(self, str(exc), "give the term another source name", key="source") from exc
-        return model
+    effects_take_blocks = True
+
+    def case_effects(self, case, model) -> tuple:
+        return self.effects(case)
 
 
 __all__ = ["CELL_KEYS", "RFITerm"]

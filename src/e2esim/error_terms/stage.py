@@ -6,14 +6,25 @@ Its ``forward`` runs that stage's ``forward`` and hands the error model through 
 the previous model with its source (``ErrorTerm.wrap``); the chain sees only the wrapped model. So every later
 stage (the budget, the retrieval, the requirements) asks the model with every term in it, and the propagation's
 own model is never a product of the case (``e2esim.error_terms.wrapped.innermost`` finds it under the wrappers).
-Without error terms the chain has no such stage. The composite's ``forward`` takes no blocks: a case with
-error terms runs case by case in both engines (the reference path), so both give the same numbers.
+Without error terms the chain has no such stage.
+
+The composite's ``forward`` takes blocks (``e2esim.module.batched_run``) when the propagation's does: the
+propagation's ``forward`` over the block, then each term wraps the block's batched model with every case's effects
+(``ErrorTerm.wrap_block``, ``e2esim.error_terms.block_wrapped``), each number bit for bit the one the case gets
+alone. It hands the block back, so that its cases run one by one, where the propagation does (a Monte Carlo, a
+multi-channel model), where a term draws random numbers, and where a term does not declare that its effects may
+be made from a block's cases (``ErrorTerm.effects_take_blocks``: a plug-in's term that does not say so): the
+error model's notes then say which term ran case by case.
 """
 
 from __future__ import annotations
 
+from e2esim.block import Batched
+from e2esim.error_model import MultiChannelErrorModel
+from e2esim.error_terms.wrapped import with_notes
 from e2esim.errors import ConfigError
 from e2esim.kinds import Kind
+from e2esim.module import fast_path
 
 PRODUCT = "backscatter.error"
 
@@ -54,11 +65,39 @@ class ErrorTermStack:
     def identity(self) -> str:
         return f"{self.propagation.identity} with the error terms {', '.join(t.source for t in self.terms)}"
 
+    forward_takes_blocks = True
+
+    @property
+    def case_by_case(self) -> tuple:
+        """The terms whose effects are not made from a block's cases (``ErrorTerm.takes_blocks``)."""
+        return tuple(t for t in self.terms if not t.takes_blocks)
+
     def forward(self, case) -> dict:
+        if not case.alone:
+            return self._forward_block(case)
         out = dict(self.propagation.forward(case))
         model = out[PRODUCT]
         for term in self.terms:
             model = term.wrap(model, case)
+        slow = self.case_by_case
+        if slow:
+            model = with_notes(model, (f"error terms run case by case (their effects do not declare "
+                                       f"effects_take_blocks): {', '.join(t.identity for t in slow)}",))
+        out[PRODUCT] = model
+        return out
+
+    def _forward_block(self, block) -> dict:
+        """The products of a block at once (module docstring), or the block handed back."""
+        if self.case_by_case:
+            block.per_case(f"error terms whose effects do not take blocks: {self.case_by_case[0].identity}")
+        if fast_path(self.propagation) is None:
+            block.per_case(f"{self.propagation.identity} runs case by case")
+        out = dict(self.propagation.forward(block))
+        model = out[PRODUCT]
+        if not isinstance(model, Batched) or isinstance(model, MultiChannelErrorModel):
+            block.per_case("the propagation's error model was made case by case")
+        for term in self.terms:
+            model = term.wrap_block(model, block)
         out[PRODUCT] = model
         return out
 

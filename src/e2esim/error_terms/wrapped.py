@@ -42,7 +42,8 @@ class _Wrapped:
 
     unavailable = property(lambda self: self.base.unavailable)
     includes_speckle = property(lambda self: self.base.includes_speckle)
-    notes = property(lambda self: self.base.notes)
+    added_notes: tuple = ()  # remarks of the error-term stage (``with_notes``)
+    notes = property(lambda self: (*self.base.notes, *self.added_notes))
     validity = property(lambda self: self.base.validity)  # the effects are exact: the base model's range holds
 
     @property
@@ -160,6 +161,14 @@ def wrapped(base: ErrorModel, effect) -> ErrorModel:
     return kind(base, effect)
 
 
+def with_notes(model, notes: tuple):
+    """The wrapped ``model`` with ``notes`` added to its own (a stage's remarks on how the case ran); a model that a
+    plug-in's ``wrap`` made some other way is left as it is."""
+    if isinstance(model, _Wrapped):
+        model.added_notes = (*model.added_notes, *notes)
+    return model
+
+
 def base_samples_shape(model: ErrorModel) -> tuple | None:
     """(M, N, C) of the model's Monte Carlo relative errors (C = 1 for a single channel), or None."""
     if isinstance(model, MultiChannelErrorModel):
@@ -177,4 +186,4 @@ def innermost(model: ErrorModel) -> ErrorModel:
 
 
 __all__ = ["SCALARS", "WrappedErrorModel", "WrappedMultiChannelErrorModel", "base_samples_shape", "innermost",
-           "wrapped"]
+           "with_notes", "wrapped"]

@@ -13,13 +13,12 @@ a million-case sweep are each made once, and read once (``e2esim.block.Catalog``
 
 from __future__ import annotations
 
-from collections.abc import Mapping
 from types import MappingProxyType
 
 import numpy as np
 
 from e2esim.block import Batched, Block, CaseRandom, Catalog, Factor, IdentityKey
-from e2esim.case import Case, LazyMapping, Products
+from e2esim.case import Case, ItemProducts, SweepInputs
 from e2esim.distinct import distinct_rows
 from e2esim.module import batched_run
 from e2esim.runner.stage_products import checked_products
@@ -47,54 +46,6 @@ class StageMemo:
     def next_block(self) -> None:
         if any(c.volatile or len(c) > self.size for c in self.catalogs.values()):
             self.catalogs, self.made = {}, {}
-
-
-class _LazyInputs(Mapping):
-    """A case's sweep inputs, read from the sweep table when a stage asks (stages seldom do)."""
-
-    def __init__(self, table, index: int):
-        self._table, self._index, self._inputs = table, index, None
-
-    def _all(self) -> dict:
-        if self._inputs is None:
-            self._inputs = self._table.inputs(self._index)
-        return self._inputs
-
-    def __getitem__(self, key):
-        return self._all()[key]
-
-    def __iter__(self):
-        return iter(self._all())
-
-    def __len__(self) -> int:
-        return len(self._all())
-
-
-class _CaseProducts(LazyMapping, Products):
-    """One case's products of a block, made from the block's products when a stage reads them."""
-
-    __slots__ = ("_block", "_made", "_position")
-
-    def __init__(self, block_products: dict, position: int):
-        super().__init__({})
-        self._block, self._position, self._made = block_products, position, {}
-
-    def __getitem__(self, name):
-        if name not in self._made:
-            if name not in self._block:
-                have = ", ".join(self._block) or "none"
-                raise KeyError(f"product {name!r} is not in the case (products so far: {have})")
-            self._made[name] = self._block[name].item(self._position)
-        return self._made[name]
-
-    def _names(self):
-        return self._block
-
-    def get(self, name, default=None):
-        return self[name] if name in self._block else default
-
-    def __reduce__(self):
-        return (Products, ({name: self[name] for name in self._block},))
 
 
 class BlockRun:
@@ -226,8 +177,8 @@ class BlockRun:
 
     def _forward(self, stage, settings, position: int, random) -> dict:
         index = int(self.indices[position])
-        case = Case(index=index, inputs=_LazyInputs(self.plan.table, index), settings=settings, rng=random,
-                    products=_CaseProducts(self.products, position), services=self.services)
+        case = Case(index=index, inputs=SweepInputs(self.plan.table, index), settings=settings, rng=random,
+                    products=ItemProducts(self.products, position), services=self.services)
         return checked_products(stage, stage.forward(case))
 
 

@@ -142,6 +142,8 @@ class ScintillationSigma0(ScintillationTerm):
                     minimum=0.0, maximum=1.0),
               source_param("scintillation_sigma0"))
 
+    effects_take_blocks = True
+
     def effect(self, case, model):
         screens = self.screens(case)
         return DistributedTargetFactor(
@@ -168,6 +170,8 @@ class ScintillationCalibration(ScintillationTerm):
                     default=2, minimum=1),
               source_param("scintillation_calibration"))
 
+    effects_take_blocks = True
+
     def effect(self, case, model):
         screens = self.screens(case, self.si["site_lat_rad"], self.si["site_lon_rad"])
         mean_z, second_z = peak_log_loss(case.rng, self.acquisitions(case), self.screen_settings(case), screens)
@@ -191,6 +195,8 @@ class ScintillationFaraday(ScintillationTerm):
               Param("window_km", "float", "side of the Faraday-rotation estimation window on the ground (Quegan "
                     "et al. 2018, Section 2: 2 km)", default=2.0, unit="km", exclusive_minimum=0.0),
               source_param("scintillation_faraday"))
+
+    effects_take_blocks = True
 
     def effect(self, case, model):
         geometry = case["geometry"]

@@ -40,6 +40,8 @@ class ScintillationTerm(ErrorTerm):
     params = (source_param("scintillation"),)
     needs = ("ionosphere.scintillation",)
 
+    effects_take_blocks = True  # its effect reads the case's products and settings only, draws nothing
+
     def effect(self, case, model):
         return GammaFactor(self.source, case["ionosphere.scintillation"].variance,
                            "amplitude scintillation (multiplicative intensity factor)")
@@ -55,6 +57,8 @@ class QuantisationTerm(ErrorTerm):
               "(default: optimum 3-bit quantiser, Max 1960)", default=round(float(MAX_3BIT_SQNR_DB), 2), unit="dB"),
         source_param("quantisation"),
     )
+
+    effects_take_blocks = True  # its effect reads the case's products and settings only, draws nothing
 
     def effect(self, case, model):
         values = np.atleast_1d(np.asarray(getattr(model, "values", model.value), dtype=float))

@@ -1,0 +1,177 @@
+"""A block of single-channel error models, each with one more error source: what ``WrappedErrorModel`` is for a case
+alone, over the leading case axis of a batched error model (``e2esim.block.Batched``).
+
+``BlockWrappedModel(base, effects)``: ``base`` is the batched model of the block (the propagation's, or the previous
+term's), ``effects`` the ``Effect`` of every case (``Values``: each distinct effect stored once). Every question
+(moments at changed levels, ``without`` a source, contributions, output scalars) is answered with the one-case
+equations of ``WrappedErrorModel`` (``e2esim.error_terms.effects``), evaluated once per distinct effect over the
+cases that have it, with those cases' arrays in the shapes the one-case model gives them (the case axis in front,
+then any axes of the levels asked, then the channel axis): each number is, bit for bit, what the case gets alone
+(``item``; tests/test_error_terms_block.py).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from e2esim.block import Batched, Values
+from e2esim.error_model import Contribution, ErrorModel, Moments
+from e2esim.error_terms.wrapped import wrapped
+
+
+def _leading(x: np.ndarray, rows, ndim: int) -> np.ndarray:
+    """The cases ``rows`` of ``x`` (case axis first) with trailing length-1 axes up to ``ndim`` axes; a value with no
+    case axis (a level shared by every case) as it is."""
+    x = np.asarray(x, dtype=float)
+    if x.ndim == 0:
+        return x
+    x = x[rows]
+    return x.reshape(x.shape + (1,) * (ndim - x.ndim))
+
+
+@dataclass(frozen=True, eq=False)
+class BlockWrappedModel(Batched, ErrorModel):
+    """A batched single-channel model with one more source per case (module docstring). inactive : for a model with
+    a source removed (``without``), the cases where it was not active (their model is their own variant)."""
+
+    base: object
+    effects: Values
+    inactive: object = None
+    _memo: dict = field(default_factory=dict, repr=False, compare=False)
+
+    def __post_init__(self):
+        first = self.effects.values[0]
+        if first.source in self.base.levels or first.source in self.base.sources:
+            raise ValueError(f"the error term {first.source!r} has the name of a level or source the model already "
+                             f"has ({', '.join(dict.fromkeys((*self.base.levels, *self.base.sources)))})")
+
+    # What the base model says ------------------------------------------------------------------------------------
+    channel = property(lambda self: self.base.channel)
+    unavailable = property(lambda self: self.base.unavailable)
+    includes_speckle = property(lambda self: self.base.includes_speckle)
+    notes = property(lambda self: self.base.notes)
+    validity = property(lambda self: self.base.validity)
+    value = property(lambda self: self.base.value)
+
+    @property
+    def source(self) -> str:
+        return self.effects.values[0].source
+
+    @property
+    def level(self) -> np.ndarray:
+        """The effect's level in every case, (B,)."""
+        if "level" not in self._memo:
+            self._memo["level"] = np.array([e.level for e in self.effects.values], dtype=float)[self.effects.index]
+        return self._memo["level"]
+
+    @property
+    def levels(self) -> dict:
+        return {**self.base.levels, self.source: self.level}
+
+    @property
+    def sources(self) -> tuple:
+        return (*self.base.sources, self.source)
+
+    # Moments -------------------------------------------------------------------------------------------------------
+    def moments(self, **levels) -> Moments:
+        """``WrappedErrorModel.moments`` of every case (levels broadcast against the case axis)."""
+        own = levels.pop(self.source, None)
+        level = self.level if own is None else np.asarray(own, dtype=float)
+        m = self.base.moments(**levels)
+        mean, variance = np.asarray(m.mean, dtype=float), np.asarray(m.variance, dtype=float)
+        values = np.asarray(self.value, dtype=float)
+        ndim = max(mean.ndim, variance.ndim, level.ndim, 1)
+        shape = np.broadcast_shapes(*(x.shape + (1,) * (ndim - x.ndim) for x in (mean, variance, level) if x.ndim),
+                                    (len(self),) + (1,) * (ndim - 1))
+        out_mean, out_var = np.empty(shape), np.empty(shape)
+        index = self.effects.index
+        groups = [slice(None)] if len(self.effects.values) == 1 else [
+            np.flatnonzero(index == k) for k in range(len(self.effects.values))]
+        for effect, rows in zip(self.effects.values, groups):
+            if isinstance(rows, np.ndarray) and not len(rows):
+                continue
+            new_mean, cov = effect.joint(_leading(mean, rows, ndim)[..., None], _leading(variance, rows, ndim)[
+                ..., None, None], _leading(values, rows, ndim)[..., None], _leading(level, rows, ndim))
+            out_mean[rows] = new_mean[..., 0]
+            out_var[rows] = cov[..., 0, 0]
+        return Moments(out_mean, out_var)
+
+    def current(self) -> Moments:
+        if "current" not in self._memo:
+            self._memo["current"] = self.moments()
+        return self._memo["current"]
+
+    # Sources -------------------------------------------------------------------------------------------------------
+    def without(self, source: str) -> ErrorModel:
+        if source == self.source:
+            active = np.array([e.active for e in self.effects.values], dtype=bool)
+            if not active.any():
+                return self
+            removed = Values([e.removed() if a else e for e, a in zip(self.effects.values, active)],
+                             self.effects.index)
+            return BlockWrappedModel(self.base, removed, ~active[self.effects.index])
+        variant = self.base.without(source)
+        if variant is self.base:
+            return self
+        return BlockWrappedModel(variant, self.effects, getattr(variant, "inactive", None))
+
+    def contributions(self) -> dict:
+        parts = dict(self.base.contributions())
+        m, m0 = self.current(), self.base.current()
+        parts[self.source] = Contribution(np.asarray(m.mean) - np.asarray(m0.mean, dtype=float),
+                                          np.asarray(m.variance) - np.asarray(m0.variance, dtype=float),
+                                          self.effects.values[0].description)
+        return parts
+
+    # A block of cases (``e2esim.block.Batched``) -------------------------------------------------------------------
+    def __len__(self) -> int:
+        return len(self.effects)
+
+    def item(self, i: int) -> ErrorModel:
+        """Case i's ``WrappedErrorModel``, with the moments the block computed for it."""
+        model = wrapped(self.base.item(i), self.effects[i])
+        if "current" in self._memo:
+            m = self._memo["current"]
+            model._memo["current"] = Moments(m.mean[i], m.variance[i])
+        return model
+
+    def take(self, positions) -> BlockWrappedModel:
+        return BlockWrappedModel(self.base.take(positions), self.effects.take(positions),
+                                 None if self.inactive is None else self.inactive[positions])
+
+    @classmethod
+    def concatenate(cls, parts: list) -> BlockWrappedModel:
+        first = parts[0]
+        inactive = None if first.inactive is None else np.concatenate([p.inactive for p in parts])
+        return cls(type(first.base).concatenate([p.base for p in parts]),
+                   Values.concatenate([p.effects for p in parts]), inactive)
+
+    def scalar_columns(self) -> dict:
+        """``WrappedErrorModel.scalars`` of every case: the base model's, the effect's outputs, the error with every
+        error term (analytic: a block has no Monte Carlo)."""
+        out = dict(self.base.scalar_columns())
+        for k, (name, _) in enumerate(self.effects.values[0].outputs):
+            out[name] = np.array([float(e.outputs[k][1]) for e in self.effects.values])[self.effects.index]
+        m = self.current()
+        out["analytic.with_error_terms_mean"] = np.asarray(m.mean, dtype=float)
+        out["analytic.with_error_terms_sd"] = np.asarray(m.sd, dtype=float)
+        return out
+
+    def note_column(self) -> Values:
+        return self.base.note_column()
+
+
+def same_outputs(effects: list) -> bool:
+    """Whether every effect reports the same output scalars, in the same order (one column per name)."""
+    names = {tuple(name for name, _ in e.outputs) for e in effects}
+    return len(names) == 1
+
+
+def block_wrapped(base, effects: list) -> BlockWrappedModel:
+    """``base`` (a batched single-channel model) with case i's effect ``effects[i]``."""
+    return BlockWrappedModel(base, Values.of(effects))
+
+
+__all__ = ["BlockWrappedModel", "block_wrapped", "same_outputs"]

@@ -1,0 +1,172 @@
+"""Error terms on the batched engine (issue 27, Done when 2; issue 24, Speed): a chain with an ``error_terms`` list
+runs its analytic cases in blocks (``ErrorTermStack.forward`` takes blocks, each term wraps the block's error model),
+and every number is bit for bit the per-case engine's (the reference path). Cases the block cannot take (a Monte
+Carlo, a multi-channel model, a term that draws, a plug-in term that does not declare block support) run one by one,
+and a term run so is named in the model's notes.
+"""
+
+from __future__ import annotations
+
+import copy
+import math
+
+import numpy as np
+import pytest
+import yaml
+
+from e2esim import api
+from e2esim.distortion.modules import HVBackscatterErrorPropagation
+from e2esim.error_terms.block_wrapped import BlockWrappedModel
+from e2esim.error_terms.modules import AddedNoise, ExtraRelativeVariance, GainError
+from e2esim.error_terms.rfi_modules import RFITerm
+from e2esim.error_terms.stage import ErrorTermStack
+from e2esim.errors import Location
+from e2esim.module import batched_run
+from e2esim.runner.run import run_block, run_scenario
+from e2esim.runner.scenario import Scenario
+from e2esim.scintillation.modules import ScintillationSigma0
+from e2esim.testing import check_block_invariance
+
+SCENARIO = {
+    "name": "terms_in_blocks",
+    "scene": {"type": "table1_forest", "forest": "tropical_338"},
+    "instrument": {"type": "biomass"},
+    "ionosphere": {"type": "gaussian_faraday", "mean_deg": 5.0, "sd_deg": 5.0},
+    "propagation": [{"type": "hv_backscatter_error"},
+                    {"type": "backscatter_error_budget", "preset": "biomass_200m"}],
+    "retrieval": {"type": "power_law"},
+    "error_terms": [{"type": "added_noise", "power_db": -40.0},
+                    {"type": "gain_error", "sd_db": 0.05, "offset_db": 0.02},
+                    {"type": "extra_variance", "relative_sd_percent": 0.5},
+                    {"type": "rfi", "band_fraction_percent": 2, "time_fraction_percent": 1,
+                     "residual_power_db": -38.0},
+                    {"type": "scintillation_sigma0", "lat_deg": 65.0, "lon_deg": 20.0, "month": 3}],
+    "requirements": [{"type": "agb_error_bound", "sources": "systematic", "bound_percent": 40,
+                      "confidence_percent": 99.865, "level_margins": True},
+                     {"type": "agb_rmse", "sources": "computed", "max_percent": 40}],
+    "simulation": {"mode": "analytic", "seed": 3, "looks": 2000},
+    # the terms' effects differ between the cases of a block (the gain error's spread, off in half of them: its
+    # source is then not active; the screen's latitude), and so does the propagation's model
+    "sweep": {"mode": "grid", "parameters": {"ionosphere.sd_deg": [2.0, 8.0],
+                                             "error_terms.1.sd_db, error_terms.1.offset_db": [[0.0, 0.0], [0.05, 0.02]],
+                                             "error_terms.4.lat_deg": [10.0, 65.0]}},
+}
+
+
+MARGIN_KEYS = (".limit_db", ".margin_db", ".spec_margin_db")
+"""Level margins: the vectorised root search stops on the block's cases together, so its last digits may differ
+from a case alone's (to 1e-12, as tests/test_batched_engine.py allows; the chain without error terms does the same)."""
+
+
+def _bitwise_same(got, expected) -> None:
+    """Two ``CaseResult``s with the same numbers bit for bit (level margins to 1e-12, ``MARGIN_KEYS``)."""
+    assert list(got.scalars) == list(expected.scalars)
+    for name, value in expected.scalars.items():
+        assert got.scalars[name] == value or (math.isnan(value) and math.isnan(got.scalars[name])), name
+    assert got.notes == expected.notes
+    for v, w in zip(got.verdicts, expected.verdicts, strict=True):
+        assert (v.name, v.passed, v.value, v.margin, v.dominant, v.notes, v.coverage) == (
+            w.name, w.passed, w.value, w.margin, w.dominant, w.notes, w.coverage)
+        assert list(v.details) == list(w.details)
+        for key, x in w.details.items():
+            y = v.details[key]
+            if key.endswith(MARGIN_KEYS):  # the level margins' root search, over a block as over a case alone
+                assert y == x or abs(y - x) <= 1e-12 * abs(x), key
+                continue
+            assert y == x or (math.isnan(x) and math.isnan(y)), key
+        assert list(v.curves) == list(w.curves)
+        for key, x in w.curves.items():
+            np.testing.assert_array_equal(v.curves[key], x, err_msg=key)
+
+
+def _products(resolved, indices):
+    from e2esim.runner.blocks import BlockRun
+    from e2esim.runner.run import default_services
+
+    return BlockRun(resolved.plan, indices, default_services()).run()
+
+
+def test_a_chain_with_every_shipped_term_runs_in_blocks_with_the_per_case_numbers():
+    resolved = Scenario(copy.deepcopy(SCENARIO), "terms.yaml").resolve()
+    n = len(resolved.cases)
+    assert n == 8
+    products = _products(resolved, np.arange(n))
+    model = products["backscatter.error"]
+    assert isinstance(model, BlockWrappedModel)  # the block's model, wrapped by each term in turn
+    assert type(products["agb.error"]).__name__ == "AGBError" and type(products["verdicts"]).__name__ == (
+        "RequirementVerdicts")
+    assert model.sources[-7:] == ("added_noise", "gain_error", "extra_variance", "rfi_notch", "rfi_looks",
+                                  "rfi_residual", "scintillation_sigma0")
+    per_case = run_scenario(resolved, progress=False, engine="per_case")
+    for indices in (np.arange(n), np.array([5, 0, 3])):  # one block; a few cases, in any order and company
+        block = run_block(resolved, indices)
+        for k, index in enumerate(block.indices):
+            _bitwise_same(block.case(k, {}, ""), per_case.cases[int(index)])
+    # every term is attributed and has a level margin, in every case
+    details = per_case.cases[-1].verdicts[0].details
+    for source in ("added_noise", "gain_error", "extra_variance", "rfi_notch", "rfi_looks", "scintillation_sigma0"):
+        assert details[f"contribution.{source}_percent"] != 0.0, source
+        assert math.isfinite(details[f"{source}.limit_db"]), source
+
+
+def test_a_block_whose_gain_error_is_off_in_some_cases_says_where_it_was_not_active():
+    resolved = Scenario(copy.deepcopy(SCENARIO), "terms.yaml").resolve()
+    model = _products(resolved, np.arange(8))["backscatter.error"]
+    gain_off = np.array([case["error_terms.1.sd_db"] == 0.0 and case["error_terms.1.offset_db"] == 0.0
+                         for case in (resolved.cases[i].inputs for i in range(8))])
+    assert 0 < gain_off.sum() < 8
+    variant = model.without("gain_error")
+    while not (isinstance(variant, BlockWrappedModel) and variant.source == "gain_error"):
+        variant = variant.base  # down to the gain error's own wrapper
+    np.testing.assert_array_equal(variant.inactive, gain_off)
+
+
+def test_the_stack_with_every_shipped_term_passes_the_block_invariance_check():
+    terms = [AddedNoise(power_db=-40.0), GainError(sd_db=0.1, offset_db=0.05),
+             ExtraRelativeVariance(relative_sd_percent=1.0),
+             RFITerm(band_fraction_percent=10.0, residual_power_db=-35.0, notch_position="edge"),
+             ScintillationSigma0(lat_deg=70.0, lon_deg=25.0, month=12, solar="max", contrast=0.5)]
+    stack = ErrorTermStack(HVBackscatterErrorPropagation.from_config({}, Location("p")), terms)
+    assert check_block_invariance(stack)
+
+
+class UndeclaredGain(GainError):
+    """A plug-in's term that overrides ``effect`` and does not say that its effects take blocks."""
+
+    type_name = "undeclared_gain"
+
+    def effect(self, case, model):
+        return super().effect(case, model)
+
+
+def test_a_term_that_does_not_declare_block_support_runs_case_by_case_and_says_so():
+    propagation = HVBackscatterErrorPropagation.from_config({}, Location("p"))
+    declared = ErrorTermStack(propagation, [GainError(sd_db=0.1)])
+    undeclared = ErrorTermStack(propagation, [UndeclaredGain(sd_db=0.1)])
+    assert batched_run(declared) is not None and declared.case_by_case == ()
+    assert undeclared.case_by_case == undeclared.terms  # never its parent's block path
+    from e2esim.testing import reference_block
+
+    block, cases = reference_block(undeclared.needs, undeclared.uses)
+    assert batched_run(undeclared)(block) is None  # the block is handed back: its cases run one by one
+    alone = undeclared.forward(cases[0])["backscatter.error"]
+    assert any("undeclared_gain" in note and "case by case" in note for note in alone.notes)
+    reference = declared.forward(cases[0])["backscatter.error"]
+    assert not any("case by case" in note for note in reference.notes)
+    assert float(alone.current().variance) == float(reference.current().variance)
+
+
+@pytest.mark.parametrize("mode", ["montecarlo", "both"])
+def test_monte_carlo_cases_with_error_terms_keep_the_per_case_numbers(mode):
+    data = copy.deepcopy(SCENARIO)
+    data["simulation"] = {"mode": mode, "seed": 3, "looks": 500, "realisations": 60}
+    data["sweep"] = {"parameters": {"ionosphere.sd_deg": [2.0, 8.0]}}
+    data["requirements"] = [{"type": "agb_error_bound", "sources": "systematic"}]
+    runs = [api.run(data, engine=engine) for engine in ("batched", "per_case")]
+    assert runs[0].scalars.keys() == runs[1].scalars.keys()
+    for k in runs[0].scalars:
+        np.testing.assert_array_equal(runs[0].scalars[k], runs[1].scalars[k], err_msg=k)
+
+
+def test_the_scenario_yaml_of_the_test_is_plain_data():
+    assert yaml.safe_load(yaml.safe_dump(SCENARIO)) == SCENARIO
