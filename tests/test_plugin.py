@@ -159,22 +159,48 @@ def test_plugin_modules_conform(plugin_path):
     assert proc.returncode == 0 and proc.stdout.strip() == "ok", proc.stderr
 
 
+ENGINES = """
+import json, sys
+from e2esim import api
+from e2esim.io.summary import summary_json
+out = {}
+for mode in ("analytic", "montecarlo", "both"):
+    sets = {"simulation.mode": mode, "simulation.realisations": 300, "simulation.looks": 2000}
+    out[mode] = [json.loads(summary_json(api.run(sys.argv[1], set=sets, engine=engine).run))["cases"]
+                 for engine in ("batched", "per_case")]
+print(json.dumps(out))
+"""
+"""The summaries (as ``e2esim run`` writes them) of a plug-in example in every mode on both engines: one
+interpreter per example, as ``e2esim run`` and ``e2esim run --per-case`` (``engine``) run them."""
+
+
+@pytest.fixture(scope="module")
+def engine_summaries(plugin_path):
+    env = {**os.environ, "PYTHONPATH": str(plugin_path)}
+    made = {}
+
+    def summaries(example):
+        if example not in made:
+            scenario = (SCINTILLATION if example == "scintillation" else PLUGIN) / "scenario.yaml"
+            proc = subprocess.run([sys.executable, "-c", ENGINES, str(scenario)], capture_output=True, text=True,
+                                  env=env, cwd=ROOT)
+            assert proc.returncode == 0, proc.stderr
+            made[example] = json.loads(proc.stdout.splitlines()[-1])
+        return made[example]
+
+    return summaries
+
+
 @pytest.mark.parametrize("mode", ["analytic", "montecarlo", "both"])
 @pytest.mark.parametrize("example", ["scintillation", "instrument"])
-def test_the_plugin_examples_give_the_per_case_numbers_on_the_batched_engine(plugin_path, tmp_path, mode, example):
+def test_the_plugin_examples_give_the_per_case_numbers_on_the_batched_engine(engine_summaries, mode, example):
     """Issue 21, item 1: the scintillation example overrides ``forward`` of e2esim's hv_backscatter_error and used
     to inherit its ``forward_block``, so the batched engine dropped the scintillation (AGB error 11.91 % against
-    16.21 % per case, analytic mode). Every mode of both examples must give the per-case runner's numbers exactly."""
-    scenario = (SCINTILLATION if example == "scintillation" else PLUGIN) / "scenario.yaml"
-    sets = ["--set", f"simulation.mode={mode}", "--set", "simulation.realisations=300",
-            "--set", "simulation.looks=2000"]
-    summaries = []
-    for engine in ([], ["--per-case"]):
-        out = tmp_path / f"run{len(summaries)}"
-        proc = _e2esim(plugin_path, "run", str(scenario), "-o", str(out), "--no-progress", *sets, *engine)
-        assert proc.returncode == 0, proc.stderr
-        summaries.append(json.loads((out / "summary.json").read_text())["cases"])
-    batched, per_case = summaries
+    16.21 % per case, analytic mode). Every mode of both examples must give the per-case runner's numbers exactly.
+    (The command line's own run of a plug-in scenario is test_scenario_using_the_plugin_runs and
+    test_a_plugin_adds_an_error_source_with_attribution_margins_and_a_tradeoff_curve.)"""
+    batched, per_case = engine_summaries(example)[mode]
+    assert batched and len(batched) == len(per_case)
     assert [c["results"] for c in batched] == [c["results"] for c in per_case]
     assert [c["requirements"] for c in batched] == [c["requirements"] for c in per_case]
     if example == "scintillation" and mode != "montecarlo":
