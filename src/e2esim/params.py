@@ -94,6 +94,9 @@ class Param:
     kind : for type "module": the registry kind of the component named (e.g. "faraday_estimator").
     lookup : for type "module": ``lookup(kind, type_name) -> class`` (``e2esim.registry.lookup``), handed in by the
         module that declares the parameter, so that parameters (below the registry) never import it.
+    input_file : for type "str": the value names a file the module reads (relative to the scenario file's folder);
+        its path, size and SHA-256 go into the provenance and the resume journal's identity
+        (``e2esim.runner.scenario_files``), so that a file changed since an interrupted run is noticed.
     """
 
     name: str
@@ -112,6 +115,7 @@ class Param:
     convert: bool = True
     kind: str | None = None
     lookup: Callable | None = field(default=None, compare=False, repr=False)
+    input_file: bool = False
 
     def __post_init__(self):
         if self.type not in _TYPE_NAMES:
@@ -121,6 +125,8 @@ class Param:
         if (self.type == "module") != (self.lookup is not None):
             raise TypeError(f"Param {self.name!r}: a 'module' parameter needs a lookup (e2esim.registry.lookup), "
                             "and only it has one")
+        if self.input_file and self.type != "str":
+            raise TypeError(f"Param {self.name!r}: only a 'str' parameter names an input file")
         unit = SI_UNITS.get(self.unit)
         if unit is not None and self.convert and not self.name.endswith(unit.suffix):
             raise TypeError(f"Param {self.name!r} in {self.unit} must end with {unit.suffix!r} (or set convert=False)")

@@ -52,7 +52,7 @@ class Campaign(CalibrationModule):
         Param("sites", "str", "preset calibration sites", default=tuple(PRESETS), variable_length=True,
               choices=tuple(PRESETS)),
         Param("sites_file", "str", "YAML file of the user's own sites ('sites:' list), relative to the scenario",
-              default=None, nullable=True),
+              default=None, nullable=True, input_file=True),
         Param("mission_years", "float", "mission length", default=5.0, unit="years", exclusive_minimum=0.0,
               maximum=15.0),
         Param("commissioning_days", "float", "commissioning phase: every transponder pass used", default=91.0,

@@ -61,7 +61,7 @@ class RFITerm(ErrorTerm):
               minimum=1),
         Param("fraction_map", "str", "NetCDF file of the band fraction f_b (0-1) per lat/lon pixel, variable "
               "fraction_map_variable over lat and lon; looked up at lat_deg/lon_deg or at a map sweep's cell",
-              default=None, nullable=True),
+              default=None, nullable=True, input_file=True),
         Param("fraction_map_variable", "str", "the variable of fraction_map", default="band_fraction"),
         Param("lat_deg", "float", "latitude where fraction_map is read (null: the map sweep's cell)", default=None,
               nullable=True, unit="deg", minimum=-90.0, maximum=90.0, convert=False),

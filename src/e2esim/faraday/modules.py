@@ -84,7 +84,7 @@ class FaradaySamplesModule(_FaradayStage):
         Param("samples_deg", "float", "one-way Faraday rotation samples", default=None, unit="deg",
               variable_length=True, nullable=True),
         Param("samples_file", "str", "text or .npy file of samples in degrees, relative to the scenario file",
-              default=None, nullable=True),
+              default=None, nullable=True, input_file=True),
         ExactlyOneOf("samples_deg", "samples_file"),
     )
     uses = ()

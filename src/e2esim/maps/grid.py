@@ -69,7 +69,7 @@ MAP_PARAMS = (
     Param("not_acquired_polygon_deg", "float", "a polygon of cells not acquired: lon1, lat1, lon2, lat2, ... (deg, "
           "at least three vertices)", default=None, nullable=True, variable_length=True, unit="deg", convert=False),
     Param("not_acquired_file", "str", "NetCDF raster of cells not acquired: variable not_acquired (1 not acquired, "
-          "0 acquired) over lat and lon", default=None, nullable=True),
+          "0 acquired) over lat and lon", default=None, nullable=True, input_file=True),
     Ordered("lat_range_deg"),
     Ordered("lon_range_deg"),
 )

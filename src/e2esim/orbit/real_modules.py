@@ -88,7 +88,7 @@ class OrbitFileModule(Stage):
     summary = "real orbit from an EO CFI state-vector file, a NISAR orbit group or a TLE: the site's passes"
     params = (
         Param("file", "str", "orbit file, relative to the scenario file: EO CFI Earth_Observation_File XML, NISAR "
-              "HDF5 product or orbit file, or a two-line element set (extra 'orbits')"),
+              "HDF5 product or orbit file, or a two-line element set (extra 'orbits')", input_file=True),
         Param("format", "str", "file format; auto: from the suffix (.EOF/.xml, .h5, .tle), else the content",
               default="auto", choices=FORMATS),
         Param("group", "str", "NISAR: HDF5 path of the orbit group; null: the one group named metadata/orbit",

@@ -274,4 +274,6 @@ def _plots_section(plots, warnings) -> list:
 def _provenance_text(value) -> str:
     if isinstance(value, dict):
         return ", ".join(f"{k} {v}" for k, v in value.items())
+    if isinstance(value, list) and value and all(isinstance(v, dict) for v in value):  # input_files
+        return "; ".join(_provenance_text(v) for v in value)
     return "–" if value is None else str(value)

@@ -46,14 +46,16 @@ from e2esim.runner.journal_records import MAGIC as _MAGIC
 from e2esim.runner.journal_records import MANIFEST as _MANIFEST
 from e2esim.runner.journal_records import RECORDS as _RECORDS
 from e2esim.runner.plaindata import BadPlainData, NotPlainData, allowed_packages, decode, encode
+from e2esim.runner.scenario_files import changed_files, scenario_input_files
 
 JOURNAL = ".e2esim-partial"
 _NOFOLLOW = getattr(os, "O_NOFOLLOW", 0) | getattr(os, "O_CLOEXEC", 0)  # never write through a planted link
 
 
-def fingerprint(resolved) -> str:
+def fingerprint(resolved, input_files=()) -> str:
     """Hash of everything that determines the numbers of a run: the version, the resolved scenario, the sweep
-    (every case's inputs follow from it) and every seed."""
+    (every case's inputs follow from it), every seed and the content of every input file the scenario names
+    (``input_files``, from ``e2esim.runner.scenario_files``)."""
     table = resolved.plan.table
     payload = {
         "version": e2esim.__version__,
@@ -61,6 +63,8 @@ def fingerprint(resolved) -> str:
         "sweep": [table.layout, [[list(g.keys), [list(v) for v in g.values]] for g in table.groups]],
         "seeds": [s.seed for s in resolved.plan.settings_slot.objects],
     }
+    if input_files:  # absent without files, so that the journals of runs without input files keep their identity
+        payload["input_files"] = [[f["key"], f["path"], f["sha256"]] for f in input_files]
     digest = hashlib.sha256(json.dumps(payload, sort_keys=True, default=str).encode())
     if table.table is not None:
         digest.update(np.ascontiguousarray(table.table).tobytes())
@@ -83,7 +87,8 @@ class Journal:
     def __init__(self, folder: Path, resolved):
         self.path = Path(folder) / JOURNAL
         self.resolved = resolved
-        self.fingerprint = fingerprint(resolved)
+        self.input_files = scenario_input_files(resolved)
+        self.fingerprint = fingerprint(resolved, self.input_files)
         self.packages = allowed_packages()
         self._fd: int | None = None  # the records file, appended to without a buffer
         self._end = 0  # its length in whole frames
@@ -110,11 +115,23 @@ class Journal:
                 "use --resume to continue it or --force to start again"
             )
         if manifest.get("fingerprint") != self.fingerprint:
+            self._refuse_changed_files(manifest)
             raise OutputExistsError(
                 f"{self.path.parent}: the interrupted run there is of a different scenario, seed or e2esim "
                 "version; use --force to start again"
             )
         return self._finished()
+
+    def _refuse_changed_files(self, manifest: dict) -> None:
+        recorded = manifest.get("input_files")
+        changed = changed_files(recorded, self.input_files) if isinstance(recorded, list) else []
+        if changed:
+            named = ", ".join(f"{key} ({path})" for key, path in changed)
+            raise OutputExistsError(
+                f"{self.path.parent}: the input file {named} changed since the interrupted run there (its size or "
+                "SHA-256 differs, or it is named anew); a resumed run would mix results of two inputs. Run without "
+                "--resume (with --force) to start again, or restore the file as it was"
+            )
 
     def _finished(self):
         seen = np.zeros(len(self.resolved.cases), dtype=bool)
@@ -166,7 +183,8 @@ class Journal:
             self.path.mkdir(parents=True, exist_ok=True)
             self._refuse_link()
             manifest = {"format": FORMAT, "version": VERSION, "e2esim": e2esim.__version__,
-                        "fingerprint": self.fingerprint, "cases": len(self.resolved.cases)}
+                        "fingerprint": self.fingerprint, "cases": len(self.resolved.cases),
+                        "input_files": self.input_files}
             write_text_atomic(self.path / _MANIFEST, json.dumps(manifest) + "\n")
             fd = os.open(self.path / _RECORDS, os.O_WRONLY | os.O_CREAT | os.O_APPEND | _NOFOLLOW, 0o644)
             info = os.fstat(fd)

@@ -30,6 +30,7 @@ from e2esim.runner.progress import CaseProgress
 from e2esim.runner.provenance import dependency_versions, source_commit
 from e2esim.runner.result_table import ResultTable
 from e2esim.runner.scenario import ResolvedScenario
+from e2esim.runner.scenario_files import scenario_input_files
 from e2esim.runner.sensitivity import parameter_sensitivity
 from e2esim.runner.spill import SPILL_ABOVE_CASES, SpilledBlock, SpillFile, spill_block
 from e2esim.runner.stage_products import checked_products
@@ -255,6 +256,9 @@ def run_scenario(
         provenance["executor"] = f"dask {scheduler}" if scheduler else f"{workers} local processes"
     if resumed:
         provenance["resumed_cases"] = int(resumed)
+    files = journal.input_files if journal is not None else scenario_input_files(resolved)
+    if files:
+        provenance["input_files"] = files
     result = ScenarioResult(resolved, blocks, provenance)
     result.sensitivity = parameter_sensitivity(result, run_scenario)
     return result

@@ -26,7 +26,7 @@ _BOREAL = tuple(k for k, v in TABLE1_FORESTS.items() if v[0] == "boreal")
 FOREST_PARAMS = (
     Param("file", "str", "AGB map (NetCDF or GeoTIFF on a lat/lon grid, t/ha; e2esim.scene.agb_map), relative to the "
           "scenario file; null: the default forest of each latitude band (its Table I forest)", default=None,
-          nullable=True),
+          nullable=True, input_file=True),
     Param("variable", "str", "the AGB variable of a NetCDF map", default="agb"),
     Param("tropical_lat_deg", "float", "tropical band: |latitude| up to this (the Tropics, 23.44 deg)",
           default=TROPIC_LAT_DEG, unit="deg", minimum=0.0, maximum=90.0, convert=False),
