@@ -176,6 +176,30 @@ def _distinct_rows(mask: np.ndarray) -> tuple:
     return mask[first], which
 
 
+def schedule_grid(setup: CampaignSetup, max_per_year: int, acq: Acquisitions) -> tuple:
+    """Every schedule of 0..``max_per_year`` transponder passes per year and every subset of the targets of
+    opportunity: the (per_year, opportunity) pairs and which acquisitions each uses ((S, n) boolean)."""
+    too = [s.name for s in setup.sites if s.type != "transponder"]
+    subsets = [c for k in range(len(too) + 1) for c in itertools.combinations(too, k)]
+    grid = [(n, c) for n in range(max_per_year + 1) for c in subsets]
+    return grid, np.array([_used(setup, acq, n, c) for n, c in grid])
+
+
+def schedule_residuals(setup: CampaignSetup, used: np.ndarray, acq: Acquisitions, parameters=PARAMETERS) -> dict:
+    """{parameter: (S, D)} residual variance on every date of every schedule (``used``: (S, n)); schedules that
+    differ only in sites that do not measure a parameter leave the same residual of it: one filter each."""
+    days = np.arange(0.0, setup.days + 1e-9, setup.step_days)
+    order = np.argsort(acq.day)
+    out = {}
+    for p in parameters:
+        informative = used[:, order] & np.isfinite(acq.variance[p][order])[None, :]
+        distinct, which = _distinct_rows(informative)
+        v = residual_variance(setup.drift[p], days, acq.day[order],
+                              np.where(distinct, acq.variance[p][order][None, :], np.inf))
+        out[p] = v[which]
+    return out
+
+
 def search_schedules(setup: CampaignSetup, limits: dict, max_per_year: int, opportunity_cost: float = 1.0,
                      acq: Acquisitions | None = None) -> ScheduleSearch:
     """Cost = transponder passes per year + ``opportunity_cost`` per target of opportunity used; the answer is the
@@ -183,24 +207,35 @@ def search_schedules(setup: CampaignSetup, limits: dict, max_per_year: int, oppo
     acq = acq or find_acquisitions(setup)
     days = np.arange(0.0, setup.days + 1e-9, setup.step_days)
     after = days >= setup.commissioning_days
-    too = [s.name for s in setup.sites if s.type != "transponder"]
-    subsets = [c for k in range(len(too) + 1) for c in itertools.combinations(too, k)]
-    grid = [(n, c) for n in range(max_per_year + 1) for c in subsets]
-    used = np.array([_used(setup, acq, n, c) for n, c in grid])
-    order = np.argsort(acq.day)
+    grid, used = schedule_grid(setup, max_per_year, acq)
+    variance = schedule_residuals(setup, used, acq, tuple(limits))
     worst = np.full(len(grid), np.inf)
     for p, lim in limits.items():
-        # schedules that differ only in sites that do not measure p leave the same residual of p: one filter each
-        informative = used[:, order] & np.isfinite(acq.variance[p][order])[None, :]
-        distinct, which = _distinct_rows(informative)
-        v = residual_variance(setup.drift[p], days, acq.day[order],
-                              np.where(distinct, acq.variance[p][order][None, :], np.inf))
-        m = margins_db({p: v[:, after]}, {p: lim})[p].min(axis=1)
-        worst = np.minimum(worst, m[which])
-    cost = np.array([n + opportunity_cost * len(c) for n, c in grid], float)
-    ok = np.flatnonzero(worst >= 0)
-    best = None if ok.size == 0 else int(ok[np.lexsort((-worst[ok], cost[ok]))[0]])
-    return ScheduleSearch(np.array([n for n, _ in grid]), tuple(c for _, c in grid), cost, worst, best)
+        worst = np.minimum(worst, margins_db({p: variance[p][:, after]}, {p: lim})[p].min(axis=1))
+    cost = schedule_cost(grid, opportunity_cost)
+    return ScheduleSearch(np.array([n for n, _ in grid]), tuple(c for _, c in grid), cost, worst,
+                          cheapest(cost, worst))
+
+
+def schedule_cost(grid: list, opportunity_cost: float = 1.0) -> np.ndarray:
+    """Transponder passes per year + ``opportunity_cost`` per target of opportunity, of each schedule."""
+    return np.array([n + opportunity_cost * len(c) for n, c in grid], float)
+
+
+def cheapest(cost: np.ndarray, margin: np.ndarray) -> int | None:
+    """Index of the cheapest schedule whose margin is >= 0 (ties: the larger margin); None when none is."""
+    ok = np.flatnonzero(margin >= 0)
+    return None if ok.size == 0 else int(ok[np.lexsort((-margin[ok], cost[ok]))[0]])
+
+
+def worst_candidates(variance: np.ndarray) -> np.ndarray:
+    """Indices of the dates no other date dominates (``variance``: (P, D), one row per parameter): a date whose
+    residual variances are all at most another date's cannot be the worst epoch of an error that grows with each
+    variance, so the worst epoch of the AGB error is among these (the Pareto-maximal dates)."""
+    v, first = np.unique(np.asarray(variance, float).T, axis=0, return_index=True)
+    ge = np.all(v[None, :, :] >= v[:, None, :], axis=2)  # ge[i, k]: date k is at least date i in every parameter
+    dominated = (ge.sum(axis=1) > 1)
+    return np.sort(first[~dominated])
 
 
 DEFAULT_DRIFT = {"gain": DriftModel(0.5), "crosstalk": DriftModel(0.01), "imbalance": DriftModel(0.05)}

@@ -176,6 +176,7 @@ class CampaignOutcome:
     limits: dict
     convention: str
     site_names: tuple
+    setup: object = field(default=None, compare=False, repr=False)  # the CampaignSetup (chain schedule search)
 
     def scalars(self, i: int, convention: str) -> dict:
         r, s = self.result, self.search
@@ -213,7 +214,7 @@ def compute_outcome(module: Campaign, setup: CampaignSetup) -> CampaignOutcome:
         margin = np.minimum(margin, np.where(after, m, np.inf))
     search = search_schedules(setup, module.limits, c["search_max_per_year"], acq=acq)
     return CampaignOutcome(result, margin, search, dict(module.limits), c["convention"],
-                           tuple(site.name for site in setup.sites))
+                           tuple(site.name for site in setup.sites), setup)
 
 
 @dataclass(frozen=True)

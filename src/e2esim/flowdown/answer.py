@@ -18,6 +18,7 @@ import yaml
 
 from e2esim.errors import UserError
 from e2esim.flowdown.allocation import allocate, allocation_markdown, allocation_yaml
+from e2esim.flowdown.campaign_schedule import campaign_answer, has_campaign
 from e2esim.flowdown.inverse import solve
 from e2esim.flowdown.report import solve_json, solve_lines
 from e2esim.runner.scenario import Scenario
@@ -41,8 +42,10 @@ def scenario_answer(resolved) -> dict | None:
     "result": what ``e2esim solve --json`` prints, or the specification of ``e2esim allocate``}."""
     raw = resolved.raw
     asked = [s for s in ("solve", "allocate") if raw.get(s)]
-    if not asked or not resolved.output.get("answer", True):
+    if not resolved.output.get("answer", True):
         return None
+    if not asked:  # a calibration campaign asks which visit schedule keeps the requirement met (issue 25, item 6)
+        return campaign_answer(resolved) if has_campaign(raw) else None
     if len(asked) == 2:
         raise UserError(f"{resolved.source}: a scenario asks one question: a solve or an allocate section, not both "
                         "(or set output.answer: false and run e2esim solve / e2esim allocate)")
