@@ -10,8 +10,7 @@ import numpy as np
 import pytest
 
 from e2esim.errors import PhysicsInputError
-from e2esim.scintillation.acquisitions import (AcquisitionScreens, ScreenSettings, acquisition_screens,
-                                               mixture_quantiles)
+from e2esim.scintillation.acquisitions import AcquisitionScreens, ScreenSettings, acquisition_screens, mixture_quantiles
 from e2esim.scintillation.cell import cell_acquisitions
 from e2esim.scintillation.stacked import bisect_rows, stacked_mixture_quantiles, stacked_screens
 

@@ -106,7 +106,8 @@ def acquisition_screens(geometry, settings: ScreenSettings, site_lat=None, site_
                                                        settings.outer_scale_m))
     k, theta = gamma_parameters(stats["residual_phase_mean"], stats["residual_phase_var"])
     weight = np.asarray(geometry.weight, dtype=float)  # (n,), or (sites, n) stacked (``stacked``)
-    return AcquisitionScreens(weight / weight.sum(axis=-1, keepdims=True), mag, logc, np.asarray(aperture.zenith_rad), k, theta,
+    weight = weight / weight.sum(axis=-1, keepdims=True)
+    return AcquisitionScreens(weight, mag, logc, np.asarray(aperture.zenith_rad), k, theta,
                               stats["shift_sd_cells"], stats["quadratic_sd_rad"], stats["mean_irf_peak_loss_db"],
                               stats["weak"], np.asarray(aperture.scan_length_m), settings.spectral_index,
                               settings.outer_scale_m)
