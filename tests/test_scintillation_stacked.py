@@ -12,7 +12,7 @@ import pytest
 from e2esim.errors import PhysicsInputError
 from e2esim.scintillation.acquisitions import AcquisitionScreens, ScreenSettings, acquisition_screens, mixture_quantiles
 from e2esim.scintillation.cell import cell_acquisitions
-from e2esim.scintillation.stacked import bisect_rows, stacked_mixture_quantiles, stacked_screens
+from e2esim.scintillation.stacked import bisect_rows, stacked_halo_shares, stacked_mixture_quantiles, stacked_screens
 
 
 def _same(a, b) -> bool:
@@ -41,6 +41,9 @@ def test_stacked_screens_are_bit_for_bit_each_case_alone(rng, site):
         for f in fields(AcquisitionScreens):
             assert _same(getattr(got, f.name), getattr(alone, f.name)), f.name
     assert len({id(s) for s in stacked}) == len(stacked)
+    for cells in (1.5, 24.1):
+        for got, s in zip(stacked_halo_shares(stacked, cells), stacked):
+            assert _same(got, s.halo_share(cells))
 
 
 def _random_screens(rng, n: int) -> AcquisitionScreens:

@@ -34,7 +34,7 @@ from e2esim.scintillation.climatology import SOLAR_PRESETS
 from e2esim.scintillation.effects import CKL_LEVEL, CalibratorFactor, DistributedTargetFactor, FaradayLeakage
 from e2esim.scintillation.faraday_window import parallel_field, window_variance
 from e2esim.scintillation.irf_monte_carlo import mixture_monte_carlo, peak_log_loss
-from e2esim.scintillation.stacked import stacked_mixture_quantiles, stacked_screens
+from e2esim.scintillation.stacked import stacked_halo_shares, stacked_mixture_quantiles, stacked_screens
 
 SCREEN_PARAMS = (
     Param("solar", "str", "solar activity: 12-month sunspot number 10 (min) or 150 (max) (null: a map sweep's solar "
@@ -122,8 +122,13 @@ class ScintillationTerm(ErrorTerm):
         except PhysicsInputError as exc:
             raise fail(self, str(exc), None, key=exc.key) from exc
         quantiles = {p: stacked_mixture_quantiles(screens, p) for p in (0.5, 0.9)}
-        return [(self.effect(c, model.item(i), screens[i], {p: q[i] for p, q in quantiles.items()}),)
+        extras = self.stacked_extras(screens)
+        return [(self.effect(c, model.item(i), screens[i], {p: q[i] for p, q in quantiles.items()}, **extras[i]),)
                 for i, c in enumerate(cases)]
+
+    def stacked_extras(self, screens: list) -> list:
+        """Per case, further arguments of ``effect`` made for the block's cases together (``block_case_effects``)."""
+        return [{} for _ in screens]
 
     def named(self, pairs) -> tuple:
         """``pairs`` as output scalars of this term: ``<source>.<name>`` (``Effect.outputs`` holds full keys)."""
@@ -164,13 +169,21 @@ class ScintillationSigma0(ScintillationTerm):
 
     effects_take_blocks = True
 
-    def effect(self, case, model, screens=None, quantiles=None):
+    def cell_cells(self) -> float:
+        """The product cell's length in resolution cells, L_c / rho_a."""
+        return self.si["cell_length_m"] / self.si["azimuth_resolution_m"]
+
+    def stacked_extras(self, screens: list) -> list:
+        return [{"halo_share": q} for q in stacked_halo_shares(screens, self.cell_cells())]
+
+    def effect(self, case, model, screens=None, quantiles=None, halo_share=None):
         screens = self.screens(case) if screens is None else screens
+        halo_share = screens.halo_share(self.cell_cells()) if halo_share is None else halo_share
         return DistributedTargetFactor(
             self.source, CKL_LEVEL, "scintillation: energy moved out of the product cell (distributed target)",
             weight=tuple(screens.weight), shape=tuple(screens.shape), scale=tuple(screens.scale),
             shift_sd_cells=tuple(screens.shift_sd_cells),
-            halo_share=tuple(screens.halo_share(self.si["cell_length_m"] / self.si["azimuth_resolution_m"])),
+            halo_share=tuple(halo_share),
             cell_fraction=self.si["azimuth_resolution_m"] / self.si["cell_length_m"], contrast=self.si["contrast"],
             outputs=self.named(self.irf_outputs(case, screens, quantiles)))
 

@@ -12,7 +12,7 @@ for bit, those it gets alone (tests/test_scintillation_stacked.py).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, fields
+from dataclasses import dataclass, fields, replace
 
 import numpy as np
 from scipy.special import erf, gammainc
@@ -62,6 +62,21 @@ def stacked_screens(geometries: list, settings: list, site_lat=None, site_lon=No
     return out
 
 
+def stacked_halo_shares(screens: list, cell_cells: float) -> list:
+    """``[s.halo_share(cell_cells) for s in screens]`` (eq. S19), the screens with the same number of acquisitions,
+    spectral index and outer scale computed together."""
+    groups: dict = {}
+    for i, s in enumerate(screens):
+        groups.setdefault((np.shape(s.scan_length_m), s.spectral_index, s.outer_scale_m), []).append(i)
+    out = [None] * len(screens)
+    for members in groups.values():
+        first = screens[members[0]]
+        stacked = replace(first, scan_length_m=np.stack([screens[i].scan_length_m for i in members]))
+        for i, q in zip(members, stacked.halo_share(cell_cells)):
+            out[i] = q
+    return out
+
+
 def bisect_rows(cdf, prob: float, high: np.ndarray, steps: int = 60) -> np.ndarray:
     """``acquisitions._bisect`` on every row at once: the same halvings, so the same numbers."""
     lo, hi = np.zeros_like(high), np.array(high, dtype=float)
@@ -103,5 +118,5 @@ def _quantile_rows(screens: list, prob: float) -> list:
     return [quantile_scalars(float(a), float(b), float(c)) for a, b, c in zip(y, shift, quad_q)]
 
 
-__all__ = ["StackedAcquisitions", "bisect_rows", "stack_acquisitions", "stacked_mixture_quantiles",
-           "stacked_screens"]
+__all__ = ["StackedAcquisitions", "bisect_rows", "stack_acquisitions", "stacked_halo_shares",
+           "stacked_mixture_quantiles", "stacked_screens"]
