@@ -34,7 +34,7 @@ def _random_cells(rng, n: int) -> tuple:
 
 @pytest.mark.parametrize("site", [(None, None), (-0.54, 2.03)])
 def test_stacked_screens_are_bit_for_bit_each_case_alone(rng, site):
-    geometries, settings = _random_cells(rng, 40)
+    geometries, settings = _random_cells(rng, 20)
     stacked = stacked_screens(geometries, settings, *site)
     for g, s, got in zip(geometries, settings, stacked):
         alone = acquisition_screens(g, s, *site)
@@ -83,3 +83,48 @@ def test_a_bad_screen_in_a_stack_is_refused_with_the_key():
     with pytest.raises(PhysicsInputError, match="spectral index") as err:
         stacked_screens(geometries, [ScreenSettings(spectral_index=5.5)] * 2)
     assert err.value.key == "spectral_index"
+
+
+CHAIN = {
+    "name": "scintillation_in_blocks",
+    "scene": {"type": "table1_forest", "forest": "tropical_338"},
+    "instrument": {"type": "biomass"},
+    "ionosphere": {"type": "gaussian_faraday", "mean_deg": 5.0, "sd_deg": 5.0},
+    "propagation": [{"type": "hv_backscatter_error"},
+                    {"type": "backscatter_error_budget", "preset": "biomass_200m"}],
+    "retrieval": {"type": "power_law"},
+    "error_terms": [{"type": "scintillation_sigma0", "lat_deg": 65.0, "lon_deg": 20.0, "month": 3},
+                    {"type": "scintillation_calibration", "lat_deg": 65.0, "lon_deg": 20.0, "month": 3}],
+    "requirements": [{"type": "agb_rmse", "sources": "computed", "max_percent": 40}],
+    "simulation": {"mode": "analytic", "seed": 3, "looks": 2000},
+    # the screens differ between the cases of a block: latitude and the solar level (two stacked groups)
+    "sweep": {"mode": "grid", "parameters": {"error_terms.0.lat_deg, error_terms.1.lat_deg": [[8.0, 8.0],
+                                                                                              [70.0, 70.0]],
+                                             "error_terms.0.solar, error_terms.1.solar": [["min", "min"],
+                                                                                          ["max", "max"]]}},
+}
+
+
+def test_the_scintillation_terms_in_a_block_give_the_per_case_engines_numbers():
+    import copy
+    import math
+
+    from e2esim.error_terms.block_wrapped import BlockWrappedModel
+    from e2esim.runner.blocks import BlockRun
+    from e2esim.runner.run import default_services, run_block, run_scenario
+    from e2esim.runner.scenario import Scenario
+
+    resolved = Scenario(copy.deepcopy(CHAIN), "chain.yaml").resolve()
+    n = len(resolved.cases)
+    assert n == 4
+    model = BlockRun(resolved.plan, np.arange(n), default_services()).run()["backscatter.error"]
+    assert isinstance(model, BlockWrappedModel) and model.sources[-2:] == ("scintillation_sigma0",
+                                                                           "scintillation_calibration")
+    per_case = run_scenario(resolved, progress=False, engine="per_case")
+    block = run_block(resolved, np.arange(n))
+    for k, index in enumerate(block.indices):
+        got, want = block.case(k, {}, ""), per_case.cases[int(index)]
+        assert list(got.scalars) == list(want.scalars)
+        for name, value in want.scalars.items():
+            assert got.scalars[name] == value or (math.isnan(value) and math.isnan(got.scalars[name])), name
+        assert [(v.passed, v.value) for v in got.verdicts] == [(v.passed, v.value) for v in want.verdicts]
