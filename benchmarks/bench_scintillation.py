@@ -110,7 +110,8 @@ def map_figures(quick: bool, full: bool) -> None:
         seconds = time.perf_counter() - start
         figures[engine] = (len(resolved.cases), seconds)
         print(f"scintillation/RFI map, 1 deg region lat {lat} lon {lon}, March, {engine} engine, one process: "
-              f"{len(resolved.cases)} cases in {seconds:.1f} s, {1e3 * seconds / len(resolved.cases):.2f} ms per case")
+              f"{len(resolved.cases)} cases in {seconds:.1f} s, {1e3 * seconds / len(resolved.cases):.2f} ms per case "
+              f"(load average {os.getloadavg()[0]:.1f})")
     per_case = {k: s / n for k, (n, s) in figures.items()}
     full = {k: v * full_cases / 2 for k, v in per_case.items()}
     print(f"full 1 deg map: {full_cases} cases; extrapolated from the seconds per case above over two cores (an "

@@ -64,7 +64,7 @@ class ErrorTerm(Module):
     draw from ``case.rng`` only when they must (a draw hands the block back). The stage then wraps a block's
     batched error model at once (``wrap_block``). A subclass that overrides ``effect``, ``case_effects`` or
     ``wrap`` without saying so again runs case by case (``e2esim.module.fast_path``), and the run's notes say so."""
-    fast_path_hooks: ClassVar[tuple] = ("effect", "wrap", "wrap_block")
+    fast_path_hooks: ClassVar[tuple] = ("effect", "wrap", "wrap_block", "block_case_effects")
 
     def effect(self, case, model):
         """The ``Effect`` of this term on ``model`` (the error model it wraps) in ``case``."""
@@ -96,13 +96,18 @@ class ErrorTerm(Module):
         """``model``, the batched single-channel error model of ``block``, with this term's sources in every case:
         each case's effects from its one-case view and model (``e2esim.error_terms.block_case``); the block is
         handed back (``NotBatched``) where an effect draws or the cases' effects report different scalars."""
-        per_case = [self.case_effects(case_of(block, i), model.item(i)) for i in range(len(block))]
+        per_case = self.block_case_effects(block, model)
         for k in range(len(per_case[0])):
             effects = [effects[k] for effects in per_case]
             if not same_outputs(effects):
                 block.per_case(f"{self.identity}: the cases' effects report different output scalars")
             model = self._wrapped(block_wrapped, model, effects)
         return model
+
+    def block_case_effects(self, block, model) -> list:
+        """``case_effects`` of every case of ``block``, each from its one-case view and model; a term may make them
+        together (vectorised over the cases) where it gives each case, bit for bit, its one-case effects."""
+        return [self.case_effects(case_of(block, i), model.item(i)) for i in range(len(block))]
 
     def _wrapped(self, make, model, effect):
         try:

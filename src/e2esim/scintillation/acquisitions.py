@@ -105,8 +105,9 @@ def acquisition_screens(geometry, settings: ScreenSettings, site_lat=None, site_
     stats = analytic_irf(lambda lag: two_way_structure(lag, aperture, 10.0 ** logc, settings.spectral_index,
                                                        settings.outer_scale_m))
     k, theta = gamma_parameters(stats["residual_phase_mean"], stats["residual_phase_var"])
-    weight = np.asarray(geometry.weight, dtype=float)
-    return AcquisitionScreens(weight / weight.sum(), mag, logc, np.asarray(aperture.zenith_rad), k, theta,
+    weight = np.asarray(geometry.weight, dtype=float)  # (n,), or (sites, n) stacked (``stacked``)
+    weight = weight / weight.sum(axis=-1, keepdims=True)
+    return AcquisitionScreens(weight, mag, logc, np.asarray(aperture.zenith_rad), k, theta,
                               stats["shift_sd_cells"], stats["quadratic_sd_rad"], stats["mean_irf_peak_loss_db"],
                               stats["weak"], np.asarray(aperture.scan_length_m), settings.spectral_index,
                               settings.outer_scale_m)
@@ -136,10 +137,16 @@ def mixture_quantiles(screens: AcquisitionScreens, prob: float) -> dict:
     y = _bisect(cdf_y, prob, y_high)
     shift = _bisect(half_normal(screens.shift_sd_cells), prob, 8.0 * float(np.max(screens.shift_sd_cells)) + 1e-12)
     quad_q = _bisect(half_normal(screens.quadratic_sd_rad), prob, 8.0 * float(np.max(screens.quadratic_sd_rad)) + 1e-12)
+    return quantile_scalars(y, shift, quad_q)
+
+
+def quantile_scalars(y: float, shift: float, quad_q: float) -> dict:
+    """``mixture_quantiles``' output from the quantiles of Y, |shift| and |quadratic coefficient|."""
     e0 = 10.0 ** (ISLR_UNIFORM_DB / 10.0) / (1.0 + 10.0 ** (ISLR_UNIFORM_DB / 10.0))
     s = math.exp(-y)
     return {"peak_loss_db": _DB * y, "resolution_ratio": float(broadening(quad_q)), "shift_cells": shift,
             "islr_db": 10.0 * math.log10((e0 + (1.0 - e0) * (1.0 - s)) / ((1.0 - e0) * s))}
 
 
-__all__ = ["AcquisitionScreens", "ScreenSettings", "acquisition_screens", "day_of_year", "mixture_quantiles"]
+__all__ = ["AcquisitionScreens", "ScreenSettings", "acquisition_screens", "day_of_year", "mixture_quantiles",
+           "quantile_scalars"]

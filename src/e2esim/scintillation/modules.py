@@ -22,6 +22,7 @@ import math
 
 import numpy as np
 
+from e2esim.error_terms.block_case import case_of
 from e2esim.error_terms.modules import MAP_CELL_KEYS, ErrorTerm, source_param
 from e2esim.errors import PhysicsInputError
 from e2esim.module import fail
@@ -33,6 +34,7 @@ from e2esim.scintillation.climatology import SOLAR_PRESETS
 from e2esim.scintillation.effects import CKL_LEVEL, CalibratorFactor, DistributedTargetFactor, FaradayLeakage
 from e2esim.scintillation.faraday_window import parallel_field, window_variance
 from e2esim.scintillation.irf_monte_carlo import mixture_monte_carlo, peak_log_loss
+from e2esim.scintillation.stacked import stacked_halo_shares, stacked_mixture_quantiles, stacked_screens
 
 SCREEN_PARAMS = (
     Param("solar", "str", "solar activity: 12-month sunspot number 10 (min) or 150 (max) (null: a map sweep's solar "
@@ -100,25 +102,48 @@ class ScintillationTerm(ErrorTerm):
         cell["pass"] = {"ascending": "dawn", "descending": "dusk", None: "dawn"}.get(cell["pass"], cell["pass"])
         return cell
 
-    def screens(self, case, site_lat=None, site_lon=None):
+    def screen_site(self) -> tuple:
+        """(lat, lon) (rad) of the irregularities when they are not over the acquisitions' pierce points."""
+        return None, None
+
+    def screens(self, case):
         try:
-            return acquisition_screens(self.acquisitions(case), self.screen_settings(case), site_lat, site_lon)
+            return acquisition_screens(self.acquisitions(case), self.screen_settings(case), *self.screen_site())
         except PhysicsInputError as exc:
             raise fail(self, str(exc), None, key=exc.key) from exc
+
+    def block_case_effects(self, block, model) -> list:
+        """Every case's effect, with the screens and quantiles of the block's cases computed together
+        (``stacked``: bit for bit those of each case alone)."""
+        cases = [case_of(block, i) for i in range(len(block))]
+        try:
+            screens = stacked_screens([self.acquisitions(c) for c in cases], [self.screen_settings(c) for c in cases],
+                                      *self.screen_site())
+        except PhysicsInputError as exc:
+            raise fail(self, str(exc), None, key=exc.key) from exc
+        quantiles = {p: stacked_mixture_quantiles(screens, p) for p in (0.5, 0.9)}
+        extras = self.stacked_extras(screens)
+        return [(self.effect(c, model.item(i), screens[i], {p: q[i] for p, q in quantiles.items()}, **extras[i]),)
+                for i, c in enumerate(cases)]
+
+    def stacked_extras(self, screens: list) -> list:
+        """Per case, further arguments of ``effect`` made for the block's cases together (``block_case_effects``)."""
+        return [{} for _ in screens]
 
     def named(self, pairs) -> tuple:
         """``pairs`` as output scalars of this term: ``<source>.<name>`` (``Effect.outputs`` holds full keys)."""
         return tuple((f"{self.source}.{name}", value) for name, value in pairs)
 
-    def irf_outputs(self, case, screens) -> tuple:
-        """(name, value) pairs: the screen and the response statistics of the case (module docstring)."""
+    def irf_outputs(self, case, screens, quantiles=None) -> tuple:
+        """(name, value) pairs: the screen and the response statistics of the case (module docstring);
+        ``quantiles``: ``mixture_quantiles`` of ``screens`` by probability, when already made."""
         w = screens.weight
         out = [("geomagnetic_latitude_deg", float(np.degrees(np.sum(w * screens.magnetic_latitude)))),
                ("log10_ckl_mean", float(np.sum(w * screens.log10_ckl))),
                ("weak_scatter_fraction", float(np.sum(w * screens.weak))),
                ("mean_irf_peak_loss_db", float(np.sum(w * screens.mean_irf_peak_loss_db)))]
         for tag, prob in (("median", 0.5), ("p90", 0.9)):
-            q = mixture_quantiles(screens, prob)
+            q = mixture_quantiles(screens, prob) if quantiles is None else quantiles[prob]
             out += [(f"peak_loss_{tag}_db", q["peak_loss_db"]), (f"resolution_ratio_{tag}", q["resolution_ratio"]),
                     (f"shift_{tag}_m", q["shift_cells"] * self.si["azimuth_resolution_m"]),
                     (f"islr_{tag}_db", q["islr_db"])]
@@ -144,15 +169,23 @@ class ScintillationSigma0(ScintillationTerm):
 
     effects_take_blocks = True
 
-    def effect(self, case, model):
-        screens = self.screens(case)
+    def cell_cells(self) -> float:
+        """The product cell's length in resolution cells, L_c / rho_a."""
+        return self.si["cell_length_m"] / self.si["azimuth_resolution_m"]
+
+    def stacked_extras(self, screens: list) -> list:
+        return [{"halo_share": q} for q in stacked_halo_shares(screens, self.cell_cells())]
+
+    def effect(self, case, model, screens=None, quantiles=None, halo_share=None):
+        screens = self.screens(case) if screens is None else screens
+        halo_share = screens.halo_share(self.cell_cells()) if halo_share is None else halo_share
         return DistributedTargetFactor(
             self.source, CKL_LEVEL, "scintillation: energy moved out of the product cell (distributed target)",
             weight=tuple(screens.weight), shape=tuple(screens.shape), scale=tuple(screens.scale),
             shift_sd_cells=tuple(screens.shift_sd_cells),
-            halo_share=tuple(screens.halo_share(self.si["cell_length_m"] / self.si["azimuth_resolution_m"])),
+            halo_share=tuple(halo_share),
             cell_fraction=self.si["azimuth_resolution_m"] / self.si["cell_length_m"], contrast=self.si["contrast"],
-            outputs=self.named(self.irf_outputs(case, screens)))
+            outputs=self.named(self.irf_outputs(case, screens, quantiles)))
 
 
 class ScintillationCalibration(ScintillationTerm):
@@ -172,13 +205,16 @@ class ScintillationCalibration(ScintillationTerm):
 
     effects_take_blocks = True
 
-    def effect(self, case, model):
-        screens = self.screens(case, self.si["site_lat_rad"], self.si["site_lon_rad"])
+    def screen_site(self) -> tuple:
+        return self.si["site_lat_rad"], self.si["site_lon_rad"]
+
+    def effect(self, case, model, screens=None, quantiles=None):
+        screens = self.screens(case) if screens is None else screens
         mean_z, second_z = peak_log_loss(case.rng, self.acquisitions(case), self.screen_settings(case), screens)
         mean_y = float(np.sum(screens.weight * mean_z))
         var_y = float(np.sum(screens.weight * second_z)) - mean_y * mean_y
         outputs = (("calibrator_peak_loss_mean_db", 10.0 / math.log(10.0) * mean_y),
-                   *self.irf_outputs(case, screens))
+                   *self.irf_outputs(case, screens, quantiles))
         return CalibratorFactor(self.source, CKL_LEVEL, "scintillation: calibrator peak loss (gain error)",
                                 mean_log=mean_y, var_log=max(var_y, 0.0) / self.si["calibrations"],
                                 outputs=self.named(outputs))
@@ -198,10 +234,10 @@ class ScintillationFaraday(ScintillationTerm):
 
     effects_take_blocks = True
 
-    def effect(self, case, model):
+    def effect(self, case, model, screens=None, quantiles=None):
         geometry = case["geometry"]
         settings = self.screen_settings(case)
-        screens = self.screens(case)
+        screens = self.screens(case) if screens is None else screens
         orbit_height = geometry.orbit.radius_m - EARTH_MEAN_RADIUS
         b_par = parallel_field(geometry, settings.height_m)
         s2 = window_variance(self.si["window_m"], b_par, settings.frequency_hz, 10.0 ** screens.log10_ckl,
