@@ -28,7 +28,8 @@ class CellOrbit:
 
 @dataclass(frozen=True)
 class CellAcquisitions:
-    """Acquisitions of one cell (module docstring): arrays (n,)."""
+    """Acquisitions of one cell (module docstring): arrays (n,); of several sites stacked, arrays (cases, n)
+    (``e2esim.scintillation.stacked.stack_acquisitions``)."""
 
     orbit: CellOrbit
     pierce_lat: np.ndarray

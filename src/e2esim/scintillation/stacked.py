@@ -12,32 +12,20 @@ for bit, those it gets alone (tests/test_scintillation_stacked.py).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, fields, replace
+from dataclasses import fields, replace
 
 import numpy as np
 from scipy.special import erf, gammainc
 
 from e2esim.scintillation.acquisitions import AcquisitionScreens, acquisition_screens, quantile_scalars
+from e2esim.scintillation.cell import CellAcquisitions
 
 
-@dataclass(frozen=True)
-class StackedAcquisitions:
-    """The acquisitions of several sites seen from one orbit, arrays (cases, n): what ``acquisition_screens``
-    reads of an ``AcquisitionGeometry`` (or ``cell.CellAcquisitions``)."""
-
-    orbit: object
-    pierce_lat: np.ndarray
-    pierce_lon: np.ndarray
-    incidence: np.ndarray
-    local_time_h: np.ndarray
-    time_utc: np.ndarray
-    weight: np.ndarray
-
-
-def stack_acquisitions(geometries: list) -> StackedAcquisitions:
-    """``geometries`` (same orbit radius and number of acquisitions) as one ``StackedAcquisitions``."""
+def stack_acquisitions(geometries: list) -> CellAcquisitions:
+    """``geometries`` (``AcquisitionGeometry`` or ``CellAcquisitions``, same orbit radius and number of acquisitions)
+    as one ``CellAcquisitions`` whose arrays are (cases, n): what ``acquisition_screens`` reads of them."""
     names = ("pierce_lat", "pierce_lon", "incidence", "local_time_h", "time_utc", "weight")
-    return StackedAcquisitions(geometries[0].orbit, *(np.stack([np.asarray(getattr(g, n)) for g in geometries])
+    return CellAcquisitions(geometries[0].orbit, *(np.stack([np.asarray(getattr(g, n)) for g in geometries])
                                                       for n in names))
 
 
@@ -118,5 +106,5 @@ def _quantile_rows(screens: list, prob: float) -> list:
     return [quantile_scalars(float(a), float(b), float(c)) for a, b, c in zip(y, shift, quad_q)]
 
 
-__all__ = ["StackedAcquisitions", "bisect_rows", "stack_acquisitions", "stacked_halo_shares",
+__all__ = ["bisect_rows", "stack_acquisitions", "stacked_halo_shares",
            "stacked_mixture_quantiles", "stacked_screens"]
