@@ -88,14 +88,15 @@ class PolarimetricPixelModel:
         sigma_n. looks : (n,) or None, the noise over a window of looks (``reference="scene"``, co-pol sec. 5).
         """
         c = np.asarray(scene, float)
+        n, n_nodes = len(c), self.mean.shape[0]
         w = gaussian_weights(np.asarray(fr_mean, float), np.asarray(fr_sd, float))  # (n, G)
-        m = np.einsum("nb,gbp->ngp", c, self.mean)  # conditional mean powers (n, G, 3)
-        q1 = np.einsum("ng,ngp->np", w, m)
+        m = (c @ np.moveaxis(self.mean, 1, 0).reshape(5, -1)).reshape(n, n_nodes, 3)  # conditional powers
+        q1 = (w[:, :, None] * m).sum(1)
         err = m - c[:, None, :3]  # conditional mean errors (the true power out first: less cancellation)
-        mean_err = np.einsum("ng,ngp->np", w, err)
-        spread = np.einsum("ng,ngp->np", w, err * err) - mean_err**2  # Cov over Omega (co-pol eq. 4.2)
-        cc = (c[:, :, None] * c[:, None, :]).reshape(len(c), 25)
-        within = np.einsum("nk,nkp->np", cc, np.einsum("ng,gkp->nkp", w, self.cov))
+        mean_err = q1 - c[:, :3]
+        spread = (w[:, :, None] * err * err).sum(1) - mean_err**2  # Cov over Omega (co-pol eq. 4.2)
+        cc = (c[:, :, None] * c[:, None, :]).reshape(n, 25, 1)
+        within = (cc * (w @ self.cov.reshape(n_nodes, -1)).reshape(n, 25, 3)).sum(1)
         g1, g2 = self.gain_moments
         noise = np.asarray(noise_power, float)[:, None] * NOISE_FACTORS
         signal_var = within + spread
