@@ -28,14 +28,19 @@ def random_pixels(rng, n):
             rng.uniform(0.0, 0.2, n), rng.uniform(0.0, 0.02, n))
 
 
-@pytest.mark.parametrize(("higher_order", "looks"), [(True, None), (False, 16.0)])
-def test_pixels_give_the_numbers_of_polarimetric_error_moments(rng, higher_order, looks):
-    scene, fr_mean, fr_sd, noise = random_pixels(rng, 4)
-    fr_sd[0] = 0.0  # a rotation known exactly
+@pytest.mark.parametrize(("higher_order", "looks", "rotations"), [
+    (True, None, 16),  # a rotation per pixel: weights per pixel
+    (False, 16.0, 2),  # pixels grouped by their rotation
+    (True, 9.0, 1),  # one rotation for all (a NISAR product: the scenario's)
+])
+def test_pixels_give_the_numbers_of_polarimetric_error_moments(rng, higher_order, looks, rotations):
+    scene, fr_mean, fr_sd, noise = random_pixels(rng, 16)
+    fr_mean, fr_sd = fr_mean[np.arange(16) % rotations], fr_sd[np.arange(16) % rotations]
+    fr_sd[0] = 0.0 if rotations > 1 else fr_sd[0]  # a rotation known exactly
     model = PolarimetricPixelModel.build(UNEQUAL, higher_order)
-    n_looks = None if looks is None else np.full(4, looks)
+    n_looks = None if looks is None else np.full(16, looks)
     mean, var = model.moments(scene, fr_mean, fr_sd, noise, n_looks)
-    for i in range(4):
+    for i in (0, 1, 7, 14):
         hh, hv, vv, re, im = scene[i]
         c = np.array([[hh, 0, re + 1j * im], [0, hv, 0], [re - 1j * im, 0, vv]])
         m = polarimetric_error_moments(ScatteringCovariance(c), UNEQUAL, GaussianFaraday(fr_mean[i], fr_sd[i]),

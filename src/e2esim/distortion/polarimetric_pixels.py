@@ -40,6 +40,10 @@ def _basis() -> np.ndarray:
 BASIS = _basis()
 """C = sigma_hh B_0 + sigma_hv B_1 + sigma_vv B_2 + Re<S_hh S_vv*> B_3 + Im<S_hh S_vv*> B_4."""
 PAIRS = tuple(itertools.combinations(range(5), 2))
+TRUE_POWER = np.eye(5, 3)
+"""sigma_p = sum_b c_b TRUE_POWER[b, p]: the true powers are the first three coefficients."""
+FEW_ROTATIONS = 8
+"""Pixels per distinct rotation (mean, SD) from which they are grouped by rotation (``_by_rotation``)."""
 
 
 @dataclass(frozen=True)
@@ -88,22 +92,53 @@ class PolarimetricPixelModel:
         sigma_n. looks : (n,) or None, the noise over a window of looks (``reference="scene"``, co-pol sec. 5).
         """
         c = np.asarray(scene, float)
-        n, n_nodes = len(c), self.mean.shape[0]
-        w = gaussian_weights(np.asarray(fr_mean, float), np.asarray(fr_sd, float))  # (n, G)
-        m = (c @ np.moveaxis(self.mean, 1, 0).reshape(5, -1)).reshape(n, n_nodes, 3)  # conditional powers
-        q1 = (w[:, :, None] * m).sum(1)
-        err = m - c[:, None, :3]  # conditional mean errors (the true power out first: less cancellation)
-        mean_err = q1 - c[:, :3]
-        spread = (w[:, :, None] * err * err).sum(1) - mean_err**2  # Cov over Omega (co-pol eq. 4.2)
-        cc = (c[:, :, None] * c[:, None, :]).reshape(n, 25, 1)
-        within = (cc * (w @ self.cov.reshape(n_nodes, -1)).reshape(n, 25, 3)).sum(1)
+        fr = np.stack([np.asarray(fr_mean, float), np.asarray(fr_sd, float)], axis=-1)
+        if (fr == fr[:1]).all():
+            rotations, which = fr[:1], None
+        else:
+            rotations, which = np.unique(fr[:, 0] + 1j * fr[:, 1], return_inverse=True)
+            rotations = np.stack([rotations.real, rotations.imag], axis=-1)
+        if len(rotations) * FEW_ROTATIONS <= len(c):
+            q1, signal_var = self._by_rotation(c, rotations, which)
+        else:
+            q1, signal_var = self._by_pixel(c, fr)
         g1, g2 = self.gain_moments
         noise = np.asarray(noise_power, float)[:, None] * NOISE_FACTORS
-        signal_var = within + spread
         var = g2 * signal_var + (g2 - g1**2) * q1**2
         if looks is not None:
             var = var + (noise**2 + 2 * noise * g1 * q1) / np.asarray(looks, float)[:, None]
         return g1 * q1 + noise - c[:, :3], var
+
+    def _by_pixel(self, c, fr) -> tuple:
+        """(q1, Var of the signal powers) (n, 3) with each pixel's weights at the nodes."""
+        n, n_nodes = len(c), self.mean.shape[0]
+        w = gaussian_weights(fr[:, 0], fr[:, 1])  # (n, G)
+        m = (c @ np.moveaxis(self.mean, 1, 0).reshape(5, -1)).reshape(n, n_nodes, 3)  # conditional powers
+        q1 = (w[:, :, None] * m).sum(1)
+        err = m - c[:, None, :3]  # conditional mean errors (the true power out first: less cancellation)
+        spread = (w[:, :, None] * err * err).sum(1) - (q1 - c[:, :3]) ** 2  # Cov over Omega (co-pol eq. 4.2)
+        cc = (c[:, :, None] * c[:, None, :]).reshape(n, 25, 1)
+        within = (cc * (w @ self.cov.reshape(n_nodes, -1)).reshape(n, 25, 3)).sum(1)
+        return q1, within + spread
+
+    def _by_rotation(self, c, rotations, which) -> tuple:
+        """``_by_pixel`` for pixels that share a few rotations (the scenario's, a constant correction): the
+        averages over the nodes are taken once per rotation, leaving a linear and a quadratic form of the scene
+        per pixel (the true power taken out of the coefficients: E[(m_g - sigma)^2] = c^T S c)."""
+        n_nodes = self.mean.shape[0]
+        w = gaussian_weights(rotations[:, 0], rotations[:, 1])  # (u, G)
+        linear = (w @ self.mean.reshape(n_nodes, -1)).reshape(len(w), 5, 3)
+        err = self.mean - TRUE_POWER  # (G, 5, 3)
+        square = (err[:, :, None, :] * err[:, None, :, :]).reshape(n_nodes, -1)
+        quadratic = (w @ (square + self.cov.reshape(n_nodes, -1))).reshape(len(w), 25, 3)
+        if which is None:  # one rotation for all: matrix products
+            q1 = c @ linear[0]
+            square = ((c @ quadratic[0].reshape(5, 15)).reshape(len(c), 5, 3) * c[:, :, None]).sum(1)
+        else:
+            q1 = (c[:, :, None] * linear[which.ravel()]).sum(1)
+            cc = (c[:, :, None] * c[:, None, :]).reshape(len(c), 25, 1)
+            square = (cc * quadratic[which.ravel()]).sum(1)
+        return q1, square - (q1 - c[:, :3]) ** 2
 
 
 def gaussian_weights(mean, sd, degree: int = QUADRATURE_DEGREE) -> np.ndarray:
