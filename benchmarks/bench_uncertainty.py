@@ -2,7 +2,7 @@
 5,000 x 5,000; target <= 60 s and <= 4 GB on two cores), next to two references measured in the same run:
 
 1. the I/O floor: the same product read block by block (the four covariance grids, the looks and the mask) and the
-   same ten float32 layers written to NetCDF and Cloud-Optimised GeoTIFF, without the model (the writer of
+   same float32 layers (``LAYERS``) written to NetCDF and Cloud-Optimised GeoTIFF, without the model (the writer of
    ``e2esim.products_io.uncertainty_files`` handed zeros): what any per-pixel product of this grid costs;
 2. the per-case path: ``hv_error_moments`` (the reference the batched kernel must equal) called pixel by pixel on
    ``--per-case-pixels`` pixels (default 2,000), scaled to the grid.
@@ -126,7 +126,7 @@ def main() -> None:
         print(f"e2esim uncertainty: {model['seconds']:.1f} s ({model['cpu_seconds']:.1f} CPU s, the workers' "
               f"included), peak {model['peak_rss_gb']:.2f} GB of one process "
               f"({model['pixels_with_data']:,} pixels with data; target <= 60 s and <= 4 GB at 5,000 x 5,000)")
-        print(f"I/O floor (read the grids, write ten zero layers): {floor['seconds']:.1f} s "
+        print(f"I/O floor (read the grids, write the layers as zeros): {floor['seconds']:.1f} s "
               f"({floor['cpu_seconds']:.1f} CPU s), peak "
               f"{floor['peak_rss_gb']:.2f} GB")
         print(f"per-case path: {per_case['seconds'] / per_case['pixels'] * 1e3:.2f} ms a pixel, {scaled:,.0f} s for "

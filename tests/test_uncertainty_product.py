@@ -11,6 +11,7 @@ import rasterio
 
 from e2esim.cli import main
 from e2esim.distortion.analytic import hv_error_moments
+from e2esim.distortion.polarimetric_moments import polarimetric_error_moments
 from e2esim.faraday.distribution import GaussianFaraday
 from e2esim.faraday.theory import bickel_bates_snr, bickel_bates_variance
 from e2esim.products_io.assumptions import load_assumptions
@@ -38,6 +39,15 @@ def agb_answer(a, sigma_hv, m) -> float:
     return max(abs(agb.quantile(1 - a.confidence)), abs(agb.quantile(a.confidence)))
 
 
+def assert_copol_layers(out, i, m) -> None:
+    """The sigma_hh and sigma_vv layers at pixel i against ``polarimetric_error_moments`` (``m``)."""
+    for ch, p in (("hh", 0), ("vv", 2)):
+        assert out[f"sigma_{ch}_error_mean"][i] == pytest.approx(m.mean[p], rel=RTOL)
+        assert out[f"sigma_{ch}_error_sd"][i] == pytest.approx(m.sd[p], rel=RTOL)
+        assert out[f"sigma_{ch}_relative_error_mean"][i] == pytest.approx(m.mean[p] / m.sigma[p], rel=RTOL)
+        assert out[f"sigma_{ch}_relative_error_sd"][i] == pytest.approx(m.sd[p] / m.sigma[p], rel=RTOL)
+
+
 def test_biomass_uncorrected_faraday_rotation_counts_in_full_with_the_filled_sd(tmp_path):
     """faradayRotationCorrectionApplied false: the data keep the LUT's Faraday rotation (the full error counts);
     the faradayRotationStd layer is all fill (as the BPS writes it), so its SD is e2esim's Bickel-Bates SD."""
@@ -59,6 +69,9 @@ def test_biomass_uncorrected_faraday_rotation_counts_in_full_with_the_filled_sd(
         assert out["sigma_hv_error_sd"][i] == pytest.approx(np.sqrt(m.variance), rel=RTOL)
         assert out["agb_relative_error"][i] == pytest.approx(agb_answer(a, a.scene.sigma_hv, m), rel=RTOL)
         assert out["verdict"][i] == (agb_answer(a, a.scene.sigma_hv, m) <= a.bound)
+        fr32 = float(np.float32(fr[i]))  # as the LUT stores it: sigma_hh and sigma_vv are sensitive to the rotation
+        assert_copol_layers(out, i, polarimetric_error_moments(a.scene, a.system, GaussianFaraday(fr32, sd),
+                                                               noise_power=n))
     # the noise bias grows across the swath: the near range passes the +-20 % bound, the far range does not
     assert out["verdict"][:, 0].all() and not out["verdict"][:, -1].any()
     attrs = out["attrs"]
@@ -102,12 +115,17 @@ def test_nisar_gcov_scene_looks_and_noise_come_from_the_product(tmp_path):
         assert out["sigma_hv_error_mean"][i] == pytest.approx(m.mean, rel=RTOL)
         assert out["sigma_hv_error_sd"][i] == pytest.approx(np.sqrt(m.variance), rel=RTOL)
         assert out["agb_relative_error"][i] == pytest.approx(agb_answer(a, float(hv[i]), m), rel=RTOL)
+        assert_copol_layers(out, i, polarimetric_error_moments(ScatteringCovariance(c), a.system, a.faraday,
+                                                               looks=25.0, noise_power=0.003))
+    assert np.isnan(out["sigma_hh_error_sd"][0, 0])  # mask fill
     assert np.isnan(out["sigma_hv_error_mean"][0, 0]) and out["verdict"][0, 0] == 255  # mask fill
     assert out["attrs"]["faraday_rotation_corrected_by_processor"] == "False"
     assert out["attrs"]["crosstalk_corrected_by_processor"] == "False"
     with rasterio.open(tmp_path / "out" / "uncertainty.tif") as tif:
         assert tif.crs.to_epsg() == 32646
         assert tif.descriptions[2] == "sigma_hv_relative_error_mean"
+        assert tif.descriptions[-1] == "sigma_vv_relative_error_sd"
+        np.testing.assert_array_equal(tif.read(tif.count), out["sigma_vv_relative_error_sd"])
         np.testing.assert_array_equal(tif.read(3), out["sigma_hv_relative_error_mean"])
         assert tif.transform.c == pytest.approx(500000.0 - 10.0)
 

@@ -3,7 +3,11 @@
 pixel, so that a pixel gets the numbers the per-case model (``hv_error_moments``) gives for its scene, system and
 Faraday rotation; the Faraday-rotation estimate's SD from the Bickel-Bates theory (Quegan et al. 2018, eq. 5
 corrected: ``e2esim.faraday.theory.bickel_bates_variance``, asymptotic form) and the relative AGB error through the
-power law (Men et al. 2021, eqs. 15-16, 19: ``e2esim.retrieval.agb_error.AGBError``).
+power law (Men et al. 2021, eqs. 15-16, 19: ``e2esim.retrieval.agb_error.AGBError``); the errors of sigma_hh and
+sigma_vv from the co-polarised model (``polarimetric_error_moments``, co-pol eqs. 3.2-3.6 and 4.2, its O(V^3) and
+O(V^4) terms included) vectorised over pixels (``e2esim.distortion.polarimetric_pixels``), with the rotation left
+in the data as the Faraday distribution and no correction: the rotation of the distortion matrices by a
+processor's correction (co-pol sec. 4) is not modelled.
 
 What is taken from where (docs/real-data.md): the scene (sigma_hh, sigma_hv, sigma_vv, <S_hh S_vv*>) and the
 number of looks from the product where it holds them (NISAR GCOV), else from the scenario; the noise (NESZ) from
@@ -21,6 +25,7 @@ import numpy as np
 
 from e2esim.distortion.analytic import MomentInputs, moments_of
 from e2esim.distortion.first_order import SceneTerms
+from e2esim.distortion.polarimetric_pixels import pixel_model_for
 from e2esim.faraday.distribution import EVEN_WEIGHTS
 from e2esim.faraday.theory import bickel_bates_variance
 from e2esim.retrieval.agb_error import AGBError
@@ -42,6 +47,11 @@ LAYERS = {
     "residual_faraday_rotation_sd": ("rad", "SD of the one-way Faraday rotation left in the data"),
     "agb_relative_error": ("1", "relative AGB error at the bound's confidence (larger of the two tails)"),
     "verdict": ("1", "1: the AGB error bound holds; 0: it does not; 255: no data"),
+    **{f"sigma_{ch}_{kind}": (units, f"{what} (sigma_{ch}; the co-polarised model, module docstring)")
+       for ch in ("hh", "vv") for kind, units, what in (
+           ("error_mean", "m2 m-2", "mean error"), ("error_sd", "m2 m-2", "SD of the error"),
+           ("relative_error_mean", "1", "mean relative error"),
+           ("relative_error_sd", "1", "SD of the relative error"))},
 }
 
 
@@ -77,11 +87,27 @@ def pixel_moments(block, pixels, assumptions) -> dict:
     values = {
         "sigma_hv_error_mean": m.mean, "sigma_hv_error_sd": sd, "sigma_hv_relative_error_mean": m.mean / hv,
         "sigma_hv_relative_error_sd": sd / hv, "faraday_rotation_sd": fr_sd, "faraday_rotation_sd_source": source,
+        **copol_layers(hh, hv, vv, hhvv, noise, fr_mean, fr_spread, system, looks),
         "residual_faraday_rotation_mean": fr_mean, "residual_faraday_rotation_sd": fr_spread,
         "agb_relative_error": agb_error, "verdict": (agb_error <= assumptions.bound).astype(np.uint8),
     }
     for name, value in values.items():
         out[name].reshape(-1)[ok] = value
+    return out
+
+
+def copol_layers(hh, hv, vv, hhvv, noise, fr_mean, fr_sd, system, looks) -> dict:
+    """The sigma_hh and sigma_vv layers: ``polarimetric_error_moments`` (co-pol eqs. 3.2-3.6, 4.2, 5.1-5.4) with the
+    rotation left in the data as a Gaussian ``GaussianFaraday(fr_mean, fr_sd)`` and no correction, vectorised over
+    pixels (``e2esim.distortion.polarimetric_pixels``)."""
+    scene = np.stack([hh, hv, vv, hhvv.real, hhvv.imag], axis=-1)
+    mean, var = pixel_model_for(system).moments(scene, fr_mean, fr_sd, noise, looks)
+    sd = np.sqrt(np.clip(var, 0.0, None))
+    out = {}
+    for ch, p, sigma in (("hh", 0, hh), ("vv", 2, vv)):
+        out |= {f"sigma_{ch}_error_mean": mean[:, p], f"sigma_{ch}_error_sd": sd[:, p],
+                f"sigma_{ch}_relative_error_mean": mean[:, p] / sigma,
+                f"sigma_{ch}_relative_error_sd": sd[:, p] / sigma}
     return out
 
 

@@ -49,8 +49,9 @@ def write_uncertainty(product, output, scenario=None, force: bool = False,
                   "mission": pixels.mission, "faraday_rotation_corrected_by_processor": str(pixels.faraday_applied),
                   "crosstalk_corrected_by_processor": str(pixels.crosstalk_applied),
                   "model": "sigma_hv error: Men et al. (2021) eqs. 11-12 completed to second order "
-                           "(e2esim.distortion.analytic); Faraday-rotation SD: Quegan et al. (2018) eq. 5; AGB: "
-                           "power law (Men et al. 2021 eqs. 15-16)",
+                           "(e2esim.distortion.analytic); sigma_hh, sigma_vv errors: co-pol eqs. 3.2-4.2 "
+                           "(e2esim.distortion.polarimetric_pixels); Faraday-rotation SD: Quegan et al. (2018) eq. 5; "
+                           "AGB: power law (Men et al. 2021 eqs. 15-16)",
                   **pixels.facts, **assumptions.attributes()}
     writer = UncertaintyWriter(output, pixels, attributes, force)
     valid = passed = 0
