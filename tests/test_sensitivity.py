@@ -6,7 +6,10 @@ from __future__ import annotations
 
 import json
 import math
+from functools import partial
 
+import h5py
+import numpy as np
 import pytest
 
 from e2esim.runner.outputs import write_outputs
@@ -72,8 +75,62 @@ def test_summary_and_report_carry_the_sensitivity(sensitive):
     report = (folder / "report.md").read_text()
     assert "sensitivity.png" in report and "the parameters that buy the most margin" in report
     assert (folder / "sensitivity.png").exists()
+    req = result.sensitivity["requirements"][0]
+    with h5py.File(folder / "results.h5", "r") as f:  # the same table in results.h5
+        g = f["sensitivity/0"]
+        assert g.attrs["name"] == req["name"] and g.attrs["value"] == req["value"]
+        assert [k.decode() for k in g["ranked"][()]] == req["ranked"]
+        assert [k.decode() for k in g["key"][()]] == [p["key"] for p in req["parameters"]]
+        expected = [math.nan if p["elasticity"] is None else p["elasticity"] for p in req["parameters"]]
+        assert np.array_equal(g["elasticity"][()], expected, equal_nan=True)
+        assert f["sensitivity"].attrs["relative_step"] == RELATIVE_STEP
 
 
 def test_without_the_setting_nothing_is_computed(tmp_path):
     result = run_scenario(_scenario(sensitivity=False).resolve(), progress=False)
     assert result.sensitivity is None
+
+
+def _drawing_scenario(seed):
+    """HH after a stated Faraday-rotation residual (calibration draws it from the case's generator, so the checked
+    value depends on the stream), two cases; the second (the larger residual) is the worst."""
+    return Scenario({
+        "name": "sensitivity_streams", "scene": {"type": "table1_forest", "forest": "boreal_200"},
+        "instrument": {"type": "biomass"}, "ionosphere": {"type": "gaussian_faraday", "mean_deg": 20.0, "sd_deg": 5.0},
+        "calibration": [{"type": "residual_faraday", "bias_deg": 1.0, "sd_deg": 2.0}],
+        "propagation": {"type": "polarimetric_error"},
+        "retrieval": {"type": "multichannel_power_law", "estimator": "hh"},
+        "requirements": [{"type": "agb_rmse", "max_percent": 20}],
+        "simulation": {"mode": "analytic", "seed": seed % 2**32, "looks": 2000, "realisations": 50},
+        "sweep": {"parameters": {"calibration.0.sd_deg": [2.0, 8.0]}}, "output": {"sensitivity": True}})
+
+
+def test_the_batched_steps_draw_the_streams_of_separate_runs(seed):
+    """Common random numbers: the steps run as one batch, each with the stream of its unstepped case
+    (simulation.stream), and give bit for bit the values of one run per step; the unstepped value is the run's own
+    value of the worst case (case 1: its stream is not that of a one-case run's case 0)."""
+    from e2esim.runner.sensitivity import checked_values
+
+    scenario = _drawing_scenario(seed)
+    scenario.raw["output"]["sensitivity"] = False
+    result = run_scenario(scenario.resolve(), progress=False)
+    base = {"calibration.0.sd_deg": 8.0, "simulation.stream": 1}
+    rows = [base, {**base, "calibration.0.sd_deg": 8.4}, {**base, "instrument.nesz_db": -26.5}]
+    batched = checked_values(result.scenario, rows, run_scenario)
+    assert batched.tobytes() == checked_values(result.scenario, rows, run_scenario, batched=False).tobytes()
+    assert batched[0, 0] == float(result.table.requirements[0].value[1])
+    assert batched[0, 1] > batched[0, 0]  # a larger residual rotation, a larger HH error
+
+
+@pytest.mark.slow
+def test_the_batched_table_is_that_of_separate_runs(seed, monkeypatch):
+    """The whole sensitivity table, batched, is bit for bit that of one run per step."""
+    from e2esim.runner import sensitivity
+
+    result = run_scenario(_drawing_scenario(seed).resolve(), progress=False)
+    req = result.sensitivity["requirements"][0]
+    assert req["case"] == 1 and req["value"] == float(result.table.requirements[0].value[1])
+    sd = next(p for p in req["parameters"] if p["key"] == "calibration.0.sd_deg")
+    assert sd["effect"] and sd["elasticity"] > 0  # a larger residual rotation, a larger HH error
+    monkeypatch.setattr(sensitivity, "checked_values", partial(sensitivity.checked_values, batched=False))
+    assert sensitivity.parameter_sensitivity(result, run_scenario) == result.sensitivity

@@ -32,6 +32,11 @@ class SimulationSettings:
     seed: int = _setting("seed", "int", "root seed of all random draws (case i uses SeedSequence(seed, "
                          "spawn_key=(i,))); at most 2^64 - 1, the largest integer results.h5 stores", default=0,
                          minimum=0, maximum=SEED_MAX)
+    stream: int | None = _setting("stream", "int", "spawn key of the case's random draws: SeedSequence(seed, "
+                                  "spawn_key=(stream,)) instead of the case's index; null (default): the index. "
+                                  "Cases with the same seed and stream draw the same numbers (common random "
+                                  "numbers, as output.sensitivity uses them)", default=None, nullable=True,
+                                  minimum=0, maximum=SEED_MAX)
     looks: int = _setting("looks", "int", "L: independent pixels averaged into one sigma estimate (Men et al. "
                           "2021, eq. 17)", default=100_000, minimum=1)
     realisations: int = _setting("realisations", "int", "M: system-error and Faraday-rotation realisations",
@@ -40,6 +45,10 @@ class SimulationSettings:
                                        "realisation", default=1, minimum=1)
     keep_samples: bool = _setting("keep_samples", "bool", "store the Monte Carlo error samples in results.h5",
                                   default=True)
+
+    def stream_of(self, index: int) -> int:
+        """The spawn key of case ``index``'s generator: ``stream`` where set, else the index."""
+        return int(index) if self.stream is None else int(self.stream)
 
     @property
     def analytic(self) -> bool:

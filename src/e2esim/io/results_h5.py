@@ -17,6 +17,7 @@ from e2esim.io.campaign_h5 import write_campaign
 from e2esim.io.guarded_h5 import guarded_h5_file
 from e2esim.io.h5_datasets import code_dtype, coded_values, put, put_coded, put_text
 from e2esim.io.scalar_units import detail_unit, run_products, scalar_description, scalar_unit
+from e2esim.io.sensitivity_h5 import write_sensitivity
 from e2esim.io.summary import requirement_sources
 from e2esim.maps.grid import is_map_sweep
 from e2esim.requirements.verdict import STATUSES
@@ -55,6 +56,8 @@ def write_results(result, path) -> None:
             put_text(a, "text", "\n".join(answer["lines"]), "the answer to the scenario's solve or allocate section")
             put_text(a, "result", json.dumps(answer["result"]), "the answer as e2esim solve --json prints it, or "
                      "e2esim allocate's specification, JSON")
+        if getattr(result, "sensitivity", None):
+            write_sensitivity(f, result.sensitivity)  # output.sensitivity (e2esim.runner.sensitivity)
         g = f.create_group("cases")
         put(g, "index", np.arange(n, dtype=np.int64), "1", "case number")
         _write_labels(g.create_group("label"), result.labels)

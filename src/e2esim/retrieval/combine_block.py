@@ -68,7 +68,7 @@ def stable_regression(stage, block, sigma, agb, exponent, model_of) -> AGBContri
     made = []
     for k in first:
         index = int(block.indices[k])
-        rng = CaseRandom(block.settings.seed, index)
+        rng = CaseRandom(block.settings.seed, block.settings.stream_of(index))
         case = Case(index=index, inputs={}, settings=block.settings, rng=rng, services=block.services)
         a, s, p = float(agb[k]), float(sigma[k]), float(exponent[k])
         try:

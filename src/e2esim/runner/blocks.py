@@ -172,7 +172,7 @@ class BlockRun:
     def _random(self, position: int, settings) -> CaseRandom:
         random = self.randoms.get(position)
         if random is None:
-            random = self.randoms[position] = CaseRandom(settings.seed, self.indices[position])
+            random = self.randoms[position] = CaseRandom(settings.seed, settings.stream_of(self.indices[position]))
         return random
 
     def _forward(self, stage, settings, position: int, random) -> dict:

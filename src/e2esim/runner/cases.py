@@ -35,7 +35,8 @@ def run_case(spec, services: Services | None = None) -> CaseResult:
     """Pass one case through its chain of stages (``e2esim.module.Stage``): each stage reads the products it
     needs and returns its own, which are added to the case (never overwritten)."""
     case = Case(index=spec.index, inputs=spec.inputs, settings=spec.settings,
-                rng=case_generator(spec.settings.seed, spec.index), services=services or default_services())
+                rng=case_generator(spec.settings.seed, spec.settings.stream_of(spec.index)),
+                services=services or default_services())
     for stage in spec.chain:
         case = case.adding(checked_products(stage, stage.forward(case)))
     declared = {p.name: p for stage in spec.chain for p in stage.provides}  # plug-in products included

@@ -35,7 +35,7 @@ from e2esim.params import Param, find_param
 from e2esim.runner.overrides import override_path, value_at
 from e2esim.runner.variation import Contexts, column_products, is_sampled
 
-SAMPLING_SETTINGS = ("simulation.seed", "simulation.realisations", "simulation.noise_realisations")
+SAMPLING_SETTINGS = ("simulation.seed", "simulation.stream", "simulation.realisations", "simulation.noise_realisations")
 """Settings whose purpose is the Monte Carlo draws: compared on the sampled outputs too."""
 MONTE_CARLO_NOTE = "its Monte Carlo results, drawn anew in every case, were compared by presence only"
 _SHOW = 3  # outputs named in a message

@@ -4,7 +4,10 @@ For each requirement, at its worst case (smallest margin; the case that binds), 
 with respect to every float parameter p of the chain's modules (requirements, simulation and output settings
 excepted), by central finite differences through the engine: one extra run of the scenario whose sweep holds the
 worst cases and, for each of them, every parameter stepped down and up (``simulation.mode: analytic``), so that the
-whole table is one batched run.
+whole table is one batched run. Common random numbers: every row of that sweep sets ``simulation.stream`` to the
+stream of its worst case in the scenario's run, so each stepped case draws the same numbers as its unstepped case
+(and as that case did in the run); the batched values are bit for bit those of one run per row
+(``checked_values(..., batched=False)``, the reference).
 
 * a parameter in dB (a power ratio): V per dB, E = (V+ − V−) / (2 Δ V), Δ = ``DB_STEP`` (0.5 dB);
 * any other: d ln V / d ln p, E = (V+ − V−) / (V (ln(1 + h) − ln(1 − h))), h = ``RELATIVE_STEP`` (5 %).
@@ -96,7 +99,8 @@ def parameter_sensitivity(result, run) -> dict | None:
         return {**head, "requirements": [], "note": "not computed for a map sweep: run it on one cell"}
     rows, specs = [], []
     for case in sorted(set(worst.values())):
-        inputs = dict(result.cases[case].inputs)
+        settings = scenario.cases[case].settings
+        inputs = {**result.cases[case].inputs, "simulation.stream": settings.stream_of(case)}  # common random numbers
         knobs = chain_parameters(scenario.cases[case].modules)
         specs.append((case, len(rows), knobs))
         rows.append(inputs)
@@ -104,7 +108,7 @@ def parameter_sensitivity(result, run) -> dict | None:
             for _, stepped in _steps(p, value)[1]:
                 rows.append({**inputs, key: stepped})
     try:
-        values = np.stack([_checked_values(scenario, row, run) for row in rows], axis=1)
+        values = checked_values(scenario, rows, run)
     except UserError as exc:
         return {**head, "requirements": [], "note": f"not computed: {exc}"}
     out = []
@@ -116,16 +120,22 @@ def parameter_sensitivity(result, run) -> dict | None:
     return {**head, "requirements": out}
 
 
-def _checked_values(scenario, row: dict, run) -> np.ndarray:
-    """The checked value of every requirement for the one case ``row`` (its sweep inputs), analytic. Each is a run
-    of its own: a case draws its random numbers by its index in the sweep, and every step must draw the same ones
-    (common random numbers), so each is case 0 of a one-case sweep."""
+def checked_values(scenario, rows: list, run, batched: bool = True) -> np.ndarray:
+    """(requirements, rows) checked values of the cases ``rows`` (their sweep inputs, each with its
+    ``simulation.stream``), analytic: one run whose sweep is the rows, or (``batched=False``) one one-case run per
+    row; the same numbers, since a case's draws follow its stream, not its place in the sweep."""
+    if batched:
+        return _run_rows(scenario, rows, run)
+    return np.concatenate([_run_rows(scenario, [row], run) for row in rows], axis=1)
+
+
+def _run_rows(scenario, rows: list, run) -> np.ndarray:
     raw = copy.deepcopy(scenario.raw)
-    raw["sweep"] = {"cases": [row]}
+    raw["sweep"] = {"cases": rows}
     raw.setdefault("simulation", {})["mode"] = "analytic"
     raw.setdefault("output", {})["sensitivity"] = False
     stepped = run(Scenario(raw, f"{scenario.source} (sensitivity)").resolve(), progress=False)
-    return np.array([float(np.asarray(r.value)[0]) for r in stepped.table.requirements])
+    return np.array([np.asarray(r.value, dtype=float) for r in stepped.table.requirements]).reshape(-1, len(rows))
 
 
 def _requirement_table(name: str, case: int, base: int, knobs: list, v) -> dict:
