@@ -56,6 +56,20 @@ def test_a_site_never_seen_exits_2_naming_the_site_and_its_file(tmp_path, capsys
     assert "of the sites file sites.yaml" in err
 
 
+def test_a_sites_file_under_home_is_the_file_read_and_the_file_hashed(tmp_path, monkeypatch, capsys):
+    # "~" expands as for every input file (runner.scenario_files.resolve_path), so provenance hashes the file read
+    home = tmp_path / "home"
+    home.mkdir()
+    monkeypatch.setenv("HOME", str(home))
+    (home / "sites.yaml").write_text(yaml.safe_dump({"sites": [
+        {"name": "north_pole_reflector", "lat_deg": 89.5, "lon_deg": 0.0, "type": "corner_reflector",
+         "calibrates": ["gain"], "snr_db": 30.0, "scr_db": 25.0}]}))
+    path = _scenario(tmp_path, sites_file="~/sites.yaml", sites=["new_norcia_transponder"], mission_years=0.2,
+                     search_max_per_year=0)
+    assert main(["run", str(path), "-o", str(tmp_path / "out")]) == 2
+    assert "site north_pole_reflector (89.50, 0.00 deg) is never seen" in capsys.readouterr().err
+
+
 def test_a_sites_file_is_read_and_its_bad_entries_named(tmp_path):
     good = tmp_path / "good.yaml"
     good.write_text(yaml.safe_dump({"sites": [

@@ -92,9 +92,11 @@ class Campaign(CalibrationModule):
         c = self.config
         sites = tuple(PRESETS[n] for n in c["sites"])
         if c["sites_file"] is not None:
-            base = Path(self.location.source).parent if Path(self.location.source).exists() else Path(".")
-            path = Path(c["sites_file"])
-            sites += read_sites_file(path if path.is_absolute() else base / path, key="sites_file")
+            # the rule of every input file (runner.scenario_files.resolve_path), so the file read is the one hashed
+            path = Path(c["sites_file"]).expanduser()
+            if not path.is_absolute() and self.location.source and Path(self.location.source).is_file():
+                path = Path(self.location.source).parent / path
+            sites += read_sites_file(path, key="sites_file")
         self.sites = sites
         self.drift = {}
         for name in PARAMETERS:
