@@ -57,7 +57,7 @@ def test_a_site_never_seen_exits_2_naming_the_site_and_its_file(tmp_path, capsys
 
 
 def test_a_sites_file_under_home_is_the_file_read_and_the_file_hashed(tmp_path, monkeypatch, capsys):
-    # "~" expands as for every input file (runner.scenario_files.resolve_path), so provenance hashes the file read
+    # "~" expands as for every input file (e2esim.input_files.scenario_relative), so provenance hashes the file read
     home = tmp_path / "home"
     home.mkdir()
     monkeypatch.setenv("HOME", str(home))

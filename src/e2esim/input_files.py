@@ -16,6 +16,7 @@ from __future__ import annotations
 import errno
 import os
 import stat
+from pathlib import Path
 
 from e2esim.errors import UserError
 
@@ -91,4 +92,16 @@ def read_limited(fd: int, count: int) -> bytes:
     return b"".join(pieces)
 
 
-__all__ = ["NotARegularFile", "check_regular", "open_regular", "read_limited", "regular_file_stat", "special_kind"]
+def scenario_relative(value: str, scenario_source) -> Path:
+    """The file a scenario names with ``value``: ``~`` expanded, and a relative path taken from the scenario file's
+    folder when the scenario came from a file (``scenario_source``; else from the working directory). Every module
+    that reads an input file and the provenance that hashes it (``e2esim.runner.scenario_files``) use this rule, so
+    the file hashed is the file read."""
+    path = Path(value).expanduser()
+    if not path.is_absolute() and scenario_source and Path(scenario_source).is_file():
+        path = Path(scenario_source).parent / path
+    return path
+
+
+__all__ = ["NotARegularFile", "check_regular", "open_regular", "read_limited", "regular_file_stat",
+           "scenario_relative", "special_kind"]

@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from pathlib import Path
 
 import numpy as np
 
@@ -21,6 +20,7 @@ from e2esim.campaign.drift import YEAR_DAYS, DriftModel
 from e2esim.campaign.site_file import read_sites_file
 from e2esim.campaign.sites import PARAMETERS, PRESETS
 from e2esim.errors import ConfigError, PhysicsInputError
+from e2esim.input_files import scenario_relative
 from e2esim.params import Param
 from e2esim.units import LEVEL_CONVENTIONS, THREE_SIGMA_AMPLITUDE, level_db_from_variance, variance_from_level_db
 
@@ -92,11 +92,7 @@ class Campaign(CalibrationModule):
         c = self.config
         sites = tuple(PRESETS[n] for n in c["sites"])
         if c["sites_file"] is not None:
-            # the rule of every input file (runner.scenario_files.resolve_path), so the file read is the one hashed
-            path = Path(c["sites_file"]).expanduser()
-            if not path.is_absolute() and self.location.source and Path(self.location.source).is_file():
-                path = Path(self.location.source).parent / path
-            sites += read_sites_file(path, key="sites_file")
+            sites += read_sites_file(scenario_relative(c["sites_file"], self.location.source), key="sites_file")
         self.sites = sites
         self.drift = {}
         for name in PARAMETERS:

@@ -26,11 +26,10 @@ distributed-target error the requirement checks.
 
 from __future__ import annotations
 
-from pathlib import Path
-
 from e2esim.error_terms.effects import AddedPower, ExtraVariance, FixedGain
 from e2esim.error_terms.modules import MAP_CELL_KEYS, ErrorTerm, source_param
 from e2esim.error_terms.notch import POSITIONS, notch_response
+from e2esim.input_files import scenario_relative
 from e2esim.module import fail
 from e2esim.params import AtMostOneOf, Param
 from e2esim.scene.lat_lon_raster import read_lat_lon_raster
@@ -79,10 +78,7 @@ class RFITerm(ErrorTerm):
         self.notch = None if c["fraction_map"] else notch_response(c["band_fraction_fraction"] or 0.0,
                                                                      c["notch_position"])
         if c["fraction_map"]:
-            path = Path(c["fraction_map"]).expanduser()
-            scenario = self.location.source
-            if not path.is_absolute() and scenario and Path(scenario).is_file():
-                path = Path(scenario).parent / path
+            path = scenario_relative(c["fraction_map"], self.location.source)
             self.raster = read_lat_lon_raster(path, c["fraction_map_variable"], "RFI fraction map", 0.0, 1.0,
                                               key="fraction_map")
 

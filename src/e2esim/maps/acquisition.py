@@ -18,11 +18,10 @@ and the mission's planning, not the continents' outlines, so cells near an edge 
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 
 from e2esim.errors import ConfigError, Location, PhysicsInputError
+from e2esim.input_files import scenario_relative
 from e2esim.scene.lat_lon_raster import read_lat_lon_raster
 
 EARTH_RADIUS_KM = 6371.0088
@@ -92,9 +91,7 @@ def not_acquired_cells(m: dict, lat, lon, where: Location) -> np.ndarray:
         vertices = polygon_vertices(m["not_acquired_polygon_deg"], where.child("not_acquired_polygon_deg"))
         mask |= in_polygon(lon2, lat2, vertices) | in_polygon(lon2 + 360.0, lat2, vertices)
     if m.get("not_acquired_file"):
-        path = Path(m["not_acquired_file"]).expanduser()
-        if not path.is_absolute() and where.source and Path(where.source).is_file():
-            path = Path(where.source).parent / path
+        path = scenario_relative(m["not_acquired_file"], where.source)
         try:
             raster = read_lat_lon_raster(path, RASTER_VARIABLE, "acquisition mask", 0.0, 1.0)
         except PhysicsInputError as exc:

@@ -19,6 +19,7 @@ import numpy as np
 
 from e2esim import products as P
 from e2esim.errors import PhysicsInputError
+from e2esim.input_files import scenario_relative
 from e2esim.module import Stage
 from e2esim.orbit.acquisition import AcquisitionGeometry, Site
 from e2esim.orbit.frames import EARTH_MEAN_RADIUS, EARTH_ROTATION_RATE, ecef_to_enu, from_ecef
@@ -114,9 +115,7 @@ class OrbitFileModule(Stage):
 
     def setup(self):
         c = self.si
-        path = Path(c["file"]).expanduser()
-        if not path.is_absolute() and self.location.source and Path(self.location.source).is_file():
-            path = Path(self.location.source).parent / path
+        path = scenario_relative(c["file"], self.location.source)
         try:
             self.trajectory = read_orbit(path, c["format"], c["group"])
         except PhysicsInputError as exc:

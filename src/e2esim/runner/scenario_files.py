@@ -14,7 +14,7 @@ import os
 from pathlib import Path
 
 from e2esim.errors import UserError
-from e2esim.input_files import open_regular
+from e2esim.input_files import open_regular, scenario_relative
 from e2esim.maps.grid import MAP_PARAMS, map_section
 from e2esim.params import Param, ParamGroup
 
@@ -35,14 +35,6 @@ def declared_files(params, values, key_path: tuple) -> list:
             if isinstance(value, str) and value:
                 out.append((".".join(str(k) for k in key_path + (p.name,)), value))
     return out
-
-
-def resolve_path(value: str, scenario_source: str) -> Path:
-    """The file a module reads for ``value``: relative to the scenario file's folder when that file exists."""
-    path = Path(value).expanduser()
-    if not path.is_absolute() and scenario_source and Path(scenario_source).is_file():
-        path = Path(scenario_source).parent / path
-    return path
 
 
 def file_digest(path: Path, key: str) -> tuple[int, str]:
@@ -74,7 +66,7 @@ def scenario_input_files(resolved) -> list:
         found.update(declared_files(MAP_PARAMS, section, ("sweep", "map")))
     out = []
     for key, value in sorted(found):
-        size, sha = file_digest(resolve_path(value, resolved.source), key)
+        size, sha = file_digest(scenario_relative(value, resolved.source), key)
         out.append({"key": key, "path": value, "size_bytes": size, "sha256": sha})
     return out
 
@@ -87,4 +79,4 @@ def changed_files(recorded, current) -> list:
     return sorted(k for k in before.keys() | now.keys() if before.get(k) != now.get(k))
 
 
-__all__ = ["changed_files", "declared_files", "file_digest", "resolve_path", "scenario_input_files"]
+__all__ = ["changed_files", "declared_files", "file_digest", "scenario_input_files"]

@@ -9,11 +9,11 @@ agree on which cells are forest.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 
 from e2esim.errors import PhysicsInputError
+from e2esim.input_files import scenario_relative
 from e2esim.params import Ordered, Param
 from e2esim.scene.agb_map import AGBMap, read_agb_map
 from e2esim.scene.biome_bands import BOREAL_LAT_RANGE_DEG, DEFAULT_FORESTS, NO_FOREST, TROPIC_LAT_DEG, band_biome
@@ -61,10 +61,7 @@ class ForestSource:
         relative to ``scenario_file``'s folder when that file exists)."""
         agb_map = None
         if si["file"]:
-            path = Path(si["file"]).expanduser()
-            if not path.is_absolute() and scenario_file and Path(scenario_file).is_file():
-                path = Path(scenario_file).parent / path
-            agb_map = read_agb_map(path, si["variable"])
+            agb_map = read_agb_map(scenario_relative(si["file"], scenario_file), si["variable"])
         return cls(float(si["tropical_lat_deg"]), tuple(si["boreal_lat_range_deg"]),
                    (("tropical", si["tropical_forest"]), ("boreal", si["boreal_forest"])), si["temperate_biome"],
                    agb_map)
