@@ -54,15 +54,6 @@ class LUTLayers:
                 f"{np.nanmin(self.longitude):.4g} to {np.nanmax(self.longitude):.4g} deg)")
         return int(row), int(col)
 
-    def value(self, name: str, pixel: tuple) -> float:
-        """The layer ``name`` at ``pixel``; ``ProductFileError`` where it holds no data."""
-        value = float(self.layers[name][pixel])
-        if not np.isfinite(value):
-            raise ProductFileError(f"{self.path}: {name} holds no data at pixel (row {pixel[0]}, column {pixel[1]}) "
-                                   f"at latitude {self.latitude[pixel]:.6g}, longitude {self.longitude[pixel]:.6g} "
-                                   "deg; choose a pixel with data")
-        return value
-
     def _spacing_m(self, row: int, col: int) -> float:
         rows, cols = self.latitude.shape
         steps = [(row + dr, col + dc) for dr, dc in ((1, 0), (-1, 0), (0, 1), (0, -1))

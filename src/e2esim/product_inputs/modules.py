@@ -47,30 +47,32 @@ def _site_params(file_key: str, what: str) -> tuple:
 class _ProductPixel:
     """The pixel a product-driven module reads, for one case (module docstring)."""
 
-    def site_of(self, case):
-        """(lat_deg, lon_deg) of the site, of the map sweep's cell, or None (the scene centre)."""
+    def read_layers(self, names) -> None:
+        """Reads the layers ``names`` (``self.lut``) and the site's pixel (``self.site_pixel``; None without a site):
+        a bad file or a site outside the product is refused before anything runs."""
         lat, lon = self.si["lat_deg"], self.si["lon_deg"]
         if (lat is None) != (lon is None):
             raise fail(self, "lat_deg and lon_deg go together", "give both, or neither (the scene centre or the "
                        "map sweep's cell)", key="lat_deg" if lat is None else "lon_deg")
-        if lat is None:
-            lat, lon = case.inputs.get(MAP_CELL_KEYS["lat"]), case.inputs.get(MAP_CELL_KEYS["lon"])
-        return None if lat is None or lon is None else (float(lat), float(lon))
-
-    def read_layers(self, names):
         try:
-            return read_lut_layers(scenario_relative(self.si["lut_file"], self.location.source), names)
+            self.lut = read_lut_layers(scenario_relative(self.si["lut_file"], self.location.source), names)
         except UserError as exc:
             raise fail(self, str(exc), key="lut_file") from None
+        self.site_pixel = None if lat is None else self.pixel_of(lat, lon, "lat_deg")
 
-    def values_at(self, case, names) -> tuple:
-        """The layers ``names`` at the case's pixel (NaN where the layer holds no data)."""
-        site = self.site_of(case)
+    def pixel_of(self, lat, lon, key):
         try:
-            pixel = self.lut.centre() if site is None else self.lut.pixel_of(*site)
+            return self.lut.pixel_of(float(lat), float(lon))
         except UserError as exc:
             raise fail(self, str(exc), "a site inside the product, or lat_deg/lon_deg null for its scene centre",
-                       key="lat_deg" if self.si["lat_deg"] is not None else "lut_file") from None
+                       key=key) from None
+
+    def values_at(self, case, names) -> tuple:
+        """The layers ``names`` at the case's pixel (NaN where the layer holds no data), and the pixel."""
+        pixel = self.site_pixel
+        if pixel is None:
+            lat, lon = case.inputs.get(MAP_CELL_KEYS["lat"]), case.inputs.get(MAP_CELL_KEYS["lon"])
+            pixel = self.lut.centre() if lat is None or lon is None else self.pixel_of(lat, lon, "lut_file")
         return tuple(float(self.lut.layers[n][pixel]) for n in names), pixel
 
     def no_data(self, name, pixel):
@@ -97,7 +99,7 @@ class ProductFaraday(_ProductPixel, Stage):
     provides = (P.FARADAY,)
 
     def setup(self):
-        self.lut = self.read_layers((FARADAY, FARADAY_SD))
+        self.read_layers((FARADAY, FARADAY_SD))
 
     def forward(self, case):
         (mean, sd), pixel = self.values_at(case, (FARADAY, FARADAY_SD))
@@ -123,7 +125,7 @@ class BiomassProductNoise(_ProductPixel, BiomassInstrument):
 
     def setup(self):
         super().setup()
-        self.lut = self.read_layers(DENOISING)
+        self.read_layers(DENOISING)
 
     def forward(self, case):
         values, pixel = self.values_at(case, DENOISING)
