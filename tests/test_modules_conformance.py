@@ -38,6 +38,7 @@ CONFIGS = {
     ("error_terms", "extra_variance"): {"relative_sd_percent": 1.0},
     ("ionosphere", "biomass_product_faraday"): {"lut_file": str(_PRODUCT / "lut.nc")},
     ("instrument", "biomass_product_noise"): {"lut_file": str(_PRODUCT / "lut.nc")},
+    ("propagation", "backscatter_error_budget_from_product"): {"lut_file": str(_PRODUCT / "lut.nc")},
     ("error_terms", "rfi_from_product"): {"annotation_file": str(_PRODUCT / "annotation.xml"), "looks": 92},
 }
 

@@ -125,8 +125,8 @@ def test_a_product_holding_the_climatologys_values_gives_its_numbers(tmp_path):
 def _bad(tmp_path, capsys, *sets, product=None):
     scenario = yaml.safe_load((SCENARIOS / "biomass_default_from_product.yaml").read_text())
     del scenario["sweep"]
-    for section in ("instrument", "ionosphere"):
-        scenario[section]["lut_file"] = str((product or SHIPPED) / "lut.nc")
+    for section in (scenario["instrument"], scenario["ionosphere"], scenario["propagation"][1]):
+        section["lut_file"] = str((product or SHIPPED) / "lut.nc")
     scenario["error_terms"][0]["annotation_file"] = str((product or SHIPPED) / "annotation.xml")
     path = tmp_path / "bad.yaml"
     path.write_text(yaml.safe_dump(scenario))
@@ -167,3 +167,24 @@ def test_an_annotation_without_rfi_reports(tmp_path, capsys):
 def test_a_latitude_without_longitude(tmp_path, capsys):
     err = _bad(tmp_path, capsys, "instrument.lat_deg=60.05")
     assert "instrument.lon_deg" in err and "lat_deg and lon_deg go together" in err
+
+
+def test_the_budget_at_the_products_incidence_and_slant_range():
+    """backscatter_error_budget_from_product at pixel (3, 7) is backscatter_error_budget given that pixel's incidence
+    (LUT geometry/incidenceAngle) and slant range (c tau / 2 of its slantRangeTimeRGC)."""
+    from e2esim.budget.modules import BackscatterErrorBudget
+    from e2esim.product_inputs.modules import ProductIncidenceBudget
+
+    with netCDF4.Dataset(LUT) as ds:
+        incidence = float(ds["geometry/incidenceAngle"][3, 7])
+        slant_km = 299792458.0 * float(ds["slantRangeTimeRGC"][7]) / 2 / 1e3
+    case = reference_case(("scene.covariance", "instrument"))
+    made = ProductIncidenceBudget(lut_file=str(LUT), lat_deg=60.03, lon_deg=92.07).forward(case)["backscatter.budget"]
+    given = BackscatterErrorBudget(observation={"incidence_deg": incidence, "slant_range_km": slant_km}).forward(
+        case)["backscatter.budget"]
+    preset = BackscatterErrorBudget().forward(case)["backscatter.budget"]  # mid-swath 28.4 deg, 666 km orbit
+    for name in ("looks", "area_error", "dem_pointing_error_rad", "slope_error_rad"):
+        np.testing.assert_allclose(getattr(made, name), getattr(given, name), rtol=1e-12, err_msg=name)
+    for term, value in given.relative_sd.items():
+        np.testing.assert_allclose(made.relative_sd[term], value, rtol=1e-12, err_msg=term)
+    assert not np.allclose(made.looks, preset.looks, rtol=1e-3)  # pixel (3, 7) is at 26.96 deg, not mid-swath

@@ -29,12 +29,14 @@ OUTSIDE_SPACINGS = 1.5
 @dataclass(frozen=True)
 class LUTLayers:
     """Layers of one BIOMASS L1 LUT on its geometry grid. latitude, longitude : (rows, columns) in degrees.
-    layers : {"group/variable": (rows, columns) float64, NaN where no data}. path : the LUT file."""
+    layers : {"group/variable": (rows, columns) float64, NaN where no data}. slant_range_time : (columns,) the
+    two-way slant-range time of each column (s, ``slantRangeTimeRGC``). path : the LUT file."""
 
     path: str
     latitude: np.ndarray
     longitude: np.ndarray
     layers: dict
+    slant_range_time: np.ndarray
 
     def centre(self) -> tuple:
         """(row, column) of the scene centre."""
@@ -88,7 +90,7 @@ def read_lut_layers(path, names) -> LUTLayers:
             if ds[name].dimensions == layout.SLC_AXES:
                 values = _onto_rgc(values, axes)
             layers[name] = values
-    return LUTLayers(str(path), latitude, longitude, layers)
+    return LUTLayers(str(path), latitude, longitude, layers, axes[layout.RGC_AXES[1]])
 
 
 def open_lut(path):

@@ -1,6 +1,7 @@
-"""Module types that take a value from a BIOMASS L1 product instead of a climatology or a preset (issue 26, item 5):
-the Faraday rotation (kind ``ionosphere``), the noise (kind ``instrument``) and the RFI fraction (kind
-``error_terms``). docs/real-data.md, "A scenario driven by a product".
+"""Module types that take a value from a BIOMASS L1 product instead of a climatology or a preset (issue 26, item
+5): the Faraday rotation (kind ``ionosphere``), the noise (kind ``instrument``), the incidence and slant range of
+the random-error budget (kind ``propagation``) and the RFI fraction (kind ``error_terms``). docs/real-data.md, "A
+scenario driven by a product".
 
 Each names the one file it reads (``lut_file``: the LUT NetCDF; ``annotation_file``: the annotation XML), declared
 ``input_file`` so that the file read is the file hashed into the run's provenance (``e2esim.input_files.
@@ -16,12 +17,14 @@ import dataclasses
 import numpy as np
 
 from e2esim import products as P
+from e2esim.budget.modules import BackscatterErrorBudget
 from e2esim.error_terms.modules import MAP_CELL_KEYS
 from e2esim.error_terms.rfi_modules import RFITerm
-from e2esim.errors import UserError
+from e2esim.errors import PhysicsInputError, UserError
 from e2esim.faraday.distribution import GaussianFaraday
 from e2esim.input_files import scenario_relative
 from e2esim.instrument.modules import BiomassInstrument
+from e2esim.ionosphere.constants import SPEED_OF_LIGHT
 from e2esim.module import Stage, fail
 from e2esim.params import Param
 from e2esim.product_inputs.biomass_site import read_lut_layers
@@ -30,6 +33,7 @@ from e2esim.products_io.biomass_annotation import read_annotation
 BIOMASS_FREQUENCY_HZ = 435e6
 """The BIOMASS centre frequency (Quegan et al. 2018, Section 5), at which the product's Faraday rotation is given."""
 FARADAY, FARADAY_SD = "ionosphereCorrection/faradayRotation", "ionosphereCorrection/faradayRotationStd"
+INCIDENCE = "geometry/incidenceAngle"
 DENOISING = tuple(f"denoising/denoising{p}" for p in ("HH", "HV", "VV"))
 
 
@@ -137,6 +141,40 @@ class BiomassProductNoise(_ProductPixel, BiomassInstrument):
                 "instrument": dataclasses.replace(self.description, nesz_db=float(10 * np.log10(noise)))}
 
 
+class ProductIncidenceBudget(_ProductPixel, BackscatterErrorBudget):
+    """The random-error budget of Ahmed et al. (2014) (``backscatter_error_budget``) at the local incidence of a
+    BIOMASS L1 product's LUT (``geometry/incidenceAngle``, deg) at the pixel, the incidence theta_i of the looks
+    (eq. 22) and of the area projection (eq. 37), and at its slant range rho = c tau / 2 (eq. 35), tau the pixel's
+    two-way slant-range time (``slantRangeTimeRGC``, s). The incidence is the LUT's (the BPS computes it on the
+    ellipsoid; no terrain slope is taken from the product: the scenario's or the preset's slopes stay)."""
+
+    type_name = "backscatter_error_budget_from_product"
+    summary = "random-error budget (Ahmed et al. 2014) at the incidence of a BIOMASS L1 product's LUT at a site"
+    params = (*BackscatterErrorBudget.params, *_site_params("lut_file", "LUT NetCDF"))
+    forward_takes_blocks = False
+
+    def setup(self):
+        for key in ("incidence", "slant_range", "altitude"):
+            if self.si["observation"][f"{key}_{'rad' if key == 'incidence' else 'm'}"] is not None:
+                raise fail(self, f"observation.{key}_{'deg' if key == 'incidence' else 'km'} is given, but the "
+                           "incidence and the slant range come from the product", "leave it out", key="observation")
+        super().setup()
+        self.read_layers((INCIDENCE,))
+
+    def forward(self, case):
+        self.refuse_speckle_twice(case)
+        (incidence_deg,), pixel = self.values_at(case, (INCIDENCE,))
+        if not 0.0 < incidence_deg < 90.0:
+            raise self.no_data(INCIDENCE, pixel)
+        changes = {"incidence_rad": float(np.radians(incidence_deg)),
+                   "slant_range_m": SPEED_OF_LIGHT * float(self.lut.slant_range_time[pixel[1]]) / 2}
+        try:
+            return {"backscatter.budget": self.budget_of(case["scene.covariance"],
+                                                         self.inputs_for(case).replace(**changes))}
+        except PhysicsInputError as exc:
+            raise fail(self, f"case {case.index}: {exc}") from exc
+
+
 class ProductRFI(RFITerm):
     """The ``rfi`` error term with the blanked share of the aperture time f_t from a BIOMASS L1 annotation: the
     largest ``rfiMitigation/rfiTMReportList/rfiTMReport/percentageAffectedLines`` over the polarisations (the lines
@@ -173,4 +211,4 @@ class ProductRFI(RFITerm):
         return self.time_fraction_value
 
 
-__all__ = ["BiomassProductNoise", "ProductFaraday", "ProductRFI"]
+__all__ = ["BiomassProductNoise", "ProductFaraday", "ProductIncidenceBudget", "ProductRFI"]
