@@ -117,8 +117,13 @@ def _pixels(path, lut_path, ds, annotation) -> ProductPixels:
         **{f"product_rfi_percentage_affected_lines_{p}": v for p, v in annotation["rfi_percent"].items()},
         "frequency_hz": BIOMASS_FREQUENCY_HZ,
     }
+    blanked = max(annotation["rfi_percent"].values(), default=0.0) / 100.0
+    if not 0.0 <= blanked < 1.0:
+        raise ProductFileError(f"{path}: {layout.RFI_REPORT_PATH}/{layout.RFI_FRACTION_ELEMENT}: {100 * blanked!r} %; "
+                               "0 to below 100 % is allowed")
+    facts["rfi_blanked_fraction_counted"] = blanked
     return ProductPixels(path, "biomass", shape, coords, read, annotation["faraday_applied"], crosstalk_applied,
-                         facts)
+                         facts, rfi_blanked_fraction=blanked)
 
 
 def _values(var, rows: slice, no_data) -> np.ndarray:
