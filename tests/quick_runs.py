@@ -25,6 +25,7 @@ QUICK = {
     "biomass_calibration": ("simulation.realisations=600", "simulation.looks=20000"),
     "biomass_default": (*_MC, *_ORBIT),
     "biomass_default_real_orbit": (*_MC, "ionosphere.variability_nodes=3"),  # one pass per site: nothing to thin
+    "biomass_default_from_product": _MC,  # one acquisition per case (the product's): nothing to thin
     "biomass_error_budget": _REGRESSION,
     "biomass_ground_cancelled": (*_STACK, "propagation.0.tec_variability=0"),
     "biomass_ground_cancelled_tomographic": (*_STACK, "propagation.0.faraday_difference_sd_deg=0"),

@@ -12,6 +12,7 @@ from e2esim.params import Param
 from e2esim.testing import check_declaration, check_module
 
 _ORBITS = Path(__file__).resolve().parents[1] / "scenarios" / "orbits"
+_PRODUCT = Path(__file__).resolve().parents[1] / "scenarios" / "data" / "biomass_l1_siberia"
 
 # Configurations for modules whose defaults alone are not a complete configuration.
 CONFIGS = {
@@ -35,6 +36,10 @@ CONFIGS = {
     ("error_terms", "added_noise"): {"power_db": -30.0},
     ("error_terms", "gain_error"): {"sd_db": 0.2},
     ("error_terms", "extra_variance"): {"relative_sd_percent": 1.0},
+    ("ionosphere", "biomass_product_faraday"): {"lut_file": str(_PRODUCT / "lut.nc")},
+    ("instrument", "biomass_product_noise"): {"lut_file": str(_PRODUCT / "lut.nc")},
+    ("propagation", "backscatter_error_budget_from_product"): {"lut_file": str(_PRODUCT / "lut.nc")},
+    ("error_terms", "rfi_from_product"): {"annotation_file": str(_PRODUCT / "annotation.xml"), "looks": 92},
 }
 
 BUILTIN = [r for r in registry.available() if r.distribution.lower() == "e2esim"]

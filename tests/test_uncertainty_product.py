@@ -4,6 +4,8 @@ Bickel-Bates SD; the power law) at a few pixels, and the outputs hold what the p
 
 from __future__ import annotations
 
+from types import SimpleNamespace
+
 import netCDF4
 import numpy as np
 import pytest
@@ -34,6 +36,14 @@ def layers(folder) -> dict:
             "attrs": {k: ds.getncattr(k) for k in ds.ncattrs()}}
 
 
+GAIN = 1 - 0.035  # the generated product's RFI mitigation blanked 3.5 % of the lines (HH)
+
+
+def with_gain(m, sigma):
+    """The moments ``m`` of a channel's error with its intensity multiplied by ``GAIN`` (the rfi term's FixedGain)."""
+    return SimpleNamespace(mean=GAIN * m.mean - (1 - GAIN) * sigma, variance=GAIN**2 * m.variance)
+
+
 def agb_answer(a, sigma_hv, m) -> float:
     agb = AGBError.from_sigma_errors(a.exponent, sigma_hv, m.mean, np.sqrt(m.variance))
     return max(abs(agb.quantile(1 - a.confidence)), abs(agb.quantile(a.confidence)))
@@ -50,7 +60,9 @@ def assert_copol_layers(out, i, m) -> None:
 
 def test_biomass_uncorrected_faraday_rotation_counts_in_full_with_the_filled_sd(tmp_path):
     """faradayRotationCorrectionApplied false: the data keep the LUT's Faraday rotation (the full error counts);
-    the faradayRotationStd layer is all fill (as the BPS writes it), so its SD is e2esim's Bickel-Bates SD."""
+    the faradayRotationStd layer is all fill (as the BPS writes it), so its SD is e2esim's Bickel-Bates SD. The RFI
+    mitigation blanked 3.5 % of the lines: a gain g = 0.965 on every channel, not restored (the rfi error term's
+    FixedGain: E[e'] = g E[e] - (1 - g) sigma, SD[e'] = g SD[e])."""
     fr = np.radians(np.linspace(1.0, 12.0, 240)).reshape(12, 20)
     noise = np.broadcast_to(np.linspace(0.002, 0.02, 20), (12, 20))  # NESZ -27 to -17 dB across the swath
     product = write_biomass(tmp_path / "bio", faraday=fr, faraday_applied=False, noise=noise,
@@ -61,7 +73,8 @@ def test_biomass_uncorrected_faraday_rotation_counts_in_full_with_the_filled_sd(
     for i in PIXELS:
         n = float(np.float32(noise[i]))  # as the LUT stores it
         sd = np.sqrt(bickel_bates_variance(bickel_bates_snr(a.scene, n), a.fr_window_looks, "asymptotic"))
-        m = hv_error_moments(a.scene, a.system, GaussianFaraday(fr[i], sd), noise_power=n)
+        m = with_gain(hv_error_moments(a.scene, a.system, GaussianFaraday(fr[i], sd), noise_power=n),
+                      a.scene.sigma_hv)
         assert out["faraday_rotation_sd"][i] == pytest.approx(sd, rel=RTOL)
         assert out["faraday_rotation_sd_source"][i] == 2
         assert out["residual_faraday_rotation_mean"][i] == pytest.approx(fr[i], rel=RTOL)
@@ -70,14 +83,16 @@ def test_biomass_uncorrected_faraday_rotation_counts_in_full_with_the_filled_sd(
         assert out["agb_relative_error"][i] == pytest.approx(agb_answer(a, a.scene.sigma_hv, m), rel=RTOL)
         assert out["verdict"][i] == (agb_answer(a, a.scene.sigma_hv, m) <= a.bound)
         fr32 = float(np.float32(fr[i]))  # as the LUT stores it: sigma_hh and sigma_vv are sensitive to the rotation
-        assert_copol_layers(out, i, polarimetric_error_moments(a.scene, a.system, GaussianFaraday(fr32, sd),
-                                                               noise_power=n))
+        copol = polarimetric_error_moments(a.scene, a.system, GaussianFaraday(fr32, sd), noise_power=n)
+        assert_copol_layers(out, i, SimpleNamespace(mean=GAIN * copol.mean - (1 - GAIN) * copol.sigma,
+                                                    sd=GAIN * copol.sd, sigma=copol.sigma))
     # the noise bias grows across the swath: the near range passes the +-20 % bound, the far range does not
     assert out["verdict"][:, 0].all() and not out["verdict"][:, -1].any()
     attrs = out["attrs"]
     assert attrs["faraday_rotation_corrected_by_processor"] == "False"
     assert attrs["product_lut_faradayRotationStd"].startswith("empty")
     assert attrs["product_rfi_percentage_affected_lines_HH"] == pytest.approx(3.5)
+    assert attrs["rfi_blanked_fraction_counted"] == pytest.approx(0.035)
     assert attrs["assumed_power_law_exponent"] == pytest.approx(2.2)
 
 

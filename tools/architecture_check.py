@@ -89,6 +89,10 @@ LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
             "e2esim.error_terms",
             "e2esim.scintillation",
             "e2esim.campaign",
+            "e2esim.product_inputs",  # a product's values at a pixel, read for the product-driven modules
+            "e2esim.products_io.biomass_layout",  # the BIOMASS L1 names: the product-driven modules read them too
+            "e2esim.products_io.biomass_annotation",
+            "e2esim.products_io.pixels",  # ProductFileError and the units check the product readers share
         ),
     ),
     (

@@ -207,13 +207,7 @@ class BackscatterErrorBudget(Stage):
         """The budget of a case's scene and instrument; of a block at once, made once per distinct pair of them in
         the run (``block_budgets``: a ``Factor``). A block whose error model already counts speckle, or with a
         budget that cannot be made, runs case by case, where this says why."""
-        if "backscatter.error" in case and "speckle_noise" in self.si["include"] and np.any(
-                case.column("backscatter.error", "includes speckle", lambda model: model.includes_speckle)):
-            case.per_case("speckle counted twice")
-            raise fail(self, "speckle would be counted twice: the propagation's error model already draws a new "
-                       "speckle pattern per realisation (hv_backscatter_error with reference 'population')",
-                       "use reference: scene in hv_backscatter_error, or leave speckle_noise out of include",
-                       key="include")
+        self.refuse_speckle_twice(case)
         instruments = case.factor("instrument") if "instrument" in case else None
         inputs_of = (lambda inst: self.inputs_for(case)) if case.alone else self._inputs_with
         try:
@@ -224,6 +218,15 @@ class BackscatterErrorBudget(Stage):
             case.per_case("a budget cannot be made")
             raise fail(self, f"case {case.index}: {exc}") from exc
         return {"backscatter.budget": case.product_of(made)}
+
+    def refuse_speckle_twice(self, case) -> None:
+        if "backscatter.error" in case and "speckle_noise" in self.si["include"] and np.any(
+                case.column("backscatter.error", "includes speckle", lambda model: model.includes_speckle)):
+            case.per_case("speckle counted twice")
+            raise fail(self, "speckle would be counted twice: the propagation's error model already draws a new "
+                       "speckle pattern per realisation (hv_backscatter_error with reference 'population')",
+                       "use reference: scene in hv_backscatter_error, or leave speckle_noise out of include",
+                       key="include")
 
     def budget_of(self, scene, inputs: BudgetInputs):
         """The budget of ``scene``'s HH, HV and VV backscatter with ``inputs``."""

@@ -103,11 +103,15 @@ class RFITerm(ErrorTerm):
                        key="fraction_map")
         return value
 
+    def time_fraction(self, case) -> float:
+        """f_t of ``case``: the parameter (``rfi_from_product`` reads it from a product's annotation)."""
+        return self.si["time_fraction_fraction"]
+
     def effects(self, case) -> tuple:
         """The three effects (``FixedGain``, ``ExtraVariance``, ``AddedPower``) of ``case``."""
         c, name = self.si, self.source
         notch_source, looks_source, residual_source = self.sources
-        f_b, f_t = self.band_fraction(case), c["time_fraction_fraction"]
+        f_b, f_t = self.band_fraction(case), self.time_fraction(case)
         notch = self.notch or notch_response(f_b, c["notch_position"])
         looks = c["looks"] or case.settings.looks
         kept = notch.looks_factor * (1.0 - f_t)

@@ -89,7 +89,7 @@ class GaussianErrorsInstrument(Stage):
             crosstalk_db=_db_or_off(xt["level_db"]),
             imbalance_db=_db_or_off(ci["level_db"]),
             convention=xt["convention"] if xt["convention"] == ci["convention"] else "mixed",
-            nesz_db=_db_or_off(self.config["nesz_db"]),
+            nesz_db=_db_or_off(self.config["nesz_db"] if "nesz_db" in self.config else None),  # a subclass may drop it
             centre_frequency_hz=self.si["centre_frequency_hz"],
             bandwidth_hz=self.si["bandwidth_hz"],
         )

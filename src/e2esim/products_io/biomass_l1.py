@@ -14,8 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
-from e2esim.extras import optional_import
-from e2esim.input_files import check_regular
+from e2esim.product_inputs.biomass_site import lut_axis, open_lut
 from e2esim.products_io import biomass_layout as layout
 from e2esim.products_io.biomass_annotation import read_annotation
 from e2esim.products_io.pixels import PixelBlock, ProductFileError, ProductPixels, check_shape, check_units
@@ -40,13 +39,7 @@ def product_files(path) -> tuple:
 def open_biomass(path) -> ProductPixels:
     annotation_path, lut_path = product_files(path)
     annotation = read_annotation(annotation_path)
-    check_regular(lut_path, "BIOMASS LUT", ProductFileError)
-    netcdf4 = optional_import("netCDF4", "products", "reading a BIOMASS L1 LUT (NetCDF)")
-    try:
-        ds = netcdf4.Dataset(str(lut_path), "r")
-    except OSError as exc:
-        raise ProductFileError(f"{lut_path}: cannot be read as NetCDF-4 ({exc}); the file is truncated or not a "
-                               "BIOMASS L1 LUT") from None
+    ds = open_lut(lut_path)
     try:
         return _pixels(str(path), lut_path, ds, annotation)
     except ProductFileError:
@@ -82,7 +75,7 @@ def _pixels(path, lut_path, ds, annotation) -> ProductPixels:
             check_units(lut_path, f"{group}/{name}", getattr(var, "units", None), units)
             if tuple(var.dimensions) != axes:
                 raise ProductFileError(f"{lut_path}: {group}/{name}: dimensions {var.dimensions}; expected {axes}")
-    axes = {name: _axis(lut_path, ds, name) for name in (*layout.RGC_AXES, *layout.SLC_AXES)}
+    axes = {name: lut_axis(lut_path, ds, name) for name in (*layout.RGC_AXES, *layout.SLC_AXES)}
     shape = (axes[layout.RGC_AXES[0]].size, axes[layout.RGC_AXES[1]].size)
     geometry = ds.groups["geometry"].variables
     ionosphere = ds.groups["ionosphereCorrection"].variables if "ionosphereCorrection" in ds.groups else {}
@@ -124,19 +117,13 @@ def _pixels(path, lut_path, ds, annotation) -> ProductPixels:
         **{f"product_rfi_percentage_affected_lines_{p}": v for p, v in annotation["rfi_percent"].items()},
         "frequency_hz": BIOMASS_FREQUENCY_HZ,
     }
+    blanked = max(annotation["rfi_percent"].values(), default=0.0) / 100.0
+    if not 0.0 <= blanked < 1.0:
+        raise ProductFileError(f"{path}: {layout.RFI_REPORT_PATH}/{layout.RFI_FRACTION_ELEMENT}: {100 * blanked!r} %; "
+                               "0 to below 100 % is allowed")
+    facts["rfi_blanked_fraction_counted"] = blanked
     return ProductPixels(path, "biomass", shape, coords, read, annotation["faraday_applied"], crosstalk_applied,
-                         facts)
-
-
-def _axis(path, ds, name) -> np.ndarray:
-    if name not in ds.variables:
-        raise ProductFileError(f"{path}: axis variable {name!r} is missing; the BPS LUT writer writes it")
-    var = ds.variables[name]
-    check_units(path, name, getattr(var, "units", None), layout.AXIS_UNITS)
-    values = np.asarray(var[:], dtype=np.float64)
-    if values.size < 2 or np.any(np.diff(values) <= 0):
-        raise ProductFileError(f"{path}: {name}: not increasing; an axis of at least two increasing times is expected")
-    return values
+                         facts, rfi_blanked_fraction=blanked)
 
 
 def _values(var, rows: slice, no_data) -> np.ndarray:

@@ -16,7 +16,9 @@ with mean 0 and the SD of the estimate (the product's own layer where it holds v
 window of the scenario's ``looks`` at the pixel's SNR); where it did not, the full rotation counts: the product's
 own estimate (BIOMASS ``faradayRotation``) with that SD, or the scenario's geophysical rotation less any constant
 the processor removed (NISAR ``faradayRotation``). The system errors: the scenario's residual after calibration
-where the product corrected crosstalk (non-zero crosstalk values), the scenario's raw system where it did not.
+where the product corrected crosstalk (non-zero crosstalk values), the scenario's raw system where it did not. The
+RFI mitigation's blanked time (BIOMASS annotation ``percentageAffectedLines``) as a gain loss of every channel
+(``with_gain``).
 """
 
 from __future__ import annotations
@@ -80,14 +82,15 @@ def pixel_moments(block, pixels, assumptions) -> dict:
     system = assumptions.system_residual if pixels.crosstalk_applied else assumptions.system
     looks = None if block.looks is None else take(block.looks).astype(np.float64)
     m = moments_of(pixel_inputs(hh, hv, vv, hhvv, noise, fr_mean, fr_spread, system), "complete", looks=looks)
-    sd = np.sqrt(m.variance)
-    agb = AGBError.from_sigma_errors(assumptions.exponent, hv, m.mean, sd)
+    gain = 1.0 - pixels.rfi_blanked_fraction
+    mean, sd = with_gain(m.mean, np.sqrt(m.variance), hv, gain)
+    agb = AGBError.from_sigma_errors(assumptions.exponent, hv, mean, sd)
     tails = agb.quantile(np.array([1.0 - assumptions.confidence, assumptions.confidence]))
     agb_error = np.max(np.abs(tails), axis=-1)
     values = {
-        "sigma_hv_error_mean": m.mean, "sigma_hv_error_sd": sd, "sigma_hv_relative_error_mean": m.mean / hv,
+        "sigma_hv_error_mean": mean, "sigma_hv_error_sd": sd, "sigma_hv_relative_error_mean": mean / hv,
         "sigma_hv_relative_error_sd": sd / hv, "faraday_rotation_sd": fr_sd, "faraday_rotation_sd_source": source,
-        **copol_layers(hh, hv, vv, hhvv, noise, fr_mean, fr_spread, system, looks),
+        **copol_layers(hh, hv, vv, hhvv, noise, fr_mean, fr_spread, system, looks, gain),
         "residual_faraday_rotation_mean": fr_mean, "residual_faraday_rotation_sd": fr_spread,
         "agb_relative_error": agb_error, "verdict": (agb_error <= assumptions.bound).astype(np.uint8),
     }
@@ -96,7 +99,16 @@ def pixel_moments(block, pixels, assumptions) -> dict:
     return out
 
 
-def copol_layers(hh, hv, vv, hhvv, noise, fr_mean, fr_sd, system, looks) -> dict:
+def with_gain(mean, sd, sigma, gain):
+    """Mean and SD of the error of a channel whose intensity is multiplied by a known ``gain`` g (the RFI
+    mitigation's blanked time, not restored): E[e'] = g E[e] - (1 - g) sigma, SD[e'] = g SD[e] (``FixedGain``,
+    e2esim.error_terms.effects; docs/theory/rfi.md). g = 1 leaves both as they are, bit for bit."""
+    if gain == 1.0:
+        return mean, sd
+    return gain * mean - (1.0 - gain) * sigma, gain * sd
+
+
+def copol_layers(hh, hv, vv, hhvv, noise, fr_mean, fr_sd, system, looks, gain=1.0) -> dict:
     """The sigma_hh and sigma_vv layers: ``polarimetric_error_moments`` (co-pol eqs. 3.2-3.6, 4.2, 5.1-5.4) with the
     rotation left in the data as a Gaussian ``GaussianFaraday(fr_mean, fr_sd)`` and no correction, vectorised over
     pixels (``e2esim.distortion.polarimetric_pixels``)."""
@@ -105,9 +117,9 @@ def copol_layers(hh, hv, vv, hhvv, noise, fr_mean, fr_sd, system, looks) -> dict
     sd = np.sqrt(np.clip(var, 0.0, None))
     out = {}
     for ch, p, sigma in (("hh", 0, hh), ("vv", 2, vv)):
-        out |= {f"sigma_{ch}_error_mean": mean[:, p], f"sigma_{ch}_error_sd": sd[:, p],
-                f"sigma_{ch}_relative_error_mean": mean[:, p] / sigma,
-                f"sigma_{ch}_relative_error_sd": sd[:, p] / sigma}
+        m, s = with_gain(mean[:, p], sd[:, p], sigma, gain)
+        out |= {f"sigma_{ch}_error_mean": m, f"sigma_{ch}_error_sd": s, f"sigma_{ch}_relative_error_mean": m / sigma,
+                f"sigma_{ch}_relative_error_sd": s / sigma}
     return out
 
 

@@ -48,6 +48,9 @@ class ProductPixels:
     crosstalk (non-zero crosstalk values in the product). facts : {name: value} of what was read once (flags, RFI
     fractions, crosstalk magnitudes), written into the outputs' attributes. frequency_hz : the radar frequency.
     geotransform : (x0, dx, y0, dy) of a map grid (GeoTIFF), None for a radar grid. crs : its EPSG code or None.
+    rfi_blanked_fraction : the share f_t of the aperture time the processor's RFI mitigation removed (BIOMASS: the
+    largest ``percentageAffectedLines`` over the polarisations), counted as the gain loss 1 - f_t of the ``rfi`` error
+    term (``FixedGain``: not restored by the processor; docs/theory/rfi.md).
     """
 
     path: str
@@ -60,6 +63,7 @@ class ProductPixels:
     facts: dict = field(default_factory=dict)
     geotransform: tuple | None = None
     crs: int | None = None
+    rfi_blanked_fraction: float = 0.0
 
 
 def check_units(path, variable: str, found, expected) -> None:
