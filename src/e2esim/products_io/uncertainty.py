@@ -9,7 +9,7 @@ from e2esim.errors import UserError
 from e2esim.products_io.assumptions import load_assumptions
 from e2esim.products_io.biomass_l1 import open_biomass
 from e2esim.products_io.block_pool import block_layers
-from e2esim.products_io.nisar_gcov import open_nisar
+from e2esim.products_io.nisar_products import open_nisar_product
 from e2esim.products_io.pixel_model import LAYERS
 from e2esim.products_io.pixels import ProductFileError, ProductPixels
 from e2esim.products_io.uncertainty_files import UncertaintyWriter
@@ -19,14 +19,15 @@ PIXELS_PER_BLOCK = 1 << 16
 
 
 def open_product(path) -> ProductPixels:
-    """A BIOMASS L1 product (a folder with its annotation XML and LUT NetCDF) or a NISAR GCOV (an HDF5 file)."""
+    """A BIOMASS L1 product (a folder with its annotation XML and LUT NetCDF) or a NISAR GCOV, RSLC or GSLC (an HDF5
+    file)."""
     p = Path(path)
     if p.is_dir():
         return open_biomass(p)
     if not p.exists():
         raise ProductFileError(f"{path}: no such file or folder; expected a BIOMASS L1 product folder or a NISAR "
-                               "GCOV HDF5 file")
-    return open_nisar(p)
+                               "GCOV, RSLC or GSLC HDF5 file")
+    return open_nisar_product(p)
 
 
 def row_blocks(shape, pixels_per_block: int = PIXELS_PER_BLOCK):
