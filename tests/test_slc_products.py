@@ -118,3 +118,14 @@ def test_slc_holds_the_layout(tmp_path, product):
             assert given == units if units else given.startswith("seconds since "), path
         assert set(f[layout.image]) - {f"validSamplesSubSwath{i}" for i in (1, 2)} <= layout.members
         assert f[f"{layout.image}/HH"].dtype == np.complex64
+
+
+def test_a_gcov_whose_crosstalk_tables_come_without_their_axis_is_read(tmp_path):
+    """isce3's L2 writer copies the RSLC's four crosstalk tables into the GCOV but not crosstalk/slantRange (and
+    nisar_L2_GCOV.xml has no such variable): such a GCOV is read (it was refused as missing a variable)."""
+    from e2esim.products_io import nisar_layout as nl
+    from tests.product_writers import write_gcov
+
+    path = write_gcov(tmp_path / "gcov.h5", drop=nl.CROSSTALK_SLANT_RANGE)
+    assert run(path, "-o", tmp_path / "out") == 0
+    assert layers(tmp_path / "out")["attrs"]["crosstalk_corrected_by_processor"] == "False"

@@ -60,7 +60,8 @@ def gcov_pixels(path, f) -> ProductPixels:
         check_shape(path, layout.NES0[c], nes0[c].shape, (nes0_y.size, nes0_x.size))
     noise_grid = np.mean([np.asarray(nes0[c][()], dtype=np.float64) for c in layout.CHANNELS], axis=0)
     crosstalk = [np.asarray(_dataset(path, f, name)[()]) for name in layout.CROSSTALK_TABLES]
-    _dataset(path, f, layout.CROSSTALK_SLANT_RANGE)
+    if layout.CROSSTALK_SLANT_RANGE in f:  # the L2 writer copies the tables, not their axis (nisar_layout)
+        _dataset(path, f, layout.CROSSTALK_SLANT_RANGE)
     faraday = float(_dataset(path, f, layout.FARADAY_ROTATION)[()])
     if not np.isfinite(faraday) or abs(faraday) > np.pi / 2:
         raise ProductFileError(f"{path}: {layout.FARADAY_ROTATION}: {faraday!r} rad; a finite angle in "
