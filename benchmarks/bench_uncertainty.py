@@ -1,7 +1,7 @@
 """The uncertainty product (issue 26, "Speed"): ``e2esim uncertainty`` on a NISAR GCOV of N x N pixels (default
 5,000 x 5,000; target <= 60 s and <= 4 GB on two cores), next to two references measured in the same run:
 
-1. the I/O floor: the same product read block by block (the four covariance grids, the looks and the mask) and the
+1. the I/O floor: the same product read band by band (the four covariance grids, the looks and the mask) and the
    same float32 layers (``LAYERS``) written to NetCDF and Cloud-Optimised GeoTIFF, without the model (the writer of
    ``e2esim.products_io.uncertainty_files`` handed zeros): what any per-pixel product of this grid costs;
 2. the per-case path: ``hv_error_moments`` (the reference the batched kernel must equal) called pixel by pixel on
@@ -70,12 +70,14 @@ def measure(kind: str, product: str, out: str, per_case_pixels: int) -> dict:
         extra = {"pixels_with_data": summary["pixels_with_data"]}
     elif kind == "io_floor":
         from e2esim.products_io.pixel_model import LAYERS
-        from e2esim.products_io.uncertainty import open_product, row_blocks
+        from e2esim.products_io.uncertainty import open_product, row_bands
         from e2esim.products_io.uncertainty_files import UncertaintyWriter
 
         pixels = open_product(product)
-        writer = UncertaintyWriter(out, pixels, {"reference": "I/O floor"}, force=True)
-        for rows in row_blocks(pixels.shape):
+        bands = list(row_bands(pixels.shape))
+        writer = UncertaintyWriter(out, pixels, {"reference": "I/O floor"}, force=True,
+                                   band_rows=bands[0].stop - bands[0].start)
+        for rows in bands:
             block = pixels.read(rows)
             zeros = np.zeros(block.valid.shape)
             writer.write(rows, {name: zeros.astype(np.uint8) if name == "verdict" else zeros for name in LAYERS})

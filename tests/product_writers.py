@@ -150,3 +150,73 @@ def write_gcov(path, shape=(15, 20), seed=0, faraday=0.0, crosstalk=0.0, looks=2
         data = Path(path).read_bytes()
         Path(path).write_bytes(data[: int(len(data) * truncate)])
     return Path(path)
+
+
+def write_slc(path, product="RSLC", shape=(15, 20), faraday=0.0, crosstalk=0.0, nes0=None, rfi=0.1,
+              units=None, drop=None, extra=None, orbit_shift_s=0.0) -> Path:
+    """A NISAR RSLC or GSLC HDF5 in the layout of e2esim.products_io.nisar_slc_layout (isce3 SLC.py and
+    nisar_L2_GSLC.xml): a small image, the calibration tables, the orbit group. nes0 : (3, 4) linear NESZ of its
+    own grid (default rising across the swath, 0.001 to 0.01); the RSLC's second sub-swath leaves the first three
+    samples of every line invalid; orbit_shift_s moves the state vectors' times (an orbit that misses the scene)."""
+    from e2esim.products_io.nisar_slc_layout import CHANNELS, slc_layout
+
+    layout = slc_layout(product)
+    rows, cols = shape
+    rng = np.random.default_rng(1)
+    nes0 = np.array(np.broadcast_to(np.linspace(0.001, 0.01, 4), (3, 4))) if nes0 is None else nes0
+    epoch = "seconds since 2025-11-01T00:00:00"
+    if product == "RSLC":
+        axes = {layout.rows: 600.0 + 0.1 * np.arange(rows), layout.columns: 8.5e5 + 10.0 * np.arange(cols),
+                layout.nes0_rows: np.array([599.0, 600.8, 602.0]), layout.nes0_columns: np.linspace(8.5e5, 8.52e5, 4)}
+    else:
+        axes = {layout.rows: 6650000.0 - 20.0 * np.arange(rows), layout.columns: 500000.0 + 20.0 * np.arange(cols),
+                layout.nes0_rows: np.linspace(6650000.0, 6649700.0, 3),
+                layout.nes0_columns: np.linspace(500000.0, 500380.0, 4)}
+    values = {
+        **{f"{layout.image}/{c}": (rng.normal(size=shape) + 1j * rng.normal(size=shape)).astype(np.complex64)
+           for c in CHANNELS},
+        **axes,
+        **{t: np.full(5, crosstalk, np.complex64) for t in layout.crosstalk_tables},
+        layout.crosstalk_slant_range: np.linspace(8.4e5, 8.6e5, 5),
+        layout.faraday_rotation: np.float64(faraday),
+        **{layout.nes0(c): nes0.astype(np.float32) for c in CHANNELS},
+        **{layout.rfi_likelihood(c): np.float64(rfi) for c in CHANNELS},
+        **{layout.scale_factor(c): np.float64(1.0) for c in CHANNELS},
+    }
+    if product == "GSLC":
+        del values[layout.crosstalk_slant_range]  # the L2 writer copies the tables, not their axis
+    if extra is not None:
+        values[extra] = np.zeros(shape, np.float32)
+    units = units or {}
+    t = np.arange(0.0, 1300.0, 10.0) + orbit_shift_s  # state vectors every 10 s around the scene
+    w = 7.5e3 / 7.1e6
+    orbit = {"time": t, "position": 7.1e6 * np.stack([np.cos(w * t), np.sin(w * t), 0 * t], axis=-1),
+             "velocity": 7.5e3 * np.stack([-np.sin(w * t), np.cos(w * t), 0 * t], axis=-1)}
+    with h5py.File(path, "w") as f:
+        for name, value in values.items():
+            if drop is not None and name.startswith(drop):
+                continue
+            ds = f.create_dataset(name, data=value)
+            u = units.get(name, layout.units.get(name, "1"))
+            ds.attrs["units"] = epoch if u is None else u
+        image = f.require_group(layout.image)
+        image.create_dataset("listOfPolarizations", data=np.bytes_(list(CHANNELS)))
+        if product == "RSLC":
+            image.create_dataset("numberOfSubSwaths", data=np.uint8(2))
+            image.create_dataset("validSamplesSubSwath1", data=np.tile(np.array([0, 0], np.uint32), (rows, 1)))
+            image.create_dataset("validSamplesSubSwath2", data=np.tile(np.array([3, cols], np.uint32), (rows, 1)))
+        else:
+            mask = np.ones(shape, np.uint8)
+            mask[0, 0] = 255
+            mask[1, 0] = 0
+            if drop != layout.mask:
+                image.create_dataset("mask", data=mask)
+            proj = image.create_dataset("projection", data=np.uint32(32646))
+            proj.attrs["epsg_code"] = np.int32(32646)
+        if drop != layout.orbit:
+            for name, value in orbit.items():
+                ds = f.create_dataset(f"{layout.orbit}/{name}", data=value)
+                ds.attrs["units"] = {"time": epoch, "position": "meters", "velocity": "meters / second"}[name]
+            f.create_dataset(f"{layout.orbit}/orbitType", data=np.bytes_("POE"))
+            f.create_dataset(f"{layout.orbit}/interpMethod", data=np.bytes_("Hermite"))
+    return Path(path)

@@ -185,3 +185,45 @@ def test_worker_processes_give_the_numbers_of_one_process(tmp_path):
     for name in one:
         if name != "attrs":
             np.testing.assert_array_equal(one[name], two[name], err_msg=name)
+
+
+def test_cog_overviews_hold_pixels_of_the_layers(tmp_path):
+    """The COG's overviews are resampled by nearest neighbour: an overview pixel is a pixel of its layer, so the
+    verdict's overview holds only 0 and 1 (cubic resampling, as before, gave values such as -0.012 and 0.93)."""
+    noise = np.broadcast_to(np.linspace(0.002, 0.02, 1100), (12, 1100))  # passes at near range, fails at far
+    product = write_biomass(tmp_path / "bio", shape=(12, 1100), faraday=np.full((12, 1100), 0.05),
+                            faraday_applied=False, noise=noise)
+    assert run(product, "-o", tmp_path / "out") == 0
+    with rasterio.open(tmp_path / "out" / "uncertainty.tif") as tif:
+        band = tif.descriptions.index("verdict") + 1
+        assert tif.overviews(band) == [2, 4]
+        full = tif.read(band)
+        overview = tif.read(band, out_shape=(tif.height // 2, tif.width // 2))
+        sd_band = tif.descriptions.index("sigma_hv_error_sd") + 1
+        sd_full, sd_overview = tif.read(sd_band), tif.read(sd_band, out_shape=(tif.height // 2, tif.width // 2))
+    assert set(np.unique(full)) == {0.0, 1.0} and set(np.unique(overview)) == {0.0, 1.0}
+    assert np.isin(sd_overview, sd_full).all()
+
+
+def test_the_band_read_at_once_does_not_change_the_numbers(tmp_path):
+    """A band of rows is read at once and evaluated in the model's blocks: whatever the band, a pixel's numbers are
+    those of its block read alone (the co-polarised model's path depends on the rotations a block holds)."""
+    from e2esim.products_io.block_pool import block_layers
+    from e2esim.products_io.pixel_model import pixel_moments
+    from e2esim.products_io.uncertainty import open_product
+
+    fr = np.radians(np.linspace(1.0, 12.0, 240)).reshape(12, 20)
+    fr[:4] = 0.1  # the first blocks share one rotation
+    product = write_biomass(tmp_path / "bio", faraday=fr, faraday_applied=False)
+    pixels = open_product(product)
+    a = load_assumptions(None, "biomass")
+    alone = {}
+    for start in range(0, 12, 2):
+        for name, values in pixel_moments(pixels.read(slice(start, start + 2)), pixels, a).items():
+            alone.setdefault(name, []).append(values)
+    for bands in ([slice(0, 12)], [slice(0, 4), slice(4, 10), slice(10, 12)]):
+        got = list(block_layers(open_product, product, None, pixels, a, bands, 2))
+        assert [rows for rows, _ in got] == bands
+        for name, parts in alone.items():
+            np.testing.assert_array_equal(np.concatenate([layers[name] for _, layers in got]),
+                                          np.concatenate(parts), err_msg=name)

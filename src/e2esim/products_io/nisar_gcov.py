@@ -13,30 +13,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from e2esim.input_files import check_regular
 from e2esim.products_io import nisar_layout as layout
+from e2esim.products_io.lut_grid import bilinear_rows
 from e2esim.products_io.pixels import PixelBlock, ProductFileError, ProductPixels, check_shape, check_units
 
 NISAR_L_BAND_HZ = 1257.5e6
-
-
-def open_nisar(path) -> ProductPixels:
-    import h5py  # lazy: start-up time
-
-    check_regular(path, "NISAR GCOV product", ProductFileError)
-    try:
-        f = h5py.File(path, "r")
-    except OSError as exc:
-        raise ProductFileError(f"{path}: cannot be read as HDF5 ({exc}); the file is truncated or not a NISAR "
-                               "GCOV product") from None
-    try:
-        return _pixels(str(path), f)
-    except ProductFileError:
-        f.close()
-        raise
-    except (OSError, KeyError) as exc:
-        f.close()
-        raise ProductFileError(f"{path}: cannot be read ({exc}); the file is truncated or damaged") from None
 
 
 def _dataset(path, f, name):
@@ -51,7 +32,8 @@ def _dataset(path, f, name):
     return ds
 
 
-def _pixels(path, f) -> ProductPixels:
+def gcov_pixels(path, f) -> ProductPixels:
+    """The pixels of the open HDF5 file ``f`` (``e2esim.products_io.nisar_products`` opens it)."""
     grids = {name: _dataset(path, f, name) for name in layout.GRID_VARIABLES}
     expected = set(layout.COVARIANCE_TERMS) | {"numberOfLooks", "mask", "xCoordinates", "yCoordinates",
                                                "projection", "listOfPolarizations", "listOfCovarianceTerms",
@@ -78,14 +60,15 @@ def _pixels(path, f) -> ProductPixels:
         check_shape(path, layout.NES0[c], nes0[c].shape, (nes0_y.size, nes0_x.size))
     noise_grid = np.mean([np.asarray(nes0[c][()], dtype=np.float64) for c in layout.CHANNELS], axis=0)
     crosstalk = [np.asarray(_dataset(path, f, name)[()]) for name in layout.CROSSTALK_TABLES]
-    _dataset(path, f, layout.CROSSTALK_SLANT_RANGE)
+    if layout.CROSSTALK_SLANT_RANGE in f:  # the L2 writer copies the tables, not their axis (nisar_layout)
+        _dataset(path, f, layout.CROSSTALK_SLANT_RANGE)
     faraday = float(_dataset(path, f, layout.FARADAY_ROTATION)[()])
     if not np.isfinite(faraday) or abs(faraday) > np.pi / 2:
         raise ProductFileError(f"{path}: {layout.FARADAY_ROTATION}: {faraday!r} rad; a finite angle in "
                                "[-pi/2, pi/2] is expected")
     rfi = {c: float(_dataset(path, f, layout.RFI_LIKELIHOOD[c])[()]) for c in layout.CHANNELS}
     scale = {c: float(_dataset(path, f, layout.SCALE_FACTOR[c])[()]) for c in layout.CHANNELS}
-    noise_at = _bilinear(nes0_x, nes0_y, noise_grid, x)
+    noise_at = bilinear_rows(nes0_x, nes0_y, noise_grid, x)
 
     def read(rows: slice) -> PixelBlock:
         sigma = tuple(np.asarray(terms[t][rows, :], dtype=np.float64) for t in ("HHHH", "HVHV", "VVVV"))
@@ -117,20 +100,3 @@ def _pixels(path, f) -> ProductPixels:
     return ProductPixels(path, "nisar", shape, coords, read, faraday != 0.0, crosstalk_applied, facts,
                          geotransform=(x[0] - dx / 2, dx, y[0] - dy / 2, dy), crs=epsg)
 
-
-def _bilinear(gx, gy, values, x):
-    """Rows of ``values`` (on gy x gx) at the product's x, for given y: separable linear interpolation, held
-    constant beyond the grid's edges (np.interp)."""
-    ox, oy = np.argsort(gx), np.argsort(gy)
-    gx, gy, values = gx[ox], gy[oy], values[np.ix_(oy, ox)]
-    along_x = np.array([np.interp(x, gx, row) for row in values])  # (len(gy), len(x))
-
-    def at(y):
-        if gy.size == 1:
-            return np.broadcast_to(along_x[0], (np.size(y), x.size)).copy()
-        pos = np.interp(y, gy, np.arange(gy.size, dtype=np.float64))
-        i0 = np.clip(np.floor(pos).astype(int), 0, gy.size - 2)
-        w = (pos - i0)[:, None]
-        return (1 - w) * along_x[i0] + w * along_x[i0 + 1]
-
-    return at

@@ -12,9 +12,12 @@ Source: the NISAR L2 GCOV product specification as the isce3 repository ships it
   its value and attribute ``epsg_code``). Fill of the float grids: NaN.
 * ``/science/LSAR/GCOV/metadata/calibrationInformation``: ``crosstalk/txHorizontalCrosspol``,
   ``txVerticalCrosspol``, ``rxHorizontalCrosspol``, ``rxVerticalCrosspol`` (complex, units "1", against
-  ``crosstalk/slantRange`` in meters), ``frequencyA/faradayRotation`` (scalar, units "radians": the correction
-  applied in processing; 0.0 in the operational products = none applied), ``frequencyA/nes0/HH``, ``HV``, ``VV``
-  (noise-equivalent sigma0, linear, units "1", on the grid ``nes0/xCoordinates`` x ``nes0/yCoordinates``),
+  ``crosstalk/slantRange`` in meters where it is present: the L2 writer, ``BaseL2WriterSingleInput.
+  populate_calibration_information``, copies the RSLC's four tables but not their axis, and the XML gives each
+  table one complex value, so the axis is optional), ``frequencyA/faradayRotation`` (scalar, units "radians":
+  the correction applied in processing; 0.0 in the operational products = none applied), ``frequencyA/nes0/HH``,
+  ``HV``, ``VV`` (noise-equivalent sigma0, linear, units "1", on the grid
+  ``nes0/xCoordinates`` x ``nes0/yCoordinates``),
   ``frequencyA/{HH,HV,VV}/rfiLikelihood`` (scalar in [0, 1], NaN where RFI detection was skipped) and
   ``frequencyA/{HH,HV,VV}/scaleFactor`` (scalar, units "1").
 """

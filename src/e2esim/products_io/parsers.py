@@ -8,14 +8,14 @@ import importlib
 
 def add_parser(sub) -> None:
     p = sub.add_parser(
-        "uncertainty", help="per-pixel error budget of a BIOMASS L1 or NISAR GCOV product",
+        "uncertainty", help="per-pixel error budget of a BIOMASS L1 or NISAR GCOV, RSLC or GSLC product",
         description="On the product's own grid, the predicted error moments of sigma_hv, the Faraday-rotation "
                     "estimate's SD (the product's own, or filled), the residual Faraday rotation, the AGB error and "
                     "the verdict per pixel, as CF NetCDF (uncertainty.nc) and Cloud-Optimised GeoTIFF "
                     "(uncertainty.tif). What the product does not hold is taken from the scenario and listed in the "
                     "outputs' attributes (docs/real-data.md). Needs the 'products' extra.")
-    p.add_argument("product", help="a BIOMASS L1 product folder (annotation XML and LUT NetCDF) or a NISAR GCOV "
-                                   "HDF5 file")
+    p.add_argument("product", help="a BIOMASS L1 product folder (annotation XML and LUT NetCDF) or a NISAR GCOV, "
+                                   "RSLC or GSLC HDF5 file")
     p.add_argument("--scenario", metavar="FILE", help="scenario whose first case gives the assumptions (default: "
                                                       "the shipped assumptions of the product's mission)")
     p.add_argument("-o", "--output", metavar="DIR", default="uncertainty", help="output folder (default: "

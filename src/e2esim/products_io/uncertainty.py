@@ -9,31 +9,42 @@ from e2esim.errors import UserError
 from e2esim.products_io.assumptions import load_assumptions
 from e2esim.products_io.biomass_l1 import open_biomass
 from e2esim.products_io.block_pool import block_layers
-from e2esim.products_io.nisar_gcov import open_nisar
+from e2esim.products_io.nisar_products import open_nisar_product
 from e2esim.products_io.pixel_model import LAYERS
 from e2esim.products_io.pixels import ProductFileError, ProductPixels
 from e2esim.products_io.uncertainty_files import UncertaintyWriter
 
 PIXELS_PER_BLOCK = 1 << 16
-"""Pixels evaluated at once: a block of rows of about this many pixels (at least one row)."""
+"""Pixels the model evaluates at once: a block of rows of about this many pixels (at least one row)."""
+BAND_ROWS = 256
+"""Rows read, evaluated and written at once (about; a whole number of blocks): the outputs' chunks are one band high,
+so that each chunk is written once, whole (docs/real-data.md, Speed)."""
 
 
 def open_product(path) -> ProductPixels:
-    """A BIOMASS L1 product (a folder with its annotation XML and LUT NetCDF) or a NISAR GCOV (an HDF5 file)."""
+    """A BIOMASS L1 product (a folder with its annotation XML and LUT NetCDF) or a NISAR GCOV, RSLC or GSLC (an HDF5
+    file)."""
     p = Path(path)
     if p.is_dir():
         return open_biomass(p)
     if not p.exists():
         raise ProductFileError(f"{path}: no such file or folder; expected a BIOMASS L1 product folder or a NISAR "
-                               "GCOV HDF5 file")
-    return open_nisar(p)
+                               "GCOV, RSLC or GSLC HDF5 file")
+    return open_nisar_product(p)
 
 
-def row_blocks(shape, pixels_per_block: int = PIXELS_PER_BLOCK):
-    rows, cols = shape
-    step = max(1, pixels_per_block // max(cols, 1))
-    for start in range(0, rows, step):
-        yield slice(start, min(start + step, rows))
+def block_rows(shape, pixels_per_block: int = PIXELS_PER_BLOCK) -> int:
+    """Rows of a model block. The blocks start at row 0 every ``block_rows``: a pixel's numbers are computed in the
+    same block whatever the band (the co-polarised model's path depends on the rotations a block holds)."""
+    return max(1, pixels_per_block // max(shape[1], 1))
+
+
+def row_bands(shape, pixels_per_block: int = PIXELS_PER_BLOCK, band_rows: int = BAND_ROWS):
+    """Bands of rows of about ``band_rows``, each a whole number of model blocks (``block_rows``)."""
+    step = block_rows(shape, pixels_per_block)
+    band = step * max(1, round(band_rows / step))
+    for start in range(0, shape[0], band):
+        yield slice(start, min(start + band, shape[0]))
 
 
 def write_uncertainty(product, output, scenario=None, force: bool = False,
@@ -53,11 +64,12 @@ def write_uncertainty(product, output, scenario=None, force: bool = False,
                            "(e2esim.distortion.polarimetric_pixels); Faraday-rotation SD: Quegan et al. (2018) eq. 5; "
                            "AGB: power law (Men et al. 2021 eqs. 15-16)",
                   **pixels.facts, **assumptions.attributes()}
-    writer = UncertaintyWriter(output, pixels, attributes, force)
+    bands = list(row_bands(pixels.shape, pixels_per_block))
+    writer = UncertaintyWriter(output, pixels, attributes, force, band_rows=bands[0].stop - bands[0].start)
     valid = passed = 0
     try:
-        blocks = row_blocks(pixels.shape, pixels_per_block)
-        for rows, layers in block_layers(open_product, product, scenario, pixels, assumptions, blocks, workers):
+        step = block_rows(pixels.shape, pixels_per_block)
+        for rows, layers in block_layers(open_product, product, scenario, pixels, assumptions, bands, step, workers):
             valid += int((layers["verdict"] != 255).sum())
             passed += int((layers["verdict"] == 1).sum())
             writer.write(rows, layers)

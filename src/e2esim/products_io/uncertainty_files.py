@@ -1,6 +1,13 @@
 """Writing the uncertainty product: a CF NetCDF (``uncertainty.nc``) and a Cloud-Optimised GeoTIFF
-(``uncertainty.tif``, one band per layer) on the product's own grid, block of rows by block of rows, into temporary
-files that are renamed into place only when both are complete (no partial output)."""
+(``uncertainty.tif``, one band per layer) on the product's own grid, band of rows by band of rows, into temporary
+files that are renamed into place only when both are complete (no partial output).
+
+Settings (docs/real-data.md, Speed): the NetCDF's chunks are one band high and at most 1,024 columns wide, so that
+each band fills its chunks whole (no chunk is read back, decompressed and compressed again), deflated at level 1
+(zlib, no shuffle: as before); the GeoTIFF is first written uncompressed in strips one band high, band-interleaved
+(each band of each layer written once), then copied to the COG: DEFLATE level 1, 512 x 512 tiles, its overviews
+resampled by nearest neighbour (an overview pixel is a pixel of the layer: the verdict stays 0 or 1, NaN stays no
+data), compressed on all cores (``NUM_THREADS``)."""
 
 from __future__ import annotations
 
@@ -21,7 +28,7 @@ class UncertaintyWriter:
     """Open both outputs as temporaries in ``folder``; ``write(rows, layers)``; ``commit()`` renames them into
     place; ``discard()`` removes them (called on any failure)."""
 
-    def __init__(self, folder, pixels, attributes: dict, force: bool = False):
+    def __init__(self, folder, pixels, attributes: dict, force: bool = False, band_rows: int = 256):
         self.folder = Path(folder)
         self.targets = [self.folder / NETCDF_NAME, self.folder / GEOTIFF_NAME]
         existing = [str(t) for t in self.targets if t.exists()]
@@ -31,6 +38,7 @@ class UncertaintyWriter:
         self.temps = [t.with_name(f".{t.name}.{os.getpid()}.partial") for t in self.targets]
         self.tiff_temp = self.temps[1].with_name(self.temps[1].name + ".tiled")
         self.pixels = pixels
+        self.band_rows = max(1, min(band_rows, pixels.shape[0]))
         self.nc = self.tiff = None
         try:
             self._open(attributes)
@@ -47,7 +55,7 @@ class UncertaintyWriter:
         self.dims = self._coordinates()
         self.nc.setncatts({"Conventions": "CF-1.8", **{k: _attribute(v) for k, v in attributes.items()}})
         rows, cols = pixels.shape
-        chunk = (min(rows, 256), min(cols, 1024))
+        chunk = (self.band_rows, min(cols, 1024))
         for name, (units, what) in LAYERS.items():
             dtype, fill = ("u1", NO_DATA_VERDICT) if name == "verdict" else ("f4", np.float32(np.nan))
             var = self.nc.createVariable(name, dtype, self.dims, fill_value=fill, chunksizes=chunk,
@@ -56,7 +64,8 @@ class UncertaintyWriter:
             if pixels.crs is not None:
                 var.grid_mapping = "crs"
         profile = {"driver": "GTiff", "width": cols, "height": rows, "count": len(LAYERS), "dtype": "float32",
-                   "tiled": True, "blockxsize": 256, "blockysize": 256, "nodata": np.nan, "BIGTIFF": "IF_SAFER"}
+                   "tiled": False, "blockysize": self.band_rows, "interleave": "band", "nodata": np.nan,
+                   "BIGTIFF": "IF_SAFER"}
         if pixels.geotransform is not None:
             from affine import Affine  # lazy: start-up time (rasterio's dependency)
 
@@ -104,7 +113,7 @@ class UncertaintyWriter:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", self._rasterio.errors.NotGeoreferencedWarning)
             copy(str(self.tiff_temp), str(self.temps[1]), driver="COG", COMPRESS="DEFLATE", LEVEL=1,
-                 BIGTIFF="IF_SAFER")
+                 BIGTIFF="IF_SAFER", RESAMPLING="NEAREST", NUM_THREADS="ALL_CPUS")
         self.tiff_temp.unlink()
         for temp, target in zip(self.temps, self.targets):
             os.replace(temp, target)
