@@ -125,6 +125,7 @@ class RFITerm(ErrorTerm):
                            "21)", looks=max(int(looks * kept), 1)))
 
     effects_take_blocks = True
+    effects_ignore_model = True
 
     def case_effects(self, case, model) -> tuple:
         return self.effects(case)
