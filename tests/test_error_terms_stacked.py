@@ -147,8 +147,8 @@ class WronglyDeclaredGain(ModelReadingGain):
 def test_only_terms_that_declare_it_get_no_model_and_reading_it_hands_the_block_back(base):
     shipped, reading, wrong = (cls.from_config({"sd_db": 0.1}, Location("t"))
                                for cls in (GainError, ModelReadingGain, WronglyDeclaredGain))
-    assert shipped.case_model(base, 0) is UNREAD_MODEL
-    assert reading.case_model(base, 0) is not UNREAD_MODEL  # it overrides effect: a subclass reads the model again
-    assert reading.case_model(base, 0).channel == "hv"
+    assert shipped.case_models(base) == [UNREAD_MODEL] * CASES
+    assert reading.case_models(base)[0] is not UNREAD_MODEL  # it overrides effect: a subclass reads the model again
+    assert reading.case_models(base)[0].channel == "hv"
     with pytest.raises(NotBatched, match="effects_ignore_model"):
-        wrong.case_effects(None, wrong.case_model(base, 0))
+        wrong.case_effects(None, wrong.case_models(base)[0])

@@ -123,6 +123,12 @@ class BlockWrappedModel(Batched, ErrorModel):
 
     # Sources -------------------------------------------------------------------------------------------------------
     def without(self, source: str) -> ErrorModel:
+        key = ("without", source)  # asked by every requirement's attribution: made once
+        if key not in self._memo:
+            self._memo[key] = self._without(source)
+        return self._memo[key]
+
+    def _without(self, source: str) -> ErrorModel:
         if source == self.source:
             active = np.array([e.active for e in self.effects.values], dtype=bool)
             if not active.any():

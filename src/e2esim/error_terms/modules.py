@@ -111,12 +111,15 @@ class ErrorTerm(Module):
     def block_case_effects(self, block, model) -> list:
         """``case_effects`` of every case of ``block``, each from its one-case view and model; a term may make them
         together (vectorised over the cases) where it gives each case, bit for bit, its one-case effects."""
-        return [self.case_effects(case_of(block, i), self.case_model(model, i)) for i in range(len(block))]
+        models = self.case_models(model)
+        return [self.case_effects(case_of(block, i), models[i]) for i in range(len(block))]
 
-    def case_model(self, model, i: int):
-        """Case ``i``'s model of the block's ``model`` for ``case_effects``, or ``UNREAD_MODEL`` when the term does
-        not read it (``effects_ignore_model``; ``e2esim.error_terms.block_case``)."""
-        return UNREAD_MODEL if fast_path(self, "effects_ignore_model", "case_effects") else model.item(i)
+    def case_models(self, model) -> list:
+        """Every case's model of the block's ``model`` for ``case_effects``, or ``UNREAD_MODEL`` for each when the
+        term does not read it (``effects_ignore_model``; ``e2esim.error_terms.block_case``)."""
+        if fast_path(self, "effects_ignore_model", "case_effects"):
+            return [UNREAD_MODEL] * len(model)
+        return [model.item(i) for i in range(len(model))]
 
     def _wrapped(self, make, model, effect):
         try:

@@ -123,8 +123,8 @@ class ScintillationTerm(ErrorTerm):
             raise fail(self, str(exc), None, key=exc.key) from exc
         quantiles = {p: stacked_mixture_quantiles(screens, p) for p in (0.5, 0.9)}
         extras = self.stacked_extras(screens)
-        return [(self.effect(c, self.case_model(model, i), screens[i], {p: q[i] for p, q in quantiles.items()},
-                             **extras[i]),)
+        models = self.case_models(model)
+        return [(self.effect(c, models[i], screens[i], {p: q[i] for p, q in quantiles.items()}, **extras[i]),)
                 for i, c in enumerate(cases)]
 
     def stacked_extras(self, screens: list) -> list:
