@@ -102,3 +102,19 @@ def test_no_screen_changes_nothing():
     an = analytic_irf(_screen(0.0))
     assert float(an["peak_loss_db_p90"]) == 0.0 and float(an["shift_cells_p90"]) == 0.0
     assert float(an["resolution_ratio_p90"]) == 1.0
+
+
+@pytest.mark.parametrize("lead", [(), (3,), (2, 5)])
+def test_mean_irf_from_the_distinct_lags_is_bit_for_bit_eq_s11_on_the_full_matrix(rng, lead):
+    """exp(-D_2 / 2) is taken on the n distinct lags and spread to the n x n matrix: the number is bit for bit eq. S11
+    evaluated on the matrix itself (the same elements in the same memory layout, summed in the same order)."""
+    incidence = np.radians(rng.uniform(23.0, 34.0, lead))
+    c_kl = 10.0 ** rng.uniform(22.5, 25.0, lead)
+
+    def structure(lag):
+        return two_way_structure(lag, biomass_aperture(incidence), c_kl, 2.67, 10e3)
+
+    lags = np.abs(np.arange(N)[:, None] - np.arange(N)[None, :])
+    d = np.asarray(structure(np.arange(N) / N), dtype=float)[..., lags]
+    expected = -10.0 / math.log(10.0) * np.log(np.mean(np.exp(-0.5 * d), axis=(-2, -1)))
+    np.testing.assert_array_equal(analytic_irf(structure, N)["mean_irf_peak_loss_db"], expected)

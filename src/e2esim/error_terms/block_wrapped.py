@@ -18,6 +18,7 @@ import numpy as np
 
 from e2esim.block import Batched, Values
 from e2esim.error_model import Contribution, ErrorModel, Moments
+from e2esim.error_terms.effect_stack import stack_groups, stacked, stacked_columns
 from e2esim.error_terms.wrapped import wrapped
 
 
@@ -86,17 +87,34 @@ class BlockWrappedModel(Batched, ErrorModel):
         shape = np.broadcast_shapes(*(x.shape + (1,) * (ndim - x.ndim) for x in (mean, variance, level) if x.ndim),
                                     (len(self),) + (1,) * (ndim - 1))
         out_mean, out_var = np.empty(shape), np.empty(shape)
-        index = self.effects.index
-        groups = [slice(None)] if len(self.effects.values) == 1 else [
-            np.flatnonzero(index == k) for k in range(len(self.effects.values))]
-        for effect, rows in zip(self.effects.values, groups):
-            if isinstance(rows, np.ndarray) and not len(rows):
-                continue
+        for first, columns, rows in self._stacks():
+            effect = first if columns is None else stacked(first, columns, ndim)
             new_mean, cov = effect.joint(_leading(mean, rows, ndim)[..., None], _leading(variance, rows, ndim)[
                 ..., None, None], _leading(values, rows, ndim)[..., None], _leading(level, rows, ndim))
             out_mean[rows] = new_mean[..., 0]
             out_var[rows] = cov[..., 0, 0]
         return Moments(out_mean, out_var)
+
+    def _stacks(self) -> list:
+        """[(effect, columns, rows)]: the cases ``rows`` whose effects are evaluated together, as ``effect`` alone
+        (columns None: one distinct effect) or stacked with ``columns`` (``e2esim.error_terms.effect_stack``)."""
+        if "stacks" not in self._memo:
+            values, index = self.effects.values, self.effects.index
+            groups = stack_groups(values)
+            out = []
+            for group in groups:
+                rows = slice(None) if len(groups) == 1 else np.flatnonzero(np.isin(index, group))
+                if isinstance(rows, np.ndarray) and not len(rows):  # effects no case of this block has (``take``)
+                    continue
+                if len(group) == 1:
+                    out.append((values[group[0]], None, rows))
+                    continue
+                position = np.zeros(len(values), dtype=np.int64)
+                position[group] = np.arange(len(group))
+                table = stacked_columns([values[k] for k in group])
+                out.append((values[group[0]], {name: c[position[index[rows]]] for name, c in table.items()}, rows))
+            self._memo["stacks"] = out
+        return self._memo["stacks"]
 
     def current(self) -> Moments:
         if "current" not in self._memo:
@@ -105,6 +123,12 @@ class BlockWrappedModel(Batched, ErrorModel):
 
     # Sources -------------------------------------------------------------------------------------------------------
     def without(self, source: str) -> ErrorModel:
+        key = ("without", source)  # asked by every requirement's attribution: made once
+        if key not in self._memo:
+            self._memo[key] = self._without(source)
+        return self._memo[key]
+
+    def _without(self, source: str) -> ErrorModel:
         if source == self.source:
             active = np.array([e.active for e in self.effects.values], dtype=bool)
             if not active.any():
@@ -115,7 +139,10 @@ class BlockWrappedModel(Batched, ErrorModel):
         variant = self.base.without(source)
         if variant is self.base:
             return self
-        return BlockWrappedModel(variant, self.effects, getattr(variant, "inactive", None))
+        model = BlockWrappedModel(variant, self.effects, getattr(variant, "inactive", None))
+        if "stacks" in self._memo:  # the same effects: evaluated together as here
+            model._memo["stacks"] = self._memo["stacks"]
+        return model
 
     def contributions(self) -> dict:
         parts = dict(self.base.contributions())

@@ -16,6 +16,7 @@ from __future__ import annotations
 import math
 from abc import ABC, abstractmethod
 from dataclasses import dataclass, replace
+from typing import ClassVar
 
 import numpy as np
 
@@ -39,6 +40,12 @@ class Effect(ABC):
     outputs: tuple = ()
     """(name, value) pairs: output scalars the term reports beside the model's (e.g. the notched impulse
     response's metrics of ``e2esim.error_terms.rfi_modules``)."""
+
+    stacked_fields: ClassVar[dict | None] = None
+    """{field: axes}: the numbers of the effect that may differ between cases whose moments a block evaluates
+    together (``e2esim.error_terms.effect_stack``), each with its axes after the level's (1 for a tuple, or for a
+    number the equations combine with a tuple's axis; else 0). Only a class's own declaration counts: None (the
+    default, a plug-in's effect) evaluates each distinct effect alone, with the same numbers."""
 
     @abstractmethod
     def joint(self, mean, cov, values, level):
@@ -101,6 +108,8 @@ class GammaFactor(IntensityFactor):
     """A factor of mean 1 and variance ``level``, gamma distributed (shape 1/V, scale V): the mean intensity of
     independent Nakagami-m patterns, e.g. amplitude scintillation (Fremouw, Livingston & Miller 1980)."""
 
+    stacked_fields: ClassVar[dict] = {}
+
     def factor_moments(self, level):
         return np.ones_like(np.asarray(level, dtype=float)), np.asarray(level, dtype=float)
 
@@ -114,6 +123,8 @@ class FixedGain(IntensityFactor):
     notch filter removes from a distributed target's spectrum when the processor does not restore it
     (docs/theory/rfi.md). With E[g] = 1 - level and Var[g] = 0 the equations of ``IntensityFactor`` give
     E[e'_p] = m_p g - sigma_p level and Cov[e'_p, e'_q] = g^2 C_pq."""
+
+    stacked_fields: ClassVar[dict] = {}
 
     def factor_moments(self, level):
         lv = np.asarray(level, dtype=float)
@@ -131,6 +142,8 @@ class LogNormalGain(IntensityFactor):
 
         E[g] = exp(mu + s^2 / 2),      Var[g] = exp(2 mu + s^2) (exp(s^2) - 1).
     """
+
+    stacked_fields: ClassVar[dict] = {"offset_db": 0}
 
     offset_db: float = 0.0
 
@@ -163,6 +176,8 @@ class AddedPower(Effect):
 
     Per realisation ``nu = N G + sqrt(2 N max(sigma_hat, 0) / L) Z``, G ~ Gamma(L, 1/L) (the mean of L exponential
     noise intensities), Z ~ N(0, 1) (the cross term, Gaussian given the signal)."""
+
+    stacked_fields: ClassVar[dict] = {"scale": 1, "looks": 1}
 
     scale: tuple = (1.0,)
     looks: int = 1
@@ -198,6 +213,8 @@ class ExtraVariance(Effect):
 
         E[e'_p] = m_p,      Cov[e'_p, e'_q] = C_pq + delta_pq sigma_p^2 r^2.
     """
+
+    stacked_fields: ClassVar[dict] = {}
 
     def joint(self, mean, cov, values, level):
         added = _lv(level, 1) * values * values

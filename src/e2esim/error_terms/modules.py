@@ -14,7 +14,7 @@ import math
 import re
 from typing import ClassVar
 
-from e2esim.error_terms.block_case import case_of
+from e2esim.error_terms.block_case import UNREAD_MODEL, case_of
 from e2esim.error_terms.block_wrapped import block_wrapped, same_outputs
 from e2esim.error_terms.effects import AddedPower, ExtraVariance, LogNormalGain
 from e2esim.error_terms.wrapped import base_samples_shape, wrapped
@@ -65,6 +65,10 @@ class ErrorTerm(Module):
     batched error model at once (``wrap_block``). A subclass that overrides ``effect``, ``case_effects`` or
     ``wrap`` without saying so again runs case by case (``e2esim.module.fast_path``), and the run's notes say so."""
     fast_path_hooks: ClassVar[tuple] = ("effect", "wrap", "wrap_block", "block_case_effects")
+    effects_ignore_model: ClassVar[bool] = False
+    """True when ``case_effects`` does not read the model it wraps: a block then hands it no one-case model
+    (``case_model``). Like ``effects_take_blocks`` it holds only for the class that declares it and the ``effect``
+    it defines (``e2esim.module.fast_path``): a subclass that overrides ``effect`` reads the model again."""
 
     def effect(self, case, model):
         """The ``Effect`` of this term on ``model`` (the error model it wraps) in ``case``."""
@@ -107,7 +111,15 @@ class ErrorTerm(Module):
     def block_case_effects(self, block, model) -> list:
         """``case_effects`` of every case of ``block``, each from its one-case view and model; a term may make them
         together (vectorised over the cases) where it gives each case, bit for bit, its one-case effects."""
-        return [self.case_effects(case_of(block, i), model.item(i)) for i in range(len(block))]
+        models = self.case_models(model)
+        return [self.case_effects(case_of(block, i), models[i]) for i in range(len(block))]
+
+    def case_models(self, model) -> list:
+        """Every case's model of the block's ``model`` for ``case_effects``, or ``UNREAD_MODEL`` for each when the
+        term does not read it (``effects_ignore_model``; ``e2esim.error_terms.block_case``)."""
+        if fast_path(self, "effects_ignore_model", "case_effects"):
+            return [UNREAD_MODEL] * len(model)
+        return [model.item(i) for i in range(len(model))]
 
     def _wrapped(self, make, model, effect):
         try:
@@ -131,6 +143,7 @@ class AddedNoise(ErrorTerm):
     )
 
     effects_take_blocks = True
+    effects_ignore_model = True
 
     def effect(self, case, model):
         return AddedPower(self.source, self.si["power_linear"], "added noise power (Ahmed et al. 2014, eq. 21)",
@@ -151,6 +164,7 @@ class GainError(ErrorTerm):
     )
 
     effects_take_blocks = True
+    effects_ignore_model = True
 
     def effect(self, case, model):
         s = self.si["sd_db"] * math.log(10.0) / 10.0
@@ -171,6 +185,7 @@ class ExtraRelativeVariance(ErrorTerm):
     )
 
     effects_take_blocks = True
+    effects_ignore_model = True
 
     def effect(self, case, model):
         r = self.si["relative_sd_fraction"]

@@ -74,6 +74,7 @@ class RFITerm(ErrorTerm):
         super().setup()
         c = self.si
         self.raster = None
+        self._made: dict = {}  # the effects by (band fraction, time fraction, looks): ``effects``
         # the notched response of a fixed fraction, once per module (one per distinct configuration of a sweep)
         self.notch = None if c["fraction_map"] else notch_response(c["band_fraction_fraction"] or 0.0,
                                                                      c["notch_position"])
@@ -108,12 +109,19 @@ class RFITerm(ErrorTerm):
         return self.si["time_fraction_fraction"]
 
     def effects(self, case) -> tuple:
-        """The three effects (``FixedGain``, ``ExtraVariance``, ``AddedPower``) of ``case``."""
+        """The three effects (``FixedGain``, ``ExtraVariance``, ``AddedPower``) of ``case``: made once for each band
+        fraction, time fraction and number of looks (every cell of a map without a fraction map shares them)."""
+        key = (self.band_fraction(case), self.time_fraction(case), self.si["looks"] or case.settings.looks)
+        if key not in self._made:
+            if len(self._made) >= 4096:  # a fraction map's many values: kept bounded
+                self._made.clear()
+            self._made[key] = self._effects(*key)
+        return self._made[key]
+
+    def _effects(self, f_b: float, f_t: float, looks: int) -> tuple:
         c, name = self.si, self.source
         notch_source, looks_source, residual_source = self.sources
-        f_b, f_t = self.band_fraction(case), self.time_fraction(case)
         notch = self.notch or notch_response(f_b, c["notch_position"])
-        looks = c["looks"] or case.settings.looks
         kept = notch.looks_factor * (1.0 - f_t)
         gain = notch.energy_ratio * (1.0 - f_t)
         outputs = tuple((f"error_term.{name}.{k}", float(v)) for k, v in (
@@ -129,6 +137,7 @@ class RFITerm(ErrorTerm):
                            "21)", looks=max(int(looks * kept), 1)))
 
     effects_take_blocks = True
+    effects_ignore_model = True
 
     def case_effects(self, case, model) -> tuple:
         return self.effects(case)

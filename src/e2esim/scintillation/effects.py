@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import ClassVar
 
 import numpy as np
 
@@ -50,6 +51,9 @@ class DistributedTargetFactor(IntensityFactor):
 
     (X and Y are independent: the tilt and the residual are orthogonal projections of a Gaussian phase; gamma Laplace
     transform E[exp(-sY)] = (1 + s theta)^-k)."""
+
+    stacked_fields: ClassVar[dict] = {"weight": 1, "shape": 1, "scale": 1, "shift_sd_cells": 1, "halo_share": 1,
+                                       "cell_fraction": 1, "contrast": 1}
 
     weight: tuple = ()
     shape: tuple = ()
@@ -95,6 +99,8 @@ class CalibratorFactor(IntensityFactor):
     g is log-normal: E[g] = exp(mu + s^2 / 2), Var[g] = exp(2 mu + s^2)(exp(s^2) - 1) (Johnson, Kotz &
     Balakrishnan 1994, eq. 14.8a). At level m, mu -> m mu and s^2 -> m^2 s^2."""
 
+    stacked_fields: ClassVar[dict] = {"mean_log": 0, "var_log": 0}
+
     mean_log: float = 0.0
     var_log: float = 0.0
 
@@ -122,6 +128,9 @@ class FaradayLeakage(AddedPower):
 
     for a Gaussian delta, averaged over the acquisitions. It enters as ``AddedPower`` (speckled like the co-pol
     signal over the looks); the co-polarised channels change by a relative O(s^2), which is left out."""
+
+    stacked_fields: ClassVar[dict] = {"scale": 1, "looks": 1, "weight": 1, "window_variance": 1,
+                                       "copol_power": 0}
 
     weight: tuple = ()
     window_variance: tuple = ()

@@ -123,7 +123,8 @@ class ScintillationTerm(ErrorTerm):
             raise fail(self, str(exc), None, key=exc.key) from exc
         quantiles = {p: stacked_mixture_quantiles(screens, p) for p in (0.5, 0.9)}
         extras = self.stacked_extras(screens)
-        return [(self.effect(c, model.item(i), screens[i], {p: q[i] for p, q in quantiles.items()}, **extras[i]),)
+        models = self.case_models(model)
+        return [(self.effect(c, models[i], screens[i], {p: q[i] for p, q in quantiles.items()}, **extras[i]),)
                 for i, c in enumerate(cases)]
 
     def stacked_extras(self, screens: list) -> list:
@@ -168,6 +169,7 @@ class ScintillationSigma0(ScintillationTerm):
               source_param("scintillation_sigma0"))
 
     effects_take_blocks = True
+    effects_ignore_model = True
 
     def cell_cells(self) -> float:
         """The product cell's length in resolution cells, L_c / rho_a."""
@@ -204,6 +206,7 @@ class ScintillationCalibration(ScintillationTerm):
               source_param("scintillation_calibration"))
 
     effects_take_blocks = True
+    effects_ignore_model = True
 
     def screen_site(self) -> tuple:
         return self.si["site_lat_rad"], self.si["site_lon_rad"]
