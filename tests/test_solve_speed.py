@@ -72,7 +72,7 @@ def test_shared_budgets_give_the_per_case_engines_numbers_bit_for_bit():
     assert len(np.unique(rmse)) == 12  # every case its own value: the swept NESZ reaches the budget
 
 
-def test_verdicts_only_gives_the_same_margins_without_the_shares():
+def test_verdicts_only_gives_the_same_margins_without_the_shares_or_the_output_scalars():
     full = _run(_budget_scenario())
     with verdicts_only():
         bare = _run(_budget_scenario())
@@ -80,6 +80,7 @@ def test_verdicts_only_gives_the_same_margins_without_the_shares():
         np.testing.assert_array_equal(np.asarray(a.margin, float), np.asarray(b.margin, float))
         assert any(k.startswith(("share.", "contribution.")) for k in a.details)
         assert not any(k.startswith(("share.", "contribution.")) for k in b.details)
+    assert len(full.table.scalars) > 0 and len(bare.table.scalars) == 0  # no output scalars: the solve reads none
     again = _run(_budget_scenario())  # the switch ends with its block
     assert set(again.table.requirements[0].details) == set(full.table.requirements[0].details)
 

@@ -7,6 +7,7 @@ import numpy as np
 from tqdm.auto import tqdm
 
 from e2esim.case import Case, KernelMemo, Products, Services
+from e2esim.requirements.attribution import VERDICTS_ONLY
 from e2esim.runner.blocks import BlockRun
 from e2esim.runner.case_results import BlockResult, CaseResult
 from e2esim.runner.columns import case_notes, requirement_columns, scalar_columns, source_group_column
@@ -58,7 +59,10 @@ def run_block(resolved: ResolvedScenario, indices, engine: str = "batched", keep
     kept = None
     if keep_products:
         kept = [Products({name: value.item(k) for name, value in products.items()}) for k in range(n)]
-    return BlockResult(run.indices, scalar_columns(products, n, declared),
+    # the inverse solve reads the margins alone (verdicts_only): no output scalars, some of which (the stack's
+    # cancellation residual) cost as much as the case's moments
+    columns = {} if VERDICTS_ONLY.get() else scalar_columns(products, n, declared)
+    return BlockResult(run.indices, columns,
                        requirement_columns(products.get("verdicts"), n),
                        case_notes(products.get("backscatter.error"), n),
                        source_group_column(products.get("agb.error"), n), kept)

@@ -105,7 +105,8 @@ def channel_node_polynomials(blocks: np.ndarray, q: np.ndarray, omega: np.ndarra
     y0[0] = np.einsum("gnpmd,gmqd->gnmpq", a0c, a0.conj())
     uc = (u.reshape(g, n, 18, 3) @ rows[None]).reshape(g, n, 6, 3, n, 3)  # u_n,i C_nm [g, n, i, p, m, d]
     uc = uc.transpose(0, 4, 1, 3, 2, 5).reshape(g, n, 3 * n, 18)  # [g, m, (n, p), (i, d)]
-    ug = np.einsum("aij,gmjqd->gmidaq", gm, u.conj()).reshape(g, n, 18, 6)  # sum_j Gamma_a[i, j] u_m,j^* per (a, q)
+    ug = (gm[None, None] @ u.conj().reshape(g, n, 1, 6, 9)).reshape(g, n, 2, 6, 3, 3)  # [g, m, a, i, q, d]
+    ug = ug.transpose(0, 1, 3, 5, 2, 4).reshape(g, n, 18, 6)  # sum_j Gamma_a[i, j] u_m,j^* per (a, q)
     lin = (uc @ ug).reshape(g, n, n, 3, 2, 3).transpose(4, 0, 2, 1, 3, 5)  # [a, g, n, m, p, q]
     y0[_LIN] = r[None, None, :, :, None, None] * lin
     wc = (w.reshape(g, n, 27, 3) @ rows[None]).reshape(g, n, 9, 3, n, 3)
@@ -121,30 +122,34 @@ def channel_node_polynomials(blocks: np.ndarray, q: np.ndarray, omega: np.ndarra
     cov = np.zeros((6, g, 3, 3))
     r0 = (a0.transpose(0, 2, 1, 3).reshape(g, 3, 3 * n) @ mflat).reshape(g, 3, n, 3)  # R0_p,m [g, p, m, d]
     gvec = np.einsum("gpmd,gmipd->gmip", r0, u.conj())  # G_p[(m, i)]
-    gg = np.einsum("mk,agkiq->agmiq", r, np.einsum("aij,gkjq->agkiq", gm, gvec))  # Gamma_big G
+    gg = (r @ (gm[:, None, None] @ gvec[None]).reshape(2, g, n, 18)).reshape(2, g, n, 6, 3)  # Gamma_big G
     cov[_LIN] = 2 * np.real(np.einsum("gmip,agmiq->agpq", gvec.conj(), gg))
     # tr(beta_p Gamma_a^T beta_q Gamma_b^T) = tr(M F_pq^a M F_qp^b), F_pq^a = U_p^H Gamma_big,a^T U_q (3N x 3N)
-    uh = u.conj().transpose(0, 1, 3, 4, 2).reshape(g, 9 * n, 6)  # [g, (n, p, c), i]
-    gtu = np.einsum("aji,gmjqd->agimqd", gm, u).reshape(2, g, 6, 9 * n)
-    f = (uh[None] @ gtu).reshape(2, g, n, 3, 3, n, 3, 3)  # [a, g, n, p, c, m, q, d]
-    f = (f * r[None, None, :, None, None, :, None, None]).transpose(0, 1, 3, 6, 2, 4, 5, 7).reshape(
-        2, g, 3, 3, 3 * n, 3 * n)
-    x = mflat @ f  # M F_pq^a
-    q2 = np.real(np.einsum("agpqxy,bgqpyx->abgpq", x, x))
+    # built in the layout [a, g, p, q, (n, c), (m, d)]: U_p^H [g, p, (n, c), i] times Gamma_a^T U_q [a, g, q, i, (m, d)]
+    uh = u.conj().transpose(0, 3, 1, 4, 2).reshape(1, g, 3, 1, 3 * n, 6)
+    gtu = np.swapaxes(gm, 1, 2)[:, None, None] @ u.transpose(0, 3, 2, 1, 4).reshape(1, g, 3, 6, 3 * n)
+    x = mflat @ ((uh @ gtu[:, :, None]) * np.kron(r, np.ones((3, 3))))  # M F_pq^a
+    xt = x.transpose(1, 2, 3, 0, 4, 5).reshape(g, 9, 2, 9 * n * n)  # [g, (p, q), a, (x, y)]
+    xs = x.transpose(1, 3, 2, 5, 4, 0).reshape(g, 9, 9 * n * n, 2)  # M F_qp^b at [g, (p, q), (y, x), b]
+    q2 = np.real(xt @ xs).reshape(g, 3, 3, 2, 2).transpose(3, 4, 0, 1, 2)
     # Cov(2 Re P_p, 2 Re P_q) (co-pol eq. 3.5c with the passes, r^2 between them)
-    gam = np.einsum("gpmd,gmxpd->gmxp", r0, w.conj())  # gamma_p[m, (ij)]
-    s = np.einsum("mk,gkyq->gmyq", r**2, gam.conj())
-    p2 = 2 * np.real(np.einsum("gmxp,abgmxq->abgpq", gam, xi_c[:, :, None, None] @ s))
+    gam = (w.conj().transpose(0, 1, 3, 2, 4) @ r0.transpose(0, 2, 1, 3)[..., None])[..., 0]  # [g, m, p, x]
+    gam = gam.transpose(0, 1, 3, 2)  # gamma_p[m, (ij)] at [g, m, x, p]
+    s = ((r**2) @ gam.conj().reshape(g, n, 27)).reshape(g, n, 9, 3)
+    p2 = 2 * np.real(gam.transpose(0, 3, 1, 2).reshape(g, 3, 9 * n) @ (xi_c[:, :, None, None] @ s).reshape(
+        2, 2, g, 9 * n, 3))
     # Cov(T1_p, T3_q) + Cov(T3_p, T1_q) (co-pol eq. 3.5d): with H_p[m, e] = sum_kc conj(G_p[k, c]) r_km
     # Gamma_a[c, e] and K_q[m, e, (ij)] = sum_n r_nm (Gamma_b^T u_n)_e,q M_nm w_m,ij,q^H
     hvec = np.einsum("km,agkep->agmep", r, np.einsum("ace,gkcp->agkep", gm, gvec.conj()))
-    ut = np.einsum("bae,gnaqc->bgeqnc", gm, u).reshape(2, g, 18, 3 * n)
-    ut = (ut @ (np.kron(r, np.ones((3, 3))) * mflat)).reshape(2, g, 6, 3, n, 3)  # [b, g, e, q, m, d]
-    kvec = np.einsum("bgeqmd,gmxqd->bgqmex", ut, w.conj()).reshape(2, g, 3, n, 6, 3, 3)
-    k_t = np.diagonal(kvec[:, :, :, :, 3:], axis1=-3, axis2=-1)  # K[m, 3 + j, i, j]: [b, g, q, m, i, j]
-    k_r = np.diagonal(kvec[:, :, :, :, :3], axis1=-3, axis2=-2).sum(-1)  # sum_i K[m, i, i, j]: [b, g, q, m, j]
-    t13 = 2 * np.real(np.einsum("agmip,bgqmij->abgpq", hvec[:, :, :, :3], k_t)
-                      + np.einsum("agmjp,bgqmj->abgpq", hvec[:, :, :, 3:], k_r))
+    ut = np.swapaxes(gm, 1, 2)[:, None] @ u.transpose(0, 2, 3, 1, 4).reshape(1, g, 6, 9 * n)
+    ut = (ut.reshape(2, g, 18, 3 * n) @ (np.kron(r, np.ones((3, 3))) * mflat)).reshape(2, g, 6, 3, n, 3)
+    w4 = w.conj().reshape(g, n, 3, 3, 3, 3)  # [g, m, i, j, q, d]
+    # only the parts of K read: sum_j K[m, 3 + j, i, j] and sum_i K[m, i, i, j], as [b, g, q, m, e]
+    k_te = np.einsum("bgjqmd,gmijqd->bgqmi", ut[:, :, 3:], w4)
+    k_re = np.einsum("bgiqmd,gmijqd->bgqmj", ut[:, :, :3], w4)
+    kk = np.concatenate([k_te, k_re], -1).reshape(2, g, 3, 6 * n)  # [b, g, q, (m, e)]
+    t13 = hvec.transpose(1, 0, 4, 2, 3).reshape(g, 6, 6 * n) @ kk.transpose(1, 3, 0, 2).reshape(g, 6 * n, 6)
+    t13 = 2 * np.real(t13).reshape(g, 2, 3, 2, 3).transpose(1, 3, 0, 2, 4)
     t13 = t13 + np.swapaxes(t13, -1, -2)
     cov[_QUAD] = _symmetric_pairs(q2 + p2 + t13)
 
