@@ -148,3 +148,32 @@ def test_bad_inputs_are_named():
     two = Calibrators.named(["trihedral", "dihedral_0"], 30.0, CLUTTER)
     with pytest.raises(PhysicsInputError, match="fewer than 3 independent scattering matrices"):
         solve_transponder(np.zeros((2, 2, 2)), two)
+
+
+@pytest.mark.parametrize("names", [TRANSPONDERS, PASSIVE])
+def test_start_angle_is_the_grid_angle_of_least_residual(rng, names):
+    """The Gauss-Newton's start: the grid angle whose crosstalk-free model with the least-squares gain leaves the
+    smallest residual, as a scan over the grid finds it (the solver scores every angle in one product)."""
+    from e2esim.calibration.transponder import _START_ANGLES, _faraday_part, _start_angle
+    from e2esim.polarimetry.system_model import to_vector
+
+    cal = Calibrators.named(names, 30.0, CLUTTER, -40.0)
+    truth = _truth(rng, 400, 0.0, crosstalk_db=-20.0)
+    truth = SystemState(truth.delta, truth.f, rng.uniform(-np.pi, np.pi, 400), truth.gain)
+    y = to_vector(calibrator_responses(rng, cal, truth))
+    residuals = []
+    for angle in _START_ANGLES:
+        u = _faraday_part(angle, to_vector(cal.matrices))
+        gain = np.sum(np.conj(u) * y, (-2, -1)) / np.sum(np.abs(u) ** 2)
+        residuals.append(np.sum(np.abs(y - gain[:, None, None] * u) ** 2, (-2, -1)))
+    best = np.argmin(residuals, 0)
+    omega0, u0 = _start_angle(y, to_vector(cal.matrices), (400,))
+    np.testing.assert_array_equal(omega0, _START_ANGLES[best])
+    np.testing.assert_array_equal(u0, np.stack([_faraday_part(a, to_vector(cal.matrices)) for a in omega0]))
+
+
+def test_covariance_is_the_inverse_of_the_information(rng):
+    """The Cramer-Rao covariance (inverted when asked for) times the whitened normal matrix is the identity."""
+    cal = Calibrators.named(TRANSPONDERS, 30.0, CLUTTER, -40.0)
+    sol = solve_transponder(calibrator_responses(rng, cal, _truth(rng, 50, 10.0)), cal)
+    np.testing.assert_allclose(sol.covariance @ sol.information, np.broadcast_to(np.eye(7), (50, 7, 7)), atol=1e-9)

@@ -57,19 +57,25 @@ class TransponderSolution:
     """System errors estimated from calibrator responses, shape (...) per realisation.
 
     delta : (..., 4) crosstalk. f : (..., 2) channel imbalance. omega : Faraday rotation at the site (rad),
-    fixed by the gauge. gain : complex gain A. covariance : (..., 7, 7) complex Cramer-Rao covariance
-    ``E[dz dz^H]`` of z = (delta1..4, f1, f2, A) at known Omega (real and imaginary parts each have half
-    the diagonal as variance). chi2 : whitened residual sum of squares over the 8K real residuals,
-    chi-square with 8K - 14 degrees of freedom for a correct model. gauge : the condition.
+    fixed by the gauge. gain : complex gain A. information : (..., 7, 7) ``G^H G`` of the whitened Jacobian at
+    the solution (``covariance`` is its inverse). chi2 : whitened residual sum of squares over the 8K real
+    residuals, chi-square with 8K - 14 degrees of freedom for a correct model. gauge : the condition.
     """
 
     delta: np.ndarray
     f: np.ndarray
     omega: np.ndarray
     gain: np.ndarray
-    covariance: np.ndarray
+    information: np.ndarray
     chi2: np.ndarray
     gauge: str
+
+    @property
+    def covariance(self) -> np.ndarray:
+        """(..., 7, 7) complex Cramer-Rao covariance ``E[dz dz^H]`` of z = (delta1..4, f1, f2, A) at known Omega
+        (real and imaginary parts each have half the diagonal as variance): inverted when asked for, since the
+        calibration pipeline uses only the estimates (a stack of 7x7 inverses is a tenth of a solve)."""
+        return np.linalg.inv(self.information)
 
     def state(self) -> SystemState:
         return SystemState(self.delta, self.f, self.omega, self.gain)
@@ -200,25 +206,23 @@ def solve_transponder(
         z = z + np.linalg.solve(gh @ g, gh @ r[..., None])[..., 0]
     r, g = _whitened_system(y, z, u, _whitener(z, faraday_kron, calibrators))
     chi2 = 2 * np.sum(np.abs(r) ** 2, -1)  # whitened: E|w|^2 = 1, i.e. variance 1/2 per real component
-    covariance = np.linalg.inv(np.conj(np.swapaxes(g, -1, -2)) @ g)
+    information = np.conj(np.swapaxes(g, -1, -2)) @ g
     delta, f, omega, gain = fix_gauge(z[..., 0:4], z[..., 4:6], omega0, z[..., 6], gauge, faraday_prior,
                                       crosstalk_variance)
-    return TransponderSolution(delta, f, omega, gain, covariance, chi2, gauge)
+    return TransponderSolution(delta, f, omega, gain, information, chi2, gauge)
 
 
 def _start_angle(y, svec, batch) -> tuple:
     """Coarse Omega start and its ``u`` (``_faraday_part``): the grid angle whose crosstalk-free model fits best
     (any angle is an exact fit with suitable crosstalk, so this only keeps the Gauss-Newton in its linear
-    regime). The grid's ``u`` are computed once, not per realisation."""
-    best = np.full(batch, np.inf)
-    index = np.zeros(batch, int)
-    grid = [_faraday_part(angle, svec) for angle in _START_ANGLES]  # (K, 4) each
-    for i, u in enumerate(grid):
-        cost = np.sum(np.abs(y - _gain_ls(y, u)[..., None, None] * u) ** 2, axis=(-2, -1))
-        better = cost < best
-        best = np.where(better, cost, best)
-        index = np.where(better, i, index)
-    return _START_ANGLES[index], np.stack(grid)[index]
+    regime). The least-squares gain leaves the residual ``|y|^2 - |u^H y|^2 / |u|^2``, so the best angle is the
+    one of largest ``|u^H y|^2 / |u|^2``: one matrix product of the responses with the grid's ``u`` (computed
+    once, not per realisation) scores every angle at once."""
+    grid = np.stack([_faraday_part(angle, svec) for angle in _START_ANGLES])  # (angles, K, 4)
+    flat = grid.reshape(len(grid), -1)
+    fit = np.abs(y.reshape(batch + (-1,)) @ np.conj(flat).T) ** 2 / np.sum(np.abs(flat) ** 2, -1)
+    index = np.argmax(fit, -1)  # the first of equals, as a scan keeping only strictly better angles
+    return _START_ANGLES[index], grid[index]
 
 
 def gauge_transform(delta, f, omega, gain, eps):
