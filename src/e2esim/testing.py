@@ -35,6 +35,7 @@ import pickle
 import numpy as np
 
 from e2esim.case import Case, Products
+from e2esim.error_terms.stage import ErrorTermStack
 from e2esim.errors import Location
 from e2esim.module import Module, Stage
 from e2esim.params import Constraint, Param, ParamGroup, iter_params
@@ -181,11 +182,7 @@ def check_error_term_blocks(term, case: Case | None = None, variants=BLOCK_VARIA
     gives every case of a block of varied cases, through the block path (``ErrorTerm.wrap_block``), bit for bit
     the output scalars that the case alone gets (``ErrorTerm.wrap``): ``check_block_invariance`` of that stage.
     Returns whether the block path was checked (False: the term runs case by case, ``effects_take_blocks``)."""
-    from e2esim import registry
-    from e2esim.error_terms.stage import ErrorTermStack
-
-    kind, name, config = next(row for row in DEFAULT_CHAIN if row[0] == "propagation")
-    propagation = registry.lookup(kind, name)(**config)
+    propagation = next(module for module in _chain_modules() if module.kind == "propagation")
     return check_block_invariance(ErrorTermStack(propagation, [term]), case, variants)
 
 
