@@ -9,12 +9,14 @@ import pytest
 from e2esim.block import Batched, Block
 from e2esim.budget.modules import BackscatterErrorBudget
 from e2esim.distortion.modules import HVBackscatterErrorPropagation
+from e2esim.error_terms.effects import ExtraVariance
+from e2esim.error_terms.modules import ErrorTerm, source_param
 from e2esim.errors import Location
 from e2esim.module import batched_run, fast_path
 from e2esim.requirements.modules import AGBErrorBound
 from e2esim.requirements.stage import RequirementSet
 from e2esim.retrieval.modules import PowerLawRetrieval
-from e2esim.testing import check_block_invariance, check_module
+from e2esim.testing import check_block_invariance, check_error_term_blocks, check_module
 
 
 class OwnForward(HVBackscatterErrorPropagation):
@@ -193,3 +195,42 @@ def test_a_block_reads_its_products_by_declared_form():
     alone = reference_case(("scene.covariance",))
     assert alone.factor("scene.covariance").item(0) is alone["scene.covariance"]
     assert alone.common("scene.covariance", "AGB", lambda v: v.agb_t_ha) == alone["scene.covariance"].agb_t_ha
+
+
+class ForestVariance(ErrorTerm):
+    """A plug-in error term whose level depends on the case: an extra relative variance growing with the forest's
+    AGB (its effects may be made from a block's cases: effects_take_blocks)."""
+
+    type_name = "forest_variance"
+    summary = "extra variance growing with AGB (a test's plug-in)"
+    params = (source_param("forest_variance"),)
+    needs = ("scene.covariance",)
+    effects_take_blocks = True
+
+    def effect(self, case, model):
+        return ExtraVariance(self.source, 1e-4 * case["scene.covariance"].agb_t_ha, "extra variance ~ AGB")
+
+
+class FirstCaseForAll(ForestVariance):
+    """A wrong plug-in: it makes a block's effects together (block_case_effects) but gives every case the first
+    case's effects; it says again that its effects take blocks, so the fast path stays on."""
+
+    type_name = "first_case_for_all"
+    effects_take_blocks = True
+
+    def block_case_effects(self, block, model):
+        from e2esim.error_terms.block_case import case_of
+
+        first = self.case_effects(case_of(block, 0), model.item(0))
+        return [first] * len(block)
+
+
+def test_check_module_proves_an_error_term_block_invariant():
+    """Issue 27: an error term's effects in a block equal its per-case effects (checked, not skipped)."""
+    assert check_error_term_blocks(ForestVariance())
+    check_module(ForestVariance)
+
+
+def test_check_module_finds_an_error_term_whose_block_effects_differ():
+    with pytest.raises(AssertionError, match="differs from the case run alone"):
+        check_module(FirstCaseForAll)

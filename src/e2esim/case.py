@@ -228,6 +228,11 @@ class Case:
         """The product ``name`` as a block of one gives it: a ``Factor`` of its one value."""
         return Factor.single(self.products[name], 1)
 
+    def batched(self, name: str) -> Any:
+        """The product ``name`` as a block of one gives it with its case axis: the case's product (``Block.batched``
+        refuses a block's product made case by case)."""
+        return self.products[name]
+
     def per_case(self, why: str) -> None:
         """Nothing: a case alone is always evaluated (a ``Block`` hands such cases back to run one by one)."""
 

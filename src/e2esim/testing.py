@@ -13,6 +13,9 @@ and pickles; and what the module does on a representative case made by e2esim's 
   batched engine would use a fast path (a ``forward`` that takes blocks, a requirement's ``batched`` evaluation; see
   ``e2esim.module.batched_run``), every case of a block of varied cases (``BLOCK_VARIANTS``) gets bit for bit the
   output scalars and verdicts it gets alone;
+* an error term: the wrapped model has its sources and is deterministic; and block invariance, its effects in a
+  block equal its per-case effects (``check_error_term_blocks``: the default chain's propagation with the term, its
+  block path against each case alone);
 * a ``CalibrationModule``: its steps are ``CalibrationStep`` objects and the strategy made of it is
   deterministic;
 * a Faraday-rotation estimator: its predicted SD is a positive number.
@@ -32,6 +35,7 @@ import pickle
 import numpy as np
 
 from e2esim.case import Case, Products
+from e2esim.error_terms.stage import ErrorTermStack
 from e2esim.errors import Location
 from e2esim.module import Module, Stage
 from e2esim.params import Constraint, Param, ParamGroup, iter_params
@@ -172,6 +176,16 @@ def check_block_invariance(stage, case: Case | None = None, variants=BLOCK_VARIA
     return True
 
 
+def check_error_term_blocks(term, case: Case | None = None, variants=BLOCK_VARIANTS) -> bool:
+    """Assert that the error term ``term``'s effects in a block equal its per-case effects: the default chain's
+    propagation (``DEFAULT_CHAIN``) with ``term`` as its one error term (``e2esim.error_terms.stage.ErrorTermStack``)
+    gives every case of a block of varied cases, through the block path (``ErrorTerm.wrap_block``), bit for bit
+    the output scalars that the case alone gets (``ErrorTerm.wrap``): ``check_block_invariance`` of that stage.
+    Returns whether the block path was checked (False: the term runs case by case, ``effects_take_blocks``)."""
+    propagation = next(module for module in _chain_modules() if module.kind == "propagation")
+    return check_block_invariance(ErrorTermStack(propagation, [term]), case, variants)
+
+
 def _identical(a, b) -> bool:
     if a is None or b is None:
         return a is b
@@ -237,6 +251,7 @@ def check_module(cls, config: dict | None = None, case: Case | None = None) -> M
         _check_calibration(module, copy, case)
     elif isinstance(module, ErrorTerm):
         _check_error_term(module, copy, case)
+        check_error_term_blocks(module, case)
     elif isinstance(module, FaradayEstimatorModule):
         case = case or reference_case(("scene.covariance", "system", "faraday.geophysical", "instrument"))
         system = case["system"]

@@ -63,21 +63,23 @@ class FaradayClimatologyBlock(Batched):
     variability: float
     nodes: int
     method: str
-    _memo: dict = field(default_factory=dict, repr=False, compare=False)
+    _memo: dict = field(default_factory=dict, init=False, repr=False, compare=False)  # a fresh one per take, join
 
     def __len__(self) -> int:
         return len(self.faraday)
 
     def item(self, i: int) -> FaradayClimatology:
-        return cell_climatology(self.faraday[i], self.stec[i], self.vtec[i], float(self.frequency_hz[i]),
-                                float(self.f107[i]), self.variability, self.nodes, self.method,
-                                str(self.pass_label[i]), float(self.lat_deg[i]), float(self.lon_deg[i]),
-                                int(self.month[i]))
-
-    def take(self, positions) -> FaradayClimatologyBlock:
-        taken = super().take(positions)
-        taken._memo.clear()
-        return taken
+        """Case i's ``FaradayClimatology``, made once per block: a map cell's case is asked for it by every product
+        that holds it (the error model, its wrappers, the AGB error, the kept products), which share it as the
+        per-case engine shares one climatology between the stages of a case."""
+        items = self._memo.setdefault("items", {})
+        i = int(i)
+        if i not in items:
+            items[i] = cell_climatology(self.faraday[i], self.stec[i], self.vtec[i], float(self.frequency_hz[i]),
+                                        float(self.f107[i]), self.variability, self.nodes, self.method,
+                                        str(self.pass_label[i]), float(self.lat_deg[i]), float(self.lon_deg[i]),
+                                        int(self.month[i]))
+        return items[i]
 
     # What the stages and writers read, for every case ------------------------------------------------------
     def scalar_columns(self) -> dict:

@@ -22,7 +22,7 @@ def allocation_overview(result, j: int) -> dict | None:
     applies = table.applies(j)
     if not applies.any():
         return None
-    unit = str(np.asarray(r.unit)[np.argmax(applies)])
+    unit = str(r.unit[int(np.argmax(applies))])  # a Values column: one look-up, not one per case
     suffix = "_" + unit_key(unit)
     keys = set(r.details)
     allocated = [k[len("allocation."):-len(suffix)] for k in keys if k.startswith("allocation.") and k.endswith(suffix)]

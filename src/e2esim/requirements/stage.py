@@ -63,32 +63,28 @@ class RequirementSet:
     forward_takes_blocks = True
 
     def forward(self, case) -> dict:
-        """The verdicts of a case; of a block at once (``RequirementVerdicts`` with the case axis) when every
-        requirement evaluates blocks (``batched``) and the block's AGB error carries the case axis (analytic).
-        Otherwise, or when one of them cannot take the block as a whole, case by case (the per-case run then says
-        why)."""
-        if not case.alone:
-            return {"verdicts": self._block_verdicts(case)}
-        return {"verdicts": RequirementVerdicts(tuple(with_coverage(r, r.evaluate(case), case)
-                                                      for r in self.requirements))}
-
-    def _block_verdicts(self, block) -> RequirementVerdicts:
-        if "agb.error" not in block or not all(
+        """The verdicts of a block of cases at once (``RequirementVerdicts`` with the case axis), a case alone being a
+        block of one: every requirement evaluates the block (``batched``) and the block's AGB error carries the case
+        axis (analytic). Otherwise, or when one of them cannot take the block as a whole, the engine runs the block's
+        cases one by one (``per_case`` says why; a case alone is always evaluated)."""
+        if "agb.error" not in case or not all(
                 fast_path(r, "batched", "evaluate") and r.si.get("basis", "auto") != "montecarlo"
                 for r in self.requirements):
-            block.per_case("a requirement evaluates cases alone")
-        block.batched("agb.error")  # analytic: made for the block at once
+            case.per_case("a requirement evaluates cases alone")
+        else:
+            case.batched("agb.error")  # analytic: made for the block at once
         # a trade-off curve holds (cases x points x root-finding levels x quadrature nodes) numbers: in parts
-        size = _CURVE_CASES if any(r.config.get("tradeoff_curve") for r in self.requirements) else len(block)
+        size = _CURVE_CASES if any(r.config.get("tradeoff_curve") for r in self.requirements) else len(case)
         parts = []
-        for start in range(0, len(block), size):
-            part = block if size >= len(block) else block.take(np.arange(start, min(start + size, len(block))))
+        for start in range(0, len(case), size):
+            part = case if size >= len(case) else case.take(np.arange(start, min(start + size, len(case))))
             try:
                 parts.append(RequirementVerdicts(tuple(with_coverage(r, r.evaluate(part), part)
                                                        for r in self.requirements), len(part)))
             except ConfigError:
-                block.per_case("a requirement cannot take the block as a whole")
-        return parts[0] if len(parts) == 1 else RequirementVerdicts.concatenate(parts)
+                case.per_case("a requirement cannot take the block as a whole")
+                raise  # a case alone: the requirement's own message
+        return {"verdicts": parts[0] if len(parts) == 1 else RequirementVerdicts.concatenate(parts)}
 
 
 KIND = Kind("requirement", "verdict of a mission requirement on the AGB error", 80, "requirements",

@@ -14,8 +14,9 @@ from __future__ import annotations
 import numpy as np
 
 from e2esim import products as P
+from e2esim.block import Batched
 from e2esim.errors import ConfigError, PhysicsInputError
-from e2esim.module import Stage, fail
+from e2esim.module import Stage, fail, fast_path
 from e2esim.params import Ordered, Param, ParamGroup
 from e2esim.retrieval import combine_block
 from e2esim.retrieval.agb_error import AGBError, RelativeErrorMap
@@ -127,11 +128,10 @@ class PowerLawRetrieval(_Retrieval):
         """The AGB error of a case; of a block of analytic cases at once (``_block_error``: an ``AGBError`` with the
         case axis, each case's bitwise the one it gets alone). A Monte Carlo, a regression term that draws from the
         case's generator and scenes the batched sums do not describe run case by case."""
-        if not case.alone:
-            made = self._block_error(case)
-            if made is not None:
-                return {"agb.error": made}
-            case.per_case("a Monte Carlo, a regression that draws, or scenes the batched sums do not describe")
+        made = self._block_error(case) if fast_path(self) is not None else None
+        if made is not None:
+            return {"agb.error": case.product_of(made)}  # a case alone: the item of its block of one
+        case.per_case("a Monte Carlo, a regression that draws, or scenes the batched sums do not describe")
         model = case["backscatter.error"]
         p = self.case_exponent(case)
         model_term = self.model_term(case, p)
@@ -147,9 +147,11 @@ class PowerLawRetrieval(_Retrieval):
         """The ``AGBError`` of a block when the error is analytic for every case: the propagation's error alone, or
         combined with the error budget (``combine_block``) and a regression term that draws nothing from the case's
         generator (the same for every case of a scene); None (case by case) otherwise."""
+        if block.settings.montecarlo:
+            return None  # (a block's Monte Carlo cases have no batched error model: they are handed back first)
         model, scene = block.batched("backscatter.error"), block.factor("scene.covariance")
         budget = block.factor("backscatter.budget") if "backscatter.budget" in block else None
-        if model.unavailable is not None:
+        if not isinstance(model, Batched) or model.unavailable is not None:
             return None
         try:  # the exponent of each scene, read once per run (named by what it depends on: the class and setting)
             p = scene.gather(self.exponent_for, name=f"power-law exponent, {type(self).__qualname__} "
@@ -159,7 +161,10 @@ class PowerLawRetrieval(_Retrieval):
         s = np.asarray(model.value, dtype=float)
         if budget is None and self.campaign.mode == "none":
             m = model.current()
-            return AGBError(p, s, np.asarray(m.mean, dtype=float), np.asarray(m.sd, dtype=float), error_model=model)
+            return AGBError(p, *(np.reshape(np.asarray(x, dtype=float), len(block)) for x in (s, m.mean, m.sd)),
+                            error_model=model)
+        if not s.ndim:
+            return None  # a case alone with a budget or a regression: its own sums (forward)
         regression = None
         if self.campaign.mode != "none":
             agb = combine_block.gather_agb(self, scene)

@@ -81,7 +81,7 @@ class BlockRun:
         stage_codes, stages = self.plan.stage_codes(step, self.objects)
         results, positions = [], []
         by_case = np.ones(len(self.indices), dtype=bool)  # cases left for forward
-        if any(batched_run(stage) is not None for stage in stages.values()):
+        if any(batched_run(stage) is not None for stage in _one_of_each_class(stages.values())):
             parts = distinct_rows(np.stack([stage_codes, self.settings_codes], -1))[2]
             for part in range(parts.max() + 1):
                 where = np.flatnonzero(parts == part)
@@ -183,6 +183,13 @@ class BlockRun:
 
 
 _READ_BITS = 17  # a catalog holds at most CATALOG_ENTRIES + a block's cases values while a block runs
+
+
+def _one_of_each_class(stages) -> list:
+    """One stage of each class among ``stages``: whether a stage has a fast path (``batched_run``) is decided by its
+    class (``forward_takes_blocks`` and the methods in force), so a step of a million-case sweep with thousands of
+    distinct instruments asks once per class, not once per instrument."""
+    return list({type(stage): stage for stage in stages}.values())
 
 
 def _packed(columns: list, comparable: bool) -> np.ndarray | None:
