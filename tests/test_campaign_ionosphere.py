@@ -14,8 +14,13 @@ from e2esim.campaign.antenna import SWATH_WEIGHTS, gain_rows, swath_gain_varianc
 from e2esim.campaign.drift import DriftModel, joint_residual_variance, residual_variance
 from e2esim.campaign.sites import PRESETS, CalibrationSite
 from e2esim.campaign.visibility import site_visits
-from e2esim.campaign.visit_ionosphere import (VisitGeometry, VisitIonosphereSettings, faraday_at_visits,
-                                              visit_geometry, visit_ionosphere)
+from e2esim.campaign.visit_ionosphere import (
+    VisitGeometry,
+    VisitIonosphereSettings,
+    faraday_at_visits,
+    visit_geometry,
+    visit_ionosphere,
+)
 from e2esim.geomag.field import FieldModel
 from e2esim.ionosphere.slant import SlantSettings, vertical_tec_at
 from e2esim.orbit.frames import EARTH_MEAN_RADIUS
@@ -26,7 +31,7 @@ from e2esim.scintillation.irf import compress, ideal_response, phase_draws
 
 ORBIT = SunSynchronousOrbit(666e3)
 NEAR, FAR = math.radians(23.0), math.radians(33.75)
-SETTINGS = VisitIonosphereSettings(start_date="2025-06-01", f107_sfu=150.0, sunspot_number=100.0)
+SETTINGS = VisitIonosphereSettings("2025-06-01", f107_sfu=150.0, sunspot_number=100.0, frequency_hz=435e6)
 DB = 10 / math.log(10)
 
 
@@ -41,7 +46,7 @@ def norcia():
 def test_the_faraday_rotation_of_a_visit_is_equation_3_at_its_pierce_point_date_and_time(norcia):
     # Quegan et al. (2018), eq. (3): Omega = 2.365e4 B cos(theta) TEC / f^2 (SI), thin shell: TEC = VTEC / cos(chi)
     # at the pierce point, B.k there; the VTEC of the IRI monthly median at the visit's month and UT
-    site, visits, geometry = norcia
+    _, visits, geometry = norcia
     omega = faraday_at_visits([geometry], SETTINGS)[0]
     ray = ray_points(geometry.target_ecef, geometry.satellite_ecef, np.array([SETTINGS.shell_height_m]))
     k = geometry.target_ecef - geometry.satellite_ecef
@@ -97,7 +102,7 @@ def test_the_point_target_scintillation_term_matches_the_monte_carlo_of_the_comp
     # E[Y] = 0.3; docs/theory/scintillation.md)
     geometry = _equatorial_visits()
     site = CalibrationSite("equatorial_reflector", 0.1, -1.27, "corner_reflector", ("gain",), 35.0, 25.0)
-    settings = VisitIonosphereSettings(start_date="2025-03-20", sunspot_number=50.0)
+    settings = VisitIonosphereSettings("2025-03-20", f107_sfu=180.0, sunspot_number=50.0, frequency_hz=435e6)
     ion = visit_ionosphere(site, geometry, np.zeros(3), settings)
     peak, _ = ideal_response(64, 16)
     checked = 0
@@ -150,3 +155,10 @@ def test_visits_at_one_elevation_angle_cannot_tell_the_pointing_from_the_gain():
     weights = [np.trapezoid(f ** 2, u) / 2 for f in (np.ones_like(u), u, u * u - 1 / 3)]
     assert SWATH_WEIGHTS == pytest.approx(weights, rel=1e-9)
     assert swath_gain_variance(out[:, 0]) == pytest.approx(np.dot(SWATH_WEIGHTS, out[:, 0]), rel=1e-15)
+
+
+def test_the_solar_presets_are_those_of_the_climatology_modules():
+    from e2esim.campaign.visit_ionosphere import SOLAR_F107
+    from e2esim.faraday.climatology_modules import SOLAR_PRESETS
+
+    assert SOLAR_F107 == SOLAR_PRESETS

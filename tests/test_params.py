@@ -91,5 +91,3 @@ def test_a_list_that_declares_it_may_be_empty_takes_the_empty_list_and_others_re
     must = Param("names", "str", "names", default=None, variable_length=True, nullable=True)
     with pytest.raises(ConfigError, match=r"\[\] has 0 items; expected a non-empty list, each item a string"):
         must.validate([], WHERE)
-    with pytest.raises(TypeError, match="only a variable_length list may be empty"):
-        Param("x", "float", "one number", default=1.0, may_be_empty=True)

@@ -129,8 +129,6 @@ class Param:
                             "and only it has one")
         if self.input_file and self.type != "str":
             raise TypeError(f"Param {self.name!r}: only a 'str' parameter names an input file")
-        if self.may_be_empty and not self.variable_length:
-            raise TypeError(f"Param {self.name!r}: only a variable_length list may be empty")
         unit = SI_UNITS.get(self.unit)
         if unit is not None and self.convert and not self.name.endswith(unit.suffix):
             raise TypeError(f"Param {self.name!r} in {self.unit} must end with {unit.suffix!r} (or set convert=False)")

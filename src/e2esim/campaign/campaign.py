@@ -16,7 +16,7 @@ at every date after commissioning.
 from __future__ import annotations
 
 import itertools
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -25,6 +25,8 @@ from e2esim.campaign.drift import YEAR_DAYS, DriftModel, joint_residual_variance
 from e2esim.campaign.sites import PARAMETERS
 from e2esim.campaign.visibility import site_visits
 from e2esim.campaign.visit_ionosphere import (
+    SOLAR_F107,
+    SOLAR_SUNSPOTS,
     VisitIonosphereSettings,
     faraday_at_visits,
     visit_geometry,
@@ -33,6 +35,7 @@ from e2esim.campaign.visit_ionosphere import (
 from e2esim.campaign.visits import visit_variances
 from e2esim.errors import PhysicsInputError
 from e2esim.orbit.sunsync import SunSynchronousOrbit
+from e2esim.orbit.timeline import BIOMASS_LAUNCH
 
 
 @dataclass(frozen=True)
@@ -50,7 +53,8 @@ class CampaignSetup:
     far: float
     step_days: float = 1.0
     commissioning_days: float = 91.0
-    ionosphere: VisitIonosphereSettings = VisitIonosphereSettings()
+    ionosphere: VisitIonosphereSettings = field(default_factory=lambda: VisitIonosphereSettings(
+        BIOMASS_LAUNCH, SOLAR_F107["max"], SOLAR_SUNSPOTS["max"], 435e6))
     first_node_s: float = 0.0
     schedule_days: float | None = None
 

@@ -19,15 +19,14 @@ from e2esim.campaign.campaign import CampaignSetup, find_acquisitions, run_campa
 from e2esim.campaign.drift import YEAR_DAYS, DriftModel
 from e2esim.campaign.site_file import read_sites_file
 from e2esim.campaign.sites import PRESETS
-from e2esim.campaign.visit_ionosphere import VisitIonosphereSettings
+from e2esim.campaign.visit_ionosphere import SOLAR_F107, SOLAR_SUNSPOTS, VisitIonosphereSettings
 from e2esim.errors import ConfigError, PhysicsInputError
 from e2esim.input_files import scenario_relative
 from e2esim.ionosphere.variability import DEFAULT_TEC_VARIABILITY
+from e2esim.orbit.timeline import BIOMASS_LAUNCH
 from e2esim.params import Param
 from e2esim.units import LEVEL_CONVENTIONS, THREE_SIGMA_AMPLITUDE, level_db_from_variance, variance_from_level_db
 
-SOLAR_F107 = {"min": 70.0, "max": 180.0}  # sfu: faraday.climatology_modules.SOLAR_PRESETS
-SOLAR_SUNSPOTS = {"min": 10.0, "max": 150.0}  # scintillation.climatology.SOLAR_PRESETS
 DRIFT_KEYS = ("initial_sd", "random_walk_variance_per_day", "trend_sd_per_year", "seasonal_sd")
 DRIFT_DEFAULTS = {  # assumed, stated in docs/theory/calibration-campaign.md; gain in dB, the others linear
     "gain": {"initial_sd": 0.5, "random_walk_variance_per_day": 2e-4, "trend_sd_per_year": 0.1, "seasonal_sd": 0.1},
@@ -76,7 +75,7 @@ class Campaign(CalibrationModule):
         Param("incidence_far_deg", "float", "far incidence of the swath", default=33.75, unit="deg", minimum=1.0,
               maximum=89.0),
         Param("start_date", "str", "the mission's day 0 (ISO date, 00:00 UTC): the dates, months and local times of "
-              "the visits for the Faraday-rotation and scintillation climatologies", default="2025-04-29"),
+              "the visits for the Faraday-rotation and scintillation climatologies", default=BIOMASS_LAUNCH),
         Param("solar", "str", "solar activity of the campaign's epoch: min (F10.7 70 sfu, sunspot number 10) or max "
               "(180 sfu, 150)", default="max", choices=tuple(SOLAR_F107)),
         Param("f107_sfu", "float", "F10.7 instead of the solar preset's", default=None, nullable=True, unit="sfu",

@@ -47,30 +47,37 @@ from e2esim.ionosphere.propagation import faraday_rotation_integral
 from e2esim.ionosphere.slant import SlantSettings, path_integrals, pierce_point_lat_lon
 from e2esim.orbit.frames import EARTH_MEAN_RADIUS, to_ecef
 from e2esim.scintillation.acquisitions import ScreenSettings, acquisition_screens
+from e2esim.scintillation.climatology import SOLAR_PRESETS as SOLAR_SUNSPOTS
 from e2esim.scintillation.faraday_window import parallel_field, window_variance
 from e2esim.scintillation.irf_monte_carlo import peak_log_loss
 
 EXACT_LOOKS = 300
+SOLAR_F107 = {"min": 70.0, "max": 180.0}
+"""F10.7 (sfu) of the solar-activity presets, those of the ``iri_climatology`` module (NOAA SWPC cycles 23-25)."""
 
 
 @dataclass(frozen=True)
 class VisitIonosphereSettings:
-    """start_date : the mission's day 0 (ISO date; dates and months of the visits). f107_sfu : solar flux of the
-    campaign's epoch (IRI). sunspot_number : 12-month sunspot number of the same epoch (scintillation climatology).
-    frequency_hz : the radar's centre frequency. shell_height_m : pierce-point and screen height. tec_variability :
-    day-to-day coefficient of variation of TEC (the ambiguity prior). window_m : side of the Faraday-rotation
-    estimation window on the ground. scintillation : False leaves scintillation out (its terms 0). seed : the
-    generator of the strong-scatter Monte Carlo."""
+    """What the ionosphere of the visits depends on besides their geometry (SI)."""
 
-    start_date: str = "2025-04-29"
-    f107_sfu: float = 180.0
-    sunspot_number: float = 150.0
-    frequency_hz: float = 435e6
+    start_date: str
+    """The mission's day 0 (ISO date, 00:00 UTC): the visits' dates and months."""
+    f107_sfu: float
+    """Solar flux F10.7 of the campaign's epoch (IRI)."""
+    sunspot_number: float
+    """12-month sunspot number of the same epoch (scintillation climatology)."""
+    frequency_hz: float
+    """The radar's centre frequency."""
     shell_height_m: float = 350e3
+    """Pierce-point and screen height."""
     tec_variability: float = 0.25
+    """Day-to-day coefficient of variation of TEC: the prior that resolves the pi/2 ambiguity."""
     window_m: float = 2e3
+    """Side of the Faraday-rotation estimation window on the ground."""
     scintillation: bool = True
+    """False leaves scintillation out (its terms 0)."""
     seed: int = 0
+    """Seed of the strong-scatter Monte Carlo of a point target's peak loss."""
 
 
 @dataclass(frozen=True)
@@ -187,4 +194,5 @@ def _name_key(name: str) -> int:
     return int.from_bytes(name.encode()[:8].ljust(8, b"\0"), "little")
 
 
-__all__ = ["VisitIonosphere", "VisitIonosphereSettings", "faraday_at_visits", "visit_geometry", "visit_ionosphere"]
+__all__ = ["SOLAR_F107", "SOLAR_SUNSPOTS", "VisitIonosphere", "VisitIonosphereSettings", "faraday_at_visits",
+           "visit_geometry", "visit_ionosphere"]

@@ -5,10 +5,10 @@ stability and the Faraday-rotation correction, at the visit's incidence angle:
 
 * gain |A|^2 (dB^2) at the visit's elevation angle (``antenna``). A point target (transponder, corner reflector,
   point scatterers): the relative SD of its peak power in clutter and noise, sqrt((2/c + 1/c^2) / N) with
-  1/c = 1/SCR + 1/SNR (``calibration.radiometric.point_target_power_sd``; Ahmed et al. 2014, eq. 33 form). A distributed target of N independent looks with the
-  noise power subtracted: (1 + 1/SNR) / sqrt(N) (the SD of an N-look mean intensity over the signal power). Both
-  plus the site's stability in quadrature, converted by 10/ln 10 dB per unit relative power; scintillation adds the
-  point target's peak-power loss (``visit_ionosphere``).
+  1/c = 1/SCR + 1/SNR (``calibration.radiometric.point_target_power_sd``; Ahmed et al. 2014, eq. 33 form). A
+  distributed target of N independent looks with the noise power subtracted: (1 + 1/SNR) / sqrt(N) (the SD of an
+  N-look mean intensity over the signal power). Both plus the site's stability in quadrature, converted by
+  10/ln 10 dB per unit relative power; scintillation adds the point target's peak-power loss (``visit_ionosphere``).
 * crosstalk delta (complex, E|delta_hat - delta|^2): a point calibrator's cross-polarised response over its
   co-polarised one, 1/(c N); a distributed target (Quegan 1994 on a reflection-symmetric scene), (1 + 1/SNR)^2 / N.
   Both plus the residual Faraday rotation's variance E[dOmega^2] (``visit_ionosphere``: the climatology's Omega at
