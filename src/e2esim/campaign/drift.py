@@ -103,20 +103,23 @@ def joint_residual_variance(models: tuple, days, visit_days, visit_rows, visit_v
     for j, model in enumerate(models):
         prior[4 * j:4 * j + 4, 4 * j:4 * j + 4] = model.prior()
     p = np.broadcast_to(prior, (rv.shape[0], 4 * m, 4 * m)).copy()
-    q = [model.random_walk_variance_per_day for model in models]
+    q = np.array([model.random_walk_variance_per_day for model in models])
+    starts, diagonal = 4 * np.arange(m), np.arange(m)
     out = np.empty((m, rv.shape[0], days.size))
     obs = [model.observation(times) for model in models]
     last, out_index = 0.0, 0
     for k in order:
         h = times[k] - last
         if h > 0:
-            for j in range(m):
-                p = _predict(p, h, q[j], 4 * j)
+            p = _predict(p, h, q[0]) if m == 1 else _predict(p, h, q, starts)
             last = times[k]
         if kinds[k] < 0:
-            for j in range(m):
-                hvec = obs[j][k]
-                out[j, :, out_index] = np.einsum("i,sij,j->s", hvec, p[:, 4 * j:4 * j + 4, 4 * j:4 * j + 4], hvec)
+            if m == 1:
+                out[0, :, out_index] = np.einsum("i,sij,j->s", obs[0][k], p, obs[0][k])
+            else:  # the diagonal blocks, (m, S, 4, 4)
+                blocks = p.reshape(-1, m, 4, m, 4)[:, diagonal, :, diagonal, :]
+                hk = np.stack([o[k] for o in obs])
+                out[:, :, out_index] = np.einsum("ji,jsik,jk->js", hk, blocks, hk)
             out_index += 1
         else:
             v = kinds[k]
@@ -125,10 +128,9 @@ def joint_residual_variance(models: tuple, days, visit_days, visit_rows, visit_v
     return out[:, 0] if single else out
 
 
-def _predict(p, h, q, at: int = 0):
-    """P <- F P F' + Q for F = I + h e_a e_(a+1)' (the trend accumulates into x_lin, a = ``at``, the block's first
-    state) and Q = q h e_a e_a', written out."""
-    p = p.copy()
+def _predict(p, h, q, at=0):
+    """P <- F P F' + Q for F = I + h sum_a e_a e_(a+1)' (the trend accumulates into x_lin, a in ``at``, the first
+    state of each block) and Q = h sum_a q_a e_a e_a', written out, in place (the filter owns P)."""
     p[:, at, :] += h * p[:, at + 1, :]
     p[:, :, at] += h * p[:, :, at + 1]
     p[:, at, at] += q * h
@@ -138,17 +140,21 @@ def _predict(p, h, q, at: int = 0):
 def _update(p, hvec, r):
     """Kalman update of S covariances (S, 4, 4) with variances r (S,) in Joseph's form (I - K H) P (I - K H)' +
     K r K' (Gelb 1974, eq. 4.2-18), computed as two rank-one corrections so that it stays symmetric and positive
-    under a vague prior; a schedule with r = inf (it does not use the visit) is left as it is."""
+    under a vague prior; a schedule with r = inf (it does not use the visit) is left as it is. In place."""
     use = np.flatnonzero(np.isfinite(r))
     if use.size == 0:
         return p
-    q, r = p[use], r[use]
+    every = use.size == r.size
+    q, r = (p, r) if every else (p[use], r[use])
     ph = q @ hvec  # (U, 4)
     gain = ph / (ph @ hvec + r)[:, None]
     m = q - gain[:, :, None] * ph[:, None, :]  # (I - K H) P, P symmetric
     mh = m @ hvec
-    p = p.copy()
-    p[use] = m - mh[:, :, None] * gain[:, None, :] + r[:, None, None] * gain[:, :, None] * gain[:, None, :]
+    new = m - mh[:, :, None] * gain[:, None, :] + r[:, None, None] * gain[:, :, None] * gain[:, None, :]
+    if every:
+        p[...] = new
+    else:
+        p[use] = new
     return p
 
 
