@@ -134,6 +134,13 @@ def test_the_antenna_parameters_combine_against_the_closed_form_of_static_least_
         post = np.linalg.inv(np.diag(1 / prior) + rows[k].T @ (rows[k] / r[k, None]))
         assert out[:, column] == pytest.approx(np.diag(post), rel=1e-10)
     assert out[:, 0] == pytest.approx(prior, rel=1e-12)
+    # with drift, a parameter the others do not touch is the scalar filter (the joint one defers its predictions)
+    drift = (DriftModel(0.5, 2e-4, 0.1, 0.1), DriftModel(0.1, 1e-6, 0.01, 0.02), DriftModel(0.1, 1e-6, 0.01, 0.02))
+    alone = np.column_stack([np.ones(v), np.zeros((v, 2))])
+    grid = np.arange(0.0, 120.0, 0.5)
+    joint = joint_residual_variance(drift, grid, days, alone, r)
+    assert joint[0] == pytest.approx(residual_variance(drift[0], grid, days, r), rel=1e-12)
+    assert joint[1] == pytest.approx(residual_variance(drift[1], grid, [], []), rel=1e-12)
     # one parameter alone is the scalar filter, bit for bit
     one = joint_residual_variance((DriftModel(0.5, 1e-4, 0.1, 0.1),), days, days, np.ones((v, 1)), r)[0]
     assert np.array_equal(one, residual_variance(DriftModel(0.5, 1e-4, 0.1, 0.1), days, days, r))

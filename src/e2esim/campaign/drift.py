@@ -107,21 +107,27 @@ def joint_residual_variance(models: tuple, days, visit_days, visit_rows, visit_v
     starts, diagonal = 4 * np.arange(m), np.arange(m)
     out = np.empty((m, rv.shape[0], days.size))
     obs = [model.observation(times) for model in models]
-    last, out_index = 0.0, 0
+    last, out_index, pending = 0.0, 0, 0.0
     for k in order:
         h = times[k] - last
-        if h > 0:
-            p = _predict(p, h, q[0]) if m == 1 else _predict(p, h, q, starts)
-            last = times[k]
+        if h > 0 and m == 1:
+            p = _predict(p, h, q[0])
+        elif h > 0:  # several blocks: predictions compose, F(h1) F(h2) = F(h1 + h2) (E^2 = 0, F e0 = e0), so
+            pending += h  # they wait for the next visit, and an output day reads the prediction without applying it
+        last = times[k] if h > 0 else last
         if kinds[k] < 0:
             if m == 1:
                 out[0, :, out_index] = np.einsum("i,sij,j->s", obs[0][k], p, obs[0][k])
-            else:  # the diagonal blocks, (m, S, 4, 4)
+            else:  # H F(h) = H + h H_0 e1' on the diagonal blocks (m, S, 4, 4), plus H_0^2 q h
                 blocks = p.reshape(-1, m, 4, m, 4)[:, diagonal, :, diagonal, :]
                 hk = np.stack([o[k] for o in obs])
-                out[:, :, out_index] = np.einsum("ji,jsik,jk->js", hk, blocks, hk)
+                hk[:, 1] += pending * hk[:, 0]
+                out[:, :, out_index] = (np.einsum("ji,jsik,jk->js", hk, blocks, hk)
+                                        + (pending * q * hk[:, 0] ** 2)[:, None])
             out_index += 1
         else:
+            if pending > 0:
+                p, pending = _predict(p, pending, q, starts), 0.0
             v = kinds[k]
             hvec = obs[0][k] * rows[v, 0] if m == 1 else np.concatenate([obs[j][k] * rows[v, j] for j in range(m)])
             p = _update(p, hvec, rv[:, v])
