@@ -41,7 +41,8 @@ def setup(years: float) -> CampaignSetup:
         CalibrationSite(f"reflector_{i}", math.radians(lat), math.radians(lon), "corner_reflector",
                         ("gain", "imbalance"), 35.0, 25.0, stability=0.02) for i, (lat, lon) in enumerate(REFLECTORS))
     drift = {"gain": DriftModel(0.5, 2e-4, 0.1, 0.1), "crosstalk": DriftModel(0.03, 2e-8, 0.003),
-             "imbalance": DriftModel(0.1, 1e-6, 0.01, 0.01)}
+             "imbalance": DriftModel(0.1, 1e-6, 0.01, 0.01), "pointing": DriftModel(0.1, 1e-6, 0.01, 0.02),
+             "pattern": DriftModel(0.1, 1e-6, 0.01, 0.02)}
     return CampaignSetup(SunSynchronousOrbit(666e3), sites, drift, years * YEAR_DAYS, math.radians(23.0),
                          math.radians(33.75), first_node_s=480.0)
 
@@ -81,12 +82,16 @@ def main() -> None:
     years, per_year = (5.0, 3) if args.quick else (5.0, 12)
     print(f"load average {os.getloadavg()[0]:.2f} on {os.cpu_count()} CPUs")
     s = setup(years)
-    t0 = time.perf_counter()
-    acq = find_acquisitions(s)
-    result = run_campaign(s, 2, tuple(x.name for x in s.sites if x.type != "transponder"), acq)
-    t_campaign = time.perf_counter() - t0
-    print(f"1. campaign: {years:g} years, {len(s.sites)} sites, {acq.day.size:,} acquisitions, "
-          f"{result.days.size:,} days x 3 parameters: {t_campaign:.2f} s (target <= 5 s)")
+    times = []
+    for _ in range(2):  # the first in a process also reads PyIRI's coefficient files (once per process)
+        t0 = time.perf_counter()
+        acq = find_acquisitions(s)
+        result = run_campaign(s, 2, tuple(x.name for x in s.sites if x.type != "transponder"), acq)
+        times.append(time.perf_counter() - t0)
+    t_campaign = times[0]
+    print(f"1. campaign: {years:g} years, {len(s.sites)} sites, {acq.day.size:,} acquisitions (each with its "
+          f"climatology Faraday rotation and scintillation), {result.days.size:,} days x 5 parameters: "
+          f"{t_campaign:.2f} s first in the process, {times[1]:.2f} s again (target <= 5 s)")
     t0 = time.perf_counter()
     ref, ref_inc = sampled_passes(s, s.sites[0])
     t_ref = time.perf_counter() - t0
@@ -136,7 +141,7 @@ def chain_search() -> None:
     days = np.arange(91.0, 5 * YEAR_DAYS, 1.0)
     raw = {**scenario.raw, "output": {**scenario.raw["output"], "answer": False}}
     raw["calibration"] = [{**raw["calibration"][0], "transponder_per_year": int(found.per_year[b]),
-                           "opportunity": list(found.opportunity[b]) or ["new_norcia_transponder"]}]
+                           "opportunity": list(found.opportunity[b])}]
     raw["sweep"] = {"parameters": {"calibration.0.epoch_day": [float(d) for d in days]}}
     t0 = time.perf_counter()
     from e2esim.runner.run import run_scenario

@@ -94,3 +94,13 @@ def test_presets_state_a_source_for_their_values_and_leave_out_the_amazon():
         "gain", "crosstalk", "imbalance"}
     assert all(site.sources for site in PRESETS.values())
     assert np.degrees(PRESETS["dome_c"].lat) == pytest.approx(-75.1)
+
+
+def test_no_target_of_opportunity_is_stated_by_the_empty_list(tmp_path, capsys):
+    # issue 25: `opportunity: []` means "no target of opportunity" (the framework refused empty lists before)
+    path = _scenario(tmp_path, opportunity=[], mission_years=0.3, search_max_per_year=0)
+    assert main(["validate", str(path)]) == 0
+    from e2esim.campaign.modules import Campaign
+
+    given = {k: v for k, v in yaml.safe_load(path.read_text())["calibration"][0].items() if k != "type"}
+    assert Campaign(**given).config["opportunity"] == ()

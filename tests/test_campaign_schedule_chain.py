@@ -39,10 +39,9 @@ def test_the_answer_passes_through_the_chain_and_every_cheaper_schedule_fails():
     assert cheaper, "the quick scenario's answer must have cheaper schedules to compare with"
     step = scenario.raw["calibration"][0]["step_days"]
     epochs = np.arange(91.0 + step - 91.0 % step if 91.0 % step else 91.0, 5 * 365.25, step)
-    # no target of opportunity: the module takes a non-empty list (null is all of them), and a transponder named
-    # there adds nothing (only the transponder_per_year passes of a transponder are used)
+    # no target of opportunity is the empty list (null is all of them)
     def row(s, day):
-        return [s["transponder_per_year"], s["opportunity"] or ["new_norcia_transponder"], float(day)]
+        return [s["transponder_per_year"], s["opportunity"], float(day)]
 
     rows = [row(best, d) for d in epochs] + [row(s, s["worst_epoch_day"]) for s in cheaper]
     margins = _chain_margins(rows, scenario.raw)

@@ -80,3 +80,14 @@ def test_a_module_parameter_brings_its_lookup():
     param = Param("estimator", "module", "d", kind="faraday_estimator",
                   lookup=lambda kind, name: asked.append((kind, name)) or registry.lookup(kind, name))
     assert param.validate("freeman", Location("x"))["type"] == "freeman" and asked == [("faraday_estimator", "freeman")]
+
+
+def test_a_list_that_declares_it_may_be_empty_takes_the_empty_list_and_others_refuse_it():
+    may = Param("names", "str", "names ([]: none)", default=None, variable_length=True, may_be_empty=True,
+                nullable=True)
+    assert may.validate([], WHERE) == ()
+    assert may.validate(["a"], WHERE) == ("a",)
+    assert may.describe_allowed() == "expected a list, each item a string (or null)"
+    must = Param("names", "str", "names", default=None, variable_length=True, nullable=True)
+    with pytest.raises(ConfigError, match=r"\[\] has 0 items; expected a non-empty list, each item a string"):
+        must.validate([], WHERE)

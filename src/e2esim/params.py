@@ -89,6 +89,7 @@ class Param:
     choices : allowed values for a "str" parameter.
     length : if set, the value is a list of exactly this many items of ``type``.
     variable_length : the value is a list of one or more items of ``type`` (``length`` unset).
+    may_be_empty : with ``variable_length``, the empty list is allowed too (it means "none", as ``doc`` says).
     nullable : ``null`` is allowed (it means "not given" or "automatic", as ``doc`` says).
     convert : convert to SI (``SI_UNITS``); False keeps a value whose formula is written in its own unit.
     kind : for type "module": the registry kind of the component named (e.g. "faraday_estimator").
@@ -111,6 +112,7 @@ class Param:
     choices: tuple | None = None
     length: int | None = None
     variable_length: bool = False
+    may_be_empty: bool = False
     nullable: bool = False
     convert: bool = True
     kind: str | None = None
@@ -175,7 +177,7 @@ class Param:
         if self.length is not None:
             text = f"expected a list of {self.length} items, each {text[len('expected '):]}"
         elif self.variable_length:
-            text = f"expected a non-empty list, each item {text[len('expected '):]}"
+            text = f"expected a {'' if self.may_be_empty else 'non-empty '}list, each item {text[len('expected '):]}"
         if self.nullable:
             text += " (or null)"
         return text
@@ -203,7 +205,7 @@ class Param:
         if self.length is not None or self.variable_length:
             if isinstance(value, (str, bytes)) or not isinstance(value, Sequence):
                 raise ConfigError(where, f"{value_text(value)} is not a list", self.describe_allowed())
-            if (self.length is not None and len(value) != self.length) or len(value) == 0:
+            if (self.length is not None and len(value) != self.length) or (len(value) == 0 and not self.may_be_empty):
                 raise ConfigError(
                     where, f"{value_text(value)} has {len(value)} items", self.describe_allowed()
                 )

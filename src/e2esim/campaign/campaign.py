@@ -16,16 +16,26 @@ at every date after commissioning.
 from __future__ import annotations
 
 import itertools
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
-from e2esim.campaign.drift import YEAR_DAYS, DriftModel, residual_variance
+from e2esim.campaign.antenna import ANTENNA_PARAMETERS, gain_rows, swath_gain_variance
+from e2esim.campaign.drift import YEAR_DAYS, DriftModel, joint_residual_variance, residual_variance
 from e2esim.campaign.sites import PARAMETERS
 from e2esim.campaign.visibility import site_visits
+from e2esim.campaign.visit_ionosphere import (
+    SOLAR_F107,
+    SOLAR_SUNSPOTS,
+    VisitIonosphereSettings,
+    faraday_at_visits,
+    visit_geometry,
+    visit_ionosphere,
+)
 from e2esim.campaign.visits import visit_variances
 from e2esim.errors import PhysicsInputError
 from e2esim.orbit.sunsync import SunSynchronousOrbit
+from e2esim.orbit.timeline import BIOMASS_LAUNCH
 
 
 @dataclass(frozen=True)
@@ -43,7 +53,8 @@ class CampaignSetup:
     far: float
     step_days: float = 1.0
     commissioning_days: float = 91.0
-    faraday_residual_rad: float = np.radians(1.0)
+    ionosphere: VisitIonosphereSettings = field(default_factory=lambda: VisitIonosphereSettings(
+        BIOMASS_LAUNCH, SOLAR_F107["max"], SOLAR_SUNSPOTS["max"], 435e6))
     first_node_s: float = 0.0
     schedule_days: float | None = None
 
@@ -60,20 +71,25 @@ class CampaignSetup:
 
 @dataclass(frozen=True)
 class Acquisitions:
-    """Every acquisition of every site (time order per site): site index, day, incidence (rad), pass, and the
-    variance of each parameter's estimate ({parameter: (n,)})."""
+    """Every acquisition of every site (time order per site): site index, day, incidence (rad), pass, the
+    Faraday rotation from the climatology (rad), the variance of its correction's residual (rad^2), log10 C_kL of
+    the screen, and the variance of each parameter's estimate ({parameter: (n,)})."""
 
     site: np.ndarray
     day: np.ndarray
     incidence: np.ndarray
     pass_name: np.ndarray
     variance: dict
+    faraday_rad: np.ndarray = None
+    faraday_residual_variance: np.ndarray = None
+    log10_ckl: np.ndarray = None
+    gain_rows: np.ndarray = None  # (n, 3): what each gain measurement sees of (gain offset, pointing, pattern)
 
 
 def find_acquisitions(setup: CampaignSetup) -> Acquisitions:
     """Every acquisition of every site over the mission; a site the mission never sees is an error."""
-    parts = []
-    for i, site in enumerate(setup.sites):
+    found = []
+    for site in setup.sites:
         v = site_visits(setup.orbit, site.lat, site.lon, setup.days, setup.near, setup.far, setup.first_node_s,
                         site.name)
         if v.size == 0:
@@ -81,13 +97,23 @@ def find_acquisitions(setup: CampaignSetup) -> Acquisitions:
                 f"site {site.name} ({np.degrees(site.lat):.2f}, {np.degrees(site.lon):.2f} deg) is never seen in "
                 f"{setup.days:g} days at incidence {np.degrees(setup.near):.2f}-{np.degrees(setup.far):.2f} deg "
                 f"from this orbit; remove it or move it into the orbit's reach", key="sites")
-        parts.append((i, v, visit_variances(site, v.incidence, setup.faraday_residual_rad)))
+        found.append((v, visit_geometry(setup.orbit, site, v, setup.first_node_s, setup.ionosphere)))
+    omegas = faraday_at_visits([g for _, g in found], setup.ionosphere)
+    parts = []
+    for i, (site, (v, geometry), omega) in enumerate(zip(setup.sites, found, omegas)):
+        ion = visit_ionosphere(site, geometry, omega, setup.ionosphere)
+        parts.append((i, v, visit_variances(site, v.incidence, ion.faraday_variance, ion.peak_loss_variance_db2),
+                      ion))
     return Acquisitions(
-        site=np.concatenate([np.full(v.size, i) for i, v, _ in parts]),
-        day=np.concatenate([v.day for _, v, _ in parts]),
-        incidence=np.concatenate([v.incidence for _, v, _ in parts]),
-        pass_name=np.concatenate([v.pass_name for _, v, _ in parts]),
-        variance={p: np.concatenate([w[p] for _, _, w in parts]) for p in PARAMETERS})
+        site=np.concatenate([np.full(v.size, i) for i, v, _, _ in parts]),
+        day=np.concatenate([v.day for _, v, _, _ in parts]),
+        incidence=np.concatenate([v.incidence for _, v, _, _ in parts]),
+        pass_name=np.concatenate([v.pass_name for _, v, _, _ in parts]),
+        variance={p: np.concatenate([w[p] for _, _, w, _ in parts]) for p in PARAMETERS},
+        faraday_rad=np.concatenate([ion.omega for *_, ion in parts]),
+        faraday_residual_variance=np.concatenate([ion.faraday_variance for *_, ion in parts]),
+        log10_ckl=np.concatenate([ion.log10_ckl for *_, ion in parts]),
+        gain_rows=gain_rows(np.concatenate([v.incidence for _, v, _, _ in parts]), setup.near, setup.far))
 
 
 def transponder_mask(acq: Acquisitions, sites: tuple, per_year: int | None, commissioning_days: float,
@@ -111,7 +137,8 @@ def transponder_mask(acq: Acquisitions, sites: tuple, per_year: int | None, comm
 @dataclass(frozen=True)
 class CampaignResult:
     """Residual variance of each parameter on each date: {parameter: (D,)} (gain dB^2, crosstalk and imbalance
-    linear); ``used``: which acquisitions the schedule used."""
+    linear; ``gain`` is the swath's gain error, with its parts ``gain_offset``, ``pointing`` and ``pattern`` in dB^2,
+    ``antenna``); ``used``: which acquisitions the schedule used."""
 
     days: np.ndarray
     variance: dict
@@ -127,9 +154,25 @@ def run_campaign(setup: CampaignSetup, per_year: int | None, opportunity: tuple,
     days = np.arange(0.0, setup.days + 1e-9, setup.step_days)
     used = _used(setup, acq, per_year, opportunity)
     order = np.argsort(acq.day)
-    var = {p: residual_variance(setup.drift[p], days, acq.day[order],
-                                np.where(used, acq.variance[p], np.inf)[order]) for p in PARAMETERS}
+    var = {}
+    for p in PARAMETERS:
+        var.update(parameter_residual(setup, p, days, acq, order, np.where(used, acq.variance[p], np.inf)[order]))
     return CampaignResult(days, var, acq, used)
+
+
+NO_DRIFT = DriftModel(0.0)  # a parameter the setup's drift leaves out (the antenna's pointing and pattern): no error
+
+
+def parameter_residual(setup: CampaignSetup, parameter: str, days, acq: Acquisitions, order, variance) -> dict:
+    """{name: residual variance on ``days``} of one parameter for visits in time ``order`` with ``variance`` ((V,) or
+    (S, V), in that order). The gain is estimated jointly with the antenna's pointing and elevation pattern
+    (``antenna``): it gives ``gain`` (the swath's gain error) and its parts ``gain_offset``, ``pointing``,
+    ``pattern``; crosstalk and imbalance give themselves."""
+    if parameter != "gain":
+        return {parameter: residual_variance(setup.drift[parameter], days, acq.day[order], variance)}
+    models = tuple(setup.drift.get(name, NO_DRIFT) for name in ("gain", "pointing", "pattern"))
+    parts = joint_residual_variance(models, days, acq.day[order], acq.gain_rows[order], variance)
+    return {"gain": swath_gain_variance(parts), **dict(zip(ANTENNA_PARAMETERS, parts))}
 
 
 def _used(setup, acq, per_year, opportunity) -> np.ndarray:
@@ -194,9 +237,8 @@ def schedule_residuals(setup: CampaignSetup, used: np.ndarray, acq: Acquisitions
     for p in parameters:
         informative = used[:, order] & np.isfinite(acq.variance[p][order])[None, :]
         distinct, which = _distinct_rows(informative)
-        v = residual_variance(setup.drift[p], days, acq.day[order],
-                              np.where(distinct, acq.variance[p][order][None, :], np.inf))
-        out[p] = v[which]
+        v = parameter_residual(setup, p, days, acq, order, np.where(distinct, acq.variance[p][order][None, :], np.inf))
+        out[p] = v[p][which]
     return out
 
 
@@ -238,4 +280,5 @@ def worst_candidates(variance: np.ndarray) -> np.ndarray:
     return np.sort(first[~dominated])
 
 
-DEFAULT_DRIFT = {"gain": DriftModel(0.5), "crosstalk": DriftModel(0.01), "imbalance": DriftModel(0.05)}
+DEFAULT_DRIFT = {"gain": DriftModel(0.5), "crosstalk": DriftModel(0.01), "imbalance": DriftModel(0.05),
+                 "pointing": DriftModel(0.0), "pattern": DriftModel(0.0)}

@@ -78,58 +78,89 @@ def residual_variance(model: DriftModel, days, visit_days, visit_variance) -> np
     (V,), or (S, V) for S schedules at once that use the same candidate visits (inf: the schedule does not use that
     visit, or it measures nothing). Returns (len(days),), or (S, len(days)).
     """
+    vd = np.asarray(visit_days, float).ravel()
+    return joint_residual_variance((model,), days, vd, np.ones((vd.size, 1)), visit_variance)[0]
+
+
+def joint_residual_variance(models: tuple, days, visit_days, visit_rows, visit_variance) -> np.ndarray:
+    """``residual_variance`` of m parameters estimated together: visit k measures sum_j rows[k, j] x_j(t_k) + e_k
+    (each x_j with its own drift model, independent a priori: a block-diagonal state of 4 m, F and Q block by block,
+    H = (rows[k, 0] H_0(t), ..., rows[k, m-1] H_{m-1}(t))). visit_rows : (V, m). Returns (m, len(days)) or
+    (m, S, len(days)): the residual variance of each x_j on each day."""
     days = np.asarray(days, float)
     if np.any(np.diff(days) < 0):
         raise PhysicsInputError("the output days must be in increasing order")
     vd = np.asarray(visit_days, float).ravel()
+    rows = np.asarray(visit_rows, float).reshape(vd.size, len(models))
     rv = np.asarray(visit_variance, float)
     single = rv.ndim < 2
     rv = np.broadcast_to(rv, (1, vd.size) if single else (rv.shape[0], vd.size))
     times = np.concatenate([days, vd])
     kinds = np.concatenate([np.full(days.size, -1), np.arange(vd.size)])
     order = np.lexsort((kinds < 0, times))  # by time; on the same instant a visit before an output day
-    p = np.broadcast_to(model.prior(), (rv.shape[0], 4, 4)).copy()
-    q = model.random_walk_variance_per_day
-    out = np.empty((rv.shape[0], days.size))
-    obs = model.observation(times)
-    last, out_index = 0.0, 0
+    m = len(models)
+    prior = np.zeros((4 * m, 4 * m))
+    for j, model in enumerate(models):
+        prior[4 * j:4 * j + 4, 4 * j:4 * j + 4] = model.prior()
+    p = np.broadcast_to(prior, (rv.shape[0], 4 * m, 4 * m)).copy()
+    q = np.array([model.random_walk_variance_per_day for model in models])
+    starts, diagonal = 4 * np.arange(m), np.arange(m)
+    out = np.empty((m, rv.shape[0], days.size))
+    obs = [model.observation(times) for model in models]
+    last, out_index, pending = 0.0, 0, 0.0
     for k in order:
         h = times[k] - last
-        if h > 0:
-            p = _predict(p, h, q)
-            last = times[k]
-        hvec = obs[k]
+        if h > 0 and m == 1:
+            p = _predict(p, h, q[0])
+        elif h > 0:  # several blocks: predictions compose, F(h1) F(h2) = F(h1 + h2) (E^2 = 0, F e0 = e0), so
+            pending += h  # they wait for the next visit, and an output day reads the prediction without applying it
+        last = times[k] if h > 0 else last
         if kinds[k] < 0:
-            out[:, out_index] = np.einsum("i,sij,j->s", hvec, p, hvec)
+            if m == 1:
+                out[0, :, out_index] = np.einsum("i,sij,j->s", obs[0][k], p, obs[0][k])
+            else:  # H F(h) = H + h H_0 e1' on the diagonal blocks (m, S, 4, 4), plus H_0^2 q h
+                blocks = p.reshape(-1, m, 4, m, 4)[:, diagonal, :, diagonal, :]
+                hk = np.stack([o[k] for o in obs])
+                hk[:, 1] += pending * hk[:, 0]
+                out[:, :, out_index] = (np.einsum("ji,jsik,jk->js", hk, blocks, hk)
+                                        + (pending * q * hk[:, 0] ** 2)[:, None])
             out_index += 1
         else:
-            p = _update(p, hvec, rv[:, kinds[k]])
-    return out[0] if single else out
+            if pending > 0:
+                p, pending = _predict(p, pending, q, starts), 0.0
+            v = kinds[k]
+            hvec = obs[0][k] * rows[v, 0] if m == 1 else np.concatenate([obs[j][k] * rows[v, j] for j in range(m)])
+            p = _update(p, hvec, rv[:, v])
+    return out[:, 0] if single else out
 
 
-def _predict(p, h, q):
-    """P <- F P F' + Q for F = I + h e0 e1' (the trend accumulates into x_lin) and Q = q h e0 e0', written out."""
-    p = p.copy()
-    p[:, 0, :] += h * p[:, 1, :]
-    p[:, :, 0] += h * p[:, :, 1]
-    p[:, 0, 0] += q * h
+def _predict(p, h, q, at=0):
+    """P <- F P F' + Q for F = I + h sum_a e_a e_(a+1)' (the trend accumulates into x_lin, a in ``at``, the first
+    state of each block) and Q = h sum_a q_a e_a e_a', written out, in place (the filter owns P)."""
+    p[:, at, :] += h * p[:, at + 1, :]
+    p[:, :, at] += h * p[:, :, at + 1]
+    p[:, at, at] += q * h
     return p
 
 
 def _update(p, hvec, r):
     """Kalman update of S covariances (S, 4, 4) with variances r (S,) in Joseph's form (I - K H) P (I - K H)' +
     K r K' (Gelb 1974, eq. 4.2-18), computed as two rank-one corrections so that it stays symmetric and positive
-    under a vague prior; a schedule with r = inf (it does not use the visit) is left as it is."""
+    under a vague prior; a schedule with r = inf (it does not use the visit) is left as it is. In place."""
     use = np.flatnonzero(np.isfinite(r))
     if use.size == 0:
         return p
-    q, r = p[use], r[use]
+    every = use.size == r.size
+    q, r = (p, r) if every else (p[use], r[use])
     ph = q @ hvec  # (U, 4)
     gain = ph / (ph @ hvec + r)[:, None]
     m = q - gain[:, :, None] * ph[:, None, :]  # (I - K H) P, P symmetric
     mh = m @ hvec
-    p = p.copy()
-    p[use] = m - mh[:, :, None] * gain[:, None, :] + r[:, None, None] * gain[:, :, None] * gain[:, None, :]
+    new = m - mh[:, :, None] * gain[:, None, :] + r[:, None, None] * gain[:, :, None] * gain[:, None, :]
+    if every:
+        p[...] = new
+    else:
+        p[use] = new
     return p
 
 

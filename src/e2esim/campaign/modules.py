@@ -18,9 +18,12 @@ from e2esim.calibration.stated_steps import StatedResidualResult, StatedResidual
 from e2esim.campaign.campaign import CampaignSetup, find_acquisitions, run_campaign, search_schedules
 from e2esim.campaign.drift import YEAR_DAYS, DriftModel
 from e2esim.campaign.site_file import read_sites_file
-from e2esim.campaign.sites import PARAMETERS, PRESETS
+from e2esim.campaign.sites import PRESETS
+from e2esim.campaign.visit_ionosphere import SOLAR_F107, SOLAR_SUNSPOTS, VisitIonosphereSettings
 from e2esim.errors import ConfigError, PhysicsInputError
 from e2esim.input_files import scenario_relative
+from e2esim.ionosphere.variability import DEFAULT_TEC_VARIABILITY
+from e2esim.orbit.timeline import BIOMASS_LAUNCH
 from e2esim.params import Param
 from e2esim.units import LEVEL_CONVENTIONS, THREE_SIGMA_AMPLITUDE, level_db_from_variance, variance_from_level_db
 
@@ -31,11 +34,18 @@ DRIFT_DEFAULTS = {  # assumed, stated in docs/theory/calibration-campaign.md; ga
                   "seasonal_sd": 0.0},
     "imbalance": {"initial_sd": 0.1, "random_walk_variance_per_day": 1e-6, "trend_sd_per_year": 0.01,
                   "seasonal_sd": 0.01},
+    # the antenna (campaign.antenna; dB at the swath's far edge): pattern and pointing as known before launch, and
+    # their thermal (seasonal) and slow changes in orbit
+    "pointing": {"initial_sd": 0.1, "random_walk_variance_per_day": 1e-6, "trend_sd_per_year": 0.01,
+                 "seasonal_sd": 0.02},
+    "pattern": {"initial_sd": 0.1, "random_walk_variance_per_day": 1e-6, "trend_sd_per_year": 0.01,
+                "seasonal_sd": 0.02},
 }
+DRIFT_PARAMETERS = tuple(DRIFT_DEFAULTS)
 
 
 def _drift_param(name: str) -> Param:
-    unit = "dB" if name == "gain" else "linear"
+    unit = "dB" if name in ("gain", "pointing", "pattern") else "linear"
     return Param(f"drift_{name}", "mapping", f"drift of the {name} ({unit}): " + ", ".join(DRIFT_KEYS),
                  default=dict(DRIFT_DEFAULTS[name]), convert=False)
 
@@ -64,18 +74,32 @@ class Campaign(CalibrationModule):
               maximum=89.0),
         Param("incidence_far_deg", "float", "far incidence of the swath", default=33.75, unit="deg", minimum=1.0,
               maximum=89.0),
-        Param("faraday_residual_deg", "float", "SD of the Faraday rotation left at a visit after its correction "
-              "(Quegan et al. 2018, Section 4: better than 1 deg)", default=1.0, unit="deg", minimum=0.0,
-              maximum=45.0),
+        Param("start_date", "str", "the mission's day 0 (ISO date, 00:00 UTC): the dates, months and local times of "
+              "the visits for the Faraday-rotation and scintillation climatologies", default=BIOMASS_LAUNCH),
+        Param("solar", "str", "solar activity of the campaign's epoch: min (F10.7 70 sfu, sunspot number 10) or max "
+              "(180 sfu, 150)", default="max", choices=tuple(SOLAR_F107)),
+        Param("f107_sfu", "float", "F10.7 instead of the solar preset's", default=None, nullable=True, unit="sfu",
+              minimum=50.0, maximum=400.0),
+        Param("sunspot_number", "float", "12-month sunspot number instead of the solar preset's", default=None,
+              nullable=True, minimum=0.0, maximum=250.0),
+        Param("tec_variability", "float", "day-to-day coefficient of variation of TEC about the climatology (the "
+              "prior that resolves the Faraday-rotation estimate's pi/2 ambiguity)", default=DEFAULT_TEC_VARIABILITY,
+              minimum=0.0, maximum=2.0),
+        Param("faraday_window_km", "float", "side of the Faraday-rotation estimation window on the ground (its "
+              "scintillation spread)", default=2.0, unit="km", exclusive_minimum=0.0, maximum=100.0),
+        Param("scintillation", "bool", "scintillation in the visit errors (peak-power loss of point targets, "
+              "Faraday-rotation spread)", default=True),
+        Param("monte_carlo_seed", "int", "seed of the strong-scatter Monte Carlo of a point target's peak loss",
+              default=20250429, minimum=0),
         Param("transponder_per_year", "int", "transponder passes used per year after commissioning (null: all)",
               default=2, nullable=True, minimum=0),
-        Param("opportunity", "str", "targets of opportunity used (names of sites; null: all)", default=None,
-              variable_length=True, nullable=True),
+        Param("opportunity", "str", "targets of opportunity used (names of sites; []: none; null: all)",
+              default=None, variable_length=True, may_be_empty=True, nullable=True),
         Param("schedule_years", "float", "span the schedule covers: no visit used after it (null: the mission)",
               default=None, nullable=True, unit="years"),
         Param("epoch_day", "float", "the mission day whose residual the chain propagates (null: the worst)",
               default=None, nullable=True, minimum=0.0),
-        _drift_param("gain"), _drift_param("crosstalk"), _drift_param("imbalance"),
+        *(_drift_param(name) for name in DRIFT_PARAMETERS),
         Param("limit_crosstalk_db", "float", "residual crosstalk level that meets the requirement (flowed down)",
               default=-30.0, unit="dB", maximum=0.0, convert=False),
         Param("limit_imbalance_db", "float", "residual channel-imbalance level that meets the requirement",
@@ -95,7 +119,7 @@ class Campaign(CalibrationModule):
             sites += read_sites_file(scenario_relative(c["sites_file"], self.location.source), key="sites_file")
         self.sites = sites
         self.drift = {}
-        for name in PARAMETERS:
+        for name in DRIFT_PARAMETERS:
             given = c[f"drift_{name}"]
             unknown = [k for k in given if k not in DRIFT_KEYS]
             if unknown:
@@ -117,6 +141,11 @@ class Campaign(CalibrationModule):
             raise PhysicsInputError(f"a schedule of {c['schedule_years']:g} years is longer than the mission "
                                     f"({c['mission_years']:g} years); allowed: at most mission_years",
                                     key="schedule_years")
+        try:
+            np.datetime64(c["start_date"], "D")
+        except ValueError:
+            raise PhysicsInputError(f"start_date {c['start_date']!r} is not an ISO date (YYYY-MM-DD)",
+                                    key="start_date") from None
         if c["epoch_day"] is not None and c["epoch_day"] > c["mission_years"] * YEAR_DAYS:
             raise PhysicsInputError(f"epoch_day {c['epoch_day']:g} is after the mission's end (day "
                                     f"{c['mission_years'] * YEAR_DAYS:g})", key="epoch_day")
@@ -130,11 +159,19 @@ class Campaign(CalibrationModule):
                 return f"{message} (site {site.name!r} of the sites file {file})"
         return message
 
-    def setup_for(self, orbit) -> CampaignSetup:
+    def ionosphere(self, frequency_hz: float) -> VisitIonosphereSettings:
+        c = self.config
+        return VisitIonosphereSettings(
+            c["start_date"], SOLAR_F107[c["solar"]] if c["f107_sfu"] is None else c["f107_sfu"],
+            SOLAR_SUNSPOTS[c["solar"]] if c["sunspot_number"] is None else c["sunspot_number"], frequency_hz,
+            tec_variability=c["tec_variability"], window_m=c["faraday_window_km"] * 1e3,
+            scintillation=c["scintillation"], seed=c["monte_carlo_seed"])
+
+    def setup_for(self, orbit, frequency_hz: float = 435e6) -> CampaignSetup:
         c = self.config
         setup = CampaignSetup(orbit, self.sites, self.drift, c["mission_years"] * YEAR_DAYS,
                               math.radians(c["incidence_near_deg"]), math.radians(c["incidence_far_deg"]),
-                              c["step_days"], c["commissioning_days"], math.radians(c["faraday_residual_deg"]),
+                              c["step_days"], c["commissioning_days"], self.ionosphere(frequency_hz),
                               c["first_node_minutes"] * 60.0,
                               None if c["schedule_years"] is None else c["schedule_years"] * YEAR_DAYS)
         return setup
@@ -142,12 +179,14 @@ class Campaign(CalibrationModule):
     def outcome(self, case) -> CampaignOutcome:
         """The campaign and the schedule search, once per run and settings (the run's kernel memo)."""
         memo = getattr(case.services, "memo", None)
+        instrument = case.get("instrument")
+        frequency = getattr(instrument, "centre_frequency_hz", None) or 435e6
         key = ("campaign", repr(sorted((k, repr(v)) for k, v in self.config.items() if k != "epoch_day")),
-               repr(case["geometry"].orbit))
+               repr(case["geometry"].orbit), frequency)
         found = memo.get(key) if memo is not None else None
         if found is None:
             try:
-                found = compute_outcome(self, self.setup_for(case["geometry"].orbit))
+                found = compute_outcome(self, self.setup_for(case["geometry"].orbit, frequency))
             except PhysicsInputError as exc:  # at run time: name the scenario file and the key path here
                 raise ConfigError(exc.location(self.location), self._where_from(str(exc))) from None
             if memo is not None:

@@ -32,7 +32,12 @@ def write_campaign(f, cases) -> None:
     for p, about in (("crosstalk", "residual crosstalk level"), ("imbalance", "residual channel-imbalance level")):
         put(g, f"residual_{p}_db", level_db_from_variance(r.variance[p], out.convention), "dB",
             f"{about} on each day ({out.convention})")
-    put(g, "residual_gain_sd_db", np.sqrt(r.variance["gain"]), "dB", "residual gain SD on each day")
+    put(g, "residual_gain_sd_db", np.sqrt(r.variance["gain"]), "dB", "residual gain SD on each day (a pixel anywhere "
+        "in the swath)")
+    for part, about in (("gain_offset", "swath-mean gain"), ("pointing", "antenna pointing (dB at the far edge)"),
+                        ("pattern", "antenna elevation pattern (dB at the far edge)")):
+        if part in r.variance:
+            put(g, f"residual_{part}_sd_db", np.sqrt(r.variance[part]), "dB", f"residual SD of the {about} on each day")
     put(g, "margin_db", out.margin, "dB", "smallest margin of the residuals against their limits on each day "
         "(inf in commissioning)")
     acq = r.acquisitions
@@ -40,6 +45,12 @@ def write_campaign(f, cases) -> None:
     put(g, "visit_day", acq.day, "d", "mission day of every pass over a site")
     put(g, "visit_site", acq.site.astype(np.int32), "1", "site of every pass (position in site_names)")
     put(g, "visit_incidence_deg", np.degrees(acq.incidence), "deg", "incidence of every pass")
+    if acq.faraday_rad is not None:
+        put(g, "visit_faraday_deg", np.degrees(acq.faraday_rad), "deg", "Faraday rotation of every pass from the "
+            "climatology (IRI monthly median, IGRF)")
+        put(g, "visit_faraday_residual_sd_deg", np.degrees(np.sqrt(acq.faraday_residual_variance)), "deg",
+            "SD of the Faraday rotation left by every pass's correction (estimator, ambiguity, scintillation)")
+        put(g, "visit_log10_ckl", acq.log10_ckl, "1", "log10 of the scintillation strength C_kL (SI) of every pass")
     put(g, "visit_used", r.used.astype(np.int8), "1", "1 where the stated schedule used the pass")
     put(g, "schedule_transponder_per_year", s.per_year.astype(np.int32), "1",
         "schedule search: transponder passes per year after commissioning of each schedule tried")

@@ -44,7 +44,9 @@ def plot_campaign(result, folder: Path, options: dict) -> list:
                   f"year after commissioning with {sites} (smallest margin {s.margin_db[s.best]:.2f} dB)")
     return [(_timeline(out, found, folder / "campaign_timeline.png"),
              f"Residual crosstalk, channel imbalance and gain left by the campaign against mission time (Kalman filter "
-             f"of the visits and the drift model), the flowed-down limits (dashed), every visit used (ticks, one row "
+             f"of the visits and the drift model; the gain SD of a pixel anywhere in the swath, with its parts: gain "
+             f"offset, pointing and elevation pattern, dB at the far edge), the flowed-down limits (dashed), every "
+             f"visit used (ticks, one row "
              f"per site), the AGB error of the swept epochs and the worst epoch (red line: day "
              f"{out.result.days[worst]:.0f}, margin {out.margin[worst]:.2f} dB)."),
             (_tradeoff(out, folder / "campaign_schedules.png"),
@@ -63,9 +65,14 @@ def _timeline(out, found, path) -> str:
         v = r.variance[p]
         y = np.sqrt(v) if p == "gain" else level_db_from_variance(v, out.convention)
         lim = np.sqrt(out.limits[p]) if p == "gain" else level_db_from_variance(out.limits[p], out.convention)
-        ax.plot(years, y, lw=1)
+        ax.plot(years, y, lw=1, label="swath" if p == "gain" else None)
         ax.axhline(lim, color="k", ls="--", lw=0.8)
         ax.set_ylabel(label, fontsize=8)
+    for part in ("gain_offset", "pointing", "pattern"):  # the gain's parts (campaign.antenna), when estimated
+        if part in r.variance:
+            axes[2].plot(years, np.sqrt(r.variance[part]), lw=0.7, ls=":", label=part.replace("_", " "))
+    if "pointing" in r.variance:
+        axes[2].legend(fontsize=6, ncol=4)
     acq = r.acquisitions
     for i in range(len(out.site_names)):
         days = acq.day[r.used & (acq.site == i)]
