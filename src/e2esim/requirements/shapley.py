@@ -1,0 +1,155 @@
+"""Budgets that add up where the sources couple: the Shapley split of a requirement's checked value over the error
+sources (docs/theory/error-budget.md, Section 3a).
+
+The Euler split (``e2esim.requirements.shares``) needs only the n single removals, and is exact where the sources
+add; where the error model couples them (Faraday rotation acts through crosstalk and imbalance, Men et al. 2021,
+eqs. 11-12) the single removals do not add, and the Euler parts can leave a remainder larger than the value. The
+Shapley value (Shapley 1953, "A value for n-person games", Contributions to the Theory of Games II, 307-317, eq. for
+phi_i; for variance decompositions Owen 2014, SIAM/ASA J. Uncertainty Quantification 2, 245-251, Section 2) splits a
+game f over the subsets S of the n sources without remainder:
+
+    phi_i = sum over S not holding i of |S|! (n - |S| - 1)! / n!  [f(S + i) - f(S)],   sum_i phi_i = f(N) - f({}).
+
+The game is the square of the statistic of the sigma error that the checked value is a monotone function of, with
+only the sources of S switched on (the others taken away through ``ErrorModel.without`` and the added variances,
+as ``AGBError.without`` takes away one):
+
+* RMSE: f(S) = b_S^2 + v_S, the mean square (where the sources add this is the Euler split exactly: the cross terms
+  2 b_i b_j are halved between i and j, phi_i = b_i b + v_i);
+* the bound's quantile x = b + z s ("over"; z s - b "under"): f(S) = x_S |x_S| (the square with its sign, so a
+  source that pulls the quantile below zero counts against it); for independent zero-mean terms x^2 = z^2 sum v_i,
+  and phi_i = z^2 v_i: the variance shares.
+
+The checked value V is divided in proportion, share_i = V phi_i / f(N) (eq. 4 of the Euler split), and f({}) (what
+the error model keeps with every source taken away; zero for the built-in models) is ``shapley.no_source_<unit>``, so
+the shares sum to V exactly (to rounding). The 2^n subsets cost 2^k evaluations of the error model (k its sources
+active in some case of the block, each evaluated once for the whole block) and arithmetic for the others.
+"""
+
+from __future__ import annotations
+
+from math import factorial
+
+import numpy as np
+
+from e2esim.requirements.shares import picked_side
+from e2esim.retrieval.gauss_hermite import standard_normal_quantile
+
+NO_SOURCE = "no_source"
+"""The key of the part of the checked value that the error model keeps with every source taken away:
+``shapley.no_source_<unit>``."""
+
+
+def subset_moments(agb) -> tuple:
+    """(names, b, v): the sources of ``agb`` active in some case, and the mean b and variance v of the sigma error
+    (m^2/m^2, (m^2/m^2)^2), shape (2^n,) + the case shape, with only the sources of each subset switched on (subset
+    mask m: bit k set where source k is on; m = 2^n - 1 is ``agb`` itself). A source not active in a case changes
+    nothing there, exactly."""
+    model = agb.error_model
+    added = np.asarray(agb.added_variance, dtype=float)
+    value2 = np.square(np.asarray(model.value, dtype=float))
+    own, others, inactive = [], [], {}
+    for name in agb.sources():
+        if name in model.sources:
+            variant = model.without(name)
+            if variant is not model:
+                own.append(name)
+                inactive[name] = getattr(variant, "inactive", None)
+        else:
+            var = value2 * np.maximum(agb.contribution(name).relative_variance, 0.0)
+            if np.any(var != 0):
+                others.append((name, var))
+    names = tuple(own) + tuple(n for n, _ in others)
+    k = len(own)
+    # the error model with the sources of ``removed`` (a bit mask over ``own``) taken away, built one removal at a time
+    variants = {0: model}
+    for removed in range(1, 2**k):
+        top = removed.bit_length() - 1
+        variants[removed] = variants[removed & ~(1 << top)].without(own[top])
+    full = 2**k - 1
+    means, variances = {}, {}
+    for on in range(2**k):  # ascending: a subset's smaller subsets are done first
+        m = variants[full & ~on].current()
+        # a truncated expansion far from its own levels can give a slightly negative variance: read it as 0 (as
+        # e2esim.error_model reads a channel's)
+        mean, var = np.asarray(m.mean, dtype=float), np.clip(np.asarray(m.variance, dtype=float), 0.0, None)
+        for bit, name in enumerate(own):  # where source ``bit`` is not active its removal changes nothing
+            off = inactive[name]
+            if on >> bit & 1 and off is not None and np.any(off):
+                mean = np.where(off, means[on & ~(1 << bit)], mean)
+                var = np.where(off, variances[on & ~(1 << bit)], var)
+        means[on], variances[on] = mean, var
+    shape = np.broadcast_shapes(np.shape(added), *(np.shape(x) for x in means.values()))
+    n = len(names)
+    b = np.empty((2**n,) + shape)
+    v = np.empty((2**n,) + shape)
+    for mask in range(2**n):
+        left_out = sum((var for j, (_, var) in enumerate(others) if not mask >> (k + j) & 1), np.zeros(shape))
+        # as AGBError.without: the added variance less what the removed terms add, never negative
+        rest = np.maximum(added - left_out, 0.0) if others else added
+        b[mask] = means[mask & full]
+        v[mask] = variances[mask & full] + rest
+    return names, b, v
+
+
+def shapley_values(f: np.ndarray) -> np.ndarray:
+    """phi (n,) + case shape of the game ``f`` ((2^n,) + case shape, indexed by the subset's bit mask): the Shapley
+    value of every player (module docstring)."""
+    n = int(f.shape[0]).bit_length() - 1
+    masks = np.arange(2**n)
+    sizes = np.array([bin(m).count("1") for m in masks])
+    weight = np.array([factorial(s) * factorial(n - s - 1) / factorial(n) if s < n else 0.0 for s in sizes])
+    phi = np.empty((n,) + f.shape[1:])
+    for i in range(n):
+        without = masks[(masks >> i & 1) == 0]
+        w = weight[without].reshape((-1,) + (1,) * (f.ndim - 1))
+        phi[i] = np.sum(w * (f[without | (1 << i)] - f[without]), axis=0)
+    return phi
+
+
+def _split(value, game: np.ndarray, names: tuple, unit: str) -> dict:
+    """``shapley.<source>_<unit>`` and ``shapley.no_source_<unit>``: ``value`` divided as the game's Shapley values
+    and its empty-set value divide f(N); they sum to ``value`` (zero everywhere where f(N) is zero)."""
+    value = np.asarray(value, dtype=float)
+    phi = shapley_values(game)
+    total = game[-1]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        scale = np.where(total != 0, value / np.where(total != 0, total, 1.0), 0.0)
+    out = {f"shapley.{name}_{unit}": _plain(scale * p) for name, p in zip(names, phi)}
+    out[f"shapley.{NO_SOURCE}_{unit}"] = _plain(scale * game[0])
+    return out
+
+
+def rms_shapley(value, agb, unit: str) -> dict:
+    """The Shapley split of an RMSE verdict's ``value``: the game is the mean square b^2 + v of the sigma error."""
+    names, b, v = subset_moments(agb)
+    return _complete(_split(value, b * b + v, names, unit), agb, unit)
+
+
+def bound_shapley(value, agb, confidence: float, sides: tuple, side_values: dict, unit: str) -> dict:
+    """The Shapley split of an ``agb_error_bound`` verdict's ``value``, of the side that sets it, case by case (as
+    ``e2esim.requirements.shares.bound_shares``): the game is x |x| of the side's quantile x of the sigma error."""
+    names, b, v = subset_moments(agb)
+    z = float(standard_normal_quantile(confidence))
+    by_side = {}
+    for side in sides:
+        x = b + z * np.sqrt(v) if side == "over" else z * np.sqrt(v) - b
+        by_side[side] = _split(value, x * np.abs(x), names, unit)
+    pick = picked_side(side_values, sides)
+    if isinstance(pick, str):
+        return _complete(by_side[pick], agb, unit)
+    chosen = pick == "over"
+    return _complete({key: _plain(np.where(chosen, by_side["over"][key], by_side["under"][key]))
+                      for key in by_side["over"]}, agb, unit)
+
+
+def _complete(out: dict, agb, unit: str) -> dict:
+    """Every source of ``agb`` gets its key: zero for those not active in any case."""
+    like = next(iter(out.values()))
+    zero = 0.0 if np.ndim(like) == 0 else np.zeros(np.shape(like))
+    return {**{f"shapley.{name}_{unit}": out.get(f"shapley.{name}_{unit}", zero) for name in agb.sources()},
+            f"shapley.{NO_SOURCE}_{unit}": out[f"shapley.{NO_SOURCE}_{unit}"]}
+
+
+def _plain(x):
+    return float(x) if np.ndim(x) == 0 else np.asarray(x, dtype=float)
