@@ -15,7 +15,7 @@ from e2esim.distortion.error_model import HVErrorModel
 from e2esim.error_model import Contribution, ErrorModel, Moments
 from e2esim.faraday.distribution import GaussianFaraday
 from e2esim.requirements.shapley import bound_shapley, rms_shapley, shapley_values, subset_moments
-from e2esim.requirements.shares import bound_shares
+from e2esim.requirements.shares import bound_shares, rms_parts, shares
 from e2esim.retrieval.agb_error import AGBContribution, AGBError
 from helpers import forest, system
 
@@ -26,8 +26,9 @@ class ToyModel(ErrorModel):
     """Sources of zero mean whose variances add, times (1 + coupling x the product of the first two), so that
     ``coupling`` makes the first two interact; a source of level 0 is present but does nothing."""
 
-    def __init__(self, variances: dict, coupling: float = 0.0, value: float = 0.05, removed=()):
+    def __init__(self, variances: dict, coupling: float = 0.0, value: float = 0.05, removed=(), means=None):
         self.variances, self.coupling, self._value, self.removed = dict(variances), coupling, value, frozenset(removed)
+        self.means = dict(means or {})
 
     value = property(lambda self: self._value)
     levels = property(lambda self: {})
@@ -37,17 +38,18 @@ class ToyModel(ErrorModel):
         on = {k: v for k, v in self.variances.items() if k not in self.removed}
         names = list(self.variances)
         pair = np.prod([on.get(k, 0.0) for k in names[:2]]) / self._value**4
-        return Moments(np.float64(0.0), np.float64(sum(on.values()) * (1.0 + self.coupling * pair)))
+        mean = sum(m for k, m in self.means.items() if k not in self.removed)
+        return Moments(np.float64(mean), np.float64(sum(on.values()) * (1.0 + self.coupling * pair)))
 
     def without(self, source):
-        return ToyModel(self.variances, self.coupling, self._value, self.removed | {source})
+        return ToyModel(self.variances, self.coupling, self._value, self.removed | {source}, self.means)
 
     def contributions(self):
         return {k: Contribution(0.0, v) for k, v in self.variances.items()}
 
 
-def _toy_agb(variances, coupling=0.0, random=()):
-    model = ToyModel(variances, coupling)
+def _toy_agb(variances, coupling=0.0, random=(), means=None):
+    model = ToyModel(variances, coupling, means=means)
     m = model.current()
     agb = AGBError.from_sigma_errors(2.2, model.value, float(m.mean), float(m.sd), error_model=model)
     return agb.with_terms(tuple(AGBContribution(f"term{k}", "random", 0.0, v) for k, v in enumerate(random)))
@@ -83,6 +85,20 @@ def test_independent_sources_adding_in_quadrature_get_their_variance_shares():
             assert rms[f"shapley.{name}_percent"] == pytest.approx(rmse * var / 13e-6, rel=1e-9)
         assert sum(out.values()) == pytest.approx(value, rel=1e-12)
         assert abs(out["shapley.no_source_percent"]) < 1e-9 * value  # rounding of the added variance
+
+
+def test_where_biased_sources_add_the_shapley_split_of_the_mean_square_is_the_euler_split():
+    """Where b and v add over the sources, the game b_S^2 + v_S gives phi_i = b_i b + v_i (docs/theory/error-budget.md,
+    Section 3a): eq. (2), with no remainder."""
+    agb = _toy_agb({"a": 4e-6, "b": 9e-6, "c": 1e-6}, means={"a": 0.004, "b": -0.001}, random=(0.002,))
+    rmse = 100 * agb.rmse()
+    euler = shares(rmse, *rms_parts(agb), "percent")
+    exact = rms_shapley(rmse, agb, "percent")
+    assert abs(euler["share.interactions_percent"]) < 1e-12 * rmse
+    for name in agb.sources():
+        assert exact[f"shapley.{name}_percent"] == pytest.approx(euler[f"share.{name}_percent"], rel=1e-9, abs=1e-12)
+    b, v = 0.003, 14e-6 + 0.05**2 * 0.002  # b pulls the bias back: its part b_b b + v_b is less than its variance
+    assert exact["shapley.b_percent"] == pytest.approx(rmse * (-0.001 * b + 9e-6) / (b * b + v), rel=1e-9)
 
 
 def test_interchangeable_sources_share_equally_and_a_source_without_effect_gets_nothing():

@@ -119,6 +119,8 @@ def test_the_report_explains_a_remainder_by_what_couples(quick_run):
     _, folder = quick_run("biomass_calibration")  # cases without Faraday-rotation correction: FR couples
     report = (folder / "report.md").read_text()
     assert "not attributed" in report and "Faraday rotation acts on the backscatter only through crosstalk" in report
+    # there the line takes the Shapley split (no remainder) and says why; where the sources add, the Euler split
+    assert "Shapley (sources couple: Euler leaves" in report and "| Euler |" in report
     _, folder = quick_run("biomass_default")
     budget = (folder / "report.md").read_text().split("## Error budget")[1]
     assert "Faraday rotation (residual after correction)" in budget

@@ -29,6 +29,7 @@ active in some case of the block, each evaluated once for the whole block) and a
 from __future__ import annotations
 
 from math import factorial
+from weakref import WeakKeyDictionary
 
 import numpy as np
 
@@ -46,28 +47,57 @@ def subset_moments(agb) -> tuple:
     mask m: bit k set where source k is on; m = 2^n - 1 is ``agb`` itself). A source not active in a case changes
     nothing there, exactly."""
     model = agb.error_model
+    own, means, variances = _model_subsets(model)
     added = np.asarray(agb.added_variance, dtype=float)
     value2 = np.square(np.asarray(model.value, dtype=float))
-    own, others, inactive = [], [], {}
+    others = []
     for name in agb.sources():
-        if name in model.sources:
-            variant = model.without(name)
-            if variant is not model:
-                own.append(name)
-                inactive[name] = getattr(variant, "inactive", None)
-        else:
+        if name not in model.sources:
             var = value2 * np.maximum(agb.contribution(name).relative_variance, 0.0)
             if np.any(var != 0):
                 others.append((name, var))
     names = tuple(own) + tuple(n for n, _ in others)
+    k, n = len(own), len(names)
+    shape = np.broadcast_shapes(np.shape(added), np.shape(means[0]), *(np.shape(var) for _, var in others))
+    masks = np.arange(2**n)
+    b = np.broadcast_to(means[masks & (2**k - 1)].reshape((-1,) + np.shape(means[0])), (2**n,) + shape)
+    v = np.broadcast_to(variances[masks & (2**k - 1)].reshape((-1,) + np.shape(means[0])), (2**n,) + shape)
+    if others:
+        off = ((masks[:, None] >> (k + np.arange(len(others)))) & 1) == 0  # (2^n, others): the terms left out
+        left_out = np.tensordot(off.astype(float), np.stack([np.broadcast_to(var, shape) for _, var in others]), 1)
+        # as AGBError.without: the added variance less what the removed terms add, never negative
+        v = v + np.maximum(added - left_out, 0.0)
+    else:
+        v = v + added
+    return names, np.array(b, dtype=float), v
+
+
+_SUBSETS: WeakKeyDictionary = WeakKeyDictionary()
+"""The subsets' moments of an error model (``_model_subsets``), kept while the model lives: the requirements of a
+case ask the same model."""
+
+
+def _model_subsets(model) -> tuple:
+    """(own, means, variances): the error model's sources active in some case, and its mean and variance with only
+    the sources of each subset of them switched on (2^k,) + the case shape, each subset's model built by removals
+    one at a time (``ErrorModel.without``) and evaluated once."""
+    try:
+        return _SUBSETS[model]
+    except (KeyError, TypeError):  # not yet evaluated, or a model that cannot be weakly referenced
+        pass
+    own, inactive = [], {}
+    for name in model.sources:
+        variant = model.without(name)
+        if variant is not model:
+            own.append(name)
+            inactive[name] = getattr(variant, "inactive", None)
     k = len(own)
-    # the error model with the sources of ``removed`` (a bit mask over ``own``) taken away, built one removal at a time
-    variants = {0: model}
+    variants = {0: model}  # by the bit mask of the sources taken away
     for removed in range(1, 2**k):
         top = removed.bit_length() - 1
         variants[removed] = variants[removed & ~(1 << top)].without(own[top])
     full = 2**k - 1
-    means, variances = {}, {}
+    means, variances = [], []
     for on in range(2**k):  # ascending: a subset's smaller subsets are done first
         m = variants[full & ~on].current()
         # a truncated expansion far from its own levels can give a slightly negative variance: read it as 0 (as
@@ -78,18 +108,16 @@ def subset_moments(agb) -> tuple:
             if on >> bit & 1 and off is not None and np.any(off):
                 mean = np.where(off, means[on & ~(1 << bit)], mean)
                 var = np.where(off, variances[on & ~(1 << bit)], var)
-        means[on], variances[on] = mean, var
-    shape = np.broadcast_shapes(np.shape(added), *(np.shape(x) for x in means.values()))
-    n = len(names)
-    b = np.empty((2**n,) + shape)
-    v = np.empty((2**n,) + shape)
-    for mask in range(2**n):
-        left_out = sum((var for j, (_, var) in enumerate(others) if not mask >> (k + j) & 1), np.zeros(shape))
-        # as AGBError.without: the added variance less what the removed terms add, never negative
-        rest = np.maximum(added - left_out, 0.0) if others else added
-        b[mask] = means[mask & full]
-        v[mask] = variances[mask & full] + rest
-    return names, b, v
+        means.append(mean)
+        variances.append(var)
+    shape = np.broadcast_shapes(*(np.shape(x) for x in means + variances))
+    out = (tuple(own), np.stack([np.broadcast_to(x, shape) for x in means]),
+           np.stack([np.broadcast_to(x, shape) for x in variances]))
+    try:
+        _SUBSETS[model] = out
+    except TypeError:  # a model that cannot be weakly referenced is evaluated each time
+        pass
+    return out
 
 
 def shapley_values(f: np.ndarray) -> np.ndarray:
