@@ -63,9 +63,12 @@ def subset_moments(agb) -> tuple:
     b = np.broadcast_to(means[masks & (2**k - 1)].reshape((-1,) + np.shape(means[0])), (2**n,) + shape)
     v = np.broadcast_to(variances[masks & (2**k - 1)].reshape((-1,) + np.shape(means[0])), (2**n,) + shape)
     if others:
-        off = ((masks[:, None] >> (k + np.arange(len(others)))) & 1) == 0  # (2^n, others): the terms left out
-        left_out = np.tensordot(off.astype(float), np.stack([np.broadcast_to(var, shape) for _, var in others]), 1)
-        # as AGBError.without: the added variance less what the removed terms add, never negative
+        # the variance of the terms left out, added term by term in one order (a case gets the same bits alone as
+        # in a block); as AGBError.without: the added variance less it, never negative
+        left_out = np.zeros((2**n,) + shape)
+        for j, (_, var) in enumerate(others):
+            off = ((masks >> (k + j)) & 1 == 0).astype(float).reshape((-1,) + (1,) * len(shape))
+            left_out = left_out + off * var
         v = v + np.maximum(added - left_out, 0.0)
     else:
         v = v + added
@@ -127,11 +130,11 @@ def shapley_values(f: np.ndarray) -> np.ndarray:
     masks = np.arange(2**n)
     sizes = np.array([bin(m).count("1") for m in masks])
     weight = np.array([factorial(s) * factorial(n - s - 1) / factorial(n) if s < n else 0.0 for s in sizes])
+    last = np.ascontiguousarray(np.moveaxis(f, 0, -1))  # subsets last: each case summed alike, alone or in a block
     phi = np.empty((n,) + f.shape[1:])
     for i in range(n):
         without = masks[(masks >> i & 1) == 0]
-        w = weight[without].reshape((-1,) + (1,) * (f.ndim - 1))
-        phi[i] = np.sum(w * (f[without | (1 << i)] - f[without]), axis=0)
+        phi[i] = np.sum(weight[without] * (last[..., without | (1 << i)] - last[..., without]), axis=-1)
     return phi
 
 
