@@ -117,7 +117,7 @@ def test_where_faraday_rotation_couples_the_split_has_no_remainder_and_stays_wit
     model = HVErrorModel(forest("boreal_200"), system(), GaussianFaraday(np.pi / 3, np.radians(5.0)))
     m = model.current()
     agb = AGBError.from_sigma_errors(2.2, model.value, float(m.mean), float(m.sd), error_model=model)
-    names, b, v = subset_moments(agb)
+    names, b, v, _ = subset_moments(agb)
     assert b[-1] == pytest.approx(float(m.mean), rel=1e-12) and v[-1] == pytest.approx(float(m.variance), rel=1e-12)
     assert "faraday_rotation" in names and b[0] == 0.0 and v[0] == 0.0
     value, out = _bound(agb, ("over", "under"))

@@ -42,12 +42,12 @@ NO_SOURCE = "no_source"
 
 
 def subset_moments(agb) -> tuple:
-    """(names, b, v): the sources of ``agb`` active in some case, and the mean b and variance v of the sigma error
+    """(names, b, v, active): the sources of ``agb`` active in some case, the mean b and variance v of the sigma error
     (m^2/m^2, (m^2/m^2)^2), shape (2^n,) + the case shape, with only the sources of each subset switched on (subset
-    mask m: bit k set where source k is on; m = 2^n - 1 is ``agb`` itself). A source not active in a case changes
-    nothing there, exactly."""
+    mask m: bit k set where source k is on; m = 2^n - 1 is ``agb`` itself), and where each source is active, (n,) +
+    the case shape (None without sources). A source not active in a case changes nothing there, exactly."""
     model = agb.error_model
-    own, means, variances = _model_subsets(model)
+    own, means, variances, own_active = _model_subsets(model)
     added = np.asarray(agb.added_variance, dtype=float)
     value2 = np.square(np.asarray(model.value, dtype=float))
     others = []
@@ -72,7 +72,9 @@ def subset_moments(agb) -> tuple:
         v = v + np.maximum(added - left_out, 0.0)
     else:
         v = v + added
-    return names, np.array(b, dtype=float), v
+    active = np.stack([np.broadcast_to(x, shape) for x in own_active] + [np.broadcast_to(var != 0, shape)
+                                                                          for _, var in others]) if n else None
+    return names, np.array(b, dtype=float), v, active
 
 
 _SUBSETS: WeakKeyDictionary = WeakKeyDictionary()
@@ -81,9 +83,10 @@ case ask the same model."""
 
 
 def _model_subsets(model) -> tuple:
-    """(own, means, variances): the error model's sources active in some case, and its mean and variance with only
-    the sources of each subset of them switched on (2^k,) + the case shape, each subset's model built by removals
-    one at a time (``ErrorModel.without``) and evaluated once."""
+    """(own, means, variances, active): the error model's sources active in some case, its mean and variance with
+    only the sources of each subset of them switched on (2^k,) + the case shape, each subset's model built by
+    removals one at a time (``ErrorModel.without``) and evaluated once, and where each source is active (True: in
+    every case, or a per-case bool array)."""
     try:
         return _SUBSETS[model]
     except (KeyError, TypeError):  # not yet evaluated, or a model that cannot be weakly referenced
@@ -94,6 +97,7 @@ def _model_subsets(model) -> tuple:
         if variant is not model:
             own.append(name)
             inactive[name] = getattr(variant, "inactive", None)
+    active = tuple(True if inactive[name] is None else ~np.asarray(inactive[name], dtype=bool) for name in own)
     k = len(own)
     variants = {0: model}  # by the bit mask of the sources taken away
     for removed in range(1, 2**k):
@@ -115,7 +119,7 @@ def _model_subsets(model) -> tuple:
         variances.append(var)
     shape = np.broadcast_shapes(*(np.shape(x) for x in means + variances))
     out = (tuple(own), np.stack([np.broadcast_to(x, shape) for x in means]),
-           np.stack([np.broadcast_to(x, shape) for x in variances]))
+           np.stack([np.broadcast_to(x, shape) for x in variances]), active)
     try:
         _SUBSETS[model] = out
     except TypeError:  # a model that cannot be weakly referenced is evaluated each time
@@ -138,34 +142,58 @@ def shapley_values(f: np.ndarray) -> np.ndarray:
     return phi
 
 
-def _split(value, game: np.ndarray, names: tuple, unit: str) -> dict:
+def _by_players(game: np.ndarray, active) -> tuple:
+    """(phi, empty): the Shapley values (n,) + case shape and the empty-set value of ``game`` in each case among the
+    sources active there, the others switched on and given nothing: a case plays with the players it has alone, so
+    that a block's numbers are, bit for bit, those of its cases alone."""
+    if active is None or game.ndim == 1:
+        return shapley_values(game), game[0]
+    n, shape = len(active), game.shape[1:]
+    flat, on = game.reshape(game.shape[0], -1), active.reshape(n, -1)
+    phi, empty = np.zeros((n, flat.shape[1])), np.empty(flat.shape[1])
+    subsets = {}
+    for case in range(flat.shape[1]):  # each case's sums over its own subsets, 1-D, as the case alone sums them
+        pattern = tuple(bool(x) for x in on[:, case])
+        if pattern not in subsets:
+            players = [j for j in range(n) if pattern[j]]
+            rest = sum(1 << j for j in range(n) if not pattern[j])
+            subsets[pattern] = (players, np.array([rest | sum(1 << p for b, p in enumerate(players) if m >> b & 1)
+                                                   for m in range(2 ** len(players))]))
+        players, sub = subsets[pattern]
+        part = np.ascontiguousarray(flat[sub, case])
+        phi[players, case] = shapley_values(part)
+        empty[case] = part[0]
+    return phi.reshape((n,) + shape), empty.reshape(shape)
+
+
+def _split(value, game: np.ndarray, names: tuple, active, unit: str) -> dict:
     """``shapley.<source>_<unit>`` and ``shapley.no_source_<unit>``: ``value`` divided as the game's Shapley values
     and its empty-set value divide f(N); they sum to ``value`` (zero everywhere where f(N) is zero)."""
     value = np.asarray(value, dtype=float)
-    phi = shapley_values(game)
+    phi, empty = _by_players(game, active)
     total = game[-1]
     with np.errstate(divide="ignore", invalid="ignore"):
         scale = np.where(total != 0, value / np.where(total != 0, total, 1.0), 0.0)
     out = {f"shapley.{name}_{unit}": _plain(scale * p) for name, p in zip(names, phi)}
-    out[f"shapley.{NO_SOURCE}_{unit}"] = _plain(scale * game[0])
+    out[f"shapley.{NO_SOURCE}_{unit}"] = _plain(scale * empty)
     return out
 
 
 def rms_shapley(value, agb, unit: str) -> dict:
     """The Shapley split of an RMSE verdict's ``value``: the game is the mean square b^2 + v of the sigma error."""
-    names, b, v = subset_moments(agb)
-    return _complete(_split(value, b * b + v, names, unit), agb, unit)
+    names, b, v, active = subset_moments(agb)
+    return _complete(_split(value, b * b + v, names, active, unit), agb, unit)
 
 
 def bound_shapley(value, agb, confidence: float, sides: tuple, side_values: dict, unit: str) -> dict:
     """The Shapley split of an ``agb_error_bound`` verdict's ``value``, of the side that sets it, case by case (as
     ``e2esim.requirements.shares.bound_shares``): the game is x |x| of the side's quantile x of the sigma error."""
-    names, b, v = subset_moments(agb)
+    names, b, v, active = subset_moments(agb)
     z = float(standard_normal_quantile(confidence))
     by_side = {}
     for side in sides:
         x = b + z * np.sqrt(v) if side == "over" else z * np.sqrt(v) - b
-        by_side[side] = _split(value, x * np.abs(x), names, unit)
+        by_side[side] = _split(value, x * np.abs(x), names, active, unit)
     pick = picked_side(side_values, sides)
     if isinstance(pick, str):
         return _complete(by_side[pick], agb, unit)
