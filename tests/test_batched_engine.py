@@ -33,7 +33,7 @@ def _close(a: float, b: float, scale: float = 0.0) -> bool:
 
 def assert_same_case(got, expected) -> None:
     """Scalars and verdicts of two ``CaseResult``s: Monte Carlo numbers identical, analytic ones to 1e-12 (a
-    contribution, a difference of two checked values, relative to the checked value)."""
+    contribution, a difference of two checked values, and a Shapley part, relative to the checked value)."""
     assert list(got.scalars) == list(expected.scalars), set(got.scalars) ^ set(expected.scalars)
     for name, value in expected.scalars.items():
         if "montecarlo" in name:
@@ -49,7 +49,9 @@ def assert_same_case(got, expected) -> None:
         assert _close(v.value, w.value) and _close(v.limit, w.limit) and _close(v.margin, w.margin, abs(w.limit))
         assert list(v.details) == list(w.details)
         for key, x in w.details.items():
-            assert _close(v.details[key], x, abs(w.value) if key.startswith("contribution.") else 0.0), (key, x)
+            # a contribution or a Shapley part (sums of differences of checked values): relative to the checked value
+            differences = key.startswith(("contribution.", "shapley."))
+            assert _close(v.details[key], x, abs(w.value) if differences else 0.0), (key, x)
         assert list(v.curves) == list(w.curves)
         for key, x in w.curves.items():
             assert np.allclose(v.curves[key], x, rtol=RTOL, atol=0.0, equal_nan=True), key

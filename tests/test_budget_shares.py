@@ -88,8 +88,8 @@ def test_a_block_of_cases_gets_the_shares_of_each_case_alone():
 
 @pytest.mark.parametrize("scenario", scenario_names())
 def test_every_shipped_budget_sums_to_its_value(scenario, quick_run):
-    """The Done-when of issue 23: every verdict's shares sum to its checked value, and where no coupling source is
-    active the part not attributed is below 1 % of it."""
+    """The Done-when of issue 23: every verdict's shares (Euler and Shapley) sum to its checked value, and where no
+    coupling source is active the part the Euler split does not attribute is below 1 % of it."""
     result, _ = quick_run(scenario)
     checked = 0
     for case in result.cases:
@@ -102,6 +102,11 @@ def test_every_shipped_budget_sums_to_its_value(scenario, quick_run):
                 continue
             assert set(parts) == {"share." + k[len("contribution."):] for k in removal} | {f"share.interactions_{unit}"}
             assert sum(parts.values()) == pytest.approx(v.value, rel=1e-12, abs=1e-12)
+            # the Shapley split (e2esim.requirements.shapley): every source, no remainder, summing to the value
+            exact = {k: x for k, x in v.details.items() if k.startswith("shapley.") and k.endswith("_" + unit)}
+            names = {"shapley." + k[len("contribution."):] for k in removal}
+            assert set(exact) == names | {f"shapley.no_source_{unit}"}
+            assert sum(exact.values()) == pytest.approx(v.value, rel=1e-9, abs=1e-9), (case.label, v.name)
             if not any(v.details[f"contribution.{s}_{unit}"] != 0.0 for s in COUPLERS if f"contribution.{s}_{unit}"
                        in v.details):
                 assert abs(_rest(v.details, unit)) < 0.01 * abs(v.value), (case.label, v.name)
@@ -114,6 +119,8 @@ def test_the_report_explains_a_remainder_by_what_couples(quick_run):
     _, folder = quick_run("biomass_calibration")  # cases without Faraday-rotation correction: FR couples
     report = (folder / "report.md").read_text()
     assert "not attributed" in report and "Faraday rotation acts on the backscatter only through crosstalk" in report
+    # there the line takes the Shapley split (no remainder) and says why; where the sources add, the Euler split
+    assert "Shapley (sources couple: Euler leaves" in report and "| Euler |" in report
     _, folder = quick_run("biomass_default")
     budget = (folder / "report.md").read_text().split("## Error budget")[1]
     assert "Faraday rotation (residual after correction)" in budget

@@ -98,3 +98,19 @@ def test_the_boundary_by_continuation_is_the_fully_scanned_one(monkeypatch):
     np.testing.assert_array_equal(fast.y, full.y)
     assert fast.state == full.state and fast.side == full.side and fast.binding == full.binding
     assert "met at" in fast.state and fast.rows < full.rows
+
+
+def test_the_provenance_asks_git_and_the_package_metadata_once_per_process(monkeypatch):
+    """The solve runs the engine a dozen times; each run's provenance asked git twice (``git describe --dirty``
+    refreshes the index) and parsed eleven packages' metadata: now once per process, the same answer."""
+    from e2esim.runner import provenance
+
+    provenance.source_commit.cache_clear()
+    provenance._versions.cache_clear()
+    first = (provenance.source_commit(), provenance.dependency_versions())
+    calls = []
+    monkeypatch.setattr(provenance.subprocess, "run", lambda *a, **k: calls.append(a) or None)
+    monkeypatch.setattr(provenance.metadata, "version", lambda name: calls.append(name) or "changed")
+    again = provenance.dependency_versions()
+    again["numpy"] = "edited"  # a caller's copy: the next run's provenance is not changed by it
+    assert (provenance.source_commit(), provenance.dependency_versions()) == first and not calls

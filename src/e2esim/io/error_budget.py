@@ -4,6 +4,9 @@ Nothing physical is computed here; the rows are read from what the chain wrote:
 
 * per verdict, from its shares (``share.<source>_<unit>``, ``e2esim.requirements.shares``): the part of the
   checked value each source accounts for, summing to it with ``share.interactions_<unit>``;
+* per verdict, the split a budget line uses (``budget_split``): the Euler shares where the sources add, the Shapley
+  split (``shapley.<source>_<unit>``, ``e2esim.requirements.shapley``) where they couple: where the Euler split
+  leaves more than ``COUPLED`` of the checked value not attributed;
 * per verdict, from its attribution (``contribution.<source>_<unit>`` in the details,
   ``e2esim.requirements.attribution``): how much the checked value falls when the source is removed, in the
   requirement's unit. A requirement on the systematic error lists only the error model's sources;
@@ -24,6 +27,10 @@ UNIT_KEYS = {"%": "percent", "t/ha": "t_ha"}
 """The ending of a contribution key for a requirement unit (``e2esim.requirements.attribution``)."""
 
 AGB_STATS = ("mean_percent", "sd_percent", "rmse_percent", "variance_share")
+COUPLED = 0.01
+"""The fraction of a checked value the Euler split may leave not attributed before a budget line takes the Shapley
+split instead: below it the sources add (docs/theory/error-budget.md, Section 3)."""
+EULER, SHAPLEY = "euler", "shapley"
 
 
 def unit_key(unit: str) -> str:
@@ -36,17 +43,34 @@ def source_groups(case) -> dict:
     return {c.name: c.group for c in getattr(agb, "contributions", ())}
 
 
+def budget_split(verdict) -> str | None:
+    """Which split a verdict's budget line uses: ``"shapley"`` where its sources couple (the Euler split leaves more
+    than ``COUPLED`` of the checked value not attributed) and it has the Shapley split, else ``"euler"``; None where
+    it has no shares."""
+    rest = interactions_share(verdict)
+    if rest is None:
+        return None
+    has_shapley = f"shapley.no_source_{unit_key(verdict.unit)}" in verdict.details
+    return SHAPLEY if has_shapley and abs(rest) > COUPLED * abs(verdict.value) else EULER
+
+
 def verdict_budget(verdict, groups: dict) -> list:
-    """[{source, group, contribution, share, unit}] of one verdict, largest first within each group: ``share`` is
-    the source's part of the checked value (``share.<source>_<unit>``, the parts and ``interactions_share`` sum to
-    it; None where the verdict has no shares)."""
+    """[{source, group, contribution, share, shapley, split, part, unit}] of one verdict, largest first within each
+    group: ``share`` is the source's Euler part of the checked value (``share.<source>_<unit>``, the parts and
+    ``interactions_share`` sum to it), ``shapley`` its Shapley part (``shapley.<source>_<unit>``: the parts and
+    ``shapley.no_source_<unit>`` sum to it), ``split`` the one the line uses (``budget_split``) and ``part`` that
+    one's (None where the verdict has no shares)."""
     suffix = "_" + unit_key(verdict.unit)
+    split = budget_split(verdict)
     rows = []
     for key, value in verdict.details.items():
         if key.startswith("contribution.") and key.endswith(suffix):
             source = key[len("contribution."):-len(suffix)]
+            share = verdict.details.get(f"share.{source}{suffix}")
+            shapley = verdict.details.get(f"shapley.{source}{suffix}")
             rows.append({"source": source, "group": groups.get(source, SYSTEMATIC), "contribution": value,
-                         "share": verdict.details.get(f"share.{source}{suffix}"), "unit": verdict.unit})
+                         "share": share, "shapley": shapley, "split": split,
+                         "part": shapley if split == SHAPLEY else share, "unit": verdict.unit})
     return sorted(rows, key=lambda r: (_group_rank(r["group"]), -abs(r["contribution"])))
 
 
@@ -54,6 +78,15 @@ def interactions_share(verdict):
     """The part of a verdict's checked value no single source accounts for (``share.interactions_<unit>``:
     where the error model couples its sources), or None where the verdict has no shares."""
     return verdict.details.get(f"share.{INTERACTIONS}_{unit_key(verdict.unit)}")
+
+
+def unattributed(verdict):
+    """The part of a verdict's checked value its budget line leaves to no source: the Euler remainder
+    (``interactions_share``), or for a Shapley line what the error model keeps with every source taken away
+    (``shapley.no_source_<unit>``, zero for the built-in models); None where the verdict has no shares."""
+    if budget_split(verdict) == SHAPLEY:
+        return verdict.details[f"shapley.no_source_{unit_key(verdict.unit)}"]
+    return interactions_share(verdict)
 
 
 def agb_budget(scalars: dict, groups: dict) -> list:

@@ -10,7 +10,14 @@ from pathlib import Path
 import matplotlib.pyplot as plt
 import numpy as np
 
-from e2esim.io.error_budget import budget_source_name, interactions_share, source_groups, verdict_budget
+from e2esim.io.error_budget import (
+    SHAPLEY,
+    budget_source_name,
+    budget_split,
+    source_groups,
+    unattributed,
+    verdict_budget,
+)
 from e2esim.report.outliers import axis_cut, mark_cut
 from e2esim.report.plot_base import PlotSkipped, save
 from e2esim.report.sweep_layout import case_row_height, case_ticks
@@ -53,6 +60,7 @@ def plot_error_budget(result, folder: Path, options: dict) -> list:
     drawn: dict = {}
     notes = []
     coupled: set = set()
+    shapley: set = set()
     for ax, (j, cases, which, rows) in zip(axes[:, 0], panels):
         unit = cases[0].verdicts[j].unit
         checked = np.array([c.verdicts[j].value for c in cases])
@@ -73,7 +81,10 @@ def plot_error_budget(result, folder: Path, options: dict) -> list:
                     drawn.setdefault(f"{budget_source_name(r['source'], cases)} ({r['group']})", bar)
                 right, left = (right + value, left) if value > 0 else (right, left + value)
             v = c.verdicts[j]
-            shared = interactions_share(v)
+            shared = unattributed(v)
+            if budget_split(v) == SHAPLEY:
+                shapley.add(f"{c.index}")
+                coupled.update(r["source"] for r in case_rows if _part(r))
             rest = v.value - right - left if shared is None else shared
             if np.isfinite(rest) and rest != 0 and (shared is not None or (rest > 0 and right > 0)):
                 start = right if rest > 0 else left + rest
@@ -98,7 +109,11 @@ def plot_error_budget(result, folder: Path, options: dict) -> list:
     fig.legend(list(drawn.values()), list(drawn.keys()), loc="lower center", ncol=3, fontsize=7,
                bbox_to_anchor=(0.5, -0.01 - 0.025 * (len(drawn) // 3)))
     fig.tight_layout()
-    why = (f" Where grey exceeds 1 % of the checked value: {coupling_words(sorted(coupled))}." if coupled else "")
+    why = (f" Where the sources couple: {coupling_words(sorted(coupled))}." if coupled else "")
+    if shapley:
+        why += (" There (the Euler split would leave more than 1 % of the checked value to no source: case"
+                f"{'s' if len(shapley) > 1 else ''} {', '.join(sorted(shapley, key=int))}) the bars are the Shapley "
+                "split instead, which adds up with no remainder (docs/theory/error-budget.md, Section 3a).")
     return [(save(fig, folder, "error_budget"),
              "Error budget of each requirement: the part of the checked value each error source accounts for (bars, "
              "hatched: random-error budget; dotted: regression; cross-hatched: retrieval model; back-hatched: "
@@ -109,8 +124,9 @@ def plot_error_budget(result, folder: Path, options: dict) -> list:
 
 
 def _part(row) -> float:
-    """The length of a source's bar: its share of the checked value (its removal attribution where it has none)."""
-    return row["contribution"] if row.get("share") is None else row["share"]
+    """The length of a source's bar: its part of the checked value by the line's split (its removal attribution where
+    it has none)."""
+    return row["contribution"] if row.get("part") is None else row["part"]
 
 
 def _stack_ends(case_rows) -> list:

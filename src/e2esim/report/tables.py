@@ -5,10 +5,13 @@ from __future__ import annotations
 
 from e2esim.io.allocation_table import allocation_overview
 from e2esim.io.error_budget import (
+    SHAPLEY,
     agb_budget,
     budget_source_name,
+    budget_split,
     interactions_share,
     source_groups,
+    unattributed,
     unit_key,
     verdict_budget,
 )
@@ -46,25 +49,38 @@ def verdict_table(result) -> Table:
 
 
 def budget_table(result, j: int) -> Table | None:
-    """Requirement j: per case, each source's share of the checked value (``share.*``, summing to it with the part
-    not attributed) and, in brackets, how much the value falls without it (removal attribution)."""
+    """Requirement j: per case, each source's part of the checked value by the split the line uses (``split``:
+    Euler shares where the sources add, Shapley where they couple; the parts sum to the value with the part not
+    attributed) and, in brackets, how much the value falls without it (removal attribution)."""
     cases = result.cases
     rows = [verdict_budget(c.verdicts[j], source_groups(c)) for c in cases]
     sources = list(dict.fromkeys((r["source"], r["group"]) for case_rows in rows for r in case_rows))
     if not sources:
         return None
     unit = cases[0].verdicts[j].unit
-    rests = [interactions_share(c.verdicts[j]) for c in cases]
+    rests = [unattributed(c.verdicts[j]) for c in cases]
     shared = any(r is not None for r in rests)
-    header = ("case", f"checked value ({unit})", "verdict") + tuple(
+    header = ("case", f"checked value ({unit})", "verdict") + (("split",) if shared else ()) + tuple(
         f"{budget_source_name(s, cases)} [{g}] ({unit})" for s, g in sources) + (("not attributed",) if shared else ())
     body = []
     for c, case_rows, rest in zip(cases, rows, rests):
         v = c.verdicts[j]
         by_source = {r["source"]: r for r in case_rows}
         body.append((f"{c.index}: {c.label}", fmt(v.value, 3), status_badge(v.status))
+                    + ((split_words(v),) if shared else ())
                     + tuple(_budget_cell(by_source.get(s)) for s, _ in sources) + ((fmt(rest, 3),) if shared else ()))
     return Table(header, tuple(body))
+
+
+def split_words(verdict) -> str:
+    """Which split a budget line uses, and why: Shapley where the Euler split leaves a part not attributed (the
+    sources couple), naming how large."""
+    split = budget_split(verdict)
+    if split is None:
+        return "–"
+    if split != SHAPLEY:
+        return "Euler"
+    return f"Shapley (sources couple: Euler leaves {fmt(interactions_share(verdict), 3)} not attributed)"
 
 
 def allocation_table(result, j: int) -> Table | None:
@@ -95,9 +111,9 @@ def allocation_table(result, j: int) -> Table | None:
 def _budget_cell(row) -> str:
     if row is None:
         return "–"
-    if row["share"] is None:
+    if row["part"] is None:
         return fmt(row["contribution"], 3)
-    return f"{fmt(row['share'], 3)} ({fmt(row['contribution'], 3)})"
+    return f"{fmt(row['part'], 3)} ({fmt(row['contribution'], 3)})"
 
 
 def agb_budget_table(result) -> Table | None:

@@ -37,6 +37,7 @@ from e2esim.requirements.margins import (
     tradeoff_curves,
     validity_note,
 )
+from e2esim.requirements.shapley import bound_shapley, rms_shapley
 from e2esim.requirements.shares import bound_shares, rms_parts, shares
 from e2esim.requirements.tradeoff import AGBBound
 from e2esim.requirements.uncertainty import largest_side, verdict_uncertainty
@@ -141,6 +142,7 @@ class AGBErrorBound(Requirement):
             side_values = {side: (1.0 if side == "over" else -1.0) * plain(
                 agb.quantile(conf if side == "over" else 1 - conf)) for side in sides}
             details.update(bound_shares(value, agb, conf, sides, side_values, "percent"))
+            details.update(bound_shapley(value, agb, conf, sides, side_values, "percent"))
         details.update(allocation_details(self, details, agb.sources(), c["bound_percent"], value, "percent"))
         return RequirementVerdict(
             name=self.label,
@@ -187,6 +189,7 @@ class AGBRelativeRMSE(Requirement):
         details.update(contributions)
         if can_attribute(agb):
             details.update(shares(value, *rms_parts(agb), "percent"))
+            details.update(rms_shapley(value, agb, "percent"))
         details.update(allocation_details(self, details, agb.sources(), limit, value, "percent"))
         return RequirementVerdict(self.label, truth(value <= limit), value, limit, limit - value, "%", basis,
                                   details, dominant=dominant(details), notes=tuple(notes) + sure_notes)
@@ -230,6 +233,7 @@ class AGBAbsoluteRMSE(Requirement):
         details.update(contributions)
         if can_attribute(agb):
             details.update(shares(value, *rms_parts(agb), "t_ha"))
+            details.update(rms_shapley(value, agb, "t_ha"))
         details.update(allocation_details(self, details, agb.sources(), limit, value, "t_ha"))
         below = self.config["applies_below_t_ha"]
         applies = True if below is None else truth(np.asarray(agb_true) < below)

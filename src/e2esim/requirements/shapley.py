@@ -1,0 +1,214 @@
+"""Budgets that add up where the sources couple: the Shapley split of a requirement's checked value over the error
+sources (docs/theory/error-budget.md, Section 3a).
+
+The Euler split (``e2esim.requirements.shares``) needs only the n single removals, and is exact where the sources
+add; where the error model couples them (Faraday rotation acts through crosstalk and imbalance, Men et al. 2021,
+eqs. 11-12) the single removals do not add, and the Euler parts can leave a remainder larger than the value. The
+Shapley value (Shapley 1953, "A value for n-person games", Contributions to the Theory of Games II, 307-317, eq. for
+phi_i; for variance decompositions Owen 2014, SIAM/ASA J. Uncertainty Quantification 2, 245-251, Section 2) splits a
+game f over the subsets S of the n sources without remainder:
+
+    phi_i = sum over S not holding i of |S|! (n - |S| - 1)! / n!  [f(S + i) - f(S)],   sum_i phi_i = f(N) - f({}).
+
+The game is the square of the statistic of the sigma error that the checked value is a monotone function of, with
+only the sources of S switched on (the others taken away through ``ErrorModel.without`` and the added variances,
+as ``AGBError.without`` takes away one):
+
+* RMSE: f(S) = b_S^2 + v_S, the mean square (where the sources add this is the Euler split exactly: the cross terms
+  2 b_i b_j are halved between i and j, phi_i = b_i b + v_i);
+* the bound's quantile x = b + z s ("over"; z s - b "under"): f(S) = x_S |x_S| (the square with its sign, so a
+  source that pulls the quantile below zero counts against it); for independent zero-mean terms x^2 = z^2 sum v_i,
+  and phi_i = z^2 v_i: the variance shares.
+
+The checked value V is divided in proportion, share_i = V phi_i / f(N) (eq. 4 of the Euler split), and f({}) (what
+the error model keeps with every source taken away; zero for the built-in models) is ``shapley.no_source_<unit>``, so
+the shares sum to V exactly (to rounding). The 2^n subsets cost 2^k evaluations of the error model (k its sources
+active in some case of the block, each evaluated once for the whole block) and arithmetic for the others.
+"""
+
+from __future__ import annotations
+
+from math import factorial
+from weakref import WeakKeyDictionary
+
+import numpy as np
+
+from e2esim.requirements.shares import picked_side
+from e2esim.retrieval.gauss_hermite import standard_normal_quantile
+
+NO_SOURCE = "no_source"
+"""The key of the part of the checked value that the error model keeps with every source taken away:
+``shapley.no_source_<unit>``."""
+
+
+def subset_moments(agb) -> tuple:
+    """(names, b, v, active): the sources of ``agb`` active in some case, the mean b and variance v of the sigma error
+    (m^2/m^2, (m^2/m^2)^2), shape (2^n,) + the case shape, with only the sources of each subset switched on (subset
+    mask m: bit k set where source k is on; m = 2^n - 1 is ``agb`` itself), and where each source is active, (n,) +
+    the case shape (None without sources). A source not active in a case changes nothing there, exactly."""
+    model = agb.error_model
+    own, means, variances, own_active = _model_subsets(model)
+    added = np.asarray(agb.added_variance, dtype=float)
+    value2 = np.square(np.asarray(model.value, dtype=float))
+    others = []
+    for name in agb.sources():
+        if name not in model.sources:
+            var = value2 * np.maximum(agb.contribution(name).relative_variance, 0.0)
+            if np.any(var != 0):
+                others.append((name, var))
+    names = tuple(own) + tuple(n for n, _ in others)
+    k, n = len(own), len(names)
+    shape = np.broadcast_shapes(np.shape(added), np.shape(means[0]), *(np.shape(var) for _, var in others))
+    masks = np.arange(2**n)
+    b = np.broadcast_to(means[masks & (2**k - 1)].reshape((-1,) + np.shape(means[0])), (2**n,) + shape)
+    v = np.broadcast_to(variances[masks & (2**k - 1)].reshape((-1,) + np.shape(means[0])), (2**n,) + shape)
+    if others:
+        # the variance of the terms left out, added term by term in one order (a case gets the same bits alone as
+        # in a block); as AGBError.without: the added variance less it, never negative
+        left_out = np.zeros((2**n,) + shape)
+        for j, (_, var) in enumerate(others):
+            off = ((masks >> (k + j)) & 1 == 0).astype(float).reshape((-1,) + (1,) * len(shape))
+            left_out = left_out + off * var
+        v = v + np.maximum(added - left_out, 0.0)
+    else:
+        v = v + added
+    active = np.stack([np.broadcast_to(x, shape) for x in own_active] + [np.broadcast_to(var != 0, shape)
+                                                                          for _, var in others]) if n else None
+    return names, np.array(b, dtype=float), v, active
+
+
+_SUBSETS: WeakKeyDictionary = WeakKeyDictionary()
+"""The subsets' moments of an error model (``_model_subsets``), kept while the model lives: the requirements of a
+case ask the same model."""
+
+
+def _model_subsets(model) -> tuple:
+    """(own, means, variances, active): the error model's sources active in some case, its mean and variance with
+    only the sources of each subset of them switched on (2^k,) + the case shape, each subset's model built by
+    removals one at a time (``ErrorModel.without``) and evaluated once, and where each source is active (True: in
+    every case, or a per-case bool array)."""
+    try:
+        return _SUBSETS[model]
+    except (KeyError, TypeError):  # not yet evaluated, or a model that cannot be weakly referenced
+        pass
+    own, inactive = [], {}
+    for name in model.sources:
+        variant = model.without(name)
+        if variant is not model:
+            own.append(name)
+            inactive[name] = getattr(variant, "inactive", None)
+    active = tuple(True if inactive[name] is None else ~np.asarray(inactive[name], dtype=bool) for name in own)
+    k = len(own)
+    variants = {0: model}  # by the bit mask of the sources taken away
+    for removed in range(1, 2**k):
+        top = removed.bit_length() - 1
+        variants[removed] = variants[removed & ~(1 << top)].without(own[top])
+    full = 2**k - 1
+    means, variances = [], []
+    for on in range(2**k):  # ascending: a subset's smaller subsets are done first
+        m = variants[full & ~on].current()
+        # a truncated expansion far from its own levels can give a slightly negative variance: read it as 0 (as
+        # e2esim.error_model reads a channel's)
+        mean, var = np.asarray(m.mean, dtype=float), np.clip(np.asarray(m.variance, dtype=float), 0.0, None)
+        for bit, name in enumerate(own):  # where source ``bit`` is not active its removal changes nothing
+            off = inactive[name]
+            if on >> bit & 1 and off is not None and np.any(off):
+                mean = np.where(off, means[on & ~(1 << bit)], mean)
+                var = np.where(off, variances[on & ~(1 << bit)], var)
+        means.append(mean)
+        variances.append(var)
+    shape = np.broadcast_shapes(*(np.shape(x) for x in means + variances))
+    out = (tuple(own), np.stack([np.broadcast_to(x, shape) for x in means]),
+           np.stack([np.broadcast_to(x, shape) for x in variances]), active)
+    try:
+        _SUBSETS[model] = out
+    except TypeError:  # a model that cannot be weakly referenced is evaluated each time
+        pass
+    return out
+
+
+def shapley_values(f: np.ndarray) -> np.ndarray:
+    """phi (n,) + case shape of the game ``f`` ((2^n,) + case shape, indexed by the subset's bit mask): the Shapley
+    value of every player (module docstring)."""
+    n = int(f.shape[0]).bit_length() - 1
+    masks = np.arange(2**n)
+    sizes = np.array([bin(m).count("1") for m in masks])
+    weight = np.array([factorial(s) * factorial(n - s - 1) / factorial(n) if s < n else 0.0 for s in sizes])
+    last = np.ascontiguousarray(np.moveaxis(f, 0, -1))  # subsets last: each case summed alike, alone or in a block
+    phi = np.empty((n,) + f.shape[1:])
+    for i in range(n):
+        without = masks[(masks >> i & 1) == 0]
+        phi[i] = np.sum(weight[without] * (last[..., without | (1 << i)] - last[..., without]), axis=-1)
+    return phi
+
+
+def _by_players(game: np.ndarray, active) -> tuple:
+    """(phi, empty): the Shapley values (n,) + case shape and the empty-set value of ``game`` in each case among the
+    sources active there, the others switched on and given nothing: a case plays with the players it has alone, so
+    that a block's numbers are, bit for bit, those of its cases alone."""
+    if active is None or game.ndim == 1:
+        return shapley_values(game), game[0]
+    n, shape = len(active), game.shape[1:]
+    flat, on = game.reshape(game.shape[0], -1), active.reshape(n, -1)
+    phi, empty = np.zeros((n, flat.shape[1])), np.empty(flat.shape[1])
+    subsets = {}
+    for case in range(flat.shape[1]):  # each case's sums over its own subsets, 1-D, as the case alone sums them
+        pattern = tuple(bool(x) for x in on[:, case])
+        if pattern not in subsets:
+            players = [j for j in range(n) if pattern[j]]
+            rest = sum(1 << j for j in range(n) if not pattern[j])
+            subsets[pattern] = (players, np.array([rest | sum(1 << p for b, p in enumerate(players) if m >> b & 1)
+                                                   for m in range(2 ** len(players))]))
+        players, sub = subsets[pattern]
+        part = np.ascontiguousarray(flat[sub, case])
+        phi[players, case] = shapley_values(part)
+        empty[case] = part[0]
+    return phi.reshape((n,) + shape), empty.reshape(shape)
+
+
+def _split(value, game: np.ndarray, names: tuple, active, unit: str) -> dict:
+    """``shapley.<source>_<unit>`` and ``shapley.no_source_<unit>``: ``value`` divided as the game's Shapley values
+    and its empty-set value divide f(N); they sum to ``value`` (zero everywhere where f(N) is zero)."""
+    value = np.asarray(value, dtype=float)
+    phi, empty = _by_players(game, active)
+    total = game[-1]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        scale = np.where(total != 0, value / np.where(total != 0, total, 1.0), 0.0)
+    out = {f"shapley.{name}_{unit}": _plain(scale * p) for name, p in zip(names, phi)}
+    out[f"shapley.{NO_SOURCE}_{unit}"] = _plain(scale * empty)
+    return out
+
+
+def rms_shapley(value, agb, unit: str) -> dict:
+    """The Shapley split of an RMSE verdict's ``value``: the game is the mean square b^2 + v of the sigma error."""
+    names, b, v, active = subset_moments(agb)
+    return _complete(_split(value, b * b + v, names, active, unit), agb, unit)
+
+
+def bound_shapley(value, agb, confidence: float, sides: tuple, side_values: dict, unit: str) -> dict:
+    """The Shapley split of an ``agb_error_bound`` verdict's ``value``, of the side that sets it, case by case (as
+    ``e2esim.requirements.shares.bound_shares``): the game is x |x| of the side's quantile x of the sigma error."""
+    names, b, v, active = subset_moments(agb)
+    z = float(standard_normal_quantile(confidence))
+    by_side = {}
+    for side in sides:
+        x = b + z * np.sqrt(v) if side == "over" else z * np.sqrt(v) - b
+        by_side[side] = _split(value, x * np.abs(x), names, active, unit)
+    pick = picked_side(side_values, sides)
+    if isinstance(pick, str):
+        return _complete(by_side[pick], agb, unit)
+    chosen = pick == "over"
+    return _complete({key: _plain(np.where(chosen, by_side["over"][key], by_side["under"][key]))
+                      for key in by_side["over"]}, agb, unit)
+
+
+def _complete(out: dict, agb, unit: str) -> dict:
+    """Every source of ``agb`` gets its key: zero for those not active in any case."""
+    like = next(iter(out.values()))
+    zero = 0.0 if np.ndim(like) == 0 else np.zeros(np.shape(like))
+    return {**{f"shapley.{name}_{unit}": out.get(f"shapley.{name}_{unit}", zero) for name in agb.sources()},
+            f"shapley.{NO_SOURCE}_{unit}": out[f"shapley.{NO_SOURCE}_{unit}"]}
+
+
+def _plain(x):
+    return float(x) if np.ndim(x) == 0 else np.asarray(x, dtype=float)

@@ -1,0 +1,128 @@
+"""The Shapley split of a requirement's checked value over the error sources (issue 23, item 1; e2esim.requirements
+.shapley, docs/theory/error-budget.md, Section 3a): it sums to the value, equals the variance shares for independent
+zero-mean sources that add in quadrature, gives equal shares to interchangeable sources and nothing to a source
+without effect, and has no remainder where the sources couple. Every shipped scenario's split is summed in
+tests/test_budget_shares.py."""
+
+from __future__ import annotations
+
+from math import factorial
+
+import numpy as np
+import pytest
+
+from e2esim.distortion.error_model import HVErrorModel
+from e2esim.error_model import Contribution, ErrorModel, Moments
+from e2esim.faraday.distribution import GaussianFaraday
+from e2esim.requirements.shapley import bound_shapley, rms_shapley, shapley_values, subset_moments
+from e2esim.requirements.shares import bound_shares, rms_parts, shares
+from e2esim.retrieval.agb_error import AGBContribution, AGBError
+from helpers import forest, system
+
+CONF = 0.99865
+
+
+class ToyModel(ErrorModel):
+    """Sources of zero mean whose variances add, times (1 + coupling x the product of the first two), so that
+    ``coupling`` makes the first two interact; a source of level 0 is present but does nothing."""
+
+    def __init__(self, variances: dict, coupling: float = 0.0, value: float = 0.05, removed=(), means=None):
+        self.variances, self.coupling, self._value, self.removed = dict(variances), coupling, value, frozenset(removed)
+        self.means = dict(means or {})
+
+    value = property(lambda self: self._value)
+    levels = property(lambda self: {})
+    sources = property(lambda self: tuple(self.variances))
+
+    def moments(self, **levels):
+        on = {k: v for k, v in self.variances.items() if k not in self.removed}
+        names = list(self.variances)
+        pair = np.prod([on.get(k, 0.0) for k in names[:2]]) / self._value**4
+        mean = sum(m for k, m in self.means.items() if k not in self.removed)
+        return Moments(np.float64(mean), np.float64(sum(on.values()) * (1.0 + self.coupling * pair)))
+
+    def without(self, source):
+        return ToyModel(self.variances, self.coupling, self._value, self.removed | {source}, self.means)
+
+    def contributions(self):
+        return {k: Contribution(0.0, v) for k, v in self.variances.items()}
+
+
+def _toy_agb(variances, coupling=0.0, random=(), means=None):
+    model = ToyModel(variances, coupling, means=means)
+    m = model.current()
+    agb = AGBError.from_sigma_errors(2.2, model.value, float(m.mean), float(m.sd), error_model=model)
+    return agb.with_terms(tuple(AGBContribution(f"term{k}", "random", 0.0, v) for k, v in enumerate(random)))
+
+
+def _bound(agb, sides=("over",)):
+    q = {"over": 100 * float(agb.quantile(CONF)), "under": -100 * float(agb.quantile(1 - CONF))}
+    value = max(q[s] for s in sides)
+    return value, bound_shapley(value, agb, CONF, sides, {s: q[s] for s in sides}, "percent")
+
+
+def test_the_shapley_value_of_a_game_is_its_definition_and_sums_to_the_whole():
+    rng = np.random.default_rng(7)
+    f = rng.normal(size=8)
+    f[0] = 0.0
+    phi = shapley_values(f)
+    assert phi.sum() == pytest.approx(f[-1], rel=1e-12)
+    for i in range(3):  # phi_i = sum over S without i of |S|!(n-|S|-1)!/n! [f(S+i) - f(S)] (Shapley 1953)
+        expected = sum(factorial(bin(s).count("1")) * factorial(2 - bin(s).count("1")) / 6 * (f[s | 1 << i] - f[s])
+                       for s in range(8) if not s >> i & 1)
+        assert phi[i] == pytest.approx(expected, rel=1e-12)
+
+
+def test_independent_sources_adding_in_quadrature_get_their_variance_shares():
+    variances = {"a": 4e-6, "b": 9e-6}
+    for agb in (_toy_agb(variances), _toy_agb({"a": 4e-6}, random=(9e-6 / 0.05**2,))):
+        names = agb.sources()
+        value, out = _bound(agb)
+        rmse = 100 * agb.rmse()
+        rms = rms_shapley(rmse, agb, "percent")
+        for name, var in zip(names, variances.values()):  # share_i = V v_i / sum v
+            assert out[f"shapley.{name}_percent"] == pytest.approx(value * var / 13e-6, rel=1e-9)
+            assert rms[f"shapley.{name}_percent"] == pytest.approx(rmse * var / 13e-6, rel=1e-9)
+        assert sum(out.values()) == pytest.approx(value, rel=1e-12)
+        assert abs(out["shapley.no_source_percent"]) < 1e-9 * value  # rounding of the added variance
+
+
+def test_where_biased_sources_add_the_shapley_split_of_the_mean_square_is_the_euler_split():
+    """Where b and v add over the sources, the game b_S^2 + v_S gives phi_i = b_i b + v_i (docs/theory/error-budget.md,
+    Section 3a): eq. (2), with no remainder."""
+    agb = _toy_agb({"a": 4e-6, "b": 9e-6, "c": 1e-6}, means={"a": 0.004, "b": -0.001}, random=(0.002,))
+    rmse = 100 * agb.rmse()
+    euler = shares(rmse, *rms_parts(agb), "percent")
+    exact = rms_shapley(rmse, agb, "percent")
+    assert abs(euler["share.interactions_percent"]) < 1e-12 * rmse
+    for name in agb.sources():
+        assert exact[f"shapley.{name}_percent"] == pytest.approx(euler[f"share.{name}_percent"], rel=1e-9, abs=1e-12)
+    b, v = 0.003, 14e-6 + 0.05**2 * 0.002  # b pulls the bias back: its part b_b b + v_b is less than its variance
+    assert exact["shapley.b_percent"] == pytest.approx(rmse * (-0.001 * b + 9e-6) / (b * b + v), rel=1e-9)
+
+
+def test_interchangeable_sources_share_equally_and_a_source_without_effect_gets_nothing():
+    agb = _toy_agb({"a": 5e-6, "b": 5e-6, "idle": 0.0, "c": 2e-6}, coupling=3e5)
+    value, out = _bound(agb, ("over", "under"))
+    assert out["shapley.a_percent"] == pytest.approx(out["shapley.b_percent"], rel=1e-12)
+    assert out["shapley.idle_percent"] == 0.0
+    assert sum(out.values()) == pytest.approx(value, rel=1e-12)
+    # the coupling is real: the single removals (Euler) leave a remainder that the Shapley split does not
+    q = {"over": value, "under": -100 * float(agb.quantile(1 - CONF))}
+    euler = bound_shares(value, agb, CONF, ("over", "under"), q, "percent")
+    assert abs(euler["share.interactions_percent"]) > 0.05 * value
+
+
+def test_where_faraday_rotation_couples_the_split_has_no_remainder_and_stays_within_the_value():
+    model = HVErrorModel(forest("boreal_200"), system(), GaussianFaraday(np.pi / 3, np.radians(5.0)))
+    m = model.current()
+    agb = AGBError.from_sigma_errors(2.2, model.value, float(m.mean), float(m.sd), error_model=model)
+    names, b, v, _ = subset_moments(agb)
+    assert b[-1] == pytest.approx(float(m.mean), rel=1e-12) and v[-1] == pytest.approx(float(m.variance), rel=1e-12)
+    assert "faraday_rotation" in names and b[0] == 0.0 and v[0] == 0.0
+    value, out = _bound(agb, ("over", "under"))
+    assert sum(out.values()) == pytest.approx(value, rel=1e-12)
+    assert all(-value <= x <= value for x in out.values())
+    q = {"over": value, "under": -100 * float(agb.quantile(1 - CONF))}
+    euler = bound_shares(value, agb, CONF, ("over", "under"), q, "percent")
+    assert abs(euler["share.interactions_percent"]) > 0.01 * value
