@@ -63,12 +63,22 @@ def _resolved(spreads: int):
     return Scenario(yaml.safe_load(SWEEP.replace("SPREADS", str(spreads))), "memory.yaml").resolve()
 
 
+@pytest.fixture(scope="module")
+def _warmed_up():
+    """What the first run imports and builds once (per process) is not counted: one small run, shared by the
+    module's tests."""
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(run_module, "BLOCK_CASES", BLOCK)
+        patch.setattr(run_module, "SPILL_ABOVE_CASES", BLOCK)
+        patch.setattr(run_module, "KEEP_PRODUCTS_UP_TO", BLOCK)
+        run_scenario(_resolved(2), progress=False)
+
+
 @pytest.fixture
-def small_blocks(monkeypatch):
+def small_blocks(monkeypatch, _warmed_up):
     monkeypatch.setattr(run_module, "BLOCK_CASES", BLOCK)
     monkeypatch.setattr(run_module, "SPILL_ABOVE_CASES", BLOCK)
     monkeypatch.setattr(run_module, "KEEP_PRODUCTS_UP_TO", BLOCK)
-    run_scenario(_resolved(2), progress=False)  # what the first run imports and builds once is not counted
 
 
 def _held(run) -> tuple:
