@@ -54,7 +54,10 @@ QUICK = {
     "uavsar_ahmed2014": _REGRESSION,
     "biomass_fr_requirement": ("orbit.acquisitions.step_days=120", "orbit.swath_samples=2",
                                "ionosphere.variability_nodes=3", "sweep.parameters.orbit.passes=[dawn]",
-                               "output.answer=false"),  # the solve's answer: tests/test_run_answer.py
+                               "output.answer=false"),
+    # ^ its bias x SD boundary costs a dozen engine runs of ~1.4 s CPU each even at the smallest sizes (2 bias
+    # values, 1 date, 1 swath position): the answer's code is tested on small chains (tests/test_run_answer.py,
+    # test_solve_speed.py); the full answer runs in test_scenarios_run.py (slow)
     "biomass_allocation": ("output.answer=false",),  # two analytic cases; the answer: tests/test_run_answer.py
     "biomass_calibration_campaign": ("calibration.0.step_days=5", "calibration.0.search_max_per_year=2",
                                      "sweep.parameters.calibration.0.epoch_day=[91,1826]"),

@@ -136,6 +136,7 @@ def scenario_file(tmp_path):
     (small(), ["--for", "ionosphere.mean_deg", "--for", "ionosphere.mean_deg"], "two different keys"),
     (small(), [], "give --for KEY"),
     (small() | {"simulation": {"mode": "montecarlo"}}, ["--for", CROSSTALK], "need the analytic model"),
+    (small(), ["--for", CROSSTALK, "--workers", "0"], "--workers 0: expected a number of processes >= 1"),
 ])
 def test_bad_solves_exit_2_with_a_message(capsys, scenario_file, raw, argv, message):
     code, out = run_cli(capsys, "solve", scenario_file(raw), *argv)

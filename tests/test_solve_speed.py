@@ -9,6 +9,9 @@ import e2esim
 from e2esim.block import Catalog, Factor
 from e2esim.budget.block import block_budgets
 from e2esim.flowdown import boundary
+from e2esim.flowdown.evaluate import Evaluator
+from e2esim.flowdown.keys import solve_key
+from e2esim.flowdown.report import solve_lines
 from e2esim.requirements.attribution import verdicts_only
 from e2esim.runner.run import run_scenario
 from e2esim.runner.scenario import Scenario
@@ -98,6 +101,14 @@ def test_the_boundary_by_continuation_is_the_fully_scanned_one(monkeypatch):
     np.testing.assert_array_equal(fast.y, full.y)
     assert fast.state == full.state and fast.side == full.side and fast.binding == full.binding
     assert "met at" in fast.state and fast.rows < full.rows
+    met = [i for i, state in enumerate(fast.state) if state == "met at"]
+    for i in met:  # on the boundary the binding case keeps no margin, every other case keeps its own (>= 0)
+        case = fast.labels.index(fast.binding[i][1])
+        assert np.nanargmin(fast.case_margins[:, i]) == case and abs(fast.case_margins[case, i]) < 1e-3
+        assert np.all(fast.case_margins[:, i] > -1e-3)
+    lines = solve_lines("s", fast)
+    assert lines[2].endswith(", ".join(f"{fast.x[i]:.4g}: <= {fast.y[i]:.4g}" for i in met))
+    assert lines[3].startswith("  binding case: ")
 
 
 def test_the_provenance_asks_git_and_the_package_metadata_once_per_process(monkeypatch):
@@ -114,3 +125,15 @@ def test_the_provenance_asks_git_and_the_package_metadata_once_per_process(monke
     again = provenance.dependency_versions()
     again["numpy"] = "edited"  # a caller's copy: the next run's provenance is not changed by it
     assert (provenance.source_commit(), provenance.dependency_versions()) == first and not calls
+
+
+def test_the_solve_on_several_workers_gives_the_serial_margins():
+    """``--workers`` spreads each engine run's rows over processes, in blocks of other sizes: the same margins."""
+    raw = _budget_scenario()
+    raw["sweep"] = {"parameters": {"scene.agb_t_ha": [100, 300]}}
+    scenario = Scenario(raw, "<test>")
+    resolved = scenario.resolve()
+    keys = tuple(solve_key(resolved, k) for k in (CROSSTALK, "instrument.channel_imbalance.level_db"))
+    grid = np.array([[-40, -45], [-35, -30], [-30, -20], [-25, -35], [-22, -15], [-20, -40]], dtype=float)
+    serial = Evaluator(scenario, resolved, keys).grid_margins(grid)
+    np.testing.assert_array_equal(Evaluator(scenario, resolved, keys, workers=2).grid_margins(grid), serial)

@@ -221,7 +221,7 @@ def cmd_run(args) -> int:
     result = run_into_folder(resolved, folder, args.force, args.resume, progress=not args.no_progress,
                              command=" ".join(["e2esim"] + sys.argv[1:]), workers=args.workers,
                              scheduler=args.scheduler, engine="per_case" if args.per_case else "batched",
-                             answer=flowdown.scenario_answer)
+                             answer=lambda r: flowdown.scenario_answer(r, args.workers))
     for finding in no_effect(result):
         print(f"e2esim: warning: {finding.message()}", file=sys.stderr)
     out = sys.stderr if args.json else sys.stdout

@@ -36,10 +36,11 @@ def stated_solve(raw: dict, keys=None, bounds=None, worst_case: bool = False) ->
     return keys, one, bool(worst_case or stated.get("worst_case", False))
 
 
-def scenario_answer(resolved) -> dict | None:
+def scenario_answer(resolved, workers: int = 1) -> dict | None:
     """The answer to ``resolved``'s ``solve`` or ``allocate`` section (a ``ResolvedScenario``), or None when it
     asks none or ``output.answer`` is off: {"question": "solve" or "allocate", "lines": the answer as text,
-    "result": what ``e2esim solve --json`` prints, or the specification of ``e2esim allocate``}."""
+    "result": what ``e2esim solve --json`` prints, or the specification of ``e2esim allocate``}. workers : the
+    run's ``--workers``, over which the solve's engine runs spread their blocks (the same answer as one)."""
     raw = resolved.raw
     asked = [s for s in ("solve", "allocate") if raw.get(s)]
     if not resolved.output.get("answer", True):
@@ -54,7 +55,8 @@ def scenario_answer(resolved) -> dict | None:
         keys, bounds, worst = stated_solve(raw)
         if not keys:
             raise UserError(f"{resolved.source}: solve.for: name the key(s) to solve for")
-        result = solve(scenario, keys, bounds, worst_case=worst, points=int(raw["solve"].get("points", 100)))
+        result = solve(scenario, keys, bounds, worst_case=worst, points=int(raw["solve"].get("points", 100)),
+                       workers=workers)
         return {"question": "solve", "lines": solve_lines(resolved.name, result),
                 "result": json.loads(solve_json(result))}
     stated = raw["allocate"]

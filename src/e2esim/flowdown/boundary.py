@@ -33,7 +33,9 @@ class BoundaryResult:
     """keys, bounds : the two keys and their search ranges. x : the first key's points; y : the second key's value on
     the boundary at each (NaN where ``state`` is not "met at"); state : per point ("met at", "every value meets it",
     "no value meets it"); side : which values of the second key meet ("at most" / "at least"); binding : per point,
-    (requirement, case label) of the smallest margin there."""
+    (requirement, case label) of the smallest margin there; case_margins : (cases, points) each case's smallest
+    margin over the requirements there (the binding case's is zero on the boundary; the others' say how much room
+    they keep)."""
 
     keys: tuple
     bounds: tuple
@@ -47,6 +49,7 @@ class BoundaryResult:
     worst_case: bool = True
     calls: int = 0
     rows: int = 0
+    case_margins: np.ndarray = None
 
 
 def _worst_of(m: np.ndarray) -> tuple:
@@ -56,13 +59,13 @@ def _worst_of(m: np.ndarray) -> tuple:
     return flat[where, np.arange(flat.shape[1])], where
 
 
-def boundary(loaded, resolved, keys, bounds, points: int) -> BoundaryResult:
+def boundary(loaded, resolved, keys, bounds, points: int, workers: int = 1) -> BoundaryResult:
     if bounds is not None and len(bounds) != 2:
         raise UserError("--bounds: give one LO HI pair per --for key (two pairs for two keys)")
     ranges = [bounds_of(k, None if bounds is None else bounds[i]) for i, k in enumerate(keys)]
     if not 2 <= points <= 10_000:
         raise UserError(f"--points {points}: expected 2 to 10000 points along the boundary")
-    evaluator = Evaluator(loaded, resolved, tuple(keys))
+    evaluator = Evaluator(loaded, resolved, tuple(keys), workers)
     n = evaluator.n
     x = np.linspace(*ranges[0], points)
     (lo, hi) = ranges[1]
@@ -79,11 +82,14 @@ def boundary(loaded, resolved, keys, bounds, points: int) -> BoundaryResult:
     if todo.size:
         y[todo], _ = brent(f, a[todo], b[todo], f_a[todo], f_b[todo], 1e-6 * (hi - lo))
     at = np.where(np.isnan(y), best, y)
-    _, where = _worst_of(evaluator.grid_margins(np.stack([x, at], 1)))
+    m_at = evaluator.grid_margins(np.stack([x, at], 1))
+    _, where = _worst_of(m_at)
+    case_margins = np.min(np.where(np.isnan(m_at), np.inf, m_at), axis=0)  # (n, P)
+    case_margins[np.isinf(case_margins)] = np.nan
     binding = [(evaluator.names[w // n], evaluator.labels[w % n]) for w in where]
     side = [("at most" if g else "at least") if s == "met at" else "" for s, g in zip(state, side_lo)]
     return BoundaryResult(tuple(k.name for k in keys), tuple(ranges), evaluator.labels, evaluator.names, x, y,
-                          list(state), side, binding, True, evaluator.calls, evaluator.rows)
+                          list(state), side, binding, True, evaluator.calls, evaluator.rows, case_margins)
 
 
 def _scan(evaluator, x: np.ndarray, ys: np.ndarray) -> np.ndarray:

@@ -10,6 +10,7 @@ from e2esim.flowdown.allocation import allocate, allocation_markdown, allocation
 from e2esim.flowdown.answer import stated_solve
 from e2esim.flowdown.inverse import solve
 from e2esim.flowdown.report import solve_json, solve_lines, solve_markdown
+from e2esim.runner.folder_run import check_executor
 from e2esim.runner.scenario import Scenario
 
 
@@ -34,7 +35,8 @@ def cmd_solve(args) -> int:
     keys, one, worst = stated_solve(scenario.raw, args.keys, args.bounds, args.worst_case)
     if not keys:
         raise UserError(f"{args.scenario}: give --for KEY (or a 'solve: {{for: [KEY]}}' section in the scenario)")
-    result = solve(scenario, keys, one, worst_case=worst, points=args.points)
+    check_executor(args.workers, None)
+    result = solve(scenario, keys, one, worst_case=worst, points=args.points, workers=args.workers)
     name = scenario.raw.get("name", Path(args.scenario).stem)
     _write(args.output, {"solve.md": solve_markdown(name, result), "solve.json": solve_json(result) + "\n"})
     if args.json:

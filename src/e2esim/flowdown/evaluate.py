@@ -35,10 +35,11 @@ def _set(raw: dict, path: tuple, value) -> None:
 class Evaluator:
     """Margins of every requirement in chosen cases at chosen values of ``keys`` (``SolveKey``s).
 
-    scenario : the ``Scenario`` (its ``raw`` is copied). resolved : its ``ResolvedScenario``.
+    scenario : the ``Scenario`` (its ``raw`` is copied). resolved : its ``ResolvedScenario``. workers : processes
+    each run's blocks are spread over (``--workers``; the margins are the same as with one, block by block).
     """
 
-    def __init__(self, scenario: Scenario, resolved, keys: tuple):
+    def __init__(self, scenario: Scenario, resolved, keys: tuple, workers: int = 1):
         raw = copy.deepcopy(scenario.raw)
         for section in ("solve", "allocate"):
             raw.pop(section, None)
@@ -66,6 +67,7 @@ class Evaluator:
         self.inputs = resolved.plan.table.input_columns() if resolved.sweep_keys else {}
         self.calls = 0
         self.rows = 0
+        self.workers = workers
 
     def grid_margins(self, values: np.ndarray) -> np.ndarray:
         """(R, n, P) margins of every requirement in every case at each of P points ``values`` ((P, len(keys))):
@@ -93,7 +95,8 @@ class Evaluator:
         try:
             resolved = Scenario(raw, self.source).resolve()
             with verdicts_only():  # the margins alone: no shares of the sources
-                result = run_scenario(resolved, progress=False, keep_products=False, spill=False)
+                result = run_scenario(resolved, progress=False, keep_products=False, spill=False,
+                                      workers=self.workers)
         except UserError as exc:  # a value of the search range the chain refuses: say where, and what to do
             keys = ", ".join(key.name for key in self.keys)
             raise UserError(f"{exc} (while searching {keys}: narrow the search range with --bounds LO HI, or the "

@@ -86,12 +86,14 @@ def _check_effect(evaluator, state, key, bounds, given):
                         "or leave them out to search the key's whole allowed range")
 
 
-def solve(scenario, keys, bounds=None, worst_case: bool = False, points: int = 100, set: dict | None = None):
+def solve(scenario, keys, bounds=None, worst_case: bool = False, points: int = 100, set: dict | None = None,
+          workers: int = 1):
     """The value of one key (``keys``: a key or a list of one) at which each requirement is exactly met, for every
     case or for the worst case over the sweep (``SolveResult``); with two keys the boundary of the allowed region
     (``e2esim.flowdown.boundary.boundary``, ``points`` values of the first key). scenario : path, dict or
     ``Scenario``; set : overrides as ``e2esim.run`` takes them; bounds : (lo, hi) of the search (default: the
-    parameter's allowed range)."""
+    parameter's allowed range); workers : processes each engine run spreads its blocks over (the same answer as
+    one)."""
     loaded = load_scenario(scenario, set)
     resolved = loaded.resolve()
     keys = [keys] if isinstance(keys, str) else list(keys)
@@ -99,10 +101,10 @@ def solve(scenario, keys, bounds=None, worst_case: bool = False, points: int = 1
         raise UserError(f"--for: give one or two different keys, got {', '.join(keys) or 'none'}")
     solve_keys = [solve_key(resolved, k) for k in keys]
     if len(solve_keys) == 2:
-        return boundary(loaded, resolved, solve_keys, bounds, points)
+        return boundary(loaded, resolved, solve_keys, bounds, points, workers)
     key = solve_keys[0]
     lo, hi = bounds_of(key, bounds)
-    evaluator = Evaluator(loaded, resolved, (key,))
+    evaluator = Evaluator(loaded, resolved, (key,), workers)
     n, r = evaluator.n, len(evaluator.names)
     xs = np.linspace(lo, hi, SCAN)
     scan = evaluator.grid_margins(xs)  # (R, n, SCAN)

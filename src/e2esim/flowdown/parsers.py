@@ -24,6 +24,8 @@ def add_parsers(sub, add_scenario_options) -> None:
     solve.add_argument("--worst-case", action="store_true", help="one value per requirement: the worst case over "
                                                                   "the sweep (default: every case)")
     solve.add_argument("--points", type=int, default=100, help="points along a two-key boundary (default 100)")
+    solve.add_argument("--workers", type=int, default=1, metavar="N", help="processes each engine run spreads its "
+                                                                           "blocks over (the same answer as 1)")
     solve.add_argument("-o", "--output", metavar="DIR", help="also write solve.md and solve.json into DIR")
     solve.add_argument("--json", action="store_true", help="print the result as JSON")
     add_scenario_options(solve)
@@ -57,6 +59,6 @@ def _command(name: str):
 COMMANDS = {"solve": _command("cmd_solve"), "allocate": _command("cmd_allocate")}
 
 
-def scenario_answer(resolved):
+def scenario_answer(resolved, workers: int = 1):
     """``e2esim.flowdown.answer.scenario_answer``, imported when ``e2esim run`` calls it."""
-    return importlib.import_module("e2esim.flowdown.answer").scenario_answer(resolved)
+    return importlib.import_module("e2esim.flowdown.answer").scenario_answer(resolved, workers)

@@ -54,6 +54,8 @@ def solve_lines(name: str, result) -> list:
 
 
 def boundary_lines(name: str, result) -> list:
+    """The boundary in words: the range of the second key on it, the allowed region as (first, second) pairs,
+    the case that binds at how many points and the smallest margin the other cases keep there."""
     met = [i for i, s in enumerate(result.state) if s == "met at"]
     (k1, k2) = result.keys
     lines = [f"{name}: boundary of the region of {k1} and {k2} where every requirement holds in every case "
@@ -62,11 +64,36 @@ def boundary_lines(name: str, result) -> list:
     if met:
         y = result.y[met]
         lines.append(f"  {k2} on the boundary: {np.min(y):.4g} to {np.max(y):.4g} ({result.side[met[0]]} it meets)")
+        sign = "<=" if result.side[met[0]] == "at most" else ">="
+        pairs = ", ".join(f"{result.x[i]:.4g}: {sign} {result.y[i]:.4g}" for i in met)
+        lines.append(f"  allowed region ({k1}: {k2}): {pairs}")
+        lines += _binding_lines(result, met)
     for state in ("every value meets it", "no value meets it"):
         count = result.state.count(state)
         if count:
-            lines.append(f"  {count} point(s) of {k1}: {state} ({k2} from {result.bounds[1][0]:g} to "
+            at = ", ".join(f"{result.x[i]:.4g}" for i, s in enumerate(result.state) if s == state)
+            lines.append(f"  {count} point(s) of {k1} ({at}): {state} ({k2} from {result.bounds[1][0]:g} to "
                          f"{result.bounds[1][1]:g})")
+    return lines
+
+
+def _binding_lines(result, met: list) -> list:
+    """Which case binds on the boundary (at how many of its points, through which requirement), and the smallest
+    margin each other case keeps there (``case_margins``, the requirements' unit)."""
+    cases = [result.binding[i][1] for i in met]
+    counts = {c: cases.count(c) for c in dict.fromkeys(cases)}
+    requirements = sorted({result.binding[i][0] for i in met})
+    lines = ["  binding case: " + ", ".join(f"{c} at {k} of {len(met)} point(s)" for c, k in counts.items())
+             + f" (requirement {', '.join(requirements)})"]
+    margins = getattr(result, "case_margins", None)
+    if margins is None:
+        return lines
+    for c, label in enumerate(result.labels):
+        others = [i for i in met if result.binding[i][1] != label]
+        m = np.asarray(margins, dtype=float)[c, others]
+        if m.size and np.any(np.isfinite(m)):
+            lines.append(f"  {label} where another case binds: smallest margin {np.nanmin(m):.3g} to "
+                         f"{np.nanmax(m):.3g}")
     return lines
 
 
@@ -100,7 +127,7 @@ def solve_json(result) -> str:
         return v
     if hasattr(result, "y"):
         out = {k: plain(getattr(result, k)) for k in ("keys", "bounds", "labels", "requirements", "x", "y", "state",
-                                                     "side", "binding")}
+                                                     "side", "binding", "case_margins")}
     else:
         out = {"key": result.key, "bounds": plain(result.bounds), "worst_case": result.worst_case,
                "labels": result.labels,
