@@ -104,9 +104,12 @@ def joint_residual_variance(models: tuple, days, visit_days, visit_rows, visit_v
         prior[4 * j:4 * j + 4, 4 * j:4 * j + 4] = model.prior()
     p = np.broadcast_to(prior, (rv.shape[0], 4 * m, 4 * m)).copy()
     q = np.array([model.random_walk_variance_per_day for model in models])
-    starts, diagonal = 4 * np.arange(m), np.arange(m)
+    starts = 4 * np.arange(m)
     out = np.empty((m, rv.shape[0], days.size))
     obs = [model.observation(times) for model in models]
+    # the diagonal blocks (m, S, 4, 4): a view of P (the steps work in place, so it stays P's), read into one buffer
+    on_diagonal = np.einsum("sjajb->jsab", p.reshape(-1, m, 4, m, 4))
+    blocks = np.empty(on_diagonal.shape)
     last, out_index, pending = 0.0, 0, 0.0
     for k in order:
         h = times[k] - last
@@ -119,7 +122,7 @@ def joint_residual_variance(models: tuple, days, visit_days, visit_rows, visit_v
             if m == 1:
                 out[0, :, out_index] = np.einsum("i,sij,j->s", obs[0][k], p, obs[0][k])
             else:  # H F(h) = H + h H_0 e1' on the diagonal blocks (m, S, 4, 4), plus H_0^2 q h
-                blocks = p.reshape(-1, m, 4, m, 4)[:, diagonal, :, diagonal, :]
+                blocks[...] = on_diagonal
                 hk = np.stack([o[k] for o in obs])
                 hk[:, 1] += pending * hk[:, 0]
                 out[:, :, out_index] = (np.einsum("ji,jsik,jk->js", hk, blocks, hk)
