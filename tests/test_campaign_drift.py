@@ -11,7 +11,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from e2esim.campaign.drift import DriftModel, residual_variance, simulate_drift
+from e2esim.campaign import drift
+from e2esim.campaign.drift import DriftModel, joint_residual_variance, residual_variance, simulate_drift
 from e2esim.errors import PhysicsInputError
 
 
@@ -87,3 +88,66 @@ def test_a_negative_drift_variance_is_refused_naming_it(name):
     with pytest.raises(PhysicsInputError, match=f"drift {name} -1.0 must be a finite number >= 0") as info:
         DriftModel(**{"initial_sd": 1.0, name: -1.0})
     assert info.value.key == name
+
+
+
+def _gathered_predict(p, h, q, at=0):
+    """The filter's predict step as first written (rows and columns gathered by index and written back)."""
+    p[:, at, :] += h * p[:, at + 1, :]
+    p[:, :, at] += h * p[:, :, at + 1]
+    p[:, at, at] += q * h
+    return p
+
+
+def _copying_update(p, hvec, r):
+    """The filter's update step as first written (a new array for every intermediate)."""
+    use = np.flatnonzero(np.isfinite(r))
+    if use.size == 0:
+        return p
+    every = use.size == r.size
+    q, r = (p, r) if every else (p[use], r[use])
+    ph = q @ hvec
+    gain = ph / (ph @ hvec + r)[:, None]
+    m = q - gain[:, :, None] * ph[:, None, :]
+    mh = m @ hvec
+    new = m - mh[:, :, None] * gain[:, None, :] + r[:, None, None] * gain[:, :, None] * gain[:, None, :]
+    if every:
+        p[...] = new
+    else:
+        p[use] = new
+    return p
+
+
+def _random_schedules(rng, blocks):
+    models = (DriftModel(0.5, 2e-4, 0.1, 0.1), DriftModel(0.1, 1e-6, 0.01, 0.02), DriftModel(0.1, 1e-6, 0.01, 0.02))
+    visit_days = np.sort(rng.uniform(0.0, 400.0, 40))
+    rows = np.column_stack([np.ones(40), rng.uniform(-1, 1, 40), rng.uniform(-0.4, 0.7, 40)])[:, :blocks]
+    used = rng.random((9, 40)) < rng.uniform(0.1, 0.9, (9, 1))
+    used[:, 0], used[:, 1] = True, False  # a visit every schedule uses and one none uses take the other branches
+    variance = np.where(used, rng.uniform(0.01, 0.2, 40), np.inf)
+    return models[:blocks], np.arange(0.0, 401.0, 3.0), visit_days, rows, variance
+
+
+@pytest.mark.parametrize("blocks", [1, 3])
+def test_in_place_filter_steps_equal_the_copying_ones_bit_for_bit(rng, blocks, monkeypatch):
+    """The predict and update steps work in place on P (a strided view of the blocks, one buffer for the outer
+    products) to make the schedule search fast; over random visit sets of a single parameter and of the gain's
+    joint (gain, pointing, pattern) state they must give exactly the numbers of the steps as first written."""
+    args = _random_schedules(rng, blocks)
+    fast = joint_residual_variance(*args)
+    monkeypatch.setattr(drift, "_predict", _gathered_predict)
+    monkeypatch.setattr(drift, "_update", _copying_update)
+    assert np.array_equal(fast, joint_residual_variance(*args))
+
+
+@pytest.mark.parametrize("blocks", [1, 3])
+def test_batched_filter_equals_each_schedule_alone(rng, blocks):
+    """The schedule search runs every distinct schedule in one batched filter ((S, 4 m, 4 m) covariances, each visit
+    updating only the schedules that use it); each schedule's residual is what the filter gives it alone. Not bit for
+    bit: the read-out's einsum sums in an order that depends on the batch (a last-bit difference on some days), so
+    to 1e-14 relative."""
+    args = _random_schedules(rng, blocks)
+    batched = joint_residual_variance(*args)
+    for s in range(args[-1].shape[0]):
+        alone = joint_residual_variance(*args[:-1], args[-1][s])
+        np.testing.assert_allclose(batched[:, s], alone, rtol=1e-14, atol=0)

@@ -193,8 +193,8 @@ def margins_db(variance: dict, limits: dict) -> dict:
     the limit over the residual for crosstalk and imbalance variances, 20 log10 of the SD ratio for the gain."""
     out = {}
     for p, lim in limits.items():
-        v = np.maximum(variance[p], 1e-300)
-        out[p] = 10 * np.log10(lim / v)
+        v = np.maximum(variance[p], 1e-300)  # a new array: the steps below work in it (no (S, D) temporaries)
+        out[p] = np.multiply(np.log10(np.divide(lim, v, out=v), out=v), 10, out=v)
     return out
 
 

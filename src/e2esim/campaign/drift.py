@@ -104,9 +104,12 @@ def joint_residual_variance(models: tuple, days, visit_days, visit_rows, visit_v
         prior[4 * j:4 * j + 4, 4 * j:4 * j + 4] = model.prior()
     p = np.broadcast_to(prior, (rv.shape[0], 4 * m, 4 * m)).copy()
     q = np.array([model.random_walk_variance_per_day for model in models])
-    starts, diagonal = 4 * np.arange(m), np.arange(m)
+    starts = 4 * np.arange(m)
     out = np.empty((m, rv.shape[0], days.size))
     obs = [model.observation(times) for model in models]
+    # the diagonal blocks (m, S, 4, 4): a view of P (the steps work in place, so it stays P's), read into one buffer
+    on_diagonal = np.einsum("sjajb->jsab", p.reshape(-1, m, 4, m, 4))
+    blocks = np.empty(on_diagonal.shape)
     last, out_index, pending = 0.0, 0, 0.0
     for k in order:
         h = times[k] - last
@@ -119,7 +122,7 @@ def joint_residual_variance(models: tuple, days, visit_days, visit_rows, visit_v
             if m == 1:
                 out[0, :, out_index] = np.einsum("i,sij,j->s", obs[0][k], p, obs[0][k])
             else:  # H F(h) = H + h H_0 e1' on the diagonal blocks (m, S, 4, 4), plus H_0^2 q h
-                blocks = p.reshape(-1, m, 4, m, 4)[:, diagonal, :, diagonal, :]
+                blocks[...] = on_diagonal
                 hk = np.stack([o[k] for o in obs])
                 hk[:, 1] += pending * hk[:, 0]
                 out[:, :, out_index] = (np.einsum("ji,jsik,jk->js", hk, blocks, hk)
@@ -136,9 +139,12 @@ def joint_residual_variance(models: tuple, days, visit_days, visit_rows, visit_v
 
 def _predict(p, h, q, at=0):
     """P <- F P F' + Q for F = I + h sum_a e_a e_(a+1)' (the trend accumulates into x_lin, a in ``at``, the first
-    state of each block) and Q = h sum_a q_a e_a e_a', written out, in place (the filter owns P)."""
-    p[:, at, :] += h * p[:, at + 1, :]
-    p[:, :, at] += h * p[:, :, at + 1]
+    state of each block) and Q = h sum_a q_a e_a e_a', written out, in place (the filter owns P). The blocks are
+    reached through a strided view (S, m, 4, m, 4) rather than a gather of their rows: the same operations on the
+    same elements, without copying P's rows and columns out and back at every step."""
+    blocks = p.reshape(p.shape[0], -1, 4, p.shape[1] // 4, 4)
+    blocks[:, :, 0] += h * blocks[:, :, 1]
+    blocks[..., 0] += h * blocks[..., 1]
     p[:, at, at] += q * h
     return p
 
@@ -151,16 +157,16 @@ def _update(p, hvec, r):
     if use.size == 0:
         return p
     every = use.size == r.size
-    q, r = (p, r) if every else (p[use], r[use])
+    q, r = (p, r) if every else (p[use], r[use])  # q: P itself, or a copy of the rows that use the visit
     ph = q @ hvec  # (U, 4)
     gain = ph / (ph @ hvec + r)[:, None]
-    m = q - gain[:, :, None] * ph[:, None, :]  # (I - K H) P, P symmetric
-    mh = m @ hvec
-    new = m - mh[:, :, None] * gain[:, None, :] + r[:, None, None] * gain[:, :, None] * gain[:, None, :]
-    if every:
-        p[...] = new
-    else:
-        p[use] = new
+    term = np.multiply(gain[:, :, None], ph[:, None, :])  # one (U, n, n) buffer for the three outer products
+    q -= term  # (I - K H) P, P symmetric (in place: the same operations as m = P - K (P H)')
+    mh = q @ hvec
+    q -= np.multiply(mh[:, :, None], gain[:, None, :], out=term)
+    q += np.multiply((r[:, None] * gain)[:, :, None], gain[:, None, :], out=term)
+    if not every:
+        p[use] = q
     return p
 
 
