@@ -134,11 +134,14 @@ def shapley_values(f: np.ndarray) -> np.ndarray:
     masks = np.arange(2**n)
     sizes = np.array([bin(m).count("1") for m in masks])
     weight = np.array([factorial(s) * factorial(n - s - 1) / factorial(n) if s < n else 0.0 for s in sizes])
-    last = np.ascontiguousarray(np.moveaxis(f, 0, -1))  # subsets last: each case summed alike, alone or in a block
     phi = np.empty((n,) + f.shape[1:])
     for i in range(n):
-        without = masks[(masks >> i & 1) == 0]
-        phi[i] = np.sum(weight[without] * (last[..., without | (1 << i)] - last[..., without]), axis=-1)
+        total = np.zeros(f.shape[1:])
+        # the terms added one by one in the order of the subsets' masks: each case's sum is the same alone or in a
+        # block of any size (np.sum's order of addition depends on the array's layout)
+        for m in masks[(masks >> i & 1) == 0]:
+            total = total + weight[m] * (f[m | (1 << i)] - f[m])
+        phi[i] = total
     return phi
 
 
@@ -151,18 +154,17 @@ def _by_players(game: np.ndarray, active) -> tuple:
     n, shape = len(active), game.shape[1:]
     flat, on = game.reshape(game.shape[0], -1), active.reshape(n, -1)
     phi, empty = np.zeros((n, flat.shape[1])), np.empty(flat.shape[1])
-    subsets = {}
-    for case in range(flat.shape[1]):  # each case's sums over its own subsets, 1-D, as the case alone sums them
-        pattern = tuple(bool(x) for x in on[:, case])
-        if pattern not in subsets:
-            players = [j for j in range(n) if pattern[j]]
-            rest = sum(1 << j for j in range(n) if not pattern[j])
-            subsets[pattern] = (players, np.array([rest | sum(1 << p for b, p in enumerate(players) if m >> b & 1)
-                                                   for m in range(2 ** len(players))]))
-        players, sub = subsets[pattern]
-        part = np.ascontiguousarray(flat[sub, case])
-        phi[players, case] = shapley_values(part)
-        empty[case] = part[0]
+    patterns, which = np.unique(on.T.astype(bool), axis=0, return_inverse=True)
+    for g, pattern in enumerate(patterns):  # the cases that have the same players, together
+        cases = np.flatnonzero(np.ravel(which) == g)
+        players = [j for j in range(n) if pattern[j]]
+        rest = sum(1 << j for j in range(n) if not pattern[j])
+        sub = np.array([rest | sum(1 << p for b, p in enumerate(players) if m >> b & 1)
+                        for m in range(2 ** len(players))])
+        part = np.ascontiguousarray(flat[np.ix_(sub, cases)])
+        # each case's sums run over its own subsets only, term by term (``shapley_values``): the case alone's numbers
+        phi[np.ix_(players, cases)] = shapley_values(part)
+        empty[cases] = part[0]
     return phi.reshape((n,) + shape), empty.reshape(shape)
 
 
