@@ -146,29 +146,35 @@ class SystemErrorModel:
     def sample(self, rng: np.random.Generator, n: int) -> SystemErrorSamples:
         """Draw ``n`` joint realisations of (delta, f, gain) under the Gaussian model of Section III."""
         v = self.crosstalk_variance
-        d1, d3 = _correlated_pair(rng, n, v[0], v[2], self.crosstalk_cov13)
-        d2, d4 = _correlated_pair(rng, n, v[1], v[3], self.crosstalk_cov24)
-        e1, e2 = _correlated_pair(rng, n, *self.imbalance_variance, self.imbalance_cov12)
+        delta = np.empty((4, n), complex)  # rows filled in place, handed out transposed: (n, 4), no stacking copy
+        imbalance = np.empty((2, n), complex)
+        _correlated_pair(rng, n, v[0], v[2], self.crosstalk_cov13, out=(delta[0], delta[2]))
+        _correlated_pair(rng, n, v[1], v[3], self.crosstalk_cov24, out=(delta[1], delta[3]))
+        _correlated_pair(rng, n, *self.imbalance_variance, self.imbalance_cov12, out=imbalance)
+        imbalance += 1.0
         if self.has_gain_error:
             gain = np.sqrt(db_to_linear(self.gain_offset_db + self.gain_sd_db * rng.standard_normal(n)))
         else:
             gain = np.ones(n)
-        return SystemErrorSamples(delta=np.stack([d1, d2, d3, d4], -1), f=1.0 + np.stack([e1, e2], -1), gain=gain)
+        return SystemErrorSamples(delta=delta.T, f=imbalance.T, gain=gain)
 
 
-def _correlated_pair(rng, n, var_a, var_b, cov_ab):
-    """n draws of (a, b) zero-mean circular complex Gaussian, E|a|^2=var_a, E|b|^2=var_b, E[a b*]=cov_ab."""
+def _correlated_pair(rng, n, var_a, var_b, cov_ab, out=None):
+    """n draws of (a, b) zero-mean circular complex Gaussian, E|a|^2=var_a, E|b|^2=var_b, E[a b*]=cov_ab.
+
+    ``out``: two complex arrays of length n to fill (rows of the caller's sample arrays), else new ones."""
     xi = np.empty((2, n), complex)  # filled in place: the values of (x + 1j y) / sqrt(2), fewer temporaries
     xi.real = rng.standard_normal((2, n))
     xi.imag = rng.standard_normal((2, n))
     xi *= 1 / np.sqrt(2)
-    a = np.sqrt(var_a) * xi[0]
+    a, b = np.empty((2, n), complex) if out is None else out
+    np.multiply(np.sqrt(var_a), xi[0], out=a)
     if var_a > 0:
         rho = np.conj(cov_ab) / var_a  # b = (C*/V_a) a + residual gives E[a b*] = C
-        b = rho * a
+        np.multiply(rho, a, out=b)
         b += np.sqrt(max(var_b - abs(cov_ab) ** 2 / var_a, 0.0)) * xi[1]
     else:
-        b = np.sqrt(var_b) * xi[1]
+        np.multiply(np.sqrt(var_b), xi[1], out=b)
     return a, b
 
 
