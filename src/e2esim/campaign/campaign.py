@@ -22,8 +22,8 @@ import numpy as np
 
 from e2esim.campaign.antenna import ANTENNA_PARAMETERS, gain_rows, swath_gain_variance
 from e2esim.campaign.drift import YEAR_DAYS, DriftModel, joint_residual_variance, residual_variance
-from e2esim.campaign.sites import PARAMETERS
 from e2esim.campaign.repeat_orbit import POINT_SITES
+from e2esim.campaign.sites import PARAMETERS
 from e2esim.campaign.visibility import site_visits
 from e2esim.campaign.visit_ionosphere import (
     SOLAR_F107,
