@@ -188,5 +188,5 @@ def test_the_visits_of_each_phase_follow_the_mission_timeline(site):
 
 
 def test_an_orbit_that_cannot_repeat_is_refused_naming_it():
-    with pytest.raises(PhysicsInputError, match="repeats after 1 revolutions in 0.05 days"):
+    with pytest.raises(PhysicsInputError, match=r"repeats after 1 revolutions in 0\.05 days"):
         repeat_altitude(1, 0.05)
