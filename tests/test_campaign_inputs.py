@@ -120,3 +120,11 @@ def test_the_frequency_is_stated_taken_from_the_instrument_or_reported_as_assume
     assert frequency(None, None) == (435e6, True)
     assert frequency(None, nisar) == (1.257e9, False)
     assert frequency(440.0, nisar) == (440e6, False)
+
+
+def test_a_repeat_cycle_no_orbit_can_keep_exits_2_naming_the_key(tmp_path, capsys):
+    path = _scenario(tmp_path, repeat_days=0.05, mission_years=0.2, search_max_per_year=0)
+    assert main(["run", str(path), "-o", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err
+    assert "campaign.yaml" in err and "calibration[0].repeat_days" in err
+    assert "no sun-synchronous orbit between 200 and 3000 km repeats after 1 revolutions in 0.05 days" in err

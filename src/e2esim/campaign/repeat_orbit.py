@@ -65,7 +65,8 @@ def repeat_altitude(revolutions: int, days: float, ltan_h: float = 6.0) -> float
     lo, hi = 200e3, 3000e3
     if not _u_rate(hi, ltan_h) < target < _u_rate(lo, ltan_h):
         raise PhysicsInputError(f"no sun-synchronous orbit between 200 and 3000 km repeats after {revolutions} "
-                                f"revolutions in {days:g} days")
+                                f"revolutions in {days:g} days; allowed: a repeat cycle that such an orbit can "
+                                f"keep (BIOMASS: 3 days)", key="repeat_days")
     for _ in range(60):  # 2800 km / 2^60: far below a millimetre
         mid = 0.5 * (lo + hi)
         lo, hi = (mid, hi) if _u_rate(mid, ltan_h) > target else (lo, mid)
@@ -153,14 +154,10 @@ def repeat_track(orbit: SunSynchronousOrbit, days: float, commissioning_days: fl
     tl = timeline or MissionTimeline()
     n = round(revolutions_in(orbit, repeat_days))
     tuned = replace(orbit, altitude_m=repeat_altitude(n, repeat_days, orbit.ltan_h), inclination_rad=None)
-    spans = [("commissioning", commissioning_days, 1, repeat_days),
-             ("tomographic", tl.tomographic_days, tl.tomographic_passes, tl.tomographic_repeat_days),
-             ("interferometric", tl.interferometric_cycle_days, tl.interferometric_passes,
-              tl.interferometric_repeat_days)]
+    spans = [("commissioning", commissioning_days, 1), ("tomographic", tl.tomographic_days, tl.tomographic_passes),
+             ("interferometric", tl.interferometric_cycle_days, tl.interferometric_passes)]
     phases, start = [], 0.0
-    for name, length, passes, repeat in spans:
-        if repeat != repeat_days:
-            raise PhysicsInputError(f"the {name} phase repeats every {repeat:g} days, the orbit every {repeat_days:g}")
+    for name, length, passes in spans:  # a stack's passes come one repeat cycle apart (the timeline's 3 days)
         end = days if name == "interferometric" else min(start + length, days)
         stacks = int(length // (passes * repeat_days))
         if end > start and stacks > 0:
