@@ -42,7 +42,6 @@ from e2esim.orbit.sunsync import SunSynchronousOrbit
 from e2esim.orbit.timeline import MissionTimeline
 
 DAY_S = 86400.0
-PHASE_NAMES = ("commissioning", "tomographic", "interferometric")
 POINT_SITES = ("transponder", "corner_reflector")
 """Site types the acquisition plan images as points (once per phase or cycle and pass direction); the others are
 areas (a desert, an ice sheet, a field of permanent scatterers) taken as wide as the swath's ground range, imaged
