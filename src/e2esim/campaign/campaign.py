@@ -5,7 +5,8 @@ limits (issue 25, items 2 to 6; docs/theory/calibration-campaign.md).
 and combines the visits a schedule uses with the drift of each parameter by the Kalman filter of ``drift``. A
 schedule uses every transponder pass of the commissioning phase (the antenna and polarimetric characterisation of
 Quegan et al. 2018, Section 4) and afterwards ``transponder_per_year`` of them in each mission year, spread evenly
-over those the orbit offers, plus every pass over the targets of opportunity it names.
+over those the orbit and the acquisition plan offer (``repeat_orbit``), plus every acquisition of the targets of
+opportunity it names.
 
 ``search_schedules`` evaluates every schedule of 0..``max_per_year`` transponder passes per year and every subset of
 the targets of opportunity in one batched filter, and keeps the cheapest one whose residuals stay within the
