@@ -104,3 +104,27 @@ def test_no_target_of_opportunity_is_stated_by_the_empty_list(tmp_path, capsys):
 
     given = {k: v for k, v in yaml.safe_load(path.read_text())["calibration"][0].items() if k != "type"}
     assert Campaign(**given).config["opportunity"] == ()
+
+
+def test_the_frequency_is_stated_taken_from_the_instrument_or_reported_as_assumed():
+    """Without an instrument module and a stated frequency_mhz, BIOMASS's 435 MHz is used and flagged as assumed
+    (the summary's frequency_assumed); the instrument's frequency otherwise, or the campaign's own."""
+    from types import SimpleNamespace
+
+    from e2esim.campaign.modules import Campaign
+
+    def frequency(stated, instrument):
+        return Campaign.frequency_hz(SimpleNamespace(config={"frequency_mhz": stated}), instrument)
+
+    nisar = SimpleNamespace(centre_frequency_hz=1.257e9)
+    assert frequency(None, None) == (435e6, True)
+    assert frequency(None, nisar) == (1.257e9, False)
+    assert frequency(440.0, nisar) == (440e6, False)
+
+
+def test_a_repeat_cycle_no_orbit_can_keep_exits_2_naming_the_key(tmp_path, capsys):
+    path = _scenario(tmp_path, repeat_days=0.05, mission_years=0.2, search_max_per_year=0)
+    assert main(["run", str(path), "-o", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err
+    assert "campaign.yaml" in err and "calibration[0].repeat_days" in err
+    assert "no sun-synchronous orbit between 200 and 3000 km repeats after 1 revolutions in 0.05 days" in err

@@ -29,6 +29,9 @@ def test_summary_results_h5_and_the_schedule_answer_agree(quick_run):
         assert values[prefix + "residual_crosstalk_db"] == np.float64(xt[i])
         assert values[prefix + "worst_epoch_day"] == day[int(np.argmin(margin))]
         assert values[prefix + "visits_used"] == used.sum()
+        # the scenario's instrument gives the frequency; the orbit is tuned to 44 revolutions in 3 days
+        assert (values[prefix + "frequency_hz"], values[prefix + "frequency_assumed"]) == (435e6, 0)
+        assert (values[prefix + "repeat_revolutions"], values[prefix + "repeat_days"]) == (44, 3.0)
     assert np.all(np.isinf(margin[day < 91])) and np.all(np.isfinite(margin[day >= 91]))
     cost = per_year + np.array([len(o) for o in opportunity])
     if answer >= 0:

@@ -5,7 +5,8 @@ limits (issue 25, items 2 to 6; docs/theory/calibration-campaign.md).
 and combines the visits a schedule uses with the drift of each parameter by the Kalman filter of ``drift``. A
 schedule uses every transponder pass of the commissioning phase (the antenna and polarimetric characterisation of
 Quegan et al. 2018, Section 4) and afterwards ``transponder_per_year`` of them in each mission year, spread evenly
-over those the orbit offers, plus every pass over the targets of opportunity it names.
+over those the orbit and the acquisition plan offer (``repeat_orbit``), plus every acquisition of the targets of
+opportunity it names.
 
 ``search_schedules`` evaluates every schedule of 0..``max_per_year`` transponder passes per year and every subset of
 the targets of opportunity in one batched filter, and keeps the cheapest one whose residuals stay within the
@@ -22,6 +23,7 @@ import numpy as np
 
 from e2esim.campaign.antenna import ANTENNA_PARAMETERS, gain_rows, swath_gain_variance
 from e2esim.campaign.drift import YEAR_DAYS, DriftModel, joint_residual_variance, residual_variance
+from e2esim.campaign.repeat_orbit import POINT_SITES
 from e2esim.campaign.sites import PARAMETERS
 from e2esim.campaign.visibility import site_visits
 from e2esim.campaign.visit_ionosphere import (
@@ -57,6 +59,7 @@ class CampaignSetup:
         BIOMASS_LAUNCH, SOLAR_F107["max"], SOLAR_SUNSPOTS["max"], 435e6))
     first_node_s: float = 0.0
     schedule_days: float | None = None
+    track: object = None  # the drifting repeat track (``repeat_orbit.RepeatTrack`` of ``orbit``); None: no repeat
 
     def __post_init__(self):
         if not self.sites:
@@ -91,7 +94,7 @@ def find_acquisitions(setup: CampaignSetup) -> Acquisitions:
     found = []
     for site in setup.sites:
         v = site_visits(setup.orbit, site.lat, site.lon, setup.days, setup.near, setup.far, setup.first_node_s,
-                        site.name)
+                        site.name, track=setup.track, point=site.type in POINT_SITES)
         if v.size == 0:
             raise PhysicsInputError(
                 f"site {site.name} ({np.degrees(site.lat):.2f}, {np.degrees(site.lon):.2f} deg) is never seen in "

@@ -17,6 +17,7 @@ from e2esim.calibration.modules import CalibrationModule
 from e2esim.calibration.stated_steps import StatedResidualResult, StatedResidualStep
 from e2esim.campaign.campaign import CampaignSetup, find_acquisitions, run_campaign, search_schedules
 from e2esim.campaign.drift import YEAR_DAYS, DriftModel
+from e2esim.campaign.repeat_orbit import repeat_track
 from e2esim.campaign.site_file import read_sites_file
 from e2esim.campaign.sites import PRESETS
 from e2esim.campaign.visit_ionosphere import SOLAR_F107, SOLAR_SUNSPOTS, VisitIonosphereSettings
@@ -42,6 +43,7 @@ DRIFT_DEFAULTS = {  # assumed, stated in docs/theory/calibration-campaign.md; ga
                 "seasonal_sd": 0.02},
 }
 DRIFT_PARAMETERS = tuple(DRIFT_DEFAULTS)
+DEFAULT_FREQUENCY_HZ = 435e6  # BIOMASS (Quegan et al. 2018, Section 5): used, and stated, without an instrument
 
 
 def _drift_param(name: str) -> Param:
@@ -70,6 +72,14 @@ class Campaign(CalibrationModule):
         Param("step_days", "float", "spacing of the residual dates", default=1.0, exclusive_minimum=0.0),
         Param("first_node_minutes", "float", "an ascending-node crossing after the mission's start, day 0 at 00:00 "
               "UTC (sets where the ground tracks fall)", default=0.0, minimum=0.0, maximum=1440.0),
+        Param("repeat_days", "float", "the operational orbit's repeat cycle: the altitude tuned to the nearest whole "
+              "number of revolutions in it, the track drifting between the timeline's stacks (null: the stated "
+              "altitude, no repeat, every pass acquired)", default=3.0, nullable=True, exclusive_minimum=0.0,
+              maximum=60.0, unit="days"),
+        Param("frequency_mhz", "float", "centre frequency of the visits' Faraday rotation and scintillation (null: "
+              "the instrument module's; without one, 435 MHz, BIOMASS's (Quegan et al. 2018, Section 5), reported as "
+              "assumed: frequency_assumed = 1)", default=None, nullable=True, unit="MHz", exclusive_minimum=0.0,
+              convert=False),
         Param("incidence_near_deg", "float", "near incidence of the swath", default=23.0, unit="deg", minimum=1.0,
               maximum=89.0),
         Param("incidence_far_deg", "float", "far incidence of the swath", default=33.75, unit="deg", minimum=1.0,
@@ -167,31 +177,42 @@ class Campaign(CalibrationModule):
             tec_variability=c["tec_variability"], window_m=c["faraday_window_km"] * 1e3,
             scintillation=c["scintillation"], seed=c["monte_carlo_seed"])
 
-    def setup_for(self, orbit, frequency_hz: float = 435e6) -> CampaignSetup:
+    def setup_for(self, orbit, frequency_hz: float = DEFAULT_FREQUENCY_HZ) -> CampaignSetup:
         c = self.config
+        track = None
+        if c["repeat_days"] is not None:
+            track = repeat_track(orbit, c["mission_years"] * YEAR_DAYS, c["commissioning_days"], c["repeat_days"])
+            orbit = track.orbit
         setup = CampaignSetup(orbit, self.sites, self.drift, c["mission_years"] * YEAR_DAYS,
                               math.radians(c["incidence_near_deg"]), math.radians(c["incidence_far_deg"]),
                               c["step_days"], c["commissioning_days"], self.ionosphere(frequency_hz),
                               c["first_node_minutes"] * 60.0,
-                              None if c["schedule_years"] is None else c["schedule_years"] * YEAR_DAYS)
+                              None if c["schedule_years"] is None else c["schedule_years"] * YEAR_DAYS, track)
         return setup
 
     def outcome(self, case) -> CampaignOutcome:
         """The campaign and the schedule search, once per run and settings (the run's kernel memo)."""
         memo = getattr(case.services, "memo", None)
-        instrument = case.get("instrument")
-        frequency = getattr(instrument, "centre_frequency_hz", None) or 435e6
+        frequency, assumed = self.frequency_hz(case.get("instrument"))
         key = ("campaign", repr(sorted((k, repr(v)) for k, v in self.config.items() if k != "epoch_day")),
                repr(case["geometry"].orbit), frequency)
         found = memo.get(key) if memo is not None else None
         if found is None:
             try:
-                found = compute_outcome(self, self.setup_for(case["geometry"].orbit, frequency))
+                found = compute_outcome(self, self.setup_for(case["geometry"].orbit, frequency), assumed)
             except PhysicsInputError as exc:  # at run time: name the scenario file and the key path here
                 raise ConfigError(exc.location(self.location), self._where_from(str(exc))) from None
             if memo is not None:
                 memo[key] = found
         return found
+
+    def frequency_hz(self, instrument) -> tuple:
+        """(centre frequency in Hz, whether it is assumed): ``frequency_mhz`` if stated, else the instrument
+        module's, else BIOMASS's 435 MHz (assumed)."""
+        if self.config["frequency_mhz"] is not None:
+            return self.config["frequency_mhz"] * 1e6, False
+        given = getattr(instrument, "centre_frequency_hz", None)
+        return (given, False) if given else (DEFAULT_FREQUENCY_HZ, True)
 
     def steps(self, case):
         out = self.outcome(case)
@@ -214,6 +235,7 @@ class CampaignOutcome:
     convention: str
     site_names: tuple
     setup: object = field(default=None, compare=False, repr=False)  # the CampaignSetup (chain schedule search)
+    frequency_assumed: bool = False  # no instrument module and no frequency_mhz: BIOMASS's 435 MHz assumed
 
     def scalars(self, i: int, convention: str) -> dict:
         r, s = self.result, self.search
@@ -228,7 +250,13 @@ class CampaignOutcome:
             "worst_margin_db": float(self.margin[worst]),
             "visits_used": int(r.used.sum()),
             "acquisitions": int(r.used.size),
+            "frequency_hz": float(self.setup.ionosphere.frequency_hz),
+            "frequency_assumed": int(self.frequency_assumed),
         }
+        track = self.setup.track
+        if track is not None:
+            out.update({"orbit_altitude_m": float(track.orbit.altitude_m),
+                        "repeat_revolutions": int(track.revolutions), "repeat_days": float(track.repeat_days)})
         if s.best is None:
             out["schedule_found"] = 0
         else:
@@ -238,7 +266,7 @@ class CampaignOutcome:
         return out
 
 
-def compute_outcome(module: Campaign, setup: CampaignSetup) -> CampaignOutcome:
+def compute_outcome(module: Campaign, setup: CampaignSetup, frequency_assumed: bool = False) -> CampaignOutcome:
     c = module.config
     acq = find_acquisitions(setup)
     opportunity = tuple(s.name for s in setup.sites if s.type != "transponder") if c["opportunity"] is None \
@@ -251,7 +279,7 @@ def compute_outcome(module: Campaign, setup: CampaignSetup) -> CampaignOutcome:
         margin = np.minimum(margin, np.where(after, m, np.inf))
     search = search_schedules(setup, module.limits, c["search_max_per_year"], acq=acq)
     return CampaignOutcome(result, margin, search, dict(module.limits), c["convention"],
-                           tuple(site.name for site in setup.sites), setup)
+                           tuple(site.name for site in setup.sites), setup, frequency_assumed)
 
 
 @dataclass(frozen=True)

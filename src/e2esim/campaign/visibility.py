@@ -44,12 +44,13 @@ def node_longitude(orbit: SunSynchronousOrbit, t_s) -> np.ndarray:
     return 2 * np.pi * (orbit.ltan_h - ut_h) / 24.0
 
 
-def satellite_state(orbit: SunSynchronousOrbit, t_s, first_node_s: float = 0.0):
+def satellite_state(orbit: SunSynchronousOrbit, t_s, first_node_s: float = 0.0, track_offset=0.0):
     """Earth-fixed position (m) and Earth-relative velocity (m/s) at ``t_s`` (s after the mission's first
-    UTC midnight), the satellite crossing the ascending node at ``first_node_s``."""
+    UTC midnight), the satellite crossing the ascending node at ``first_node_s``, the ground track moved east by
+    ``track_offset`` (rad; the drifting repeat track's stack, ``repeat_orbit``)."""
     t = np.asarray(t_s, float)
     u = argument_of_latitude_rate(orbit) * (t - first_node_s)
-    return orbit_state(orbit, u, node_longitude(orbit, t))
+    return orbit_state(orbit, u, node_longitude(orbit, t) + track_offset)
 
 
 @dataclass(frozen=True)
@@ -58,6 +59,7 @@ class SiteVisits:
 
     time_s : seconds after the first UTC midnight of the mission. day : time_s / 86400. incidence : rad.
     pass_name : "ascending"/"descending". local_time_h : local mean solar time at the site (h).
+    track_offset : the ground track's eastward offset at each visit (rad; ``repeat_orbit``), 0 without a track.
     """
 
     site_name: str
@@ -65,6 +67,7 @@ class SiteVisits:
     incidence: np.ndarray
     pass_name: np.ndarray
     local_time_h: np.ndarray
+    track_offset: np.ndarray | float = 0.0
 
     @property
     def day(self) -> np.ndarray:
@@ -76,9 +79,12 @@ class SiteVisits:
 
 
 def site_visits(orbit: SunSynchronousOrbit, lat: float, lon: float, days: float, near: float, far: float,
-                first_node_s: float = 0.0, name: str = "site", iterations: int = 6) -> SiteVisits:
+                first_node_s: float = 0.0, name: str = "site", iterations: int = 6, track=None,
+                point: bool = True) -> SiteVisits:
     """Every pass over (lat, lon) (rad) in ``days`` days that sees it at an incidence in [near, far] (rad) on the
-    look side. Raises PhysicsInputError if the orbit cannot reach the latitude."""
+    look side. ``track`` (a ``repeat_orbit.RepeatTrack`` of this orbit): the ground track moves with its stacks,
+    a pass is kept only inside a stack (not in a manoeuvre) and where the mission's plan acquires it (``point``: a
+    point calibrator, else an area; ``RepeatTrack.acquired``)."""
     if not 0 < near < far < np.pi / 2:
         raise PhysicsInputError(f"need 0 < near < far < 90 deg incidence, got {np.degrees(near):g}, "
                                 f"{np.degrees(far):g}")
@@ -93,17 +99,22 @@ def site_visits(orbit: SunSynchronousOrbit, lat: float, lon: float, days: float,
         u0 = argument_of_latitude(orbit, np.clip(lat, -(np.pi - orbit.inclination_rad),
                                                  np.pi - orbit.inclination_rad), p)
         t = first_node_s + (revs + np.mod(u0, 2 * np.pi) / (2 * np.pi)) * period
+        offset = 0.0 if track is None else track.stack_of(t / DAY_S)[3]  # the start's stack: held through Newton
         for _ in range(iterations):  # Newton on the zero-Doppler condition, derivative by a 1 s difference
-            f0 = _doppler(orbit, t, first_node_s, target)
-            f1 = _doppler(orbit, t + 1.0, first_node_s, target)
+            f0 = _doppler(orbit, t, first_node_s, target, offset)
+            f1 = _doppler(orbit, t + 1.0, first_node_s, target, offset)
             step = f0 / (f1 - f0)
             t = t - step
-        times.append(t[np.abs(step) < 1e-3])  # a start far from any closest approach has not converged: dropped
+        ok = np.abs(step) < 1e-3  # a start far from any closest approach has not converged: dropped
+        if track is not None:  # a pass that left its start's stack lies in a manoeuvre: dropped
+            ok &= (track.stack_of(t / DAY_S)[2] >= 0) & (track.stack_of(t / DAY_S)[3] == offset)
+        times.append(t[ok])
     # near the orbit's highest latitude both starts can reach the same closest approach: keep it once, and name
     # its pass by the direction of the satellite's motion there
     t = np.unique(np.round(np.concatenate(times), 3))
     t = t[np.concatenate([[True], np.diff(t) > 60.0])]
-    r, v = satellite_state(orbit, t, first_node_s)
+    offset = 0.0 if track is None else track.stack_of(t / DAY_S)[3]
+    r, v = satellite_state(orbit, t, first_node_s, offset)
     pass_name = np.where(v[:, 2] >= 0, "ascending", "descending")
     los = r - target
     cos_inc = los @ up / np.linalg.norm(los, axis=-1)
@@ -111,12 +122,14 @@ def site_visits(orbit: SunSynchronousOrbit, lat: float, lon: float, days: float,
     left = np.cross(r, v)  # r x v points to the left of the velocity
     side = np.sign(np.einsum("ij,ij->i", target - r, left)) * orbit.side_sign
     keep = (side > 0) & (incidence >= near) & (incidence <= far) & (t >= 0) & (t <= days * DAY_S)
+    if track is not None:
+        keep[keep] = track.acquired(t[keep] / DAY_S, pass_name[keep], incidence[keep], near, far, point)
     order = np.argsort(t[keep])
     t, incidence, pass_name = t[keep][order], incidence[keep][order], pass_name[keep][order]
     local = np.mod(t / 3600.0 + np.degrees(lon) / 15.0, 24.0)
-    return SiteVisits(name, t, incidence, pass_name, local)
+    return SiteVisits(name, t, incidence, pass_name, local, 0.0 if track is None else track.stack_of(t / DAY_S)[3])
 
 
-def _doppler(orbit, t, first_node_s, target) -> np.ndarray:
-    r, v = satellite_state(orbit, t, first_node_s)
+def _doppler(orbit, t, first_node_s, target, offset=0.0) -> np.ndarray:
+    r, v = satellite_state(orbit, t, first_node_s, offset)
     return np.einsum("ij,ij->i", r - target, v)

@@ -117,7 +117,7 @@ def visit_geometry(orbit, site: CalibrationSite, visits: SiteVisits, first_node_
     """The lines of sight of a site's visits: target and satellite positions, pierce points, local times, dates."""
     n = visits.size
     target = np.broadcast_to(to_ecef(np.array(site.lat), np.array(site.lon), EARTH_MEAN_RADIUS), (n, 3)).copy()
-    satellite, _ = satellite_state(orbit, visits.time_s, first_node_s)
+    satellite, _ = satellite_state(orbit, visits.time_s, first_node_s, visits.track_offset)
     plat, plon = pierce_point_lat_lon(target, satellite, settings.shell_height_m)
     start = np.datetime64(settings.start_date, "s")
     time_utc = start + np.round(visits.time_s).astype("int64").astype("timedelta64[s]")
