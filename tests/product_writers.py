@@ -111,7 +111,7 @@ def write_biomass(folder, shape=(12, 20), faraday=None, faraday_std=None, noise=
 
 
 def write_gcov(path, shape=(15, 20), seed=0, faraday=0.0, crosstalk=0.0, looks=25.0, nes0=0.003,
-               units=None, drop=None, extra=None, truncate=None) -> Path:
+               units=None, drop=None, extra=None, truncate=None, rfi=0.1) -> Path:
     """A NISAR GCOV HDF5 with a forest-like covariance (HV 0.02-0.08, HH = 4 HV, VV = 2.5 HV, |rho_hhvv| 0.3)."""
     rng = np.random.default_rng(seed)
     rows, cols = shape
@@ -130,7 +130,7 @@ def write_gcov(path, shape=(15, 20), seed=0, faraday=0.0, crosstalk=0.0, looks=2
         nl.CROSSTALK_SLANT_RANGE: np.linspace(8e5, 9e5, 5), nl.FARADAY_ROTATION: np.float64(faraday),
         **{nl.NES0[c]: np.full((3, 4), nes0, np.float32) for c in nl.CHANNELS},
         nl.NES0_X: np.linspace(499000.0, 501000.0, 4), nl.NES0_Y: np.linspace(6651000.0, 6649000.0, 3),
-        **{nl.RFI_LIKELIHOOD[c]: np.float64(0.1) for c in nl.CHANNELS},
+        **{nl.RFI_LIKELIHOOD[c]: np.float64(rfi[c] if isinstance(rfi, dict) else rfi) for c in nl.CHANNELS},
         **{nl.SCALE_FACTOR[c]: np.float64(1.0) for c in nl.CHANNELS},
     }
     if extra is not None:
@@ -153,11 +153,13 @@ def write_gcov(path, shape=(15, 20), seed=0, faraday=0.0, crosstalk=0.0, looks=2
 
 
 def write_slc(path, product="RSLC", shape=(15, 20), faraday=0.0, crosstalk=0.0, nes0=None, rfi=0.1,
-              units=None, drop=None, extra=None, orbit_shift_s=0.0) -> Path:
+              units=None, drop=None, extra=None, orbit_shift_s=0.0, crosstalk_axis=None) -> Path:
     """A NISAR RSLC or GSLC HDF5 in the layout of e2esim.products_io.nisar_slc_layout (isce3 SLC.py and
     nisar_L2_GSLC.xml): a small image, the calibration tables, the orbit group. nes0 : (3, 4) linear NESZ of its
     own grid (default rising across the swath, 0.001 to 0.01); the RSLC's second sub-swath leaves the first three
-    samples of every line invalid; orbit_shift_s moves the state vectors' times (an orbit that misses the scene)."""
+    samples of every line invalid; crosstalk : the four tables' value, or their values along ``crosstalk_axis``
+    (slant range, m; default 5 values from 840 to 860 km); orbit_shift_s moves the state vectors' times (an orbit
+    that misses the scene)."""
     from e2esim.products_io.nisar_slc_layout import CHANNELS, slc_layout
 
     layout = slc_layout(product)
@@ -165,6 +167,7 @@ def write_slc(path, product="RSLC", shape=(15, 20), faraday=0.0, crosstalk=0.0, 
     rng = np.random.default_rng(1)
     nes0 = np.array(np.broadcast_to(np.linspace(0.001, 0.01, 4), (3, 4))) if nes0 is None else nes0
     epoch = "seconds since 2025-11-01T00:00:00"
+    axis = np.linspace(8.4e5, 8.6e5, 5) if crosstalk_axis is None else np.asarray(crosstalk_axis, np.float64)
     if product == "RSLC":
         axes = {layout.rows: 600.0 + 0.1 * np.arange(rows), layout.columns: 8.5e5 + 10.0 * np.arange(cols),
                 layout.nes0_rows: np.array([599.0, 600.8, 602.0]), layout.nes0_columns: np.linspace(8.5e5, 8.52e5, 4)}
@@ -176,8 +179,9 @@ def write_slc(path, product="RSLC", shape=(15, 20), faraday=0.0, crosstalk=0.0, 
         **{f"{layout.image}/{c}": (rng.normal(size=shape) + 1j * rng.normal(size=shape)).astype(np.complex64)
            for c in CHANNELS},
         **axes,
-        **{t: np.full(5, crosstalk, np.complex64) for t in layout.crosstalk_tables},
-        layout.crosstalk_slant_range: np.linspace(8.4e5, 8.6e5, 5),
+        **{t: np.broadcast_to(np.asarray(crosstalk, np.complex64), axis.shape).copy()
+           for t in layout.crosstalk_tables},
+        layout.crosstalk_slant_range: axis,
         layout.faraday_rotation: np.float64(faraday),
         **{layout.nes0(c): nes0.astype(np.float32) for c in CHANNELS},
         **{layout.rfi_likelihood(c): np.float64(rfi) for c in CHANNELS},

@@ -80,10 +80,30 @@ CASES = {
 """Reference cases for modules that need products the default chain does not make."""
 
 
+NISAR_PRODUCT_CONFIGS = {
+    ("instrument", "nisar_product_instrument"): {},
+    ("ionosphere", "nisar_product_faraday"): {"sd_deg": 0.5},
+    ("error_terms", "rfi_from_nisar_product"): {"looks": 50},
+}
+"""Modules that read a NISAR product: given the generated GCOV of ``nisar_gcov`` as their product_file."""
+
+
+@pytest.fixture(scope="module")
+def nisar_gcov(tmp_path_factory) -> str:
+    """A generated NISAR GCOV (tests/product_writers.py) whose processor removed a rotation and measured crosstalk."""
+    from product_writers import write_gcov
+
+    return str(write_gcov(tmp_path_factory.mktemp("nisar") / "gcov.h5", crosstalk=0.01, faraday=0.004))
+
+
 @pytest.mark.parametrize("reg", BUILTIN, ids=lambda r: f"{r.kind}.{r.type_name}")
-def test_builtin_module_conforms(reg):
-    make_case = CASES.get((reg.kind, reg.type_name))
-    check_module(reg.cls, CONFIGS.get((reg.kind, reg.type_name)), make_case() if make_case else None)
+def test_builtin_module_conforms(reg, request):
+    key = (reg.kind, reg.type_name)
+    make_case = CASES.get(key)
+    config = CONFIGS.get(key)
+    if key in NISAR_PRODUCT_CONFIGS:
+        config = {**NISAR_PRODUCT_CONFIGS[key], "product_file": request.getfixturevalue("nisar_gcov")}
+    check_module(reg.cls, config, make_case() if make_case else None)
 
 
 class Broken(Stage):

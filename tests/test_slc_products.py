@@ -32,7 +32,7 @@ def expected_noise(layout, f, i):
 def test_slc_budget_from_its_calibration_tables_equals_the_per_case_model(tmp_path, product):
     """faradayRotation 0.004 rad removed, zero crosstalk tables (not corrected): the scenario's rotation less what
     was removed, the raw system errors, the nes0 noise across the swath; the scene and looks are the scenario's."""
-    path = write_slc(tmp_path / "slc.h5", product, faraday=0.004)
+    path = write_slc(tmp_path / "slc.h5", product, faraday=0.004, rfi=0.0)
     assert run(path, "-o", tmp_path / "out") == 0
     out = layers(tmp_path / "out")
     a = load_assumptions(None, "nisar")
@@ -74,6 +74,39 @@ def test_non_zero_crosstalk_tables_mean_corrected(tmp_path):
     attrs = layers(tmp_path / "out")["attrs"]
     assert attrs["crosstalk_corrected_by_processor"] == "True"
     assert attrs["product_crosstalk_max_abs"] == pytest.approx(abs(0.01 + 0.002j), rel=1e-6)
+
+
+def test_rslc_crosstalk_tables_apply_at_each_pixels_slant_range(tmp_path):
+    """Tables zero up to 850.05 km and non-zero from 850.06 km; the image's columns lie at 850.00 to 850.19 km, 10 m
+    apart: columns up to 5, where the interpolated tables are zero, are not corrected, so their raw system errors
+    count; the others are, so the scenario's residual after calibration counts (docs/real-data.md)."""
+    scenario = tmp_path / "s.yaml"
+    scenario.write_text("""
+scene: {type: table1_forest, forest: boreal_200}
+instrument: {type: nisar}
+ionosphere: {type: gaussian_faraday, mean_deg: 1.0, sd_deg: 0.5}
+calibration:
+  - {type: residual_system, crosstalk_db: -40.0, channel_imbalance_db: -40.0}
+propagation: [{type: hv_backscatter_error}]
+retrieval: {type: power_law, exponent: 2.0}
+requirements: [{type: agb_error_bound, sources: systematic, bound_percent: 30, confidence_percent: 95, side: both}]
+""")
+    path = write_slc(tmp_path / "slc.h5", "RSLC", crosstalk=[0, 0, 0.01 + 0.002j, 0.012], rfi=0.0,
+                     crosstalk_axis=[840e3, 850.05e3, 850.06e3, 860e3])
+    assert run(path, "--scenario", scenario, "-o", tmp_path / "out") == 0
+    out = layers(tmp_path / "out")
+    a = load_assumptions(scenario, "nisar")
+    layout = slc_layout("RSLC")
+    with h5py.File(path) as f:
+        for i, system in (((5, 3), a.system), ((9, 5), a.system), ((5, 6), a.system_residual),
+                          ((9, 19), a.system_residual)):
+            n = expected_noise(layout, f, i)
+            m = hv_error_moments(a.scene, system, a.faraday, noise_power=n)
+            assert out["sigma_hv_error_mean"][i] == pytest.approx(m.mean, rel=RTOL)
+            assert out["sigma_hv_error_sd"][i] == pytest.approx(np.sqrt(m.variance), rel=RTOL)
+            assert_copol_layers(out, i, polarimetric_error_moments(a.scene, system, a.faraday, noise_power=n))
+    assert out["attrs"]["crosstalk_corrected_by_processor"] == "True"
+    assert "slant range" in out["attrs"]["crosstalk_corrected_per_slant_range"]
 
 
 R, G = slc_layout("RSLC"), slc_layout("GSLC")

@@ -39,9 +39,14 @@ def layers(folder) -> dict:
 GAIN = 1 - 0.035  # the generated product's RFI mitigation blanked 3.5 % of the lines (HH)
 
 
-def with_gain(m, sigma):
-    """The moments ``m`` of a channel's error with its intensity multiplied by ``GAIN`` (the rfi term's FixedGain)."""
-    return SimpleNamespace(mean=GAIN * m.mean - (1 - GAIN) * sigma, variance=GAIN**2 * m.variance)
+def with_gain(m, sigma, gain=GAIN):
+    """The moments ``m`` of a channel's error with its intensity multiplied by ``gain`` (the rfi term's FixedGain)."""
+    return SimpleNamespace(mean=gain * m.mean - (1 - gain) * sigma, variance=gain**2 * m.variance)
+
+
+def copol_with_gain(copol, gain):
+    """``polarimetric_error_moments`` with every channel's intensity multiplied by ``gain``."""
+    return SimpleNamespace(mean=gain * copol.mean - (1 - gain) * copol.sigma, sd=gain * copol.sd, sigma=copol.sigma)
 
 
 def agb_answer(a, sigma_hv, m) -> float:
@@ -84,8 +89,7 @@ def test_biomass_uncorrected_faraday_rotation_counts_in_full_with_the_filled_sd(
         assert out["verdict"][i] == (agb_answer(a, a.scene.sigma_hv, m) <= a.bound)
         fr32 = float(np.float32(fr[i]))  # as the LUT stores it: sigma_hh and sigma_vv are sensitive to the rotation
         copol = polarimetric_error_moments(a.scene, a.system, GaussianFaraday(fr32, sd), noise_power=n)
-        assert_copol_layers(out, i, SimpleNamespace(mean=GAIN * copol.mean - (1 - GAIN) * copol.sigma,
-                                                    sd=GAIN * copol.sd, sigma=copol.sigma))
+        assert_copol_layers(out, i, copol_with_gain(copol, GAIN))
     # the noise bias grows across the swath: the near range passes the +-20 % bound, the far range does not
     assert out["verdict"][:, 0].all() and not out["verdict"][:, -1].any()
     attrs = out["attrs"]
@@ -113,8 +117,10 @@ def test_biomass_corrected_faraday_rotation_leaves_the_estimate_error_of_its_own
 
 def test_nisar_gcov_scene_looks_and_noise_come_from_the_product(tmp_path):
     """The covariance per pixel, numberOfLooks and nes0 from the GCOV; faradayRotation 0.0 and zero crosstalk
-    tables: not applied, so the scenario's rotation and the raw system errors count in full."""
-    path = write_gcov(tmp_path / "gcov.h5", looks=25.0, nes0=0.003)
+    tables: not applied, so the scenario's rotation and the raw system errors count in full. rfiLikelihood 0.02 (HH),
+    0.05 (HV) and NaN (VV: detection skipped): the largest finite one, 0.05, counts as the rfi term's blanked time,
+    a gain g = 0.95 on every channel (docs/real-data.md)."""
+    path = write_gcov(tmp_path / "gcov.h5", looks=25.0, nes0=0.003, rfi={"HH": 0.02, "HV": 0.05, "VV": np.nan})
     assert run(path, "-o", tmp_path / "out") == 0
     out = layers(tmp_path / "out")
     a = load_assumptions(None, "nisar")
@@ -126,16 +132,19 @@ def test_nisar_gcov_scene_looks_and_noise_come_from_the_product(tmp_path):
         hh, hv, vv, hhvv = (f[f"{nl.GRIDS}/{t}"][()] for t in ("HHHH", "HVHV", "VVVV", "HHVV"))
     for i in PIXELS[1:] + ((14, 19),):
         c = np.array([[hh[i], 0, hhvv[i]], [0, hv[i], 0], [np.conj(hhvv[i]), 0, vv[i]]], dtype=complex)
-        m = hv_error_moments(ScatteringCovariance(c), a.system, a.faraday, looks=25.0, noise_power=0.003)
+        m = with_gain(hv_error_moments(ScatteringCovariance(c), a.system, a.faraday, looks=25.0, noise_power=0.003),
+                      float(hv[i]), 0.95)
         assert out["sigma_hv_error_mean"][i] == pytest.approx(m.mean, rel=RTOL)
         assert out["sigma_hv_error_sd"][i] == pytest.approx(np.sqrt(m.variance), rel=RTOL)
         assert out["agb_relative_error"][i] == pytest.approx(agb_answer(a, float(hv[i]), m), rel=RTOL)
-        assert_copol_layers(out, i, polarimetric_error_moments(ScatteringCovariance(c), a.system, a.faraday,
-                                                               looks=25.0, noise_power=0.003))
+        copol = polarimetric_error_moments(ScatteringCovariance(c), a.system, a.faraday, looks=25.0, noise_power=0.003)
+        assert_copol_layers(out, i, copol_with_gain(copol, 0.95))
     assert np.isnan(out["sigma_hh_error_sd"][0, 0])  # mask fill
     assert np.isnan(out["sigma_hv_error_mean"][0, 0]) and out["verdict"][0, 0] == 255  # mask fill
     assert out["attrs"]["faraday_rotation_corrected_by_processor"] == "False"
     assert out["attrs"]["crosstalk_corrected_by_processor"] == "False"
+    assert out["attrs"]["rfi_blanked_fraction_counted"] == pytest.approx(0.05)
+    assert out["attrs"]["product_rfi_detection_skipped"] == "VV"
     with rasterio.open(tmp_path / "out" / "uncertainty.tif") as tif:
         assert tif.crs.to_epsg() == 32646
         assert tif.descriptions[2] == "sigma_hv_relative_error_mean"
@@ -157,7 +166,7 @@ propagation: [{type: hv_backscatter_error}]
 retrieval: {type: power_law, exponent: 2.0}
 requirements: [{type: agb_error_bound, sources: systematic, bound_percent: 30, confidence_percent: 95, side: both}]
 """)
-    path = write_gcov(tmp_path / "gcov.h5", crosstalk=0.01 + 0.002j, faraday=0.004)
+    path = write_gcov(tmp_path / "gcov.h5", crosstalk=0.01 + 0.002j, faraday=0.004, rfi=0.0)
     assert run(path, "--scenario", scenario, "-o", tmp_path / "out") == 0
     out = layers(tmp_path / "out")
     a = load_assumptions(scenario, "nisar")

@@ -93,6 +93,8 @@ LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
             "e2esim.products_io.biomass_layout",  # the BIOMASS L1 names: the product-driven modules read them too
             "e2esim.products_io.biomass_annotation",
             "e2esim.products_io.pixels",  # ProductFileError and the units check the product readers share
+            "e2esim.products_io.nisar_*",  # the NISAR readers: the NISAR product-driven modules read a pixel with them
+            "e2esim.products_io.lut_grid",  # the bilinear interpolation the NISAR readers use
         ),
     ),
     (

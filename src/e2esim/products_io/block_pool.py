@@ -70,7 +70,7 @@ def _part(band, part: slice):
         band, rows=slice(band.rows.start + part.start, band.rows.start + part.stop), valid=band.valid[part],
         noise_power=band.noise_power[part], sigma=None if band.sigma is None else tuple(cut(s) for s in band.sigma),
         hhvv=cut(band.hhvv), looks=cut(band.looks), faraday_mean=cut(band.faraday_mean),
-        faraday_sd=cut(band.faraday_sd))
+        faraday_sd=cut(band.faraday_sd), crosstalk_corrected=cut(band.crosstalk_corrected))
 
 
 SETTERS = (("scipy_openblas_set_num_threads64_", "scipy_openblas_get_num_threads64_"),

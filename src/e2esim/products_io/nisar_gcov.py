@@ -6,7 +6,9 @@ Per pixel: the covariance terms HHHH, HVHV, VVVV and HHVV (the scene), ``numberO
 are no data); the noise-equivalent sigma0 ``nes0`` of HH, HV and VV interpolated bilinearly from its coarser grid
 (their mean is the noise power sigma_n per channel). Once: the crosstalk tables (all zero = crosstalk not
 corrected), ``faradayRotation`` (0.0 = no correction; the product holds no Faraday-rotation layer, so the rotation
-is the scenario's), ``rfiLikelihood`` and ``scaleFactor`` (reported in the outputs' attributes).
+is the scenario's), ``rfiLikelihood`` (counted as the RFI term's blanked time, ``nisar_budget_terms``) and
+``scaleFactor`` (reported in the outputs' attributes). A GCOV pixel's slant range is not in the product, so its
+crosstalk tables count as one: any non-zero value = corrected.
 """
 
 from __future__ import annotations
@@ -15,6 +17,7 @@ import numpy as np
 
 from e2esim.products_io import nisar_layout as layout
 from e2esim.products_io.lut_grid import bilinear_rows
+from e2esim.products_io.nisar_budget_terms import rfi_blanked_fraction
 from e2esim.products_io.pixels import PixelBlock, ProductFileError, ProductPixels, check_shape, check_units
 
 NISAR_L_BAND_HZ = 1257.5e6
@@ -96,7 +99,10 @@ def gcov_pixels(path, f) -> ProductPixels:
         **{f"product_scaleFactor_{c}": v for c, v in scale.items()},
         "frequency_hz": NISAR_L_BAND_HZ,
     }
+    blanked, rfi_facts = rfi_blanked_fraction(rfi)
+    facts.update(rfi_facts)
     dx, dy = (x[1] - x[0], y[1] - y[0]) if x.size > 1 and y.size > 1 else (1.0, 1.0)
     return ProductPixels(path, "nisar", shape, coords, read, faraday != 0.0, crosstalk_applied, facts,
-                         geotransform=(x[0] - dx / 2, dx, y[0] - dy / 2, dy), crs=epsg)
+                         geotransform=(x[0] - dx / 2, dx, y[0] - dy / 2, dy), crs=epsg,
+                         rfi_blanked_fraction=blanked)
 

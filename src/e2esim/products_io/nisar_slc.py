@@ -9,8 +9,10 @@ in a backscatter estimated from the SLC, as for a BIOMASS L1 product; speckle is
 power sigma_n, the mean of the ``nes0`` tables of HH, HV and VV interpolated bilinearly onto the grid from their
 own coarser grid; validity: the GSLC's ``mask`` (0 and 255 no data), the RSLC's valid samples of each line
 (``validSamplesSubSwath<i>``), and a finite positive noise. Once: the crosstalk tables (all zero: crosstalk not
-corrected), ``faradayRotation`` (0.0: no correction; the product holds no rotation layer, so the rotation is the
-scenario's less what was removed), ``rfiLikelihood`` and ``scaleFactor`` (reported), and the orbit group (read
+corrected; an RSLC's tables apply per pixel at its column's slant range, ``nisar_budget_terms``),
+``faradayRotation`` (0.0: no correction; the product holds no rotation layer, so the rotation is the scenario's less
+what was removed), ``rfiLikelihood`` (counted as the RFI term's blanked time, ``nisar_budget_terms``) and
+``scaleFactor`` (reported), and the orbit group (read
 through ``e2esim.orbit.real.nisar``; the RSLC's acquisition must lie inside it).
 """
 
@@ -21,6 +23,7 @@ import numpy as np
 from e2esim.errors import UserError
 from e2esim.orbit.real.nisar import read_nisar_orbit
 from e2esim.products_io.lut_grid import bilinear_rows
+from e2esim.products_io.nisar_budget_terms import crosstalk_corrected_at, rfi_blanked_fraction
 from e2esim.products_io.nisar_slc_layout import CHANNELS, MASK_FILL, MASK_INVALID, TIME_UNITS_PREFIX, slc_layout
 from e2esim.products_io.pixels import PixelBlock, ProductFileError, ProductPixels, check_shape, check_units
 
@@ -49,8 +52,16 @@ def slc_pixels(path, f, product: str) -> ProductPixels:
     nes0_rows = _vector(path, f, layout, layout.nes0_rows, name)
     nes0_cols = _vector(path, f, layout, layout.nes0_columns, name)
     check_shape(path, layout.nes0(CHANNELS[0]), noise_grid.shape, (nes0_rows.size, nes0_cols.size))
-    facts = {**_crosstalk(path, f, layout, name), **_scalars(path, f, layout, name),
-             "frequency_hz": NISAR_L_BAND_HZ, "product_type": product}
+    crosstalk_facts, crosstalk_tables = _crosstalk(path, f, layout, name)
+    facts = {**crosstalk_facts, **_scalars(path, f, layout, name), "frequency_hz": NISAR_L_BAND_HZ,
+             "product_type": product}
+    blanked, rfi_facts = rfi_blanked_fraction({c: facts[f"product_rfiLikelihood_{c}"] for c in CHANNELS})
+    facts.update(rfi_facts)
+    # an RSLC's columns are slant ranges: its crosstalk tables apply pixel by pixel (nisar_budget_terms)
+    corrected_columns = None
+    if product == "RSLC" and facts["crosstalk_applied"]:
+        corrected_columns = crosstalk_corrected_at(*crosstalk_tables, cols)
+        facts["crosstalk_corrected_per_slant_range"] = "the tables interpolated at each column's slant range"
     if product == "RSLC":
         epoch = _time_epoch(path, f, layout.rows)
         if _time_epoch(path, f, layout.nes0_rows) != epoch:
@@ -75,14 +86,15 @@ def slc_pixels(path, f, product: str) -> ProductPixels:
             j = np.arange(shape[1])
             first, stop = valid_columns[block_rows, :, 0], valid_columns[block_rows, :, 1]
             valid &= np.any((j >= first[..., None]) & (j < stop[..., None]), axis=1)
-        return PixelBlock(block_rows, valid, noise)
+        corrected = None if corrected_columns is None else np.broadcast_to(corrected_columns, valid.shape)
+        return PixelBlock(block_rows, valid, noise, crosstalk_corrected=corrected)
 
     if product == "RSLC":
         coords = {"zero_doppler_time": (("zero_doppler_time",), rows, {
                       "units": f"s since {epoch}", "long_name": "zero-Doppler azimuth time (UTC)"}),
                   "slant_range": (("slant_range",), cols, {"units": "m", "long_name": "slant range"})}
         return ProductPixels(str(path), "nisar", shape, coords, read, facts["product_faradayRotation_rad"] != 0.0,
-                             facts.pop("crosstalk_applied"), facts)
+                             facts.pop("crosstalk_applied"), facts, rfi_blanked_fraction=blanked)
     epsg = int(f[layout.projection].attrs.get("epsg_code", f[layout.projection][()])) if layout.projection in f \
         else None
     if epsg is None:
@@ -92,7 +104,8 @@ def slc_pixels(path, f, product: str) -> ProductPixels:
     dx, dy = (cols[1] - cols[0], rows[1] - rows[0]) if cols.size > 1 and rows.size > 1 else (1.0, 1.0)
     return ProductPixels(str(path), "nisar", shape, coords, read, facts["product_faradayRotation_rad"] != 0.0,
                          facts.pop("crosstalk_applied"), facts,
-                         geotransform=(cols[0] - dx / 2, dx, rows[0] - dy / 2, dy), crs=epsg)
+                         geotransform=(cols[0] - dx / 2, dx, rows[0] - dy / 2, dy), crs=epsg,
+                         rfi_blanked_fraction=blanked)
 
 
 def _dataset(path, f, layout, name, what):
@@ -132,9 +145,10 @@ def _time_epoch(path, f, name) -> np.datetime64:
                                "date and time (YYYY-mm-ddTHH:MM:SS)") from None
 
 
-def _crosstalk(path, f, layout, what) -> dict:
+def _crosstalk(path, f, layout, what) -> tuple:
+    """(facts, (slant-range axis or None, the four tables))."""
     tables = [np.asarray(_dataset(path, f, layout, t, what)[()]).reshape(-1) for t in layout.crosstalk_tables]
-    facts = {}
+    facts, axis = {}, None
     if layout.crosstalk_axis_required or layout.crosstalk_slant_range in f:
         axis = _vector(path, f, layout, layout.crosstalk_slant_range, what)
         for name, table in zip(layout.crosstalk_tables, tables):
@@ -146,7 +160,7 @@ def _crosstalk(path, f, layout, what) -> dict:
             raise ProductFileError(f"{path}: {name}: holds a value that is not a finite number")
     facts["product_crosstalk_max_abs"] = max(largest)
     facts["crosstalk_applied"] = bool(max(largest) > 0)
-    return facts
+    return facts, (axis, tables)
 
 
 def _scalars(path, f, layout, what) -> dict:

@@ -16,9 +16,10 @@ with mean 0 and the SD of the estimate (the product's own layer where it holds v
 window of the scenario's ``looks`` at the pixel's SNR); where it did not, the full rotation counts: the product's
 own estimate (BIOMASS ``faradayRotation``) with that SD, or the scenario's geophysical rotation less any constant
 the processor removed (NISAR ``faradayRotation``). The system errors: the scenario's residual after calibration
-where the product corrected crosstalk (non-zero crosstalk values), the scenario's raw system where it did not. The
-RFI mitigation's blanked time (BIOMASS annotation ``percentageAffectedLines``) as a gain loss of every channel
-(``with_gain``).
+where the product corrected crosstalk (non-zero crosstalk values; a NISAR RSLC's tables pixel by pixel at its slant
+range, ``e2esim.products_io.nisar_budget_terms``), the scenario's raw system where it did not. The RFI mitigation's
+blanked time (BIOMASS annotation ``percentageAffectedLines``; NISAR ``rfiLikelihood``) as a gain loss of every
+channel (``with_gain``).
 """
 
 from __future__ import annotations
@@ -79,24 +80,45 @@ def pixel_moments(block, pixels, assumptions) -> dict:
     noise = take(block.noise_power).astype(np.float64)
     fr_sd, source = faraday_estimate_sd(hh, vv, hhvv, noise, block, take, assumptions.fr_window_looks)
     fr_mean, fr_spread = residual_faraday(pixels, block, take, fr_sd, assumptions.faraday, n)
-    system = assumptions.system_residual if pixels.crosstalk_applied else assumptions.system
     looks = None if block.looks is None else take(block.looks).astype(np.float64)
-    m = moments_of(pixel_inputs(hh, hv, vv, hhvv, noise, fr_mean, fr_spread, system), "complete", looks=looks)
+    corrected = (np.full(n, pixels.crosstalk_applied) if block.crosstalk_corrected is None
+                 else take(block.crosstalk_corrected).astype(bool))
+    values = {"faraday_rotation_sd": fr_sd, "faraday_rotation_sd_source": source,
+              "residual_faraday_rotation_mean": fr_mean, "residual_faraday_rotation_sd": fr_spread}
     gain = 1.0 - pixels.rfi_blanked_fraction
+    # the scenario's residual after calibration where crosstalk was corrected, its raw system where it was not
+    for flag, system in ((True, assumptions.system_residual), (False, assumptions.system)):
+        part = corrected == flag
+        if not part.any():
+            continue
+        whole = bool(part.all())
+        inputs = (hh, hv, vv, hhvv, noise, fr_mean, fr_spread, looks)
+        if not whole:
+            inputs = tuple(None if x is None else x[part] for x in inputs)
+        budget = system_layers(*inputs, system, gain, assumptions)
+        for name, value in budget.items():
+            if whole:
+                values[name] = value
+            else:
+                values.setdefault(name, np.empty(n, value.dtype))[part] = value
+    for name, value in values.items():
+        out[name].reshape(-1)[ok] = value
+    return out
+
+
+def system_layers(hh, hv, vv, hhvv, noise, fr_mean, fr_spread, looks, system, gain, assumptions) -> dict:
+    """The layers that depend on the system errors, for pixels that share ``system``."""
+    m = moments_of(pixel_inputs(hh, hv, vv, hhvv, noise, fr_mean, fr_spread, system), "complete", looks=looks)
     mean, sd = with_gain(m.mean, np.sqrt(m.variance), hv, gain)
     agb = AGBError.from_sigma_errors(assumptions.exponent, hv, mean, sd)
     tails = agb.quantile(np.array([1.0 - assumptions.confidence, assumptions.confidence]))
     agb_error = np.max(np.abs(tails), axis=-1)
-    values = {
+    return {
         "sigma_hv_error_mean": mean, "sigma_hv_error_sd": sd, "sigma_hv_relative_error_mean": mean / hv,
-        "sigma_hv_relative_error_sd": sd / hv, "faraday_rotation_sd": fr_sd, "faraday_rotation_sd_source": source,
+        "sigma_hv_relative_error_sd": sd / hv,
         **copol_layers(hh, hv, vv, hhvv, noise, fr_mean, fr_spread, system, looks, gain),
-        "residual_faraday_rotation_mean": fr_mean, "residual_faraday_rotation_sd": fr_spread,
         "agb_relative_error": agb_error, "verdict": (agb_error <= assumptions.bound).astype(np.uint8),
     }
-    for name, value in values.items():
-        out[name].reshape(-1)[ok] = value
-    return out
 
 
 def with_gain(mean, sd, sigma, gain):

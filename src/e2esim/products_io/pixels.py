@@ -26,6 +26,8 @@ class PixelBlock:
     product's covariance estimate, or None. noise_power : sigma_n per channel (linear NESZ). faraday_mean,
     faraday_sd : the one-way Faraday rotation in the data (rad) and the SD of its estimate (rad; NaN where the
     product left it empty), or None where the product holds no Faraday-rotation layer. valid : pixels with data.
+    crosstalk_corrected : whether the processor corrected crosstalk at each pixel (a NISAR RSLC's tables along slant
+    range), or None where the product's one flag (``ProductPixels.crosstalk_applied``) holds for every pixel.
     """
 
     rows: slice
@@ -36,6 +38,7 @@ class PixelBlock:
     looks: np.ndarray | None = None
     faraday_mean: np.ndarray | None = None
     faraday_sd: np.ndarray | None = None
+    crosstalk_corrected: np.ndarray | None = None
 
 
 @dataclass(frozen=True)
@@ -49,8 +52,9 @@ class ProductPixels:
     fractions, crosstalk magnitudes), written into the outputs' attributes. frequency_hz : the radar frequency.
     geotransform : (x0, dx, y0, dy) of a map grid (GeoTIFF), None for a radar grid. crs : its EPSG code or None.
     rfi_blanked_fraction : the share f_t of the aperture time the processor's RFI mitigation removed (BIOMASS: the
-    largest ``percentageAffectedLines`` over the polarisations), counted as the gain loss 1 - f_t of the ``rfi`` error
-    term (``FixedGain``: not restored by the processor; docs/theory/rfi.md).
+    largest ``percentageAffectedLines`` over the polarisations; NISAR: the largest ``rfiLikelihood``), counted as
+    the gain loss 1 - f_t of the ``rfi`` error term (``FixedGain``: not restored by the processor;
+    docs/theory/rfi.md).
     """
 
     path: str
