@@ -126,3 +126,25 @@ def test_where_faraday_rotation_couples_the_split_has_no_remainder_and_stays_wit
     q = {"over": value, "under": -100 * float(agb.quantile(1 - CONF))}
     euler = bound_shares(value, agb, CONF, ("over", "under"), q, "percent")
     assert abs(euler["share.interactions_percent"]) > 0.01 * value
+
+
+def test_a_block_leaves_out_a_source_active_in_none_of_its_cases_as_each_case_alone_does():
+    """The subsets' moments are the error model's (``ErrorModel.source_subsets``, evaluated once per model object):
+    a source that no case of a block has (here the gain error) is left out, so the block evaluates 2^k subsets of
+    the k sources active somewhere, as each case alone does, with each case's numbers bit for bit."""
+    from e2esim.distortion.analytic import MomentInputs
+
+    faraday = GaussianFaraday(np.pi / 3, np.radians(5.0))
+    alone = [HVErrorModel(forest(name), system(crosstalk_db=db), faraday)
+             for name, db in (("boreal_200", -30.0), ("tropical_338", -24.0), ("boreal_50", -36.0))]
+    block = HVErrorModel(alone[0].scene, alone[0].system, faraday,
+                         inputs=MomentInputs.stack([m.moment_inputs for m in alone]))
+    assert np.all(block.without("gain").inactive)  # no case has a gain error
+    names, means, variances, active = block.source_subsets
+    assert block.source_subsets is block.source_subsets
+    assert names == ("crosstalk", "channel_imbalance", "noise", "faraday_rotation") and means.shape == (16, 3)
+    for k, model in enumerate(alone):
+        own, mean, variance, _ = model.source_subsets
+        assert own == names
+        np.testing.assert_array_equal(means[:, k], mean)
+        np.testing.assert_array_equal(variances[:, k], variance)
