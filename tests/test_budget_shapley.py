@@ -126,3 +126,48 @@ def test_where_faraday_rotation_couples_the_split_has_no_remainder_and_stays_wit
     q = {"over": value, "under": -100 * float(agb.quantile(1 - CONF))}
     euler = bound_shares(value, agb, CONF, ("over", "under"), q, "percent")
     assert abs(euler["share.interactions_percent"]) > 0.01 * value
+
+
+def test_a_block_leaves_out_a_source_active_in_none_of_its_cases_as_each_case_alone_does():
+    """The subsets' moments are the error model's (``ErrorModel.source_subsets``, evaluated once per model object):
+    a source that no case of a block has (here the gain error) is left out, so the block evaluates 2^k subsets of
+    the k sources active somewhere, as each case alone does, with each case's numbers bit for bit."""
+    from e2esim.distortion.analytic import MomentInputs
+
+    faraday = GaussianFaraday(np.pi / 3, np.radians(5.0))
+    alone = [HVErrorModel(forest(name), system(crosstalk_db=db), faraday)
+             for name, db in (("boreal_200", -30.0), ("tropical_338", -24.0), ("boreal_50", -36.0))]
+    block = HVErrorModel(alone[0].scene, alone[0].system, faraday,
+                         inputs=MomentInputs.stack([m.moment_inputs for m in alone]))
+    assert np.all(block.without("gain").inactive)  # no case has a gain error
+    names, means, variances, active = block.source_subsets
+    assert all(np.all(a) for a in active)  # the four active in every case
+    assert block.source_subsets is block.source_subsets
+    assert names == ("crosstalk", "channel_imbalance", "noise", "faraday_rotation") and means.shape == (16, 3)
+    for k, model in enumerate(alone):
+        own, mean, variance, _ = model.source_subsets
+        assert own == names
+        np.testing.assert_array_equal(means[:, k], mean)
+        np.testing.assert_array_equal(variances[:, k], variance)
+
+
+def test_a_source_active_in_no_case_of_a_block_is_neither_evaluated_nor_attributed():
+    """``AGBError.without`` of a source that no case of a block has evaluates nothing (as for a case alone, where
+    the error model returns itself): the attribution gives it 0 in every case, as each case alone."""
+    from e2esim.distortion.analytic import MomentInputs
+    from e2esim.requirements.attribution import attribution
+
+    faraday = GaussianFaraday(np.pi / 3, np.radians(5.0))
+    alone = [HVErrorModel(forest(name), system(), faraday) for name in ("boreal_200", "tropical_338")]
+    block = HVErrorModel(alone[0].scene, alone[0].system, faraday,
+                         inputs=MomentInputs.stack([m.moment_inputs for m in alone]))
+    m = block.current()
+    agb = AGBError.from_sigma_errors(np.full(2, 2.2), block.value, m.mean, m.sd, error_model=block)
+    variant, inactive = agb.without("gain")
+    assert variant is None and np.all(inactive)
+    out, _ = attribution(lambda a: a.rmse("analytic") * 100, agb)
+    for k, model in enumerate(alone):
+        one = model.current()
+        alone_out, _ = attribution(lambda a: a.rmse("analytic") * 100, AGBError.from_sigma_errors(
+            2.2, model.value, float(one.mean), float(one.sd), error_model=model))
+        assert {key: out[key][k] for key in out} == alone_out

@@ -22,6 +22,7 @@ from __future__ import annotations
 
 from abc import ABC, abstractmethod
 from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 
@@ -127,6 +128,15 @@ class ErrorModel(ABC):
     def scalars(self) -> dict:
         """Output scalars of the model (summary.json, results.h5); names documented in docs/output-format.md."""
         return {}
+
+    @cached_property
+    def source_subsets(self) -> tuple:
+        """(names, means, variances, active): the sources active in some case, the mean and variance of the error
+        with only the sources of each subset of them switched on ((2^k,) + the case shape, subset mask m: bit j set
+        where source j is on; m = 2^k - 1 is the model itself) and where each source is active (True: in every
+        case, or a per-case bool array). The Shapley split's 2^k evaluations (``e2esim.requirements.shapley``),
+        made once per model object: the requirements of a case ask the same model. See ``subsets_of``."""
+        return subsets_of(self)
 
 
 # Several channels ----------------------------------------------------------------------------------------------
@@ -331,3 +341,40 @@ class ChannelView(DerivedErrorModel):
     def contributions(self) -> dict:
         return {name: Contribution(float(c.mean[self._i]), float(c.covariance[self._i, self._i]), c.description)
                 for name, c in self.source.joint_contributions().items()}
+
+
+def subsets_of(model: ErrorModel) -> tuple:
+    """``ErrorModel.source_subsets``: each subset's model built by removals one at a time (``without``) and evaluated
+    once. A source whose removal changes nothing is left out: the model itself (not active), or a variant that marks
+    it ``inactive`` in every case of a block (a case alone leaves it out the same way). Where a source is not active
+    in some cases, its removal changes nothing there, exactly: those cases keep the smaller subset's moments."""
+    own, inactive = [], {}
+    for name in model.sources:
+        variant = model.without(name)
+        off = getattr(variant, "inactive", None)
+        if variant is not model and not (off is not None and np.all(off)):
+            own.append(name)
+            inactive[name] = off
+    active = tuple(True if inactive[name] is None else ~np.asarray(inactive[name], dtype=bool) for name in own)
+    k = len(own)
+    variants = {0: model}  # by the bit mask of the sources taken away
+    for removed in range(1, 2**k):
+        top = removed.bit_length() - 1
+        variants[removed] = variants[removed & ~(1 << top)].without(own[top])
+    full = 2**k - 1
+    means, variances = [], []
+    for on in range(2**k):  # ascending: a subset's smaller subsets are done first
+        m = variants[full & ~on].current()
+        # a truncated expansion far from its own levels can give a slightly negative variance: read it as 0 (as
+        # _channel_moments does)
+        mean, var = np.asarray(m.mean, dtype=float), np.clip(np.asarray(m.variance, dtype=float), 0.0, None)
+        for bit, name in enumerate(own):
+            off = inactive[name]
+            if on >> bit & 1 and off is not None and np.any(off):
+                mean = np.where(off, means[on & ~(1 << bit)], mean)
+                var = np.where(off, variances[on & ~(1 << bit)], var)
+        means.append(mean)
+        variances.append(var)
+    shape = np.broadcast_shapes(*(np.shape(x) for x in means + variances))
+    return (tuple(own), np.stack([np.broadcast_to(x, shape) for x in means]),
+            np.stack([np.broadcast_to(x, shape) for x in variances]), active)

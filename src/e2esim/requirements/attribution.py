@@ -51,8 +51,8 @@ def attribution(value_of, agb: AGBError, unit: str = "percent") -> tuple[dict, t
     out = {}
     for name in agb.sources():
         variant, inactive = agb.without(name)
-        if variant is None:  # the source is not active: nothing to take away
-            out[f"contribution.{name}_{unit}"] = 0.0
+        if variant is None:  # the source is not active (in any case of a block): nothing to take away
+            out[f"contribution.{name}_{unit}"] = 0.0 if inactive is True else np.zeros(np.shape(inactive))
             continue
         value = base - value_of(variant)
         out[f"contribution.{name}_{unit}"] = value if inactive is None else np.where(inactive, 0.0, value)

@@ -23,13 +23,13 @@ as ``AGBError.without`` takes away one):
 The checked value V is divided in proportion, share_i = V phi_i / f(N) (eq. 4 of the Euler split), and f({}) (what
 the error model keeps with every source taken away; zero for the built-in models) is ``shapley.no_source_<unit>``, so
 the shares sum to V exactly (to rounding). The 2^n subsets cost 2^k evaluations of the error model (k its sources
-active in some case of the block, each evaluated once for the whole block) and arithmetic for the others.
+active in some case of the block, each evaluated once for the whole block and kept with the model:
+``ErrorModel.source_subsets``) and arithmetic for the others.
 """
 
 from __future__ import annotations
 
 from math import factorial
-from weakref import WeakKeyDictionary
 
 import numpy as np
 
@@ -47,7 +47,7 @@ def subset_moments(agb) -> tuple:
     mask m: bit k set where source k is on; m = 2^n - 1 is ``agb`` itself), and where each source is active, (n,) +
     the case shape (None without sources). A source not active in a case changes nothing there, exactly."""
     model = agb.error_model
-    own, means, variances, own_active = _model_subsets(model)
+    own, means, variances, own_active = model.source_subsets
     added = np.asarray(agb.added_variance, dtype=float)
     value2 = np.square(np.asarray(model.value, dtype=float))
     others = []
@@ -77,56 +77,6 @@ def subset_moments(agb) -> tuple:
     return names, np.array(b, dtype=float), v, active
 
 
-_SUBSETS: WeakKeyDictionary = WeakKeyDictionary()
-"""The subsets' moments of an error model (``_model_subsets``), kept while the model lives: the requirements of a
-case ask the same model."""
-
-
-def _model_subsets(model) -> tuple:
-    """(own, means, variances, active): the error model's sources active in some case, its mean and variance with
-    only the sources of each subset of them switched on (2^k,) + the case shape, each subset's model built by
-    removals one at a time (``ErrorModel.without``) and evaluated once, and where each source is active (True: in
-    every case, or a per-case bool array)."""
-    try:
-        return _SUBSETS[model]
-    except (KeyError, TypeError):  # not yet evaluated, or a model that cannot be weakly referenced
-        pass
-    own, inactive = [], {}
-    for name in model.sources:
-        variant = model.without(name)
-        if variant is not model:
-            own.append(name)
-            inactive[name] = getattr(variant, "inactive", None)
-    active = tuple(True if inactive[name] is None else ~np.asarray(inactive[name], dtype=bool) for name in own)
-    k = len(own)
-    variants = {0: model}  # by the bit mask of the sources taken away
-    for removed in range(1, 2**k):
-        top = removed.bit_length() - 1
-        variants[removed] = variants[removed & ~(1 << top)].without(own[top])
-    full = 2**k - 1
-    means, variances = [], []
-    for on in range(2**k):  # ascending: a subset's smaller subsets are done first
-        m = variants[full & ~on].current()
-        # a truncated expansion far from its own levels can give a slightly negative variance: read it as 0 (as
-        # e2esim.error_model reads a channel's)
-        mean, var = np.asarray(m.mean, dtype=float), np.clip(np.asarray(m.variance, dtype=float), 0.0, None)
-        for bit, name in enumerate(own):  # where source ``bit`` is not active its removal changes nothing
-            off = inactive[name]
-            if on >> bit & 1 and off is not None and np.any(off):
-                mean = np.where(off, means[on & ~(1 << bit)], mean)
-                var = np.where(off, variances[on & ~(1 << bit)], var)
-        means.append(mean)
-        variances.append(var)
-    shape = np.broadcast_shapes(*(np.shape(x) for x in means + variances))
-    out = (tuple(own), np.stack([np.broadcast_to(x, shape) for x in means]),
-           np.stack([np.broadcast_to(x, shape) for x in variances]), active)
-    try:
-        _SUBSETS[model] = out
-    except TypeError:  # a model that cannot be weakly referenced is evaluated each time
-        pass
-    return out
-
-
 def shapley_values(f: np.ndarray) -> np.ndarray:
     """phi (n,) + case shape of the game ``f`` ((2^n,) + case shape, indexed by the subset's bit mask): the Shapley
     value of every player (module docstring)."""
@@ -154,11 +104,15 @@ def _by_players(game: np.ndarray, active) -> tuple:
     n, shape = len(active), game.shape[1:]
     flat, on = game.reshape(game.shape[0], -1), active.reshape(n, -1)
     phi, empty = np.zeros((n, flat.shape[1])), np.empty(flat.shape[1])
-    patterns, which = np.unique(on.T.astype(bool), axis=0, return_inverse=True)
-    for g, pattern in enumerate(patterns):  # the cases that have the same players, together
-        cases = np.flatnonzero(np.ravel(which) == g)
-        players = [j for j in range(n) if pattern[j]]
-        rest = sum(1 << j for j in range(n) if not pattern[j])
+    # each case's players as a bit mask (bit j: source j active), to group the cases that have the same players
+    codes = np.zeros(flat.shape[1], dtype=np.int64)
+    for j in range(n):
+        codes |= on[j].astype(np.int64) << j
+    patterns, which = np.unique(codes, return_inverse=True)
+    for g, pattern in enumerate(patterns.tolist()):  # the cases that have the same players, together
+        cases = np.flatnonzero(which == g) if len(patterns) > 1 else np.arange(flat.shape[1])
+        players = [j for j in range(n) if pattern >> j & 1]
+        rest = sum(1 << j for j in range(n) if not pattern >> j & 1)
         sub = np.array([rest | sum(1 << p for b, p in enumerate(players) if m >> b & 1)
                         for m in range(2 ** len(players))])
         part = np.ascontiguousarray(flat[np.ix_(sub, cases)])

@@ -65,16 +65,19 @@ class ErrorVariants:
         """(the analytic AGB error without ``source``, everything else kept; where it was not active): a source of
         the error model through ``ErrorModel.without`` (the added variance kept), any other by taking its variance
         out of the total. The second is None (active in every case), a per-case bool array (a block), or True
-        (not active at all: the first is then None)."""
+        (not active at all: the first is then None; also None for a block where the array is True in every case:
+        nothing is evaluated for a source no case has)."""
         model = self.error_model
         if source in model.sources:
             variant = model.without(source)
             if variant is model:
                 return None, True
+            inactive = getattr(variant, "inactive", None)
+            if inactive is not None and np.all(inactive):
+                return None, inactive
             m = variant.current()
             sd = np.sqrt(np.square(m.sd) + self.added_variance)
-            return (replace(self, error_mean=_floats(m.mean), error_sd=_floats(sd), error_model=variant),
-                    getattr(variant, "inactive", None))
+            return replace(self, error_mean=_floats(m.mean), error_sd=_floats(sd), error_model=variant), inactive
         c = self.contribution(source)
         variance = np.maximum(np.asarray(self.error_sd) ** 2 - np.asarray(model.value) ** 2
                               * np.maximum(c.relative_variance, 0.0), 0.0)
