@@ -173,6 +173,32 @@ def test_a_subclass_of_a_folded_stage_that_overrides_forward_runs_case_by_case()
     assert batched_run(OwnVerdictsForward([AGBErrorBound()], Location("t"))) is None
 
 
+class OwnBudgetInputs(BackscatterErrorBudget):
+    """A budget that reads more of the instrument than ``_instrument_reads`` says (its NESZ doubled)."""
+
+    type_name = "own_budget_inputs"
+
+    def _inputs_with(self, inst):
+        base = super()._inputs_with(inst)
+        return base.replace(nesz=2 * base.nesz)
+
+
+def test_the_budget_has_one_path_for_a_case_alone_and_a_block():
+    """Issue 27, item 2: the budget's forward makes a case alone's budget as a block's (no case.alone branch), from
+    the inputs ``_inputs_with`` gives; a subclass that overrides that hook runs case by case (it may read what the
+    block's sharing of budgets between instruments does not look at) and its case alone gets its own inputs."""
+    from e2esim.testing import reference_case
+
+    case = reference_case(("scene.covariance", "backscatter.error", "instrument"))
+    own = OwnBudgetInputs(temporal={"sd_percent": 5.0})
+    assert batched_run(own) is None
+    got = own.forward(case)["backscatter.budget"]
+    plain = BackscatterErrorBudget(temporal={"sd_percent": 5.0})
+    expected = plain.forward(case)["backscatter.budget"]
+    assert np.all(np.isfinite(expected.snr)) and np.array_equal(2 * got.snr, expected.snr)  # sigma / (2 sigma_n)
+    assert check_block_invariance(plain, case)
+
+
 def test_a_block_reads_its_products_by_declared_form():
     """Block.common, factor and batched (the typed reads that replaced FactorView and BlockView): a text every case
     shares, the distinct values, a product with its case axis; NotBatched where the block does not have that form."""
@@ -180,7 +206,6 @@ def test_a_block_reads_its_products_by_declared_form():
     from e2esim.testing import reference_block, reference_case
 
     block, cases = reference_block(("agb.error",))
-    assert block.alone is False and cases[0].alone is True
     assert block.batched("agb.error") is block["agb.error"]
     scenes = block.factor("scene.covariance")
     assert isinstance(scenes, Factor) and [scenes.item(k) for k in range(len(block))] == [
