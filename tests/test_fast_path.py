@@ -141,8 +141,8 @@ def test_one_forward_answers_for_a_block_as_for_each_case_alone():
         assert {name: columns[name][k] for name in columns} == alone.scalars()
         for source in alone.sources:
             variant, in_block = alone.without(source), model.without(source)
-            if variant is alone:  # not active in this case: the block marks it
-                assert in_block.inactive[k], source
+            if variant is alone:  # not active in this case: the block marks it, or is its own variant
+                assert in_block is model or in_block.inactive[k], source
             else:
                 assert in_block.current().variance[k] == variant.current().variance, source
         for name, part in alone.contributions().items():
@@ -171,6 +171,24 @@ def test_a_subclass_of_a_folded_stage_that_overrides_forward_runs_case_by_case()
     assert batched_run(BackscatterErrorBudget()) is not None and batched_run(OwnBudgetForward()) is None
     assert batched_run(RequirementSet([AGBErrorBound()], Location("t"))) is not None
     assert batched_run(OwnVerdictsForward([AGBErrorBound()], Location("t"))) is None
+
+
+def test_the_error_model_answers_a_block_where_no_case_has_a_source_as_a_case_alone():
+    """Issue 27, item 2: ``HVErrorModel.without`` of a source no case has is the model itself, for a block as for a
+    case alone (a block of one); the contributions are floats for a case alone, arrays over a block's cases."""
+    from e2esim.testing import BLOCK_VARIANTS, reference_block
+
+    still = tuple({**v, "ionosphere": {"mean_deg": 0.0, "sd_deg": 0.0}} for v in BLOCK_VARIANTS)
+    block, cases = reference_block(HVBackscatterErrorPropagation.needs, variants=still)
+    model = batched_run(HVBackscatterErrorPropagation())(block)["backscatter.error"]
+    assert model.without("faraday_rotation") is model
+    assert model.without("crosstalk") is not model
+    in_block = model.contributions()
+    for k, case in enumerate(cases):
+        alone = HVBackscatterErrorPropagation().forward(case)["backscatter.error"]
+        assert alone.without("faraday_rotation") is alone
+        for name, part in alone.contributions().items():
+            assert type(part.variance) is float and in_block[name].variance[k] == part.variance, name
 
 
 class OwnBudgetInputs(BackscatterErrorBudget):
