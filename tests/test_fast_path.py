@@ -141,8 +141,8 @@ def test_one_forward_answers_for_a_block_as_for_each_case_alone():
         assert {name: columns[name][k] for name in columns} == alone.scalars()
         for source in alone.sources:
             variant, in_block = alone.without(source), model.without(source)
-            if variant is alone:  # not active in this case: the block marks it
-                assert in_block.inactive[k], source
+            if variant is alone:  # not active in this case: the block marks it, or is its own variant
+                assert in_block is model or in_block.inactive[k], source
             else:
                 assert in_block.current().variance[k] == variant.current().variance, source
         for name, part in alone.contributions().items():
@@ -173,6 +173,50 @@ def test_a_subclass_of_a_folded_stage_that_overrides_forward_runs_case_by_case()
     assert batched_run(OwnVerdictsForward([AGBErrorBound()], Location("t"))) is None
 
 
+def test_the_error_model_answers_a_block_where_no_case_has_a_source_as_a_case_alone():
+    """Issue 27, item 2: ``HVErrorModel.without`` of a source no case has is the model itself, for a block as for a
+    case alone (a block of one); the contributions are floats for a case alone, arrays over a block's cases."""
+    from e2esim.testing import BLOCK_VARIANTS, reference_block
+
+    still = tuple({**v, "ionosphere": {"mean_deg": 0.0, "sd_deg": 0.0}} for v in BLOCK_VARIANTS)
+    block, cases = reference_block(HVBackscatterErrorPropagation.needs, variants=still)
+    model = batched_run(HVBackscatterErrorPropagation())(block)["backscatter.error"]
+    assert model.without("faraday_rotation") is model
+    assert model.without("crosstalk") is not model
+    in_block = model.contributions()
+    for k, case in enumerate(cases):
+        alone = HVBackscatterErrorPropagation().forward(case)["backscatter.error"]
+        assert alone.without("faraday_rotation") is alone
+        for name, part in alone.contributions().items():
+            assert type(part.variance) is float and in_block[name].variance[k] == part.variance, name
+
+
+class OwnBudgetInputs(BackscatterErrorBudget):
+    """A budget that reads more of the instrument than ``_instrument_reads`` says (its NESZ doubled)."""
+
+    type_name = "own_budget_inputs"
+
+    def _inputs_with(self, inst):
+        base = super()._inputs_with(inst)
+        return base.replace(nesz=2 * base.nesz)
+
+
+def test_the_budget_has_one_path_for_a_case_alone_and_a_block():
+    """Issue 27, item 2: the budget's forward makes a case alone's budget as a block's (no case.alone branch), from
+    the inputs ``_inputs_with`` gives; a subclass that overrides that hook runs case by case (it may read what the
+    block's sharing of budgets between instruments does not look at) and its case alone gets its own inputs."""
+    from e2esim.testing import reference_case
+
+    case = reference_case(("scene.covariance", "backscatter.error", "instrument"))
+    own = OwnBudgetInputs(temporal={"sd_percent": 5.0})
+    assert batched_run(own) is None
+    got = own.forward(case)["backscatter.budget"]
+    plain = BackscatterErrorBudget(temporal={"sd_percent": 5.0})
+    expected = plain.forward(case)["backscatter.budget"]
+    assert np.all(np.isfinite(expected.snr)) and np.array_equal(2 * got.snr, expected.snr)  # sigma / (2 sigma_n)
+    assert check_block_invariance(plain, case)
+
+
 def test_a_block_reads_its_products_by_declared_form():
     """Block.common, factor and batched (the typed reads that replaced FactorView and BlockView): a text every case
     shares, the distinct values, a product with its case axis; NotBatched where the block does not have that form."""
@@ -180,7 +224,6 @@ def test_a_block_reads_its_products_by_declared_form():
     from e2esim.testing import reference_block, reference_case
 
     block, cases = reference_block(("agb.error",))
-    assert block.alone is False and cases[0].alone is True
     assert block.batched("agb.error") is block["agb.error"]
     scenes = block.factor("scene.covariance")
     assert isinstance(scenes, Factor) and [scenes.item(k) for k in range(len(block))] == [

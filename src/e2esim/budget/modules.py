@@ -115,7 +115,7 @@ class BackscatterErrorBudget(Stage):
     needs = ("scene.covariance",)
     uses = ("backscatter.error", "instrument")
     provides = (P.BACKSCATTER_BUDGET,)
-    fast_path_hooks = ("inputs_for",)  # forward reads the instrument alone, through _inputs_with
+    fast_path_hooks = ("_inputs_with", "_instrument_reads")  # forward reads the instrument through these
 
     def setup(self):
         self._made = {}  # the budgets made so far in the run, by scene and instrument (e2esim.budget.block)
@@ -176,7 +176,8 @@ class BackscatterErrorBudget(Stage):
         return BudgetInputs(**values)
 
     def inputs_for(self, case) -> BudgetInputs:
-        """The budget inputs of a case: the instrument's NESZ and bandwidth unless the scenario gives them."""
+        """The budget inputs of a case: the instrument's NESZ and bandwidth unless the scenario gives them (what
+        ``forward`` uses, through ``_inputs_with``; for the ``forward`` of a subclass)."""
         return self._inputs_with(case.get("instrument"))
 
     def _inputs_with(self, inst) -> BudgetInputs:
@@ -205,15 +206,13 @@ class BackscatterErrorBudget(Stage):
 
     def forward(self, case):
         """The budget of a case's scene and instrument; of a block at once, made once per distinct pair of them in
-        the run (``block_budgets``: a ``Factor``). A block whose error model already counts speckle, or with a
-        budget that cannot be made, runs case by case, where this says why."""
+        the run (``block_budgets``: a ``Factor``), a case alone being a block of one. A block whose error model
+        already counts speckle, or with a budget that cannot be made, runs case by case, where this says why."""
         self.refuse_speckle_twice(case)
         instruments = case.factor("instrument") if "instrument" in case else None
-        inputs_of = (lambda inst: self.inputs_for(case)) if case.alone else self._inputs_with
         try:
             made = block_budgets(case.factor("scene.covariance"), instruments, self._made,
-                                 lambda scene, inst: self.budget_of(scene, inputs_of(inst)),
-                                 None if case.alone else self._reading)
+                                 lambda scene, inst: self.budget_of(scene, self._inputs_with(inst)), self._reading)
         except PhysicsInputError as exc:
             case.per_case("a budget cannot be made")
             raise fail(self, f"case {case.index}: {exc}") from exc

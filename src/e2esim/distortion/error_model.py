@@ -78,8 +78,8 @@ class HVErrorModel(Batched, SystemLevels, ModelEvaluation, ErrorModel):
         of the analytic moments (``hv_error_moments``), with the keyword-only ``looks`` and ``reference``
         (``ModelEvaluation``; its ``montecarlo`` is a ``MonteCarloErrors``). inputs : the ``MomentInputs`` of
         the moments, case shape () or (B,) (None: those of scene, system and faraday, one case). inactive : for
-        a model with a source removed (``without``), where that source was not active (a case alone is then
-        its own variant).
+        a model with a source removed (``without``), where that source was not active (a model where no case
+        has it, a case alone among them, is its own variant).
     """
 
     scene: ScatteringCovariance
@@ -138,14 +138,14 @@ class HVErrorModel(Batched, SystemLevels, ModelEvaluation, ErrorModel):
 
     # Sources removed (``SystemLevels.without``) ----------------------------------------------------
     def _without(self, source: str) -> HVErrorModel:
-        """The model with ``source`` removed; a case alone where it is not active is its own variant, a block marks
-        those cases (``inactive``)."""
+        """The model with ``source`` removed: the model itself where no case has it (a case alone is a block of
+        one), else a variant that marks the cases without it (``inactive``)."""
         inp = self.moment_inputs
         shape = np.shape(inp.levels[0])
         if source == "faraday_rotation":
-            return self if self.alone and inp.no_rotation else self._no_faraday()
+            return self if np.all(inp.no_rotation) else self._no_faraday()
         if source == "gain":
-            if self.alone and inp.no_gain_error:
+            if np.all(inp.no_gain_error):
                 return self
             return self._variant(dataclasses.replace(inp, gain=(np.ones(shape), np.ones(shape))), inp.no_gain_error,
                                  system=lambda s: dataclasses.replace(s, gain_offset_db=0.0, gain_sd_db=0.0))
@@ -158,7 +158,7 @@ class HVErrorModel(Batched, SystemLevels, ModelEvaluation, ErrorModel):
                                                         nesz=np.stack([ns, ns, z], -1))
         row = _LEVEL_SOURCES[source]
         levels = [xs, es, ns]
-        levels[row] = 0.0 if self.alone else np.zeros(shape)
+        levels[row] = np.zeros(shape)[()]  # a float for a case alone (shape ()), an array over a block's cases
         variant = self._variant(dataclasses.replace(inp, levels=tuple(levels)), np.zeros(shape, dtype=bool),
                                 system=lambda s: s.with_levels(**_LEVEL_NAMES[source]))
         variant._memo["current"] = _row(self._memo["level variants"], row, len(shape))
@@ -193,8 +193,7 @@ class HVErrorModel(Batched, SystemLevels, ModelEvaluation, ErrorModel):
         Faraday rotation adds to it (FR alone leaves the symmetrised HV unchanged, so it acts only through the
         distortions) and the noise bias sigma_n/2 with its spread over the looks; they add up to the mean
         and variance exactly. Arrays over the case axis of a block."""
-        return split_contributions(self.current(), self._no_faraday().current(),
-                                   float if self.alone else np.asarray)
+        return split_contributions(self.current(), self._no_faraday().current())
 
     # Monte Carlo -----------------------------------------------------------------------------------
     def relative_samples(self) -> np.ndarray | None:
@@ -265,9 +264,11 @@ class HVErrorModel(Batched, SystemLevels, ModelEvaluation, ErrorModel):
         return Values.repeated(self.notes, len(self))
 
 
-def split_contributions(m, m0, convert=np.asarray) -> dict:
+def split_contributions(m, m0, convert=None) -> dict:
     """``HVErrorModel.contributions`` from the moments ``m`` of the model and ``m0`` of the same model without
-    Faraday rotation (scalars or arrays over cases, ``convert`` applied to each part)."""
+    Faraday rotation (scalars or arrays over cases), ``convert`` applied to each part (None: a float for a case
+    alone, the array over a block's cases)."""
+    convert = _plain if convert is None else convert
     sd_mean = convert(m0.mean - m0.bias_noise)
     sd_var = convert(m0.variance - m0.var_finite_looks)
     values = {
@@ -279,6 +280,11 @@ def split_contributions(m, m0, convert=np.asarray) -> dict:
         "noise_bias": (convert(m.bias_noise), convert(m.var_finite_looks)),
     }
     return {name: Contribution(mean, var, CONTRIBUTION_DESCRIPTIONS[name]) for name, (mean, var) in values.items()}
+
+
+def _plain(x):
+    """A float for a case alone (0-d), the array over the cases of a block."""
+    return float(x) if np.ndim(x) == 0 else np.asarray(x)
 
 
 def analytic_scalars(m) -> dict:
