@@ -70,8 +70,9 @@ class ErrorVariants:
         model = self.error_model
         if source in model.sources:
             variant = model.without(source)
-            if variant is model:
-                return None, True
+            if variant is model:  # no case has the source; a block marks each of its cases, as its variants do
+                shape = np.shape(self.error_mean)
+                return None, (True if shape == () else np.ones(shape, dtype=bool))
             inactive = getattr(variant, "inactive", None)
             if inactive is not None and np.all(inactive):
                 return None, inactive
