@@ -50,6 +50,7 @@ LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
             "e2esim.limits",
             "e2esim.distinct",
             "e2esim.atomic",
+            "e2esim.blas_threads",
             "e2esim.allocator",
             "e2esim.input_files",
             "e2esim.io.safe_h5",  # checked reading of a user's HDF5 file: physics readers (NISAR orbits) use it too

@@ -11,14 +11,13 @@ threads (checked on the products of the tests and the benchmark's)."""
 
 from __future__ import annotations
 
-import ctypes
 import dataclasses
 from collections import deque
 from concurrent.futures import ProcessPoolExecutor
-from contextlib import contextmanager
 
 import numpy as np
 
+from e2esim.blas_threads import blas_threads, one_blas_thread
 from e2esim.products_io.assumptions import load_assumptions
 from e2esim.products_io.pixel_model import pixel_moments
 
@@ -73,48 +72,10 @@ def _part(band, part: slice):
         faraday_sd=cut(band.faraday_sd), crosstalk_corrected=cut(band.crosstalk_corrected))
 
 
-SETTERS = (("scipy_openblas_set_num_threads64_", "scipy_openblas_get_num_threads64_"),
-           ("scipy_openblas_set_num_threads", "scipy_openblas_get_num_threads"),
-           ("openblas_set_num_threads64_", "openblas_get_num_threads64_"),
-           ("openblas_set_num_threads", "openblas_get_num_threads"))
-
-
-def _blas_threads() -> list:
-    """(set, get) of the thread count of every OpenBLAS this process has loaded (numpy's and scipy's wheels bundle
-    one each), found through /proc/self/maps (Linux; elsewhere none: nothing is changed)."""
-    try:
-        with open("/proc/self/maps") as maps:
-            paths = sorted({line.split()[-1] for line in maps if "openblas" in line.split()[-1]})
-    except OSError:
-        return []
-    found = []
-    for path in paths:
-        library = ctypes.CDLL(path)
-        for set_name, get_name in SETTERS:
-            if hasattr(library, set_name) and hasattr(library, get_name):
-                found.append((getattr(library, set_name), getattr(library, get_name)))
-                break
-    return found
-
-
-@contextmanager
-def one_blas_thread():
-    """One BLAS thread while the pixels are evaluated, the count restored afterwards (module docstring)."""
-    threads = _blas_threads()
-    saved = [get() for _, get in threads]
-    for set_threads, _ in threads:
-        set_threads(1)
-    try:
-        yield
-    finally:
-        for (set_threads, _), count in zip(threads, saved):
-            set_threads(count)
-
-
 def _start(open_product, product, scenario, mission) -> None:
     pixels = open_product(product)
     _WORKER.update(pixels=pixels, assumptions=load_assumptions(scenario, mission))
-    for set_threads, _ in _blas_threads():  # for the worker's life
+    for set_threads, _ in blas_threads():  # for the worker's life
         set_threads(1)
 
 

@@ -25,6 +25,7 @@ from dataclasses import dataclass, fields
 
 import numpy as np
 
+from e2esim.blas_threads import single_blas_thread
 from e2esim.polarimetry.system_model import estimator_noise_factor
 from e2esim.stack.combination import PassCombination
 from e2esim.stack.faraday import StackFaraday
@@ -154,6 +155,7 @@ def pass_nodes(scene: StackScene, errors: StackSystemErrors, faraday: StackFarad
     return {"omega": omega, "weights": weights, "pair": pair, "cov4": cov4}
 
 
+@single_blas_thread  # batches of small products: e2esim.blas_threads
 def stack_hv_moments(scene: StackScene, errors: StackSystemErrors, faraday: StackFaraday,
                      combination: PassCombination, looks: int | None = None, reference: str = "scene",
                      crosstalk_level=None, imbalance_level=None, noise_power=None, difference_variance=None,

@@ -29,6 +29,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from e2esim.blas_threads import single_blas_thread
 from e2esim.distortion.channel_moments import unit_covariances
 from e2esim.distortion.polarimetric_moments import NOISE_FACTORS
 from e2esim.stack.analytic import evaluation_levels, memoised, pass_nodes
@@ -88,6 +89,7 @@ def joint_node_terms(scene: StackScene, errors: StackSystemErrors, faraday: Stac
     return out
 
 
+@single_blas_thread  # batches of small products: e2esim.blas_threads
 def stack_joint_moments(scene: StackScene, errors: StackSystemErrors, faraday: StackFaraday,
                         combination: PassCombination, looks: int | None = None, reference: str = "scene",
                         correct_copol: bool = True, crosstalk_level=None, imbalance_level=None, noise_power=None,

@@ -28,6 +28,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from e2esim.blas_threads import single_blas_thread
 from e2esim.distortion.covariance_montecarlo import noncentral_wishart
 from e2esim.distortion.montecarlo import MonteCarloErrors
 from e2esim.errors import PhysicsInputError
@@ -81,6 +82,7 @@ def _block_diagonal(a: np.ndarray) -> np.ndarray:
     return out
 
 
+@single_blas_thread  # batches of small products: e2esim.blas_threads
 def simulate_stack(scene: StackScene, errors: StackSystemErrors, faraday: StackFaraday,
                    combination: PassCombination, rng: np.random.Generator, looks: int, realisations: int,
                    noise_realisations: int = 1, reference: str = "scene", correct_copol: bool = True,
