@@ -32,3 +32,20 @@ def test_package_module_class_syntax():
         registry.lookup("scene", "e2esim.nowhere:Thing")
     with pytest.raises(ModuleLookupError, match="not an e2esim Module subclass"):
         registry.lookup("scene", "e2esim.scene.covariance:ScatteringCovariance")
+
+
+def test_a_run_imports_the_modules_its_chain_names_only():
+    """e2esim's own module classes are imported when a scenario names them (issue 28: the fixed cost of a run):
+    resolving a one-stage chain leaves the campaign, the product readers and the scintillation screens unimported."""
+    import subprocess
+    import sys
+
+    code = ("import sys\nfrom e2esim.runner.scenario import Scenario\n"
+            "Scenario({'name': 't', 'scene': {'type': 'table1_forest'}, 'instrument': {'type': 'biomass'}, "
+            "'ionosphere': {'type': 'gaussian_faraday', 'sd_deg': 5.0}, "
+            "'propagation': {'type': 'hv_backscatter_error'}}, 'test').resolve()\n"
+            "print(sorted(m for m in sys.modules if m.startswith(('e2esim.campaign', 'e2esim.products_io.biomass', "
+            "'e2esim.scintillation'))))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert out.strip() == "[]", out
+    assert registry.lookup("propagation", "hv_backscatter_error").type_name == "hv_backscatter_error"

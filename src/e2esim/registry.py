@@ -43,12 +43,28 @@ KIND_GROUP = "e2esim.kinds"
 PLOT_GROUP = "e2esim.plots"
 
 
-@dataclass(frozen=True)
 class Registration:
-    kind: str
-    type_name: str
-    cls: type
-    distribution: str  # installed distribution that declared it ("e2esim" for built-ins)
+    """A registered module: kind, type name, distribution ("e2esim" for built-ins) and class. e2esim's own classes
+    are imported when first asked for (``cls``): a run imports the modules its chain names, not all of them."""
+
+    __slots__ = ("_cls", "_entry", "distribution", "kind", "type_name")
+
+    def __init__(self, kind: str, type_name: str, cls: type | None, distribution: str, entry=None):
+        self.kind, self.type_name, self.distribution, self._cls, self._entry = kind, type_name, distribution, cls, entry
+
+    @property
+    def cls(self) -> type:
+        if self._cls is None:
+            cls = self._entry.load()
+            _check_class(cls, f"entry point {self._entry.name!r} of {self.distribution}", self.kind, self.type_name)
+            self._cls = cls
+        return self._cls
+
+    @property
+    def package(self) -> str:
+        """The top-level package of the class (of its entry point while it is not imported)."""
+        module = self._cls.__module__ if self._cls is not None else self._entry.value.partition(":")[0]
+        return module.split(".")[0]
 
 
 @dataclass(frozen=True)
@@ -82,19 +98,19 @@ def _load() -> dict[tuple[str, str], Registration]:
         kind, _, type_name = ep.name.partition(".")
         dist = _distribution(ep, names)
         if dist.lower() == "e2esim":
-            cls = ep.load()
-            _check_class(cls, f"entry point {ep.name!r} of {dist}", kind, type_name)
+            registration = Registration(kind, type_name, None, dist, ep)  # imported when first asked for
         else:
             cls = _load_plugin(ep, dist, kind, type_name, broken)
             if cls is None:
                 continue
+            registration = Registration(kind, type_name, cls, dist)
         key = (kind, type_name)
-        if key in found and found[key].cls is not cls:
+        if key in found and not _same_entry(found[key], registration) and found[key].cls is not registration.cls:
             raise ModuleLookupError(
                 f"two installed packages register {kind} type {type_name!r}: "
                 f"{found[key].distribution} and {dist}"
             )
-        found[key] = Registration(kind, type_name, cls, dist)
+        found[key] = registration
     if not any(r.distribution.lower() == "e2esim" for r in found.values()):
         raise ModuleLookupError(
             "no built-in e2esim modules are registered: e2esim must be installed "
@@ -104,6 +120,11 @@ def _load() -> dict[tuple[str, str], Registration]:
     for plugin in broken:
         warnings.warn(plugin.message(), PluginWarning, stacklevel=3)
     return found
+
+
+def _same_entry(a: Registration, b: Registration) -> bool:
+    """Whether two registrations name the same class by the same entry point (nothing to import to tell)."""
+    return a._entry is not None and b._entry is not None and a._entry.value == b._entry.value
 
 
 def _distribution(ep, names: dict) -> str:

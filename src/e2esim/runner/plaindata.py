@@ -42,7 +42,7 @@ def allowed_packages() -> frozenset:
     """Top-level packages whose classes may be stored: e2esim and the packages of registered modules."""
     from e2esim import registry
 
-    return frozenset({"e2esim"} | {r.cls.__module__.split(".")[0] for r in registry.available()})
+    return frozenset({"e2esim"} | {r.package for r in registry.available()})
 
 
 # ---------------------------------------------------------------------------------------------- encoding
