@@ -8,6 +8,7 @@ and a term run so is named in the model's notes.
 from __future__ import annotations
 
 import copy
+import dataclasses
 import math
 
 import numpy as np
@@ -119,6 +120,36 @@ def test_a_block_whose_gain_error_is_off_in_some_cases_says_where_it_was_not_act
     while not (isinstance(variant, BlockWrappedModel) and variant.source == "gain_error"):
         variant = variant.base  # down to the gain error's own wrapper
     np.testing.assert_array_equal(variant.inactive, gain_off)
+
+
+def _wrapper(model, source: str) -> BlockWrappedModel:
+    while not (isinstance(model, BlockWrappedModel) and model.source == source):
+        model = model.base
+    return model
+
+
+def _unshared(model):
+    """``model`` rebuilt with nothing evaluated or shared between its wrappers (each stacks its own effects)."""
+    if not isinstance(model, BlockWrappedModel):
+        return model
+    return dataclasses.replace(model, base=_unshared(model.base), _memo={}, _shared={})
+
+
+def test_the_variants_of_a_block_model_share_their_removed_effects_and_keep_their_own_numbers():
+    # a Shapley split asks the model with every subset of its sources removed: the variants that hold the same
+    # effects stack them and remove a source from them once (the removed effects are one object, whatever the order
+    # of the removals), and every variant's moments are, bit for bit, those of the variant rebuilt with nothing shared
+    resolved = Scenario(copy.deepcopy(SCENARIO), "terms.yaml").resolve()
+    model = _products(resolved, np.arange(8))["backscatter.error"]
+    model.current()
+    one = model.without("scintillation_sigma0").without("rfi_notch").without("gain_error")
+    other = model.without("gain_error").without("scintillation_sigma0").without("rfi_notch")
+    for source in ("scintillation_sigma0", "gain_error"):
+        assert _wrapper(one, source).effects is _wrapper(other, source).effects
+    for variant in (one, other, model.without("rfi_looks")):
+        got, alone = variant.current(), _unshared(variant).current()
+        np.testing.assert_array_equal(got.mean, alone.mean)
+        np.testing.assert_array_equal(got.variance, alone.variance)
 
 
 def test_the_stack_with_every_shipped_term_passes_the_block_invariance_check():
