@@ -8,6 +8,7 @@ and a term run so is named in the model's notes.
 from __future__ import annotations
 
 import copy
+import dataclasses
 import math
 
 import numpy as np
@@ -121,6 +122,36 @@ def test_a_block_whose_gain_error_is_off_in_some_cases_says_where_it_was_not_act
     np.testing.assert_array_equal(variant.inactive, gain_off)
 
 
+def _wrapper(model, source: str) -> BlockWrappedModel:
+    while not (isinstance(model, BlockWrappedModel) and model.source == source):
+        model = model.base
+    return model
+
+
+def _unshared(model):
+    """``model`` rebuilt with nothing evaluated or shared between its wrappers (each stacks its own effects)."""
+    if not isinstance(model, BlockWrappedModel):
+        return model
+    return dataclasses.replace(model, base=_unshared(model.base), _memo={}, _shared={})
+
+
+def test_the_variants_of_a_block_model_share_their_removed_effects_and_keep_their_own_numbers():
+    # a Shapley split asks the model with every subset of its sources removed: the variants that hold the same
+    # effects stack them and remove a source from them once (the removed effects are one object, whatever the order
+    # of the removals), and every variant's moments are, bit for bit, those of the variant rebuilt with nothing shared
+    resolved = Scenario(copy.deepcopy(SCENARIO), "terms.yaml").resolve()
+    model = _products(resolved, np.arange(8))["backscatter.error"]
+    model.current()
+    one = model.without("scintillation_sigma0").without("rfi_notch").without("gain_error")
+    other = model.without("gain_error").without("scintillation_sigma0").without("rfi_notch")
+    for source in ("scintillation_sigma0", "gain_error"):
+        assert _wrapper(one, source).effects is _wrapper(other, source).effects
+    for variant in (one, other, model.without("rfi_looks")):
+        got, alone = variant.current(), _unshared(variant).current()
+        np.testing.assert_array_equal(got.mean, alone.mean)
+        np.testing.assert_array_equal(got.variance, alone.variance)
+
+
 def test_the_stack_with_every_shipped_term_passes_the_block_invariance_check():
     terms = [AddedNoise(power_db=-40.0), GainError(sd_db=0.1, offset_db=0.05),
              ExtraRelativeVariance(relative_sd_percent=1.0),
@@ -170,3 +201,53 @@ def test_monte_carlo_cases_with_error_terms_keep_the_per_case_numbers(mode):
 
 def test_the_scenario_yaml_of_the_test_is_plain_data():
     assert yaml.safe_load(yaml.safe_dump(SCENARIO)) == SCENARIO
+
+
+def _error_term_sentences_case_by_case(result) -> list:
+    """The report's error-term sentences as 772ca19 made them, case by case (the reference of the columns' version)."""
+    from e2esim.io.error_budget import unit_key
+    from e2esim.report.blocks import fmt
+    from e2esim.report.conclusions import NEGLIGIBLE_SHARE
+    from e2esim.requirements.source_names import source_name
+
+    modules = result.scenario.cases[0].modules
+    sources = [m.source for m in modules if getattr(m, "kind", None) == "error_terms" and hasattr(m, "source")]
+    out = []
+    for j, name in enumerate(result.requirement_names):
+        for source in dict.fromkeys(sources):
+            rows = []
+            for case in result.cases:
+                v = case.verdicts[j]
+                share = v.details.get(f"contribution.{source}_{unit_key(v.unit)}")
+                if share is not None and v.limit is not None:
+                    rows.append((abs(float(share)), case, v))
+            if not rows:
+                continue
+            worst, case, v = max(rows, key=lambda r: r[0])
+            unit = "percentage points" if v.unit == "%" else v.unit
+            small = [r for r in rows if r[0] < NEGLIGIBLE_SHARE * abs(float(r[2].limit))]
+            large = [r[1].label for r in rows if r[0] >= NEGLIGIBLE_SHARE * abs(float(r[2].limit))]
+            sentence = (f"{source_name(source)} changes the checked value of {name} by at most {fmt(worst, 3)} "
+                        f"{unit} (case {case.index}: {case.label}); it is negligible (below a tenth of the limit, "
+                        f"{fmt(NEGLIGIBLE_SHARE * abs(float(v.limit)), 3)} {unit}) in {len(small)} of {len(rows)} "
+                        "cases")
+            if large:
+                sentence += f"; not in {', '.join(large[:4])}" + (f" and {len(large) - 4} more" if len(large) > 4
+                                                                    else "")
+            out.append(sentence + ".")
+    return out
+
+
+def test_the_reports_error_term_sentences_read_from_the_columns_are_those_made_case_by_case():
+    # the report reads each term's largest change and its negligible cases from the result's columns (a 1 deg map
+    # has 150 000 cases); the sentences are word for word those made case by case, in blocks and case by case
+    from e2esim.report.conclusions import error_term_sentences
+
+    data = copy.deepcopy(SCENARIO)
+    data["requirements"][0]["bound_percent"] = data["requirements"][1]["max_percent"] = 2.0  # some not negligible
+    resolved = Scenario(data, "terms.yaml").resolve()
+    for engine in ("batched", "per_case"):
+        result = run_scenario(resolved, progress=False, engine=engine)
+        sentences = error_term_sentences(result)
+        assert sentences == _error_term_sentences_case_by_case(result)
+        assert len(sentences) >= 8 and any("; not in " in s for s in sentences), sentences

@@ -35,12 +35,16 @@ def _leading(x: np.ndarray, rows, ndim: int) -> np.ndarray:
 @dataclass(frozen=True, eq=False)
 class BlockWrappedModel(Batched, ErrorModel):
     """A batched single-channel model with one more source per case (module docstring). inactive : for a model with
-    a source removed (``without``), the cases where it was not active (their model is their own variant)."""
+    a source removed (``without``), the cases where it was not active (their model is their own variant).
+    _shared: what depends on ``effects`` alone (the levels, the stacks, the effects with the source removed), shared
+    by every variant made from this model with another source removed (they hold the same ``effects``): a Shapley
+    split asks 2^k variants, which then stack and remove the effects once, not once each."""
 
     base: object
     effects: Values
     inactive: object = None
     _memo: dict = field(default_factory=dict, repr=False, compare=False)
+    _shared: dict = field(default_factory=dict, repr=False, compare=False)
 
     def __post_init__(self):
         first = self.effects.values[0]
@@ -63,9 +67,9 @@ class BlockWrappedModel(Batched, ErrorModel):
     @property
     def level(self) -> np.ndarray:
         """The effect's level in every case, (B,)."""
-        if "level" not in self._memo:
-            self._memo["level"] = np.array([e.level for e in self.effects.values], dtype=float)[self.effects.index]
-        return self._memo["level"]
+        if "level" not in self._shared:
+            self._shared["level"] = np.array([e.level for e in self.effects.values], dtype=float)[self.effects.index]
+        return self._shared["level"]
 
     @property
     def levels(self) -> dict:
@@ -98,7 +102,7 @@ class BlockWrappedModel(Batched, ErrorModel):
     def _stacks(self) -> list:
         """[(effect, columns, rows)]: the cases ``rows`` whose effects are evaluated together, as ``effect`` alone
         (columns None: one distinct effect) or stacked with ``columns`` (``e2esim.error_terms.effect_stack``)."""
-        if "stacks" not in self._memo:
+        if "stacks" not in self._shared:
             values, index = self.effects.values, self.effects.index
             groups = stack_groups(values)
             out = []
@@ -113,8 +117,8 @@ class BlockWrappedModel(Batched, ErrorModel):
                 position[group] = np.arange(len(group))
                 table = stacked_columns([values[k] for k in group])
                 out.append((values[group[0]], {name: c[position[index[rows]]] for name, c in table.items()}, rows))
-            self._memo["stacks"] = out
-        return self._memo["stacks"]
+            self._shared["stacks"] = out
+        return self._shared["stacks"]
 
     def current(self) -> Moments:
         if "current" not in self._memo:
@@ -130,19 +134,20 @@ class BlockWrappedModel(Batched, ErrorModel):
 
     def _without(self, source: str) -> ErrorModel:
         if source == self.source:
-            active = np.array([e.active for e in self.effects.values], dtype=bool)
-            if not active.any():
+            if "removed" not in self._shared:  # the effects with the source removed, and their own shared memo
+                active = np.array([e.active for e in self.effects.values], dtype=bool)
+                self._shared["removed"] = None if not active.any() else (
+                    Values([e.removed() if a else e for e, a in zip(self.effects.values, active)], self.effects.index),
+                    ~active[self.effects.index], {})
+            if self._shared["removed"] is None:
                 return self
-            removed = Values([e.removed() if a else e for e, a in zip(self.effects.values, active)],
-                             self.effects.index)
-            return BlockWrappedModel(self.base, removed, ~active[self.effects.index])
+            removed, inactive, shared = self._shared["removed"]
+            return BlockWrappedModel(self.base, removed, inactive, _shared=shared)
         variant = self.base.without(source)
         if variant is self.base:
             return self
-        model = BlockWrappedModel(variant, self.effects, getattr(variant, "inactive", None))
-        if "stacks" in self._memo:  # the same effects: evaluated together as here
-            model._memo["stacks"] = self._memo["stacks"]
-        return model
+        # the same effects: stacked and removed as here, once
+        return BlockWrappedModel(variant, self.effects, getattr(variant, "inactive", None), _shared=self._shared)
 
     def contributions(self) -> dict:
         parts = dict(self.base.contributions())
