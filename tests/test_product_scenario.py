@@ -17,6 +17,7 @@ from e2esim.case import Case
 from e2esim.cli import main
 from e2esim.error_terms.modules import MAP_CELL_KEYS
 from e2esim.product_inputs.modules import BiomassProductNoise, ProductFaraday, ProductRFI
+from e2esim.runner.no_effect import no_effect
 from e2esim.runner.run import run_scenario
 from e2esim.runner.scenario import Scenario
 from e2esim.testing import SMALL, reference_case
@@ -120,6 +121,25 @@ def test_a_product_holding_the_climatologys_values_gives_its_numbers(tmp_path):
         for key in sorted(numbers):
             assert b.scalars[key] == pytest.approx(a.scalars[key], rel=1e-12, abs=1e-300), key
         assert b.scalars["error_term.rfi.time_fraction"] == 0.035
+    # the product's faradayRotationStd holds values at every pixel read: the sd_deg the scenario file gives changes
+    # nothing, and the run says so (a setting no module read); the climatology's sd_deg is read
+    assert [f.message() for f in no_effect(product)] == [
+        "ionosphere.sd_deg changes nothing: ionosphere type 'biomass_product_faraday' ignores it (it never reads "
+        "sd_deg in this run)"]
+    assert no_effect(climatology) == []
+
+
+def test_sd_deg_is_read_where_the_products_sd_layer_is_empty(tmp_path):
+    """Where faradayRotationStd is the no-data fill (as the BPS writes it), sd_deg is the SD: not reported."""
+    write_biomass(tmp_path / "p", shape=(6, 8), faraday=np.full((6, 8), FARADAY32), rfi_percent={"HV": 1.0})
+    scenario = {"name": "empty_sd", "scene": {"type": "table1_forest"}, "instrument": {"type": "biomass"},
+                "ionosphere": {"type": "biomass_product_faraday", "lut_file": "p/lut.nc", "sd_deg": 2.0},
+                "propagation": [{"type": "hv_backscatter_error"}], "simulation": {"mode": "analytic", "seed": 1}}
+    path = tmp_path / "empty_sd.yaml"
+    path.write_text(yaml.safe_dump(scenario))
+    result = run_scenario(Scenario.load(path).resolve(), progress=False)
+    assert result.cases[0].get("faraday.geophysical").sd == pytest.approx(np.radians(2.0), rel=1e-15)
+    assert no_effect(result) == []
 
 
 def _bad(tmp_path, capsys, *sets, product=None):
