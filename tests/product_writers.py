@@ -56,12 +56,12 @@ def biomass_annotation(crosstalk=(0.0, 0.0, 0.0, 0.0), imbalance=(0.0, 0.0), far
 
 def write_biomass(folder, shape=(12, 20), faraday=None, faraday_std=None, noise=0.002, faraday_applied=True,
                   crosstalk=(0.0, 0.0, 0.0, 0.0), rfi_percent=None, slc_shape=None, units=None, drop=None,
-                  extra=None, imbalance=(0.0, 0.0), tec=10.0, height=0.0) -> Path:
+                  extra=None, imbalance=(0.0, 0.0), tec=10.0, height=0.0, terrain_slope=0.0) -> Path:
     """A BIOMASS L1 product folder (annotation.xml, lut.nc). faraday, faraday_std : arrays on the SLC grid (rad)
     or None (no ionosphereCorrection group; a faraday_std of None with a faraday writes the all-fill layer, as the
     BPS does). units : {(group, variable): units} to override; drop : (group, variable) or group to leave out;
     extra : (group, variable) to add. imbalance : the annotation's (f1, f2); tec : ionosphereCorrection/tec (TECU,
-    SLC grid; with faraday); height : geometry/height (m, RGC grid)."""
+    SLC grid; with faraday); height, terrain_slope : geometry/height (m), geometry/terrainSlope (deg), RGC grid."""
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
     ET.ElementTree(biomass_annotation(crosstalk, imbalance, faraday_applied, rfi_percent)).write(
@@ -83,7 +83,8 @@ def write_biomass(folder, shape=(12, 20), faraday=None, faraday_std=None, noise=
         inc = np.broadcast_to(np.linspace(23.0, 33.75, shape[1]), shape)
         layers = {("geometry", "latitude"): lat, ("geometry", "longitude"): lon,
                   ("geometry", "height"): np.broadcast_to(height, shape), ("geometry", "incidenceAngle"): inc,
-                  ("geometry", "elevationAngle"): inc - 3.0, ("geometry", "terrainSlope"): np.zeros(shape),
+                  ("geometry", "elevationAngle"): inc - 3.0,
+                  ("geometry", "terrainSlope"): np.broadcast_to(terrain_slope, shape),
                   ("radiometry", "sigmaNought"): np.sin(np.radians(inc)),
                   ("radiometry", "gammaNought"): np.tan(np.radians(inc))}
         for pol in bl.POLARISATIONS:

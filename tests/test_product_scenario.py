@@ -189,22 +189,37 @@ def test_a_latitude_without_longitude(tmp_path, capsys):
     assert "instrument.lon_deg" in err and "lat_deg and lon_deg go together" in err
 
 
-def test_the_budget_at_the_products_incidence_and_slant_range():
+@pytest.mark.parametrize("slope_deg", [None, 0.0, 7.5])
+def test_the_budget_at_the_products_incidence_slant_range_and_slope(tmp_path, slope_deg):
     """backscatter_error_budget_from_product at pixel (3, 7) is backscatter_error_budget given that pixel's incidence
-    (LUT geometry/incidenceAngle) and slant range (c tau / 2 of its slantRangeTimeRGC)."""
+    (LUT geometry/incidenceAngle), slant range (c tau / 2 of its slantRangeTimeRGC) and cross-track slope (its
+    geometry/terrainSlope; None: slope_range_from_product false, the preset's 3 deg stays)."""
     from e2esim.budget.modules import BackscatterErrorBudget
     from e2esim.product_inputs.modules import ProductIncidenceBudget
 
-    with netCDF4.Dataset(LUT) as ds:
+    lut = LUT if slope_deg in (None, 0.0) else write_biomass(tmp_path / "p", terrain_slope=slope_deg) / "lut.nc"
+    with netCDF4.Dataset(lut) as ds:
         incidence = float(ds["geometry/incidenceAngle"][3, 7])
         slant_km = 299792458.0 * float(ds["slantRangeTimeRGC"][7]) / 2 / 1e3
+        assert float(ds["geometry/terrainSlope"][3, 7]) == (slope_deg or 0.0)
     case = reference_case(("scene.covariance", "instrument"))
-    made = ProductIncidenceBudget(lut_file=str(LUT), lat_deg=60.03, lon_deg=92.07).forward(case)["backscatter.budget"]
-    given = BackscatterErrorBudget(observation={"incidence_deg": incidence, "slant_range_km": slant_km}).forward(
-        case)["backscatter.budget"]
+    made = ProductIncidenceBudget(lut_file=str(lut), lat_deg=60.03, lon_deg=92.07,
+                                  slope_range_from_product=slope_deg is not None).forward(case)["backscatter.budget"]
+    observation = {"incidence_deg": incidence, "slant_range_km": slant_km}
+    if slope_deg is not None:
+        observation["slope_range_deg"] = slope_deg
+    given = BackscatterErrorBudget(observation=observation).forward(case)["backscatter.budget"]
     preset = BackscatterErrorBudget().forward(case)["backscatter.budget"]  # mid-swath 28.4 deg, 666 km orbit
     for name in ("looks", "area_error", "dem_pointing_error_rad", "slope_error_rad"):
         np.testing.assert_allclose(getattr(made, name), getattr(given, name), rtol=1e-12, err_msg=name)
     for term, value in given.relative_sd.items():
         np.testing.assert_allclose(made.relative_sd[term], value, rtol=1e-12, err_msg=term)
     assert not np.allclose(made.looks, preset.looks, rtol=1e-3)  # pixel (3, 7) is at 26.96 deg, not mid-swath
+
+
+def test_a_slope_given_twice(tmp_path, capsys):
+    err = _bad(tmp_path, capsys, "propagation.1.slope_range_from_product=true",
+               "propagation.1.observation.slope_range_deg=2.0")
+    assert "propagation" in err
+    assert "observation.slope_range_deg is given, but the cross-track slope comes from the product" in err
+    assert "slope_range_from_product: false" in err
