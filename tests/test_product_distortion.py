@@ -1,6 +1,6 @@
 """The polarimetric distortion of a BIOMASS L1 annotation as the instrument's (issue 26, item 5;
-e2esim.product_inputs.distortion): the convention (which crosstalk term is which, linear complex amplitude ratios,
-channel imbalance as f = 1 + epsilon) pinned through the system model, the statistics it gives, and bad inputs."""
+e2esim.product_inputs.distortion_modules): the convention (which crosstalk term is which, linear complex amplitude
+ratios, channel imbalance as f = 1 + epsilon) pinned through the system model, the statistics it gives, bad inputs."""
 
 from __future__ import annotations
 
@@ -12,7 +12,7 @@ from product_writers import write_biomass
 from e2esim.cli import main
 from e2esim.instrument.modules import BiomassInstrument
 from e2esim.polarimetry.system_model import measured_matrix, to_vector
-from e2esim.product_inputs.distortion import BiomassProductDistortion, BiomassProductInstrument, annotation_distortion
+from e2esim.product_inputs import distortion_modules as dm
 from e2esim.products_io.biomass_annotation import read_annotation
 from e2esim.units import level_db_from_variance
 
@@ -36,7 +36,8 @@ def test_which_crosstalk_term_is_which(tmp_path, term, scatterer, channel, meani
     in the cross-polarised channel that the schema's description names (bio-common-types.xsd, crossTalkList)."""
     crosstalk = [0.0] * 4
     crosstalk[term] = 0.1
-    delta, f = annotation_distortion(read_annotation(_annotation(tmp_path, crosstalk, (1.0, 1.0)) / "annotation.xml"))
+    annotation = read_annotation(_annotation(tmp_path, crosstalk, (1.0, 1.0)) / "annotation.xml")
+    delta, f = dm.annotation_distortion(annotation)
     s = np.diag([1.0, 0.0] if scatterer == "hh" else [0.0, 1.0]).astype(complex)
     m = dict(zip(("hh", "hv", "vh", "vv"), to_vector(measured_matrix(s, delta, f, 0.0)), strict=True))
     assert m[channel] == pytest.approx(0.1, abs=1e-15), meaning
@@ -46,7 +47,7 @@ def test_which_crosstalk_term_is_which(tmp_path, term, scatterer, channel, meani
 def test_the_channel_imbalance_is_f_receive_then_transmit(tmp_path):
     """channelImbalHVRx is f1 (the V receiver's gain over the H receiver's), channelImbalHVTx f2: a pure S_hv
     (transmit h, receive v) is measured as f1 S_hv, a pure S_vh as f2 S_vh; 1 is balanced."""
-    delta, f = annotation_distortion(read_annotation(_annotation(tmp_path, [0.0] * 4) / "annotation.xml"))
+    delta, f = dm.annotation_distortion(read_annotation(_annotation(tmp_path, [0.0] * 4) / "annotation.xml"))
     assert tuple(f) == IMBALANCE
     m = to_vector(measured_matrix(np.array([[0, 1], [1, 0]], dtype=complex), delta, f, 0.0))
     assert m[1] == IMBALANCE[0] and m[2] == IMBALANCE[1]
@@ -55,7 +56,7 @@ def test_the_channel_imbalance_is_f_receive_then_transmit(tmp_path):
 def test_the_statistics_are_those_of_the_annotations_values(tmp_path):
     """V_i = |delta_i|^2 and V_eps,i = |f_i - 1|^2: the biomass preset given those levels as variances (the largest
     as level_db, the others as term offsets) has the same model to 1e-12; correlations and noise the preset's."""
-    module = BiomassProductDistortion(annotation_file=str(_annotation(tmp_path) / "annotation.xml"))
+    module = dm.BiomassProductDistortion(annotation_file=str(_annotation(tmp_path) / "annotation.xml"))
     v_delta = np.abs(CROSSTALK) ** 2
     v_eps = np.abs(np.array(IMBALANCE) - 1) ** 2
     np.testing.assert_allclose(module.model.crosstalk_variance, v_delta, rtol=1e-14)
@@ -77,7 +78,7 @@ def test_the_statistics_are_those_of_the_annotations_values(tmp_path):
 
 def test_with_the_noise_of_the_lut_and_the_scenarios_imbalance(tmp_path):
     product = _annotation(tmp_path, imbalance=(0.0, 0.0))
-    module = BiomassProductInstrument(lut_file=str(product / "lut.nc"), annotation_file=str(
+    module = dm.BiomassProductInstrument(lut_file=str(product / "lut.nc"), annotation_file=str(
         product / "annotation.xml"), channel_imbalance_from_product=False, lat_deg=60.03, lon_deg=92.07)
     made = module.forward(None)
     assert made["system"].noise_power == pytest.approx(0.002, rel=1e-7)  # the writer's denoising layers
