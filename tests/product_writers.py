@@ -56,14 +56,15 @@ def biomass_annotation(crosstalk=(0.0, 0.0, 0.0, 0.0), imbalance=(0.0, 0.0), far
 
 def write_biomass(folder, shape=(12, 20), faraday=None, faraday_std=None, noise=0.002, faraday_applied=True,
                   crosstalk=(0.0, 0.0, 0.0, 0.0), rfi_percent=None, slc_shape=None, units=None, drop=None,
-                  extra=None) -> Path:
+                  extra=None, imbalance=(0.0, 0.0), tec=10.0, height=0.0, terrain_slope=0.0) -> Path:
     """A BIOMASS L1 product folder (annotation.xml, lut.nc). faraday, faraday_std : arrays on the SLC grid (rad)
     or None (no ionosphereCorrection group; a faraday_std of None with a faraday writes the all-fill layer, as the
     BPS does). units : {(group, variable): units} to override; drop : (group, variable) or group to leave out;
-    extra : (group, variable) to add."""
+    extra : (group, variable) to add. imbalance : the annotation's (f1, f2); tec : ionosphereCorrection/tec (TECU,
+    SLC grid; with faraday); height, terrain_slope : geometry/height (m), geometry/terrainSlope (deg), RGC grid."""
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
-    ET.ElementTree(biomass_annotation(crosstalk, faraday_applied=faraday_applied, rfi_percent=rfi_percent)).write(
+    ET.ElementTree(biomass_annotation(crosstalk, imbalance, faraday_applied, rfi_percent)).write(
         folder / bl.ANNOTATION_FILE, xml_declaration=True, encoding="utf-8")
     slc_shape = slc_shape or shape
     units = units or {}
@@ -81,8 +82,9 @@ def write_biomass(folder, shape=(12, 20), faraday=None, faraday_std=None, noise=
         lon = 92.0 + 0.01 * np.arange(shape[1])[None, :] + 0 * lat
         inc = np.broadcast_to(np.linspace(23.0, 33.75, shape[1]), shape)
         layers = {("geometry", "latitude"): lat, ("geometry", "longitude"): lon,
-                  ("geometry", "height"): np.zeros(shape), ("geometry", "incidenceAngle"): inc,
-                  ("geometry", "elevationAngle"): inc - 3.0, ("geometry", "terrainSlope"): np.zeros(shape),
+                  ("geometry", "height"): np.broadcast_to(height, shape), ("geometry", "incidenceAngle"): inc,
+                  ("geometry", "elevationAngle"): inc - 3.0,
+                  ("geometry", "terrainSlope"): np.broadcast_to(terrain_slope, shape),
                   ("radiometry", "sigmaNought"): np.sin(np.radians(inc)),
                   ("radiometry", "gammaNought"): np.tan(np.radians(inc))}
         for pol in bl.POLARISATIONS:
@@ -91,7 +93,7 @@ def write_biomass(folder, shape=(12, 20), faraday=None, faraday_std=None, noise=
             layers[("ionosphereCorrection", "faradayRotation")] = faraday
             layers[("ionosphereCorrection", "faradayRotationStd")] = (
                 np.full(slc_shape, NO_DATA) if faraday_std is None else faraday_std)
-            layers[("ionosphereCorrection", "tec")] = np.full(slc_shape, 10.0)
+            layers[("ionosphereCorrection", "tec")] = np.broadcast_to(tec, slc_shape)
         if extra is not None:
             layers[extra] = np.zeros(shape)
         for (group, name), values in layers.items():

@@ -37,7 +37,16 @@ CONFIGS = {
     ("error_terms", "gain_error"): {"sd_db": 0.2},
     ("error_terms", "extra_variance"): {"relative_sd_percent": 1.0},
     ("ionosphere", "biomass_product_faraday"): {"lut_file": str(_PRODUCT / "lut.nc")},
+    ("ionosphere", "biomass_product_tec"): {"lut_file": str(_PRODUCT / "lut.nc"), "variability_nodes": 3},
     ("instrument", "biomass_product_noise"): {"lut_file": str(_PRODUCT / "lut.nc")},
+    # the shipped annotation's distortion lists are zeros (as the BPS writes them unconfigured): the scenario's kept
+    ("instrument", "biomass_product_distortion"): {"annotation_file": str(_PRODUCT / "annotation.xml"),
+                                                   "crosstalk_from_product": False,
+                                                   "channel_imbalance_from_product": False},
+    ("instrument", "biomass_product_instrument"): {"lut_file": str(_PRODUCT / "lut.nc"),
+                                                   "annotation_file": str(_PRODUCT / "annotation.xml"),
+                                                   "crosstalk_from_product": False,
+                                                   "channel_imbalance_from_product": False},
     ("propagation", "backscatter_error_budget_from_product"): {"lut_file": str(_PRODUCT / "lut.nc")},
     ("error_terms", "rfi_from_product"): {"annotation_file": str(_PRODUCT / "annotation.xml"), "looks": 92},
 }

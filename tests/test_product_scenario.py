@@ -17,6 +17,7 @@ from e2esim.case import Case
 from e2esim.cli import main
 from e2esim.error_terms.modules import MAP_CELL_KEYS
 from e2esim.product_inputs.modules import BiomassProductNoise, ProductFaraday, ProductRFI
+from e2esim.runner.no_effect import no_effect
 from e2esim.runner.run import run_scenario
 from e2esim.runner.scenario import Scenario
 from e2esim.testing import SMALL, reference_case
@@ -120,6 +121,25 @@ def test_a_product_holding_the_climatologys_values_gives_its_numbers(tmp_path):
         for key in sorted(numbers):
             assert b.scalars[key] == pytest.approx(a.scalars[key], rel=1e-12, abs=1e-300), key
         assert b.scalars["error_term.rfi.time_fraction"] == 0.035
+    # the product's faradayRotationStd holds values at every pixel read: the sd_deg the scenario file gives changes
+    # nothing, and the run says so (a setting no module read); the climatology's sd_deg is read
+    assert [f.message() for f in no_effect(product)] == [
+        "ionosphere.sd_deg changes nothing: ionosphere type 'biomass_product_faraday' ignores it (it never reads "
+        "sd_deg in this run)"]
+    assert no_effect(climatology) == []
+
+
+def test_sd_deg_is_read_where_the_products_sd_layer_is_empty(tmp_path):
+    """Where faradayRotationStd is the no-data fill (as the BPS writes it), sd_deg is the SD: not reported."""
+    write_biomass(tmp_path / "p", shape=(6, 8), faraday=np.full((6, 8), FARADAY32), rfi_percent={"HV": 1.0})
+    scenario = {"name": "empty_sd", "scene": {"type": "table1_forest"}, "instrument": {"type": "biomass"},
+                "ionosphere": {"type": "biomass_product_faraday", "lut_file": "p/lut.nc", "sd_deg": 2.0},
+                "propagation": [{"type": "hv_backscatter_error"}], "simulation": {"mode": "analytic", "seed": 1}}
+    path = tmp_path / "empty_sd.yaml"
+    path.write_text(yaml.safe_dump(scenario))
+    result = run_scenario(Scenario.load(path).resolve(), progress=False)
+    assert result.cases[0].get("faraday.geophysical").sd == pytest.approx(np.radians(2.0), rel=1e-15)
+    assert no_effect(result) == []
 
 
 def _bad(tmp_path, capsys, *sets, product=None):
@@ -169,22 +189,37 @@ def test_a_latitude_without_longitude(tmp_path, capsys):
     assert "instrument.lon_deg" in err and "lat_deg and lon_deg go together" in err
 
 
-def test_the_budget_at_the_products_incidence_and_slant_range():
+@pytest.mark.parametrize("slope_deg", [None, 0.0, 7.5])
+def test_the_budget_at_the_products_incidence_slant_range_and_slope(tmp_path, slope_deg):
     """backscatter_error_budget_from_product at pixel (3, 7) is backscatter_error_budget given that pixel's incidence
-    (LUT geometry/incidenceAngle) and slant range (c tau / 2 of its slantRangeTimeRGC)."""
+    (LUT geometry/incidenceAngle), slant range (c tau / 2 of its slantRangeTimeRGC) and cross-track slope (its
+    geometry/terrainSlope; None: slope_range_from_product false, the preset's 3 deg stays)."""
     from e2esim.budget.modules import BackscatterErrorBudget
     from e2esim.product_inputs.modules import ProductIncidenceBudget
 
-    with netCDF4.Dataset(LUT) as ds:
+    lut = LUT if slope_deg in (None, 0.0) else write_biomass(tmp_path / "p", terrain_slope=slope_deg) / "lut.nc"
+    with netCDF4.Dataset(lut) as ds:
         incidence = float(ds["geometry/incidenceAngle"][3, 7])
         slant_km = 299792458.0 * float(ds["slantRangeTimeRGC"][7]) / 2 / 1e3
+        assert float(ds["geometry/terrainSlope"][3, 7]) == (slope_deg or 0.0)
     case = reference_case(("scene.covariance", "instrument"))
-    made = ProductIncidenceBudget(lut_file=str(LUT), lat_deg=60.03, lon_deg=92.07).forward(case)["backscatter.budget"]
-    given = BackscatterErrorBudget(observation={"incidence_deg": incidence, "slant_range_km": slant_km}).forward(
-        case)["backscatter.budget"]
+    made = ProductIncidenceBudget(lut_file=str(lut), lat_deg=60.03, lon_deg=92.07,
+                                  slope_range_from_product=slope_deg is not None).forward(case)["backscatter.budget"]
+    observation = {"incidence_deg": incidence, "slant_range_km": slant_km}
+    if slope_deg is not None:
+        observation["slope_range_deg"] = slope_deg
+    given = BackscatterErrorBudget(observation=observation).forward(case)["backscatter.budget"]
     preset = BackscatterErrorBudget().forward(case)["backscatter.budget"]  # mid-swath 28.4 deg, 666 km orbit
     for name in ("looks", "area_error", "dem_pointing_error_rad", "slope_error_rad"):
         np.testing.assert_allclose(getattr(made, name), getattr(given, name), rtol=1e-12, err_msg=name)
     for term, value in given.relative_sd.items():
         np.testing.assert_allclose(made.relative_sd[term], value, rtol=1e-12, err_msg=term)
     assert not np.allclose(made.looks, preset.looks, rtol=1e-3)  # pixel (3, 7) is at 26.96 deg, not mid-swath
+
+
+def test_a_slope_given_twice(tmp_path, capsys):
+    err = _bad(tmp_path, capsys, "propagation.1.slope_range_from_product=true",
+               "propagation.1.observation.slope_range_deg=2.0")
+    assert "propagation" in err
+    assert "observation.slope_range_deg is given, but the cross-track slope comes from the product" in err
+    assert "slope_range_from_product: false" in err

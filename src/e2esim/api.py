@@ -23,7 +23,7 @@ from e2esim.runner.folder_run import run_into_folder
 
 
 class NoEffectWarning(UserWarning):
-    """A swept or overridden setting that changes no result (``Results.settings_without_effect``)."""
+    """A swept, overridden or given setting that changes no result (``Results.settings_without_effect``)."""
 
 
 def run(scenario, set: dict | None = None, output=None, force: bool = False, progress: bool = False,

@@ -73,8 +73,8 @@ def _distance_m(lat_deg, lon_deg, lat, lon):
 
 
 def read_lut_layers(path, names) -> LUTLayers:
-    """The layers ``names`` ("group/variable" of ``biomass_layout.LUT_VARIABLES``) of the LUT at ``path``, each checked
-    against the layout (present, units, axes) and put on the geometry grid."""
+    """The layers ``names`` ("group/variable" of ``biomass_layout.LUT_VARIABLES`` or ``SCENARIO_LUT_VARIABLES``) of
+    the LUT at ``path``, each checked against the layout (present, units, axes) and put on the geometry grid."""
     path = Path(path)
     with open_lut(path) as ds:
         if layout.LUT_NO_DATA_ATTRIBUTE not in ds.ncattrs():
@@ -107,7 +107,7 @@ def open_lut(path):
 
 def _layer(path, ds, name: str, no_data) -> np.ndarray:
     group, variable = name.split("/")
-    units, axes = layout.LUT_VARIABLES[group][variable]
+    units, axes = {**layout.LUT_VARIABLES.get(group, {}), **layout.SCENARIO_LUT_VARIABLES.get(group, {})}[variable]
     if group not in ds.groups:
         raise ProductFileError(f"{path}: group {group!r} is missing, so the product holds no {name}; the BPS LUT "
                                f"writer adds it only when the processor computed it; take {variable} from elsewhere")

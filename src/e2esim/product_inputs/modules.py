@@ -33,7 +33,7 @@ from e2esim.products_io.biomass_annotation import read_annotation
 BIOMASS_FREQUENCY_HZ = 435e6
 """The BIOMASS centre frequency (Quegan et al. 2018, Section 5), at which the product's Faraday rotation is given."""
 FARADAY, FARADAY_SD = "ionosphereCorrection/faradayRotation", "ionosphereCorrection/faradayRotationStd"
-INCIDENCE = "geometry/incidenceAngle"
+INCIDENCE, TERRAIN_SLOPE = "geometry/incidenceAngle", "geometry/terrainSlope"
 DENOISING = tuple(f"denoising/denoising{p}" for p in ("HH", "HV", "VV"))
 
 
@@ -48,7 +48,7 @@ def _site_params(file_key: str, what: str) -> tuple:
     )
 
 
-class _ProductPixel:
+class ProductPixel:
     """The pixel a product-driven module reads, for one case (module docstring)."""
 
     def read_layers(self, names) -> None:
@@ -85,7 +85,7 @@ class _ProductPixel:
                     "a site where the product holds data", key="lut_file")
 
 
-class ProductFaraday(_ProductPixel, Stage):
+class ProductFaraday(ProductPixel, Stage):
     """The one-way Faraday rotation Omega of a BIOMASS L1 product's LUT at one pixel: the processor's estimate
     (``ionosphereCorrection/faradayRotation``, rad) as the mean of a Gaussian (Men et al. 2021, Section III item 4,
     eq. 10) whose SD is the product's ``faradayRotationStd`` where it holds one, else ``sd_deg``. Given at 435 MHz;
@@ -114,7 +114,7 @@ class ProductFaraday(_ProductPixel, Stage):
         return {"faraday.geophysical": GaussianFaraday(k * mean, k * sd)}
 
 
-class BiomassProductNoise(_ProductPixel, BiomassInstrument):
+class BiomassProductNoise(ProductPixel, BiomassInstrument):
     """The BIOMASS instrument preset with its noise from the product: the noise power the processor removed
     (LUT ``denoising/denoisingHH``, ``HV``, ``VV``, linear, as sigma0), the mean of the three channels as the NESZ
     sigma_n of every channel (as ``e2esim uncertainty`` takes it)."""
@@ -141,33 +141,52 @@ class BiomassProductNoise(_ProductPixel, BiomassInstrument):
                 "instrument": dataclasses.replace(self.description, nesz_db=float(10 * np.log10(noise)))}
 
 
-class ProductIncidenceBudget(_ProductPixel, BackscatterErrorBudget):
+class ProductIncidenceBudget(ProductPixel, BackscatterErrorBudget):
     """The random-error budget of Ahmed et al. (2014) (``backscatter_error_budget``) at the local incidence of a
     BIOMASS L1 product's LUT (``geometry/incidenceAngle``, deg) at the pixel, the incidence theta_i of the looks
     (eq. 22) and of the area projection (eq. 37), and at its slant range rho = c tau / 2 (eq. 35), tau the pixel's
-    two-way slant-range time (``slantRangeTimeRGC``, s). The incidence is the LUT's (the BPS computes it on the
-    ellipsoid; no terrain slope is taken from the product: the scenario's or the preset's slopes stay)."""
+    two-way slant-range time (``slantRangeTimeRGC``, s). The BPS computes the incidence on the ellipsoid and
+    ``geometry/terrainSlope`` as that incidence minus the incidence on the DEM (deg, ``compute_geometric_lut``): the
+    slope tau_rho in the plane of incidence, towards the radar positive, which is the cross-track slope of eq. (37)
+    (local incidence theta_i - tau_rho); with ``slope_range_from_product`` (the default) it replaces the scenario's
+    or the preset's ``slope_range_deg``. The azimuth slope tau_s is not in the product: the scenario's or the
+    preset's stays."""
 
     type_name = "backscatter_error_budget_from_product"
     summary = "random-error budget (Ahmed et al. 2014) at the incidence of a BIOMASS L1 product's LUT at a site"
-    params = (*BackscatterErrorBudget.params, *_site_params("lut_file", "LUT NetCDF"))
+    params = (*BackscatterErrorBudget.params, *_site_params("lut_file", "LUT NetCDF"),
+              Param("slope_range_from_product", "bool", "take the cross-track slope tau_rho from the product's "
+                    "geometry/terrainSlope (false: the scenario's or the preset's observation.slope_range_deg)",
+                    default=True))
     forward_takes_blocks = False
 
     def setup(self):
-        for key in ("incidence", "slant_range", "altitude"):
-            if self.si["observation"][f"{key}_{'rad' if key == 'incidence' else 'm'}"] is not None:
-                raise fail(self, f"observation.{key}_{'deg' if key == 'incidence' else 'km'} is given, but the "
-                           "incidence and the slant range come from the product", "leave it out", key="observation")
+        from_product = {"incidence_deg": "incidence_rad", "slant_range_km": "slant_range_m",
+                        "altitude_km": "altitude_m"}
+        if self.si["slope_range_from_product"]:
+            from_product["slope_range_deg"] = "slope_range_rad"
+        for key, si_key in from_product.items():
+            if self.si["observation"][si_key] is not None:
+                slope = key == "slope_range_deg"
+                what = "the cross-track slope comes" if slope else "the incidence and slant range come"
+                allowed = ", or slope_range_from_product: false" if slope else ""
+                raise fail(self, f"observation.{key} is given, but {what} from the product",
+                           f"leave it out{allowed}", key="observation")
         super().setup()
-        self.read_layers((INCIDENCE,))
+        self.layers = (INCIDENCE, TERRAIN_SLOPE) if self.si["slope_range_from_product"] else (INCIDENCE,)
+        self.read_layers(self.layers)
 
     def forward(self, case):
         self.refuse_speckle_twice(case)
-        (incidence_deg,), pixel = self.values_at(case, (INCIDENCE,))
+        (incidence_deg, *slope_deg), pixel = self.values_at(case, self.layers)
         if not 0.0 < incidence_deg < 90.0:
             raise self.no_data(INCIDENCE, pixel)
         changes = {"incidence_rad": float(np.radians(incidence_deg)),
                    "slant_range_m": SPEED_OF_LIGHT * float(self.lut.slant_range_time[pixel[1]]) / 2}
+        if slope_deg:
+            if not -90.0 < slope_deg[0] < incidence_deg:
+                raise self.no_data(TERRAIN_SLOPE, pixel)
+            changes["slope_range_rad"] = float(np.radians(slope_deg[0]))
         try:
             return {"backscatter.budget": self.budget_of(case["scene.covariance"],
                                                          self.inputs_for(case).replace(**changes))}
@@ -211,4 +230,4 @@ class ProductRFI(RFITerm):
         return self.time_fraction_value
 
 
-__all__ = ["BiomassProductNoise", "ProductFaraday", "ProductIncidenceBudget", "ProductRFI"]
+__all__ = ["BiomassProductNoise", "ProductFaraday", "ProductIncidenceBudget", "ProductPixel", "ProductRFI"]

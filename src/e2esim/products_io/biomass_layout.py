@@ -40,6 +40,15 @@ LUT_VARIABLES = {
 }
 """What the reader needs from the LUT file (other variables the writer adds are allowed and ignored)."""
 
+SCENARIO_LUT_VARIABLES = {
+    "ionosphereCorrection": {"tec": ("TECU", SLC_AXES)},
+    "geometry": {"terrainSlope": (None, RGC_AXES)},
+}
+"""Further layers a product-driven scenario reads (``e2esim.product_inputs``), with the units the writer gives
+them: ``tec`` is ``_phase_screen_to_tec`` of the Bickel-Bates phase screen, in TECU (10^16 electrons/m^2);
+``terrainSlope`` has no units attribute and is in degrees (``compute_geometric_lut``: the incidence on the
+ellipsoid minus the incidence on the DEM, both in deg)."""
+
 ANNOTATION_ROOT = "mainAnnotation"
 CROSSTALK_PATH = "polarimetricDistortion/crossTalkList"
 CROSSTALK_ELEMENTS = ("crossTalkHVRx", "crossTalkVHRx", "crossTalkVHTx", "crossTalkHVTx")

@@ -14,5 +14,6 @@ def no_effect_section(result) -> list:
     return [Heading(2, "Settings that change nothing")] + [Paragraph(f.message()) for f in findings] + [Paragraph(
         "A swept setting is compared between cases that differ in it alone, on every deterministic result after "
         "its stage; an override is reported when the value was already in force, when its module never read it, or "
-        "when every stage that reads its stage's products cannot depend on it (docs/user-guide.md, \"Settings "
+        "when every stage that reads its stage's products cannot depend on it; a setting the scenario file gives is "
+        "reported when its module never read it (docs/user-guide.md, \"Settings "
         "that change nothing\").")]

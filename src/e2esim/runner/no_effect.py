@@ -58,7 +58,8 @@ class NoEffect:
 
     def message(self) -> str:
         head = (f"swept {self.key} changes no result in {self.where}" if self.source == "sweep"
-                else f"--set {self.key} changes nothing")
+                else f"--set {self.key} changes nothing" if self.source == "--set"
+                else f"{self.key} changes nothing")
         text = f"{head}: {self.stage} ignores it" if self.stage else head
         if self.reason:
             text += f" ({self.reason})"
@@ -74,7 +75,7 @@ class NoEffect:
 def no_effect(result) -> list:
     """The ``NoEffect`` findings of a run (``ScenarioResult``): sweeps, then overrides; computed once."""
     if "_no_effect" not in result.__dict__:
-        result.__dict__["_no_effect"] = sweep_findings(result) + override_findings(result)
+        result.__dict__["_no_effect"] = sweep_findings(result) + override_findings(result) + given_findings(result)
     return result.__dict__["_no_effect"]
 
 
@@ -358,4 +359,33 @@ def _ignored(key, path, plan, cache: dict) -> NoEffect | None:
     return NoEffect(key, "--set", " and ".join(named), "every case", reason)
 
 
-__all__ = ["SAMPLING_SETTINGS", "NoEffect", "no_effect", "override_findings", "sweep_findings"]
+# Settings the scenario file gives ------------------------------------------------------------------------------------
+def given_findings(result) -> list:
+    """A module setting the scenario file gives (neither swept nor overridden: those are checked above) that its
+    module never read in this run, every case having run in this process (``Module.params_read``): e.g. the
+    ``sd_deg`` of ``biomass_product_faraday`` where the product's own SD layer holds values at every pixel read."""
+    resolved = result.scenario
+    plan = resolved.plan
+    if plan is None or "executor" in result.provenance or "resumed_cases" in result.provenance:
+        return []
+    overridden = {tuple(path) for _, path, _, _ in getattr(resolved, "overrides", ())}
+    findings = []
+    for slot in plan.module_slots:
+        section = value_at(resolved.raw, slot.path)
+        if slot.kind == "simulation" or not isinstance(section, dict):
+            continue
+        swept = {override_path(k)[len(slot.path)] for k in slot.keys if len(override_path(k)) > len(slot.path)}
+        reads = [getattr(m, "params_read", _none)() for m in slot.objects]
+        if any(read is None for read in reads):
+            continue
+        for name in section:
+            path = (*slot.path, name)
+            if name == "type" or name in swept or path in overridden or any(name in read for read in reads):
+                continue
+            key = ".".join(str(p) for p in path)
+            findings.append(NoEffect(key, "scenario", _describe(slot.objects[0]), "every case",
+                                     f"it never reads {name} in this run"))
+    return findings
+
+
+__all__ = ["SAMPLING_SETTINGS", "NoEffect", "given_findings", "no_effect", "override_findings", "sweep_findings"]
