@@ -9,6 +9,7 @@ import signal
 import tempfile
 from pathlib import Path
 
+import yaml
 from hypothesis import HealthCheck
 from hypothesis import strategies as st
 
@@ -104,6 +105,19 @@ def cli(capsys, *args) -> tuple:
     if status == 2:
         assert err.startswith("e2esim: error: ") and err.count("\n") == 1, repr(err)
     return status, out, err
+
+
+def refused_scenario(tmp_path: Path, capsys, scenario: dict) -> str:
+    """The one-line message of ``e2esim run`` refusing ``scenario`` (a dict written as YAML): exit status 2, no
+    traceback and no output folder left behind."""
+    path = tmp_path / "bad.yaml"
+    path.write_text(yaml.safe_dump(scenario))
+    out = tmp_path / "out"
+    assert main(["run", str(path), "-o", str(out), "--no-progress"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("e2esim: error: ") and err.count("\n") == 1 and "Traceback" not in err
+    assert not out.exists()
+    return err
 
 
 def expect_clean(exc: UserError, path: Path) -> None:

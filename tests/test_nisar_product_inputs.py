@@ -8,9 +8,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import yaml
+from hostile_files import refused_scenario
 from product_writers import write_gcov, write_slc
 
-from e2esim.cli import main
 from e2esim.product_inputs.nisar_modules import NisarProductFaraday, NisarProductInstrument, NisarProductRFI
 from e2esim.runner.run import run_scenario
 from e2esim.runner.scenario import Scenario
@@ -114,14 +114,7 @@ def _refused(tmp_path, capsys, section: str, module: dict, product) -> str:
                 "requirements": [{"type": "agb_error_bound"}], "simulation": {"mode": "analytic"}}
     module = {**module, "product_file": str(product)}
     scenario[section] = [module] if section == "error_terms" else module
-    path = tmp_path / "bad.yaml"
-    path.write_text(yaml.safe_dump(scenario))
-    out = tmp_path / "out"
-    assert main(["run", str(path), "-o", str(out), "--no-progress"]) == 2
-    err = capsys.readouterr().err
-    assert err.startswith("e2esim: error: ") and err.count("\n") == 1 and "Traceback" not in err
-    assert not out.exists()
-    return err
+    return refused_scenario(tmp_path, capsys, scenario)
 
 
 @pytest.mark.parametrize(("section", "module", "write", "expected"), [

@@ -6,10 +6,9 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-import yaml
+from hostile_files import refused_scenario
 from product_writers import write_biomass
 
-from e2esim.cli import main
 from e2esim.instrument.modules import BiomassInstrument
 from e2esim.polarimetry.system_model import measured_matrix, to_vector
 from e2esim.product_inputs import distortion_modules as dm
@@ -94,14 +93,7 @@ def _run(tmp_path, capsys, product, **settings) -> str:
                                "annotation_file": str(product / "annotation.xml"), **settings},
                 "ionosphere": {"type": "gaussian_faraday", "mean_deg": 5.0, "sd_deg": 1.0},
                 "propagation": [{"type": "hv_backscatter_error"}], "simulation": {"mode": "analytic", "seed": 1}}
-    path = tmp_path / "bad.yaml"
-    path.write_text(yaml.safe_dump(scenario))
-    out = tmp_path / "out"
-    assert main(["run", str(path), "-o", str(out), "--no-progress"]) == 2
-    err = capsys.readouterr().err
-    assert err.startswith("e2esim: error: ") and err.count("\n") == 1 and "Traceback" not in err
-    assert not out.exists()
-    return err
+    return refused_scenario(tmp_path, capsys, scenario)
 
 
 def test_an_annotation_of_zeros_is_refused(tmp_path, capsys):
