@@ -151,7 +151,7 @@ def end_to_end_map(quick: bool) -> None:
             seconds, after = time.perf_counter() - start, os.times()
         cpu = sum(after[:4]) - sum(before[:4])  # this process and its workers, user and system
         times[name] = seconds
-        print(f"1 deg map {name}, {where}, {len(results.cases)} cases, end to end (outputs included), 2 workers: "
+        print(f"1 deg map {name}, {where}, {results.n_cases} cases, end to end (outputs included), 2 workers: "
               f"{seconds:.1f} s wall, {cpu:.1f} s CPU (load average {os.getloadavg()[0]:.1f})")
     seconds = times["with scintillation and RFI"]
     target = "" if quick else f" (target <= 60 s: {'PASS' if seconds <= 60 else 'MISS'})"
