@@ -4,7 +4,8 @@ Both front doors call ``run_into_folder``, so that what a run does with its fold
 the folder is locked for the whole run (a second run into it is refused with the same message), ``force``
 sets the outputs of the run that was there aside until the new ones are complete, the resume journal records
 every finished block (``resume`` continues from it), the outputs are written atomically, and a run that ends
-early (Ctrl-C, SIGTERM or SIGHUP, a lost worker, a full disk) says how many cases it kept and how to go on.
+early (Ctrl-C, SIGTERM or SIGHUP, a lost worker, a full disk) says how many cases it kept and how to go on; a
+folder the run created and left empty (an error met while the cases ran) is taken back.
 The front doors differ only in how they say it: the command line prints the message and exits with
 ``exit_status``; the API raises.
 """
@@ -52,6 +53,7 @@ def run_into_folder(resolved, folder, force: bool = False, resume: bool = False,
         result.answer = None if answer is None else answer(resolved)
         return result
     folder = Path(folder)
+    created = not folder.exists()
     with stop_signals_as_interrupts():  # SIGTERM, SIGHUP: ended as Ctrl-C ends a run, finished blocks kept
         lock = prepare_folder(folder, force, resume)
         try:
@@ -68,7 +70,19 @@ def run_into_folder(resolved, folder, force: bool = False, resume: bool = False,
             journal.remove()
         finally:
             lock.release()
+            if created:
+                _remove_if_empty(folder)
     return result
+
+
+def _remove_if_empty(folder: Path) -> None:
+    """Take back the folder this run created where it ended with nothing in it (an error met while the cases ran):
+    a failed run leaves no output, not an empty folder. A folder holding anything (a journal of saved cases, the
+    outputs) stays."""
+    try:
+        folder.rmdir()  # refused by the system where the folder is not empty
+    except OSError:
+        pass
 
 
 def write_into_folder(result: ScenarioResult, folder: Path) -> dict:
