@@ -33,6 +33,7 @@ from math import factorial
 
 import numpy as np
 
+from e2esim.requirements.base import plain
 from e2esim.requirements.shares import picked_side
 from e2esim.retrieval.gauss_hermite import standard_normal_quantile
 
@@ -130,8 +131,8 @@ def _split(value, game: np.ndarray, names: tuple, active, unit: str) -> dict:
     total = game[-1]
     with np.errstate(divide="ignore", invalid="ignore"):
         scale = np.where(total != 0, value / np.where(total != 0, total, 1.0), 0.0)
-    out = {f"shapley.{name}_{unit}": _plain(scale * p) for name, p in zip(names, phi)}
-    out[f"shapley.{NO_SOURCE}_{unit}"] = _plain(scale * empty)
+    out = {f"shapley.{name}_{unit}": plain(scale * p) for name, p in zip(names, phi)}
+    out[f"shapley.{NO_SOURCE}_{unit}"] = plain(scale * empty)
     return out
 
 
@@ -154,7 +155,7 @@ def bound_shapley(value, agb, confidence: float, sides: tuple, side_values: dict
     if isinstance(pick, str):
         return _complete(by_side[pick], agb, unit)
     chosen = pick == "over"
-    return _complete({key: _plain(np.where(chosen, by_side["over"][key], by_side["under"][key]))
+    return _complete({key: plain(np.where(chosen, by_side["over"][key], by_side["under"][key]))
                       for key in by_side["over"]}, agb, unit)
 
 
@@ -165,6 +166,3 @@ def _complete(out: dict, agb, unit: str) -> dict:
     return {**{f"shapley.{name}_{unit}": out.get(f"shapley.{name}_{unit}", zero) for name in agb.sources()},
             f"shapley.{NO_SOURCE}_{unit}": out[f"shapley.{NO_SOURCE}_{unit}"]}
 
-
-def _plain(x):
-    return float(x) if np.ndim(x) == 0 else np.asarray(x, dtype=float)

@@ -12,6 +12,7 @@ The front doors differ only in how they say it: the command line prints the mess
 
 from __future__ import annotations
 
+import contextlib
 from pathlib import Path
 
 from e2esim.errors import OutputFolderError, UserError
@@ -79,10 +80,8 @@ def _remove_if_empty(folder: Path) -> None:
     """Take back the folder this run created where it ended with nothing in it (an error met while the cases ran):
     a failed run leaves no output, not an empty folder. A folder holding anything (a journal of saved cases, the
     outputs) stays."""
-    try:
-        folder.rmdir()  # refused by the system where the folder is not empty
-    except OSError:
-        pass
+    with contextlib.suppress(OSError):  # the system refuses a folder that is not empty
+        folder.rmdir()
 
 
 def write_into_folder(result: ScenarioResult, folder: Path) -> dict:
