@@ -13,6 +13,7 @@ import re
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -169,3 +170,17 @@ def test_a_module_placed_twice_is_an_error():
     layers = (("low", ("e2esim.a",)), ("high", ("e2esim.a",)))
     with pytest.raises(ValueError, match="placed twice"):
         arch.layer_of("e2esim.a.b", layers)
+
+
+def test_one_float_or_array_helper():
+    """``e2esim.case_values.plain`` is the one copy of the float-or-array helper (issue 27): a case alone's 0-d
+    value becomes a float, a block's values an array of floats; no module of src/ defines its own."""
+    from e2esim.case_values import plain
+
+    alone = plain(np.float64(0.25))
+    assert type(alone) is float and alone == 0.25
+    block = plain([1, 2])
+    assert block.dtype == np.float64 and block.tolist() == [1.0, 2.0]
+    copies = [str(p.relative_to(ROOT)) for p in (ROOT / "src").rglob("*.py")
+              if re.search(r"return float\(x\) if np\.ndim\(x\) == 0 else np\.asarray\(x", p.read_text())]
+    assert copies == ["src/e2esim/case_values.py"]

@@ -56,6 +56,7 @@ LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
             "e2esim.io.safe_h5",  # checked reading of a user's HDF5 file: physics readers (NISAR orbits) use it too
             "e2esim.key_paths",
             "e2esim.units",
+            "e2esim.case_values",
             "e2esim.settings",
             "e2esim.value_text",
             "e2esim.params",

@@ -16,6 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from e2esim.block import Batched, Values, join
+from e2esim.case_values import plain
 from e2esim.distortion.analytic import HVErrorMoments, MomentInputs, check_settings, moments_of
 from e2esim.distortion.validation import compare_with_analytic, sample_moments
 from e2esim.distortion.validity import VALIDITY, ValidityRange
@@ -268,7 +269,7 @@ def split_contributions(m, m0, convert=None) -> dict:
     """``HVErrorModel.contributions`` from the moments ``m`` of the model and ``m0`` of the same model without
     Faraday rotation (scalars or arrays over cases), ``convert`` applied to each part (None: a float for a case
     alone, the array over a block's cases)."""
-    convert = _plain if convert is None else convert
+    convert = plain if convert is None else convert
     sd_mean = convert(m0.mean - m0.bias_noise)
     sd_var = convert(m0.variance - m0.var_finite_looks)
     values = {
@@ -281,10 +282,6 @@ def split_contributions(m, m0, convert=None) -> dict:
     }
     return {name: Contribution(mean, var, CONTRIBUTION_DESCRIPTIONS[name]) for name, (mean, var) in values.items()}
 
-
-def _plain(x):
-    """A float for a case alone (0-d), the array over the cases of a block."""
-    return float(x) if np.ndim(x) == 0 else np.asarray(x)
 
 
 def analytic_scalars(m) -> dict:

@@ -46,6 +46,12 @@ class _Wrapped:
     notes = property(lambda self: (*self.base.notes, *self.added_notes))
     validity = property(lambda self: self.base.validity)  # the effects are exact: the base model's range holds
 
+    def _once(self, key: str, make):
+        """``make()``, evaluated once per wrapped model (the retrieval and every requirement ask for it)."""
+        if key not in self._memo:
+            self._memo[key] = make()
+        return self._memo[key]
+
     @property
     def levels(self) -> dict:
         return {**self.base.levels, self.effect.source: self.effect.level}
@@ -96,9 +102,7 @@ class WrappedErrorModel(_Wrapped, ErrorModel):
         return Moments(mean[..., 0], cov[..., 0, 0])
 
     def current(self) -> Moments:
-        if "current" not in self._memo:
-            self._memo["current"] = self.moments()
-        return self._memo["current"]
+        return self._once("current", self.moments)
 
     def contributions(self) -> dict:
         parts = dict(self.base.contributions())
@@ -133,9 +137,7 @@ class WrappedMultiChannelErrorModel(_Wrapped, MultiChannelErrorModel):
         return JointMoments(tuple(self.channels), mean, cov)
 
     def current_joint(self) -> JointMoments:
-        if "current" not in self._memo:
-            self._memo["current"] = self.joint_moments()
-        return self._memo["current"]
+        return self._once("current", self.joint_moments)
 
     def joint_contributions(self) -> dict:
         parts = dict(self.base.joint_contributions())

@@ -22,6 +22,12 @@ _AT_FREQUENCY = Param(
     "null: given at the instrument's frequency", default=None, unit="MHz", exclusive_minimum=0.0, nullable=True)
 
 
+def _angle_param(name: str, description: str, minimum: float) -> Param:
+    """A one-way Faraday-rotation angle of the distribution, in degrees at the YAML edge (0 by default, at most
+    180 deg in size)."""
+    return Param(name, "float", description, default=0.0, unit="deg", minimum=minimum, maximum=180.0)
+
+
 def _frequency_scale(module, case) -> float:
     """(f_given / f_radar)^2, or 1 when the angles are given at the radar frequency."""
     given = module.si["at_frequency_hz"]
@@ -47,10 +53,8 @@ class GaussianFaradayModule(_FaradayStage):
     type_name = "gaussian_faraday"
     summary = "Gaussian one-way Faraday rotation with given mean and SD (Men et al. 2021, eq. 10)"
     params = (
-        Param("mean_deg", "float", "mean one-way Faraday rotation", default=0.0, unit="deg",
-              minimum=-180.0, maximum=180.0),
-        Param("sd_deg", "float", "standard deviation of the one-way Faraday rotation", default=0.0,
-              unit="deg", minimum=0.0, maximum=180.0),
+        _angle_param("mean_deg", "mean one-way Faraday rotation", -180.0),
+        _angle_param("sd_deg", "standard deviation of the one-way Faraday rotation", 0.0),
         _AT_FREQUENCY,
     )
 
@@ -65,8 +69,7 @@ class ConstantFaradayModule(_FaradayStage):
     type_name = "constant_faraday"
     summary = "fixed one-way Faraday rotation angle"
     params = (
-        Param("value_deg", "float", "one-way Faraday rotation", default=0.0, unit="deg",
-              minimum=-180.0, maximum=180.0),
+        _angle_param("value_deg", "one-way Faraday rotation", -180.0),
         _AT_FREQUENCY,
     )
 

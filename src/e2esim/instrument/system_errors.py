@@ -92,24 +92,13 @@ class SystemErrorModel:
         return tuple(self.crosstalk_level * r for r in self.crosstalk_relative)
 
     @property
-    def crosstalk_cov13(self) -> complex:
-        v = self.crosstalk_variance
-        return self.crosstalk_rho13 * np.sqrt(v[0] * v[2])
-
-    @property
-    def crosstalk_cov24(self) -> complex:
-        v = self.crosstalk_variance
-        return self.crosstalk_rho24 * np.sqrt(v[1] * v[3])
-
-    @property
     def imbalance_variance(self) -> tuple:
         """(V_eps1, V_eps2)."""
         return tuple(self.imbalance_level * r for r in self.imbalance_relative)
 
-    @property
-    def imbalance_cov12(self) -> complex:
-        v = self.imbalance_variance
-        return self.imbalance_rho * np.sqrt(v[0] * v[1])
+    crosstalk_cov13 = property(lambda self: _covariance(self.crosstalk_rho13, self.crosstalk_variance, 0, 2))
+    crosstalk_cov24 = property(lambda self: _covariance(self.crosstalk_rho24, self.crosstalk_variance, 1, 3))
+    imbalance_cov12 = property(lambda self: _covariance(self.imbalance_rho, self.imbalance_variance, 0, 1))
 
     @functools.cached_property
     def unit_structure(self) -> tuple:
@@ -157,6 +146,11 @@ class SystemErrorModel:
         else:
             gain = np.ones(n)
         return SystemErrorSamples(delta=delta.T, f=imbalance.T, gain=gain)
+
+
+def _covariance(rho: complex, variances: tuple, i: int, j: int) -> complex:
+    """The covariance rho sqrt(V_i V_j) of terms i and j with correlation coefficient rho (eqs. 7-8)."""
+    return rho * np.sqrt(variances[i] * variances[j])
 
 
 def _correlated_pair(rng, n, var_a, var_b, cov_ab, out=None):

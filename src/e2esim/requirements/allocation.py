@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from e2esim.case_values import plain
 from e2esim.module import fail
 from e2esim.params import AtMostOneOf, Param
 
@@ -63,11 +64,8 @@ def allocation_details(requirement, details: dict, sources: tuple, limit, value,
         estimate = details.get(f"share.{source}_{unit}")
         out[f"allocation.{source}_{unit}"] = amount
         if estimate is not None:
-            out[f"allocation_margin.{source}_{unit}"] = _plain(amount - np.asarray(estimate, dtype=float))
+            out[f"allocation_margin.{source}_{unit}"] = plain(amount - np.asarray(estimate, dtype=float))
     out[f"allocation.total_{unit}"] = float(limit)
     out[f"allocation.unallocated_{unit}"] = float(limit) - sum(alloc.values())
     return out
 
-
-def _plain(x):
-    return float(x) if np.ndim(x) == 0 else np.asarray(x, dtype=float)

@@ -7,6 +7,7 @@ from typing import ClassVar
 
 import numpy as np
 
+from e2esim.case_values import plain  # noqa: F401  (the Shapley split imports it from here)
 from e2esim.module import Module, fail
 from e2esim.params import Param, ParamGroup
 from e2esim.requirements.allocation import check_allocation
@@ -18,11 +19,6 @@ from e2esim.retrieval.agb_error import AGBError
 BASES = ("auto", "analytic", "montecarlo")
 SOURCE_CHOICES = ("computed", "all", "systematic")
 PERCENT = 100.0
-
-
-def plain(x):
-    """A float for one case, the array for a block of cases (requirements are evaluated on either)."""
-    return float(x) if np.ndim(x) == 0 else np.asarray(x, dtype=float)
 
 
 def largest(values: list):

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from e2esim.case_values import plain
 from e2esim.distortion.validity import describe_level
 from e2esim.requirements.tradeoff import TRADEOFF_LEVELS, bound_axis_limits, bound_tradeoff_curve, first_failing_level
 from e2esim.units import level_db_from_variance, variance_from_level_db
@@ -99,20 +100,16 @@ def level_margins(bounds, convention: str, stated_db: dict | None = None) -> dic
             limit_db = np.where(np.isfinite(limit), level_db_from_variance(limit, conv), limit)
             current_db = np.where(current > 0, level_db_from_variance(current, conv), -np.inf)
             margin_db = np.where(np.isfinite(current_db), limit_db - current_db, np.inf)
-        out[f"{level}.limit_db"] = _plain(limit_db)
-        out[f"{level}.margin_db"] = _plain(margin_db)
-        out[f"{level}.residual_db"] = _plain(current_db)
+        out[f"{level}.limit_db"] = plain(limit_db)
+        out[f"{level}.margin_db"] = plain(margin_db)
+        out[f"{level}.residual_db"] = plain(current_db)
         if level in stated_db:
             spec_db = np.asarray(stated_db[level], dtype=float)
-            out[f"{level}.spec_db"] = _plain(spec_db)
+            out[f"{level}.spec_db"] = plain(spec_db)
             with np.errstate(invalid="ignore"):
-                out[f"{level}.spec_margin_db"] = _plain(np.where(np.isfinite(spec_db), limit_db - spec_db, np.inf))
+                out[f"{level}.spec_margin_db"] = plain(np.where(np.isfinite(spec_db), limit_db - spec_db, np.inf))
     return out
 
-
-def _plain(x):
-    """A float for one case, the array for a block."""
-    return float(x) if np.ndim(x) == 0 else np.asarray(x, dtype=float)
 
 
 def has_tradeoff_plane(model) -> bool:
@@ -129,8 +126,8 @@ def axis_crossings(bounds, convention: str) -> dict:
     for req in bounds:
         limits = {k: _capped(np.asarray(v, dtype=float), edge) for k, v in bound_axis_limits(req).items()}
         with np.errstate(divide="ignore", invalid="ignore"):
-            out[f"{req.side}.imbalance_axis_db"] = _plain(level_db_from_variance(limits["imbalance_limit"], convention))
-            out[f"{req.side}.crosstalk_axis_db"] = _plain(level_db_from_variance(limits["crosstalk_limit"], convention))
+            out[f"{req.side}.imbalance_axis_db"] = plain(level_db_from_variance(limits["imbalance_limit"], convention))
+            out[f"{req.side}.crosstalk_axis_db"] = plain(level_db_from_variance(limits["crosstalk_limit"], convention))
     return out
 
 

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from e2esim.case_values import plain
 from e2esim.module import fail
 from e2esim.params import Param
 from e2esim.requirements.allocation import ALLOCATION_PARAMS, allocation_details
@@ -24,7 +25,6 @@ from e2esim.requirements.base import (
     basis_of,
     checked_error,
     largest,
-    plain,
     scope_suffix,
     truth,
 )

@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from e2esim.case_values import plain
 from e2esim.retrieval.gauss_hermite import standard_normal_quantile
 
 INTERACTIONS = "interactions"
@@ -72,9 +73,9 @@ def shares(value, total, parts: dict, unit: str) -> dict:
     value = np.asarray(value, dtype=float)
     with np.errstate(divide="ignore", invalid="ignore"):
         scale = np.where(total != 0, value / np.where(total != 0, total, 1.0), 0.0)
-    out = {f"share.{name}_{unit}": _plain(scale * part) for name, part in parts.items()}
+    out = {f"share.{name}_{unit}": plain(scale * part) for name, part in parts.items()}
     attributed = sum((np.asarray(x) for x in out.values()), np.zeros_like(value))
-    out[f"share.{INTERACTIONS}_{unit}"] = _plain(value - attributed)
+    out[f"share.{INTERACTIONS}_{unit}"] = plain(value - attributed)
     return out
 
 
@@ -101,6 +102,3 @@ def bound_shares(value, agb, confidence: float, sides: tuple, side_values: dict,
         parts = {name: np.where(chosen, over[1][name], under[1][name]) for name in over[1]}
     return shares(value, total, parts, unit)
 
-
-def _plain(x):
-    return float(x) if np.ndim(x) == 0 else np.asarray(x, dtype=float)

@@ -26,6 +26,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from e2esim.case_values import plain
 from e2esim.distortion.analytic import hv_error_moments  # the closed form of Appendix B is for this model
 from e2esim.errors import PhysicsInputError
 from e2esim.retrieval.agb_error import standard_normal_quantile
@@ -74,9 +75,9 @@ class AGBRequirement:
         """f_max (> 0) or f_min (< 0): relative sigma_hv error at the AGB bound, eq. (16) (an array over cases
         when the exponent is one)."""
         if self.relative_threshold is not None:
-            return _plain(self.relative_threshold)
+            return plain(self.relative_threshold)
         level = self.bound if self.side == "over" else -self.bound
-        return _plain(sigma_relative_error(level, self.exponent))
+        return plain(sigma_relative_error(level, self.exponent))
 
     def violation(self, mean, sd, sigma_hv):
         """Signed distance from the limit of eq. (19) (m^2/m^2): <= 0 passes, > 0 fails. ``mean`` and ``sd`` have
@@ -96,9 +97,6 @@ def _aligned(x, like):
     x = np.asarray(x, dtype=float)
     return x.reshape(x.shape + (1,) * (np.ndim(like) - x.ndim)) if x.ndim and np.ndim(like) > x.ndim else x
 
-
-def _plain(x):
-    return float(x) if np.ndim(x) == 0 else np.asarray(x, dtype=float)
 
 
 def requirement_violation(requirement: AGBRequirement, model, **levels):
@@ -267,8 +265,8 @@ def bound_axis_limits(bound) -> dict:
 
     cases = np.shape(bound.model.value)
     return {
-        "imbalance_limit": _plain(first_failing_level(imbalance_alone, cases)),
-        "crosstalk_limit": _plain(first_failing_level(crosstalk_alone, cases)),
+        "imbalance_limit": plain(first_failing_level(imbalance_alone, cases)),
+        "crosstalk_limit": plain(first_failing_level(crosstalk_alone, cases)),
     }
 
 

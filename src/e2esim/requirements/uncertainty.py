@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from e2esim.case_values import plain
 from e2esim.retrieval.sampling_error import Z95
 
 Z_DISAGREE = 3.0
@@ -52,12 +53,12 @@ def verdict_uncertainty(agb, basis: str, values: dict, errors: dict, sampling: f
     if applies is not None:
         inside = inside & np.asarray(applies, dtype=bool)
     details["value_standard_error"] = se
-    details["margin_within_uncertainty"] = _plain(inside.astype(float))
+    details["margin_within_uncertainty"] = plain(inside.astype(float))
     code = np.zeros(np.shape(inside))
     if "analytic" in values and "montecarlo" in values and sampling is not None:
         code = np.where(_disagree(values["analytic"], values["montecarlo"], sampling),
                         SHAPE if _moments_agree(agb) else MOMENTS, AGREE)
-    details["basis_disagreement"] = _plain(code)
+    details["basis_disagreement"] = plain(code)
     notes = ()
     if np.ndim(inside) == 0:  # one case: say it in words too (a block's notes are shared by its cases)
         notes = tuple(n for n in (margin_note(margin, se, unit) if inside else None,
@@ -121,6 +122,3 @@ def largest_side(values: list, errors: list):
     k = np.argmax(stacked, axis=0)[None]
     return np.take_along_axis(stacked, k, 0)[0], np.take_along_axis(se, k, 0)[0]
 
-
-def _plain(x):
-    return float(x) if np.ndim(x) == 0 else np.asarray(x, dtype=float)

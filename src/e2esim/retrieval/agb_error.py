@@ -21,6 +21,7 @@ from functools import cached_property
 import numpy as np
 
 from e2esim.block import Batched
+from e2esim.case_values import plain
 from e2esim.errors import PhysicsInputError
 from e2esim.retrieval.agb_uncertainty import SampledAnswers, relative_moments, uncertainty_scalars
 from e2esim.retrieval.agb_variants import ErrorVariants
@@ -29,7 +30,6 @@ from e2esim.retrieval.gauss_hermite import (
     along,
     gaussian_q_stats,
     hermite_average,
-    plain,
     power_law_q_moments,
     standard_normal_quantile,
 )

@@ -16,6 +16,7 @@ from dataclasses import replace
 
 import numpy as np
 
+from e2esim.case_values import plain
 from e2esim.distortion.validation import sample_moments
 from e2esim.retrieval import sampling_error as se
 
@@ -38,7 +39,7 @@ class SampledAnswers:
         if basis == "analytic":
             return terms
         sampling = self.sampling_standard_error(statistic, *args)
-        return _plain(np.sqrt(np.square(sampling) + np.square(terms)))
+        return plain(np.sqrt(np.square(sampling) + np.square(terms)))
 
     def sampling_standard_error(self, statistic: str, *args):
         """Monte Carlo sampling standard error of ``statistic`` (``e2esim.retrieval.sampling_error``)."""
@@ -48,7 +49,7 @@ class SampledAnswers:
         if statistic == "rmse":
             return se.rmse_standard_error(q, m)
         if statistic == "quantile":
-            return _plain(se.quantile_interval(q, args[0], m)[2])
+            return plain(se.quantile_interval(q, args[0], m)[2])
         if statistic == "exceedance":
             bound, side = args[0], (args[1] if len(args) > 1 else "over")
             return se.proportion_standard_error(q > bound if side == "over" else q < -bound, m)
@@ -65,9 +66,9 @@ class SampledAnswers:
             return 0.0
         var = np.square(self.error_sd)
         shift = np.square(self.sigma_hv) * v_se
-        up = replace(self, error_sd=_plain(np.sqrt(var + shift)))
-        down = replace(self, error_sd=_plain(np.sqrt(np.maximum(var - shift, 0.0))))
-        return _plain(np.abs(np.asarray(value_of(up)) - np.asarray(value_of(down))) / 2.0)
+        up = replace(self, error_sd=plain(np.sqrt(var + shift)))
+        down = replace(self, error_sd=plain(np.sqrt(np.maximum(var - shift, 0.0))))
+        return plain(np.abs(np.asarray(value_of(up)) - np.asarray(value_of(down))) / 2.0)
 
 
 
@@ -94,8 +95,8 @@ def uncertainty_scalars(agb, quantiles: dict) -> dict:
         out[f"{key}.sigma_sd_standard_error_percent"] = 100 * u.relative_sd_standard_error
         for name, value in u.spread.items():
             out[f"{key}.sigma_sd_{name}_percent"] = 100 * value
-        out[f"{key}.campaigns"] = _plain(np.asarray(u.campaigns, dtype=float))
-        out[f"{key}.campaigns_failed"] = _plain(np.asarray(u.failed, dtype=float))
+        out[f"{key}.campaigns"] = plain(np.asarray(u.campaigns, dtype=float))
+        out[f"{key}.campaigns_failed"] = plain(np.asarray(u.failed, dtype=float))
     return out
 
 
@@ -106,7 +107,3 @@ def relative_moments(relative_samples) -> tuple:
     sd = float(np.sqrt(max(m["variance"], 0.0)))
     return m["mean"], m["mean_se"], sd, (m["variance_se"] / (2 * sd) if sd > 0 else 0.0)
 
-
-def _plain(x):
-    """A float for a 0-d result (one case), the array otherwise (a block)."""
-    return float(x) if np.ndim(x) == 0 else np.asarray(x)

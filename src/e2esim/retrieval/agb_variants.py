@@ -17,7 +17,8 @@ from functools import cached_property
 
 import numpy as np
 
-from e2esim.retrieval.gauss_hermite import plain, standard_normal_quantile
+from e2esim.case_values import plain
+from e2esim.retrieval.gauss_hermite import standard_normal_quantile
 
 SYSTEMATIC = "systematic"
 
@@ -78,11 +79,11 @@ class ErrorVariants:
                 return None, inactive
             m = variant.current()
             sd = np.sqrt(np.square(m.sd) + self.added_variance)
-            return replace(self, error_mean=_floats(m.mean), error_sd=_floats(sd), error_model=variant), inactive
+            return replace(self, error_mean=plain(m.mean), error_sd=plain(sd), error_model=variant), inactive
         c = self.contribution(source)
         variance = np.maximum(np.asarray(self.error_sd) ** 2 - np.asarray(model.value) ** 2
                               * np.maximum(c.relative_variance, 0.0), 0.0)
-        return replace(self, error_sd=_floats(np.sqrt(variance))), None
+        return replace(self, error_sd=plain(np.sqrt(variance))), None
 
     def moments_under(self, **levels) -> tuple:
         """(mean, SD) of the total sigma error (m^2/m^2) with the error model's levels changed (``levels`` broadcast
@@ -114,7 +115,3 @@ def _aligned(x, like):
     """``x`` (per case, shape C) with trailing length-1 axes to broadcast against ``like`` (shape C + levels)."""
     x = np.asarray(x, dtype=float)
     return x.reshape(x.shape + (1,) * (np.ndim(like) - x.ndim)) if x.ndim and np.ndim(like) > x.ndim else x
-
-
-def _floats(x):
-    return float(x) if np.ndim(x) == 0 else np.asarray(x, dtype=float)

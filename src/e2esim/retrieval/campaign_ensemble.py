@@ -34,6 +34,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from e2esim.case_values import plain
 from e2esim.errors import PhysicsInputError
 from e2esim.retrieval.simex import simex_batch
 from e2esim.retrieval.synthetic import synthetic_field_plots
@@ -63,14 +64,14 @@ class RegressionUncertainty:
 
     @property
     def relative_sd(self) -> float:
-        return _plain(np.sqrt(np.maximum(self.relative_variance, 0.0)))
+        return plain(np.sqrt(np.maximum(self.relative_variance, 0.0)))
 
     @property
     def relative_sd_standard_error(self) -> float:
         """SE of sqrt(v) by the delta method, SE(v) / (2 sqrt(v))."""
         sd = np.asarray(self.relative_sd)
         positive = sd > 0
-        return _plain(np.where(positive, np.asarray(self.standard_error) / (2.0 * np.where(positive, sd, 1.0)), 0.0))
+        return plain(np.where(positive, np.asarray(self.standard_error) / (2.0 * np.where(positive, sd, 1.0)), 0.0))
 
     @classmethod
     def gathered(cls, terms: list, index) -> RegressionUncertainty:
@@ -102,10 +103,6 @@ class RegressionUncertainty:
                                      {k: joined(lambda p, k=k: p.spread[k]) for k in first.spread},
                                      joined(lambda p: p.campaigns), joined(lambda p: p.failed))
 
-
-def _plain(x):
-    """A float for one case, the array for a block."""
-    return float(x) if np.ndim(x) == 0 else np.asarray(x)
 
 
 @dataclass(frozen=True)

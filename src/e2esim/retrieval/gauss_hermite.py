@@ -10,6 +10,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from e2esim.case_values import plain
+
 HERMITE_NODES, HERMITE_WEIGHTS = np.polynomial.hermite_e.hermegauss(64)
 HERMITE_WEIGHTS = HERMITE_WEIGHTS / np.sqrt(2 * np.pi)  # probabilists' Hermite: weights sum to 1
 
@@ -100,8 +102,3 @@ def along(x, extra: int):
     arrays of shape case + ``extra`` further axes."""
     x = np.asarray(x, dtype=float)
     return x.reshape(x.shape + (1,) * extra) if extra > 0 else x
-
-
-def plain(x):
-    """A float for a 0-d result (one case), the array otherwise (a block)."""
-    return float(x) if np.ndim(x) == 0 else np.asarray(x)
