@@ -191,6 +191,25 @@ def test_the_error_model_answers_a_block_where_no_case_has_a_source_as_a_case_al
             assert type(part.variance) is float and in_block[name].variance[k] == part.variance, name
 
 
+def test_a_case_alone_and_a_block_of_one_make_the_same_variants():
+    """Issue 27, item 2: the HV error model makes a variant (a source removed) one way for a case alone and a
+    block, with no branch on a case alone: the model's own products, no Monte Carlo samples, and no ``inactive``
+    marks where every case has the source (a block of one marks nothing, as a case alone does); the variants'
+    moments are the same bits."""
+    from e2esim.testing import BLOCK_VARIANTS, reference_block
+
+    block, cases = reference_block(HVBackscatterErrorPropagation.needs, variants=BLOCK_VARIANTS[1:2])
+    one = batched_run(HVBackscatterErrorPropagation())(block)["backscatter.error"]
+    alone = HVBackscatterErrorPropagation().forward(cases[0])["backscatter.error"]
+    assert len(one) == len(alone) == 1
+    for source in ("crosstalk", "channel_imbalance", "noise", "faraday_rotation"):
+        a, b = alone.without(source), one.without(source)
+        assert a is not alone and b is not one, source
+        assert a.inactive is None and b.inactive is None, source
+        assert a.system is alone.system and a.faraday is alone.faraday and a.montecarlo is None, source
+        assert b.current().variance[0] == a.current().variance and b.current().mean[0] == a.current().mean, source
+
+
 class OwnBudgetInputs(BackscatterErrorBudget):
     """A budget that reads more of the instrument than ``_instrument_reads`` says (its NESZ doubled)."""
 

@@ -39,8 +39,6 @@ CONTRIBUTION_DESCRIPTIONS = {
 }
 _LEVEL_SOURCES = {"crosstalk": 0, "channel_imbalance": 1, "noise": 2}  # rows of the batched variants
 _NO_ROTATION = ConstantFaraday(0.0)
-_LEVEL_NAMES = {"crosstalk": {"crosstalk": 0.0}, "channel_imbalance": {"imbalance": 0.0},
-                "noise": {"noise_power": 0.0}}  # SystemErrorModel.with_levels of each level source removed
 
 
 class SystemLevels:
@@ -106,11 +104,6 @@ class HVErrorModel(Batched, SystemLevels, ModelEvaluation, ErrorModel):
         return self._memo["inputs"]
 
     @property
-    def alone(self) -> bool:
-        """One case (no case axis)."""
-        return self.inputs is None or np.ndim(self.inputs.levels[0]) == 0
-
-    @property
     def value(self):
         return self.scene.sigma_hv if self.inputs is None else self.inputs.terms.sigma_hv
 
@@ -148,8 +141,7 @@ class HVErrorModel(Batched, SystemLevels, ModelEvaluation, ErrorModel):
         if source == "gain":
             if np.all(inp.no_gain_error):
                 return self
-            return self._variant(dataclasses.replace(inp, gain=(np.ones(shape), np.ones(shape))), inp.no_gain_error,
-                                 system=lambda s: dataclasses.replace(s, gain_offset_db=0.0, gain_sd_db=0.0))
+            return self._variant(dataclasses.replace(inp, gain=(np.ones(shape), np.ones(shape))), inp.no_gain_error)
         # the three level sources in one vectorised evaluation: [no crosstalk, no imbalance, no noise]
         xs, es, ns = inp.levels
         if "level variants" not in self._memo:
@@ -160,8 +152,7 @@ class HVErrorModel(Batched, SystemLevels, ModelEvaluation, ErrorModel):
         row = _LEVEL_SOURCES[source]
         levels = [xs, es, ns]
         levels[row] = np.zeros(shape)[()]  # a float for a case alone (shape ()), an array over a block's cases
-        variant = self._variant(dataclasses.replace(inp, levels=tuple(levels)), np.zeros(shape, dtype=bool),
-                                system=lambda s: s.with_levels(**_LEVEL_NAMES[source]))
+        variant = self._variant(dataclasses.replace(inp, levels=tuple(levels)), np.zeros(shape, dtype=bool))
         variant._memo["current"] = _row(self._memo["level variants"], row, len(shape))
         return variant
 
@@ -175,18 +166,16 @@ class HVErrorModel(Batched, SystemLevels, ModelEvaluation, ErrorModel):
             else:
                 weights = _NO_ROTATION.even_quadrature()[1]
                 averaging = np.broadcast_to(weights, shape + weights.shape)
-            self._memo["no faraday"] = self._variant(dataclasses.replace(inp, averaging=averaging), inp.no_rotation,
-                                                     faraday=lambda f: _NO_ROTATION)
+            self._memo["no faraday"] = self._variant(dataclasses.replace(inp, averaging=averaging), inp.no_rotation)
         return self._memo["no faraday"]
 
-    def _variant(self, inputs: MomentInputs, inactive, **products) -> HVErrorModel:
-        """The model with ``inputs``; a case alone also with its products changed as ``products`` say ({field:
-        function of the product}), so that they describe the variant (a block keeps the block's products)."""
-        if not self.alone:
-            return dataclasses.replace(self, _memo={}, inputs=inputs, inactive=inactive)
-        changed = {name: change(getattr(self, name)) for name, change in products.items()}
+    def _variant(self, inputs: MomentInputs, inactive) -> HVErrorModel:
+        """The model with ``inputs``, the same for a case alone and a block: its moments are those of ``inputs``
+        (the products it keeps are the model's, read only by ``item``); no Monte Carlo samples, which belong to
+        the full model. ``inactive`` (case shape) marks the cases without the source; None where every case has
+        it."""
         return dataclasses.replace(self, montecarlo=None, gaussianity=None, notes=(), _memo={}, inputs=inputs,
-                                   **changed)
+                                   inactive=inactive if np.any(inactive) else None)
 
     # Contributions ---------------------------------------------------------------------------------
     def contributions(self) -> dict:
@@ -230,11 +219,12 @@ class HVErrorModel(Batched, SystemLevels, ModelEvaluation, ErrorModel):
 
     # A block of cases (``e2esim.block.Batched``): analytic cases only ---------------------------------------
     def __len__(self) -> int:
-        return 1 if self.alone else len(self.inputs.levels[0])
+        return int(np.size(self.value))  # a case alone: one value (no case axis)
 
     def item(self, i: int) -> HVErrorModel:
-        """Case i's one-case model, with the moments the block computed for it."""
-        if self.alone:
+        """Case i's one-case model, with the moments the block computed for it; a model of one case (no case axis:
+        its products have none) is its own."""
+        if np.ndim(self.value) == 0:
             return self
         model = HVErrorModel(self.scene.item(i), self.system.item(i), self.faraday.item(i), self.form,
                              looks=self.looks, reference=self.reference)
@@ -255,14 +245,20 @@ class HVErrorModel(Batched, SystemLevels, ModelEvaluation, ErrorModel):
         return dataclasses.replace(first, scene=join([p.scene for p in parts]), system=join([p.system for p in parts]),
                                    faraday=join([p.faraday for p in parts]),
                                    inputs=MomentInputs.concatenate([p.inputs for p in parts]),
-                                   inactive=None if first.inactive is None else np.concatenate(
-                                       [p.inactive for p in parts]), _memo={})
+                                   inactive=_joined_inactive(parts), _memo={})
 
     def scalar_columns(self) -> dict:
         return dict(analytic_scalars(self.current()))
 
     def note_column(self) -> Values:
         return Values.repeated(self.notes, len(self))
+
+
+def _joined_inactive(parts: list):
+    """The ``inactive`` marks of joined blocks: None where every case of every part has the source."""
+    if all(p.inactive is None for p in parts):
+        return None
+    return np.concatenate([np.zeros(len(p), dtype=bool) if p.inactive is None else p.inactive for p in parts])
 
 
 def split_contributions(m, m0, convert=None) -> dict:
