@@ -86,6 +86,21 @@ def test_a_spill_file_gives_back_each_array_as_written_and_refuses_what_is_not_n
     spill.close()
 
 
+
+def test_rows_written_one_after_the_other_read_back_as_the_stacked_array(tmp_path):
+    """``put_rows`` (a block's columns, without stacking them first) lays them out as ``put(np.stack(rows))``."""
+    spill = SpillFile(tmp_path)
+    rows = [np.array([1.0, np.nan, 3.0]), np.arange(9.0)[::3], np.array([-0.0, np.inf, 2.5])]
+    before = spill.put(np.array([7, 8], dtype=np.int16))  # an array before: offsets count from it
+    ref = spill.put_rows(rows)
+    stacked = spill.put(np.stack(rows))
+    assert ref.shape == stacked.shape == (3, 3) and ref.dtype == stacked.dtype
+    assert _same(spill.get(ref), np.stack(rows)) and _same(spill.get(before), np.array([7, 8], dtype=np.int16))
+    assert stacked.offset - ref.offset == np.stack(rows).nbytes
+    with pytest.raises(TypeError, match="one dtype and shape"):
+        spill.put_rows([np.zeros(3), np.zeros(4)])
+    spill.close()
+
 def test_a_spilled_run_gives_the_numbers_cases_and_results_file_of_one_kept_in_memory(tmp_path):
     resolved = _resolved()
     memory = run_scenario(resolved, progress=False, keep_products=False, spill=False)

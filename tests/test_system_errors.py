@@ -63,3 +63,17 @@ def test_with_levels_keeps_structure():
     scaled = model.with_levels(crosstalk=4e-3)
     assert scaled.crosstalk_cov13 == pytest.approx(4 * model.crosstalk_cov13)
     assert scaled.imbalance_level == model.imbalance_level
+
+
+def test_unit_structure_is_the_unit_level_model_bit_for_bit():
+    """``unit_structure`` is computed from the fields (a block asks for thousands); it must be exactly what the
+    model at unit levels gives, with the same types."""
+    model = SystemErrorModel(crosstalk_level=3e-4, crosstalk_relative=(1.0, 0.3, 2.5, 0.7), crosstalk_rho13=0.4 + 0.2j,
+                             crosstalk_rho24=0.1, imbalance_level=5e-3, imbalance_relative=(0.9, 1.7),
+                             imbalance_rho=-0.3j, noise_power=1e-2)
+    unit = model.with_levels(crosstalk=1.0, imbalance=1.0)
+    expected = (np.asarray(unit.crosstalk_variance), unit.crosstalk_cov13, unit.crosstalk_cov24,
+                np.asarray(unit.imbalance_variance), unit.imbalance_cov12)
+    for got, want in zip(model.unit_structure, expected, strict=True):
+        assert type(got) is type(want) and np.array_equal(got, want)
+    assert model.unit_structure[1] != 0 and model.unit_structure[4] != 0  # the correlations are in it

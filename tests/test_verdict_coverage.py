@@ -186,3 +186,18 @@ def test_assumed_terms_give_the_same_verdicts_batched_and_per_case():
         for v, w in zip(a.verdicts, b.verdicts):
             assert (v.name, v.status, v.value, v.margin, v.coverage, v.coverage_text, v.details) == (
                 w.name, w.status, w.value, w.margin, w.coverage, w.coverage_text, w.details)
+
+
+def test_the_coverage_overview_counts_each_coverage_in_the_order_first_met():
+    """summary.json's coverage list: one entry per distinct (sources, text), counted over the cases, in the order
+    the cases first meet it; two codes of equal values count as one entry."""
+    from types import SimpleNamespace
+
+    from e2esim.block import Values
+    from e2esim.io.summary import coverage_overview
+
+    coverage = Values([("a",), ("a", "b"), ("c",), ("a",)], np.array([1, 0, 2, 1, 3, 0, 1, 0]))
+    text = Values(["x", "y", "x"], np.array([0, 1, 1, 0, 2, 1, 0, 0]))  # the last case: the values of case 4
+    got = coverage_overview(SimpleNamespace(coverage=coverage, coverage_text=text))
+    assert got == [{"sources": ["a", "b"], "text": "x", "cases": 3}, {"sources": ["a"], "text": "y", "cases": 2},
+                   {"sources": ["c"], "text": "y", "cases": 1}, {"sources": ["a"], "text": "x", "cases": 2}]

@@ -323,16 +323,15 @@ def validate_section(
         if key not in known:
             raise unknown_key_error(where.child(key), key, list(known))
     resolved: dict = {}
-    for name, p in known.items():
-        here = where.child(name)
+    for name, p in known.items():  # a plain default needs no location: a sweep's 10,000 modules have dozens each
         if isinstance(p, ParamGroup):
-            resolved[name] = validate_section(p.params, values.get(name), here)
+            resolved[name] = validate_section(p.params, values.get(name), where.child(name))
         elif name in values:
-            resolved[name] = p.validate(values[name], here)
+            resolved[name] = p.validate(values[name], where.child(name))
         elif p.required:
-            raise ConfigError(here, "is required but missing", p.describe_allowed())
+            raise ConfigError(where.child(name), "is required but missing", p.describe_allowed())
         elif p.type == "module" and p.default is not None:
-            resolved[name] = p.validate(p.default, here)  # the complete mapping, as if given
+            resolved[name] = p.validate(p.default, where.child(name))  # the complete mapping, as if given
         else:
             resolved[name] = p.default
     for rule in params:

@@ -104,9 +104,11 @@ class SystemErrorModel:
     def unit_structure(self) -> tuple:
         """(V_i, C_13, C_24, V_eps_i, C_eps12) for unit levels V_delta = V_eps = 1: the correlation
         structure alone, which the analytic kernels scale by any levels."""
-        unit = self.with_levels(crosstalk=1.0, imbalance=1.0)
-        return (np.asarray(unit.crosstalk_variance), unit.crosstalk_cov13, unit.crosstalk_cov24,
-                np.asarray(unit.imbalance_variance), unit.imbalance_cov12)
+        # the properties' formulas at levels 1.0, without building that model (a block asks for thousands)
+        v = tuple(1.0 * r for r in self.crosstalk_relative)
+        ve = tuple(1.0 * r for r in self.imbalance_relative)
+        return (np.asarray(v), self.crosstalk_rho13 * np.sqrt(v[0] * v[2]), self.crosstalk_rho24 * np.sqrt(v[1] * v[3]),
+                np.asarray(ve), self.imbalance_rho * np.sqrt(ve[0] * ve[1]))
 
     def with_levels(self, crosstalk=None, imbalance=None, noise_power=None) -> SystemErrorModel:
         """Same structure with other levels (variances) or noise power."""

@@ -31,11 +31,13 @@ def coverage_overview(r) -> list:
     """[{sources, text, cases}] of one requirement's columns: each distinct coverage with its number of cases (in
     the order first met), counted per distinct pair of codes, not per case."""
     coverage, text = r.coverage, r.coverage_text
-    codes = np.stack([np.asarray(coverage.index), np.asarray(text.index)], axis=1)
-    pairs, first, counts = np.unique(codes, axis=0, return_index=True, return_counts=True)
+    # one integer per pair (a sort of a million integers, not of a million rows)
+    width = max(len(text.values), 1)
+    codes = np.asarray(coverage.index, dtype=np.int64) * width + np.asarray(text.index, dtype=np.int64)
+    pairs, first, counts = np.unique(codes, return_index=True, return_counts=True)
     out: dict = {}
     for k in np.argsort(first, kind="stable"):
-        a, b = pairs[k]
+        a, b = divmod(int(pairs[k]), width)
         key = (tuple(coverage.values[a]), text.values[b])
         out[key] = out.get(key, 0) + int(counts[k])
     return [{"sources": list(sources), "text": words, "cases": count} for (sources, words), count in out.items()]

@@ -37,6 +37,12 @@ def declared_files(params, values, key_path: tuple) -> list:
     return out
 
 
+def _declares_file(params) -> bool:
+    """Whether ``params`` (nested groups too) declare an ``input_file`` parameter."""
+    return any(_declares_file(p.params) if isinstance(p, ParamGroup) else isinstance(p, Param) and p.input_file
+               for p in params)
+
+
 def file_digest(path: Path, key: str) -> tuple[int, str]:
     """(size in bytes, SHA-256 hex) of the regular file ``path``, read in pieces."""
     fd = open_regular(path, f"input file of {key}")
@@ -56,10 +62,13 @@ def scenario_input_files(resolved) -> list:
     """``[{"key", "path", "size_bytes", "sha256"}, ...]`` of every input file ``resolved`` (a resolved scenario)
     names, sorted by key and path; ``path`` as the scenario gives it."""
     found = set()
+    names_files: dict = {}  # module class -> whether it declares an input file (a sweep has 10,000 instruments)
     for slot in resolved.plan.slots:
         for module in slot.objects:
             params, config = getattr(type(module), "params", None), getattr(module, "config", None)
-            if params and isinstance(config, dict):
+            if type(module) not in names_files:
+                names_files[type(module)] = bool(params) and _declares_file(params)
+            if names_files[type(module)] and isinstance(config, dict):
                 found.update(declared_files(params, config, tuple(module.location.key_path)))
     section = map_section(resolved.raw.get("sweep") if isinstance(resolved.raw, dict) else None)
     if section is not None:

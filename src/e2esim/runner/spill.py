@@ -62,15 +62,28 @@ class SpillFile:
         array = np.ascontiguousarray(array)
         if array.dtype.kind not in "biuf":
             raise TypeError(f"only numeric arrays are spilled, not {array.dtype}")
+        return self._write([array], array.dtype, array.shape)
+
+    def put_rows(self, rows: list) -> Spilled:
+        """Arrays of one numeric dtype and shape as the rows of one array, written one after the other (the
+        layout of ``put(np.stack(rows))``, without making that copy: a block's columns are megabytes)."""
+        rows = [np.ascontiguousarray(row) for row in rows]
+        first = rows[0]
+        if first.dtype.kind not in "biuf" or any(r.dtype != first.dtype or r.shape != first.shape for r in rows):
+            raise TypeError("only numeric arrays of one dtype and shape are spilled as rows")
+        return self._write(rows, first.dtype, (len(rows),) + first.shape)
+
+    def _write(self, arrays: list, dtype: np.dtype, shape: tuple) -> Spilled:
         try:
             self._file.seek(self._end)
-            self._file.write(array.data)
+            for array in arrays:
+                self._file.write(array.data)
             self._file.flush()  # a full disk shows here, not later in a buffer
         except OSError as exc:
             raise OutputFolderError(f"{self._folder}: cannot keep the finished blocks in a temporary file: "
                                     f"{exc.strerror or exc}") from exc
-        ref = Spilled(self._end, sys.intern(array.dtype.str), array.shape)
-        self._end += array.nbytes
+        ref = Spilled(self._end, sys.intern(dtype.str), shape)
+        self._end += sum(a.nbytes for a in arrays)
         return ref
 
     def get(self, ref: Spilled) -> np.ndarray:
@@ -142,7 +155,7 @@ class SpilledColumns(LazyMapping):
                 and c.values.ndim == 1]
         if len({len(columns[name].values) for name in full}) > 1:
             full = []
-        table = spill.put(np.stack([columns[name].values for name in full])) if full else None
+        table = spill.put_rows([columns[name].values for name in full]) if full else None
         rows = {name: k for k, name in enumerate(full)}
         return cls(spill, table, {name: rows[name] if name in rows else
                                   (spill.put(c.values), None if c.present is None else spill.put(c.present))
