@@ -240,3 +240,50 @@ def test_one_ground_cancelled_channel_through_the_multichannel_retrieval_is_the_
     assert one.error_mean == pytest.approx(chain.error_mean, rel=1e-13)
     assert one.error_sd == pytest.approx(chain.error_sd, rel=1e-13)
     assert [c.name for c in one.contributions] == [c.name for c in chain.contributions]
+
+
+def test_the_stable_quadratic_term_is_the_trace_of_the_full_products(rng):
+    """Stable errors (r_mn = 1): Re tr(M F_pq^a M F_qp^b) of eq. (22) with F_pq^a = U_p G_q^a, taken through the
+    6 x 6 products Z = G M U (cyclic trace), equals the trace of the 3N x 3N products written out."""
+    from e2esim.stack.channel_forms import _stable_trace_pairs
+
+    g, side = 4, 9
+
+    def cn(*shape):
+        return rng.standard_normal(shape) + 1j * rng.standard_normal(shape)
+
+    uh, gtu, m = cn(g, 3, side, 6), cn(2, g, 3, 6, side), cn(side, side)
+    full = np.array([[[[[np.real(np.trace(m @ uh[k, p] @ gtu[a, k, q] @ m @ uh[k, q] @ gtu[b, k, p]))
+                         for q in range(3)] for p in range(3)] for k in range(g)] for b in range(2)] for a in range(2)])
+    got = _stable_trace_pairs(uh, gtu, m)
+    np.testing.assert_allclose(got, full, rtol=0, atol=1e-12 * np.abs(full).max())
+
+
+def test_stable_errors_are_the_limit_of_correlated_errors():
+    """The kernel's stable-error path (r_mn = 1) and its general path (any r) meet: the joint moments at a pass
+    correlation 1 - 1e-9 are those at 1 to the size of the difference."""
+    scene = site_scene("boreal")
+    comb = combos.interpolated(scene.acquisitions.kz_rad_m)
+    out = []
+    for rho in (1.0, 1.0 - 1e-9):
+        errors, faraday = stack_errors(rich_system(1e-3, 2e-3), rho, 6.0)
+        out.append(StackJointErrorModel(scene, errors, faraday, comb, looks=200, reference="population")
+                   .current_joint())
+    np.testing.assert_allclose(out[1].covariance, out[0].covariance, rtol=0,
+                               atol=1e-7 * np.abs(out[0].covariance).max())
+    np.testing.assert_allclose(out[1].mean, out[0].mean, rtol=0, atol=1e-7 * np.abs(out[0].mean).max())
+
+
+@pytest.mark.parametrize("unit", [True, False])
+def test_complex_normal_draws_are_those_of_the_complex_expression(seed, unit):
+    """The Monte Carlo's CN draws, written part by part into one array, are (x + 1j y) / sqrt(2) (unit) or x + 1j y
+    of the same generator's draws, bit for bit: the stream of every Monte Carlo stays."""
+    from e2esim.distortion.covariance_montecarlo import _complex_normal
+
+    shape = (3, 4, 1001)
+    first, second = np.random.default_rng(seed), np.random.default_rng(seed)
+    expected = first.standard_normal(shape) + 1j * first.standard_normal(shape)
+    expected = expected / np.sqrt(2) if unit else expected
+    got = _complex_normal(second, shape, unit)
+    assert got.tobytes() == expected.tobytes()
+    assert first.standard_normal() == second.standard_normal()  # the generators left in the same state

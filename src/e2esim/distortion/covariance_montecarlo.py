@@ -175,9 +175,16 @@ def _brute_force(scene, errs, omega, omega_hat, sigma_n, rng, looks, n_noise, re
 
 
 def _complex_normal(rng, shape, unit: bool = True) -> np.ndarray:
-    """CN(0, 1) draws (``unit=False``: real and imaginary parts each N(0, 1), power 2)."""
-    z = rng.standard_normal(shape) + 1j * rng.standard_normal(shape)
-    return z / np.sqrt(2) if unit else z
+    """CN(0, 1) draws (``unit=False``: real and imaginary parts each N(0, 1), power 2): the real parts drawn
+    first, then the imaginary, written into one complex array. The numbers of ``(x + 1j y) / sqrt(2)`` bit for bit
+    (numpy's complex division by sqrt(2) + 0j multiplies each part by 1 / sqrt(2)), without its complex
+    temporaries."""
+    z = np.empty(shape, dtype=complex)
+    for part in (z.real, z.imag):
+        part[...] = rng.standard_normal(shape)
+        if unit:
+            part *= 1.0 / np.sqrt(2.0)
+    return z
 
 
 def _bartlett_gram(rng, dof: int, size: int, p: int = 3) -> np.ndarray:

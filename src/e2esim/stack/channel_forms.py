@@ -128,10 +128,13 @@ def channel_node_polynomials(blocks: np.ndarray, q: np.ndarray, omega: np.ndarra
     # built in the layout [a, g, p, q, (n, c), (m, d)]: U_p^H [g, p, (n, c), i] times Gamma_a^T U_q [a, g, q, i, (m, d)]
     uh = u.conj().transpose(0, 3, 1, 4, 2).reshape(1, g, 3, 1, 3 * n, 6)
     gtu = np.swapaxes(gm, 1, 2)[:, None, None] @ u.transpose(0, 3, 2, 1, 4).reshape(1, g, 3, 6, 3 * n)
-    x = mflat @ ((uh @ gtu[:, :, None]) * np.kron(r, np.ones((3, 3))))  # M F_pq^a
-    xt = x.transpose(1, 2, 3, 0, 4, 5).reshape(g, 9, 2, 9 * n * n)  # [g, (p, q), a, (x, y)]
-    xs = x.transpose(1, 3, 2, 5, 4, 0).reshape(g, 9, 9 * n * n, 2)  # M F_qp^b at [g, (p, q), (y, x), b]
-    q2 = np.real(xt @ xs).reshape(g, 3, 3, 2, 2).transpose(3, 4, 0, 1, 2)
+    if np.all(r == 1.0):  # stable system errors: the same trace through 6 x 6 products (_stable_trace_pairs)
+        q2 = _stable_trace_pairs(uh[0, :, :, 0], gtu, mflat)
+    else:
+        x = mflat @ ((uh @ gtu[:, :, None]) * np.kron(r, np.ones((3, 3))))  # M F_pq^a
+        xt = x.transpose(1, 2, 3, 0, 4, 5).reshape(g, 9, 2, 9 * n * n)  # [g, (p, q), a, (x, y)]
+        xs = x.transpose(1, 3, 2, 5, 4, 0).reshape(g, 9, 9 * n * n, 2)  # M F_qp^b at [g, (p, q), (y, x), b]
+        q2 = np.real(xt @ xs).reshape(g, 3, 3, 2, 2).transpose(3, 4, 0, 1, 2)
     # Cov(2 Re P_p, 2 Re P_q) (co-pol eq. 3.5c with the passes, r^2 between them)
     gam = (w.conj().transpose(0, 1, 3, 2, 4) @ r0.transpose(0, 2, 1, 3)[..., None])[..., 0]  # [g, m, p, x]
     gam = gam.transpose(0, 1, 3, 2)  # gamma_p[m, (ij)] at [g, m, x, p]
@@ -141,8 +144,8 @@ def channel_node_polynomials(blocks: np.ndarray, q: np.ndarray, omega: np.ndarra
     # Cov(T1_p, T3_q) + Cov(T3_p, T1_q) (co-pol eq. 3.5d): with H_p[m, e] = sum_kc conj(G_p[k, c]) r_km
     # Gamma_a[c, e] and K_q[m, e, (ij)] = sum_n r_nm (Gamma_b^T u_n)_e,q M_nm w_m,ij,q^H
     hvec = np.einsum("km,agkep->agmep", r, np.einsum("ace,gkcp->agkep", gm, gvec.conj()))
-    ut = np.swapaxes(gm, 1, 2)[:, None] @ u.transpose(0, 2, 3, 1, 4).reshape(1, g, 6, 9 * n)
-    ut = (ut.reshape(2, g, 18, 3 * n) @ (np.kron(r, np.ones((3, 3))) * mflat)).reshape(2, g, 6, 3, n, 3)
+    ut = gtu.transpose(0, 1, 3, 2, 4).reshape(-1, 3 * n)  # (Gamma_a^T u_n)_e,q as [(a, g, e, q), (n, c)]
+    ut = (ut @ (np.kron(r, np.ones((3, 3))) * mflat)).reshape(2, g, 6, 3, n, 3)  # one matrix product
     w4 = w.conj().reshape(g, n, 3, 3, 3, 3)  # [g, m, i, j, q, d]
     # only the parts of K read: sum_j K[m, 3 + j, i, j] and sum_i K[m, i, i, j], as [b, g, q, m, e]
     k_te = np.einsum("bgjqmd,gmijqd->bgqmi", ut[:, :, 3:], w4)
@@ -164,3 +167,16 @@ def channel_node_polynomials(blocks: np.ndarray, q: np.ndarray, omega: np.ndarra
         qb = np.kron(q.T, np.ones((3, 3)))  # Q_ab at [(b, i), (a, j)]
         csys[_LIN] = 2 * np.real(np.einsum("xy,cgpxy,gpxy->cgp", qb, plin, z))
     return {"y0": y0, "mean": mean, "cov": cov, "trq2y": trq2y, "csys": csys}
+
+
+
+def _stable_trace_pairs(uh: np.ndarray, gtu: np.ndarray, mflat: np.ndarray) -> np.ndarray:
+    """Re tr(M F_pq^a M F_qp^b) (2, 2, G, 3, 3) [a, b, g, p, q] of eq. (22) for r_mn = 1 (stable system errors),
+    where F_pq^a = U_p G_q^a (U_p = ``uh`` (G, 3, 3N, 6), G_q^a = ``gtu`` (2, G, 3, 6, 3N)) has rank 6: by the cyclic
+    property of the trace it is tr(Z^b_p Z^a_q) with the 6 x 6 Z^a_s = G_s^a M U_s, without the 3N x 3N products
+    (equal to them to rounding, tested)."""
+    g, side = uh.shape[0], mflat.shape[0]
+    z = (gtu.reshape(-1, side) @ mflat).reshape(2, g, 3, 6, side) @ uh[None]  # Z^a_s [a, g, s, e, f]
+    left = z.transpose(1, 0, 2, 3, 4).reshape(g, 6, 36)  # Z^b_p [g, (b, p), (e, f)]
+    right = z.transpose(1, 0, 2, 4, 3).reshape(g, 6, 36)  # Z^a_q transposed [g, (a, q), (f, e)]
+    return np.real(left @ np.swapaxes(right, 1, 2)).reshape(g, 2, 3, 2, 3).transpose(3, 1, 0, 2, 4)
