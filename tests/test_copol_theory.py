@@ -132,6 +132,17 @@ def test_estimated_correction_averages_the_residual_rotation_exactly(rng):
     assert m.mean[0] / scene.sigma_hh == pytest.approx(0.25 * (scene.sigma_vv / scene.sigma_hh - 1), abs=0.01)
 
 
+def test_equal_residual_rotations_share_one_polynomial(rng):
+    # each case of a sweep (and each step of an allocation search) draws a new EmpiricalFaraday residual: one of
+    # equal samples is the same quadrature, so the polynomial is computed once and shared, not rebuilt
+    scene, sys_model, fr = forest("boreal_200"), system(), GaussianFaraday(0.4, 0.05)
+    samples = rng.normal(0.0, 0.02, 50)
+    first = error_polynomial(scene, sys_model, fr, FaradayCorrection("estimated", EmpiricalFaraday(samples)))
+    again = error_polynomial(scene, sys_model, fr, FaradayCorrection("estimated", EmpiricalFaraday(samples.copy())))
+    other = error_polynomial(scene, sys_model, fr, FaradayCorrection("estimated", EmpiricalFaraday(samples * 2)))
+    assert again is first and other is not first
+
+
 def test_general_scene_covariance_is_accepted():
     # no reflection symmetry needed: an HH-HV correlation adds a first-order crosstalk term to HH at Omega = 0
     m = np.array(forest("boreal_200").matrix)

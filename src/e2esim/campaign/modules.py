@@ -191,19 +191,26 @@ class Campaign(CalibrationModule):
         return setup
 
     def outcome(self, case) -> CampaignOutcome:
-        """The campaign and the schedule search, once per run and settings (the run's kernel memo)."""
+        """The campaign and the schedule search, once per run and settings (the run's kernel memo), and once per
+        process for the last settings: ``e2esim run`` and its chain schedule search (``flowdown.campaign_schedule``,
+        a second run of the same campaign at its worst epoch) share it. The key holds every setting it is computed
+        from (the step's settings but the epoch, the orbit, the frequency and whether it is assumed)."""
         memo = getattr(case.services, "memo", None)
         frequency, assumed = self.frequency_hz(case.get("instrument"))
         key = ("campaign", repr(sorted((k, repr(v)) for k, v in self.config.items() if k != "epoch_day")),
-               repr(case["geometry"].orbit), frequency)
+               repr(case["geometry"].orbit), frequency, assumed)
         found = memo.get(key) if memo is not None else None
+        if found is None:
+            found = _LAST_OUTCOME.get(key)
         if found is None:
             try:
                 found = compute_outcome(self, self.setup_for(case["geometry"].orbit, frequency), assumed)
             except PhysicsInputError as exc:  # at run time: name the scenario file and the key path here
                 raise ConfigError(exc.location(self.location), self._where_from(str(exc))) from None
-            if memo is not None:
-                memo[key] = found
+            _LAST_OUTCOME.clear()
+            _LAST_OUTCOME[key] = found
+        if memo is not None:
+            memo[key] = found
         return found
 
     def frequency_hz(self, instrument) -> tuple:
@@ -222,6 +229,9 @@ class Campaign(CalibrationModule):
         step = CampaignResidualStep(var["crosstalk"], var["imbalance"], None, None, math.sqrt(var["gain"]),
                                     out.scalars(i, self.config["convention"]), out)
         return [(self.type_name, step)]
+
+
+_LAST_OUTCOME: dict = {}  # the last campaign this process computed (``Campaign.outcome``)
 
 
 @dataclass(frozen=True)

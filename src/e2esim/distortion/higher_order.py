@@ -122,14 +122,14 @@ def covariance_coefficients(exp, scene, gammas, degrees: tuple = (3, 4)) -> np.n
     lead = h.shape[:-3]
     flat = h.reshape((-1, 3, 256))
     out = np.zeros((flat.shape[0], terms["count"], 3, 3))
+    # each monomial's terms gathered on their own (not all terms, then each monomial's out of them: one copy less)
     groups = [np.flatnonzero(terms["monomial"] == i) for i in range(terms["count"])]
+    groups = [(terms["left"][sel], values[sel], terms["right"][sel]) for sel in groups]
     step = max(1, _CHUNK // (3 * values.size))  # nodes at once: bounded memory for many scenes and nodes
     for start in range(0, flat.shape[0], step):
         part = flat[start:start + step]
-        left = part[..., terms["left"]] * values  # (chunk, 3, terms)
-        right = part[..., terms["right"]]
-        for i, sel in enumerate(groups):
-            out[start:start + step, i] = np.real(left[..., sel] @ np.swapaxes(right[..., sel], -1, -2))
+        for i, (left, value, right) in enumerate(groups):  # (chunk, 3, terms of the monomial)
+            out[start:start + step, i] = np.real((part[..., left] * value) @ np.swapaxes(part[..., right], -1, -2))
     return out.reshape(lead + (terms["count"], 3, 3))
 
 

@@ -223,17 +223,21 @@ def evaluate_totals(poly: ErrorPolynomial, crosstalk, imbalance, noise_power, ga
 
 def error_polynomial(scene, system, faraday, correction: FaradayCorrection | None = None) -> ErrorPolynomial:
     """``ErrorPolynomial`` for a ``ScatteringCovariance``, ``SystemErrorModel`` and ``FaradayDistribution``; the
-    last few are kept, for the sweep cases that share them (e.g. several retrievals of the same data)."""
+    last few are kept, for the sweep cases that share them (e.g. several retrievals of the same data, or the
+    level searches of ``e2esim allocate``). Keyed by the values ``ErrorPolynomial.build`` reads (the quadrature
+    nodes and weights, not the distribution objects: a case's residual rotation is a new ``EmpiricalFaraday``
+    of equal samples), so a hit is the same polynomial bit for bit."""
     correction = correction or FaradayCorrection()
     gammas = unit_covariances(system)
-    key = (np.ascontiguousarray(scene.matrix).tobytes(), gammas.tobytes(), faraday, correction)
-    poly = _RECENT.get(key)
+    omega, omega_hat, weights = correction.nodes(faraday, CORRECTED_DEGREE)
+    key = tuple(None if a is None else (np.shape(a), np.ascontiguousarray(a).tobytes())
+                for a in (scene.matrix, gammas, omega, omega_hat, weights))
+    poly = _RECENT.pop(key, None)  # re-inserted below: the least recently used one leaves first
     if poly is None:
-        omega, omega_hat, weights = correction.nodes(faraday, CORRECTED_DEGREE)
         poly = ErrorPolynomial.build(scene.matrix, gammas, omega, omega_hat, weights)
         if len(_RECENT) >= _RECENT_SIZE:
             _RECENT.pop(next(iter(_RECENT)))
-        _RECENT[key] = poly
+    _RECENT[key] = poly
     return poly
 
 

@@ -96,7 +96,9 @@ class WrappedErrorModel(_Wrapped, ErrorModel):
 
     def moments(self, **levels) -> Moments:
         level = self._level(levels)
-        m = self.base.moments(**levels)
+        # at the base's own levels, a wrapped base's memo: its current() is its moments(), kept (a model wrapped
+        # k times evaluated its base k times for each of its contributions)
+        m = self.base.current() if not levels and type(self.base) is WrappedErrorModel else self.base.moments(**levels)
         mean, cov = self.effect.joint(np.asarray(m.mean)[..., None], np.asarray(m.variance)[..., None, None],
                                       np.array([self.value], dtype=float), level)
         return Moments(mean[..., 0], cov[..., 0, 0])

@@ -30,7 +30,10 @@ def phase_draws(rng, structure, n: int, realisations: int) -> np.ndarray:
     (eq. S9): exact Gaussian draws through the eigen-decomposition of their covariance relative to the centre."""
     u = aperture_grid(n)
     d_abs = structure(np.abs(u))
-    d_lag = structure(np.abs(u[:, None] - u[None, :]))
+    # the n^2 lags of a regular grid take few distinct values: the structure function (a Bessel function per
+    # value) is evaluated once for each, which gives the same matrix bit for bit
+    lags, where = np.unique(np.abs(u[:, None] - u[None, :]), return_inverse=True)
+    d_lag = structure(lags)[where.reshape(n, n)]
     cov = 0.5 * (d_abs[:, None] + d_abs[None, :] - d_lag)
     return rng.standard_normal((realisations, n)) @ _square_root(cov).T
 
