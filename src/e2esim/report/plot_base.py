@@ -82,13 +82,16 @@ def save_drawn(fig, folder: Path, name: str) -> str:
 def save_png(fig, path: Path, tight: bool | None = None) -> str:
     """Write ``fig`` as the PNG ``path`` (atomically), close it and return the file name.
 
-    tight : crop to the drawn artists (``bbox_inches="tight"``); None: only when the figure has a legend, title
-    or text of its own, which ``tight_layout`` does not place (a figure legend below the axes, a suptitle):
-    the axes of a figure laid out by ``tight_layout`` already fit.
+    tight : crop to the drawn artists (``bbox_inches="tight"``: a second drawing of the whole figure); None: only
+    when the figure has a legend or text of its own, which ``tight_layout`` does not place (a figure legend below
+    the axes), or a suptitle and no ``tight_layout`` (which places it): the axes of a figure laid out by
+    ``tight_layout`` already fit. A figure whose layout leaves room for its legend (``tight_layout(rect=...)``)
+    is saved with ``tight=False``.
     """
+    laid_out = isinstance(fig.get_layout_engine(), PlaceHolderLayoutEngine)  # tight_layout has run
     if tight is None:
-        tight = bool(fig.legends or fig.texts or getattr(fig, "_suptitle", None) is not None)
-    if not tight and isinstance(fig.get_layout_engine(), PlaceHolderLayoutEngine):
+        tight = bool(fig.legends or fig.texts or (getattr(fig, "_suptitle", None) is not None and not laid_out))
+    if not tight and laid_out:
         fig.set_layout_engine(None)  # tight_layout has run: no layout left for savefig's extra pass
     path = Path(path)
     with atomic_path(path) as tmp:
