@@ -42,7 +42,7 @@ def plot_error_histograms(result, folder: Path, options: dict) -> list:
     )
     cases = shown
     fig, axes = panel_grid(len(cases), 3, (4, 3))
-    for ax, c in zip(axes, cases):
+    for i, (ax, c) in enumerate(zip(axes, cases)):
         model = c.get("backscatter.error")
         e = np.ravel(model.samples())
         ax.hist(e, bins=60, density=True, color="0.7", histtype="stepfilled")
@@ -53,7 +53,8 @@ def plot_error_histograms(result, folder: Path, options: dict) -> list:
         if an is not None:
             ax.plot(x, _gaussian_pdf(x, float(an.mean), float(an.sd)), "b--", lw=1, label="analytic")
         ax.set_title(wrapped(c.label, 50), fontsize=8)
-        ax.set_xlabel("error of $\\sigma_{hv}$ (m$^2$/m$^2$)", fontsize=8)
+        if i + 3 >= len(cases):  # the bottom panel of each column: the panels share what x means
+            ax.set_xlabel("error of $\\sigma_{hv}$ (m$^2$/m$^2$)", fontsize=8)
         ax.tick_params(labelsize=7)
     axes[0].legend(fontsize=7)
     fig.tight_layout()
