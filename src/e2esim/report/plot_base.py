@@ -8,7 +8,9 @@ Drawing speed: matplotlib lays out text (tick labels above all) on every pass ov
 are made at the resolution they are saved at (``figure_settings``), so the layout pass (``tight_layout``) and
 the drawing share one renderer and its cache of text sizes; and a figure is cropped to its artists
 (``bbox_inches="tight"``, a further layout pass) only when it has artists that ``tight_layout`` does not
-place (see ``save_png``).
+place (see ``save_png``): a figure with a legend below its panels leaves room for it in its layout instead. Text is
+most of a figure's drawing time, so it is drawn unhinted (``TEXT_HINTING``) and panels that say the same thing say it
+once (a shared legend, shared axis and case labels).
 """
 
 from __future__ import annotations
