@@ -84,3 +84,49 @@ def test_the_command_line_reads_the_outlier_as_a_factor(quick_run):
     result, _ = quick_run("biomass_multichannel")
     line = verdict_lines(result)[0]
     assert "; an error of 1.79e+07 %, about 1.8e+05 times the true value)" in line, line
+
+
+def test_the_tradeoff_panels_share_one_legend_and_their_axis_labels(monkeypatch, tmp_path, quick_run):
+    # twelve copies of one legend and of two axis labels said nothing more and were a third of the figure's text
+    from e2esim.report import plots
+
+    result, _ = quick_run("biomass_multichannel")
+    fig, _ = _drawn(monkeypatch, plots, plots.plot_tradeoff, result, tmp_path)
+    axes = [ax for ax in fig.axes if ax.axison]
+    assert len(axes) == 12 and len(fig.legends) == 1 and not any(ax.get_legend() for ax in axes)
+    entries = [t.get_text() for t in fig.legends[0].get_texts()]
+    assert entries == [ln.get_label() for ln in axes[0].get_lines()]  # every curve, the star and the residual
+    assert any("specification (stated)" in e for e in entries) and "residual after calibration" in entries
+    conv = result.cases[0].get("instrument").level_convention
+    assert [ax.get_xlabel() for ax in axes] == [""] * 10 + [f"crosstalk (dB, {conv})"] * 2  # the bottom row
+    assert [ax.get_ylabel() for ax in axes] == [f"channel imbalance (dB, {conv})", ""] * 6  # the first column
+    assert [ax.get_title() for ax in axes] == [wrapped(c.label, 70) for c in result.cases[:12]]
+
+
+def test_panels_with_different_legends_keep_their_own():
+    import matplotlib.pyplot as plt
+
+    from e2esim.report.plots import _label_panels
+
+    fig, axes = plt.subplots(1, 2)
+    axes[0].plot([0, 1], [0, 1], label="a")
+    axes[1].plot([0, 1], [0, 1], label="b")
+    labels = [("x", "y", ((ln.get_label(),) for ln in ax.get_lines())) for ax in axes]
+    labels = [(x, y, tuple(e)) for x, y, e in labels]
+    _label_panels(fig, axes, labels, columns=2)
+    assert not fig.legends and [ax.get_legend().get_texts()[0].get_text() for ax in axes] == ["a", "b"]
+    assert [(ax.get_xlabel(), ax.get_ylabel()) for ax in axes] == [("x", "y"), ("x", "y")]
+    plt.close(fig)
+
+
+def test_the_margins_per_case_share_their_case_labels(monkeypatch, tmp_path, quick_run):
+    result, _ = quick_run("biomass_default")
+    assert len(result.requirement_names) == 2
+    fig, _ = _drawn(monkeypatch, sweep_plots, sweep_plots.plot_verdicts, result, tmp_path)
+    first, second = fig.axes
+    assert _tick_texts(first) == [f"{c.index}: {c.label}" for c in result.cases]  # whole, once
+    assert not any(t.get_visible() and t.get_text() for t in second.get_yticklabels())
+    assert first.get_ylim() == second.get_ylim() and first.yaxis_inverted()  # case 0 at the top of both
+    for ax, j in ((first, 0), (second, 1)):  # each panel its requirement's margins, case by case
+        widths = [p.get_width() for p in ax.patches]
+        assert widths == pytest.approx([c.verdicts[j].margin for c in result.cases], nan_ok=True)

@@ -24,6 +24,9 @@ from e2esim.report.sweep_layout import case_row_height, case_ticks
 from e2esim.requirements.source_names import coupling_words
 
 MAX_BAR_CASES = 30
+LEGEND_ROW = 0.22
+"""Inches of a row of the legend below the panels."""
+COUPLED = "not attributed to one source (coupled sources)"
 GROUP_HATCH = {"systematic": "", "random": "//", "regression": "..", "model": "xx", "assumed": "\\\\"}
 
 
@@ -55,7 +58,7 @@ def plot_error_budget(result, folder: Path, options: dict) -> list:
     sources = list(dict.fromkeys(r["source"] for _, _, _, rows in panels for case_rows in rows for r in case_rows))
     colours = {s: plt.get_cmap("tab20")(i % 20) for i, s in enumerate(sources)}
     heights = [1.4 + case_row_height(cases, base=0.32) * len(cases) for _, cases, _, _ in panels]
-    fig, axes = plt.subplots(len(panels), 1, figsize=(9.5, sum(heights) + 0.6), squeeze=False,
+    fig, axes = plt.subplots(len(panels), 1, figsize=(9.5, sum(heights)), squeeze=False,
                              gridspec_kw={"height_ratios": heights})
     drawn: dict = {}
     notes = []
@@ -67,6 +70,7 @@ def plot_error_budget(result, folder: Path, options: dict) -> list:
         ends = [s for case_rows in rows for s in _stack_ends(case_rows)]
         cut = axis_cut(np.concatenate([checked, ends]), reference=[cases[0].verdicts[j].limit])
         clip = cut.clip if cut else np.asarray
+        bars: dict = {}  # (legend entry, colour, hatch, edge colour) -> [y], [width], [left]: one barh call each
         for y, (c, case_rows) in enumerate(zip(cases, rows)):
             right = left = 0.0
             for r in case_rows:
@@ -76,9 +80,9 @@ def plot_error_budget(result, folder: Path, options: dict) -> list:
                 start = right if value > 0 else left + value
                 lo, hi = clip([start, start + abs(value)])  # a bar beyond the cut axis stops at its edge
                 if hi > lo:
-                    bar = ax.barh(y, hi - lo, left=lo, color=colours[r["source"]], edgecolor="white",
-                                  hatch=GROUP_HATCH.get(r["group"], ""), height=0.7)
-                    drawn.setdefault(f"{budget_source_name(r['source'], cases)} ({r['group']})", bar)
+                    key = (f"{budget_source_name(r['source'], cases)} ({r['group']})", colours[r["source"]],
+                           GROUP_HATCH.get(r["group"], ""), "white")
+                    _add_bar(bars, key, y, lo, hi)
                 right, left = (right + value, left) if value > 0 else (right, left + value)
             v = c.verdicts[j]
             shared = unattributed(v)
@@ -90,11 +94,13 @@ def plot_error_budget(result, folder: Path, options: dict) -> list:
                 start = right if rest > 0 else left + rest
                 lo, hi = clip([start, start + abs(rest)])
                 if hi > lo:
-                    bar = ax.barh(y, hi - lo, left=lo, color="0.85", edgecolor="0.6", height=0.7)
-                    drawn.setdefault("not attributed to one source (coupled sources)", bar)
+                    _add_bar(bars, (COUPLED, "0.85", "", "0.6"), y, lo, hi)
                     if shared is not None and abs(rest) > 0.01 * abs(v.value):
                         coupled.update(r["source"] for r in case_rows if _part(r))
-            ax.plot(clip([v.value])[0], y, "kd", ms=5)
+        for (label, colour, hatch, edge), (ys, widths, lefts) in bars.items():
+            drawn.setdefault(label, ax.barh(ys, widths, left=lefts, color=colour, edgecolor=edge, hatch=hatch,
+                                            height=0.7))
+        ax.plot(clip(checked), range(len(cases)), "kd", ms=5, ls="none")
         mark_cut(ax, range(len(cases)), checked, cut, unit)
         if cut:
             ax.set_xlim(*cut.limits(np.concatenate([checked, ends]), [cases[0].verdicts[j].limit]))
@@ -106,21 +112,31 @@ def plot_error_budget(result, folder: Path, options: dict) -> list:
         ax.set_xlabel(f"{unit}", fontsize=8)
         ax.set_title(f"{names[j]}: {which}", fontsize=9)
         ax.grid(alpha=0.3, axis="x")
-    fig.legend(list(drawn.values()), list(drawn.keys()), loc="lower center", ncol=3, fontsize=7,
-               bbox_to_anchor=(0.5, -0.01 - 0.025 * (len(drawn) // 3)))
-    fig.tight_layout()
+    legend_h = LEGEND_ROW * -(-len(drawn) // 3) + 0.15  # inches below the panels: three columns of entries
+    fig.set_figheight(sum(heights) + legend_h)
+    fig.legend(list(drawn.values()), list(drawn.keys()), loc="lower center", ncol=3, fontsize=7)
+    fig.tight_layout(rect=(0, legend_h / fig.get_figheight(), 1, 1))
     why = (f" Where the sources couple: {coupling_words(sorted(coupled))}." if coupled else "")
     if shapley:
         why += (" There (the Euler split would leave more than 1 % of the checked value to no source: case"
                 f"{'s' if len(shapley) > 1 else ''} {', '.join(sorted(shapley, key=int))}) the bars are the Shapley "
                 "split instead, which adds up with no remainder (docs/theory/error-budget.md, Section 3a).")
-    return [(save(fig, folder, "error_budget"),
+    return [(save(fig, folder, "error_budget", tight=False),
              "Error budget of each requirement: the part of the checked value each error source accounts for (bars, "
              "hatched: random-error budget; dotted: regression; cross-hatched: retrieval model; back-hatched: "
              "assumed), the checked value (black diamond) and the limit (red dashed line). The parts add up to the "
              "checked value: each source's share of the mean square (RMSE) or of the Gaussian quantile (bounds) of "
              "the σ error, by the Euler principle (docs/theory/error-budget.md); grey is the part no single source "
              "accounts for, where the error model couples its sources (zero where they add)." + why + "".join(notes))]
+
+
+def _add_bar(bars: dict, key: tuple, y: int, lo: float, hi: float) -> None:
+    """Note a bar from ``lo`` to ``hi`` in row ``y`` under ``key``; the bars of one key are drawn by one ``barh``
+    (a call per bar cost more than the rest of the figure's building)."""
+    ys, widths, lefts = bars.setdefault(key, ([], [], []))
+    ys.append(y)
+    widths.append(hi - lo)
+    lefts.append(lo)
 
 
 def _part(row) -> float:

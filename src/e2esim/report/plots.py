@@ -42,7 +42,7 @@ def plot_error_histograms(result, folder: Path, options: dict) -> list:
     )
     cases = shown
     fig, axes = panel_grid(len(cases), 3, (4, 3))
-    for ax, c in zip(axes, cases):
+    for i, (ax, c) in enumerate(zip(axes, cases)):
         model = c.get("backscatter.error")
         e = np.ravel(model.samples())
         ax.hist(e, bins=60, density=True, color="0.7", histtype="stepfilled")
@@ -53,7 +53,8 @@ def plot_error_histograms(result, folder: Path, options: dict) -> list:
         if an is not None:
             ax.plot(x, _gaussian_pdf(x, float(an.mean), float(an.sd)), "b--", lw=1, label="analytic")
         ax.set_title(wrapped(c.label, 50), fontsize=8)
-        ax.set_xlabel("error of $\\sigma_{hv}$ (m$^2$/m$^2$)", fontsize=8)
+        if i + 3 >= len(cases):  # the bottom panel of each column: the panels share what x means
+            ax.set_xlabel("error of $\\sigma_{hv}$ (m$^2$/m$^2$)", fontsize=8)
         ax.tick_params(labelsize=7)
     axes[0].legend(fontsize=7)
     fig.tight_layout()
@@ -75,6 +76,7 @@ def plot_tradeoff(result, folder: Path, options: dict) -> list:
     cases = every[:12]
     fig, axes = panel_grid(len(cases), 2, (6, 4.5))
     styles = {"over": "-", "under": "--"}
+    labels = []  # per panel: its axis labels and legend entries
     for ax, c in zip(axes, cases):
         verdicts = [v for v in c.verdicts if v.curves]
         for v, color in zip(verdicts, colors(len(verdicts))):
@@ -90,18 +92,50 @@ def plot_tradeoff(result, folder: Path, options: dict) -> list:
         residual = _residual_point(c.get("backscatter.error"), conv)
         if residual is not None:
             ax.plot(*residual, "o", ms=8, mfc="none", mec="tab:purple", mew=2, label="residual after calibration")
-        ax.set_xlabel(f"crosstalk (dB, {conv})")
-        ax.set_ylabel(f"channel imbalance (dB, {conv})")
         ax.set_title(wrapped(c.label, 70), fontsize=9)
         ax.grid(alpha=0.3)
-        ax.legend(fontsize=6)
-    fig.tight_layout()
+        labels.append((f"crosstalk (dB, {conv})", f"channel imbalance (dB, {conv})", _legend_entries(ax)))
+    _label_panels(fig, axes, labels, columns=2)
+    fig.tight_layout(rect=(0, _legend_room(fig, labels), 1, 1))
     more = f" The first {len(cases)} of {len(every)} cases are shown." if len(every) > len(cases) else ""
-    return [(save(fig, folder, "tradeoff"),
+    return [(save(fig, folder, "tradeoff", tight=False),
              "Trade-off curves between crosstalk and channel imbalance (Men et al. 2021, eq. 19, Figs. 3-8): "
              "below a curve the requirement holds. Solid: overestimation, dashed: underestimation. "
              "The star marks the specification as the scenario states it, the circle the residual levels after "
              "calibration (what the propagation applies; the level margins are measured from it)." + more)]
+
+
+def _legend_entries(ax) -> tuple:
+    """What a legend of ``ax`` shows: (label, line style, colour, marker) of each labelled line."""
+    return tuple((ln.get_label(), ln.get_linestyle(), str(ln.get_color()), str(ln.get_marker()))
+                 for ln in ax.get_lines() if not ln.get_label().startswith("_"))
+
+
+def _label_panels(fig, axes, labels, columns: int) -> None:
+    """Axis labels and legends of a grid of panels. Panels that all have the same ones (the usual case: the same
+    requirements and convention in every case) share them: x labels on the bottom panel of each column, y labels
+    on the first column, one legend below the panels; text is most of a figure's drawing time, and twelve copies
+    of one legend say no more than one. Otherwise each panel has its own."""
+    shared = len({entry for entry in labels}) == 1
+    n = len(axes)
+    for i, (ax, (x_label, y_label, _)) in enumerate(zip(axes, labels)):
+        if not shared or i + columns >= n:
+            ax.set_xlabel(x_label)
+        if not shared or i % columns == 0:
+            ax.set_ylabel(y_label)
+        if not shared:
+            ax.legend(fontsize=6)
+    if shared:
+        fig.legend(handles=[ln for ln in axes[0].get_lines() if not ln.get_label().startswith("_")],
+                   loc="lower center", ncol=2, fontsize=7, frameon=False)
+
+
+def _legend_room(fig, labels) -> float:
+    """The fraction of the figure's height below the panels for a shared legend (``_label_panels``), else 0."""
+    if not fig.legends:
+        return 0.0
+    rows = -(-len(labels[0][2]) // 2)
+    return (0.2 * rows + 0.15) / fig.get_figheight()
 
 
 def _residual_point(model, convention: str):

@@ -51,6 +51,6 @@ def plot_agb_error_vs_faraday_difference(result, folder: Path, options: dict) ->
         ax.grid(alpha=0.3)
     fig.legend(loc="lower center", ncol=2, fontsize=6, frameon=False)
     fig.tight_layout(rect=(0, legend_h / (4.0 + legend_h), 1, 1))
-    return [(save_png(fig, Path(folder) / "agb_error_vs_faraday_difference.png"),
+    return [(save_png(fig, Path(folder) / "agb_error_vs_faraday_difference.png", tight=False),
              "The AGB error each requirement checks against the SD of the Faraday-rotation difference between two "
              "passes (the case's, from the TEC variability or as swept); the dashed line is the requirement's limit.")]

@@ -24,6 +24,9 @@ from e2esim.report.sweep_layout import (
 STATUS_COLOURS = {"pass": "tab:green", "fail": "tab:red", "not_applicable": "0.6"}
 MAX_CASES_BY_LABEL = 60
 """Beyond this many cases a sweep without a numeric variable is drawn against the case number."""
+MAX_SIDE_BY_SIDE = 3
+"""Up to this many requirements, the margins per case are panels side by side that share the case labels (text is
+most of a figure's drawing time); beyond, one panel above the other, each with its labels."""
 
 
 def plot_verdicts(result, folder: Path, options: dict) -> list:
@@ -74,10 +77,17 @@ def _verdicts_by_case(result, folder, names) -> list:
     import matplotlib.pyplot as plt
 
     row = case_row_height(cases) if by_label else 0.0
-    fig, axes = plt.subplots(len(names), 1, figsize=(8, len(names) * (1.2 + (row * n if by_label else 3))),
-                             squeeze=False)
+    side = by_label and 1 < len(names) <= MAX_SIDE_BY_SIDE
+    if side:  # the panels share their case labels: written once, left of the first
+        fig, grid = plt.subplots(1, len(names), figsize=(3.5 + 3.2 * len(names), 1.2 + row * n), squeeze=False,
+                                 sharey=True)
+        panels = grid[0]
+    else:
+        fig, grid = plt.subplots(len(names), 1, figsize=(8, len(names) * (1.2 + (row * n if by_label else 3))),
+                                 squeeze=False)
+        panels = grid[:, 0]
     every, cuts = [], []
-    for j, (ax, name) in enumerate(zip(axes[:, 0], names)):
+    for j, (ax, name) in enumerate(zip(panels, names)):
         margins = np.array([c.verdicts[j].margin for c in cases])
         cut = axis_cut(margins)
         every.append(margins)
@@ -88,8 +98,9 @@ def _verdicts_by_case(result, folder, names) -> list:
         positions = [c.index for c in cases]
         if by_label:
             ax.barh(positions, drawn, color=colors)
-            case_ticks(ax, cases, axis="y")
-            ax.invert_yaxis()
+            if j == 0 or not side:  # a shared axis: labelled and inverted once
+                case_ticks(ax, cases, axis="y")
+                ax.invert_yaxis()
             ax.axvline(0, color="k", lw=0.8)
             ax.set_xlabel(f"margin ({unit})")
             mark_cut(ax, positions, margins, cut, unit)
