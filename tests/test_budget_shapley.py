@@ -206,5 +206,28 @@ def test_the_shapley_values_are_the_loop_over_subsets_bit_for_bit_for_a_case_and
     for k in (0, 1, 2, 3, 4, cases - 1):  # each case alone, as a 1-D game and as a block of one
         assert shapley_values(f[:, k]).tobytes() == want[:, k].tobytes()
         assert shapley_values(np.ascontiguousarray(f[:, k:k + 1])).tobytes() == want[:, k:k + 1].tobytes()
-    for block in (f[:, 5:7], f[:, ::3], f[:, -2:]):  # a block of two, a strided one, the last two
+    # a block of two, a strided one, the last two, one in Fortran order (a gathered block's layout)
+    for block in (f[:, 5:7], f[:, ::3], f[:, -2:], np.asfortranarray(f[:, 4:13])):
         assert shapley_values(block).tobytes() == _loop_shapley(block).tobytes()
+
+
+def test_a_block_whose_cases_have_different_players_gives_each_case_its_own_game_bit_for_bit(seed):
+    """``_by_players``: each case plays with the sources active there (the others switched on, given 0), grouped by
+    pattern; every case's values are those of its own game alone, bit for bit, in a block of mixed patterns, of one
+    pattern lacking a player, and of every player."""
+    from e2esim.requirements.shapley import _by_players
+
+    rng = np.random.default_rng(seed)
+    n, cases = 5, 40
+    game = rng.normal(size=(2**n, cases))
+    for active in (rng.random((n, cases)) < 0.7, np.tile(np.array([[1], [0], [1], [1], [0]], dtype=bool), cases),
+                   np.ones((n, cases), dtype=bool)):
+        phi, empty = _by_players(game, active)
+        for c in range(cases):
+            players = np.flatnonzero(active[:, c])
+            rest = sum(1 << j for j in range(n) if not active[j, c])
+            sub = [rest | sum(1 << int(p) for b, p in enumerate(players) if m >> b & 1)
+                   for m in range(2 ** len(players))]
+            want = np.zeros(n)
+            want[players] = shapley_values(game[sub, c])
+            assert phi[:, c].tobytes() == want.tobytes() and empty[c] == game[sub[0], c]

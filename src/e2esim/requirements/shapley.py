@@ -142,7 +142,7 @@ def shapley_values(f: np.ndarray) -> np.ndarray:
         part = flat[:, start:start + step]
         for i in range(n):
             pairs = part.reshape(2 ** (n - 1 - i), 2, 2**i, part.shape[1])
-            terms = pairs[:, 1] - pairs[:, 0]
+            terms = np.subtract(pairs[:, 1], pairs[:, 0], order="C")  # C order, whatever f's layout
             terms *= weight.reshape(2 ** (n - 1 - i), 2, 2**i)[:, 0, :, None]
             phi[i, start:start + step] = _in_order(terms.reshape(2 ** (n - 1), part.shape[1]))
     return phi.reshape((n,) + f.shape[1:])
@@ -151,14 +151,15 @@ def shapley_values(f: np.ndarray) -> np.ndarray:
 def _in_order(terms: np.ndarray) -> np.ndarray:
     """The sums over axis 0 of ``terms`` (rows, cases), each case's terms added one by one from 0.0 in the rows'
     order: 0.0 + t_0 + t_1 + ... (the start from 0.0 makes a sum of -0.0 terms +0.0, as a loop from zeros does).
-    For two cases or more, numpy's reduction over axis 0 of a C-contiguous 2-D array does exactly that: its
+    For two cases or more, numpy's reduction over axis 0 of a C-contiguous 2-D array (an F-ordered one would be
+    summed pairwise down its contiguous rows: made C-contiguous first) does exactly that: its
     iterator puts the contiguous case axis inside (the result's stride along the rows is 0, so the input's strides
     order the axes) and goes through the rows in order, adding row r to the running sums (an element-wise add,
     never the pairwise summation numpy uses along a contiguous reduced axis); tests/test_budget_shapley.py checks it
     against the loop bit for bit. One case's terms would be a reduction along a contiguous axis, which numpy sums
     pairwise: ``np.add.accumulate`` adds them in order by definition (each partial sum is the previous plus one)."""
     if terms.shape[1] >= 2:
-        return np.add.reduce(terms, axis=0, initial=0.0)
+        return np.add.reduce(np.ascontiguousarray(terms), axis=0, initial=0.0)
     return np.add.accumulate(np.concatenate((np.zeros((1, 1)), terms)), axis=0)[-1]
 
 
@@ -177,14 +178,18 @@ def _by_players(game: np.ndarray, active) -> tuple:
         codes |= on[j].astype(np.int64) << j
     patterns, which = np.unique(codes, return_inverse=True)
     for g, pattern in enumerate(patterns.tolist()):  # the cases that have the same players, together
-        cases = np.flatnonzero(which == g) if len(patterns) > 1 else np.arange(flat.shape[1])
+        cases = np.flatnonzero(which == g) if len(patterns) > 1 else slice(None)
         players = [j for j in range(n) if pattern >> j & 1]
-        rest = sum(1 << j for j in range(n) if not pattern >> j & 1)
-        sub = np.array([rest | sum(1 << p for b, p in enumerate(players) if m >> b & 1)
-                        for m in range(2 ** len(players))])
-        part = np.ascontiguousarray(flat[np.ix_(sub, cases)])
+        # the game's rows of each subset of the players, the others switched on (every row: the game itself)
+        rows = flat
+        if len(players) < n:
+            masks, sub = np.arange(2 ** len(players)), np.full(2 ** len(players), (2**n - 1) & ~pattern)
+            for b, p in enumerate(players):
+                sub |= ((masks >> b) & 1) << p
+            rows = flat[sub]
+        part = rows if isinstance(cases, slice) else rows[:, cases]
         # each case's sums run over its own subsets only, term by term (``shapley_values``): the case alone's numbers
-        phi[np.ix_(players, cases)] = shapley_values(part)
+        phi[players if isinstance(cases, slice) else np.ix_(players, cases)] = shapley_values(part)
         empty[cases] = part[0]
     return phi.reshape((n,) + shape), empty.reshape(shape)
 
