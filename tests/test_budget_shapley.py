@@ -171,3 +171,63 @@ def test_a_source_active_in_no_case_of_a_block_is_neither_evaluated_nor_attribut
         alone_out, _ = attribution(lambda a: a.rmse("analytic") * 100, AGBError.from_sigma_errors(
             2.2, model.value, float(one.mean), float(one.sd), error_model=model))
         assert {key: out[key][k] for key in out} == alone_out
+
+
+def _loop_shapley(f):
+    """The definition term by term (Shapley 1953): each player's terms added one by one from 0.0 in the order of
+    the subsets' masks, the order ``shapley_values`` keeps."""
+    n = int(f.shape[0]).bit_length() - 1
+    phi = np.empty((n,) + f.shape[1:])
+    for i in range(n):
+        total = np.zeros(f.shape[1:])
+        for m in (m for m in range(2**n) if not m >> i & 1):
+            s = bin(m).count("1")
+            total = total + factorial(s) * factorial(n - s - 1) / factorial(n) * (f[m | 1 << i] - f[m])
+        phi[i] = total
+    return phi
+
+
+@pytest.mark.parametrize("n", [0, 1, 3, 6, 10])
+def test_the_shapley_values_are_the_loop_over_subsets_bit_for_bit_for_a_case_and_any_block(n, seed):
+    """``shapley_values`` forms a player's terms at once and adds them in the masks' order (numpy's reduction over
+    the rows, one case by accumulation): the loop's bits, -0.0 sums included, for a case alone, a block of any size
+    (one, two, odd, several cache chunks) and a block's cases each alone."""
+    rng = np.random.default_rng(seed)
+    cases = 2 * (2**20 // 2 ** max(n - 1, 0)) + 3 if n == 10 else 37  # n = 10: three chunks, the last of 3 cases
+    f = rng.normal(size=(2**n, cases)) * 10.0 ** rng.integers(-8, 8, size=(2**n, cases))
+    f[:, 0] = 0.0  # a game without effect
+    f[:, 1] = -0.0
+    f[1::2, 2] = f[0::2, 2]  # player 0 without effect: -0.0 differences where f is negative
+    f[:, 3] = np.where(np.arange(2**n) & 1, -0.0, 0.0)  # player 0's terms all -0.0: their sum from 0.0 is +0.0
+    got = shapley_values(f)
+    want = _loop_shapley(f)
+    assert got.shape == want.shape == (n, cases)
+    assert got.tobytes() == want.tobytes()
+    for k in (0, 1, 2, 3, 4, cases - 1):  # each case alone, as a 1-D game and as a block of one
+        assert shapley_values(f[:, k]).tobytes() == want[:, k].tobytes()
+        assert shapley_values(np.ascontiguousarray(f[:, k:k + 1])).tobytes() == want[:, k:k + 1].tobytes()
+    # a block of two, a strided one, the last two, one in Fortran order (a gathered block's layout)
+    for block in (f[:, 5:7], f[:, ::3], f[:, -2:], np.asfortranarray(f[:, 4:13])):
+        assert shapley_values(block).tobytes() == _loop_shapley(block).tobytes()
+
+
+def test_a_block_whose_cases_have_different_players_gives_each_case_its_own_game_bit_for_bit(seed):
+    """``_by_players``: each case plays with the sources active there (the others switched on, given 0), grouped by
+    pattern; every case's values are those of its own game alone, bit for bit, in a block of mixed patterns, of one
+    pattern lacking a player, and of every player."""
+    from e2esim.requirements.shapley import _by_players
+
+    rng = np.random.default_rng(seed)
+    n, cases = 5, 40
+    game = rng.normal(size=(2**n, cases))
+    for active in (rng.random((n, cases)) < 0.7, np.tile(np.array([[1], [0], [1], [1], [0]], dtype=bool), cases),
+                   np.ones((n, cases), dtype=bool)):
+        phi, empty = _by_players(game, active)
+        for c in range(cases):
+            players = np.flatnonzero(active[:, c])
+            rest = sum(1 << j for j in range(n) if not active[j, c])
+            sub = [rest | sum(1 << int(p) for b, p in enumerate(players) if m >> b & 1)
+                   for m in range(2 ** len(players))]
+            want = np.zeros(n)
+            want[players] = shapley_values(game[sub, c])
+            assert phi[:, c].tobytes() == want.tobytes() and empty[c] == game[sub[0], c]

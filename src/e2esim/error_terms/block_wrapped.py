@@ -84,7 +84,7 @@ class BlockWrappedModel(Batched, ErrorModel):
         """``WrappedErrorModel.moments`` of every case (levels broadcast against the case axis)."""
         own = levels.pop(self.source, None)
         level = self.level if own is None else np.asarray(own, dtype=float)
-        m = self.base.moments(**levels)
+        m = self.base.moments(**levels) if levels else self._base_moments()
         mean, variance = np.asarray(m.mean, dtype=float), np.asarray(m.variance, dtype=float)
         values = np.asarray(self.value, dtype=float)
         ndim = max(mean.ndim, variance.ndim, level.ndim, 1)
@@ -98,6 +98,15 @@ class BlockWrappedModel(Batched, ErrorModel):
             out_mean[rows] = new_mean[..., 0]
             out_var[rows] = cov[..., 0, 0]
         return Moments(out_mean, out_var)
+
+    def _base_moments(self) -> Moments:
+        """``base.moments()``, evaluated once per base model among the variants that share ``_shared``: a Shapley
+        split's 2^k variants (``ErrorModel.source_subsets``) have far fewer distinct bases (the base's own 2^j), each
+        asked once instead of once per variant. Kept with its base, whose id is the key while it lives."""
+        memo = self._shared.setdefault("base moments", {})
+        if id(self.base) not in memo:
+            memo[id(self.base)] = (self.base, self.base.moments())
+        return memo[id(self.base)][1]
 
     def _stacks(self) -> list:
         """[(effect, columns, rows)]: the cases ``rows`` whose effects are evaluated together, as ``effect`` alone

@@ -42,11 +42,13 @@ NO_SOURCE = "no_source"
 ``shapley.no_source_<unit>``."""
 
 
-def subset_moments(agb) -> tuple:
-    """(names, b, v, active): the sources of ``agb`` active in some case, the mean b and variance v of the sigma error
-    (m^2/m^2, (m^2/m^2)^2), shape (2^n,) + the case shape, with only the sources of each subset switched on (subset
-    mask m: bit k set where source k is on; m = 2^n - 1 is ``agb`` itself), and where each source is active, (n,) +
-    the case shape (None without sources). A source not active in a case changes nothing there, exactly."""
+def _subset_parts(agb) -> tuple:
+    """(names, means, variances, extra, active, shape): the game's moments in two factors. The mean and variance
+    of the error model's own k sources (``ErrorModel.source_subsets``, (2^k,) + its case shape, by the mask of the
+    own sources switched on), and ``extra`` ((2^(n-k),) + the case shape, by the mask t of the other n - k sources
+    switched on): the variance the added terms keep (as ``AGBError.without``: the added variance less that of the
+    terms left out, never negative). Subset m = t 2^k + o has the mean means[o] and the variance variances[o] +
+    extra[t], the sum ``subset_moments`` forms: its numbers, without its (2^n,) + case shape copies of each."""
     model = agb.error_model
     own, means, variances, own_active = model.source_subsets
     added = np.asarray(agb.added_variance, dtype=float)
@@ -60,40 +62,105 @@ def subset_moments(agb) -> tuple:
     names = tuple(own) + tuple(n for n, _ in others)
     k, n = len(own), len(names)
     shape = np.broadcast_shapes(np.shape(added), np.shape(means[0]), *(np.shape(var) for _, var in others))
-    masks = np.arange(2**n)
-    b = np.broadcast_to(means[masks & (2**k - 1)].reshape((-1,) + np.shape(means[0])), (2**n,) + shape)
-    v = np.broadcast_to(variances[masks & (2**k - 1)].reshape((-1,) + np.shape(means[0])), (2**n,) + shape)
     if others:
         # the variance of the terms left out, added term by term in one order (a case gets the same bits alone as
-        # in a block); as AGBError.without: the added variance less it, never negative
-        left_out = np.zeros((2**n,) + shape)
+        # in a block)
+        switched_on = np.arange(2 ** (n - k))
+        left_out = np.zeros((2 ** (n - k),) + shape)
         for j, (_, var) in enumerate(others):
-            off = ((masks >> (k + j)) & 1 == 0).astype(float).reshape((-1,) + (1,) * len(shape))
+            off = ((switched_on >> j) & 1 == 0).astype(float).reshape((-1,) + (1,) * len(shape))
             left_out = left_out + off * var
-        v = v + np.maximum(added - left_out, 0.0)
+        extra = np.maximum(added - left_out, 0.0)
     else:
-        v = v + added
+        extra = np.broadcast_to(added, shape)[None]
     active = np.stack([np.broadcast_to(x, shape) for x in own_active] + [np.broadcast_to(var != 0, shape)
                                                                           for _, var in others]) if n else None
-    return names, np.array(b, dtype=float), v, active
+    own_shape = (2**k,) + shape
+    return (names, np.broadcast_to(np.asarray(means, dtype=float), own_shape),
+            np.broadcast_to(np.asarray(variances, dtype=float), own_shape), extra, active, shape)
+
+
+def _over_subsets(own: np.ndarray, extra: np.ndarray, shape: tuple) -> np.ndarray:
+    """own[o] + extra[t] for every subset m = t 2^k + o: (2^n,) + ``shape``, a new C-contiguous array."""
+    return np.add(own[None], extra[:, None]).reshape((-1,) + shape)
+
+
+def subset_moments(agb) -> tuple:
+    """(names, b, v, active): the sources of ``agb`` active in some case, the mean b and variance v of the sigma error
+    (m^2/m^2, (m^2/m^2)^2), shape (2^n,) + the case shape, with only the sources of each subset switched on (subset
+    mask m: bit k set where source k is on; m = 2^n - 1 is ``agb`` itself), and where each source is active, (n,) +
+    the case shape (None without sources). A source not active in a case changes nothing there, exactly."""
+    names, means, variances, extra, active, shape = _subset_parts(agb)
+    b = np.ascontiguousarray(np.broadcast_to(means[None], (len(extra),) + means.shape)).reshape((-1,) + shape)
+    return names, b, _over_subsets(variances, extra, shape), active
+
+
+def _rms_game(agb) -> tuple:
+    """(game, names, active): f(S) = b_S^2 + v_S over the subsets (module docstring), formed in place."""
+    names, means, variances, extra, active, shape = _subset_parts(agb)
+    game = _over_subsets(variances, extra, shape)
+    squares = (means * means)[None]
+    game_view = game.reshape((len(extra),) + means.shape)
+    np.add(squares, game_view, out=game_view)  # b*b + v, as the expression writes it
+    return game, names, active
+
+
+def _bound_game(agb, z: float, sign) -> tuple:
+    """(game, names, active): f(S) = x_S |x_S| of the quantile x = z s + sign b (sign +1: "over", b + z s; -1:
+    "under", z s - b; a float, or per case), formed in place. z s + (-b) is z s - b bit for bit (IEEE 754 defines
+    x - y as x + (-y)), so a block whose cases pick different sides plays each case's own game."""
+    names, means, variances, extra, active, shape = _subset_parts(agb)
+    x = _over_subsets(variances, extra, shape)
+    np.sqrt(x, out=x)
+    np.multiply(x, z, out=x)
+    signed = sign * means
+    view = x.reshape((len(extra),) + means.shape)
+    np.add(view, signed[None], out=view)
+    return x * np.abs(x), names, active
+
+
+CHUNK_BYTES = 2**21
+"""The size of one player's terms for a chunk of cases in ``shapley_values``: in a core's cache (2 MiB)."""
 
 
 def shapley_values(f: np.ndarray) -> np.ndarray:
     """phi (n,) + case shape of the game ``f`` ((2^n,) + case shape, indexed by the subset's bit mask): the Shapley
-    value of every player (module docstring)."""
+    value of every player (module docstring).
+
+    Each case's phi_i is the sum of its terms weight(S) [f(S + i) - f(S)] added one by one from 0.0 in the order of
+    the subsets' masks, so that it is the same, bit for bit, alone or in a block of any size and layout. The terms of
+    one player are formed at once: the subsets without i are m = a 2^(i+1) + c (c < 2^i), so f seen as (2^(n-1-i), 2,
+    2^i, cases) holds f(S) at [a, 0, c] and f(S + i) at [a, 1, c], in the masks' order. ``_in_order`` adds them."""
     n = int(f.shape[0]).bit_length() - 1
+    flat = f.reshape(2**n, -1)
     masks = np.arange(2**n)
     sizes = np.array([bin(m).count("1") for m in masks])
     weight = np.array([factorial(s) * factorial(n - s - 1) / factorial(n) if s < n else 0.0 for s in sizes])
-    phi = np.empty((n,) + f.shape[1:])
-    for i in range(n):
-        total = np.zeros(f.shape[1:])
-        # the terms added one by one in the order of the subsets' masks: each case's sum is the same alone or in a
-        # block of any size (np.sum's order of addition depends on the array's layout)
-        for m in masks[(masks >> i & 1) == 0]:
-            total = total + weight[m] * (f[m | (1 << i)] - f[m])
-        phi[i] = total
-    return phi
+    phi = np.empty((n, flat.shape[1]))
+    step = max(2, CHUNK_BYTES // (8 * 2 ** max(n - 1, 0)))
+    for start in range(0, flat.shape[1], step):  # a chunk of cases at a time, its terms in the cache
+        part = flat[:, start:start + step]
+        for i in range(n):
+            pairs = part.reshape(2 ** (n - 1 - i), 2, 2**i, part.shape[1])
+            terms = np.subtract(pairs[:, 1], pairs[:, 0], order="C")  # C order, whatever f's layout
+            terms *= weight.reshape(2 ** (n - 1 - i), 2, 2**i)[:, 0, :, None]
+            phi[i, start:start + step] = _in_order(terms.reshape(2 ** (n - 1), part.shape[1]))
+    return phi.reshape((n,) + f.shape[1:])
+
+
+def _in_order(terms: np.ndarray) -> np.ndarray:
+    """The sums over axis 0 of ``terms`` (rows, cases), each case's terms added one by one from 0.0 in the rows'
+    order: 0.0 + t_0 + t_1 + ... (the start from 0.0 makes a sum of -0.0 terms +0.0, as a loop from zeros does).
+    For two cases or more, numpy's reduction over axis 0 of a C-contiguous 2-D array (an F-ordered one would be
+    summed pairwise down its contiguous rows: made C-contiguous first) does exactly that: its
+    iterator puts the contiguous case axis inside (the result's stride along the rows is 0, so the input's strides
+    order the axes) and goes through the rows in order, adding row r to the running sums (an element-wise add,
+    never the pairwise summation numpy uses along a contiguous reduced axis); tests/test_budget_shapley.py checks it
+    against the loop bit for bit. One case's terms would be a reduction along a contiguous axis, which numpy sums
+    pairwise: ``np.add.accumulate`` adds them in order by definition (each partial sum is the previous plus one)."""
+    if terms.shape[1] >= 2:
+        return np.add.reduce(np.ascontiguousarray(terms), axis=0, initial=0.0)
+    return np.add.accumulate(np.concatenate((np.zeros((1, 1)), terms)), axis=0)[-1]
 
 
 def _by_players(game: np.ndarray, active) -> tuple:
@@ -111,14 +178,18 @@ def _by_players(game: np.ndarray, active) -> tuple:
         codes |= on[j].astype(np.int64) << j
     patterns, which = np.unique(codes, return_inverse=True)
     for g, pattern in enumerate(patterns.tolist()):  # the cases that have the same players, together
-        cases = np.flatnonzero(which == g) if len(patterns) > 1 else np.arange(flat.shape[1])
+        cases = np.flatnonzero(which == g) if len(patterns) > 1 else slice(None)
         players = [j for j in range(n) if pattern >> j & 1]
-        rest = sum(1 << j for j in range(n) if not pattern >> j & 1)
-        sub = np.array([rest | sum(1 << p for b, p in enumerate(players) if m >> b & 1)
-                        for m in range(2 ** len(players))])
-        part = np.ascontiguousarray(flat[np.ix_(sub, cases)])
+        # the game's rows of each subset of the players, the others switched on (every row: the game itself)
+        rows = flat
+        if len(players) < n:
+            masks, sub = np.arange(2 ** len(players)), np.full(2 ** len(players), (2**n - 1) & ~pattern)
+            for b, p in enumerate(players):
+                sub |= ((masks >> b) & 1) << p
+            rows = flat[sub]
+        part = rows if isinstance(cases, slice) else rows[:, cases]
         # each case's sums run over its own subsets only, term by term (``shapley_values``): the case alone's numbers
-        phi[np.ix_(players, cases)] = shapley_values(part)
+        phi[players if isinstance(cases, slice) else np.ix_(players, cases)] = shapley_values(part)
         empty[cases] = part[0]
     return phi.reshape((n,) + shape), empty.reshape(shape)
 
@@ -138,25 +209,19 @@ def _split(value, game: np.ndarray, names: tuple, active, unit: str) -> dict:
 
 def rms_shapley(value, agb, unit: str) -> dict:
     """The Shapley split of an RMSE verdict's ``value``: the game is the mean square b^2 + v of the sigma error."""
-    names, b, v, active = subset_moments(agb)
-    return _complete(_split(value, b * b + v, names, active, unit), agb, unit)
+    game, names, active = _rms_game(agb)
+    return _complete(_split(value, game, names, active, unit), agb, unit)
 
 
 def bound_shapley(value, agb, confidence: float, sides: tuple, side_values: dict, unit: str) -> dict:
     """The Shapley split of an ``agb_error_bound`` verdict's ``value``, of the side that sets it, case by case (as
-    ``e2esim.requirements.shares.bound_shares``): the game is x |x| of the side's quantile x of the sigma error."""
-    names, b, v, active = subset_moments(agb)
+    ``e2esim.requirements.shares.bound_shares``): the game is x |x| of the side's quantile x of the sigma error.
+    Each case plays the game of its own side only (a block whose cases pick both: the sign of b per case)."""
     z = float(standard_normal_quantile(confidence))
-    by_side = {}
-    for side in sides:
-        x = b + z * np.sqrt(v) if side == "over" else z * np.sqrt(v) - b
-        by_side[side] = _split(value, x * np.abs(x), names, active, unit)
     pick = picked_side(side_values, sides)
-    if isinstance(pick, str):
-        return _complete(by_side[pick], agb, unit)
-    chosen = pick == "over"
-    return _complete({key: plain(np.where(chosen, by_side["over"][key], by_side["under"][key]))
-                      for key in by_side["over"]}, agb, unit)
+    sign = (1.0 if pick == "over" else -1.0) if isinstance(pick, str) else np.where(pick == "over", 1.0, -1.0)
+    game, names, active = _bound_game(agb, z, sign)
+    return _complete(_split(value, game, names, active, unit), agb, unit)
 
 
 def _complete(out: dict, agb, unit: str) -> dict:
