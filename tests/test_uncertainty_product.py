@@ -206,6 +206,8 @@ def test_cog_overviews_hold_pixels_of_the_layers(tmp_path):
     with rasterio.open(tmp_path / "out" / "uncertainty.tif") as tif:
         band = tif.descriptions.index("verdict") + 1
         assert tif.overviews(band) == [2, 4]
+        assert tif.compression.name == "zstd" and tif.block_shapes[0] == (512, 512)  # a tiled ZSTD COG
+        assert tif.tags(ns="IMAGE_STRUCTURE")["LAYOUT"] == "COG"
         full = tif.read(band)
         overview = tif.read(band, out_shape=(tif.height // 2, tif.width // 2))
         sd_band = tif.descriptions.index("sigma_hv_error_sd") + 1

@@ -5,7 +5,7 @@ files that are renamed into place only when both are complete (no partial output
 Settings (docs/real-data.md, Speed): the NetCDF's chunks are one band high and at most 1,024 columns wide, so that
 each band fills its chunks whole (no chunk is read back, decompressed and compressed again), deflated at level 1
 (zlib, no shuffle: as before); the GeoTIFF is first written uncompressed in strips one band high, band-interleaved
-(each band of each layer written once), then copied to the COG: DEFLATE level 1, 512 x 512 tiles, its overviews
+(each band of each layer written once), then copied to the COG: ZSTD level 1, 512 x 512 tiles, its overviews
 resampled by nearest neighbour (an overview pixel is a pixel of the layer: the verdict stays 0 or 1, NaN stays no
 data), compressed on all cores (``NUM_THREADS``)."""
 
@@ -22,6 +22,9 @@ from e2esim.extras import optional_import
 from e2esim.products_io.pixel_model import LAYERS, NO_DATA_VERDICT
 
 NETCDF_NAME, GEOTIFF_NAME = "uncertainty.nc", "uncertainty.tif"
+COG_COMPRESSION = "ZSTD"
+"""The COG's compression, at level 1: lossless, about half the CPU time of DEFLATE level 1 for a file of about the
+same size (docs/real-data.md, Speed). Readers need libtiff with ZSTD (GDAL 2.3 or later, as rasterio's wheels)."""
 
 
 class UncertaintyWriter:
@@ -112,7 +115,7 @@ class UncertaintyWriter:
 
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", self._rasterio.errors.NotGeoreferencedWarning)
-            copy(str(self.tiff_temp), str(self.temps[1]), driver="COG", COMPRESS="DEFLATE", LEVEL=1,
+            copy(str(self.tiff_temp), str(self.temps[1]), driver="COG", COMPRESS=COG_COMPRESSION, LEVEL=1,
                  BIGTIFF="IF_SAFER", RESAMPLING="NEAREST", NUM_THREADS="ALL_CPUS")
         self.tiff_temp.unlink()
         for temp, target in zip(self.temps, self.targets):
