@@ -238,3 +238,19 @@ def test_the_band_read_at_once_does_not_change_the_numbers(tmp_path):
         for name, parts in alone.items():
             np.testing.assert_array_equal(np.concatenate([layers[name] for _, layers in got]),
                                           np.concatenate(parts), err_msg=name)
+
+
+def test_a_band_holds_about_the_same_pixels_whatever_the_grid():
+    """Memory is bounded by a band's pixels, not by the grid's width: a band of a 2,000 x 12,500 grid holds the
+    pixels of a band of a 5,000 x 5,000 grid to within one model block of rows (a 12,500-column band was 2.5 times
+    larger when bands were a fixed number of rows); bands tile the grid, each a whole number of model blocks."""
+    from e2esim.products_io.uncertainty import BAND_PIXELS, block_rows, row_bands
+
+    for shape in ((5000, 5000), (2000, 12500), (3000, 40000), (40, 2_000_000)):
+        bands = list(row_bands(shape))
+        step = block_rows(shape)
+        assert bands[0].start == 0 and bands[-1].stop == shape[0]
+        assert all(a.stop == b.start for a, b in zip(bands, bands[1:]))
+        assert all((b.stop - b.start) % step == 0 for b in bands[:-1])
+        pixels = (bands[0].stop - bands[0].start) * shape[1]
+        assert abs(pixels - BAND_PIXELS) <= max(step * shape[1] / 2, shape[1]), shape

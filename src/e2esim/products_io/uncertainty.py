@@ -16,9 +16,11 @@ from e2esim.products_io.uncertainty_files import UncertaintyWriter
 
 PIXELS_PER_BLOCK = 1 << 16
 """Pixels the model evaluates at once: a block of rows of about this many pixels (at least one row)."""
-BAND_ROWS = 256
-"""Rows read, evaluated and written at once (about; a whole number of blocks): the outputs' chunks are one band high,
-so that each chunk is written once, whole (docs/real-data.md, Speed)."""
+BAND_PIXELS = 256 * 5000
+"""Pixels read, evaluated and written at once (about): a band of rows of about this many pixels, a whole number of
+blocks (at least one), so that memory is bounded by this, not by the grid's width or height (256 rows of a
+5,000-column grid). The outputs' chunks are one band high, so that each chunk is written once, whole
+(docs/real-data.md, Speed)."""
 
 
 def open_product(path) -> ProductPixels:
@@ -39,10 +41,10 @@ def block_rows(shape, pixels_per_block: int = PIXELS_PER_BLOCK) -> int:
     return max(1, pixels_per_block // max(shape[1], 1))
 
 
-def row_bands(shape, pixels_per_block: int = PIXELS_PER_BLOCK, band_rows: int = BAND_ROWS):
-    """Bands of rows of about ``band_rows``, each a whole number of model blocks (``block_rows``)."""
+def row_bands(shape, pixels_per_block: int = PIXELS_PER_BLOCK, band_pixels: int = BAND_PIXELS):
+    """Bands of rows of about ``band_pixels`` pixels, each a whole number of model blocks (``block_rows``)."""
     step = block_rows(shape, pixels_per_block)
-    band = step * max(1, round(band_rows / step))
+    band = step * max(1, round(band_pixels / max(shape[1], 1) / step))
     for start in range(0, shape[0], band):
         yield slice(start, min(start + band, shape[0]))
 
