@@ -3,6 +3,7 @@ grid, block of rows by block of rows so that memory does not grow with the grid 
 
 from __future__ import annotations
 
+import functools
 from pathlib import Path
 
 from e2esim.errors import UserError
@@ -12,7 +13,7 @@ from e2esim.products_io.block_pool import block_layers
 from e2esim.products_io.nisar_products import open_nisar_product
 from e2esim.products_io.pixel_model import LAYERS
 from e2esim.products_io.pixels import ProductFileError, ProductPixels
-from e2esim.products_io.uncertainty_files import UncertaintyWriter
+from e2esim.products_io.uncertainty_files import UncertaintyWriter, netcdf_chunks
 
 PIXELS_PER_BLOCK = 1 << 16
 """Pixels the model evaluates at once: a block of rows of about this many pixels (at least one row)."""
@@ -71,10 +72,13 @@ def write_uncertainty(product, output, scenario=None, force: bool = False,
     valid = passed = 0
     try:
         step = block_rows(pixels.shape, pixels_per_block)
-        for rows, layers in block_layers(open_product, product, scenario, pixels, assumptions, bands, step, workers):
+        # with workers, the NetCDF's chunks are compressed there (the writing process is the serial part)
+        encode = functools.partial(netcdf_chunks, chunk=writer.chunk) if workers > 1 else None
+        for rows, layers, *chunks in block_layers(open_product, product, scenario, pixels, assumptions, bands, step,
+                                                  workers, encode):
             valid += int((layers["verdict"] != 255).sum())
             passed += int((layers["verdict"] == 1).sum())
-            writer.write(rows, layers)
+            writer.write(rows, layers, *chunks)
         paths = writer.commit()
     except BaseException:
         writer.discard()
