@@ -75,6 +75,50 @@ def test_a_product_holding_the_climatologys_tec_gives_its_numbers(tmp_path):
         assert b.scalars["faraday.stec_mean_tecu"] == pytest.approx(31.7, rel=0.03)  # the passes' lines of sight
 
 
+def test_cases_interleaved_on_one_module_keep_their_own_tec(tmp_path, monkeypatch):
+    """Nothing of a case is kept on the module: a second case, at another pixel, run on the same module in the
+    middle of the first one's forward (as two threads would interleave them) leaves the first case's numbers as
+    they are alone. On a module that stored the case's VTEC on itself, the first case took the second's TEC."""
+    import dataclasses
+
+    from e2esim.error_terms.modules import MAP_CELL_KEYS
+    from e2esim.product_inputs.tec_modules import ProductTEC
+
+    tec = np.full((12, 20), 20.0, dtype=np.float32)  # the scene centre, pixel (6, 10): 20 TECU
+    tec[3, 7] = 45.0  # the pixel of (60.03 N, 92.07 E)
+    write_biomass(tmp_path / "p", faraday=np.zeros((12, 20)), tec=tec, height=HEIGHT_M)
+
+    def vtec_of_first_case():
+        result = run_scenario(_scenario(tmp_path, {"type": "biomass_product_tec", "lut_file": "p/lut.nc"},
+                                        "centre").resolve(), progress=False)
+        return result.cases[0].scalars["faraday.vtec_mean_tecu"]
+
+    alone = vtec_of_first_case()
+    seen, inner = [], []
+    values_at, field_model = ProductTEC.values_at, ProductTEC.field_model
+
+    def recording_values_at(self, case, names):
+        seen.append(case)
+        return values_at(self, case, names)
+
+    def interleaving_field_model(self, geometry):
+        if len(seen) == 1:  # within the first case's forward: another case at another pixel
+            other = dataclasses.replace(seen[0], inputs={**seen[0].inputs, MAP_CELL_KEYS["lat"]: 60.03,
+                                                         MAP_CELL_KEYS["lon"]: 92.07})
+            inner.append(self.forward(other)["faraday.geophysical"])
+        return field_model(self, geometry)
+
+    monkeypatch.setattr(ProductTEC, "values_at", recording_values_at)
+    monkeypatch.setattr(ProductTEC, "field_model", interleaving_field_model)
+    interleaved = vtec_of_first_case()
+    assert len(inner) == 1
+    with netCDF4.Dataset(tmp_path / "p" / "lut.nc") as ds:
+        incidence = float(ds["geometry/incidenceAngle"][6, 10])
+    assert alone == pytest.approx(vertical_from_slant(20.0, np.radians(incidence), HEIGHT_M, SHELL_KM * 1e3),
+                                  rel=1e-14)  # the centre's TEC, not the other pixel's
+    assert interleaved == alone  # bit for bit
+
+
 def _refused(tmp_path, capsys, product, **settings) -> str:
     scenario = _scenario(tmp_path, {"type": "biomass_product_tec", "lut_file": str(product / "lut.nc"),
                                     **settings}, "bad")

@@ -206,6 +206,8 @@ def test_cog_overviews_hold_pixels_of_the_layers(tmp_path):
     with rasterio.open(tmp_path / "out" / "uncertainty.tif") as tif:
         band = tif.descriptions.index("verdict") + 1
         assert tif.overviews(band) == [2, 4]
+        assert tif.compression.name == "zstd" and tif.block_shapes[0] == (512, 512)  # a tiled ZSTD COG
+        assert tif.tags(ns="IMAGE_STRUCTURE")["LAYOUT"] == "COG"
         full = tif.read(band)
         overview = tif.read(band, out_shape=(tif.height // 2, tif.width // 2))
         sd_band = tif.descriptions.index("sigma_hv_error_sd") + 1
@@ -236,3 +238,64 @@ def test_the_band_read_at_once_does_not_change_the_numbers(tmp_path):
         for name, parts in alone.items():
             np.testing.assert_array_equal(np.concatenate([layers[name] for _, layers in got]),
                                           np.concatenate(parts), err_msg=name)
+
+
+def test_a_band_holds_about_the_same_pixels_whatever_the_grid():
+    """Memory is bounded by a band's pixels, not by the grid's width: a band of a 2,000 x 12,500 grid holds the
+    pixels of a band of a 5,000 x 5,000 grid to within one model block of rows (a 12,500-column band was 2.5 times
+    larger when bands were a fixed number of rows); bands tile the grid, each a whole number of model blocks."""
+    from e2esim.products_io.uncertainty import BAND_PIXELS, block_rows, row_bands
+
+    for shape in ((5000, 5000), (2000, 12500), (3000, 40000), (40, 2_000_000)):
+        bands = list(row_bands(shape))
+        step = block_rows(shape)
+        assert bands[0].start == 0 and bands[-1].stop == shape[0]
+        assert all(a.stop == b.start for a, b in zip(bands, bands[1:]))
+        assert all((b.stop - b.start) % step == 0 for b in bands[:-1])
+        pixels = (bands[0].stop - bands[0].start) * shape[1]
+        assert abs(pixels - BAND_PIXELS) <= max(step * shape[1] / 2, shape[1]), shape
+
+
+def test_netcdf_chunks_written_directly_are_the_ones_hdf5_writes(tmp_path):
+    """The chunks compressed by ``netcdf_chunks`` (in the workers) and written by HDF5's direct chunk write hold,
+    once HDF5's own filters undo them, the bytes HDF5 stores when netCDF4 writes the same values: bands of 4 rows
+    and chunks of 8 columns, the last band and the last column of chunks cut short (padded with the fill value)."""
+    import zlib
+
+    import h5py
+
+    from e2esim.products_io.uncertainty_files import LAYER_STORAGE, netcdf_chunks
+
+    rng = np.random.default_rng(3)
+    values = {"sigma_hv_error_sd": rng.normal(size=(10, 19)), "verdict": rng.integers(0, 2, (10, 19)).astype("u1")}
+    values["sigma_hv_error_sd"][2, 5] = np.nan
+    values["verdict"][9, 18] = 255
+    chunk = (4, 8)
+    for direct in (False, True):
+        with netCDF4.Dataset(tmp_path / f"{direct}.nc", "w") as ds:
+            ds.createDimension("y", 10)
+            ds.createDimension("x", 19)
+            for name, v in values.items():
+                dtype, fill = LAYER_STORAGE[name == "verdict"]
+                var = ds.createVariable(name, dtype, ("y", "x"), fill_value=fill, chunksizes=chunk,
+                                        compression="zlib", complevel=1, shuffle=True)
+                if not direct:
+                    var[:] = v
+        if direct:
+            with h5py.File(tmp_path / f"{direct}.nc", "r+") as f:
+                for start in range(0, 10, 4):
+                    band = {k: v[start:start + 4] for k, v in values.items()}
+                    for name, parts in netcdf_chunks(band, chunk).items():
+                        for column, data in parts:
+                            f[name].id.write_direct_chunk((start, column), data)
+    with netCDF4.Dataset(tmp_path / "False.nc") as a, netCDF4.Dataset(tmp_path / "True.nc") as b:
+        for name in values:
+            a[name].set_auto_mask(False)
+            b[name].set_auto_mask(False)
+            np.testing.assert_array_equal(a[name][:], b[name][:])
+            assert a[name].filters() == b[name].filters()
+    with h5py.File(tmp_path / "False.nc") as a, h5py.File(tmp_path / "True.nc") as b:
+        for name in values:
+            for offset in ((0, 0), (8, 16), (4, 8)):
+                assert zlib.decompress(a[name].id.read_direct_chunk(offset)[1]) == zlib.decompress(
+                    b[name].id.read_direct_chunk(offset)[1]), (name, offset)

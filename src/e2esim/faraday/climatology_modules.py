@@ -81,11 +81,16 @@ class _GeometryIonosphere(Stage):
     def integrals(self, geometry, cache) -> PathIntegrals:
         """Path integrals (TEC, B.k-weighted TEC) of every acquisition's line of sight."""
 
+    def case_integrals(self, case) -> PathIntegrals:
+        """The path integrals of the case (``integrals`` of its geometry; a subclass whose TEC depends on more of the
+        case overrides this)."""
+        return self.integrals(case["geometry"], case.services.cache_for(self.cache_setting))
+
     def forward(self, case):
         geometry = case["geometry"]
         frequency = case["instrument"].centre_frequency_hz
         try:
-            integrals = self.integrals(geometry, case.services.cache_for(self.cache_setting))
+            integrals = self.case_integrals(case)
             clim = climatology_from_integrals(
                 integrals, 0, frequency, self.si["tec_variability"], self.si["variability_nodes"], geometry.weight,
                 geometry.pass_label, geometry.site.name, label=f"{self.type_name} {geometry.site.name}",
@@ -167,13 +172,15 @@ class _ThinShellIonosphere(_GeometryIonosphere):
     def vertical_tec(self, geometry, lat, lon) -> np.ndarray:
         """Vertical TEC (electrons/m^2) at pierce points (lat, lon in rad) of ``geometry``'s acquisitions."""
 
-    def integrals(self, geometry, cache) -> PathIntegrals:
+    def integrals(self, geometry, cache, vertical_tec=None) -> PathIntegrals:
+        """``vertical_tec`` : a function of (geometry, lat, lon) in place of the module's own (a value that depends
+        on the case, handed in by the caller rather than kept on the module)."""
         h = self.si["shell_height_m"]
         ray = ray_points(geometry.target_ecef, geometry.satellite_ecef, np.array([h]))
         k = geometry.target_ecef - geometry.satellite_ecef
         k = k / np.linalg.norm(k, axis=-1, keepdims=True)
         bk = self.field_model(geometry).b_dot_k(ray.position[:, 0], k)
-        vtec = self.vertical_tec(geometry, ray.lat[:, 0], ray.lon[:, 0])
+        vtec = (vertical_tec or self.vertical_tec)(geometry, ray.lat[:, 0], ray.lon[:, 0])
         stec = vtec / np.cos(ray.zenith[:, 0])
         return PathIntegrals(vtec[None], stec[None], (stec * bk)[None], bk, ray.zenith[:, 0], (float("nan"),),
                              "thin_shell")

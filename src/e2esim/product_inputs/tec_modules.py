@@ -64,7 +64,9 @@ class ProductTEC(ProductPixel, UserTECModule):
         super().setup()
         self.read_layers((TEC, INCIDENCE, HEIGHT))
 
-    def forward(self, case):
+    def case_integrals(self, case):
+        """The thin-shell integrals with the vertical TEC of the case's pixel, handed to ``integrals`` (nothing of
+        the case is kept on the module: cases may run interleaved, e.g. in threads)."""
         (stec_tecu, incidence_deg, height_m), pixel = self.values_at(case, (TEC, INCIDENCE, HEIGHT))
         if not (np.isfinite(stec_tecu) and stec_tecu >= 0):
             raise self.no_data(TEC, pixel)
@@ -72,13 +74,14 @@ class ProductTEC(ProductPixel, UserTECModule):
             raise self.no_data(INCIDENCE, pixel)
         if not np.isfinite(height_m):
             raise self.no_data(HEIGHT, pixel)
-        # the case's vertical TEC, read by ``vertical_tec`` within this call (the pixel may differ between cases)
-        self.case_vtec = float(vertical_from_slant(stec_tecu * TECU_EL_M2, np.radians(incidence_deg), height_m,
-                                                   self.si["shell_height_m"]))
-        return super().forward(case)
+        vtec = float(vertical_from_slant(stec_tecu * TECU_EL_M2, np.radians(incidence_deg), height_m,
+                                         self.si["shell_height_m"]))
+        return self.integrals(case["geometry"], case.services.cache_for(self.cache_setting),
+                              vertical_tec=lambda geometry, lat, lon: np.full(np.shape(lat), vtec))
 
     def vertical_tec(self, geometry, lat, lon):
-        return np.full(np.shape(lat), self.case_vtec)
+        raise TypeError("biomass_product_tec: the vertical TEC depends on the case's pixel; it is handed to "
+                        "integrals by case_integrals")
 
 
 __all__ = ["ProductTEC", "vertical_from_slant"]

@@ -3,6 +3,7 @@ grid, block of rows by block of rows so that memory does not grow with the grid 
 
 from __future__ import annotations
 
+import functools
 from pathlib import Path
 
 from e2esim.errors import UserError
@@ -12,13 +13,15 @@ from e2esim.products_io.block_pool import block_layers
 from e2esim.products_io.nisar_products import open_nisar_product
 from e2esim.products_io.pixel_model import LAYERS
 from e2esim.products_io.pixels import ProductFileError, ProductPixels
-from e2esim.products_io.uncertainty_files import UncertaintyWriter
+from e2esim.products_io.uncertainty_files import UncertaintyWriter, netcdf_chunks
 
 PIXELS_PER_BLOCK = 1 << 16
 """Pixels the model evaluates at once: a block of rows of about this many pixels (at least one row)."""
-BAND_ROWS = 256
-"""Rows read, evaluated and written at once (about; a whole number of blocks): the outputs' chunks are one band high,
-so that each chunk is written once, whole (docs/real-data.md, Speed)."""
+BAND_PIXELS = 256 * 5000
+"""Pixels read, evaluated and written at once (about): a band of rows of about this many pixels, a whole number of
+blocks (at least one), so that memory is bounded by this, not by the grid's width or height (256 rows of a
+5,000-column grid). The outputs' chunks are one band high, so that each chunk is written once, whole
+(docs/real-data.md, Speed)."""
 
 
 def open_product(path) -> ProductPixels:
@@ -39,10 +42,10 @@ def block_rows(shape, pixels_per_block: int = PIXELS_PER_BLOCK) -> int:
     return max(1, pixels_per_block // max(shape[1], 1))
 
 
-def row_bands(shape, pixels_per_block: int = PIXELS_PER_BLOCK, band_rows: int = BAND_ROWS):
-    """Bands of rows of about ``band_rows``, each a whole number of model blocks (``block_rows``)."""
+def row_bands(shape, pixels_per_block: int = PIXELS_PER_BLOCK, band_pixels: int = BAND_PIXELS):
+    """Bands of rows of about ``band_pixels`` pixels, each a whole number of model blocks (``block_rows``)."""
     step = block_rows(shape, pixels_per_block)
-    band = step * max(1, round(band_rows / step))
+    band = step * max(1, round(band_pixels / max(shape[1], 1) / step))
     for start in range(0, shape[0], band):
         yield slice(start, min(start + band, shape[0]))
 
@@ -69,10 +72,13 @@ def write_uncertainty(product, output, scenario=None, force: bool = False,
     valid = passed = 0
     try:
         step = block_rows(pixels.shape, pixels_per_block)
-        for rows, layers in block_layers(open_product, product, scenario, pixels, assumptions, bands, step, workers):
+        # with workers, the NetCDF's chunks are compressed there (the writing process is the serial part)
+        encode = functools.partial(netcdf_chunks, chunk=writer.chunk) if workers > 1 else None
+        for rows, layers, *chunks in block_layers(open_product, product, scenario, pixels, assumptions, bands, step,
+                                                  workers, encode):
             valid += int((layers["verdict"] != 255).sum())
             passed += int((layers["verdict"] == 1).sum())
-            writer.write(rows, layers)
+            writer.write(rows, layers, *chunks)
         paths = writer.commit()
     except BaseException:
         writer.discard()

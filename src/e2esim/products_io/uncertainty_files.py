@@ -3,16 +3,20 @@
 files that are renamed into place only when both are complete (no partial output).
 
 Settings (docs/real-data.md, Speed): the NetCDF's chunks are one band high and at most 1,024 columns wide, so that
-each band fills its chunks whole (no chunk is read back, decompressed and compressed again), deflated at level 1
-(zlib, no shuffle: as before); the GeoTIFF is first written uncompressed in strips one band high, band-interleaved
-(each band of each layer written once), then copied to the COG: DEFLATE level 1, 512 x 512 tiles, its overviews
-resampled by nearest neighbour (an overview pixel is a pixel of the layer: the verdict stays 0 or 1, NaN stays no
-data), compressed on all cores (``NUM_THREADS``)."""
+each band fills its chunks whole (no chunk is read back, decompressed and compressed again), byte-shuffled and
+deflated at level 1 (netCDF4's zlib filter order). The file is laid out by netCDF4 (dimensions, coordinates,
+variables, attributes), then its chunks are written whole, already compressed, through HDF5's direct chunk write
+(h5py), so that the compression can run in the processes that evaluate the bands (``netcdf_chunks``); the chunks'
+bytes are what HDF5's own shuffle and deflate filters give. The GeoTIFF is first written uncompressed in strips
+one band high, band-interleaved (each band of each layer written once), then copied to the COG: ZSTD level 1,
+512 x 512 tiles, its overviews resampled by nearest neighbour (an overview pixel is a pixel of the layer: the
+verdict stays 0 or 1, NaN stays no data), compressed on all cores (``NUM_THREADS``)."""
 
 from __future__ import annotations
 
 import os
 import warnings
+import zlib
 from pathlib import Path
 
 import numpy as np
@@ -22,6 +26,9 @@ from e2esim.extras import optional_import
 from e2esim.products_io.pixel_model import LAYERS, NO_DATA_VERDICT
 
 NETCDF_NAME, GEOTIFF_NAME = "uncertainty.nc", "uncertainty.tif"
+COG_COMPRESSION = "ZSTD"
+"""The COG's compression, at level 1: lossless, about half the CPU time of DEFLATE level 1 for a file of about the
+same size (docs/real-data.md, Speed). Readers need libtiff with ZSTD (GDAL 2.3 or later, as rasterio's wheels)."""
 
 
 class UncertaintyWriter:
@@ -39,9 +46,12 @@ class UncertaintyWriter:
         self.tiff_temp = self.temps[1].with_name(self.temps[1].name + ".tiled")
         self.pixels = pixels
         self.band_rows = max(1, min(band_rows, pixels.shape[0]))
+        self.chunk = (self.band_rows, min(pixels.shape[1], NETCDF_CHUNK_COLUMNS))
         self.nc = self.tiff = None
         try:
             self._open(attributes)
+            self.nc.close()  # laid out: the chunks are written by HDF5 directly
+            self.nc = optional_import("h5py", "products", "writing the uncertainty product").File(self.temps[0], "r+")
         except BaseException:
             self.discard()
             raise
@@ -55,11 +65,10 @@ class UncertaintyWriter:
         self.dims = self._coordinates()
         self.nc.setncatts({"Conventions": "CF-1.8", **{k: _attribute(v) for k, v in attributes.items()}})
         rows, cols = pixels.shape
-        chunk = (self.band_rows, min(cols, 1024))
         for name, (units, what) in LAYERS.items():
-            dtype, fill = ("u1", NO_DATA_VERDICT) if name == "verdict" else ("f4", np.float32(np.nan))
-            var = self.nc.createVariable(name, dtype, self.dims, fill_value=fill, chunksizes=chunk,
-                                         compression="zlib", complevel=1)
+            dtype, fill = LAYER_STORAGE[name == "verdict"]
+            var = self.nc.createVariable(name, dtype, self.dims, fill_value=fill, chunksizes=self.chunk,
+                                         compression="zlib", complevel=NETCDF_LEVEL, shuffle=True)
             var.setncatts({"units": units, "long_name": what})
             if pixels.crs is not None:
                 var.grid_mapping = "crs"
@@ -94,12 +103,19 @@ class UncertaintyWriter:
             crs.setncatts({"epsg_code": f"EPSG:{self.pixels.crs}", "crs_wkt": _wkt(self._rasterio, self.pixels.crs)})
         return dims
 
-    def write(self, rows: slice, layers: dict) -> None:
+    def write(self, rows: slice, layers: dict, chunks: dict | None = None) -> None:
+        """Write the band ``rows`` of every layer; ``chunks``: its NetCDF chunks as ``netcdf_chunks`` gives them
+        (compressed elsewhere), else they are compressed here."""
         from rasterio.windows import Window  # lazy: start-up time
 
+        if chunks is None:
+            chunks = netcdf_chunks(layers, self.chunk)
+        for name, parts in chunks.items():
+            dataset = self.nc[name].id
+            for column, data in parts:
+                dataset.write_direct_chunk((rows.start, column), data)
         window = Window(0, rows.start, self.pixels.shape[1], rows.stop - rows.start)
         for band, name in enumerate(LAYERS, start=1):
-            self.nc.variables[name][rows, :] = layers[name]
             values = layers[name].astype(np.float32)
             if name == "verdict":
                 values[layers[name] == NO_DATA_VERDICT] = np.nan
@@ -112,7 +128,7 @@ class UncertaintyWriter:
 
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", self._rasterio.errors.NotGeoreferencedWarning)
-            copy(str(self.tiff_temp), str(self.temps[1]), driver="COG", COMPRESS="DEFLATE", LEVEL=1,
+            copy(str(self.tiff_temp), str(self.temps[1]), driver="COG", COMPRESS=COG_COMPRESSION, LEVEL=1,
                  BIGTIFF="IF_SAFER", RESAMPLING="NEAREST", NUM_THREADS="ALL_CPUS")
         self.tiff_temp.unlink()
         for temp, target in zip(self.temps, self.targets):
@@ -128,6 +144,34 @@ class UncertaintyWriter:
                 pass
         for temp in (*self.temps, self.tiff_temp):
             temp.unlink(missing_ok=True)
+
+
+NETCDF_CHUNK_COLUMNS, NETCDF_LEVEL = 1024, 1
+LAYER_STORAGE = {False: ("f4", np.float32(np.nan)), True: ("u1", NO_DATA_VERDICT)}
+"""(dtype, fill value) of the layers in the NetCDF, by whether the layer is the verdict."""
+
+
+def netcdf_chunks(layers: dict, chunk: tuple) -> dict:
+    """{layer: [(first column, bytes), ...]}: the NetCDF chunks of a band of the layers (a band is at most ``chunk``
+    rows high and starts at a chunk's first row), as HDF5 stores them: each chunk whole (an edge chunk padded with
+    the fill value, as HDF5 pads it), byte-shuffled (the shuffle filter: the first byte of every element, then the
+    second, ...) and zlib-compressed at ``NETCDF_LEVEL`` (the deflate filter)."""
+    out = {}
+    for name, values in layers.items():
+        dtype, fill = LAYER_STORAGE[name == "verdict"]
+        values = np.asarray(values).astype(dtype, copy=False)
+        size = np.dtype(dtype).itemsize
+        parts = []
+        for column in range(0, values.shape[1], chunk[1]):
+            block = values[:, column:column + chunk[1]]
+            if block.shape != chunk:
+                padded = np.full(chunk, fill, dtype=dtype)
+                padded[:block.shape[0], :block.shape[1]] = block
+                block = padded
+            raw = np.ascontiguousarray(block).view(np.uint8).reshape(-1, size).T.tobytes()
+            parts.append((column, zlib.compress(raw, NETCDF_LEVEL)))
+        out[name] = parts
+    return out
 
 
 def _attribute(value):
