@@ -4,6 +4,7 @@ Bickel-Bates SD; the power law) at a few pixels, and the outputs hold what the p
 
 from __future__ import annotations
 
+from itertools import pairwise
 from types import SimpleNamespace
 
 import netCDF4
@@ -250,7 +251,7 @@ def test_a_band_holds_about_the_same_pixels_whatever_the_grid():
         bands = list(row_bands(shape))
         step = block_rows(shape)
         assert bands[0].start == 0 and bands[-1].stop == shape[0]
-        assert all(a.stop == b.start for a, b in zip(bands, bands[1:]))
+        assert all(a.stop == b.start for a, b in pairwise(bands))
         assert all((b.stop - b.start) % step == 0 for b in bands[:-1])
         pixels = (bands[0].stop - bands[0].start) * shape[1]
         assert abs(pixels - BAND_PIXELS) <= max(step * shape[1] / 2, shape[1]), shape
