@@ -110,6 +110,32 @@ def test_analytic_path_is_vectorised_over_cases():
             assert np.asarray(block[key])[i] == pytest.approx(float(value), rel=1e-12, abs=1e-15), key
 
 
+@pytest.mark.parametrize("cases", [15, 13])
+def test_analytic_path_in_chunks_is_bit_identical(monkeypatch, cases):
+    """The matrices go ``CHUNK_CASES`` cases at a time: chunks of 4 (13 cases: the last case joins the chunk before
+    it), across the rows of a 2-D case axis too, give, bit for bit, the numbers of the whole block in one chunk (the
+    straightforward path); ``quantiles=False`` leaves only the quantile keys out."""
+    import e2esim.scintillation.irf_analytic as irf_analytic
+
+    incidence = np.radians(np.linspace(23.0, 33.75, cases))
+    c_kl = 10.0 ** np.linspace(22.0, 26.0, cases)
+
+    def run(shape, chunk, quantiles=True):
+        monkeypatch.setattr(irf_analytic, "CHUNK_CASES", chunk)
+        return analytic_irf(lambda lag: two_way_structure(lag, biomass_aperture(incidence.reshape(shape)),
+                                                          c_kl.reshape(shape), 2.67, 10e3), quantiles=quantiles)
+
+    whole = run((cases,), 10 ** 6)
+    shapes = [(cases,), (1, cases)] + ([(3, 5)] if cases == 15 else [])
+    for shape in shapes:
+        chunked, lean = run(shape, 4), run(shape, 4, quantiles=False)
+        assert set(lean) == {k for k in whole if not k.endswith(("_median", "_p90"))}
+        for key, value in whole.items():
+            np.testing.assert_array_equal(chunked[key], value.reshape(shape), err_msg=key, strict=True)
+            if key in lean:
+                np.testing.assert_array_equal(lean[key], value.reshape(shape), err_msg=key, strict=True)
+
+
 def test_no_screen_changes_nothing():
     an = analytic_irf(_screen(0.0))
     assert float(an["peak_loss_db_p90"]) == 0.0 and float(an["shift_cells_p90"]) == 0.0

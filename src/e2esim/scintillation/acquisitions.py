@@ -103,7 +103,7 @@ def acquisition_screens(geometry, settings: ScreenSettings, site_lat=None, site_
     aperture = biomass_aperture(np.asarray(geometry.incidence, dtype=float), orbit_height, settings.frequency_hz,
                                 settings.azimuth_resolution_m, settings.height_m, settings.drift_m_s)
     stats = analytic_irf(lambda lag: two_way_structure(lag, aperture, 10.0 ** logc, settings.spectral_index,
-                                                       settings.outer_scale_m))
+                                                       settings.outer_scale_m), quantiles=False)
     k, theta = gamma_parameters(stats["residual_phase_mean"], stats["residual_phase_var"])
     weight = np.asarray(geometry.weight, dtype=float)  # (n,), or (sites, n) stacked (``stacked``)
     weight = weight / weight.sum(axis=-1, keepdims=True)
