@@ -22,7 +22,7 @@ import numpy as np
 
 from e2esim.orbit.frames import EARTH_MEAN_RADIUS
 from e2esim.orbit.geometry import side_looking_angles
-from e2esim.scintillation.screen import check_screen, structure_function
+from e2esim.scintillation.screen import check_screen, matern_decorrelation, phase_variance, structure_function
 
 GM_EARTH = 3.986004418e14  # m^3 s^-2 (IERS 2010)
 SPEED_OF_LIGHT = 299792458.0
@@ -80,8 +80,16 @@ def two_way_structure(lag_u, aperture: ApertureGeometry, c_kl, spectral_index, o
         value = np.asarray(value, dtype=float)
         return value.reshape(value.shape + (1,) * lag.ndim)
 
-    return 4.0 * structure_function(lag * lead(aperture.scan_length_m), lead(c_kl), lead(spectral_index),
-                                    lead(outer_scale_m), lead(aperture.wavelength_m), lead(aperture.zenith_rad))
+    lag_m = lag * lead(aperture.scan_length_m)
+    args = lead(c_kl), lead(spectral_index), lead(outer_scale_m), lead(aperture.wavelength_m), lead(aperture.zenith_rad)
+    rows = lag_m.reshape(-1, lag.size) if lag.ndim and lag_m.ndim > lag.ndim else None
+    if rows is not None and np.ndim(spectral_index) == 0 and np.ndim(outer_scale_m) == 0:
+        # the Matern factor (a Bessel function per element) depends on the scan length alone: computed once per
+        # distinct length (a map's cases share their few incidences), then structure_function's expression
+        scans, where = np.unique(rows, axis=0, return_inverse=True)
+        decorrelation = matern_decorrelation(scans, args[1], args[2])[where.reshape(-1)].reshape(lag_m.shape)
+        return 4.0 * (2.0 * phase_variance(*args) * decorrelation)
+    return 4.0 * structure_function(lag_m, *args)
 
 
 def aperture_grid(n: int) -> np.ndarray:

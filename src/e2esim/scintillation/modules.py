@@ -133,7 +133,8 @@ class ScintillationTerm(ErrorTerm):
 
     def named(self, pairs) -> tuple:
         """``pairs`` as output scalars of this term: ``<source>.<name>`` (``Effect.outputs`` holds full keys)."""
-        return tuple((f"{self.source}.{name}", value) for name, value in pairs)
+        source = self.source
+        return tuple((f"{source}.{name}", value) for name, value in pairs)
 
     def irf_outputs(self, case, screens, quantiles=None) -> tuple:
         """(name, value) pairs: the screen and the response statistics of the case (module docstring);

@@ -31,9 +31,14 @@ def stack_acquisitions(geometries: list) -> CellAcquisitions:
 
 def row(screens: AcquisitionScreens, i: int) -> AcquisitionScreens:
     """Site ``i`` of stacked screens."""
-    return AcquisitionScreens(**{f.name: (getattr(screens, f.name)[i] if isinstance(getattr(screens, f.name),
-                                                                                    np.ndarray)
-                                          else getattr(screens, f.name)) for f in fields(screens)})
+    return rows(screens, [i])[0]
+
+
+def rows(screens: AcquisitionScreens, positions) -> list:
+    """Sites ``positions`` of stacked screens (``row`` of each; the fields looked up once)."""
+    values = {f.name: getattr(screens, f.name) for f in fields(screens)}
+    arrays = [name for name, value in values.items() if isinstance(value, np.ndarray)]
+    return [AcquisitionScreens(**{**values, **{name: values[name][i] for name in arrays}}) for i in positions]
 
 
 def stacked_screens(geometries: list, settings: list, site_lat=None, site_lon=None) -> list:
@@ -45,8 +50,8 @@ def stacked_screens(geometries: list, settings: list, site_lat=None, site_lon=No
     out = [None] * len(geometries)
     for (s, _, _), members in groups.items():
         stacked = acquisition_screens(stack_acquisitions([geometries[i] for i in members]), s, site_lat, site_lon)
-        for k, i in enumerate(members):
-            out[i] = row(stacked, k)
+        for i, screens in zip(members, rows(stacked, range(len(members)))):
+            out[i] = screens
     return out
 
 
