@@ -72,17 +72,24 @@ class ScintillationTerm(ErrorTerm):
     needs: tuple = ()
     uses = ("geometry", "instrument")
 
-    def screen_settings(self, case) -> ScreenSettings:
+    def screen_settings(self, case, memo: dict | None = None) -> ScreenSettings:
+        """The case's screen settings; ``memo``: those already made for a block, by solar level and frequency."""
         si = self.si
         solar = si["solar"] or (getattr(case, "inputs", None) or {}).get(MAP_CELL_KEYS["solar"]) or "max"
-        sunspots = SOLAR_PRESETS[solar] if si["sunspot_number"] is None else si["sunspot_number"]
         instrument = case.get("instrument")
         frequency = 435e6 if instrument is None else float(instrument.centre_frequency_hz)
-        return ScreenSettings(sunspots, si["percentile"], si["spectral_index"], si["c_kl"], si["outer_scale_m"],
-                              si["screen_height_m"], si["drift_m_s"], frequency, si["azimuth_resolution_m"])
+        if memo is not None and (solar, frequency) in memo:
+            return memo[solar, frequency]
+        sunspots = SOLAR_PRESETS[solar] if si["sunspot_number"] is None else si["sunspot_number"]
+        settings = ScreenSettings(sunspots, si["percentile"], si["spectral_index"], si["c_kl"], si["outer_scale_m"],
+                                  si["screen_height_m"], si["drift_m_s"], frequency, si["azimuth_resolution_m"])
+        if memo is not None:
+            memo[solar, frequency] = settings
+        return settings
 
-    def acquisitions(self, case):
-        """The case's ``geometry``, else the acquisitions of the cell the parameters name (``cell``)."""
+    def acquisitions(self, case, memo: dict | None = None):
+        """The case's ``geometry``, else the acquisitions of the cell the parameters name (``cell``); ``memo``:
+        the cells' acquisitions already made for a block (a map's solar levels share them)."""
         geometry = case.get("geometry")
         if geometry is not None:
             return geometry
@@ -90,7 +97,13 @@ class ScintillationTerm(ErrorTerm):
         if cell["lat"] is None or cell["lon"] is None or cell["month"] is None:
             raise fail(self, "the chain has no geometry product (no orbit section) and the term names no map cell",
                        "add an orbit section, or give lat_deg, lon_deg and month (a map sweep sets them)")
-        return cell_acquisitions(cell["lat"], cell["lon"], cell["month"], cell["pass"])
+        key = (cell["lat"], cell["lon"], cell["month"], cell["pass"])
+        if memo is None or key not in memo:
+            acquisitions = cell_acquisitions(*key)
+            if memo is None:
+                return acquisitions
+            memo[key] = acquisitions
+        return memo[key]
 
     def map_cell(self, case) -> dict:
         """The cell of a chain without geometry: the term's lat_deg, lon_deg, month and pass where given, else the
@@ -117,8 +130,9 @@ class ScintillationTerm(ErrorTerm):
         (``stacked``: bit for bit those of each case alone)."""
         cases = [case_of(block, i) for i in range(len(block))]
         try:
-            screens = stacked_screens([self.acquisitions(c) for c in cases], [self.screen_settings(c) for c in cases],
-                                      *self.screen_site())
+            cells, settings = {}, {}
+            screens = stacked_screens([self.acquisitions(c, cells) for c in cases],
+                                      [self.screen_settings(c, settings) for c in cases], *self.screen_site())
         except PhysicsInputError as exc:
             raise fail(self, str(exc), None, key=exc.key) from exc
         quantiles = {p: stacked_mixture_quantiles(screens, p) for p in (0.5, 0.9)}
