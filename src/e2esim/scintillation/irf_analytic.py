@@ -24,6 +24,7 @@ residual phase is small (E[Y] < 0.3 rad^2, ``WEAK_LIMIT``); ``weak`` says where.
 
 from __future__ import annotations
 
+import itertools
 import math
 
 import numpy as np
@@ -96,7 +97,7 @@ def _chunks(total: int) -> list:
     if stops and total - stops[-1] == 1:
         stops.pop()
     bounds = [0, *stops, total]
-    return list(zip(bounds[:-1], bounds[1:]))
+    return list(itertools.pairwise(bounds))
 
 
 def _toeplitz_moments(on_lags, lags, projector, tilt, q) -> np.ndarray:
