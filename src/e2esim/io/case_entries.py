@@ -57,7 +57,7 @@ def _fill_block(block, entries: list, clean) -> None:
     for k, index in enumerate(indices):
         entry = entries[index]
         entry["results"] = scalars[k]
-        entry["agb_budget"] = clean(agb_budget(raw_scalars(k), groups[k])) if groups[k] else []
+        entry["agb_budget"] = _safe_rows(agb_budget(raw_scalars(k), groups[k])) if groups[k] else []
         entry["requirements"] = [_requirement(rows, k, groups[k], clean) for rows in verdicts]
 
 
@@ -69,7 +69,7 @@ def _requirement(rows: dict, k: int, groups: dict, clean) -> dict:
             "margin": rows["margin"][k], "unit": verdict.unit, "basis": rows["basis"][k],
             "dominant": rows["dominant"][k], "coverage": list(rows["coverage"][k]),
             "coverage_text": rows["coverage_text"][k], "details": details,
-            "budget": clean(verdict_budget(verdict, groups)), "notes": clean(list(rows["notes"][k]))}
+            "budget": _safe_rows(verdict_budget(verdict, groups)), "notes": clean(list(rows["notes"][k]))}
 
 
 def _verdict_rows(r, n: int) -> dict:
@@ -81,7 +81,9 @@ def _verdict_rows(r, n: int) -> dict:
     value = _floats(r.value, n)
     margin = np.where(applicable, _floats(r.margin, n), np.nan)
     reasons = r.reason.tolist()
-    details, raw_details = _rows(r.details, n)
+    details, _ = _rows(r.details, n)
+    # verdict_budget reads only the shares, Shapley parts and contributions: the other details are not handed to it
+    _, raw_details = _rows({k: c for k, c in r.details.items() if k.startswith(_BUDGET_KEYS)}, n)
     return {
         "name": r.name.tolist(), "passed": passed,
         "status": ["pass" if p else "fail" if a else "not_applicable" for p, a in zip(passed, applies)],
@@ -90,6 +92,14 @@ def _verdict_rows(r, n: int) -> dict:
         "margin": _finite_list(margin), "unit": r.unit.tolist(), "basis": r.basis.tolist(),
         "dominant": r.dominant.tolist(), "coverage": r.coverage.tolist(), "coverage_text": r.coverage_text.tolist(),
         "notes": r.notes.tolist(), "details": details, "raw_details": raw_details}
+
+
+_BUDGET_KEYS = ("contribution.", "share.", "shapley.")
+
+
+def _safe_rows(rows: list) -> list:
+    """Budget rows (text, floats and None) with their non-finite floats as None, as ``json_safe`` makes them."""
+    return [{k: None if type(v) is float and not math.isfinite(v) else v for k, v in row.items()} for row in rows]
 
 
 def _floats(x, n: int) -> np.ndarray:
