@@ -26,8 +26,8 @@ class _Verdict(NamedTuple):
 
 
 def case_entries(result) -> list:
-    """The per-case entries of summary.json (docs/output-format.md), in case order; values not yet made JSON-safe
-    are only the small ones (inputs, notes, budgets), which ``clean`` is applied to here."""
+    """The per-case entries of summary.json (docs/output-format.md), in case order, JSON-safe (``json_safe``):
+    the columns' floats cleaned once as lists, the small values (inputs, notes, budget rows) one by one."""
     scenario = result.scenario
     entries: list = [None] * len(scenario.cases)
     plan = scenario.plan
@@ -42,11 +42,11 @@ def case_entries(result) -> list:
                 label, inputs = scenario.cases[index].label, scenario.cases[index].inputs
             entries[index] = {"index": index, "label": label, "inputs": json_safe(inputs),
                               "notes": json_safe(list(block.notes[k]))}
-        _fill_block(block, entries, json_safe)
+        _fill_block(block, entries)
     return entries
 
 
-def _fill_block(block, entries: list, clean) -> None:
+def _fill_block(block, entries: list) -> None:
     """The results, AGB budgets and verdicts of one block's cases into their ``entries``."""
     indices = block.indices.tolist()
     n = len(indices)
@@ -58,10 +58,10 @@ def _fill_block(block, entries: list, clean) -> None:
         entry = entries[index]
         entry["results"] = scalars[k]
         entry["agb_budget"] = _safe_rows(agb_budget(raw_scalars(k), groups[k])) if groups[k] else []
-        entry["requirements"] = [_requirement(rows, k, groups[k], clean) for rows in verdicts]
+        entry["requirements"] = [_requirement(rows, k, groups[k]) for rows in verdicts]
 
 
-def _requirement(rows: dict, k: int, groups: dict, clean) -> dict:
+def _requirement(rows: dict, k: int, groups: dict) -> dict:
     details = rows["details"][k]
     verdict = _Verdict(rows["unit"][k], rows["raw_value"][k], rows["raw_details"](k))
     return {"name": rows["name"][k], "status": rows["status"][k], "reason": rows["reason"][k],
@@ -69,7 +69,7 @@ def _requirement(rows: dict, k: int, groups: dict, clean) -> dict:
             "margin": rows["margin"][k], "unit": verdict.unit, "basis": rows["basis"][k],
             "dominant": rows["dominant"][k], "coverage": list(rows["coverage"][k]),
             "coverage_text": rows["coverage_text"][k], "details": details,
-            "budget": _safe_rows(verdict_budget(verdict, groups)), "notes": clean(list(rows["notes"][k]))}
+            "budget": _safe_rows(verdict_budget(verdict, groups)), "notes": json_safe(list(rows["notes"][k]))}
 
 
 def _verdict_rows(r, n: int) -> dict:
