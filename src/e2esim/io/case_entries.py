@@ -14,7 +14,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from e2esim.io.error_budget import agb_budget, source_groups, verdict_budget
+from e2esim.io.error_budget import agb_budget, source_groups, verdict_budget, verdict_budgets
 
 
 class _Verdict(NamedTuple):
@@ -53,7 +53,7 @@ def _fill_block(block, entries: list) -> None:
     scalars, raw_scalars = _rows(block.scalars, n)
     products = block.products
     groups = [source_groups(p) for p in products] if products is not None else [{}] * n
-    verdicts = [_verdict_rows(r, n) for r in block.requirements]
+    verdicts = [_verdict_rows(r, n, groups) for r in block.requirements]
     for k, index in enumerate(indices):
         entry = entries[index]
         entry["results"] = scalars[k]
@@ -63,16 +63,20 @@ def _fill_block(block, entries: list) -> None:
 
 def _requirement(rows: dict, k: int, groups: dict) -> dict:
     details = rows["details"][k]
-    verdict = _Verdict(rows["unit"][k], rows["raw_value"][k], rows["raw_details"](k))
+    verdict = _Verdict(rows["unit"][k], rows["raw_value"][k], None)
+    if rows["budgets"] is not None:
+        budget = rows["budgets"][k]
+    else:  # a case's own details (some missing in other cases, or units that differ)
+        budget = _safe_rows(verdict_budget(verdict._replace(details=rows["raw_details"](k)), groups))
     return {"name": rows["name"][k], "status": rows["status"][k], "reason": rows["reason"][k],
             "passed": rows["passed"][k], "value": rows["value"][k], "limit": rows["limit"][k],
             "margin": rows["margin"][k], "unit": verdict.unit, "basis": rows["basis"][k],
             "dominant": rows["dominant"][k], "coverage": list(rows["coverage"][k]),
             "coverage_text": rows["coverage_text"][k], "details": details,
-            "budget": _safe_rows(verdict_budget(verdict, groups)), "notes": json_safe(list(rows["notes"][k]))}
+            "budget": budget, "notes": json_safe(list(rows["notes"][k]))}
 
 
-def _verdict_rows(r, n: int) -> dict:
+def _verdict_rows(r, n: int, groups: list) -> dict:
     """One requirement's fields over the block's cases as lists of Python values, normalised as a
     ``RequirementVerdict`` is on construction (where it does not apply: not passed, no margin, its reason)."""
     applicable = np.broadcast_to(np.asarray(r.applicable, dtype=bool), (n,))
@@ -83,7 +87,15 @@ def _verdict_rows(r, n: int) -> dict:
     reasons = r.reason.tolist()
     details, _ = _rows(r.details, n)
     # verdict_budget reads only the shares, Shapley parts and contributions: the other details are not handed to it
-    _, raw_details = _rows({k: c for k, c in r.details.items() if k.startswith(_BUDGET_KEYS)}, n)
+    budget_columns = {k: c for k, c in r.details.items() if k.startswith(_BUDGET_KEYS)}
+    _, raw_details = _rows(budget_columns, n)
+    units = r.unit.tolist()
+    budgets = None
+    if len(set(units)) <= 1 and all(c.present is None for c in budget_columns.values()):
+        arrays = {k: np.broadcast_to(np.asarray(c.values, dtype=float), (n,)) for k, c in budget_columns.items()}
+        budgets = verdict_budgets(units[0] if units else "", value.tolist(),
+                                  {k: a.tolist() for k, a in arrays.items()},
+                                  {k: _finite_list(a) for k, a in arrays.items()}, groups)
     return {
         "name": r.name.tolist(), "passed": passed,
         "status": ["pass" if p else "fail" if a else "not_applicable" for p, a in zip(passed, applies)],
@@ -91,7 +103,7 @@ def _verdict_rows(r, n: int) -> dict:
         "raw_value": value.tolist(), "value": _finite_list(value), "limit": _finite_list(_floats(r.limit, n)),
         "margin": _finite_list(margin), "unit": r.unit.tolist(), "basis": r.basis.tolist(),
         "dominant": r.dominant.tolist(), "coverage": r.coverage.tolist(), "coverage_text": r.coverage_text.tolist(),
-        "notes": r.notes.tolist(), "details": details, "raw_details": raw_details}
+        "notes": r.notes.tolist(), "details": details, "raw_details": raw_details, "budgets": budgets}
 
 
 _BUDGET_KEYS = ("contribution.", "share.", "shapley.")
