@@ -139,13 +139,16 @@ def verdict_budgets(unit: str, values: list, details: dict, written: dict, group
     none = [None] * n
     columns = [(s, details[f"contribution.{s}{suffix}"], written[f"contribution.{s}{suffix}"],
                 written.get(f"share.{s}{suffix}", none), written.get(f"shapley.{s}{suffix}", none)) for s in sources]
-    out = []
+    out, ranks = [], {}
     for k in range(n):
         split = splits[k]
         rows = []
         for source, contribution, contribution_written, share, shapley in columns:
             group = groups[k].get(source, SYSTEMATIC)
-            rows.append(((_group_rank(group), -abs(contribution[k])), {
+            rank = ranks.get(group)
+            if rank is None:
+                rank = ranks[group] = _group_rank(group)
+            rows.append(((rank, -abs(contribution[k])), {
                 "source": source, "group": group, "contribution": contribution_written[k], "share": share[k],
                 "shapley": shapley[k], "split": split, "part": shapley[k] if split == SHAPLEY else share[k],
                 "unit": unit}))
