@@ -82,8 +82,8 @@ def requirement_overview(result) -> list:
 LARGE_RUN_CASES = 10_000
 """Runs with more cases leave the per-case entries out of summary.json and the per-case tables and plots out
 of the report: every case is in results.h5 (docs/output-format.md). A per-case JSON entry takes 2 to 20 kB; made
-from the columns (``e2esim.io.case_entries``) and encoded it takes about 0.5 ms (the 1 degree scintillation/RFI
-map region, 3,024 cases of 21 kB: 0.17 ms to make, 0.35 ms to encode); past ten thousand cases nobody reads them,
+from the columns (``e2esim.io.case_entries``) and encoded it takes about 0.4 ms (the 1 degree scintillation/RFI
+map region, 3,024 cases of 21 kB: 0.1 ms to make, 0.3 ms to encode); past ten thousand cases nobody reads them,
 and a million would take minutes."""
 
 
