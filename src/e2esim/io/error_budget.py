@@ -121,3 +121,36 @@ def budget_source_name(source: str, cases) -> str:
     if corrected and all(corrected):
         return f"{words} (residual after correction)"
     return f"{words} (residual after correction where corrected)" if any(corrected) else words
+
+
+def verdict_budgets(unit: str, values: list, details: dict, written: dict, groups: list) -> list:
+    """``verdict_budget`` of every case of a block whose verdicts share ``unit`` and have every detail: ``values``
+    the checked value per case, ``details`` {key: value per case}, ``written`` the same with the numbers as the
+    rows are to hold them (summary.json's None for non-finite); the order and split are decided on ``details``.
+    One list of rows per case, equal to ``verdict_budget`` of the case's verdict with ``written`` numbers."""
+    suffix = "_" + unit_key(unit)
+    sources = [key[len("contribution."):-len(suffix)] for key in details
+               if key.startswith("contribution.") and key.endswith(suffix)]
+    n = len(values)
+    rest = details.get(f"share.{INTERACTIONS}{suffix}")
+    has_shapley = f"shapley.no_source{suffix}" in details
+    splits = [None] * n if rest is None else [SHAPLEY if has_shapley and abs(r) > COUPLED * abs(v) else EULER
+                                              for r, v in zip(rest, values)]
+    none = [None] * n
+    columns = [(s, details[f"contribution.{s}{suffix}"], written[f"contribution.{s}{suffix}"],
+                written.get(f"share.{s}{suffix}", none), written.get(f"shapley.{s}{suffix}", none)) for s in sources]
+    out, ranks = [], {}
+    for k in range(n):
+        split = splits[k]
+        rows = []
+        for source, contribution, contribution_written, share, shapley in columns:
+            group = groups[k].get(source, SYSTEMATIC)
+            rank = ranks.get(group)
+            if rank is None:
+                rank = ranks[group] = _group_rank(group)
+            rows.append(((rank, -abs(contribution[k])), {
+                "source": source, "group": group, "contribution": contribution_written[k], "share": share[k],
+                "shapley": shapley[k], "split": split, "part": shapley[k] if split == SHAPLEY else share[k],
+                "unit": unit}))
+        out.append([row for _, row in sorted(rows, key=lambda r: r[0])])
+    return out
