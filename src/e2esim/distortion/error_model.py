@@ -279,7 +279,6 @@ def split_contributions(m, m0, convert=None) -> dict:
     return {name: Contribution(mean, var, CONTRIBUTION_DESCRIPTIONS[name]) for name, (mean, var) in values.items()}
 
 
-
 def analytic_scalars(m) -> dict:
     """``analytic.*`` output scalars of moments ``m`` (every part, m^2/m^2, and the SD)."""
     out = {f"analytic.{name}": value for name, value in m.as_dict().items() if name not in ("form", "sigma_hv")}

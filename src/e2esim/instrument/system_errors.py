@@ -107,8 +107,8 @@ class SystemErrorModel:
         # the properties' formulas at levels 1.0, without building that model (a block asks for thousands)
         v = tuple(1.0 * r for r in self.crosstalk_relative)
         ve = tuple(1.0 * r for r in self.imbalance_relative)
-        return (np.asarray(v), self.crosstalk_rho13 * np.sqrt(v[0] * v[2]), self.crosstalk_rho24 * np.sqrt(v[1] * v[3]),
-                np.asarray(ve), self.imbalance_rho * np.sqrt(ve[0] * ve[1]))
+        return (np.asarray(v), _covariance(self.crosstalk_rho13, v, 0, 2), _covariance(self.crosstalk_rho24, v, 1, 3),
+                np.asarray(ve), _covariance(self.imbalance_rho, ve, 0, 1))
 
     def with_levels(self, crosstalk=None, imbalance=None, noise_power=None) -> SystemErrorModel:
         """Same structure with other levels (variances) or noise power."""

@@ -47,11 +47,16 @@ def budget_split(verdict) -> str | None:
     """Which split a verdict's budget line uses: ``"shapley"`` where its sources couple (the Euler split leaves more
     than ``COUPLED`` of the checked value not attributed) and it has the Shapley split, else ``"euler"``; None where
     it has no shares."""
-    rest = interactions_share(verdict)
+    has_shapley = f"shapley.no_source_{unit_key(verdict.unit)}" in verdict.details
+    return _split_of(interactions_share(verdict), verdict.value, has_shapley)
+
+
+def _split_of(rest, value, has_shapley: bool) -> str | None:
+    """The split of a budget line whose Euler remainder is ``rest`` (None: no shares) and checked value ``value``
+    (``budget_split``)."""
     if rest is None:
         return None
-    has_shapley = f"shapley.no_source_{unit_key(verdict.unit)}" in verdict.details
-    return SHAPLEY if has_shapley and abs(rest) > COUPLED * abs(verdict.value) else EULER
+    return SHAPLEY if has_shapley and abs(rest) > COUPLED * abs(value) else EULER
 
 
 def verdict_budget(verdict, groups: dict) -> list:
@@ -134,8 +139,7 @@ def verdict_budgets(unit: str, values: list, details: dict, written: dict, group
     n = len(values)
     rest = details.get(f"share.{INTERACTIONS}{suffix}")
     has_shapley = f"shapley.no_source{suffix}" in details
-    splits = [None] * n if rest is None else [SHAPLEY if has_shapley and abs(r) > COUPLED * abs(v) else EULER
-                                              for r, v in zip(rest, values)]
+    splits = [None] * n if rest is None else [_split_of(r, v, has_shapley) for r, v in zip(rest, values)]
     none = [None] * n
     columns = [(s, details[f"contribution.{s}{suffix}"], written[f"contribution.{s}{suffix}"],
                 written.get(f"share.{s}{suffix}", none), written.get(f"shapley.{s}{suffix}", none)) for s in sources]

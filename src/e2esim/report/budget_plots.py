@@ -26,7 +26,7 @@ from e2esim.requirements.source_names import coupling_words
 MAX_BAR_CASES = 30
 LEGEND_ROW = 0.22
 """Inches of a row of the legend below the panels."""
-COUPLED = "not attributed to one source (coupled sources)"
+COUPLED_LABEL = "not attributed to one source (coupled sources)"
 GROUP_HATCH = {"systematic": "", "random": "//", "regression": "..", "model": "xx", "assumed": "\\\\"}
 
 
@@ -94,7 +94,7 @@ def plot_error_budget(result, folder: Path, options: dict) -> list:
                 start = right if rest > 0 else left + rest
                 lo, hi = clip([start, start + abs(rest)])
                 if hi > lo:
-                    _add_bar(bars, (COUPLED, "0.85", "", "0.6"), y, lo, hi)
+                    _add_bar(bars, (COUPLED_LABEL, "0.85", "", "0.6"), y, lo, hi)
                     if shared is not None and abs(rest) > 0.01 * abs(v.value):
                         coupled.update(r["source"] for r in case_rows if _part(r))
         for (label, colour, hatch, edge), (ys, widths, lefts) in bars.items():

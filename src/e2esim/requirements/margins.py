@@ -111,7 +111,6 @@ def level_margins(bounds, convention: str, stated_db: dict | None = None) -> dic
     return out
 
 
-
 def has_tradeoff_plane(model) -> bool:
     return all(level in model.levels for level in TRADEOFF_LEVELS)
 

@@ -71,7 +71,6 @@ class SampledAnswers:
         return plain(np.abs(np.asarray(value_of(up)) - np.asarray(value_of(down))) / 2.0)
 
 
-
 def uncertainty_scalars(agb, quantiles: dict) -> dict:
     """The standard errors of the ``agb.<basis>.*`` scalars (``*_standard_error_percent``): always for the Monte
     Carlo, for the analytic model when a variance term is sampled (the regression); and of the regression term,
@@ -106,4 +105,3 @@ def relative_moments(relative_samples) -> tuple:
     m = sample_moments(relative_samples)
     sd = float(np.sqrt(max(m["variance"], 0.0)))
     return m["mean"], m["mean_se"], sd, (m["variance_se"] / (2 * sd) if sd > 0 else 0.0)
-

@@ -104,7 +104,6 @@ class RegressionUncertainty:
                                      joined(lambda p: p.campaigns), joined(lambda p: p.failed))
 
 
-
 @dataclass(frozen=True)
 class CampaignEnsemble:
     """K simulated campaigns of one model and design: what each needs to give its variance at any AGB.
@@ -292,4 +291,3 @@ def multichannel_variance(model, coef_cov, agb, cov, hv_weight=None):
     var_ln = float(grad @ coef_cov @ grad)
     pred_ln = 1.0 / float(a @ np.linalg.solve(model.residual_covariance, a))
     return var_ln / c_hv**2, pred_ln / c_hv**2
-

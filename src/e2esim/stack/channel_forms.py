@@ -169,7 +169,6 @@ def channel_node_polynomials(blocks: np.ndarray, q: np.ndarray, omega: np.ndarra
     return {"y0": y0, "mean": mean, "cov": cov, "trq2y": trq2y, "csys": csys}
 
 
-
 def _stable_trace_pairs(uh: np.ndarray, gtu: np.ndarray, mflat: np.ndarray) -> np.ndarray:
     """Re tr(M F_pq^a M F_qp^b) (2, 2, G, 3, 3) [a, b, g, p, q] of eq. (22) for r_mn = 1 (stable system errors),
     where F_pq^a = U_p G_q^a (U_p = ``uh`` (G, 3, 3N, 6), G_q^a = ``gtu`` (2, G, 3, 6, 3N)) has rank 6: by the cyclic
