@@ -140,3 +140,22 @@ def test_the_combined_covariance_of_every_realisation_is_the_sum_over_combinatio
     written_out = sum(c * np.einsum("n,m,knimj->kij", wr, wr.conj(), w)
                       for c, wr in zip(combination.coefficients, combination.weights))
     np.testing.assert_allclose(_combine(combination, w), written_out, rtol=1e-13, atol=1e-13 * np.abs(w).max())
+
+
+def test_the_faraday_correction_is_the_distortion_operator_without_distortion_bit_for_bit(rng):
+    # faraday_correction skips distortion_operator's identity distortion factor (a product with the identity is
+    # exact): the Monte Carlo's numbers are those of the full operator, bit for bit
+    from e2esim.polarimetry.system_model import distortion_operator
+    from e2esim.stack.montecarlo import faraday_correction
+
+    omega = np.concatenate([rng.uniform(-np.pi, np.pi, (50, 3)), np.zeros((1, 3))])
+    full = distortion_operator(np.zeros(omega.shape + (4,)), np.ones(omega.shape + (2,)), -omega)
+    assert np.array_equal(faraday_correction(omega), full)
+
+
+def test_the_combination_matrix_is_computed_once_and_read_only():
+    combination = combos.interpolated(site_scene("boreal", "tomographic").acquisitions.kz_rad_m)
+    q = combination.matrix
+    assert q is combination.matrix and not q.flags.writeable
+    w = combination.weights
+    np.testing.assert_array_equal(q, np.einsum("r,rm,rn->mn", combination.coefficients, w.conj(), w))

@@ -23,6 +23,7 @@ sum_r c_r sum_mn w_rn w_rm^* C_nm is the ground-cancelled (hh, hv, vv) covarianc
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
@@ -62,11 +63,14 @@ class PassCombination:
     def passes(self) -> int:
         return self.weights.shape[1]
 
-    @property
+    @functools.cached_property
     def matrix(self) -> np.ndarray:
-        """Q = sum_r c_r w_r^* w_r^T (N x N, Hermitian PSD): sigma_hat = y^H Q y."""
+        """Q = sum_r c_r w_r^* w_r^T (N x N, Hermitian PSD): sigma_hat = y^H Q y. Computed once (read only): the
+        analytic moments read it at every evaluation of a margin's or trade-off curve's root finding."""
         w = self.weights
-        return np.einsum("r,rm,rn->mn", self.coefficients, w.conj(), w)
+        q = np.einsum("r,rm,rn->mn", self.coefficients, w.conj(), w)
+        q.setflags(write=False)
+        return q
 
     @property
     def noise_gain(self) -> float:

@@ -37,7 +37,8 @@ from e2esim.polarimetry.system_model import (
     ESTIMATOR_WEIGHTS,
     RECIPROCAL_CHANNELS,
     RECIPROCAL_EMBEDDING,
-    distortion_operator,
+    batched_kron,
+    faraday_matrix,
 )
 from e2esim.stack.combination import PassCombination
 from e2esim.stack.faraday import StackFaraday
@@ -58,19 +59,21 @@ class StackMonteCarloErrors(MonteCarloErrors):
 
 
 def faraday_correction(omega: np.ndarray) -> np.ndarray:
-    """vec(F(-Omega) M F(-Omega)) = (F(-Omega)^T kron F(-Omega)) vec M: the correcting operator (..., 4, 4)."""
-    omega = np.asarray(omega, float)
-    return distortion_operator(np.zeros(omega.shape + (4,)), np.ones(omega.shape + (2,)), -omega)
+    """vec(F(-Omega) M F(-Omega)) = (F(-Omega)^T kron F(-Omega)) vec M: the correcting operator (..., 4, 4).
+
+    ``distortion_operator`` with no crosstalk and no imbalance, without its identity distortion factor: a product
+    with the identity is exact, so the numbers are the same bit for bit (tested), at a third of the cost."""
+    rot = faraday_matrix(-np.asarray(omega, float))
+    return batched_kron(np.swapaxes(rot, -1, -2), rot)
 
 
 def pass_operators(delta, f, omega, gain, correct_copol: bool, omega_hat=None) -> np.ndarray:
     """A_n: the 3 x 3 maps from (S_hh, S_hv, S_vv) of each pass to its estimates (..., 3, 3); the co-polarised
     channels corrected with ``omega_hat`` (None: the true ``omega``) when ``correct_copol``."""
     k = SystemState(delta, f, omega, gain.astype(complex)).operator() @ RECIPROCAL_EMBEDDING
-    a = ESTIMATES @ k
     if correct_copol:  # the symmetrised HV row is unchanged by the correction, whatever omega_hat (tested)
-        a = ESTIMATES @ (faraday_correction(omega if omega_hat is None else omega_hat) @ k)
-    return a
+        k = faraday_correction(omega if omega_hat is None else omega_hat) @ k
+    return ESTIMATES @ k
 
 
 def _block_diagonal(a: np.ndarray) -> np.ndarray:

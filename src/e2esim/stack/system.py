@@ -65,9 +65,10 @@ class StackSystemErrors:
         """``e2esim.stack.quadratic_form.error_structure`` of the unit covariances (computed once)."""
         return error_structure(*self.unit_covariances())
 
-    @property
+    @functools.cached_property
     def common_gain_moments(self) -> tuple[float, float]:
-        """(E G, E G^2) of the gain power common to all passes (offset, SD sqrt(rho) x the gain SD in dB)."""
+        """(E G, E G^2) of the gain power common to all passes (offset, SD sqrt(rho) x the gain SD in dB); computed
+        once (the analytic moments read it at every evaluation)."""
         common = SystemErrorModel(gain_offset_db=self.system.gain_offset_db,
                                   gain_sd_db=self.system.gain_sd_db * np.sqrt(self.correlation))
         return common.gain_power_moments
