@@ -130,9 +130,17 @@ def noncentral_wishart(rng: np.random.Generator, factor: np.ndarray, noise_sd: n
     """
     p, m = factor.shape[0], factor.shape[-1]
     sd = np.asarray(noise_sd, dtype=float)
-    v = factor + sd[:, None, None] * _complex_normal(rng, (p, p, m))  # columns m_j + w_j
-    total = _gram(v) + np.outer(sd, sd)[:, :, None] * _bartlett_gram(rng, looks - p, m, p)
-    return total / looks
+    # in place: the numbers of (factor + sd w) and (gram + sd sd^T B B^H) / L bit for bit, without their temporaries
+    # (megabytes for the 3N-dimensional stacks)
+    v = _complex_normal(rng, (p, p, m))
+    v *= sd[:, None, None]
+    v += factor  # columns m_j + w_j
+    total = _gram(v)
+    noise = _bartlett_gram(rng, looks - p, m, p)
+    noise *= np.outer(sd, sd)[:, :, None]
+    total += noise
+    total /= looks
+    return total
 
 
 def _small_window(s, a, sigma_nu, rng, n_noise, reference, scene):

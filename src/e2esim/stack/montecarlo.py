@@ -105,7 +105,8 @@ def simulate_stack(scene: StackScene, errors: StackSystemErrors, faraday: StackF
     omega = faraday.sample(rng, realisations, n)
     omega_hat = faraday.corrections(rng, omega) if correct_copol else None
     big = _block_diagonal(pass_operators(delta, f, omega, gain, correct_copol, omega_hat))  # (M, 3N, 3N)
-    big = np.repeat(big, noise_realisations, axis=0)
+    if noise_realisations > 1:  # (one: no copy of M (3N x 3N) operators)
+        big = np.repeat(big, noise_realisations, axis=0)
     d = np.tile(errors.system.noise_power * NOISE_FACTORS, n)  # noise power of every estimate
     if reference == "population":
         cov = big @ scene.matrix @ np.swapaxes(big.conj(), -1, -2) + np.diag(d)
