@@ -171,7 +171,7 @@ def map_dataset(results):
         passed = data.get(_var_name(f"requirement{j}.passed", {}))
         if passed is not None:
             name = results.requirements[j]
-            change = verdict_changes(passed.data.values, margin)  # per case; no case: no verdict (-2)
+            change = verdict_changes(passed.data.case_values, margin)  # per case; no case: no verdict (-2)
             data[f"requirement{j}_changed_by_{source}"] = xr.Variable(DIMS, SweptCells(shape, index, change, -2),
                                                                       attrs=CHANGE_ATTRS | {
                 "long_name": f"where the error source {source} changes the verdict of requirement {j}: {name}"})
@@ -237,7 +237,7 @@ def cell_states(passed, has_case, not_acquired) -> np.ndarray:
 
 def _states_of(passed: SweptCells, not_acquired) -> SweptCells:
     """``cell_states`` from the cases' verdicts (``passed``, the requirement's ``SweptCells``): the same grid."""
-    values = passed.values
+    values = passed.case_values
     state = np.where(np.isnan(values), 2, (values > 0.5).astype(np.int8)).astype(np.int8)
     return SweptCells(passed.shape, passed.index, state, -1, (not_acquired, 3) if np.any(not_acquired) else None)
 

@@ -14,20 +14,23 @@ import itertools
 
 import numpy as np
 
+DENSE_METHODS = frozenset({"astype", "copy", "reshape", "transpose", "ravel", "tolist", "item", "view", "T"})
+"""The ndarray attributes a ``SweptCells`` answers with those of its dense grid."""
 
-class SweptCells:
+
+class SweptCells(np.lib.mixins.NDArrayOperatorsMixin):
     """The grid ``shape`` (dtype of ``values``) filled with ``fill``, ``values`` at ``index`` (a tuple of integer
     arrays, one per axis, as numpy's advanced indexing takes it), then ``overlay`` ((mask over the last two axes,
     value) or None) over every leading index: what ``np.full(shape, fill); grid[index] = values;
-    grid[..., mask] = value`` gives."""
+    grid[..., mask] = value`` gives. Python's operators go through numpy's ufuncs (``NDArrayOperatorsMixin``)."""
 
-    __slots__ = ("dtype", "fill", "index", "overlay", "shape", "values")
+    __slots__ = ("case_values", "dtype", "fill", "index", "overlay", "shape")
 
     def __init__(self, shape, index, values, fill, overlay=None):
         self.shape = tuple(int(n) for n in shape)
         self.index = index
-        self.values = np.asarray(values)
-        self.dtype = self.values.dtype
+        self.case_values = np.asarray(values)
+        self.dtype = self.case_values.dtype
         self.fill = self.dtype.type(fill)
         self.overlay = overlay
 
@@ -39,11 +42,15 @@ class SweptCells:
     def size(self) -> int:
         return int(np.prod(self.shape))
 
+    @property
+    def nbytes(self) -> int:
+        return self.size * self.dtype.itemsize
+
     def __len__(self) -> int:
         return self.shape[0]
 
     def __repr__(self) -> str:
-        return f"SweptCells(shape={self.shape}, dtype={self.dtype}, {self.values.size} cases, fill {self.fill})"
+        return f"SweptCells(shape={self.shape}, dtype={self.dtype}, {self.case_values.size} cases, fill {self.fill})"
 
     def dense(self, out=None) -> np.ndarray:
         """The dense grid (into ``out``, an array of the shape and dtype, where given: a buffer reused)."""
@@ -51,7 +58,7 @@ class SweptCells:
             out = np.full(self.shape, self.fill, self.dtype)
         else:
             out.fill(self.fill)
-        out[self.index] = self.values
+        out[self.index] = self.case_values
         if self.overlay is not None:
             mask, value = self.overlay
             out[..., mask] = value
@@ -71,9 +78,9 @@ class SweptCells:
         return func(*_dense_all(args), **{k: _dense_all(v) for k, v in kwargs.items()})
 
     def __getattr__(self, name):
-        # the array's methods (astype, reshape, transpose, ...) on the dense grid; private names are not delegated
-        # (copy and pickle then treat this as the object it is)
-        if name.startswith("_"):
+        # the array's methods that xarray and numpy call on a duck array, on the dense grid; any other name is not
+        # an attribute (a probe such as hasattr(cells, "chunks") never makes the grid)
+        if name not in DENSE_METHODS:
             raise AttributeError(name)
         return getattr(self.dense(), name)
 
