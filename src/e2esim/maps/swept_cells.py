@@ -11,6 +11,7 @@ back as the dense grid, bit for bit.
 from __future__ import annotations
 
 import itertools
+import math
 
 import numpy as np
 
@@ -24,7 +25,7 @@ class SweptCells(np.lib.mixins.NDArrayOperatorsMixin):
     value) or None) over every leading index: what ``np.full(shape, fill); grid[index] = values;
     grid[..., mask] = value`` gives. Python's operators go through numpy's ufuncs (``NDArrayOperatorsMixin``)."""
 
-    __slots__ = ("case_values", "dtype", "fill", "index", "overlay", "shape")
+    __slots__ = ("case_values", "dtype", "fill", "index", "nbytes", "ndim", "overlay", "shape", "size")
 
     def __init__(self, shape, index, values, fill, overlay=None):
         self.shape = tuple(int(n) for n in shape)
@@ -33,18 +34,8 @@ class SweptCells(np.lib.mixins.NDArrayOperatorsMixin):
         self.dtype = self.case_values.dtype
         self.fill = self.dtype.type(fill)
         self.overlay = overlay
-
-    @property
-    def ndim(self) -> int:
-        return len(self.shape)
-
-    @property
-    def size(self) -> int:
-        return int(np.prod(self.shape))
-
-    @property
-    def nbytes(self) -> int:
-        return self.size * self.dtype.itemsize
+        self.ndim, self.size = len(self.shape), math.prod(self.shape)
+        self.nbytes = self.size * self.dtype.itemsize
 
     def __len__(self) -> int:
         return self.shape[0]
