@@ -25,6 +25,7 @@ from e2esim.atomic import atomic_path
 from e2esim.errors import ConfigError, Location, PhysicsInputError, one_line
 from e2esim.extras import optional_import
 from e2esim.io.scalar_units import scalar_description, scalar_unit
+from e2esim.io.swept_netcdf import swept_chunk_sizes, write_swept_netcdf
 from e2esim.maps.acquisition import describe_mask, excluded_forest, not_acquired_cells
 from e2esim.maps.grid import (
     LAT_KEYS,
@@ -38,6 +39,7 @@ from e2esim.maps.grid import (
     map_section,
     map_settings,
 )
+from e2esim.maps.swept_cells import SweptCells
 
 DIMS = ("solar", "pass", "month", "lat", "lon")
 """Dimensions of every per-case variable, in order."""
@@ -125,10 +127,9 @@ def map_dataset(results):
              grid_positions(lat, inputs[LAT_KEYS[0]], step), grid_positions(lon, inputs[LON_KEYS[0]], step))
     shape = (len(solar), len(passes), len(months), lat.size, lon.size)
     data = {}
-    for name, values in results.scalars.items():
-        grid = np.full(shape, np.nan)
-        grid[index] = values
-        data[_var_name(name, data)] = xr.Variable(DIMS, grid, attrs=_scalar_attrs(name, results.units.get(name)))
+    for name, values in results.scalars.items():  # the cases' values, made dense only when read (SweptCells)
+        data[_var_name(name, data)] = xr.Variable(DIMS, SweptCells(shape, index, np.asarray(values, float), np.nan),
+                                                  attrs=_scalar_attrs(name, results.units.get(name)))
     swept = np.zeros((lat.size, lon.size), bool)
     swept[index[3], index[4]] = True
     weight = np.where(swept, np.cos(np.radians(lat))[:, None], 0.0)
@@ -155,31 +156,28 @@ def map_dataset(results):
             "units": "1", "flag_values": np.array([0, 1], np.int8), "flag_meanings": "acquired_or_not_forest "
             "not_acquired", "long_name": "forest cells the mission does not acquire (the acquisition mask), left "
             "out of the sweep and of the share meeting each requirement", "comment": f"mask: {mask_text}"})
-    has_case = np.zeros(shape, bool)
-    has_case[index] = True
     for j, name in enumerate(results.requirements):
         key = _var_name(f"requirement{j}.passed", {})
         if key in data:
             data[f"requirement{j}_area_fraction"] = xr.Variable(
-                DIMS[:3], area_fraction(data[key].values, forest_weight), attrs={
+                DIMS[:3], area_fraction(np.asarray(data[key].data), forest_weight), attrs={
                     "units": "1", "long_name": f"share of the swept forest area meeting requirement {j}: {name}",
                     "comment": "sum of forest_area_weight over cells that pass / over cells with a verdict; cells "
                     "not acquired have none and are left out"})
-            data[f"requirement{j}_state"] = xr.Variable(DIMS, cell_states(data[key].values, has_case, not_acquired),
+            data[f"requirement{j}_state"] = xr.Variable(DIMS, _states_of(data[key].data, not_acquired),
                                                         attrs=STATE_ATTRS | {"long_name": f"state of each cell for "
                                                                              f"requirement {j}: {name}"})
     for (j, source), margin in (getattr(results, "term_margins", None) or {}).items():
         passed = data.get(_var_name(f"requirement{j}.passed", {}))
         if passed is not None:
-            without = np.full(shape, np.nan)
-            without[index] = margin
             name = results.requirements[j]
-            change = verdict_changes(passed.values, without)
-            data[f"requirement{j}_changed_by_{source}"] = xr.Variable(DIMS, change, attrs=CHANGE_ATTRS | {
+            change = verdict_changes(passed.data.case_values, margin)  # per case; no case: no verdict (-2)
+            data[f"requirement{j}_changed_by_{source}"] = xr.Variable(DIMS, SweptCells(shape, index, change, -2),
+                                                                      attrs=CHANGE_ATTRS | {
                 "long_name": f"where the error source {source} changes the verdict of requirement {j}: {name}"})
-            broken = np.where(change > -2, (change == 1).astype(float), np.nan)
+            broken = SweptCells(shape, index, np.where(change > -2, (change == 1).astype(float), np.nan), np.nan)
             data[f"requirement{j}_broken_by_{source}_area_fraction"] = xr.Variable(
-                DIMS[:3], area_fraction(broken, forest_weight), attrs={
+                DIMS[:3], area_fraction(broken.dense(), forest_weight), attrs={
                     "units": "1", "long_name": f"share of the swept forest area that fails requirement {j} only "
                     f"because of the error source {source}: {name}"})
     coords = {
@@ -237,6 +235,13 @@ def cell_states(passed, has_case, not_acquired) -> np.ndarray:
     return state
 
 
+def _states_of(passed: SweptCells, not_acquired) -> SweptCells:
+    """``cell_states`` from the cases' verdicts (``passed``, the requirement's ``SweptCells``): the same grid."""
+    values = passed.case_values
+    state = np.where(np.isnan(values), 2, (values > 0.5).astype(np.int8)).astype(np.int8)
+    return SweptCells(passed.shape, passed.index, state, -1, (not_acquired, 3) if np.any(not_acquired) else None)
+
+
 def _not_acquired(section, scenario, settings, lat, lon) -> np.ndarray:
     """The cells the map sweep left out as not acquired (``MapGrid.not_acquired``): from the run's scenario, or, if
     its sections cannot be read here again (a moved AGB map), the mask over the land and forest cells."""
@@ -272,13 +277,20 @@ def area_fraction(passed, weight) -> np.ndarray:
 
 
 def write_map_netcdf(ds, path) -> None:
-    """Write a map dataset (``map_dataset``) to ``path`` (NetCDF-4, compressed), atomically."""
+    """Write a map dataset (``map_dataset``) to ``path`` (NetCDF-4, compressed), atomically.
+
+    A variable held as its swept cases (``SweptCells``) is written in chunks of a few cells square
+    (``e2esim.io.swept_netcdf``), only those that hold a case: HDF5 gives the fill value (NaN, or the flag's fill)
+    for a chunk never written, so the file reads back as the dense grid, and no all-fill chunk is compressed."""
     # no shuffle filter: the variables are mostly NaN (unswept cells), which zlib packs as well without it, and
     # the filter costs a tenth of the writing time of a global map
     encoding = {name: {"zlib": True, "complevel": 1, "shuffle": False} for name in ds.data_vars}
+    for name, variable in ds.data_vars.items():
+        if isinstance(variable.data, SweptCells) and variable.ndim == len(DIMS):
+            encoding[name]["chunksizes"] = swept_chunk_sizes(variable.shape)
     with atomic_path(path) as tmp:
         try:
-            ds.to_netcdf(tmp, engine="netcdf4", encoding=encoding)
+            write_swept_netcdf(ds, tmp, encoding)
         except RuntimeError as exc:  # the NetCDF library says only "HDF error" when a write fails
             raise _write_error(tmp, exc) from exc
 

@@ -115,9 +115,10 @@ def plot_map_sweep(result, folder: Path, options: dict) -> list:
     out = []
     try:
         for stem, title, values, cmap, vmin, vmax, limit in quantities:
+            panels.scale(cmap, vmin, vmax, limit)  # one colour bar for the quantity's figures
             for s, solar in enumerate(ds["solar"].values):
                 for p, pass_name in enumerate(ds["pass"].values):
-                    panels.show(values[s, p], cmap, vmin, vmax, limit, f"{title}\n{pass_name} pass, solar {solar}")
+                    panels.show(values[s, p], f"{title}\n{pass_name} pass, solar {solar}")
                     name = save_drawn(panels.fig, folder, f"{stem}_{pass_name}_{solar}")
                     out.append((name, f"Map of the {title}, {pass_name} pass, solar {solar}, one panel per month; "
                                 "light grey: land left out of the sweep (no forest, or no forest class), white: ocean"
@@ -142,7 +143,8 @@ class MonthPanels:
     """A figure of one map panel per month of a map dataset, made and drawn once, then shown again for every
     quantity, pass and solar level: the panels (axes, ticks, grid lines, the land underneath) are drawn once into
     a background, and each figure redraws only its values (images over that background, so the grid lines show
-    over land and ocean, not over the swept cells), the panels' frames, its colour bar and its title."""
+    over land and ocean, not over the swept cells), the panels' frames and its title; a quantity's colour bar is
+    drawn once into that background for all its figures (``scale``)."""
 
     def __init__(self, ds):
         lat, lon = ds["lat"].values, ds["lon"].values
@@ -172,16 +174,16 @@ class MonthPanels:
             self.images.append(ax.imshow(np.full(land.shape, np.nan), animated=True, **cells))  # not in the background
             _frame(ax, lon_edges, ylim, first_column=k % ncol == 0, last_row=k // ncol == nrow - 1)
             ax.set_title(MONTH_NAMES[month - 1], fontsize=8, pad=2)
-        self.bar = None
+        self.bar = self.scaled = None
         self.title = self.fig.text(0.5, 1 - 0.08 / size[1], "", fontsize=9, ha="center", va="top", animated=True)
         self.fig.canvas.draw()
         self.background = self.fig.canvas.copy_from_bbox(self.fig.bbox)
 
-    def show(self, values, cmap, vmin, vmax, limit, title: str) -> None:
-        """Show ``values`` (month, lat, lon) with a colour bar from ``vmin`` to ``vmax`` (a black line at
-        ``limit`` unless None) under ``title``."""
-        for image, month_values in zip(self.images, values):
-            image.set_data(month_values)
+    def scale(self, cmap, vmin, vmax, limit) -> None:
+        """Colour the panels by ``cmap`` from ``vmin`` to ``vmax``, with its colour bar (a black line at ``limit``
+        unless None), drawn once over the panels' background for every figure of the quantity (the bar lies
+        beside the panels: the figures' pixels are those of drawing it with each)."""
+        for image in self.images:
             image.set_cmap(cmap)
             image.set_clim(vmin, vmax)
         if self.bar is not None:
@@ -199,14 +201,22 @@ class MonthPanels:
         if limit is not None and np.isfinite(limit):
             bar.ax.axhline(limit, color="k", lw=1.5)
         bar.ax.tick_params(labelsize=7)
-        self.title.set_text(title)
         canvas = self.fig.canvas
         canvas.restore_region(self.background)
+        self.fig.draw_artist(cax)
+        self.scaled = canvas.copy_from_bbox(self.fig.bbox)
+
+    def show(self, values, title: str) -> None:
+        """Show ``values`` (month, lat, lon) under ``title``, coloured as ``scale`` last set."""
+        for image, month_values in zip(self.images, values):
+            image.set_data(month_values)
+        self.title.set_text(title)
+        canvas = self.fig.canvas
+        canvas.restore_region(self.scaled)
         for image in self.images:
             image.axes.draw_artist(image)
             for spine in image.axes.spines.values():
                 image.axes.draw_artist(spine)
-        self.fig.draw_artist(cax)
         self.fig.draw_artist(self.title)
 
 
