@@ -48,10 +48,11 @@ def _matrices(n: int):
     return u, projector, tilt, q
 
 
-CHUNK_CASES = 256
-"""Cases whose (n, n) matrices are built and multiplied together: 256 x 64 x 64 doubles (8 MiB) stay in the cache,
-where the whole block's (cases, n, n) arrays went through memory several times (about 2.4 times slower). Each case's
-numbers are the same, bit for bit, for any chunk (the matrix products and reductions run case by case)."""
+CHUNK_CASES = 32
+"""Cases whose (n, n) matrices are built and multiplied together: 32 x 64 x 64 doubles (1 MiB per array) stay in a
+core's L2 cache, where chunks of 256 (8 MiB per array) went through the L3 cache or memory several times (about
+1.9 times slower, measured). Each case's numbers are the same, bit for bit, for any chunk (the matrix products and
+reductions run case by case)."""
 
 
 def analytic_irf(structure, n: int = 64, quantiles: bool = True) -> dict:
