@@ -114,10 +114,19 @@ class _Game:
     def size(self) -> int:
         return len(self.means) * len(self.extra)
 
-    def chunk(self, cols=slice(None)) -> np.ndarray:
-        """f (2^n, cases) of the cases ``cols`` (a slice of the flat case axis)."""
-        v = self.variances[:, cols]
-        rows = _over_subsets(v, self.extra[:, cols], v.shape[1:])
+    def chunk(self, cols=slice(None), reuse: bool = True) -> np.ndarray:
+        """f (2^n, cases) of the cases ``cols`` (a slice of the flat case axis); ``reuse``: in the array of the
+        previous chunk (the next call overwrites it: fresh arrays per chunk cost page faults)."""
+        v, e = self.variances[:, cols], self.extra[:, cols]
+        shape = (len(e), len(v), v.shape[1])
+        if not reuse:
+            rows = np.empty(shape)
+        else:
+            if getattr(self, "_buffer", None) is None or self._buffer.size < math.prod(shape):
+                self._buffer = np.empty(math.prod(shape))
+            rows = self._buffer[:math.prod(shape)].reshape(shape)
+        np.add(v[None], e[:, None], out=rows)  # own[o] + extra[t] for m = t 2^k + o, as ``_over_subsets``
+        rows = rows.reshape(self.size, v.shape[1])
         self._finish(rows, self.means[:, cols], cols)
         return rows
 
@@ -131,7 +140,7 @@ class _Game:
 
     def whole(self) -> np.ndarray:
         """The game (2^n,) + case shape."""
-        return self.chunk().reshape((self.size,) + self.shape)
+        return self.chunk(reuse=False).reshape((self.size,) + self.shape)
 
 
 def _rms_game(agb) -> _Game:
@@ -186,11 +195,13 @@ def _values_in_chunks(n: int, cases: int, part_of) -> np.ndarray:
     weight = np.array([factorial(s) * factorial(n - s - 1) / factorial(n) if s < n else 0.0 for s in sizes])
     phi = np.empty((n, cases))
     step = max(2, CHUNK_BYTES // (8 * 2 ** max(n - 1, 0)))
+    space = np.empty(2 ** max(n - 1, 0) * min(step, cases))  # one player's terms, reused (no page faults)
     for start in range(0, cases, step):
         part = part_of(slice(start, start + step))
         for i in range(n):
             pairs = part.reshape(2 ** (n - 1 - i), 2, 2**i, part.shape[1])
-            terms = np.subtract(pairs[:, 1], pairs[:, 0], order="C")  # C order, whatever f's layout
+            terms = space[:2 ** (n - 1) * part.shape[1]].reshape(2 ** (n - 1 - i), 2**i, part.shape[1])
+            np.subtract(pairs[:, 1], pairs[:, 0], out=terms)  # C order, whatever f's layout
             terms *= weight.reshape(2 ** (n - 1 - i), 2, 2**i)[:, 0, :, None]
             phi[i, start:start + step] = _in_order(terms.reshape(2 ** (n - 1), part.shape[1]))
     return phi
