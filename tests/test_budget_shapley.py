@@ -266,3 +266,18 @@ def test_the_game_formed_a_chunk_of_cases_at_a_time_is_the_whole_game_bit_for_bi
     assert phi.tobytes() == want_phi.tobytes() and empty.tobytes() == want_empty.tobytes()
     assert game.row(2**n - 1).tobytes() == whole[-1].tobytes()
     assert game.whole().tobytes() == whole.tobytes()
+
+
+def test_the_hv_model_evaluates_its_own_moments_once_and_moments_at_other_levels_each_time():
+    """``HVErrorModel.moments()`` at its own levels is kept with the model (the Shapley split's variants, its bound
+    and the attribution ask the same model): the same object, equal to a fresh model's bit for bit; a question at
+    other levels is answered at those levels, before and after, never with the kept moments."""
+    faraday = GaussianFaraday(np.pi / 3, np.radians(5.0))
+    model = HVErrorModel(forest("boreal_200"), system(), faraday)
+    fresh = HVErrorModel(forest("boreal_200"), system(), faraday)
+    at_levels = model.moments(crosstalk=1e-2)
+    own = model.moments()
+    assert model.moments() is own
+    assert float(own.mean) == float(fresh.moments().mean) and float(own.variance) == float(fresh.moments().variance)
+    again = model.moments(crosstalk=1e-2)
+    assert float(again.variance) == float(at_levels.variance) != float(own.variance)
