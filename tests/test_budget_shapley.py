@@ -231,3 +231,53 @@ def test_a_block_whose_cases_have_different_players_gives_each_case_its_own_game
             want = np.zeros(n)
             want[players] = shapley_values(game[sub, c])
             assert phi[:, c].tobytes() == want.tobytes() and empty[c] == game[sub[0], c]
+
+
+@pytest.mark.parametrize("kind", ["rms", "bound"])
+def test_the_game_formed_a_chunk_of_cases_at_a_time_is_the_whole_game_bit_for_bit(kind, seed, monkeypatch):
+    """``_Game`` forms f for a chunk of cases at a time (in arrays reused across chunks): its Shapley values, empty
+    and full sets are, bit for bit, those of the whole (2^n, cases) game formed at once and split by ``_by_players``
+    (several chunks and a last chunk of one case; the bound with a side per case)."""
+    from e2esim.requirements import shapley
+
+    rng = np.random.default_rng(seed)
+    k, n = 4, 10
+    cases = 2 * (shapley.CHUNK_BYTES // (8 * 2 ** (n - 1))) + 1
+    means = rng.normal(size=(2**k, cases)) * 0.01
+    variances = rng.random((2**k, cases)) * 10.0 ** rng.integers(-8, -2, size=(2**k, cases))
+    extra = rng.random((2 ** (n - k), cases)) * 1e-4
+    active = np.ones((n, cases), dtype=bool)
+    monkeypatch.setattr(shapley, "_subset_parts", lambda agb: (tuple(f"s{j}" for j in range(n)), means, variances,
+                                                              extra, active, (cases,)))
+    sign = np.where(rng.random(cases) < 0.5, 1.0, -1.0)
+    z = 3.0
+    whole = np.empty((2**n, cases))
+    for m in range(2**n):
+        o, t = m & (2**k - 1), m >> k
+        v = variances[o] + extra[t]
+        if kind == "rms":
+            whole[m] = means[o] * means[o] + v
+        else:
+            x = np.sqrt(v) * z + sign * means[o]
+            whole[m] = x * np.abs(x)
+    game = shapley._rms_game(None) if kind == "rms" else shapley._bound_game(None, z, sign)
+    phi, empty = shapley._played(game)
+    want_phi, want_empty = shapley._by_players(whole, active)
+    assert phi.tobytes() == want_phi.tobytes() and empty.tobytes() == want_empty.tobytes()
+    assert game.row(2**n - 1).tobytes() == whole[-1].tobytes()
+    assert game.whole().tobytes() == whole.tobytes()
+
+
+def test_the_hv_model_evaluates_its_own_moments_once_and_moments_at_other_levels_each_time():
+    """``HVErrorModel.moments()`` at its own levels is kept with the model (the Shapley split's variants, its bound
+    and the attribution ask the same model): the same object, equal to a fresh model's bit for bit; a question at
+    other levels is answered at those levels, before and after, never with the kept moments."""
+    faraday = GaussianFaraday(np.pi / 3, np.radians(5.0))
+    model = HVErrorModel(forest("boreal_200"), system(), faraday)
+    fresh = HVErrorModel(forest("boreal_200"), system(), faraday)
+    at_levels = model.moments(crosstalk=1e-2)
+    own = model.moments()
+    assert model.moments() is own
+    assert float(own.mean) == float(fresh.moments().mean) and float(own.variance) == float(fresh.moments().variance)
+    again = model.moments(crosstalk=1e-2)
+    assert float(again.variance) == float(at_levels.variance) != float(own.variance)

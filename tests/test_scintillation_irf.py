@@ -156,3 +156,29 @@ def test_mean_irf_from_the_distinct_lags_is_bit_for_bit_eq_s11_on_the_full_matri
     d = np.asarray(structure(np.arange(N) / N), dtype=float)[..., lags]
     expected = -10.0 / math.log(10.0) * np.log(np.mean(np.exp(-0.5 * d), axis=(-2, -1)))
     np.testing.assert_array_equal(analytic_irf(structure, N)["mean_irf_peak_loss_db"], expected)
+
+
+def test_toeplitz_moments_in_reused_arrays_are_the_fancy_index_expressions_bit_for_bit(rng):
+    """``_toeplitz_moments`` builds a chunk's matrices in arrays reused across chunks (``_Work``), the mean IRF's in
+    the layout of the fancy index x[..., lags] (the case axis innermost), whose order of summation differs from a
+    C-contiguous array's: each moment is, bit for bit, that of the expressions on freshly indexed arrays, for chunks
+    of 1, 2, 3 and the usual sizes, one ``_Work`` across sizes."""
+    import e2esim.scintillation.irf_analytic as irf_analytic
+
+    n = 64
+    _, projector, tilt, q = irf_analytic._matrices(n)
+    lags = np.abs(np.arange(n)[:, None] - np.arange(n)[None, :])
+    work = irf_analytic._Work(n)
+    for cases in (32, 33, 1, 2, 3, 32):
+        on_lags = np.cumsum(rng.random((cases, n)) ** rng.uniform(0.2, 3.0), axis=1) * 10.0 ** rng.uniform(
+            -6.0, 6.0, (cases, 1))
+        on_lags[:, 0] = 0.0
+        d = on_lags[..., lags]
+        pd = projector @ d
+        want = np.stack([-np.trace(pd, axis1=-2, axis2=-1) / (2.0 * n),
+                         np.einsum("...ij,...ji->...", pd, pd) / (2.0 * n * n),
+                         -np.einsum("i,...ij,j->...", tilt, d, tilt) / 2.0,
+                         -np.einsum("i,...ij,j->...", q, d, q) / (2.0 * np.dot(q, q) ** 2),
+                         np.mean(np.exp(-0.5 * on_lags)[..., lags], axis=(-2, -1))])
+        got = irf_analytic._toeplitz_moments(on_lags, lags, projector, tilt, q, work)
+        assert got.tobytes() == want.tobytes()

@@ -12,7 +12,13 @@ import pytest
 from e2esim.errors import PhysicsInputError
 from e2esim.scintillation.acquisitions import AcquisitionScreens, ScreenSettings, acquisition_screens, mixture_quantiles
 from e2esim.scintillation.cell import cell_acquisitions
-from e2esim.scintillation.stacked import bisect_rows, stacked_halo_shares, stacked_mixture_quantiles, stacked_screens
+from e2esim.scintillation.stacked import (
+    bisect_rows,
+    stacked_halo_shares,
+    stacked_mixture_quantiles,
+    stacked_screens,
+    stacked_weighted_sums,
+)
 
 
 def _same(a, b) -> bool:
@@ -44,6 +50,9 @@ def test_stacked_screens_are_bit_for_bit_each_case_alone(rng, site):
     for cells in (1.5, 24.1):
         for got, s in zip(stacked_halo_shares(stacked, cells), stacked):
             assert _same(got, s.halo_share(cells))
+    names = ("magnetic_latitude", "log10_ckl", "weak", "mean_irf_peak_loss_db")
+    for got, s in zip(stacked_weighted_sums(stacked, names), stacked):  # the output scalars' weighted sums
+        assert all(_same(got[name], np.sum(s.weight * getattr(s, name))) for name in names)
 
 
 def _random_screens(rng, n: int) -> AcquisitionScreens:

@@ -122,8 +122,14 @@ class HVErrorModel(Batched, SystemLevels, ModelEvaluation, ErrorModel):
             raise TypeError(f"unknown levels {', '.join(unknown)}; this model has {', '.join(LEVELS)}")
         self.check_available()
         check_settings(self.form, self.reference)
-        return moments_of(self.moment_inputs, self.form, self.looks, self.reference, crosstalk_level=crosstalk,
-                          imbalance_level=channel_imbalance, noise_power=nesz)
+        own = crosstalk is None and channel_imbalance is None and nesz is None
+        if own and "moments" in self._memo:  # at its own levels: once per model (the error terms' variants of a
+            return self._memo["moments"]       # Shapley split, its bound and its attribution ask the same model)
+        m = moments_of(self.moment_inputs, self.form, self.looks, self.reference, crosstalk_level=crosstalk,
+                       imbalance_level=channel_imbalance, noise_power=nesz)
+        if own:
+            self._memo["moments"] = m
+        return m
 
     def current(self) -> HVErrorMoments:
         if "current" not in self._memo:

@@ -29,6 +29,7 @@ active in some case of the block, each evaluated once for the whole block and ke
 
 from __future__ import annotations
 
+import math
 from math import factorial
 
 import numpy as np
@@ -95,28 +96,78 @@ def subset_moments(agb) -> tuple:
     return names, b, _over_subsets(variances, extra, shape), active
 
 
-def _rms_game(agb) -> tuple:
-    """(game, names, active): f(S) = b_S^2 + v_S over the subsets (module docstring), formed in place."""
-    names, means, variances, extra, active, shape = _subset_parts(agb)
-    game = _over_subsets(variances, extra, shape)
-    squares = (means * means)[None]
-    game_view = game.reshape((len(extra),) + means.shape)
-    np.add(squares, game_view, out=game_view)  # b*b + v, as the expression writes it
-    return game, names, active
+class _Game:
+    """The game of ``_subset_parts`` over the subsets (module docstring), formed a chunk of cases at a time
+    (``chunk``): a block's whole (2^n,) + case shape game (2^12 x 4096 cases: 134 MB) went through memory three
+    times; a chunk's stays in the cache. Every element is the same, bit for bit, as the whole game's (the same
+    elementwise operations on the same numbers). ``finish(rows, cols)`` makes f in place from rows = v_S (the
+    subsets' variances) of the cases ``cols``."""
+
+    def __init__(self, agb, finish):
+        names, means, variances, extra, active, shape = _subset_parts(agb)
+        self.names, self.active, self.shape, self._finish = names, active, shape, finish
+        cases = math.prod(shape)
+        self.means, self.variances = means.reshape(len(means), cases), variances.reshape(len(means), cases)
+        self.extra = np.broadcast_to(extra, (len(extra),) + shape).reshape(len(extra), cases)
+
+    @property
+    def size(self) -> int:
+        return len(self.means) * len(self.extra)
+
+    def chunk(self, cols=slice(None), reuse: bool = True) -> np.ndarray:
+        """f (2^n, cases) of the cases ``cols`` (a slice of the flat case axis); ``reuse``: in the array of the
+        previous chunk (the next call overwrites it: fresh arrays per chunk cost page faults)."""
+        v, e = self.variances[:, cols], self.extra[:, cols]
+        shape = (len(e), len(v), v.shape[1])
+        if not reuse:
+            rows = np.empty(shape)
+        else:
+            if getattr(self, "_buffer", None) is None or self._buffer.size < math.prod(shape):
+                self._buffer = np.empty(math.prod(shape))
+            rows = self._buffer[:math.prod(shape)].reshape(shape)
+        np.add(v[None], e[:, None], out=rows)  # own[o] + extra[t] for m = t 2^k + o, as ``_over_subsets``
+        rows = rows.reshape(self.size, v.shape[1])
+        self._finish(rows, self.means[:, cols], cols)
+        return rows
+
+    def row(self, m: int) -> np.ndarray:
+        """f(S) of subset mask ``m`` in every case, in the case shape."""
+        k = len(self.means).bit_length() - 1
+        o, t = m & (2**k - 1), m >> k
+        rows = np.add(self.variances[o], self.extra[t])[None]
+        self._finish(rows, self.means[o][None], slice(None))
+        return rows[0].reshape(self.shape)
+
+    def whole(self) -> np.ndarray:
+        """The game (2^n,) + case shape."""
+        return self.chunk(reuse=False).reshape((self.size,) + self.shape)
 
 
-def _bound_game(agb, z: float, sign) -> tuple:
-    """(game, names, active): f(S) = x_S |x_S| of the quantile x = z s + sign b (sign +1: "over", b + z s; -1:
-    "under", z s - b; a float, or per case), formed in place. z s + (-b) is z s - b bit for bit (IEEE 754 defines
-    x - y as x + (-y)), so a block whose cases pick different sides plays each case's own game."""
-    names, means, variances, extra, active, shape = _subset_parts(agb)
-    x = _over_subsets(variances, extra, shape)
-    np.sqrt(x, out=x)
-    np.multiply(x, z, out=x)
-    signed = sign * means
-    view = x.reshape((len(extra),) + means.shape)
-    np.add(view, signed[None], out=view)
-    return x * np.abs(x), names, active
+def _rms_game(agb) -> _Game:
+    """f(S) = b_S^2 + v_S over the subsets (module docstring), formed in place."""
+
+    def finish(rows, means, cols):
+        view = rows.reshape((-1,) + means.shape)
+        np.add((means * means)[None], view, out=view)  # b*b + v, as the expression writes it
+
+    return _Game(agb, finish)
+
+
+def _bound_game(agb, z: float, sign) -> _Game:
+    """f(S) = x_S |x_S| of the quantile x = z s + sign b (sign +1: "over", b + z s; -1: "under", z s - b; a float,
+    or per case), formed in place. z s + (-b) is z s - b bit for bit (IEEE 754 defines x - y as x + (-y)), so a
+    block whose cases pick different sides plays each case's own game."""
+    flat_sign = sign if np.ndim(sign) == 0 else np.reshape(sign, -1)
+
+    def finish(rows, means, cols):
+        np.sqrt(rows, out=rows)
+        np.multiply(rows, z, out=rows)
+        signed = (flat_sign if np.ndim(flat_sign) == 0 else flat_sign[cols]) * means
+        view = rows.reshape((-1,) + means.shape)
+        np.add(view, signed[None], out=view)
+        np.multiply(rows, np.abs(rows), out=rows)
+
+    return _Game(agb, finish)
 
 
 CHUNK_BYTES = 2**21
@@ -133,19 +184,27 @@ def shapley_values(f: np.ndarray) -> np.ndarray:
     2^i, cases) holds f(S) at [a, 0, c] and f(S + i) at [a, 1, c], in the masks' order. ``_in_order`` adds them."""
     n = int(f.shape[0]).bit_length() - 1
     flat = f.reshape(2**n, -1)
+    return _values_in_chunks(n, flat.shape[1], lambda cols: flat[:, cols]).reshape((n,) + f.shape[1:])
+
+
+def _values_in_chunks(n: int, cases: int, part_of) -> np.ndarray:
+    """``shapley_values`` (n, cases) of a game of n players whose rows (2^n, chunk) for the cases of a slice are
+    ``part_of(slice)``: a chunk of cases at a time, its terms in the cache."""
     masks = np.arange(2**n)
     sizes = np.array([bin(m).count("1") for m in masks])
     weight = np.array([factorial(s) * factorial(n - s - 1) / factorial(n) if s < n else 0.0 for s in sizes])
-    phi = np.empty((n, flat.shape[1]))
+    phi = np.empty((n, cases))
     step = max(2, CHUNK_BYTES // (8 * 2 ** max(n - 1, 0)))
-    for start in range(0, flat.shape[1], step):  # a chunk of cases at a time, its terms in the cache
-        part = flat[:, start:start + step]
+    space = np.empty(2 ** max(n - 1, 0) * min(step, cases))  # one player's terms, reused (no page faults)
+    for start in range(0, cases, step):
+        part = part_of(slice(start, start + step))
         for i in range(n):
             pairs = part.reshape(2 ** (n - 1 - i), 2, 2**i, part.shape[1])
-            terms = np.subtract(pairs[:, 1], pairs[:, 0], order="C")  # C order, whatever f's layout
+            terms = space[:2 ** (n - 1) * part.shape[1]].reshape(2 ** (n - 1 - i), 2**i, part.shape[1])
+            np.subtract(pairs[:, 1], pairs[:, 0], out=terms)  # C order, whatever f's layout
             terms *= weight.reshape(2 ** (n - 1 - i), 2, 2**i)[:, 0, :, None]
             phi[i, start:start + step] = _in_order(terms.reshape(2 ** (n - 1), part.shape[1]))
-    return phi.reshape((n,) + f.shape[1:])
+    return phi
 
 
 def _in_order(terms: np.ndarray) -> np.ndarray:
@@ -161,6 +220,15 @@ def _in_order(terms: np.ndarray) -> np.ndarray:
     if terms.shape[1] >= 2:
         return np.add.reduce(np.ascontiguousarray(terms), axis=0, initial=0.0)
     return np.add.accumulate(np.concatenate((np.zeros((1, 1)), terms)), axis=0)[-1]
+
+
+def _played(game: _Game) -> tuple:
+    """``_by_players`` of ``game``: where every case has every player (a map's cases), with the game formed a chunk
+    of cases at a time (``_Game.chunk``), the same numbers."""
+    if game.active is None or game.shape == () or np.all(game.active):
+        phi = _values_in_chunks(len(game.names), math.prod(game.shape), game.chunk)
+        return phi.reshape((len(game.names),) + game.shape), game.row(0)
+    return _by_players(game.whole(), game.active)
 
 
 def _by_players(game: np.ndarray, active) -> tuple:
@@ -194,23 +262,22 @@ def _by_players(game: np.ndarray, active) -> tuple:
     return phi.reshape((n,) + shape), empty.reshape(shape)
 
 
-def _split(value, game: np.ndarray, names: tuple, active, unit: str) -> dict:
+def _split(value, game: _Game, unit: str) -> dict:
     """``shapley.<source>_<unit>`` and ``shapley.no_source_<unit>``: ``value`` divided as the game's Shapley values
     and its empty-set value divide f(N); they sum to ``value`` (zero everywhere where f(N) is zero)."""
     value = np.asarray(value, dtype=float)
-    phi, empty = _by_players(game, active)
-    total = game[-1]
+    phi, empty = _played(game)
+    total = game.row(game.size - 1)
     with np.errstate(divide="ignore", invalid="ignore"):
         scale = np.where(total != 0, value / np.where(total != 0, total, 1.0), 0.0)
-    out = {f"shapley.{name}_{unit}": plain(scale * p) for name, p in zip(names, phi)}
+    out = {f"shapley.{name}_{unit}": plain(scale * p) for name, p in zip(game.names, phi)}
     out[f"shapley.{NO_SOURCE}_{unit}"] = plain(scale * empty)
     return out
 
 
 def rms_shapley(value, agb, unit: str) -> dict:
     """The Shapley split of an RMSE verdict's ``value``: the game is the mean square b^2 + v of the sigma error."""
-    game, names, active = _rms_game(agb)
-    return _complete(_split(value, game, names, active, unit), agb, unit)
+    return _complete(_split(value, _rms_game(agb), unit), agb, unit)
 
 
 def bound_shapley(value, agb, confidence: float, sides: tuple, side_values: dict, unit: str) -> dict:
@@ -220,8 +287,7 @@ def bound_shapley(value, agb, confidence: float, sides: tuple, side_values: dict
     z = float(standard_normal_quantile(confidence))
     pick = picked_side(side_values, sides)
     sign = (1.0 if pick == "over" else -1.0) if isinstance(pick, str) else np.where(pick == "over", 1.0, -1.0)
-    game, names, active = _bound_game(agb, z, sign)
-    return _complete(_split(value, game, names, active, unit), agb, unit)
+    return _complete(_split(value, _bound_game(agb, z, sign), unit), agb, unit)
 
 
 def _complete(out: dict, agb, unit: str) -> dict:

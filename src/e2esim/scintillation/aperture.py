@@ -85,8 +85,11 @@ def two_way_structure(lag_u, aperture: ApertureGeometry, c_kl, spectral_index, o
     rows = lag_m.reshape(-1, lag.size) if lag.ndim and lag_m.ndim > lag.ndim else None
     if rows is not None and np.ndim(spectral_index) == 0 and np.ndim(outer_scale_m) == 0:
         # the Matern factor (a Bessel function per element) depends on the scan length alone: computed once per
-        # distinct length (a map's cases share their few incidences), then structure_function's expression
-        scans, where = np.unique(rows, axis=0, return_inverse=True)
+        # distinct length (a map's cases share their few incidences), then structure_function's expression. A row is
+        # lag * L_scan: the distinct lengths are found among the numbers, not the rows (sorting the rows cost more
+        # than the Bessel function)
+        lengths, where = np.unique(np.asarray(aperture.scan_length_m, dtype=float).reshape(-1), return_inverse=True)
+        scans = lag.reshape(-1) * lengths[:, None]
         decorrelation = matern_decorrelation(scans, args[1], args[2])[where.reshape(-1)].reshape(lag_m.shape)
         return 4.0 * (2.0 * phase_variance(*args) * decorrelation)
     return 4.0 * structure_function(lag_m, *args)

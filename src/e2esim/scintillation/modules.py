@@ -34,7 +34,12 @@ from e2esim.scintillation.climatology import SOLAR_PRESETS
 from e2esim.scintillation.effects import CKL_LEVEL, CalibratorFactor, DistributedTargetFactor, FaradayLeakage
 from e2esim.scintillation.faraday_window import parallel_field, window_variance
 from e2esim.scintillation.irf_monte_carlo import mixture_monte_carlo, peak_log_loss
-from e2esim.scintillation.stacked import stacked_halo_shares, stacked_mixture_quantiles, stacked_screens
+from e2esim.scintillation.stacked import (
+    stacked_halo_shares,
+    stacked_mixture_quantiles,
+    stacked_screens,
+    stacked_weighted_sums,
+)
 
 SCREEN_PARAMS = (
     Param("solar", "str", "solar activity: 12-month sunspot number 10 (min) or 150 (max) (null: a map sweep's solar "
@@ -64,6 +69,10 @@ SCREEN_PARAMS = (
     Param("pass", "str", "pass of that cell's acquisitions: dawn (06 h) or dusk (18 h) (null: a map sweep's pass, "
           "else dawn)", default=None, nullable=True, choices=("dawn", "dusk")),
 )
+
+SCREEN_SUMS = ("magnetic_latitude", "log10_ckl", "weak", "mean_irf_peak_loss_db")
+"""The fields of ``AcquisitionScreens`` whose weighted sums over the acquisitions are output scalars
+(``irf_outputs``)."""
 
 
 class ScintillationTerm(ErrorTerm):
@@ -136,9 +145,11 @@ class ScintillationTerm(ErrorTerm):
         except PhysicsInputError as exc:
             raise fail(self, str(exc), None, key=exc.key) from exc
         quantiles = {p: stacked_mixture_quantiles(screens, p) for p in (0.5, 0.9)}
+        sums = stacked_weighted_sums(screens, SCREEN_SUMS)
         extras = self.stacked_extras(screens)
         models = self.case_models(model)
-        return [(self.effect(c, models[i], screens[i], {p: q[i] for p, q in quantiles.items()}, **extras[i]),)
+        return [(self.effect(c, models[i], screens[i], {p: q[i] for p, q in quantiles.items()}, sums=sums[i],
+                             **extras[i]),)
                 for i, c in enumerate(cases)]
 
     def stacked_extras(self, screens: list) -> list:
@@ -150,14 +161,16 @@ class ScintillationTerm(ErrorTerm):
         source = self.source
         return tuple((f"{source}.{name}", value) for name, value in pairs)
 
-    def irf_outputs(self, case, screens, quantiles=None) -> tuple:
+    def irf_outputs(self, case, screens, quantiles=None, sums=None) -> tuple:
         """(name, value) pairs: the screen and the response statistics of the case (module docstring);
-        ``quantiles``: ``mixture_quantiles`` of ``screens`` by probability, when already made."""
+        ``quantiles``: ``mixture_quantiles`` of ``screens`` by probability, ``sums``: the weighted sums of
+        ``SCREEN_SUMS`` over the acquisitions, when already made (``block_case_effects``)."""
         w = screens.weight
-        out = [("geomagnetic_latitude_deg", float(np.degrees(np.sum(w * screens.magnetic_latitude)))),
-               ("log10_ckl_mean", float(np.sum(w * screens.log10_ckl))),
-               ("weak_scatter_fraction", float(np.sum(w * screens.weak))),
-               ("mean_irf_peak_loss_db", float(np.sum(w * screens.mean_irf_peak_loss_db)))]
+        sums = sums or {name: np.sum(w * getattr(screens, name)) for name in SCREEN_SUMS}
+        out = [("geomagnetic_latitude_deg", float(np.degrees(sums["magnetic_latitude"]))),
+               ("log10_ckl_mean", float(sums["log10_ckl"])),
+               ("weak_scatter_fraction", float(sums["weak"])),
+               ("mean_irf_peak_loss_db", float(sums["mean_irf_peak_loss_db"]))]
         for tag, prob in (("median", 0.5), ("p90", 0.9)):
             q = mixture_quantiles(screens, prob) if quantiles is None else quantiles[prob]
             out += [(f"peak_loss_{tag}_db", q["peak_loss_db"]), (f"resolution_ratio_{tag}", q["resolution_ratio"]),
@@ -193,7 +206,7 @@ class ScintillationSigma0(ScintillationTerm):
     def stacked_extras(self, screens: list) -> list:
         return [{"halo_share": q} for q in stacked_halo_shares(screens, self.cell_cells())]
 
-    def effect(self, case, model, screens=None, quantiles=None, halo_share=None):
+    def effect(self, case, model, screens=None, quantiles=None, halo_share=None, sums=None):
         screens = self.screens(case) if screens is None else screens
         halo_share = screens.halo_share(self.cell_cells()) if halo_share is None else halo_share
         return DistributedTargetFactor(
@@ -202,7 +215,7 @@ class ScintillationSigma0(ScintillationTerm):
             shift_sd_cells=tuple(screens.shift_sd_cells),
             halo_share=tuple(halo_share),
             cell_fraction=self.si["azimuth_resolution_m"] / self.si["cell_length_m"], contrast=self.si["contrast"],
-            outputs=self.named(self.irf_outputs(case, screens, quantiles)))
+            outputs=self.named(self.irf_outputs(case, screens, quantiles, sums)))
 
 
 class ScintillationCalibration(ScintillationTerm):
@@ -226,13 +239,13 @@ class ScintillationCalibration(ScintillationTerm):
     def screen_site(self) -> tuple:
         return self.si["site_lat_rad"], self.si["site_lon_rad"]
 
-    def effect(self, case, model, screens=None, quantiles=None):
+    def effect(self, case, model, screens=None, quantiles=None, sums=None):
         screens = self.screens(case) if screens is None else screens
         mean_z, second_z = peak_log_loss(case.rng, self.acquisitions(case), self.screen_settings(case), screens)
         mean_y = float(np.sum(screens.weight * mean_z))
         var_y = float(np.sum(screens.weight * second_z)) - mean_y * mean_y
         outputs = (("calibrator_peak_loss_mean_db", 10.0 / math.log(10.0) * mean_y),
-                   *self.irf_outputs(case, screens, quantiles))
+                   *self.irf_outputs(case, screens, quantiles, sums))
         return CalibratorFactor(self.source, CKL_LEVEL, "scintillation: calibrator peak loss (gain error)",
                                 mean_log=mean_y, var_log=max(var_y, 0.0) / self.si["calibrations"],
                                 outputs=self.named(outputs))
@@ -252,7 +265,7 @@ class ScintillationFaraday(ScintillationTerm):
 
     effects_take_blocks = True
 
-    def effect(self, case, model, screens=None, quantiles=None):
+    def effect(self, case, model, screens=None, quantiles=None, sums=None):  # sums: its outputs need none
         geometry = case["geometry"]
         settings = self.screen_settings(case)
         screens = self.screens(case) if screens is None else screens

@@ -70,6 +70,23 @@ def stacked_halo_shares(screens: list, cell_cells: float) -> list:
     return out
 
 
+def stacked_weighted_sums(screens: list, names: tuple) -> list:
+    """``[{name: np.sum(s.weight * getattr(s, name)) for name in names} for s in screens]``, the screens with the same
+    number of acquisitions summed together: a row's sum along the contiguous last axis of a C-contiguous (sites, n)
+    array is that of the row alone (tests/test_scintillation_stacked.py)."""
+    groups: dict = {}
+    for i, s in enumerate(screens):
+        groups.setdefault(np.shape(s.weight), []).append(i)
+    out = [{} for _ in screens]
+    for members in groups.values():
+        weight = np.stack([screens[i].weight for i in members])
+        for name in names:
+            sums = np.sum(weight * np.stack([getattr(screens[i], name) for i in members]), axis=-1)
+            for i, value in zip(members, sums):
+                out[i][name] = value
+    return out
+
+
 def bisect_rows(cdf, prob: float, high: np.ndarray, steps: int = 60) -> np.ndarray:
     """``acquisitions._bisect`` on every row at once: the same halvings, so the same numbers."""
     lo, hi = np.zeros_like(high), np.array(high, dtype=float)
@@ -112,4 +129,4 @@ def _quantile_rows(screens: list, prob: float) -> list:
 
 
 __all__ = ["bisect_rows", "stack_acquisitions", "stacked_halo_shares",
-           "stacked_mixture_quantiles", "stacked_screens"]
+           "stacked_mixture_quantiles", "stacked_screens", "stacked_weighted_sums"]
