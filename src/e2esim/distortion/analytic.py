@@ -244,7 +244,7 @@ def moments_of(
         parts = _conditional_parts(terms, trig, *_scaled_errors(*structure, xs, es), complete=False)
         spread = np.zeros(xs.shape)
     else:
-        trig = _trig_at_nodes(EVEN_NODES.tobytes())  # arrays over the node axis, which is last
+        trig = _trig_at_even_nodes()  # arrays over the node axis, which is last
         weights = _expand(inputs.averaging, extra, 1)
         node_parts = _conditional_parts(terms, trig, *_scaled_errors(*structure, xs[..., None], es[..., None]),
                                         complete=True)
@@ -308,11 +308,11 @@ def _average(values, weights):
     return (values * weights).sum(-1)
 
 
-@functools.lru_cache(maxsize=8)
-def _trig_at_nodes(nodes: bytes) -> dict:
-    """``trig_at`` of quadrature nodes (given as bytes, to be hashable): the nodes are the same for every
-    distribution, so this is computed once."""
-    return trig_at(np.frombuffer(nodes, dtype=float))
+@functools.lru_cache(maxsize=1)
+def _trig_at_even_nodes() -> dict:
+    """``trig_at`` of the constant quadrature nodes ``EVEN_NODES`` (the same for every distribution): a constant
+    computed once."""
+    return trig_at(EVEN_NODES)
 
 
 def _scaled_errors(v, c13, c24, ve, ce12, xs, es):
