@@ -303,9 +303,19 @@ def moments_of(
 
 
 def _average(values, weights):
-    """The quadrature average over the node axis (last): an element-wise product and numpy's sum over a
-    contiguous axis, the same operations for a case alone as for a case in a block."""
-    return (values * weights).sum(-1)
+    """The quadrature average over the node axis (last): an element-wise product and its sum over the nodes, the
+    same operations for a case alone as for a case in a block. The sum is numpy's ``sum(-1)`` bit for bit: numpy
+    adds fewer than 8 terms one by one from +0, and so does this, written out because numpy's reduction over so
+    short an axis costs about three times these additions (a quarter of the analytic moments' time)."""
+    products = values * weights
+    n = products.shape[-1]
+    if not 2 <= n < 8:
+        return products.sum(-1)
+    total = products[..., 0] + products[..., 1]
+    for k in range(2, n):
+        total += products[..., k]
+    total += 0.0  # numpy starts from +0: a sum of -0 terms is +0
+    return total
 
 
 @functools.lru_cache(maxsize=1)
