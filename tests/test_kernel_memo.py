@@ -1,6 +1,6 @@
-"""The process's kernel memo (``e2esim.case.KernelMemo``, issues 27 and 28): the node terms of the multi-pass moments found again
-by value across cases give the numbers of a computation without it, bit for bit; it is bounded, keyed by content
-(never by an object's id) and starts empty in another process."""
+"""The process's kernel memo (``e2esim.case.KernelMemo``, issues 27 and 28): the node terms of the multi-pass
+moments found again by value across cases give the numbers of a computation without it, bit for bit; it is bounded,
+keyed by content (never by an object's id) and starts empty in another process."""
 
 import dataclasses
 import pickle
