@@ -139,3 +139,26 @@ def test_bad_form_and_reference_are_rejected():
         hv_error_moments(forest(), system(), ConstantFaraday(0.0), form="exact")
     with pytest.raises(ValueError, match="reference must be one of"):
         hv_error_moments(forest(), system(), ConstantFaraday(0.0), reference="truth")
+
+
+def test_the_quadrature_average_is_numpys_sum_bit_for_bit(rng):
+    """``_average`` writes out the sum over the short node axis (numpy's reduction over it is the slow part of the
+    analytic moments): it must stay numpy's ``(values * weights).sum(-1)`` bit for bit, signed zeros included, for
+    any node count, any layout and values of any size (the number lock and the case-alone identity rest on it)."""
+    from e2esim.distortion import analytic
+
+    for trial in range(300):
+        shape = [(257, 5), (5,), (3, 7, 5), (1, 5), (4, 2), (6, 3), (6, 4), (6, 6), (6, 7), (6, 1), (6, 8), (2, 16)][
+            trial % 12]
+        values = rng.standard_normal(shape) * 10.0 ** rng.uniform(-30, 30, size=shape)
+        u = rng.uniform(size=shape)
+        values[u < 0.1], values[(u >= 0.1) & (u < 0.2)] = 0.0, -0.0
+        values[u > 0.98] = np.inf if trial % 2 else -np.inf
+        if trial % 3 == 0 and values.ndim > 1:
+            values = np.asfortranarray(values)
+        weights = rng.standard_normal(shape[-1:]) if trial % 4 else -np.zeros(shape[-1:])
+        with np.errstate(invalid="ignore"):
+            expected, got = (values * weights).sum(-1), analytic._average(values, weights)
+        assert np.shape(got) == np.shape(expected)
+        np.testing.assert_array_equal(got, expected)
+        np.testing.assert_array_equal(np.signbit(got), np.signbit(expected))

@@ -131,23 +131,25 @@ def test_a_repeat_cycle_no_orbit_can_keep_exits_2_naming_the_key(tmp_path, capsy
 
 
 def test_a_second_run_of_the_same_campaign_reuses_its_outcome(tmp_path, monkeypatch):
-    """`e2esim run` and its chain schedule search run the same campaign twice in one process, each run with its own
-    memo: the campaign is computed once; any other setting or orbit computes it again."""
+    """`e2esim run` and its chain schedule search run the same campaign twice in one process, each run handed the
+    process's memo: the campaign is computed once; any other setting or orbit computes it again, and only the last
+    campaign is kept."""
     from types import SimpleNamespace
 
     from e2esim.campaign import modules
+    from e2esim.case import KernelMemo
 
     path = _scenario(tmp_path, mission_years=0.3)
     given = {k: v for k, v in yaml.safe_load(path.read_text())["calibration"][0].items() if k != "type"}
     computed = []
-    monkeypatch.setattr(modules, "_LAST_OUTCOME", {})
+    memo = KernelMemo()  # the process's memo: every run of the process is handed it
     monkeypatch.setattr(modules, "compute_outcome", lambda module, setup, assumed: computed.append(setup) or object())
     monkeypatch.setattr(modules.Campaign, "setup_for", lambda self, orbit, frequency: (orbit, frequency))
 
     class Case(dict):
         def __init__(self, orbit):
             super().__init__(geometry=SimpleNamespace(orbit=orbit))
-            self.services = SimpleNamespace(memo={})  # a new run: a new memo
+            self.services = SimpleNamespace(memo=memo)  # a new run: the same process memo
 
     campaign = modules.Campaign(**given)
     first = campaign.outcome(Case("orbit A"))
@@ -155,3 +157,4 @@ def test_a_second_run_of_the_same_campaign_reuses_its_outcome(tmp_path, monkeypa
     assert modules.Campaign(**{**given, "epoch_day": 70.0}).outcome(Case("orbit A")) is first
     assert modules.Campaign(**{**given, "transponder_per_year": 1}).outcome(Case("orbit A")) is not first
     assert campaign.outcome(Case("orbit B")) is not first and len(computed) == 3
+    assert campaign.outcome(Case("orbit A")) is not first and len(computed) == 4  # one campaign kept (bounded)

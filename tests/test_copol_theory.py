@@ -134,12 +134,19 @@ def test_estimated_correction_averages_the_residual_rotation_exactly(rng):
 
 def test_equal_residual_rotations_share_one_polynomial(rng):
     # each case of a sweep (and each step of an allocation search) draws a new EmpiricalFaraday residual: one of
-    # equal samples is the same quadrature, so the polynomial is computed once and shared, not rebuilt
-    scene, sys_model, fr = forest("boreal_200"), system(), GaussianFaraday(0.4, 0.05)
+    # equal samples is the same quadrature, so the polynomial is computed once and shared through the process's
+    # kernel memo (handed in as ``case.services.memo``), not rebuilt
+    from e2esim.case import KernelMemo
+
+    scene, sys_model, fr, memo = forest("boreal_200"), system(), GaussianFaraday(0.4, 0.05), KernelMemo()
     samples = rng.normal(0.0, 0.02, 50)
-    first = error_polynomial(scene, sys_model, fr, FaradayCorrection("estimated", EmpiricalFaraday(samples)))
-    again = error_polynomial(scene, sys_model, fr, FaradayCorrection("estimated", EmpiricalFaraday(samples.copy())))
-    other = error_polynomial(scene, sys_model, fr, FaradayCorrection("estimated", EmpiricalFaraday(samples * 2)))
+
+    def polynomial(residual):
+        return error_polynomial(scene, sys_model, fr, FaradayCorrection("estimated", residual), memo)
+
+    first = polynomial(EmpiricalFaraday(samples))
+    again = polynomial(EmpiricalFaraday(samples.copy()))
+    other = polynomial(EmpiricalFaraday(samples * 2))
     assert again is first and other is not first
 
 

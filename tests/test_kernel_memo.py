@@ -1,6 +1,6 @@
-"""The run's kernel memo (``e2esim.case.KernelMemo``, issue 28): the node terms of the multi-pass moments found again
-by value across cases give the numbers of a computation without it, bit for bit; it is bounded, keyed by content
-(never by an object's id) and starts empty in another process."""
+"""The process's kernel memo (``e2esim.case.KernelMemo``, issues 27 and 28): the node terms of the multi-pass
+moments found again by value across cases give the numbers of a computation without it, bit for bit; it is bounded,
+keyed by content (never by an object's id) and starts empty in another process."""
 
 import dataclasses
 import pickle
@@ -92,3 +92,23 @@ def test_the_joint_totals_read_the_diagonal_alone_and_equal_the_full_moments_bit
     mean, cov = stack_joint_moments(*args, difference_variance=np.array([[[1e-3]], [[0.2]]]), totals_only=True)
     np.testing.assert_array_equal(mean, full.mean)
     np.testing.assert_array_equal(cov, full.covariance)
+
+
+def test_recall_keeps_a_bounded_number_of_each_kind_and_the_process_memo_is_one():
+    """The one in-memory cache (docs/architecture.md, "Caching"): ``recall`` makes a value once per key, keeps at
+    most ``keep`` of a kind (the least recently used leave first) without touching the other kinds, and the
+    process's memo is what the runner and a case made outside a run are handed."""
+    import e2esim.case as case_module
+    from e2esim.runner.cases import default_services
+
+    memo, made = KernelMemo(max_entries=10), []
+    for k in (1, 2, 1, 3):
+        memo.recall(("poly", k), lambda k=k: made.append(k) or [k], keep=2)
+    memo.recall(("table", 0), lambda: made.append("t") or ["t"], keep=1)
+    assert made == [1, 2, 3, "t"]  # the second 1 was found
+    assert memo.get(("poly", 2)) is None and memo.get(("poly", 1)) == [1] and memo.get(("table", 0)) == ["t"]
+    for k in range(20):
+        memo[("other", k)] = k
+    assert len(memo) == 10  # bounded in entries too
+    assert case_module.Services().memo is case_module.process_memo() is default_services().memo
+    assert pickle.loads(pickle.dumps(case_module.process_memo())) is case_module.process_memo()

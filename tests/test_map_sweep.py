@@ -122,7 +122,8 @@ def test_lookup_equals_the_climatology_statistics_of_the_cell():
     for pass_name, p in (("dawn", 0), ("dusk", 1)):
         module = GlobalClimatologyLookup(**config, **{"pass": pass_name, "solar": "max"})
         fr = module.forward(case)["faraday.geophysical"]
-        table = month_table(module.orbit, 10.0, 3, 180.0, module.incidence_deg, module.settings, (-10, 20), (0, 30))
+        table = month_table(module.orbit, 10.0, 3, 180.0, module.incidence_deg, module.settings, (-10, 20), (0, 30),
+                            memo=case.services.memo)  # the table the forward made
         assert table.passes == ("ascending", "descending") and table.pass_labels[p] == pass_name
         stats = table.statistics(frequency, 0.25, 3, months=[3])
         i, j = cell_index(table.lat_deg, 15.0)[0], cell_index(table.lon_deg, 25.0)[0]

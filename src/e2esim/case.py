@@ -125,14 +125,18 @@ class ItemProducts(LazyMapping, Products):
 
 
 class KernelMemo:
-    """What a run's kernels computed, kept in memory and found again by the content it was computed from (a key a
-    kernel derives from the bytes of its inputs, never an id()): cases of a sweep that share a geometry share the
-    work (the node terms of the stack's moments at each searched Faraday-rotation difference, issue 28). Bounded by
-    the bytes of the arrays it holds (the least recently used go first); a value is the kernel's own result, so a
-    number never depends on whether it was found. Sent to another process, it starts empty there."""
+    """The process's memory of what kernels computed: the one in-memory cache, handed to stages and kernels through
+    ``Services.memo`` (docs/architecture.md, "Caching"). A value is found again by the content it was computed from
+    (a key a kernel derives from the values of its inputs, never an id()): cases and runs of one process that share
+    a geometry, a polynomial, a month table or a campaign share the work. Bounded by the bytes of the arrays it holds
+    and by a number of entries in all and per kind (``recall``'s ``keep``; the kind is a key's first element), the
+    least recently used going first; a value is the kernel's own result, so a number never depends on whether it
+    was found. It holds computed values only, never a user's file (a value read from one is keyed by the file's
+    path, size and modification time and lives in memory only). Sent to another process, it starts empty there
+    (the process's own memory, ``process_memo``, is that process's memory there)."""
 
-    def __init__(self, max_bytes: int = 64 * 2**20):
-        self.max_bytes = max_bytes
+    def __init__(self, max_bytes: int = 64 * 2**20, max_entries: int = 512):
+        self.max_bytes, self.max_entries = max_bytes, max_entries
         self._values: dict = {}  # key -> (value, bytes), least recently used first
         self._bytes = 0
 
@@ -150,14 +154,42 @@ class KernelMemo:
         old = self._values.pop(key, None)
         self._bytes += size - (old[1] if old else 0)
         self._values[key] = (value, size)
-        while self._bytes > self.max_bytes:  # the least recently used first
+        while self._bytes > self.max_bytes:  # the least recently used of those that hold arrays
+            self._bytes -= self._values.pop(next(k for k, item in self._values.items() if item[1]))[1]
+        while len(self._values) > self.max_entries:  # the least recently used
             self._bytes -= self._values.pop(next(iter(self._values)))[1]
+
+    def recall(self, key: tuple, make: Callable, keep: int | None = None):
+        """The value of ``key`` (a tuple of plain values, its first the kind), ``make()`` when not kept; at most
+        ``keep`` entries of the kind stay (the least recently used leave first)."""
+        found = self.get(key)
+        if found is None:
+            found = make()
+            self[key] = found
+            if keep is not None:
+                same = [k for k in self._values if isinstance(k, tuple) and k and k[0] == key[0]]
+                for k in same[:max(0, len(same) - keep)]:
+                    self._bytes -= self._values.pop(k)[1]
+        return found
 
     def __len__(self) -> int:
         return len(self._values)
 
     def __reduce__(self):
-        return (KernelMemo, (self.max_bytes,))
+        if _PROCESS_MEMO and self is _PROCESS_MEMO[0]:
+            return (process_memo, ())
+        return (KernelMemo, (self.max_bytes, self.max_entries))
+
+
+_PROCESS_MEMO: list = []  # the process's KernelMemo, made on first use (``process_memo``)
+
+
+def process_memo() -> KernelMemo:
+    """This process's ``KernelMemo``: what the runner hands every run's stages (``Services.memo``), and what a
+    case made outside a run (a test, ``check_module``, a one-case call) gets by default."""
+    if not _PROCESS_MEMO:
+        _PROCESS_MEMO.append(KernelMemo())
+    return _PROCESS_MEMO[0]
 
 
 @dataclass(frozen=True)
@@ -175,8 +207,9 @@ class Services:
     cache: Callable | None = None
     progress: Callable | None = None
     executor: Any = None
-    memo: Any = None
-    """A ``KernelMemo`` (or None): what the kernels of this run computed, found again by value across cases."""
+    memo: Any = field(default_factory=process_memo)
+    """A ``KernelMemo`` (or None for none): what the kernels of this process computed, found again by value across
+    cases and runs (default: ``process_memo()``)."""
 
     def cache_for(self, setting):
         return None if self.cache is None else self.cache(setting)

@@ -3,7 +3,7 @@
 It runs the campaign over the mission (``e2esim.campaign.campaign``) and states, as ``residual_system`` does, the
 residual crosstalk, channel imbalance and gain error at the mission day ``epoch_day``; sweeping ``epoch_day``
 gives the AGB error and verdict against mission time through the ordinary chain. The campaign is computed once
-per run and settings (the run's kernel memo), whatever the number of epochs swept.
+per process and settings (the process's kernel memo), whatever the number of epochs swept.
 """
 
 from __future__ import annotations
@@ -191,27 +191,22 @@ class Campaign(CalibrationModule):
         return setup
 
     def outcome(self, case) -> CampaignOutcome:
-        """The campaign and the schedule search, once per run and settings (the run's kernel memo), and once per
-        process for the last settings: ``e2esim run`` and its chain schedule search (``flowdown.campaign_schedule``,
-        a second run of the same campaign at its worst epoch) share it. The key holds every setting it is computed
+        """The campaign and the schedule search, once per process and settings (the process's kernel memo,
+        ``case.services.memo``): ``e2esim run`` and its chain schedule search (``flowdown.campaign_schedule``, a
+        second run of the same campaign at its worst epoch) share it. The key holds every setting it is computed
         from (the step's settings but the epoch, the orbit, the frequency and whether it is assumed)."""
         memo = getattr(case.services, "memo", None)
         frequency, assumed = self.frequency_hz(case.get("instrument"))
         key = ("campaign", repr(sorted((k, repr(v)) for k, v in self.config.items() if k != "epoch_day")),
                repr(case["geometry"].orbit), frequency, assumed)
-        found = memo.get(key) if memo is not None else None
-        if found is None:
-            found = _LAST_OUTCOME.get(key)
-        if found is None:
+
+        def compute():
             try:
-                found = compute_outcome(self, self.setup_for(case["geometry"].orbit, frequency), assumed)
+                return compute_outcome(self, self.setup_for(case["geometry"].orbit, frequency), assumed)
             except PhysicsInputError as exc:  # at run time: name the scenario file and the key path here
                 raise ConfigError(exc.location(self.location), self._where_from(str(exc))) from None
-            _LAST_OUTCOME.clear()
-            _LAST_OUTCOME[key] = found
-        if memo is not None:
-            memo[key] = found
-        return found
+
+        return compute() if memo is None else memo.recall(key, compute, keep=CAMPAIGNS_KEPT)
 
     def frequency_hz(self, instrument) -> tuple:
         """(centre frequency in Hz, whether it is assumed): ``frequency_mhz`` if stated, else the instrument
@@ -231,7 +226,8 @@ class Campaign(CalibrationModule):
         return [(self.type_name, step)]
 
 
-_LAST_OUTCOME: dict = {}  # the last campaign this process computed (``Campaign.outcome``)
+CAMPAIGNS_KEPT = 1
+"""Campaign outcomes a process keeps (``Campaign.outcome``): the last one, as its runs ask it again."""
 
 
 @dataclass(frozen=True)

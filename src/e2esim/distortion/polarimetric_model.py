@@ -13,6 +13,7 @@ from __future__ import annotations
 import dataclasses
 import math
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -44,13 +45,16 @@ class PolarimetricErrorModel(SystemLevels, ModelEvaluation, MultiChannelErrorMod
     scene, system, faraday : what the error is computed for (the residual system; the Faraday rotation in the
         data). correction : how the co-polarised channels treat the rotation. The keyword-only fields are
         ``ModelEvaluation``'s (looks and reference as in ``polarimetric_error_moments``; ``montecarlo`` is a
-        ``CovarianceSamples``).
+        ``CovarianceSamples``). kernel_memo : the process's ``KernelMemo`` (``case.services.memo``) or None:
+        the level polynomial found again by value across cases and runs.
     """
 
     scene: ScatteringCovariance
     system: SystemErrorModel
     faraday: FaradayDistribution
     correction: FaradayCorrection = field(default_factory=FaradayCorrection)
+    kernel_memo: Any = field(default=None, repr=False, compare=False, kw_only=True)
+    plain_transient = ("kernel_memo",)  # a cache: not stored with the model
 
     channel = "hv"
     channels = RECIPROCAL_CHANNELS
@@ -64,7 +68,8 @@ class PolarimetricErrorModel(SystemLevels, ModelEvaluation, MultiChannelErrorMod
     def polynomial(self):
         """The level polynomial of the moments (``ErrorPolynomial``), computed once."""
         if "polynomial" not in self._memo:
-            self._memo["polynomial"] = error_polynomial(self.scene, self.system, self.faraday, self.correction)
+            memo = self.kernel_memo if hasattr(self.kernel_memo, "recall") else None  # decoded: an empty dict
+            self._memo["polynomial"] = error_polynomial(self.scene, self.system, self.faraday, self.correction, memo)
         return self._memo["polynomial"]
 
     def joint_moments(self, crosstalk=None, channel_imbalance=None, nesz=None, **unknown) -> JointMoments:

@@ -69,7 +69,8 @@ class PolarimetricErrorPropagation(Stage):
         unavailable, notes = analytic_use(self, case, system, VALIDITY["polarimetric"])
         notes = ((note,) if note else ()) + notes
         model = PolarimetricErrorModel(scene, system, faraday, correction, looks=s.looks,
-                                       reference=self.si["reference"], notes=notes, unavailable=unavailable)
+                                       reference=self.si["reference"], notes=notes, unavailable=unavailable,
+                                       kernel_memo=getattr(case.services, "memo", None))
         if unavailable is None:
             model.current_joint()  # evaluated here, once: every later stage reads it
         if s.montecarlo:
@@ -81,5 +82,6 @@ class PolarimetricErrorPropagation(Stage):
                 gauss = gaussianity(hv)
             model = PolarimetricErrorModel(scene, system, faraday, correction, looks=s.looks,
                                            reference=self.si["reference"], montecarlo=mc, gaussianity=gauss,
-                                           notes=notes, unavailable=unavailable, _memo=model._memo)
+                                           notes=notes, unavailable=unavailable, _memo=model._memo,
+                                           kernel_memo=getattr(case.services, "memo", None))
         return {"backscatter.error": model}

@@ -221,34 +221,35 @@ def evaluate_totals(poly: ErrorPolynomial, crosstalk, imbalance, noise_power, ga
     return mean, cov
 
 
-def error_polynomial(scene, system, faraday, correction: FaradayCorrection | None = None) -> ErrorPolynomial:
-    """``ErrorPolynomial`` for a ``ScatteringCovariance``, ``SystemErrorModel`` and ``FaradayDistribution``; the
-    last few are kept, for the sweep cases that share them (e.g. several retrievals of the same data, or the
-    level searches of ``e2esim allocate``). Keyed by the values ``ErrorPolynomial.build`` reads (the quadrature
-    nodes and weights, not the distribution objects: a case's residual rotation is a new ``EmpiricalFaraday``
-    of equal samples), so a hit is the same polynomial bit for bit."""
+def error_polynomial(scene, system, faraday, correction: FaradayCorrection | None = None,
+                     memo=None) -> ErrorPolynomial:
+    """``ErrorPolynomial`` for a ``ScatteringCovariance``, ``SystemErrorModel`` and ``FaradayDistribution``.
+    ``memo`` (the process's ``KernelMemo``, ``case.services.memo``, or None) keeps the last ``POLYNOMIALS_KEPT``,
+    for the sweep cases that share them (e.g. several retrievals of the same data, or the level searches of
+    ``e2esim allocate``). Keyed by the values ``ErrorPolynomial.build`` reads (the quadrature nodes and weights,
+    not the distribution objects: a case's residual rotation is a new ``EmpiricalFaraday`` of equal samples), so a
+    hit is the same polynomial bit for bit."""
     correction = correction or FaradayCorrection()
     gammas = unit_covariances(system)
     omega, omega_hat, weights = correction.nodes(faraday, CORRECTED_DEGREE)
-    key = tuple(None if a is None else (np.shape(a), np.ascontiguousarray(a).tobytes())
-                for a in (scene.matrix, gammas, omega, omega_hat, weights))
-    poly = _RECENT.pop(key, None)  # re-inserted below: the least recently used one leaves first
-    if poly is None:
-        poly = ErrorPolynomial.build(scene.matrix, gammas, omega, omega_hat, weights)
-        if len(_RECENT) >= _RECENT_SIZE:
-            _RECENT.pop(next(iter(_RECENT)))
-    _RECENT[key] = poly
-    return poly
+
+    def build():
+        return ErrorPolynomial.build(scene.matrix, gammas, omega, omega_hat, weights)
+
+    if memo is None:
+        return build()
+    key = ("error polynomial",) + tuple(None if a is None else (np.shape(a), np.ascontiguousarray(a).tobytes())
+                                        for a in (scene.matrix, gammas, omega, omega_hat, weights))
+    return memo.recall(key, build, keep=POLYNOMIALS_KEPT)
 
 
-_RECENT: dict = {}
-_RECENT_SIZE = 32
+POLYNOMIALS_KEPT = 32
 
 
 def polarimetric_error_moments(scene, system, faraday, correction: FaradayCorrection | None = None,
                                looks: int | None = None, reference: str = "scene", crosstalk_level=None,
-                               imbalance_level=None, noise_power=None, higher_order: bool = True
-                               ) -> ChannelErrorMoments:
+                               imbalance_level=None, noise_power=None, higher_order: bool = True,
+                               memo=None) -> ChannelErrorMoments:
     """Mean and covariance of the errors of (sigma_hh, sigma_hv, sigma_vv) (module docstring).
 
     scene, system, faraday : ``ScatteringCovariance`` (any Hermitian covariance: complex HH-VV correlation,
@@ -256,9 +257,10 @@ def polarimetric_error_moments(scene, system, faraday, correction: FaradayCorrec
     ``FaradayDistribution`` of Omega. correction : how the co-polarised channels treat Faraday rotation
     (default: not corrected). looks, reference : as ``hv_error_moments``. crosstalk_level, imbalance_level,
     noise_power : replace V_delta, V_eps, sigma_n (broadcast). higher_order : False leaves out the O(V^3) and
-    O(V^4) covariance terms (co-pol eq. 3.6), as the HV model of Men et al. (2021) does.
+    O(V^4) covariance terms (co-pol eq. 3.6), as the HV model of Men et al. (2021) does. memo : as
+    ``error_polynomial``.
     """
-    poly = error_polynomial(scene, system, faraday, correction)
+    poly = error_polynomial(scene, system, faraday, correction, memo)
     return evaluate(poly, system.crosstalk_level if crosstalk_level is None else crosstalk_level,
                     system.imbalance_level if imbalance_level is None else imbalance_level,
                     system.noise_power if noise_power is None else noise_power,

@@ -102,11 +102,14 @@ class BlockWrappedModel(Batched, ErrorModel):
     def _base_moments(self) -> Moments:
         """``base.moments()``, evaluated once per base model among the variants that share ``_shared``: a Shapley
         split's 2^k variants (``ErrorModel.source_subsets``) have far fewer distinct bases (the base's own 2^j), each
-        asked once instead of once per variant. Kept with its base, whose id is the key while it lives."""
-        memo = self._shared.setdefault("base moments", {})
-        if id(self.base) not in memo:
-            memo[id(self.base)] = (self.base, self.base.moments())
-        return memo[id(self.base)][1]
+        asked once instead of once per variant. Found by the base object itself (``is``, never its id()), which the
+        list holds."""
+        known = self._shared.setdefault("base moments", [])
+        for base, moments in known:
+            if base is self.base:
+                return moments
+        known.append((self.base, self.base.moments()))
+        return known[-1][1]
 
     def _stacks(self) -> list:
         """[(effect, columns, rows)]: the cases ``rows`` whose effects are evaluated together, as ``effect`` alone

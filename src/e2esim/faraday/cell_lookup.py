@@ -4,7 +4,8 @@ The table (``e2esim.faraday.global_climatology``) holds, per pass, solar level, 
 cell, the path integrals F = int N_e B.k ds, the slant and the vertical TEC of the ray from the cell centre to
 the satellite (the IRI monthly median on the 15th at the pass's local time; Quegan et al. 2018, eq. 3 for
 Omega = A F / f^2). A map sweep needs one month of it at a time: ``month_table`` computes the table of one
-month, both passes and one solar level once per process (and through the array cache once per machine), and
+month, both passes and one solar level once per process (the process's kernel memo, handed in through the
+services) and through the array cache once per machine, and
 every case of that month looks its cell up with ``cell_integrals``, vectorised over any number of cells, so
 that the cases of a map sweep cost no ionospheric integration of their own.
 """
@@ -12,7 +13,6 @@ that the cases of a map sweep cost no ionospheric integration of their own.
 from __future__ import annotations
 
 import json
-from collections import OrderedDict
 
 import numpy as np
 
@@ -23,28 +23,25 @@ from e2esim.orbit.sunsync import PASSES
 MAX_TABLES = 32
 """Tables kept in memory per process (a 1 deg global month, both passes, three swath positions: 4.7 MB)."""
 
-_TABLES: OrderedDict = OrderedDict()
-
 
 def month_table(orbit, step_deg: float, month: int, f107: float, incidence_deg, settings, lat_range=(-90.0, 90.0),
-                lon_range=(-180.0, 180.0), cache=None, executor=None, progress=None) -> GlobalClimatology:
+                lon_range=(-180.0, 180.0), cache=None, executor=None, progress=None, memo=None) -> GlobalClimatology:
     """The global climatology table of one ``month`` (1-12), both passes (``PASSES``) and one solar level
-    ``f107`` (sfu) at ``incidence_deg`` (swath positions): from this process's memory, else from ``cache``, else
-    computed (``global_climatology``). Cases of a map sweep share it."""
+    ``f107`` (sfu) at ``incidence_deg`` (swath positions): from ``memo`` (the process's ``KernelMemo``, which
+    keeps the last ``MAX_TABLES``), else from ``cache``, else computed (``global_climatology``). Cases of a map
+    sweep share it."""
+
+    def compute():
+        return global_climatology(orbit, step_deg, months=(int(month),), passes=PASSES, f107=(float(f107),),
+                                  incidence_deg=tuple(float(i) for i in incidence_deg), settings=settings,
+                                  executor=executor, cache=cache, progress=progress, lat_range=tuple(lat_range),
+                                  lon_range=tuple(lon_range))
+
+    if memo is None:
+        return compute()
     key = json.dumps([repr(orbit), float(step_deg), int(month), float(f107), [float(i) for i in incidence_deg],
                       repr(settings), [float(x) for x in lat_range], [float(x) for x in lon_range]])
-    table = _TABLES.get(key)
-    if table is None:
-        table = global_climatology(orbit, step_deg, months=(int(month),), passes=PASSES, f107=(float(f107),),
-                                   incidence_deg=tuple(float(i) for i in incidence_deg), settings=settings,
-                                   executor=executor, cache=cache, progress=progress, lat_range=tuple(lat_range),
-                                   lon_range=tuple(lon_range))
-        _TABLES[key] = table
-        while len(_TABLES) > MAX_TABLES:
-            _TABLES.popitem(last=False)
-    else:
-        _TABLES.move_to_end(key)
-    return table
+    return memo.recall(("month table", key), compute, keep=MAX_TABLES)
 
 
 def cell_index(axis_deg: np.ndarray, value_deg, periodic: bool = False) -> tuple:

@@ -13,12 +13,11 @@ The product is the ``FaradayClimatology`` of those samples, as the site climatol
 
 from __future__ import annotations
 
-from functools import lru_cache
-
 import numpy as np
 
 from e2esim import products as P
 from e2esim.block import Values
+from e2esim.case import process_memo
 from e2esim.errors import ConfigError, PhysicsInputError
 from e2esim.faraday.cell_lookup import cell_integrals, month_table
 from e2esim.faraday.climatology_block import FaradayClimatologyBlock
@@ -153,7 +152,7 @@ class GlobalClimatologyLookup(Stage):
         return month_table(self.orbit, c["grid_step_deg"], c["month"] if month is None else month,
                            self.f107 if f107 is None else f107, self.incidence_deg, self.settings,
                            c["table_lat_range_deg"], c["table_lon_range_deg"], cache=services.cache_for(c["cache_dir"]),
-                           executor=services.executor, progress=services.progress)
+                           executor=services.executor, progress=services.progress, memo=services.memo)
 
     forward_takes_blocks = True
 
@@ -194,18 +193,30 @@ class GlobalClimatologyLookup(Stage):
                        key="lat_deg")
 
 
-@lru_cache(maxsize=64)
+SETTINGS_KEPT = 64
+"""Orbits and slant settings a process keeps (the process's ``KernelMemo``), for every cell of a map."""
+
+
 def _orbit_and_swath(altitude_m, ltan_hours, look_side, earth_rotation, near_rad, far_rad, samples) -> tuple:
-    """The orbit and its swath positions (incidence, deg), made once for all cells of a map."""
-    orbit = SunSynchronousOrbit(altitude_m, ltan_hours, look_side, earth_rotation)
-    return orbit, tuple(float(x) for x in np.degrees(swath_incidences(orbit, near_rad, far_rad, samples)))
+    """The orbit and its swath positions (incidence, deg), made once for all cells of a map (the module is set up
+    before any services exist: the process's memo)."""
+    def make():
+        orbit = SunSynchronousOrbit(altitude_m, ltan_hours, look_side, earth_rotation)
+        return orbit, tuple(float(x) for x in np.degrees(swath_incidences(orbit, near_rad, far_rad, samples)))
+
+    key = ("map orbit", altitude_m, ltan_hours, look_side, earth_rotation, near_rad, far_rad, samples)
+    return process_memo().recall(key, make, keep=SETTINGS_KEPT)
 
 
-@lru_cache(maxsize=64)
 def _slant_settings(method, shell_height_m, bottom_height_m, layer_step_m, field_kind, epoch, coefficients):
-    """The slant-integration settings, made once for all cells of a map."""
-    return SlantSettings(method=method, shell_height_m=shell_height_m, bottom_height_m=bottom_height_m,
-                         layer_step_m=layer_step_m, field=FieldModel(field_kind, epoch, coefficients))
+    """The slant-integration settings, made once for all cells of a map (the process's memo)."""
+    def make():
+        return SlantSettings(method=method, shell_height_m=shell_height_m, bottom_height_m=bottom_height_m,
+                             layer_step_m=layer_step_m, field=FieldModel(field_kind, epoch, coefficients))
+
+    key = ("map slant settings", method, shell_height_m, bottom_height_m, layer_step_m, field_kind, epoch,
+           coefficients)
+    return process_memo().recall(key, make, keep=SETTINGS_KEPT)
 
 
 def visible_latitudes(orbit_config: dict, lat_deg, pass_name: str) -> np.ndarray:

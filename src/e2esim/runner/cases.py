@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 from tqdm.auto import tqdm
 
-from e2esim.case import Case, KernelMemo, Products, Services
+from e2esim.case import Case, Products, Services, process_memo
 from e2esim.requirements.attribution import VERDICTS_ONLY
 from e2esim.runner.blocks import BlockRun
 from e2esim.runner.case_results import BlockResult, CaseResult
@@ -24,8 +24,8 @@ def case_generator(seed: int, index: int) -> np.random.Generator:
 def default_services(progress: bool = False, cache=None) -> Services:
     """What the runner hands to stages: the array cache of a module's setting (``cache(setting)``, handed in by
     whoever runs the scenario: the front doors give ``e2esim.io.array_cache.open_cache``; None: no cache), a
-    progress bar for long kernels on the command line, and the run's kernel memo (``KernelMemo``)."""
-    return Services(cache=cache, progress=_progress_bar if progress else None, memo=KernelMemo())
+    progress bar for long kernels on the command line, and the process's kernel memo (``process_memo``)."""
+    return Services(cache=cache, progress=_progress_bar if progress else None, memo=process_memo())
 
 
 def _progress_bar(iterable, total=None, description=""):

@@ -16,7 +16,6 @@ pixel beyond the map's edge is outside the map (NaN). Maps are read once per pro
 from __future__ import annotations
 
 from dataclasses import dataclass
-from functools import lru_cache
 from pathlib import Path
 
 import numpy as np
@@ -67,10 +66,11 @@ class AGBMap:
         return _pixel(self.lat_deg, lat, False)[1] & _pixel(self.lon_deg, lon, _is_global(self.lon_deg))[1]
 
 
-def read_agb_map(path, variable: str = "agb") -> AGBMap:
-    """The AGB map in ``path`` (NetCDF or GeoTIFF, by suffix); NetCDF ``variable`` holds AGB. Read once per
-    file version (path, size and modification time). Raises ``PhysicsInputError`` (key ``file`` or
-    ``variable``) for a file that is missing or not such a map."""
+def read_agb_map(path, variable: str = "agb", memo=None) -> AGBMap:
+    """The AGB map in ``path`` (NetCDF or GeoTIFF, by suffix); NetCDF ``variable`` holds AGB. With ``memo`` (the
+    process's ``KernelMemo``), read once per file version (path, size and modification time; the last
+    ``MAPS_KEPT`` maps are kept, in memory only). Raises ``PhysicsInputError`` (key ``file`` or ``variable``) for a
+    file that is missing or not such a map."""
     path = Path(path).expanduser()
     try:
         stat = regular_file_stat(path)
@@ -79,11 +79,17 @@ def read_agb_map(path, variable: str = "agb") -> AGBMap:
                                 "GeoTIFF file", key="file") from exc
     except OSError as exc:
         raise PhysicsInputError(f"cannot read the AGB map {str(path)!r}: {exc.strerror or exc}", key="file") from exc
-    return _read_cached(str(path.resolve()), stat.st_size, stat.st_mtime_ns, variable)
+    where = str(path.resolve())
+    if memo is None:
+        return _read(where, variable)
+    return memo.recall(("agb map", where, stat.st_size, stat.st_mtime_ns, variable), lambda: _read(where, variable),
+                       keep=MAPS_KEPT)
 
 
-@lru_cache(maxsize=4)
-def _read_cached(path: str, size: int, mtime_ns: int, variable: str) -> AGBMap:
+MAPS_KEPT = 4
+
+
+def _read(path: str, variable: str) -> AGBMap:
     kind = SUFFIXES.get(Path(path).suffix.lower())
     if kind is None:
         raise PhysicsInputError(f"{path!r} is neither NetCDF nor GeoTIFF by its name; expected a file ending in "

@@ -56,12 +56,13 @@ class ForestSource:
     agb_map: AGBMap | None = None
 
     @classmethod
-    def from_si(cls, si, scenario_file: str = "") -> ForestSource:
-        """From the SI values of ``FOREST_PARAMS`` (reads the AGB map, once per file version; a relative path is
-        relative to ``scenario_file``'s folder when that file exists)."""
+    def from_si(cls, si, scenario_file: str = "", memo=None) -> ForestSource:
+        """From the SI values of ``FOREST_PARAMS`` (reads the AGB map, once per file version with ``memo``, the
+        process's ``KernelMemo``; a relative path is relative to ``scenario_file``'s folder when that file
+        exists)."""
         agb_map = None
         if si["file"]:
-            agb_map = read_agb_map(scenario_relative(si["file"], scenario_file), si["variable"])
+            agb_map = read_agb_map(scenario_relative(si["file"], scenario_file), si["variable"], memo)
         return cls(float(si["tropical_lat_deg"]), tuple(si["boreal_lat_range_deg"]),
                    (("tropical", si["tropical_forest"]), ("boreal", si["boreal_forest"])), si["temperate_biome"],
                    agb_map)

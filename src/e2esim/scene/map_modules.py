@@ -17,6 +17,7 @@ import numpy as np
 
 from e2esim import products as P
 from e2esim.block import Catalog, Factor, Values
+from e2esim.case import process_memo
 from e2esim.errors import ConfigError, PhysicsInputError
 from e2esim.module import Stage, fail
 from e2esim.params import Param, to_si, validate_section
@@ -50,7 +51,7 @@ class AGBMapScene(Stage):
         """The cells (n_lat, n_lon) this section's latitude bands and AGB map give a forest class."""
         config = validate_section(FOREST_PARAMS, section, where, ignore=("type", "lat_deg", "lon_deg"))
         try:
-            source = ForestSource.from_si(to_si(FOREST_PARAMS, config), where.source)
+            source = ForestSource.from_si(to_si(FOREST_PARAMS, config), where.source, process_memo())
         except PhysicsInputError as exc:
             raise ConfigError(exc.location(where), str(exc)) from exc
         biome, _ = source.forest(np.asarray(lat_deg)[:, None], np.asarray(lon_deg)[None, :])
@@ -58,7 +59,7 @@ class AGBMapScene(Stage):
 
     def setup(self):
         c = self.si
-        self.source = ForestSource.from_si(c, self.location.source)
+        self.source = ForestSource.from_si(c, self.location.source, process_memo())  # no services yet
         self._scenes, self._codes = Catalog(), {}  # the scene of every forest met so far, and its number there
         self.covariance = self.scene_at(c["lat_deg"], c["lon_deg"])
 
