@@ -18,8 +18,11 @@ SHARES = "requirements.1.allocation_share={speckle_noise: 0.6, temporal: 0.15, a
 
 @pytest.fixture(scope="module")
 def allocated(tmp_path_factory):
+    """The default scenario's quick run with allocation shares; read for its numbers and report, not its plots: it
+    draws none of the auto plots (those of the default scenario are checked on its quick run), a second of CPU less."""
     out = tmp_path_factory.mktemp("allocated")
-    sets = [a for s in (*quick_overrides("biomass_default"), SHARES) for a in ("--set", s)]
+    only_budget = "output.plots=[error_budget]"
+    sets = [a for s in (*quick_overrides("biomass_default"), SHARES, only_budget) for a in ("--set", s)]
     assert main(["run", str(DEFAULT), "-o", str(out), "--no-progress", "--force", *sets]) == 0
     return out
 

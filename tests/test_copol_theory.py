@@ -5,10 +5,15 @@ import numpy as np
 import pytest
 
 from e2esim.distortion.analytic import hv_error_moments
-from e2esim.distortion.channel_moments import CROSSTALK, IMBALANCE
+from e2esim.distortion.channel_moments import CROSSTALK, IMBALANCE, unit_covariances
 from e2esim.distortion.expansion import error_vector, estimator_matrix, evaluate, expansion
 from e2esim.distortion.faraday_correction import FaradayCorrection
-from e2esim.distortion.polarimetric_moments import error_polynomial, polarimetric_error_moments
+from e2esim.distortion.polarimetric_moments import (
+    ErrorPolynomial,
+    error_polynomial,
+    node_polynomials,
+    polarimetric_error_moments,
+)
 from e2esim.errors import PhysicsInputError
 from e2esim.faraday.distribution import ConstantFaraday, EmpiricalFaraday, GaussianFaraday
 from e2esim.instrument.system_errors import SystemErrorModel
@@ -148,6 +153,19 @@ def test_equal_residual_rotations_share_one_polynomial(rng):
     again = polynomial(EmpiricalFaraday(samples.copy()))
     other = polynomial(EmpiricalFaraday(samples * 2))
     assert again is first and other is not first
+
+
+def test_rotations_on_the_same_nodes_share_the_node_polynomials_bit_for_bit(rng):
+    # the residual rotations of one scene's cases share their quadrature nodes and differ in their weights: the
+    # conditional moments at the nodes are computed once (error_polynomial keeps them) and averaged per weights
+    scene, gammas = forest("boreal_200"), unit_covariances(system())
+    omega, omega_hat = rng.normal(0.4, 0.1, 9), rng.normal(0.0, 0.01, 9)
+    nodes = node_polynomials(scene.matrix, gammas, omega, omega_hat)
+    for weights in (rng.dirichlet(np.ones(9)), rng.dirichlet(np.ones(9))):
+        shared = ErrorPolynomial.build(scene.matrix, gammas, omega, omega_hat, weights, nodes)
+        fresh = ErrorPolynomial.build(scene.matrix, gammas, omega, omega_hat, weights)
+        for name in ("sigma", "mean", "cov", "spread", "cov_higher"):
+            assert np.array_equal(getattr(shared, name), getattr(fresh, name)), name
 
 
 def test_general_scene_covariance_is_accepted():

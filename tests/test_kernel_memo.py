@@ -112,3 +112,14 @@ def test_recall_keeps_a_bounded_number_of_each_kind_and_the_process_memo_is_one(
     assert len(memo) == 10  # bounded in entries too
     assert case_module.Services().memo is case_module.process_memo() is default_services().memo
     assert pickle.loads(pickle.dumps(case_module.process_memo())) is case_module.process_memo()
+
+
+def test_the_arrays_inside_a_tuple_count_towards_the_bound():
+    # node polynomials are kept as a tuple of arrays: their bytes bound the memo as a dict's or an array's do
+    memo = KernelMemo(max_bytes=1000)
+    memo[("nodes", 1)] = (np.zeros(100), (np.zeros(10), [np.zeros(5)]))  # 920 bytes: kept
+    assert memo.get(("nodes", 1)) is not None
+    memo[("nodes", 2)] = (np.zeros(100), np.zeros(100))  # 1,600 bytes: over the bound, never kept
+    assert memo.get(("nodes", 2)) is None
+    memo[("nodes", 3)] = (np.zeros(20),)  # 920 + 160 > 1,000: the least recently used array-holder leaves
+    assert memo.get(("nodes", 1)) is None and memo.get(("nodes", 3)) is not None

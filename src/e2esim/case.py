@@ -148,7 +148,7 @@ class KernelMemo:
         return item[0]
 
     def __setitem__(self, key, value) -> None:
-        size = sum(getattr(v, "nbytes", 0) for v in (value.values() if isinstance(value, dict) else (value,)))
+        size = _held_bytes(value)
         if size > self.max_bytes:
             return
         old = self._values.pop(key, None)
@@ -179,6 +179,15 @@ class KernelMemo:
         if _PROCESS_MEMO and self is _PROCESS_MEMO[0]:
             return (process_memo, ())
         return (KernelMemo, (self.max_bytes, self.max_entries))
+
+
+def _held_bytes(value) -> int:
+    """The bytes of the arrays a memo value holds: itself, or those in a tuple, list or dict (nested)."""
+    if isinstance(value, dict):
+        return sum(_held_bytes(v) for v in value.values())
+    if isinstance(value, (tuple, list)):
+        return sum(_held_bytes(v) for v in value)
+    return getattr(value, "nbytes", 0)
 
 
 _PROCESS_MEMO: list = []  # the process's KernelMemo, made on first use (``process_memo``)

@@ -64,24 +64,33 @@ class ErrorPolynomial:
     cov_higher: np.ndarray
 
     @classmethod
-    def build(cls, scene_matrix, gammas, omega, omega_hat, weights) -> ErrorPolynomial:
-        """From the scene covariance (..., 3, 3), unit error covariances (2, 6, 6), nodes (G,) and weights (..., G)."""
-        omega = np.ascontiguousarray(omega, dtype=float)
-        oh = None if omega_hat is None else np.ascontiguousarray(omega_hat, dtype=float).tobytes()
-        exp = expansion_at(omega.tobytes(), oh, omega.shape)
-        cond = conditional_polynomials(exp, scene_matrix, gammas)
+    def build(cls, scene_matrix, gammas, omega, omega_hat, weights, nodes: tuple | None = None) -> ErrorPolynomial:
+        """From the scene covariance (..., 3, 3), unit error covariances (2, 6, 6), nodes (G,) and weights (..., G).
+        nodes : ``node_polynomials`` of the same scene, error covariances and nodes, if the caller has them."""
+        cond_mean, cond_cov, cond_higher = nodes or node_polynomials(scene_matrix, gammas, omega, omega_hat)
         w = np.asarray(weights, float)
-        mean = np.einsum("...g,...gkpq->...kpq", w, cond.mean)
-        cov = np.einsum("...g,...gkpq->...kpq", w, cond.cov)
-        higher = np.einsum("...g,...gkpq->...kpq", w, covariance_coefficients(exp, scene_matrix, gammas))
+        mean = np.einsum("...g,...gkpq->...kpq", w, cond_mean)
+        cov = np.einsum("...g,...gkpq->...kpq", w, cond_cov)
+        higher = np.einsum("...g,...gkpq->...kpq", w, cond_higher)
         sigma = np.real(np.diagonal(np.asarray(scene_matrix), axis1=-2, axis2=-1))
         # conditional mean errors (the true power taken out of the constant term: less cancellation below)
-        diag = np.real(np.diagonal(cond.mean, axis1=-2, axis2=-1)).copy()  # (..., G, 6, 3)
+        diag = np.real(np.diagonal(cond_mean, axis1=-2, axis2=-1)).copy()  # (..., G, 6, 3)
         diag[..., CONSTANT, :] -= sigma[..., None, :]
         mdiag = np.einsum("...g,...gkp->...kp", w, diag)
         spread = (np.einsum("...g,...gkp,...glq->...klpq", w, diag, diag)
                   - mdiag[..., :, None, :, None] * mdiag[..., None, :, None, :])
         return cls(sigma, mean, cov, spread, higher)
+
+
+def node_polynomials(scene_matrix, gammas, omega, omega_hat) -> tuple:
+    """The conditional moments at each node, before they are averaged with the weights: (mean (..., G, 6, 3, 3)
+    complex and cov (..., G, 6, 3, 3) of co-pol eqs. 3.2-3.3, the O(V^3) and O(V^4) covariance (..., G, 9, 3, 3)
+    of eq. 3.6). Almost all the cost of ``ErrorPolynomial.build``; they do not depend on the weights."""
+    omega = np.ascontiguousarray(omega, dtype=float)
+    oh = None if omega_hat is None else np.ascontiguousarray(omega_hat, dtype=float).tobytes()
+    exp = expansion_at(omega.tobytes(), oh, omega.shape)
+    cond = conditional_polynomials(exp, scene_matrix, gammas)
+    return cond.mean, cond.cov, covariance_coefficients(exp, scene_matrix, gammas)
 
 
 @dataclass(frozen=True)
@@ -232,18 +241,24 @@ def error_polynomial(scene, system, faraday, correction: FaradayCorrection | Non
     correction = correction or FaradayCorrection()
     gammas = unit_covariances(system)
     omega, omega_hat, weights = correction.nodes(faraday, CORRECTED_DEGREE)
+    if memo is None:
+        return ErrorPolynomial.build(scene.matrix, gammas, omega, omega_hat, weights)
+    inputs = tuple(None if a is None else (np.shape(a), np.ascontiguousarray(a).tobytes())
+                   for a in (scene.matrix, gammas, omega, omega_hat, weights))
 
     def build():
-        return ErrorPolynomial.build(scene.matrix, gammas, omega, omega_hat, weights)
+        # the node work does not depend on the weights: the rotation distributions of one scene's cases (a residual
+        # rotation per calibration) share their nodes and differ in their weights only (biomass_multichannel: 8
+        # builds over 2 scenes)
+        nodes = memo.recall(("error polynomial nodes", *inputs[:4]),
+                            lambda: node_polynomials(scene.matrix, gammas, omega, omega_hat), keep=NODE_SETS_KEPT)
+        return ErrorPolynomial.build(scene.matrix, gammas, omega, omega_hat, weights, nodes)
 
-    if memo is None:
-        return build()
-    key = ("error polynomial",) + tuple(None if a is None else (np.shape(a), np.ascontiguousarray(a).tobytes())
-                                        for a in (scene.matrix, gammas, omega, omega_hat, weights))
-    return memo.recall(key, build, keep=POLYNOMIALS_KEPT)
+    return memo.recall(("error polynomial", *inputs), build, keep=POLYNOMIALS_KEPT)
 
 
 POLYNOMIALS_KEPT = 32
+NODE_SETS_KEPT = 4  # a few MB per scene at a few hundred nodes
 
 
 def polarimetric_error_moments(scene, system, faraday, correction: FaradayCorrection | None = None,
