@@ -80,14 +80,14 @@ def _numbers(kind: int, count: int, value: bytes) -> list:
     return list(struct.unpack(f"<{count}{ {3: 'H', 4: 'I', 16: 'Q'}[kind] }", value))
 
 
-def write_cog(target, images: list) -> None:
+def write_cog(target, images: list, bigtiff: bool | None = None) -> None:
     """Write the COG ``target`` from ``images`` (``TiledImage``: the full-resolution image, then the overviews from
-    the largest to the smallest), copying their compressed tiles as they are."""
+    the largest to the smallest), copying their compressed tiles as they are. bigtiff : None: BigTIFF only where
+    a classic TIFF cannot hold the file (4 GiB) or a tag's 64-bit values."""
     data_bytes = sum(sum(c) + 8 * len(c) for c in (im.byte_counts for im in images))
-    for big in (False, True):
-        ifds_end = _layout_ifds(images, big, 0)[1]
-        if big or ifds_end + data_bytes < 2**32:
-            break
+    wide_tags = any(kind in (16, 17, 18) for im in images for kind, _, _ in im.tags.values())
+    big = wide_tags or _layout_ifds(images, False)[1] + data_bytes >= 2**32 if bigtiff is None else bigtiff
+    ifds_end = _layout_ifds(images, big)[1]
     # tile data: smallest overview first, each tile led by its size and trailed by its last 4 bytes
     offsets, at = [None] * len(images), ifds_end
     for index in reversed(range(len(images))):
@@ -95,7 +95,7 @@ def write_cog(target, images: list) -> None:
         for count in images[index].byte_counts:
             offsets[index].append(at + 4)
             at += count + 8
-    blob, _ = _layout_ifds(images, big, 0, offsets)
+    blob, _ = _layout_ifds(images, big, offsets)
     with open(target, "wb") as out:
         out.write(blob)
         for index in reversed(range(len(images))):
@@ -107,10 +107,10 @@ def write_cog(target, images: list) -> None:
                     out.write(struct.pack("<I", count) + tile + tile[-4:].rjust(4, b"\0"))
 
 
-def _layout_ifds(images: list, big: bool, _unused: int, tile_offsets: list | None = None) -> tuple:
+def _layout_ifds(images: list, big: bool, tile_offsets: list | None = None) -> tuple:
     """The header, ghost area and IFDs (with their out-of-line values) as bytes, and their length."""
-    ghost_body = GHOST
-    ghost = f"GDAL_STRUCTURAL_METADATA_SIZE={len(ghost_body):06d} bytes\n{ghost_body}".encode()
+    ghost = f"GDAL_STRUCTURAL_METADATA_SIZE={len(GHOST):06d} bytes\n{GHOST}".encode()
+    ghost += b"\0" * (len(ghost) % 2)  # an IFD starts on a word boundary (TIFF 6.0 sec. 2)
     first_ifd = (16 if big else 8) + len(ghost)
     header = (b"II+\x00" + struct.pack("<HHQ", 8, 0, first_ifd)) if big else (b"II*\x00" + struct.pack("<I",
                                                                                                         first_ifd))
