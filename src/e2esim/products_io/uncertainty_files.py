@@ -7,10 +7,10 @@ each band fills its chunks whole (no chunk is read back, decompressed and compre
 deflated at level 1 (netCDF4's zlib filter order). The file is laid out by netCDF4 (dimensions, coordinates,
 variables, attributes), then its chunks are written whole, already compressed, through HDF5's direct chunk write
 (h5py), so that the compression can run in the processes that evaluate the bands (``netcdf_chunks``); the chunks'
-bytes are what HDF5's own shuffle and deflate filters give. The GeoTIFF is first written uncompressed in strips
-one band high, band-interleaved (each band of each layer written once), then copied to the COG: ZSTD level 1,
-512 x 512 tiles, its overviews resampled by nearest neighbour (an overview pixel is a pixel of the layer: the
-verdict stays 0 or 1, NaN stays no data), compressed on all cores (``NUM_THREADS``)."""
+bytes are what HDF5's own shuffle and deflate filters give. The COG is written while the bands come
+(``e2esim.products_io.cog_tiles``): ZSTD level 1, 512 x 512 tiles, its overviews resampled by nearest neighbour (an
+overview pixel is a pixel of the layer: the verdict stays 0 or 1, NaN stays no data), compressed on GDAL's threads,
+its tiles laid out as a COG at the end without being compressed again."""
 
 from __future__ import annotations
 
