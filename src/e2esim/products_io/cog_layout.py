@@ -17,6 +17,7 @@ machine's order, little-endian on the platforms e2esim supports); anything else 
 
 from __future__ import annotations
 
+import os
 import struct
 from dataclasses import dataclass
 from pathlib import Path
@@ -102,9 +103,30 @@ def write_cog(target, images: list, bigtiff: bool | None = None) -> None:
             image = images[index]
             with open(image.path, "rb") as src:
                 for offset, count in zip(image.offsets, image.byte_counts):
-                    src.seek(offset)
-                    tile = src.read(count)
-                    out.write(struct.pack("<I", count) + tile + tile[-4:].rjust(4, b"\0"))
+                    out.write(struct.pack("<I", count))
+                    out.flush()
+                    _copy(src, out, offset, count)
+                    src.seek(offset + count - min(count, 4))
+                    out.write(src.read(min(count, 4)).rjust(4, b"\0"))
+
+
+def _copy(src, out, offset: int, count: int) -> None:
+    """Copy ``count`` bytes at ``offset`` of ``src`` to the end of ``out`` (flushed): in the kernel where it can
+    (``os.copy_file_range``, Linux), else through memory."""
+    done = 0
+    if hasattr(os, "copy_file_range"):
+        try:
+            while done < count:
+                n = os.copy_file_range(src.fileno(), out.fileno(), count - done, offset + done)
+                if n == 0:
+                    break
+                done += n
+        except OSError:  # not supported between these files: copied through memory below
+            pass
+        out.seek(0, os.SEEK_END)
+    if done < count:
+        src.seek(offset + done)
+        out.write(src.read(count - done))
 
 
 def _layout_ifds(images: list, big: bool, tile_offsets: list | None = None) -> tuple:
