@@ -16,6 +16,7 @@ from rasterio.shutil import copy
 from e2esim.products_io.cog_layout import TILE_BYTE_COUNTS, TILE_OFFSETS, TYPE_SIZES, read_tiled, write_cog
 from e2esim.products_io.cog_tiles import CogWriter, overview_sizes
 
+pytestmark = pytest.mark.filterwarnings("ignore::rasterio.errors.NotGeoreferencedWarning")  # arrays, no map grid
 SHAPE = (1037, 45)  # overviews 518 x 22 and 259 x 11: ratios that are not whole numbers
 
 
