@@ -20,8 +20,8 @@ pytestmark = pytest.mark.filterwarnings("ignore::rasterio.errors.NotGeoreference
 SHAPE = (1037, 45)  # overviews 518 x 22 and 259 x 11: ratios that are not whole numbers
 
 
-def layers(seed) -> np.ndarray:
-    values = np.random.default_rng(seed).normal(size=(3, *SHAPE)).astype(np.float32)
+def layers(seed, shape=SHAPE) -> np.ndarray:
+    values = np.random.default_rng(seed).normal(size=(3, *shape)).astype(np.float32)
     values[1, 5:40, 7:30] = np.nan  # no data
     values[2] = np.round(values[2]) > 0  # a verdict of 0 and 1
     return values
@@ -30,7 +30,8 @@ def layers(seed) -> np.ndarray:
 def cog_driver(values, path):
     """The reference: GDAL's COG driver, as the uncertainty product used it before."""
     plain = path.with_suffix(".plain.tif")
-    with rasterio.open(plain, "w", driver="GTiff", width=SHAPE[1], height=SHAPE[0], count=3, dtype="float32",
+    with rasterio.open(plain, "w", driver="GTiff", width=values.shape[2], height=values.shape[1], count=3,
+                       dtype="float32",
                        nodata=np.nan) as d:
         d.write(values)
         d.update_tags(title="t")
@@ -85,23 +86,25 @@ def assert_cog_layout(path) -> None:
             assert struct.unpack_from("<I", data, at - 4)[0] == n and data[at + n:at + n + 4] == data[at + n - 4:at + n]
 
 
-@pytest.mark.parametrize("band_rows", [260, 1037])
-def test_the_cog_equals_the_cog_drivers(tmp_path, band_rows):
+@pytest.mark.parametrize(("shape", "band_rows", "sizes"), [
+    (SHAPE, 260, [(518, 22), (259, 11)]), (SHAPE, 1037, [(518, 22), (259, 11)]),
+    ((3, 1100), 2, [(1, 550), (1, 275)])])  # a side halved to 0 is 1 pixel, as the COG driver makes it
+def test_the_cog_equals_the_cog_drivers(tmp_path, shape, band_rows, sizes):
     """Written band by band (bands of 260 rows straddle the 512-row tiles), the COG holds the COG driver's values
     at every level, its tags, band names, tiles and overviews; the layout is a COG's."""
-    values = layers(1)
+    values = layers(1, shape)
     cog_driver(values, tmp_path / "reference.tif")
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", rasterio.errors.NotGeoreferencedWarning)
-        writer = CogWriter(tmp_path / "new", SHAPE, 3, {}, ["layer1", "layer2", "layer3"], {"title": "t"})
-        for first in range(0, SHAPE[0], band_rows):
+        writer = CogWriter(tmp_path / "new", shape, 3, {}, ["layer1", "layer2", "layer3"], {"title": "t"})
+        for first in range(0, shape[0], band_rows):
             writer.add(first, values[:, first:first + band_rows])
         writer.finish(tmp_path / "new.tif")
         (about, levels), (ref_about, ref_levels) = read_all(tmp_path / "new.tif"), read_all(tmp_path / "reference.tif")
     assert sorted(p.name for p in tmp_path.iterdir()) == ["new.tif", "reference.plain.tif", "reference.tif"]
     assert repr(about) == repr(ref_about)  # repr: the no-data value is NaN
     assert about[4] == [2, 4] and about[2]["LAYOUT"] == "COG"
-    assert [v.shape[1:] for v in levels[1:]] == overview_sizes(*SHAPE) == [(518, 22), (259, 11)]
+    assert [v.shape[1:] for v in levels[1:]] == overview_sizes(*shape) == sizes
     for got, want in zip(levels, ref_levels, strict=True):
         np.testing.assert_array_equal(got.view(np.uint32), want.view(np.uint32))  # bit for bit, NaN included
     assert_cog_layout(tmp_path / "new.tif")

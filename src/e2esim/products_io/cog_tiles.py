@@ -30,11 +30,11 @@ layers (180 MB), so that a tile is compressed once, whole."""
 
 def overview_sizes(height: int, width: int) -> list:
     """(rows, columns) of each overview, as GDAL's COG driver chooses them: halved, rounded down, while either
-    side of the level before is larger than a tile."""
+    side of the level before is larger than a tile (a side halved to 0 is 1 pixel)."""
     sizes = []
     while height > TILE or width > TILE:
         height, width = height // 2, width // 2
-        sizes.append((height, width))
+        sizes.append((max(height, 1), max(width, 1)))
     return sizes
 
 
