@@ -12,6 +12,7 @@ row of tiles is all it needs to hold."""
 
 from __future__ import annotations
 
+import os
 import warnings
 from contextlib import ExitStack
 
@@ -126,8 +127,6 @@ class CogWriter:
         self.close()
 
     def close(self) -> None:
-        import os
-
         self._stack.close()
         for path in self.paths:
             if os.path.exists(path):
