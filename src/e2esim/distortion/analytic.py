@@ -226,10 +226,13 @@ def moments_of(
     c = inputs.case_ndim
     given = [None if x is None else np.asarray(x, float) for x in (crosstalk_level, imbalance_level, noise_power)]
     extra = max([x.ndim - c for x in given if x is not None and x.ndim > 0] + [0])
-    xs, es, ns = np.broadcast_arrays(
-        *(_expand(own, extra) if x is None else x for x, own in zip(given, inputs.levels)),
-        _expand(np.zeros(np.shape(inputs.levels[0])), extra),
-    )[:3]
+    levels = [_expand(own, extra) if x is None else x for x, own in zip(given, inputs.levels)]
+    case_zeros = _expand(np.zeros(np.shape(inputs.levels[0])), extra)
+    # the system's levels apart from the noise: where they are the same for every case (a product's pixels share
+    # one system), the system's moments below are computed once and broadcast, with the same operations per case
+    xs, es = np.broadcast_arrays(*levels[:2], case_zeros)[:2]
+    ns = np.broadcast_to(levels[2], np.broadcast_shapes(np.shape(levels[2]), case_zeros.shape))
+    shape = np.broadcast_shapes(xs.shape, ns.shape)
     v, c13, c24, ve, ce12 = inputs.structure
     node = 1 if form == "complete" else 0  # the quadrature's node axis, last
 
@@ -242,7 +245,7 @@ def moments_of(
     if form == "paper":
         trig = {k: case(m) for k, m in inputs.averaging.items()}
         parts = _conditional_parts(terms, trig, *_scaled_errors(*structure, xs, es), complete=False)
-        spread = np.zeros(xs.shape)
+        spread = np.zeros(shape)
     else:
         trig = _trig_at_even_nodes()  # arrays over the node axis, which is last
         weights = _expand(inputs.averaging, extra, 1)
@@ -265,7 +268,7 @@ def moments_of(
     var_gain = (g2 - 1.0) * signal_var + (g2 - g1**2) * q1**2
 
     noise = ns * estimator_noise_factor("hv")  # sigma_n / 2
-    finite = np.zeros(xs.shape)
+    finite = np.zeros(shape)
     if form == "complete" and looks is not None:
         looks = _expand(looks, extra)
         gq1 = g1 * q1
@@ -277,7 +280,6 @@ def moments_of(
             # Fresh speckle and noise: sigma_hat | q ~ (G q + sigma_nu^2) Gamma(L) / L.
             finite = (gq2 + 2 * noise * gq1 + noise**2) / looks
 
-    shape = xs.shape
     z = np.zeros(shape)
     bias_noise = np.broadcast_to(noise, shape) + z
     mean = signal_mean + bias_noise + bias_gain

@@ -173,13 +173,14 @@ def pixel_inputs(hh, hv, vv, hhvv, noise, fr_mean, fr_sd, system) -> MomentInput
     eq. 10, into the weights of ``FaradayDistribution.even_quadrature``), stacked over pixels."""
     n = hh.size
     terms = SceneTerms(hh, hv, vv, np.abs(hhvv), np.angle(hhvv))
-    structure = tuple(np.broadcast_to(np.asarray(s), (n, *np.shape(s))) for s in system.unit_structure)
+    # the system's structure and levels once (one "case"), broadcast over the pixels by ``moments_of``
+    structure = tuple(np.asarray(s)[None] for s in system.unit_structure)
     k = np.array([2.0, 4.0, 6.0, 8.0])
     phi = np.real(np.exp(1j * k * fr_mean[:, None] - 0.5 * (k * fr_sd[:, None]) ** 2))
     moments = np.stack([np.ones(n), phi[:, 0], (1 + phi[:, 1]) / 2, (3 * phi[:, 0] + phi[:, 2]) / 4,
                         (3 + 4 * phi[:, 1] + phi[:, 3]) / 8], axis=-1)
     weights = moments @ EVEN_WEIGHTS.T
     g1, g2 = system.gain_power_moments
-    levels = (np.full(n, system.crosstalk_level), np.full(n, system.imbalance_level), noise)
+    levels = (np.full(1, system.crosstalk_level), np.full(1, system.imbalance_level), noise)
     return MomentInputs(terms, structure, levels, (np.full(n, g1), np.full(n, g2)), weights,
                         (fr_mean == 0.0) & (fr_sd == 0.0), np.full(n, not system.has_gain_error))

@@ -7,15 +7,14 @@ each band fills its chunks whole (no chunk is read back, decompressed and compre
 deflated at level 1 (netCDF4's zlib filter order). The file is laid out by netCDF4 (dimensions, coordinates,
 variables, attributes), then its chunks are written whole, already compressed, through HDF5's direct chunk write
 (h5py), so that the compression can run in the processes that evaluate the bands (``netcdf_chunks``); the chunks'
-bytes are what HDF5's own shuffle and deflate filters give. The GeoTIFF is first written uncompressed in strips
-one band high, band-interleaved (each band of each layer written once), then copied to the COG: ZSTD level 1,
-512 x 512 tiles, its overviews resampled by nearest neighbour (an overview pixel is a pixel of the layer: the
-verdict stays 0 or 1, NaN stays no data), compressed on all cores (``NUM_THREADS``)."""
+bytes are what HDF5's own shuffle and deflate filters give. The COG is written while the bands come
+(``e2esim.products_io.cog_tiles``): ZSTD level 1, 512 x 512 tiles, its overviews resampled by nearest neighbour (an
+overview pixel is a pixel of the layer: the verdict stays 0 or 1, NaN stays no data), compressed on GDAL's threads,
+its tiles laid out as a COG at the end without being compressed again."""
 
 from __future__ import annotations
 
 import os
-import warnings
 import zlib
 from pathlib import Path
 
@@ -23,12 +22,10 @@ import numpy as np
 
 from e2esim.errors import OutputExistsError
 from e2esim.extras import optional_import
+from e2esim.products_io.cog_tiles import CogWriter
 from e2esim.products_io.pixel_model import LAYERS, NO_DATA_VERDICT
 
 NETCDF_NAME, GEOTIFF_NAME = "uncertainty.nc", "uncertainty.tif"
-COG_COMPRESSION = "ZSTD"
-"""The COG's compression, at level 1: lossless, about half the CPU time of DEFLATE level 1 for a file of about the
-same size (docs/real-data.md, Speed). Readers need libtiff with ZSTD (GDAL 2.3 or later, as rasterio's wheels)."""
 
 
 class UncertaintyWriter:
@@ -43,7 +40,6 @@ class UncertaintyWriter:
             raise OutputExistsError(f"{existing[0]} exists; give --force to replace it")
         self.folder.mkdir(parents=True, exist_ok=True)
         self.temps = [t.with_name(f".{t.name}.{os.getpid()}.partial") for t in self.targets]
-        self.tiff_temp = self.temps[1].with_name(self.temps[1].name + ".tiled")
         self.pixels = pixels
         self.band_rows = max(1, min(band_rows, pixels.shape[0]))
         self.chunk = (self.band_rows, min(pixels.shape[1], NETCDF_CHUNK_COLUMNS))
@@ -64,7 +60,6 @@ class UncertaintyWriter:
         self.nc = netcdf4.Dataset(str(self.temps[0]), "w", format="NETCDF4")
         self.dims = self._coordinates()
         self.nc.setncatts({"Conventions": "CF-1.8", **{k: _attribute(v) for k, v in attributes.items()}})
-        rows, cols = pixels.shape
         for name, (units, what) in LAYERS.items():
             dtype, fill = LAYER_STORAGE[name == "verdict"]
             var = self.nc.createVariable(name, dtype, self.dims, fill_value=fill, chunksizes=self.chunk,
@@ -72,20 +67,14 @@ class UncertaintyWriter:
             var.setncatts({"units": units, "long_name": what})
             if pixels.crs is not None:
                 var.grid_mapping = "crs"
-        profile = {"driver": "GTiff", "width": cols, "height": rows, "count": len(LAYERS), "dtype": "float32",
-                   "tiled": False, "blockysize": self.band_rows, "interleave": "band", "nodata": np.nan,
-                   "BIGTIFF": "IF_SAFER"}
+        profile = {}
         if pixels.geotransform is not None:
             from affine import Affine  # lazy: start-up time (rasterio's dependency)
 
             x0, dx, y0, dy = pixels.geotransform
             profile.update(transform=Affine(dx, 0.0, x0, 0.0, dy, y0), crs=f"EPSG:{pixels.crs}")
-        with warnings.catch_warnings():  # a radar grid (BIOMASS L1) has no map transform: said in docs/real-data.md
-            warnings.simplefilter("ignore", rasterio.errors.NotGeoreferencedWarning)
-            self.tiff = rasterio.open(self.tiff_temp, "w", **profile)
-        for band, name in enumerate(LAYERS, start=1):
-            self.tiff.set_band_description(band, name)
-        self.tiff.update_tags(**{k: str(v) for k, v in attributes.items()})
+        self.tiff = CogWriter(self.temps[1], pixels.shape, len(LAYERS), profile, list(LAYERS),
+                              {k: str(v) for k, v in attributes.items()})
 
     def _coordinates(self) -> tuple:
         dims = None
@@ -106,31 +95,22 @@ class UncertaintyWriter:
     def write(self, rows: slice, layers: dict, chunks: dict | None = None) -> None:
         """Write the band ``rows`` of every layer; ``chunks``: its NetCDF chunks as ``netcdf_chunks`` gives them
         (compressed elsewhere), else they are compressed here."""
-        from rasterio.windows import Window  # lazy: start-up time
-
         if chunks is None:
             chunks = netcdf_chunks(layers, self.chunk)
         for name, parts in chunks.items():
             dataset = self.nc[name].id
             for column, data in parts:
                 dataset.write_direct_chunk((rows.start, column), data)
-        window = Window(0, rows.start, self.pixels.shape[1], rows.stop - rows.start)
-        for band, name in enumerate(LAYERS, start=1):
-            values = layers[name].astype(np.float32)
+        values = np.empty((len(LAYERS), rows.stop - rows.start, self.pixels.shape[1]), dtype=np.float32)
+        for band, name in enumerate(LAYERS):
+            values[band] = layers[name]
             if name == "verdict":
-                values[layers[name] == NO_DATA_VERDICT] = np.nan
-            self.tiff.write(values, band, window=window)
+                values[band][layers[name] == NO_DATA_VERDICT] = np.nan
+        self.tiff.add(rows.start, values)
 
     def commit(self) -> list:
         self.nc.close()
-        self.tiff.close()
-        from rasterio.shutil import copy  # lazy: start-up time
-
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", self._rasterio.errors.NotGeoreferencedWarning)
-            copy(str(self.tiff_temp), str(self.temps[1]), driver="COG", COMPRESS=COG_COMPRESSION, LEVEL=1,
-                 BIGTIFF="IF_SAFER", RESAMPLING="NEAREST", NUM_THREADS="ALL_CPUS")
-        self.tiff_temp.unlink()
+        self.tiff.finish(self.temps[1])
         for temp, target in zip(self.temps, self.targets):
             os.replace(temp, target)
         return [str(t) for t in self.targets]
@@ -142,7 +122,7 @@ class UncertaintyWriter:
                     handle.close()
             except Exception:  # already closed, or broken by the failure being reported
                 pass
-        for temp in (*self.temps, self.tiff_temp):
+        for temp in self.temps:
             temp.unlink(missing_ok=True)
 
 
