@@ -39,7 +39,7 @@ _WORKER: dict = {}  # in a worker process: the scenario it runs blocks of, and i
 
 def run_blocks(resolved, tasks: list, take, workers: int = 1, scheduler: str | None = None,
                engine: str = "batched", keep_products: bool = False, packages: frozenset | None = None,
-               frames: bool = True, progress: bool = False, cache=None) -> None:
+               frames: bool = True, progress: bool = False, cache=None, memo=None) -> None:
     """Run the blocks ``tasks`` and hand each to ``take(BlockResult, journal frame or None)`` as it finishes (not
     necessarily in case order); frames come from other processes, made with ``packages``
     (e2esim.runner.plaindata.allowed_packages), and only when ``frames`` (a run with a journal).
@@ -51,6 +51,7 @@ def run_blocks(resolved, tasks: list, take, workers: int = 1, scheduler: str | N
     ``WorkerLost`` error; the blocks handed over stay kept. ``progress``: blocks run in this process hand their
     stages a progress bar for long kernels (a global climatology's months); other processes cannot draw one.
     ``cache``: the array cache opener every process hands its stages (``e2esim.runner.cases.default_services``).
+    ``memo``: the ``KernelMemo`` of blocks run in this process (None: a new one; other processes start their own).
     """
     if not tasks:
         return
@@ -64,7 +65,7 @@ def run_blocks(resolved, tasks: list, take, workers: int = 1, scheduler: str | N
     elif workers > 1:
         source = _ProcessBlocks(resolved, tasks, workers, options)
     else:
-        source = _SerialBlocks(resolved, tasks, options, progress)
+        source = _SerialBlocks(resolved, tasks, options, progress, memo)
     taken: set = set()
 
     def hand_over(number, block, frame):
@@ -91,12 +92,12 @@ class WorkerLost(UserError):
 class _SerialBlocks:
     """The blocks run one after the other in this process (Ctrl-C drops the one in flight)."""
 
-    def __init__(self, resolved, tasks: list, options: tuple, progress: bool = False):
-        self.resolved, self.tasks, self.options, self.progress = resolved, tasks, options, progress
+    def __init__(self, resolved, tasks: list, options: tuple, progress: bool = False, memo=None):
+        self.resolved, self.tasks, self.options, self.progress, self.memo = resolved, tasks, options, progress, memo
 
     def __iter__(self):
         engine, keep_products, _, cache = self.options
-        services, memo = default_services(self.progress, cache), StageMemo()
+        services, memo = default_services(self.progress, cache, self.memo), StageMemo()
         for number, indices in enumerate(self.tasks):
             yield number, run_block(self.resolved, indices, engine, keep_products, services, memo), None
 
