@@ -131,8 +131,11 @@ class KernelMemo:
     the bytes of the arrays it holds (the least recently used go first); a value is the kernel's own result, so a
     number never depends on whether it was found. Sent to another process, it starts empty there."""
 
-    def __init__(self, max_bytes: int = 64 * 2**20):
+    def __init__(self, max_bytes: int = 64 * 2**20, repeated_geometry: bool = False):
         self.max_bytes = max_bytes
+        self.repeated_geometry = repeated_geometry
+        """Set by a caller that runs one geometry at many values of other keys (a solve's engine runs): kernels
+        may then build what pays off only over many such rows (``e2esim.stack.residual_fourier``)."""
         self._values: dict = {}  # key -> (value, bytes), least recently used first
         self._bytes = 0
 
@@ -157,7 +160,7 @@ class KernelMemo:
         return len(self._values)
 
     def __reduce__(self):
-        return (KernelMemo, (self.max_bytes,))
+        return (KernelMemo, (self.max_bytes, self.repeated_geometry))
 
 
 @dataclass(frozen=True)

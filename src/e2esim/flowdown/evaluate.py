@@ -79,7 +79,7 @@ class Evaluator:
         self.calls = 0
         self.rows = 0
         self.workers = workers
-        self.memo = KernelMemo(MEMO_BYTES)
+        self.memo = KernelMemo(MEMO_BYTES, repeated_geometry=True)
 
     def grid_margins(self, values: np.ndarray) -> np.ndarray:
         """(R, n, P) margins of every requirement in every case at each of P points ``values`` ((P, len(keys))):

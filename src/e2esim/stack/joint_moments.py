@@ -76,16 +76,18 @@ def joint_node_terms(scene: StackScene, errors: StackSystemErrors, faraday: Stac
     """The kernel's coefficients at the Faraday-rotation nodes of one difference SD (rad), with the nodes'
     weights and the passes' gain products: what ``stack_joint_moments`` evaluates at any level (cached by the
     error model per difference SD, and across cases by ``memo``, ``stack.analytic.memoised``). With a residual
-    rotation of the co-polarised correction (up to 3 passes) the kernel's values at the residual's nodes come from
-    its trigonometric polynomials in the residual (``e2esim.stack.residual_fourier``, found again by ``memo`` for
-    any residual), equal to rounding; signal : whether the moments read ``y0`` (else it may be None)."""
+    rotation of the co-polarised correction (up to 3 passes) and a memo kept over many rows of one geometry (a
+    solve's search, ``KernelMemo.repeated_geometry``) the kernel's values at the residual's nodes come from its
+    trigonometric polynomials in the residual (``e2esim.stack.residual_fourier``, eq. 28, built once and found
+    again for any residual), equal to the node-by-node values to rounding; signal : whether the moments read
+    ``y0`` (else it may be None)."""
     nodes = pass_nodes(scene, errors, faraday, difference_sd)
     omega, omega_hat = nodes.pop("omega"), None
     inputs = (scene.blocks(), combination.matrix, errors.pass_correlation(scene.passes),
               unit_covariances(errors.system), nodes["pair"], population_cross)
     if correct_copol:  # corrected with Omega_hat = Omega - dW: the nodes of Omega times those of dW
         residual, weights = faraday.residual_nodes(scene.passes)
-        if faraday.residual is not None and scene.passes in PLANS:  # eq. (28): the kernel's coefficients in dW
+        if faraday.residual is not None and scene.passes in PLANS and getattr(memo, "repeated_geometry", False):
             out = evaluate_at(memoised(memo, residual_coefficients, inputs[0], inputs[1], omega, *inputs[2:],
                                        signal), residual)
             nodes["weights"] = np.outer(nodes["weights"], weights).ravel()
