@@ -22,6 +22,7 @@ unchanged; a row of the solve costs the evaluation of the polynomials instead of
 
 from __future__ import annotations
 
+import functools
 import itertools
 
 import numpy as np
@@ -39,12 +40,15 @@ _NODES_PER_CALL = 2048
 """Kernel nodes per call while sampling (rotation nodes x Ns): the size of one row's call, so memory stays bounded."""
 
 
+@functools.lru_cache(maxsize=None)  # a few (passes, degree) pairs: read by every row
 def frequencies(passes: int, degree: int) -> np.ndarray:
     """(F, N) integer frequencies: 0 first, then every k with |k|_1 <= degree whose first non-zero entry is positive
-    (the other half is their negative: the outputs are real)."""
+    (the other half is their negative: the outputs are real). Read-only."""
     half = [k for k in itertools.product(range(-degree, degree + 1), repeat=passes)
             if 0 < sum(map(abs, k)) <= degree and next(x for x in k if x) > 0]
-    return np.array([(0,) * passes] + half, dtype=np.int64).reshape(-1, passes)
+    out = np.array([(0,) * passes] + half, dtype=np.int64).reshape(-1, passes)
+    out.setflags(write=False)
+    return out
 
 
 def _real_view(x: np.ndarray) -> np.ndarray:
