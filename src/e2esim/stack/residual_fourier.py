@@ -40,7 +40,7 @@ _NODES_PER_CALL = 2048
 """Kernel nodes per call while sampling (rotation nodes x Ns): the size of one row's call, so memory stays bounded."""
 
 
-@functools.lru_cache(maxsize=None)  # a few (passes, degree) pairs: read by every row
+@functools.cache  # a few (passes, degree) pairs: read by every row
 def frequencies(passes: int, degree: int) -> np.ndarray:
     """(F, N) integer frequencies: 0 first, then every k with |k|_1 <= degree whose first non-zero entry is positive
     (the other half is their negative: the outputs are real). Read-only."""
