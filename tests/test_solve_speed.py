@@ -150,7 +150,9 @@ def test_the_engine_runs_of_a_search_share_one_kernel_memo_and_the_array_cache(m
     original = executors.default_services
     monkeypatch.setattr(executors, "default_services", lambda progress=False, cache=None, memo=None: asked.append(
         (cache, memo)) or original(progress, cache, memo))
-    scenario = Scenario(_budget_scenario(), "<test>")
+    raw = _budget_scenario()
+    raw["sweep"] = {"parameters": {"scene.agb_t_ha": [100, 300]}}
+    scenario = Scenario(raw, "<test>")
     resolved = scenario.resolve()
     evaluator = Evaluator(scenario, resolved, (solve_key(resolved, CROSSTALK),))
     evaluator.grid_margins(np.array([[-40.0]]))
