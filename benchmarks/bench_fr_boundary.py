@@ -77,6 +77,8 @@ def kernel_alone() -> None:
         loaded = load_scenario(str(ROOT / "scenarios" / "biomass_fr_requirement.yaml"))
         resolved = loaded.resolve()
         evaluator = Evaluator(loaded, resolved, tuple(solve_key(resolved, k) for k in KEYS))
+        if hasattr(evaluator, "memo"):  # node by node, as a plain run: the kernel at one row's nodes is captured
+            evaluator.memo.repeated_geometry = False
         evaluator.grid_margins(np.array([[1.0, 3.0]]))
     finally:
         joint_moments.channel_node_polynomials = original
