@@ -123,3 +123,13 @@ def test_the_arrays_inside_a_tuple_count_towards_the_bound():
     assert memo.get(("nodes", 2)) is None
     memo[("nodes", 3)] = (np.zeros(20),)  # 920 + 160 > 1,000: the least recently used array-holder leaves
     assert memo.get(("nodes", 1)) is None and memo.get(("nodes", 3)) is not None
+
+
+def test_a_memo_sent_to_a_worker_arrives_empty_with_its_settings():
+    # a solve's engine runs take the residual-rotation path (repeated_geometry) in every process, so a solve on
+    # --workers gives the serial numbers; the worker gets the setting, not the values
+    memo = KernelMemo(max_bytes=5000, max_entries=7, repeated_geometry=True)
+    memo[("a", 1)] = np.zeros(10)
+    there = pickle.loads(pickle.dumps(memo))
+    assert (there.max_bytes, there.max_entries, there.repeated_geometry, len(there)) == (5000, 7, True, 0)
+    assert pickle.loads(pickle.dumps(KernelMemo())).repeated_geometry is False

@@ -14,7 +14,8 @@ def _services_asked(monkeypatch) -> list:
     asked = []
     original = executors.default_services
     monkeypatch.setattr(executors, "default_services",
-                        lambda progress=False, cache=None: asked.append(cache) or original(progress, cache))
+                        lambda progress=False, cache=None, memo=None: asked.append(cache) or original(progress, cache,
+                                                                                                     memo))
     return asked
 
 

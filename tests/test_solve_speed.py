@@ -137,3 +137,25 @@ def test_the_solve_on_several_workers_gives_the_serial_margins():
     grid = np.array([[-40, -45], [-35, -30], [-30, -20], [-25, -35], [-22, -15], [-20, -40]], dtype=float)
     serial = Evaluator(scenario, resolved, keys).grid_margins(grid)
     np.testing.assert_array_equal(Evaluator(scenario, resolved, keys, workers=2).grid_margins(grid), serial)
+
+
+def test_the_engine_runs_of_a_search_share_one_kernel_memo_and_the_array_cache(monkeypatch):
+    """Every run of an ``Evaluator`` hands its stages the same ``KernelMemo``, kept over many rows of one geometry
+    (``repeated_geometry``: the stack's residual coefficients are built once per search), and the front doors'
+    array cache (a climatology's table is not rebuilt in every run)."""
+    from e2esim.io.array_cache import open_cache
+    from e2esim.runner import executors
+
+    asked = []
+    original = executors.default_services
+    monkeypatch.setattr(executors, "default_services", lambda progress=False, cache=None, memo=None: asked.append(
+        (cache, memo)) or original(progress, cache, memo))
+    raw = _budget_scenario()
+    raw["sweep"] = {"parameters": {"scene.agb_t_ha": [100, 300]}}
+    scenario = Scenario(raw, "<test>")
+    resolved = scenario.resolve()
+    evaluator = Evaluator(scenario, resolved, (solve_key(resolved, CROSSTALK),))
+    evaluator.grid_margins(np.array([[-40.0]]))
+    evaluator.grid_margins(np.array([[-30.0], [-20.0]]))
+    assert len(asked) == 2 and all(cache is open_cache and memo is evaluator.memo for cache, memo in asked)
+    assert evaluator.memo.repeated_geometry

@@ -135,8 +135,11 @@ class KernelMemo:
     path, size and modification time and lives in memory only). Sent to another process, it starts empty there
     (the process's own memory, ``process_memo``, is that process's memory there)."""
 
-    def __init__(self, max_bytes: int = 64 * 2**20, max_entries: int = 512):
+    def __init__(self, max_bytes: int = 64 * 2**20, max_entries: int = 512, repeated_geometry: bool = False):
         self.max_bytes, self.max_entries = max_bytes, max_entries
+        self.repeated_geometry = repeated_geometry
+        """Set by a caller that runs one geometry at many values of other keys (a solve's engine runs): kernels
+        may then build what pays off only over many such rows (``e2esim.stack.residual_fourier``)."""
         self._values: dict = {}  # key -> (value, bytes), least recently used first
         self._bytes = 0
 
@@ -178,7 +181,7 @@ class KernelMemo:
     def __reduce__(self):
         if _PROCESS_MEMO and self is _PROCESS_MEMO[0]:
             return (process_memo, ())
-        return (KernelMemo, (self.max_bytes, self.max_entries))
+        return (KernelMemo, (self.max_bytes, self.max_entries, self.repeated_geometry))
 
 
 def _held_bytes(value) -> int:

@@ -15,11 +15,17 @@ import copy
 
 import numpy as np
 
+from e2esim.case import KernelMemo
 from e2esim.errors import UserError
+from e2esim.io.array_cache import open_cache
 from e2esim.key_paths import override_path
 from e2esim.requirements.attribution import verdicts_only
 from e2esim.runner.run import run_scenario
 from e2esim.runner.scenario import Scenario
+
+MEMO_BYTES = 256 * 2**20
+"""The bound of the kernel memo the runs of a search share: the residual coefficients of a 3-pass stack at 119
+rotation nodes are about 10 MB per geometry (each case, each Faraday-rotation difference, the ground-only scene)."""
 
 EXTRAS = ("level_margins", "tradeoff_curve")
 """Requirement settings that add details to a verdict but never change it: off while solving."""
@@ -37,6 +43,11 @@ class Evaluator:
 
     scenario : the ``Scenario`` (its ``raw`` is copied). resolved : its ``ResolvedScenario``. workers : processes
     each run's blocks are spread over (``--workers``; the margins are the same as with one, block by block).
+    The runs share one ``KernelMemo`` (``memo``, up to ``MEMO_BYTES``) where their blocks run in this process: a
+    kernel whose work does not depend on the solved keys (the stack's coefficients in the residual rotation,
+    ``e2esim.stack.residual_fourier``) is computed once for the whole search; a value found there is the kernel's
+    own result. They read the array cache of the front doors (``e2esim.io.array_cache.open_cache``), as ``e2esim
+    run`` does: a climatology's table is built once, not in every run.
     """
 
     def __init__(self, scenario: Scenario, resolved, keys: tuple, workers: int = 1):
@@ -68,6 +79,7 @@ class Evaluator:
         self.calls = 0
         self.rows = 0
         self.workers = workers
+        self.memo = KernelMemo(MEMO_BYTES, repeated_geometry=True)
 
     def grid_margins(self, values: np.ndarray) -> np.ndarray:
         """(R, n, P) margins of every requirement in every case at each of P points ``values`` ((P, len(keys))):
@@ -96,7 +108,7 @@ class Evaluator:
             resolved = Scenario(raw, self.source).resolve()
             with verdicts_only():  # the margins alone: no shares of the sources
                 result = run_scenario(resolved, progress=False, keep_products=False, spill=False,
-                                      workers=self.workers)
+                                      workers=self.workers, memo=self.memo, cache=open_cache)
         except UserError as exc:  # a value of the search range the chain refuses: say where, and what to do
             keys = ", ".join(key.name for key in self.keys)
             raise UserError(f"{exc} (while searching {keys}: narrow the search range with --bounds LO HI, or the "

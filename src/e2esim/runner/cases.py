@@ -21,11 +21,14 @@ def case_generator(seed: int, index: int) -> np.random.Generator:
     return np.random.Generator(np.random.PCG64(np.random.SeedSequence(seed, spawn_key=(index,))))
 
 
-def default_services(progress: bool = False, cache=None) -> Services:
+def default_services(progress: bool = False, cache=None, memo=None) -> Services:
     """What the runner hands to stages: the array cache of a module's setting (``cache(setting)``, handed in by
     whoever runs the scenario: the front doors give ``e2esim.io.array_cache.open_cache``; None: no cache), a
-    progress bar for long kernels on the command line, and the process's kernel memo (``process_memo``)."""
-    return Services(cache=cache, progress=_progress_bar if progress else None, memo=process_memo())
+    progress bar for long kernels on the command line, and the kernel memo (``memo``, a ``KernelMemo`` handed in
+    by whoever runs several scenarios of one geometry, e.g. a solve's engine runs; None: the process's own,
+    ``process_memo``)."""
+    return Services(cache=cache, progress=_progress_bar if progress else None,
+                    memo=process_memo() if memo is None else memo)
 
 
 def _progress_bar(iterable, total=None, description=""):

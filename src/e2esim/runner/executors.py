@@ -39,7 +39,7 @@ _WORKER: dict = {}  # in a worker process: the scenario it runs blocks of, and i
 
 def run_blocks(resolved, tasks: list, take, workers: int = 1, scheduler: str | None = None,
                engine: str = "batched", keep_products: bool = False, packages: frozenset | None = None,
-               frames: bool = True, progress: bool = False, cache=None) -> None:
+               frames: bool = True, progress: bool = False, cache=None, memo=None) -> None:
     """Run the blocks ``tasks`` and hand each to ``take(BlockResult, journal frame or None)`` as it finishes (not
     necessarily in case order); frames come from other processes, made with ``packages``
     (e2esim.runner.plaindata.allowed_packages), and only when ``frames`` (a run with a journal).
@@ -51,6 +51,8 @@ def run_blocks(resolved, tasks: list, take, workers: int = 1, scheduler: str | N
     ``WorkerLost`` error; the blocks handed over stay kept. ``progress``: blocks run in this process hand their
     stages a progress bar for long kernels (a global climatology's months); other processes cannot draw one.
     ``cache``: the array cache opener every process hands its stages (``e2esim.runner.cases.default_services``).
+    ``memo``: the ``KernelMemo`` of the run's blocks (None: each process's own, ``e2esim.case.process_memo``); another
+    process gets an empty one with the same settings.
     """
     if not tasks:
         return
@@ -58,7 +60,8 @@ def run_blocks(resolved, tasks: list, take, workers: int = 1, scheduler: str | N
         check_scheduler_address(scheduler)
     if packages is None and frames and (scheduler or workers > 1):
         packages = allowed_packages()
-    options = (engine, keep_products, packages, cache)
+    options = (engine, keep_products, packages, cache, memo)  # a memo sent to a worker arrives empty, with its
+    # settings (a solve's ``repeated_geometry``: every process takes the same kernel path, so the same numbers)
     if scheduler:
         source = _DaskBlocks(resolved, tasks, scheduler, options)
     elif workers > 1:
@@ -95,8 +98,8 @@ class _SerialBlocks:
         self.resolved, self.tasks, self.options, self.progress = resolved, tasks, options, progress
 
     def __iter__(self):
-        engine, keep_products, _, cache = self.options
-        services, memo = default_services(self.progress, cache), StageMemo()
+        engine, keep_products, _, cache, kernel_memo = self.options
+        services, memo = default_services(self.progress, cache, kernel_memo), StageMemo()
         for number, indices in enumerate(self.tasks):
             yield number, run_block(self.resolved, indices, engine, keep_products, services, memo), None
 
@@ -204,11 +207,12 @@ def run_block_remote(indices, options: tuple, resolved=None) -> tuple:
     (e2esim.runner.journal), is what the main process appends to the journal as it is. The scenario comes with
     the call (dask) or was set once when the worker started (``_start_worker``). No frame when ``packages`` is
     None (no journal)."""
-    engine, keep_products, packages, cache = options
+    engine, keep_products, packages, cache, kernel_memo = options
     if resolved is None:
         resolved = _WORKER["resolved"]
-    if _WORKER.get("for") is not resolved:
-        _WORKER.update({"for": resolved, "memo": StageMemo(), "services": default_services(cache=cache)})
+    if _WORKER.get("for") is not resolved:  # the first block of a run here: its memo serves the run's other blocks
+        _WORKER.update({"for": resolved, "memo": StageMemo(), "services": default_services(cache=cache,
+                                                                                          memo=kernel_memo)})
     result = run_block(resolved, indices, engine, keep_products, _WORKER["services"], _WORKER["memo"])
     frame = None if packages is None else encode_block(result, packages)
     return pickle.dumps(result, protocol=pickle.HIGHEST_PROTOCOL), frame

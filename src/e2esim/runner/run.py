@@ -194,6 +194,7 @@ def run_scenario(
     spill: bool | None = None,
     spill_folder=None,
     cache=None,
+    memo=None,
 ) -> ScenarioResult:
     """Run every case (serially, on ``workers`` local processes or on the dask cluster at ``scheduler``)
     with a progress bar; return the results with their provenance.
@@ -206,7 +207,9 @@ def run_scenario(
         default: for runs of more than ``SPILL_ABOVE_CASES`` cases that keep no products), in a temporary file
         in ``spill_folder`` (default: the system's temporary folder). cache : ``cache(setting)`` -> the array cache
         of a module's cache setting, handed to the stages through their services (``e2esim.case.Services``; the
-        front doors give ``e2esim.io.array_cache.open_cache``); None: every table is computed afresh.
+        front doors give ``e2esim.io.array_cache.open_cache``); None: every table is computed afresh. memo : the
+        ``KernelMemo`` of the run's blocks, kept by a caller that runs the same geometry again (a solve's engine
+        runs; other processes get an empty one with its settings); None: the process's own (``process_memo``).
     """
     if engine not in ENGINES:
         raise UserError(f"engine {engine!r}: expected one of {', '.join(ENGINES)}")
@@ -234,7 +237,8 @@ def run_scenario(
 
     try:
         run_blocks(resolved, block_tasks(resolved, todo, workers if not scheduler else 8), take, workers, scheduler,
-                   engine=engine, keep_products=keep, frames=journal is not None, progress=progress, cache=cache)
+                   engine=engine, keep_products=keep, frames=journal is not None, progress=progress, cache=cache,
+                   memo=memo)
     finally:
         bar.close()
     blocks.sort(key=lambda b: int(b.indices[0]))

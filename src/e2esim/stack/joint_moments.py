@@ -37,6 +37,7 @@ from e2esim.stack.channel_forms import channel_node_polynomials
 from e2esim.stack.combination import PassCombination
 from e2esim.stack.faraday import StackFaraday
 from e2esim.stack.quadratic_form import monomials
+from e2esim.stack.residual_fourier import PLANS, evaluate_at, residual_coefficients
 from e2esim.stack.scene import StackScene
 from e2esim.stack.system import StackSystemErrors
 
@@ -71,20 +72,31 @@ class StackJointMoments:
 
 def joint_node_terms(scene: StackScene, errors: StackSystemErrors, faraday: StackFaraday,
                      combination: PassCombination, difference_sd: float, correct_copol: bool,
-                     population_cross: bool = False, memo=None) -> dict:
+                     population_cross: bool = False, memo=None, signal: bool = True) -> dict:
     """The kernel's coefficients at the Faraday-rotation nodes of one difference SD (rad), with the nodes'
     weights and the passes' gain products: what ``stack_joint_moments`` evaluates at any level (cached by the
-    error model per difference SD, and across cases by ``memo``, ``stack.analytic.memoised``)."""
+    error model per difference SD, and across cases by ``memo``, ``stack.analytic.memoised``). With a residual
+    rotation of the co-polarised correction (up to 3 passes) and a memo kept over many rows of one geometry (a
+    solve's search, ``KernelMemo.repeated_geometry``) the kernel's values at the residual's nodes come from its
+    trigonometric polynomials in the residual (``e2esim.stack.residual_fourier``, eq. 28, built once and found
+    again for any residual), equal to the node-by-node values to rounding; signal : whether the moments read
+    ``y0`` (else it may be None)."""
     nodes = pass_nodes(scene, errors, faraday, difference_sd)
     omega, omega_hat = nodes.pop("omega"), None
+    inputs = (scene.blocks(), combination.matrix, errors.pass_correlation(scene.passes),
+              unit_covariances(errors.system), nodes["pair"], population_cross)
     if correct_copol:  # corrected with Omega_hat = Omega - dW: the nodes of Omega times those of dW
         residual, weights = faraday.residual_nodes(scene.passes)
+        if faraday.residual is not None and scene.passes in PLANS and getattr(memo, "repeated_geometry", False):
+            out = evaluate_at(memoised(memo, residual_coefficients, inputs[0], inputs[1], omega, *inputs[2:],
+                                       signal), residual)
+            nodes["weights"] = np.outer(nodes["weights"], weights).ravel()
+            out.update(nodes)
+            return out
         omega = np.repeat(omega, len(weights), axis=0)
         omega_hat = omega - np.tile(residual, (len(nodes["weights"]), 1))
         nodes["weights"] = np.outer(nodes["weights"], weights).ravel()
-    out = memoised(memo, channel_node_polynomials, scene.blocks(), combination.matrix, omega, omega_hat,
-                   errors.pass_correlation(scene.passes), unit_covariances(errors.system), nodes["pair"],
-                   population_cross)
+    out = memoised(memo, channel_node_polynomials, inputs[0], inputs[1], omega, omega_hat, *inputs[2:])
     out.update(nodes)
     return out
 
@@ -112,8 +124,9 @@ def stack_joint_moments(scene: StackScene, errors: StackSystemErrors, faraday: S
     for value in np.unique(dv):
         key = (float(value), bool(correct_copol), need_cross)
         if key not in cache or (cache[key]["y0"] is None and _needs_signal(cache[key], need_cross, reference, looks)):
+            signal = errors.pass_gain_log_sd > 0 or need_cross or (reference == "population" and looks is not None)
             t = joint_node_terms(scene, errors, faraday, combination, float(np.sqrt(value)), correct_copol,
-                                 need_cross, memo)
+                                 need_cross, memo, signal)
             if not _needs_signal(t, need_cross, reference, looks):
                 t["y0"] = None  # the largest of the terms (G N^2 9 complex), not read here: not kept in the cache
             t["mean_diagonal"] = np.real(np.diagonal(t["mean"], axis1=-2, axis2=-1))  # (6, G, 3): E q_p
