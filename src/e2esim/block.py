@@ -156,15 +156,30 @@ class Batched:
     axis are indexed, ``Factor`` and ``Batched`` fields recurse, anything else is shared), and subclasses give
     ``item`` (the one-case product of case i) and ``scalar_columns`` (the output scalars of every case,
     the names of the one-case product's ``scalars``).
+
+    A product that is made for one case and for a block alike (the error model, the AGB error, the Faraday-rotation
+    climatology) declares its ``case_shape`` instead: () for one case, (B,) for a block. One without a case axis is
+    a block of one, its own item; ``block_item`` gives case i of a block.
     """
 
-    def __len__(self) -> int:
+    @property
+    def case_shape(self) -> tuple:
+        """() for one case (no case axis), (B,) for a block of B cases."""
         raise NotImplementedError
+
+    def __len__(self) -> int:
+        shape = self.case_shape
+        return shape[0] if shape else 1
 
     def __bool__(self) -> bool:  # a product, whatever its number of cases (a one-case product may have no length)
         return True
 
     def item(self, i: int):
+        """Case i's one-case product (class docstring)."""
+        return self if self.case_shape == () else self.block_item(i)
+
+    def block_item(self, i: int):
+        """Case i's one-case product of a block (case shape (B,))."""
         raise NotImplementedError
 
     def scalar_columns(self) -> dict:

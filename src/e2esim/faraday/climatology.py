@@ -128,15 +128,10 @@ class FaradayClimatology(Batched, EmpiricalFaraday):
         """() for one case, (B,) for a block of B map cases."""
         return np.shape(self.frequency_hz)
 
-    def __len__(self) -> int:
-        return self.case_shape[0] if self.case_shape else 1
-
-    def item(self, i: int) -> FaradayClimatology:
-        """Case i's one-case climatology (itself for one case), made once per block: a map cell's case is asked for
-        it by every product that holds it (the error model, its wrappers, the AGB error, the kept products), which
-        share it as the per-case engine shares one climatology between the stages of a case."""
-        if self.case_shape == ():
-            return self
+    def block_item(self, i: int) -> FaradayClimatology:
+        """Case i's one-case climatology, made once per block: a map cell's case is asked for it by every product
+        that holds it (the error model, its wrappers, the AGB error, the kept products), which share it as the
+        per-case engine shares one climatology between the stages of a case."""
         items = self._memo().setdefault("items", {})
         i = int(i)
         if i not in items:
