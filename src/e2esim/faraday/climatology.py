@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 
@@ -132,11 +133,10 @@ class FaradayClimatology(Batched, EmpiricalFaraday):
         """Case i's one-case climatology, made once per block: a map cell's case is asked for it by every product
         that holds it (the error model, its wrappers, the AGB error, the kept products), which share it as the
         per-case engine shares one climatology between the stages of a case."""
-        items = self._memo().setdefault("items", {})
         i = int(i)
-        if i not in items:
-            items[i] = self._case(i)
-        return items[i]
+        if i not in self._items:
+            self._items[i] = self._case(i)
+        return self._items[i]
 
     def _case(self, i: int) -> FaradayClimatology:
         """Case i alone, with the arithmetic of ``climatology_from_integrals`` on the acquisitions it has."""
@@ -164,40 +164,40 @@ class FaradayClimatology(Batched, EmpiricalFaraday):
         return dataclasses.replace(parts[0], cells=MapCells.concatenate([p.cells for p in parts]),
                                    **{name: np.concatenate([getattr(p, name) for p in parts]) for name in _CASE_AXIS})
 
-    def _memo(self) -> dict:
-        return self.__dict__.setdefault("_case_memo", {})
+    @cached_property
+    def _items(self) -> dict:
+        """The one-case climatologies of a block made so far, by case (``item``)."""
+        return {}
 
+    @cached_property
     def _statistics(self) -> dict:
-        """The statistics of every case of a block (``row_statistics``), computed once."""
-        memo = self._memo()
-        if "statistics" not in memo:
-            memo["statistics"] = row_statistics(self.acquisition_omega, {
-                "vtec": self.vtec, "stec": self.stec, "range_delay": self.range_delay_m, "b_dot_k": self.b_dot_k},
-                self.variability_factors)
-        return memo["statistics"]
+        """The statistics of every case of a block (``row_statistics``)."""
+        return row_statistics(self.acquisition_omega, {"vtec": self.vtec, "stec": self.stec,
+                                                       "range_delay": self.range_delay_m, "b_dot_k": self.b_dot_k},
+                              self.variability_factors)
 
     # Statistics: one case's (``EmpiricalFaraday``), every case's of a block ------------------------------------
     @property
     def mean_rad(self):
         """The mean of Omega (rad); (B,) for a block."""
-        return super().mean_rad if self.case_shape == () else self._statistics()["mean"]
+        return super().mean_rad if self.case_shape == () else self._statistics["mean"]
 
     @property
     def sd_rad(self):
         """The SD of Omega (rad); (B,) for a block."""
-        return super().sd_rad if self.case_shape == () else self._statistics()["sd"]
+        return super().sd_rad if self.case_shape == () else self._statistics["sd"]
 
     @property
     def mean_abs_rad(self):
         if self.case_shape != ():
-            return self._statistics()["mean_abs"]
+            return self._statistics["mean_abs"]
         return float(np.dot(self._w, np.abs(self.samples)))
 
     def trig_moments(self) -> dict:
         """``FaradayDistribution.trig_moments``, Men et al. (2021), eq. (9a-d); {name: (B,)} for a block."""
         if self.case_shape == ():
             return super().trig_moments()
-        s = self._statistics()
+        s = self._statistics
         cos2, cos4, sin2 = s["phi2"].real, s["phi4"].real, s["phi2"].imag
         return {"c4": (3 + 4 * cos2 + cos4) / 8, "s4": (3 - 4 * cos2 + cos4) / 8, "c2s2": (1 - cos4) / 8,
                 "cs": sin2 / 2}
@@ -206,7 +206,7 @@ class FaradayClimatology(Batched, EmpiricalFaraday):
         """``FaradayDistribution.even_quadrature``: the nodes (5,) and the weights (5,), (B, 5) for a block."""
         if self.case_shape == ():
             return super().even_quadrature()
-        phi = self._statistics()["phi"]
+        phi = self._statistics["phi"]
         moments = np.stack([np.ones(len(self)), phi[:, 0], (1 + phi[:, 1]) / 2, (3 * phi[:, 0] + phi[:, 2]) / 4,
                             (3 + 4 * phi[:, 1] + phi[:, 3]) / 8], axis=-1)
         return EVEN_NODES, np.matmul(EVEN_WEIGHTS[None], moments[:, :, None])[:, :, 0]  # case by case
@@ -215,7 +215,7 @@ class FaradayClimatology(Batched, EmpiricalFaraday):
         """``scalars`` of every case: {name: (B,)} (a block), {name: (1,)} (one case), in its order."""
         if self.case_shape == ():
             return {name: np.asarray([value], float) for name, value in self.scalars().items()}
-        s = self._statistics()
+        s = self._statistics
         out = {"mean_deg": np.degrees(s["mean"]), "sd_deg": np.degrees(s["sd"]),
                "omega_mean_deg": np.degrees(s["mean"]), "omega_sd_deg": np.degrees(s["sd"]),
                "omega_mean_abs_deg": np.degrees(s["mean_abs"]), "vtec_mean_tecu": s["vtec"] / 1e16,
