@@ -171,87 +171,75 @@ class FaradayClimatology(Batched, EmpiricalFaraday):
 
     @cached_property
     def _statistics(self) -> dict:
-        """The statistics of every case of a block (``row_statistics``)."""
-        return row_statistics(self.acquisition_omega, {"vtec": self.vtec, "stec": self.stec,
-                                                       "range_delay": self.range_delay_m, "b_dot_k": self.b_dot_k},
-                              self.variability_factors)
+        """The statistics of every case (``row_statistics``; one case is a block of one)."""
+        rows = (lambda a: a) if self.case_shape else (lambda a: np.asarray(a)[None])
+        return row_statistics(rows(self.acquisition_omega), {
+            "vtec": rows(self.vtec), "stec": rows(self.stec), "range_delay": rows(self.range_delay_m),
+            "b_dot_k": rows(self.b_dot_k)}, self.variability_factors, rows(self.acquisition_weight))
 
-    # Statistics: one case's (``EmpiricalFaraday``), every case's of a block ------------------------------------
+    def _per_case(self, values: np.ndarray):
+        """``values`` (B, ...) as the climatology's cases have them: the array of a block, one case's value."""
+        return values if self.case_shape else values[0]
+
+    # Statistics of every case (``row_statistics``) -------------------------------------------------------------
     @property
     def mean_rad(self):
         """The mean of Omega (rad); (B,) for a block."""
-        return super().mean_rad if self.case_shape == () else self._statistics["mean"]
+        return self._per_case(self._statistics["mean"])
 
     @property
     def sd_rad(self):
         """The SD of Omega (rad); (B,) for a block."""
-        return super().sd_rad if self.case_shape == () else self._statistics["sd"]
+        return self._per_case(self._statistics["sd"])
 
     @property
     def mean_abs_rad(self):
-        if self.case_shape != ():
-            return self._statistics["mean_abs"]
-        return float(np.dot(self._w, np.abs(self.samples)))
+        return self._per_case(self._statistics["mean_abs"])
 
     def trig_moments(self) -> dict:
         """``FaradayDistribution.trig_moments``, Men et al. (2021), eq. (9a-d); {name: (B,)} for a block."""
-        if self.case_shape == ():
-            return super().trig_moments()
         s = self._statistics
         cos2, cos4, sin2 = s["phi2"].real, s["phi4"].real, s["phi2"].imag
-        return {"c4": (3 + 4 * cos2 + cos4) / 8, "s4": (3 - 4 * cos2 + cos4) / 8, "c2s2": (1 - cos4) / 8,
-                "cs": sin2 / 2}
+        return {name: self._per_case(value) for name, value in {
+            "c4": (3 + 4 * cos2 + cos4) / 8, "s4": (3 - 4 * cos2 + cos4) / 8, "c2s2": (1 - cos4) / 8,
+            "cs": sin2 / 2}.items()}
+
+    @cached_property
+    def _even_weights(self) -> np.ndarray:
+        phi = self._statistics["phi"]
+        moments = np.stack([np.ones(len(phi)), phi[:, 0], (1 + phi[:, 1]) / 2, (3 * phi[:, 0] + phi[:, 2]) / 4,
+                            (3 + 4 * phi[:, 1] + phi[:, 3]) / 8], axis=-1)
+        weights = self._per_case(np.matmul(EVEN_WEIGHTS[None], moments[:, :, None])[:, :, 0])  # case by case
+        weights.setflags(write=False)
+        return weights
 
     def even_quadrature(self) -> tuple:
         """``FaradayDistribution.even_quadrature``: the nodes (5,) and the weights (5,), (B, 5) for a block."""
-        if self.case_shape == ():
-            return super().even_quadrature()
-        phi = self._statistics["phi"]
-        moments = np.stack([np.ones(len(self)), phi[:, 0], (1 + phi[:, 1]) / 2, (3 * phi[:, 0] + phi[:, 2]) / 4,
-                            (3 + 4 * phi[:, 1] + phi[:, 3]) / 8], axis=-1)
-        return EVEN_NODES, np.matmul(EVEN_WEIGHTS[None], moments[:, :, None])[:, :, 0]  # case by case
+        return EVEN_NODES, self._even_weights
 
     def scalar_columns(self) -> dict:
-        """``scalars`` of every case: {name: (B,)} (a block), {name: (1,)} (one case), in its order."""
-        if self.case_shape == ():
-            return {name: np.asarray([value], float) for name, value in self.scalars().items()}
+        """``scalars`` of every case: {name: (B,)}, in its order ((1,) for one case)."""
         s = self._statistics
+        n = len(s["mean"])
         out = {"mean_deg": np.degrees(s["mean"]), "sd_deg": np.degrees(s["sd"]),
                "omega_mean_deg": np.degrees(s["mean"]), "omega_sd_deg": np.degrees(s["sd"]),
                "omega_mean_abs_deg": np.degrees(s["mean_abs"]), "vtec_mean_tecu": s["vtec"] / 1e16,
                "stec_mean_tecu": s["stec"] / 1e16, "range_delay_mean_m": s["range_delay"],
-               "b_dot_k_mean_ut": s["b_dot_k"] * 1e6, "f107_sfu": self.f107.astype(float),
-               "frequency_mhz": self.frequency_hz / 1e6, "tec_variability": np.full(len(self), float(self.variability))}
+               "b_dot_k_mean_ut": s["b_dot_k"] * 1e6, "f107_sfu": np.broadcast_to(self.f107, (n,)).astype(float),
+               "frequency_mhz": np.broadcast_to(self.frequency_hz, (n,)) / 1e6,
+               "tec_variability": np.full(n, float(self.variability))}
         for k, p in enumerate(PERCENTILES):
             out[f"omega_p{p:g}_deg".replace(".", "_")] = np.degrees(s["percentiles"][:, k])
         return out
 
     def scalars(self) -> dict:
-        """Output scalars: those of any distribution and the ``summary`` of the climatology."""
-        return {**super().scalars(), **self.summary()}
+        """Output scalars of one case: those of any distribution and the ``summary`` of the climatology."""
+        return {name: float(column[0]) for name, column in self.scalar_columns().items()}
 
     def summary(self) -> dict:
-        """Scalars for reports: Omega mean, SD, mean |Omega|, percentiles (deg); TEC (TECU); delays. Computed once
-        per climatology (the writers ask for every product's scalars, and a climatology is shared by many cases);
-        a copy each time."""
-        memo = self.__dict__.setdefault("_summary_memo", {})
-        if "summary" not in memo:
-            memo["summary"] = self._summary()
-        return dict(memo["summary"])
-
-    def _summary(self) -> dict:
-        w = self.acquisition_weight / self.acquisition_weight.sum()
-        out = {
-            "omega_mean_deg": np.degrees(self.mean_rad), "omega_sd_deg": np.degrees(self.sd_rad),
-            "omega_mean_abs_deg": np.degrees(self.mean_abs_rad),
-            "vtec_mean_tecu": float(np.dot(w, self.vtec)) / 1e16, "stec_mean_tecu": float(np.dot(w, self.stec)) / 1e16,
-            "range_delay_mean_m": float(np.dot(w, self.range_delay_m)),
-            "b_dot_k_mean_ut": float(np.dot(w, self.b_dot_k)) * 1e6,
-            "f107_sfu": self.f107, "frequency_mhz": self.frequency_hz / 1e6, "tec_variability": self.variability,
-        }
-        out.update(
-            {f"omega_p{p:g}_deg".replace(".", "_"): v for p, v in self.percentiles_deg().items()}
-        )  # no dots in names
+        """Scalars for reports of one case: Omega mean, SD, mean |Omega|, percentiles (deg); TEC (TECU); delays."""
+        out = self.scalars()
+        del out["mean_deg"], out["sd_deg"]
         return out
 
     def describe(self) -> str:
