@@ -12,7 +12,8 @@ The climatologies of a block of map cases are one ``FaradayClimatology`` with a 
 made by the ``global_climatology`` ionosphere): per case the acquisitions are the swath positions of its cell's
 pass (NaN where the pass cannot see the cell, with weight 0), its statistics are computed for the whole block
 (``e2esim.faraday.climatology_rows``) and ``item`` gives a case's one-case climatology, bit for bit the one the case
-gets alone.
+gets alone. A one-case climatology is a block of one: its statistics come from the same rows (bit for bit the
+one-case formulas of ``EmpiricalFaraday``, tests/test_faraday_climatology.py).
 """
 
 from __future__ import annotations

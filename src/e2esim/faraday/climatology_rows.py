@@ -1,15 +1,15 @@
-"""The statistics of the Faraday-rotation climatologies of a block of map cases, each case a row.
+"""The statistics of the Faraday-rotation climatologies of a block of cases, each case a row.
 
 ``FaradayClimatology`` with a case axis (the ``global_climatology`` ionosphere's product for a block of a map sweep)
-holds, per case, Omega at each swath position (NaN where the pass cannot see the cell). The statistics every case
-needs (the output scalars, the circular moments of the error model) are computed here for the whole block with the
-one-case formulas of ``EmpiricalFaraday`` and ``FaradayClimatology.summary`` and a leading case axis, cases grouped
-by how many swath positions see their cell (their sample count), bit for bit what each case gets alone: samples
-Omega_i X_j with the log-normal nodes X_j of the day-to-day TEC variability (Rishbeth & Mendillo 2001;
-``e2esim.ionosphere.variability``), equal acquisition weights, the weighted mean, SD and percentiles and the
-circular moments phi_k = E[exp(i k Omega)] (Men et al. 2021, eqs. 9-10).
+holds, per case, Omega at each swath position (NaN where the pass cannot see the cell); a one-case climatology (a
+site's) is a block of one, its acquisitions one row. The statistics every case needs (the output scalars, the
+circular moments of the error model) are computed here for the whole block with the one-case formulas of
+``EmpiricalFaraday`` and a leading case axis, cases grouped by how many acquisitions they have (their sample count)
+and by their acquisition weights (equal in a map; a case with other weights is a group alone), bit for bit what each
+case gets alone: samples Omega_i X_j with the log-normal nodes X_j of the day-to-day TEC variability (Rishbeth &
+Mendillo 2001; ``e2esim.ionosphere.variability``), the weighted mean, SD and percentiles and the circular moments
+phi_k = E[exp(i k Omega)] (Men et al. 2021, eqs. 9-10).
 """
-
 from __future__ import annotations
 
 import numpy as np
