@@ -10,6 +10,7 @@ case gets alone: samples Omega_i X_j with the log-normal nodes X_j of the day-to
 Mendillo 2001; ``e2esim.ionosphere.variability``), the weighted mean, SD and percentiles and the circular moments
 phi_k = E[exp(i k Omega)] (Men et al. 2021, eqs. 9-10).
 """
+
 from __future__ import annotations
 
 import numpy as np
