@@ -187,6 +187,34 @@ def test_a_term_that_does_not_declare_block_support_runs_case_by_case_and_says_s
     assert float(alone.current().variance) == float(reference.current().variance)
 
 
+def test_an_analytic_case_alone_is_wrapped_as_a_block_of_one(monkeypatch):
+    from e2esim.error_terms.modules import ErrorTerm
+    from e2esim.error_terms.wrapped import WrappedErrorModel
+    from e2esim.testing import reference_block
+
+    propagation = HVBackscatterErrorPropagation.from_config({}, Location("p"))
+    stack = ErrorTermStack(propagation, [AddedNoise(power_db=-40.0), GainError(sd_db=0.1, offset_db=0.05)])
+    block, cases = reference_block(stack.needs, stack.uses)
+    one_case = cases[0].adding(propagation.forward(cases[0]))["backscatter.error"]
+    expected = one_case
+    for term in stack.terms:  # the one-case path, before the case alone was a block of one
+        expected = term.wrap(expected, cases[0])
+    assert stack.one_case_only(one_case) is None
+
+    def no_one_case_path(self, model, case):
+        raise AssertionError("a case alone took the one-case path")
+
+    monkeypatch.setattr(ErrorTerm, "wrap", no_one_case_path)
+    alone = stack.forward(cases[0])["backscatter.error"]
+    assert type(alone) is WrappedErrorModel and alone.sources == expected.sources  # the case's own product
+    assert float(alone.current().variance) == float(expected.current().variance)
+    assert float(alone.current().mean) == float(expected.current().mean)
+    in_block = batched_run(stack)(block)["backscatter.error"]
+    assert float(in_block.current().variance[0]) == float(expected.current().variance)
+    undeclared = ErrorTermStack(propagation, [UndeclaredGain(sd_db=0.1)])
+    assert "undeclared_gain" in undeclared.one_case_only(one_case)
+
+
 @pytest.mark.parametrize("mode", ["montecarlo", "both"])
 def test_monte_carlo_cases_with_error_terms_keep_the_per_case_numbers(mode):
     data = copy.deepcopy(SCENARIO)

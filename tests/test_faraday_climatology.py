@@ -76,6 +76,36 @@ def test_climatology_object_is_an_empirical_faraday_with_consistent_moments():
     assert set(np.round(draws, 12)) <= set(np.round(c.samples, 12))
 
 
+def test_a_site_climatology_is_a_block_of_one_with_the_one_case_formulas_bit_for_bit(seed):
+    """Issue 27: a climatology's statistics come from the block's row statistics (a case alone is a block of one);
+    for a site's climatology, with equal or unequal acquisition weights, they are bit for bit the one-case formulas
+    of ``EmpiricalFaraday`` (np.dot, np.interp, the circular moments)."""
+    from e2esim.faraday.distribution import EVEN_WEIGHTS, PERCENTILES, FaradayDistribution
+
+    rng = np.random.default_rng(seed)
+    for trial in range(12):
+        n = int(rng.integers(1, 40)) if trial < 10 else int(rng.integers(200, 2000))
+        far = rng.normal(0.0, 1.0, n) * 10 ** rng.uniform(16.0, 18.0)
+        stec = np.abs(rng.normal(1e17, 5e16, n))
+        integrals = PathIntegrals(0.8 * stec[None], stec[None], far[None], np.full(n, 1e-5), np.full(n, 0.3),
+                                  (120.0,), "thin_shell")
+        weights = None if trial % 2 else rng.uniform(0.1, 2.0, n)
+        c = climatology_from_integrals(integrals, 0, 435e6, 0.2, int(rng.integers(3, 9)), weights, ["dawn"] * n)
+        assert c.case_shape == () and len(c) == 1 and c.item(0) is c
+        assert c.mean_rad == EmpiricalFaraday.mean_rad.fget(c) and c.sd_rad == EmpiricalFaraday.sd_rad.fget(c)
+        assert c.mean_abs_rad == np.dot(c.probabilities, np.abs(c.samples))
+        assert c.trig_moments() == FaradayDistribution.trig_moments(c)
+        phi = np.real(c.circular_moment(np.array([2.0, 4.0, 6.0, 8.0])))
+        moments = np.array([1.0, phi[0], (1 + phi[1]) / 2, (3 * phi[0] + phi[2]) / 4, (3 + 4 * phi[1] + phi[3]) / 8])
+        assert np.array_equal(c.even_quadrature()[1], EVEN_WEIGHTS @ moments)
+        scalars = c.scalars()
+        expected = np.degrees(weighted_percentiles(c.samples, c.probabilities, PERCENTILES))
+        assert [scalars[f"omega_p{p:g}_deg".replace(".", "_")] for p in PERCENTILES] == expected.tolist()
+        w = c.acquisition_weight / c.acquisition_weight.sum()
+        assert scalars["stec_mean_tecu"] == np.dot(w, c.stec) / 1e16
+        assert scalars["mean_deg"] == np.degrees(c.mean_rad) and "mean_deg" not in c.summary()
+
+
 def test_cache_location(monkeypatch, tmp_path):
     monkeypatch.setenv("E2ESIM_CACHE", str(tmp_path / "c"))
     assert default_cache_dir() == tmp_path / "c"

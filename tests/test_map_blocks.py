@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from e2esim.errors import ConfigError
-from e2esim.faraday.climatology_block import FaradayClimatologyBlock
+from e2esim.faraday.climatology import FaradayClimatology
 from e2esim.runner.blocks import BlockRun
 from e2esim.runner.run import default_services, run_case
 from e2esim.runner.scenario import Scenario
@@ -23,9 +23,10 @@ def test_a_block_of_map_cases_gets_each_cases_own_climatology_and_scene(quick_ru
     indices = np.arange(len(resolved.cases))
     products = BlockRun(plan, indices, default_services()).run()
     faraday = products["faraday.geophysical"]
-    assert isinstance(faraday, FaradayClimatologyBlock) and products["faraday.residual"] is faraday
+    assert isinstance(faraday, FaradayClimatology) and products["faraday.residual"] is faraday
+    assert faraday.case_shape == (len(indices),)
     columns, weights, trig = faraday.scalar_columns(), faraday.even_quadrature()[1], faraday.trig_moments()
-    seen = np.isfinite(faraday.faraday).sum(-1)
+    seen = np.isfinite(faraday.acquisition_omega).sum(-1)
     picks = {0, len(indices) - 1, int(np.argmin(seen)), int(np.argmax(seen))}  # cells seen at fewer positions
     for k in sorted(picks):
         case = run_case(resolved.cases[k], default_services())
@@ -33,6 +34,12 @@ def test_a_block_of_map_cases_gets_each_cases_own_climatology_and_scene(quick_ru
         item = faraday.item(k)
         assert item.label == one.label and one.label.startswith("global climatology ")
         assert np.array_equal(item.samples, one.samples) and np.array_equal(item.weights, one.weights)
+        for name in ("acquisition_omega", "vtec", "stec", "b_dot_k", "range_delay_m", "phase_advance_rad",
+                     "pass_label", "acquisition_weight"):  # what results.h5 writes per acquisition
+            assert np.array_equal(getattr(item, name), getattr(one, name), equal_nan=name != "pass_label"), name
+        assert (item.site, item.frequency_hz, item.f107, item.method) == (one.site, one.frequency_hz, one.f107,
+                                                                          one.method)
+        assert item.describe() == one.describe() and item.item(0) is item  # one case: a block of one
         for name, value in one.scalars().items():  # bit for bit, not to a tolerance
             assert columns[name][k] == value or (np.isnan(value) and np.isnan(columns[name][k])), name
         assert np.array_equal(weights[k], one.even_quadrature()[1])
@@ -40,9 +47,11 @@ def test_a_block_of_map_cases_gets_each_cases_own_climatology_and_scene(quick_ru
         assert products["scene.covariance"].item(k) is case.products["scene.covariance"]
         assert faraday.item(k) is item  # made once per block: the error model, its wrappers and the AGB error share it
     part = faraday.take(np.array(sorted(picks)))
-    assert "items" not in part._memo and part.item(0).mean_rad == faraday.item(min(picks)).mean_rad
-    joined = FaradayClimatologyBlock.concatenate([part, faraday])  # parts with different items made: a fresh memo
-    assert "items" not in joined._memo and len(joined) == len(part) + len(faraday)
+    assert "_items" not in vars(part) and part.item(0).mean_rad == faraday.item(min(picks)).mean_rad
+    assert np.array_equal(part.mean_rad, faraday.mean_rad[sorted(picks)])
+    joined = FaradayClimatology.concatenate([part, faraday])  # parts with different items made: a fresh memo
+    assert "_items" not in vars(joined) and len(joined) == len(part) + len(faraday)
+    assert joined.item(len(part)).label == faraday.item(0).label
     assert len(products["scene.covariance"].values) == 2  # the tropical and the boreal forest, not one per cell
 
 

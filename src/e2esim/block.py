@@ -80,7 +80,6 @@ class Catalog(list):
             self._tables[name] = (len(self), arrays)
         return arrays
 
-
     def extended(self, name: str, extend):
         """What ``extend(state, new values)`` made of every value, applied only to the values added since its
         last call (``state`` None at the first): work per value, not per value and block."""
@@ -155,16 +154,25 @@ class Batched:
     Subclasses are frozen dataclasses; ``take`` and ``concatenate`` work field by field (arrays with the case
     axis are indexed, ``Factor`` and ``Batched`` fields recurse, anything else is shared), and subclasses give
     ``item`` (the one-case product of case i) and ``scalar_columns`` (the output scalars of every case,
-    the names of the one-case product's ``scalars``).
+    the names of the one-case product's ``scalars``). A product made for one case and for a block alike (the
+    error model, the AGB error, the Faraday-rotation climatology) declares its ``case_shape`` instead: () for one
+    case, a block of one that is its own item; (B,) for a block, whose ``block_item`` gives case i's.
     """
 
-    def __len__(self) -> int:
+    @property
+    def case_shape(self) -> tuple:  # () for one case (no case axis), (B,) for a block
         raise NotImplementedError
+
+    def __len__(self) -> int:
+        return self.case_shape[0] if self.case_shape else 1
 
     def __bool__(self) -> bool:  # a product, whatever its number of cases (a one-case product may have no length)
         return True
 
     def item(self, i: int):
+        return self if self.case_shape == () else self.block_item(i)
+
+    def block_item(self, i: int):
         raise NotImplementedError
 
     def scalar_columns(self) -> dict:
@@ -312,9 +320,6 @@ class Block:
             return get(product)
         table = product.table(label, get)
         return tuple(x[product.index] for x in table) if isinstance(table, tuple) else table[product.index]
-
-    alone = False
-    """Not a case alone: cases with a case axis (``Case.alone`` is True)."""
 
     def common(self, name: str, label: str, get):
         """``get`` of the product ``name``, a value every case of the block shares (text, a flag: ``Case.common``

@@ -260,10 +260,6 @@ class Case:
         case axis (``e2esim.block.Block.column``); ``label`` names it there."""
         return get(self.products[name])
 
-    alone = True
-    """A case alone (a ``Block`` says False): a stage's ``forward`` that takes blocks evaluates it with its one-case
-    equations."""
-
     def common(self, name: str, label: str, get) -> Any:
         """``get`` of the product ``name``: a value every case of a block must share (text, a flag), as
         ``e2esim.block.Block.common`` gives it."""

@@ -224,14 +224,13 @@ class HVErrorModel(Batched, SystemLevels, ModelEvaluation, ErrorModel):
         return out
 
     # A block of cases (``e2esim.block.Batched``): analytic cases only ---------------------------------------
-    def __len__(self) -> int:
-        return int(np.size(self.value))  # a case alone: one value (no case axis)
+    @property
+    def case_shape(self) -> tuple:
+        """() for one case (its products have no case axis), (B,) for a block."""
+        return np.shape(self.value)
 
-    def item(self, i: int) -> HVErrorModel:
-        """Case i's one-case model, with the moments the block computed for it; a model of one case (no case axis:
-        its products have none) is its own."""
-        if np.ndim(self.value) == 0:
-            return self
+    def block_item(self, i: int) -> HVErrorModel:
+        """Case i's one-case model, with the moments the block computed for it."""
         model = HVErrorModel(self.scene.item(i), self.system.item(i), self.faraday.item(i), self.form,
                              looks=self.looks, reference=self.reference)
         if "current" in self._memo:

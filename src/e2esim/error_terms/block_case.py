@@ -34,7 +34,10 @@ UNREAD_MODEL = _UnreadModel()
 
 
 def case_of(block, position: int) -> Case:
-    """Case ``position`` of ``block`` as the per-case engine hands it to a stage (module docstring)."""
+    """Case ``position`` of ``block`` as the per-case engine hands it to a stage (module docstring); a case alone (a
+    block of one) is its own, with its own generator."""
+    if isinstance(block, Case):
+        return block
     index = int(block.indices[position])
     return Case(index=index, inputs=SweepInputs(block.sweep, index), settings=block.settings, rng=_NoDraws(),
                 products=ItemProducts(block.products, position), services=block.services)

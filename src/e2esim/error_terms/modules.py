@@ -116,8 +116,9 @@ class ErrorTerm(Module):
 
     def case_models(self, model) -> list:
         """Every case's model of the block's ``model`` for ``case_effects``, or ``UNREAD_MODEL`` for each when the
-        term does not read it (``effects_ignore_model``; ``e2esim.error_terms.block_case``)."""
-        if fast_path(self, "effects_ignore_model", "case_effects"):
+        term does not read it (``effects_ignore_model``; ``e2esim.error_terms.block_case``); one case gets its model
+        (a case alone cannot hand a block back)."""
+        if len(model) > 1 and fast_path(self, "effects_ignore_model", "case_effects"):
             return [UNREAD_MODEL] * len(model)
         return [model.item(i) for i in range(len(model))]
 

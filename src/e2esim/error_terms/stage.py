@@ -11,17 +11,19 @@ Without error terms the chain has no such stage.
 The composite's ``forward`` takes blocks (``e2esim.module.batched_run``) when the propagation's does: the
 propagation's ``forward`` over the block, then each term wraps the block's batched model with every case's effects
 (``ErrorTerm.wrap_block``, ``e2esim.error_terms.block_wrapped``), each number bit for bit the one the case gets
-alone. It hands the block back, so that its cases run one by one, where the propagation does (a Monte Carlo, a
-multi-channel model), where a term draws random numbers, and where a term does not declare that its effects may
-be made from a block's cases (``ErrorTerm.effects_take_blocks``: a plug-in's term that does not say so): the
-error model's notes then say which term ran case by case.
+alone; a case alone is wrapped the same way, as a block of one. It hands the block back, so that its cases run one
+by one, where the propagation does (a Monte Carlo, a multi-channel model), where a term draws random numbers, and
+where a term does not declare that its effects may be made from a block's cases (``ErrorTerm.effects_take_blocks``:
+a plug-in's term that does not say so): the error model's notes then say which term ran case by case. A case alone
+is wrapped case by case there too (``ErrorTermStack.one_case_only``): a Monte Carlo draw stays per case, because
+each case draws from its own generator.
 """
 
 from __future__ import annotations
 
 from e2esim.block import Batched
 from e2esim.error_model import MultiChannelErrorModel
-from e2esim.error_terms.wrapped import with_notes
+from e2esim.error_terms.wrapped import base_samples_shape, with_notes
 from e2esim.errors import ConfigError
 from e2esim.kinds import Kind
 from e2esim.module import fast_path
@@ -73,10 +75,23 @@ class ErrorTermStack:
         return tuple(t for t in self.terms if not t.takes_blocks)
 
     def forward(self, case) -> dict:
-        if not case.alone:
-            return self._forward_block(case)
+        """The propagation's products, its error model wrapped by every term (module docstring). A case alone is
+        wrapped as a block of one (``ErrorTerm.wrap_block``), except where ``one_case_only`` says why it cannot be;
+        a block then hands its cases back to run one by one (``per_case``), and a case alone is wrapped with its
+        one-case model and its own generator (``ErrorTerm.wrap``)."""
+        if self.case_by_case:
+            case.per_case(f"error terms whose effects do not take blocks: {self.case_by_case[0].identity}")
+        if fast_path(self.propagation) is None:
+            case.per_case(f"{self.propagation.identity} runs case by case")
         out = dict(self.propagation.forward(case))
         model = out[PRODUCT]
+        why = self.one_case_only(model)
+        if why is None:
+            for term in self.terms:
+                model = term.wrap_block(model, case)
+            out[PRODUCT] = case.product_of(model)
+            return out
+        case.per_case(why)
         for term in self.terms:
             model = term.wrap(model, case)
         slow = self.case_by_case
@@ -86,20 +101,19 @@ class ErrorTermStack:
         out[PRODUCT] = model
         return out
 
-    def _forward_block(self, block) -> dict:
-        """The products of a block at once (module docstring), or the block handed back."""
+    def one_case_only(self, model) -> str | None:
+        """Why the terms must wrap ``model`` case by case, or None. A Monte Carlo model (the simulation mode draws:
+        it has samples) is one: each term's effect draws its random numbers from the case's own generator, in the
+        order of the case's stages, which a block of cases does not have (``e2esim.block.CaseRandom``). So is a
+        model that is not batched (a multi-channel model, a plug-in's one-case model) and a term that does not
+        declare that its effects may be made from a block's cases."""
         if self.case_by_case:
-            block.per_case(f"error terms whose effects do not take blocks: {self.case_by_case[0].identity}")
-        if fast_path(self.propagation) is None:
-            block.per_case(f"{self.propagation.identity} runs case by case")
-        out = dict(self.propagation.forward(block))
-        model = out[PRODUCT]
+            return f"error terms whose effects do not take blocks: {self.case_by_case[0].identity}"
         if not isinstance(model, Batched) or isinstance(model, MultiChannelErrorModel):
-            block.per_case("the propagation's error model was made case by case")
-        for term in self.terms:
-            model = term.wrap_block(model, block)
-        out[PRODUCT] = model
-        return out
+            return "the propagation's error model was made case by case"
+        if base_samples_shape(model) is not None:
+            return "the error model has Monte Carlo samples: each term's effect draws from the case's own generator"
+        return None
 
     def insensitivity(self, owner, key: str):
         """The propagation's reason, when no term reads ``owner``'s products."""

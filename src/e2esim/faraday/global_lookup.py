@@ -20,7 +20,7 @@ from e2esim.block import Values
 from e2esim.case import process_memo
 from e2esim.errors import ConfigError, PhysicsInputError
 from e2esim.faraday.cell_lookup import cell_integrals, month_table
-from e2esim.faraday.climatology_block import FaradayClimatologyBlock
+from e2esim.faraday.climatology import FaradayClimatology, MapCells
 from e2esim.faraday.climatology_modules import SOLAR_PRESETS
 from e2esim.geomag.field import FIELD_KINDS, FieldModel
 from e2esim.geomag.igrf import IGRF_MODELS
@@ -158,8 +158,8 @@ class GlobalClimatologyLookup(Stage):
 
     def forward(self, case):
         """The climatology of a case's cell, month, pass and solar level; of a block of cases at once (each month,
-        pass and solar level's table read for all of its cells in one look-up: ``FaradayClimatologyBlock``, whose
-        ``item`` is a case's ``FaradayClimatology``)."""
+        pass and solar level's table read for all of its cells in one look-up: a ``FaradayClimatology`` with a case
+        axis, whose ``item`` is a case's)."""
         c, v = self.si, self.block_values(case)
         n = len(case)
         arrays = {name: np.full((n, len(self.incidence_deg)), np.nan) for name in ("faraday", "stec", "vtec")}
@@ -177,10 +177,10 @@ class GlobalClimatologyLookup(Stage):
                 values[rows] = found[name]
         self._check_seen(arrays["faraday"], v["lat_deg"], labels)
         frequency = case.column("instrument", "centre frequency", lambda instrument: instrument.centre_frequency_hz)
-        return {"faraday.geophysical": case.product_of(FaradayClimatologyBlock(
+        cells = MapCells(v["lat_deg"].astype(float), v["lon_deg"].astype(float), v["month"].astype(int))
+        return {"faraday.geophysical": case.product_of(FaradayClimatology.of_cells(
             arrays["faraday"], arrays["stec"], arrays["vtec"], np.broadcast_to(np.asarray(frequency, float), (n,)),
-            f107, v["lat_deg"].astype(float), v["lon_deg"].astype(float), v["month"].astype(int), labels,
-            c["tec_variability"], c["variability_nodes"], c["method"]))}
+            f107, labels, cells, c["tec_variability"], c["variability_nodes"], c["method"]))}
 
     def _check_seen(self, faraday, lat_deg, pass_label) -> None:
         """Refuse a case whose pass sees its cell at no swath position (faraday: (cases, positions), NaN where

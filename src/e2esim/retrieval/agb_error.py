@@ -250,13 +250,13 @@ class AGBError(ErrorVariants, SampledAnswers, Batched):
     def __bool__(self) -> bool:
         return True
 
-    def __len__(self) -> int:
-        return len(self.exponent) if np.ndim(self.exponent) else 1
+    @property
+    def case_shape(self) -> tuple:
+        """() for one case, (B,) for a block."""
+        return np.shape(self.exponent)
 
-    def item(self, i: int) -> AGBError:
+    def block_item(self, i: int) -> AGBError:
         """The one-case ``AGBError`` of case ``i``, as the per-case engine makes it."""
-        if not np.ndim(self.exponent):
-            return self
         return AGBError(float(self.exponent[i]), float(self.sigma_hv[i]), _at(self.error_mean, i),
                         _at(self.error_sd, i), None, self.mapping,
                         tuple(AGBContribution(c.name, c.group, float(c.relative_mean[i]), float(c.relative_variance[i]),
