@@ -139,8 +139,11 @@ def test_a_serial_run_with_a_bar_hands_its_stages_one(monkeypatch, shown):
 
     asked = []
     original = executors.default_services
-    monkeypatch.setattr(executors, "default_services",
-                        lambda progress=False, cache=None: asked.append(progress) or original(progress, cache))
+
+    def services(progress=False, cache=None, memo=None):
+        asked.append(progress)
+        return original(progress, cache, memo)
+    monkeypatch.setattr(executors, "default_services", services)
     scenario = Path(__file__).resolve().parents[1] / "scenarios" / "men2021_fig1.yaml"
     e2esim.run(scenario, set={"simulation.mode": "analytic"}, progress=shown)
     assert asked == [shown]
