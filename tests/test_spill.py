@@ -137,3 +137,29 @@ def test_a_run_spills_its_blocks_when_it_has_more_cases_than_the_limit(monkeypat
     assert all(isinstance(b, BlockResult) for b in run_scenario(resolved, progress=False, keep_products=False).blocks)
     with pytest.raises(ValueError, match="keeps its cases' products keeps its blocks in memory"):
         run_scenario(resolved, progress=False, keep_products=True, spill=True)
+
+
+def test_a_forked_reader_and_this_process_read_the_spill_at_once(tmp_path):
+    # the report's plots are drawn by this process and a forked helper at once, both reading the run's spill file:
+    # they share its open file, so a read must not go through the file's shared offset (seek, then read), or one
+    # process reads where the other has just sought (a 1 deg map's plot read another array's bytes as indices)
+    import multiprocessing
+
+    spill = SpillFile(tmp_path)
+    refs = [spill.put(np.full(20_000, k, dtype=np.int64)) for k in range(8)]
+    fd = spill._file.fileno()
+    before = os.lseek(fd, 0, os.SEEK_CUR)
+    spill.get(refs[3])
+    assert os.lseek(fd, 0, os.SEEK_CUR) == before  # a positional read leaves the shared offset alone
+
+    def read_many(out):
+        bad = sum(int(np.any(spill.get(refs[k % 8]) != k % 8)) for k in range(400))
+        out.put(bad)
+
+    ctx = multiprocessing.get_context("fork")
+    queue = ctx.Queue()
+    child = ctx.Process(target=read_many, args=(queue,))
+    child.start()
+    read_many(queue)
+    child.join()
+    assert queue.get() == 0 and queue.get() == 0

@@ -89,13 +89,28 @@ class SpillFile:
     def get(self, ref: Spilled) -> np.ndarray:
         dtype = np.dtype(ref.dtype)
         out = np.empty(ref.shape, dtype=dtype)
-        self._file.seek(ref.offset)
-        if self._file.readinto(memoryview(out).cast("B")) != out.nbytes:
+        if _read_at(self._file, memoryview(out).cast("B"), ref.offset) != out.nbytes:
             raise OSError(f"the spill file {self._file.name} is shorter than expected")
         return out
 
     def close(self) -> None:
         self._file.close()
+
+
+def _read_at(file, view: memoryview, offset: int) -> int:
+    """Read ``view``'s bytes from ``offset`` of ``file`` without its file offset: the report's plots are drawn by
+    this process and a forked helper at once (``e2esim.report.plot_processes``), and a forked process shares the
+    open file, so a seek then a read could read where the other process has just sought. The bytes read."""
+    if not hasattr(os, "preadv"):  # no positional read (Windows), and no forked helper either
+        file.seek(offset)
+        return file.readinto(view)
+    got = 0
+    while got < len(view):
+        n = os.preadv(file.fileno(), [view[got:]], offset + got)
+        if n == 0:
+            break
+        got += n
+    return got
 
 
 def spill_block(block, spill: SpillFile) -> SpilledBlock:
