@@ -17,6 +17,7 @@ machine's order, little-endian on the platforms e2esim supports); anything else 
 
 from __future__ import annotations
 
+import contextlib
 import os
 import struct
 from dataclasses import dataclass
@@ -115,14 +116,12 @@ def _copy(src, out, offset: int, count: int) -> None:
     (``os.copy_file_range``, Linux), else through memory."""
     done = 0
     if hasattr(os, "copy_file_range"):
-        try:
+        with contextlib.suppress(OSError):  # not supported between these files: the rest copied through memory below
             while done < count:
                 n = os.copy_file_range(src.fileno(), out.fileno(), count - done, offset + done)
                 if n == 0:
                     break
                 done += n
-        except OSError:  # not supported between these files: copied through memory below
-            pass
         out.seek(0, os.SEEK_END)
     if done < count:
         src.seek(offset + done)

@@ -109,6 +109,7 @@ class _Game:
         cases = math.prod(shape)
         self.means, self.variances = means.reshape(len(means), cases), variances.reshape(len(means), cases)
         self.extra = np.broadcast_to(extra, (len(extra),) + shape).reshape(len(extra), cases)
+        self._buffer = None  # the array of the last chunk, reused by the next (``chunk``)
 
     @property
     def size(self) -> int:
@@ -122,7 +123,7 @@ class _Game:
         if not reuse:
             rows = np.empty(shape)
         else:
-            if getattr(self, "_buffer", None) is None or self._buffer.size < math.prod(shape):
+            if self._buffer is None or self._buffer.size < math.prod(shape):
                 self._buffer = np.empty(math.prod(shape))
             rows = self._buffer[:math.prod(shape)].reshape(shape)
         np.add(v[None], e[:, None], out=rows)  # own[o] + extra[t] for m = t 2^k + o, as ``_over_subsets``
