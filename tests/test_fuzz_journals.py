@@ -211,7 +211,7 @@ def check_journal(out: Path) -> None:
     from e2esim.io.summary import summary_json
     from e2esim.report.document import build_report
     from e2esim.report.render import to_markdown
-    from e2esim.results import results_of
+    from e2esim.results import Results
     from e2esim.runner.journal import Journal
     from e2esim.runner.run import ScenarioResult, run_scenario
 
@@ -230,7 +230,7 @@ def check_journal(out: Path) -> None:
             result = ScenarioResult(resolved, sorted(blocks, key=lambda b: int(b.indices[0])))
         else:
             result = run_scenario(resolved, progress=False, finished=blocks)
-        results_of(result)
+        Results.from_run(result)
         summary_json(result)
         write_results(result, out / "results.h5")
         to_markdown(build_report(result, [], []))

@@ -15,7 +15,7 @@ import e2esim
 from e2esim.cli import main
 from e2esim.compare import compare_report
 from e2esim.requirements.verdict import RequirementVerdict, RequirementVerdicts
-from e2esim.results import results_of
+from e2esim.results import Results
 from e2esim.runner.columns import batched_requirement_columns
 from e2esim.runner.run import run_scenario
 from e2esim.runner.scenario import Scenario
@@ -59,7 +59,7 @@ def test_nisar_cases_outside_the_range_are_not_applicable_not_passing(quick_run)
     assert overview["passed_cases"] == sum(c["requirements"][0]["status"] == "pass" for c in inside)
     assert overview["worst_margin"] == min(margins) and overview["status"] == "fail"
     # Results, from the run and read back from results.h5
-    for results in (results_of(result), e2esim.open_results(folder)):
+    for results in (Results.from_run(result), e2esim.open_results(folder)):
         na = results.status[:, 0] == "not_applicable"
         assert na.sum() == 4 and not results.passed[na, 0].any() and np.isnan(results.margin[na, 0]).all()
         assert np.isnan(results.scalars["requirement0.passed"][na]).all()

@@ -14,6 +14,10 @@ function-level imports alike:
   name once;
 * **duplicated blocks**: the pairs of places sharing 6 or more lines, as the ``duplicates`` command on this
   machine counts them (``duplicates --repo src --most 200``); "unavailable" where there is no such command.
+* **``__dict__`` writes** and **direct ``process_memo()`` calls** (docs/architecture.md, "Caching"): a value
+  written into an object's ``__dict__`` (``x.__dict__[k] = v``, ``x.__dict__.setdefault/update(...)``), and a call
+  of ``process_memo()`` outside ``e2esim.case`` and the runner's service set-up (``MEMO_OWNERS``): what is kept
+  goes through a ``cached_property``, a field or the services' memo.
 
 Run ``python tools/architecture_check.py`` (``--list`` names every offender; ``--json`` prints the figures);
 tests/test_architecture.py holds the figures to the ratchet in tools/architecture_ratchet.json.
@@ -176,6 +180,8 @@ class Figures:
     private_imports: list[Import] = field(default_factory=list)
     unplaced: list[str] = field(default_factory=list)
     duplicates: int | None = None
+    dict_writes: list[str] = field(default_factory=list)  # "module:line" of each __dict__ write
+    memo_calls: list[str] = field(default_factory=list)  # "module:line" of each direct process_memo() call
     modules: int = 0
     lines: int = 0
 
@@ -189,6 +195,8 @@ class Figures:
             "private_imports": len({(i.importer, i.name) for i in self.private_imports}),
             "unplaced_modules": len(self.unplaced),
             "duplicated_blocks": self.duplicates,
+            "dict_writes": len(self.dict_writes),
+            "process_memo_calls": len(self.memo_calls),
         }
 
 
@@ -307,6 +315,33 @@ def strongly_connected(graph: dict[str, set[str]]) -> list[list[str]]:
     return sorted(components)
 
 
+MEMO_OWNERS = ("e2esim.case", "e2esim.runner.cases")
+"""The modules that may call ``process_memo()``: its own, and the runner's service set-up (``default_services``)."""
+
+
+def caching_offences(module: str, path: Path) -> tuple[list[str], list[str]]:
+    """("module:line" of each ``__dict__`` write, of each direct ``process_memo()`` call) in one module."""
+    tree = ast.parse(path.read_text(encoding="utf-8"), filename=str(path))
+    writes, calls = [], []
+
+    def is_dict(node) -> bool:
+        return isinstance(node, ast.Attribute) and node.attr == "__dict__"
+
+    for node in ast.walk(tree):
+        targets = node.targets if isinstance(node, ast.Assign) else \
+            [node.target] if isinstance(node, (ast.AugAssign, ast.AnnAssign)) else []
+        if any(isinstance(t, ast.Subscript) and is_dict(t.value) for t in targets):
+            writes.append(f"{module}:{node.lineno}")
+        if isinstance(node, ast.Call) and isinstance(node.func, ast.Attribute):
+            if node.func.attr in ("setdefault", "update", "__setitem__") and is_dict(node.func.value):
+                writes.append(f"{module}:{node.lineno}")
+        if isinstance(node, ast.Call) and module not in MEMO_OWNERS:
+            name = node.func.attr if isinstance(node.func, ast.Attribute) else getattr(node.func, "id", "")
+            if name == "process_memo":
+                calls.append(f"{module}:{node.lineno}")
+    return writes, calls
+
+
 def count_duplicates(src: Path) -> int | None:
     """Pairs of places sharing 6+ lines, by the machine's ``duplicates`` command; None where it is absent."""
     command = shutil.which("duplicates")
@@ -339,6 +374,9 @@ def measure(src: Path = ROOT / "src", package: str = PACKAGE, layers=LAYERS, dup
         figures.lines += n_lines
         if n_lines > MAX_LINES:
             figures.long_files[str(path.relative_to(src))] = n_lines
+        writes, calls = caching_offences(module, path)
+        figures.dict_writes += writes
+        figures.memo_calls += calls
         own_layer = layer_of(module, layers)
         if own_layer is None:
             figures.unplaced.append(module)
@@ -371,6 +409,8 @@ TARGETS = {
     "private_imports": 0,
     "unplaced_modules": 0,
     "duplicated_blocks": 15,
+    "dict_writes": None,
+    "process_memo_calls": 0,
 }
 
 
@@ -409,6 +449,8 @@ def report(figures: Figures, listing: bool = False) -> str:
             f"  {i.importer}:{i.line} -> {i.imported} {i.name}" for i in figures.private_imports
         ]
         rows += ["unplaced modules:"] + [f"  {m}" for m in figures.unplaced]
+        rows += ["__dict__ writes:"] + [f"  {w}" for w in figures.dict_writes]
+        rows += ["direct process_memo() calls:"] + [f"  {c}" for c in figures.memo_calls]
     return "\n".join(rows)
 
 

@@ -18,7 +18,7 @@ import warnings
 from pathlib import Path
 
 from e2esim.allocator import keep_freed_memory
-from e2esim.results import Results, results_of
+from e2esim.results import Results
 from e2esim.runner.folder_run import run_into_folder
 
 
@@ -51,7 +51,7 @@ def run(scenario, set: dict | None = None, output=None, force: bool = False, pro
     result = run_into_folder(resolved, Path(output) if output is not None else None, force, resume,
                              progress=progress, command=f"e2esim.run({_describe(scenario)})", workers=workers,
                              scheduler=scheduler, engine=engine)
-    results = results_of(result)
+    results = Results.from_run(result)  # the facade, made once here: it holds the run (``results.run``)
     for message in results.settings_without_effect:
         warnings.warn(message, NoEffectWarning, stacklevel=2)
     return results

@@ -76,7 +76,6 @@ class Results:
         """From a ``ScenarioResult`` (``e2esim.runner.run.run_scenario``)."""
         from e2esim.block import Values
         from e2esim.io.summary import requirement_sources
-        from e2esim.runner.no_effect import no_effect
         from e2esim.runner.result_table import text_column
 
         def joined(values):  # a column of source-name tuples as text
@@ -116,7 +115,7 @@ class Results:
             provenance=dict(result.provenance),
             resolved_scenario=result.scenario.resolved,
             run=result,
-            settings_without_effect=[f.message() for f in no_effect(result)],
+            settings_without_effect=[f.message() for f in result.no_effect],  # found once, kept with the run
         )
 
     # Views ------------------------------------------------------------------------------------------
@@ -203,14 +202,6 @@ class Results:
         return write_into_folder(self.run, Path(folder))
 
 
-def results_of(result) -> Results:
-    """The ``Results`` of a ``ScenarioResult``, made once and kept with it (the writers all read them)."""
-    cached = result.__dict__.get("_results")
-    if cached is None:
-        cached = result.__dict__["_results"] = Results.from_run(result)
-    return cached
-
-
 OUTPUT_SUFFIX = ".output"
 """Suffix of an output scalar whose name is a sweep key's and whose values are not the swept ones."""
 
@@ -247,4 +238,4 @@ def grid_coordinate_keys(sweep) -> dict:
     return {k: keys[0] for keys, _ in _grid_groups(sweep) for k in keys}
 
 
-__all__ = ["Results", "grid_coordinate_keys", "results_of"]
+__all__ = ["Results", "grid_coordinate_keys"]

@@ -17,7 +17,6 @@ import numpy as np
 
 from e2esim import products as P
 from e2esim.block import Values
-from e2esim.case import process_memo
 from e2esim.errors import ConfigError, PhysicsInputError
 from e2esim.faraday.cell_lookup import cell_integrals, month_table
 from e2esim.faraday.climatology import FaradayClimatology, MapCells
@@ -193,30 +192,17 @@ class GlobalClimatologyLookup(Stage):
                        key="lat_deg")
 
 
-SETTINGS_KEPT = 64
-"""Orbits and slant settings a process keeps (the process's ``KernelMemo``), for every cell of a map."""
-
-
 def _orbit_and_swath(altitude_m, ltan_hours, look_side, earth_rotation, near_rad, far_rad, samples) -> tuple:
-    """The orbit and its swath positions (incidence, deg), made once for all cells of a map (the module is set up
-    before any services exist: the process's memo)."""
-    def make():
-        orbit = SunSynchronousOrbit(altitude_m, ltan_hours, look_side, earth_rotation)
-        return orbit, tuple(float(x) for x in np.degrees(swath_incidences(orbit, near_rad, far_rad, samples)))
-
-    key = ("map orbit", altitude_m, ltan_hours, look_side, earth_rotation, near_rad, far_rad, samples)
-    return process_memo().recall(key, make, keep=SETTINGS_KEPT)
+    """The orbit and its swath positions (incidence, deg). Made where asked (some 30 us): a map's cells share one
+    module, set up once, and the month tables are found by the orbit's value (``cell_lookup.month_table``)."""
+    orbit = SunSynchronousOrbit(altitude_m, ltan_hours, look_side, earth_rotation)
+    return orbit, tuple(float(x) for x in np.degrees(swath_incidences(orbit, near_rad, far_rad, samples)))
 
 
 def _slant_settings(method, shell_height_m, bottom_height_m, layer_step_m, field_kind, epoch, coefficients):
-    """The slant-integration settings, made once for all cells of a map (the process's memo)."""
-    def make():
-        return SlantSettings(method=method, shell_height_m=shell_height_m, bottom_height_m=bottom_height_m,
-                             layer_step_m=layer_step_m, field=FieldModel(field_kind, epoch, coefficients))
-
-    key = ("map slant settings", method, shell_height_m, bottom_height_m, layer_step_m, field_kind, epoch,
-           coefficients)
-    return process_memo().recall(key, make, keep=SETTINGS_KEPT)
+    """The slant-integration settings (a few us to make; found by value, as the orbit)."""
+    return SlantSettings(method=method, shell_height_m=shell_height_m, bottom_height_m=bottom_height_m,
+                         layer_step_m=layer_step_m, field=FieldModel(field_kind, epoch, coefficients))
 
 
 def visible_latitudes(orbit_config: dict, lat_deg, pass_name: str) -> np.ndarray:

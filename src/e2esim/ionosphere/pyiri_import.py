@@ -22,12 +22,13 @@ class _DeferredModule(types.ModuleType):
 
     def __init__(self, name: str, spec):
         super().__init__(name)
-        self.__dict__["_e2esim_spec"] = spec
+        self._e2esim_spec = spec  # its own state: found by plain look-up, so ``__getattr__`` never sees this name
 
     def __getattr__(self, attr):
-        if attr.startswith("__") and attr.endswith("__"):  # the import system's and inspect's look-ups
+        # the import system's and inspect's look-ups; the spec itself is always set (asked here, it would recurse)
+        if (attr.startswith("__") and attr.endswith("__")) or attr == "_e2esim_spec":
             raise AttributeError(attr)
-        spec = self.__dict__["_e2esim_spec"]
+        spec = self._e2esim_spec
         real = importlib.util.module_from_spec(spec)
         sys.modules[self.__name__] = real
         spec.loader.exec_module(real)

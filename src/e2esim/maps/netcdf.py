@@ -100,11 +100,10 @@ def term_margins(result) -> dict:
 
 def map_dataset_of(result):
     """The map dataset of a run (a ``ScenarioResult`` of a map sweep), built once and kept with the run: the
-    writer of results.nc and the report's maps read the same one."""
-    cached = result.__dict__.get("_map_dataset")
-    if cached is None:
-        cached = result.__dict__["_map_dataset"] = map_dataset(MapColumns.of(result))
-    return cached
+    writer of results.nc and the report's maps read the same one (``ScenarioResult.map_dataset``)."""
+    if result.map_dataset is None:
+        result.map_dataset = map_dataset(MapColumns.of(result))
+    return result.map_dataset
 
 
 def map_dataset(results):

@@ -73,10 +73,15 @@ class NoEffect:
 
 
 def no_effect(result) -> list:
-    """The ``NoEffect`` findings of a run (``ScenarioResult``): sweeps, then overrides; computed once."""
-    if "_no_effect" not in result.__dict__:
-        result.__dict__["_no_effect"] = sweep_findings(result) + override_findings(result) + given_findings(result)
-    return result.__dict__["_no_effect"]
+    """The ``NoEffect`` findings of a run (``ScenarioResult``): computed once and kept with it
+    (``ScenarioResult.no_effect``, a ``cached_property`` made by ``findings``)."""
+    return result.no_effect
+
+
+def findings(result) -> list:
+    """The ``NoEffect`` findings of a run (``ScenarioResult``), computed afresh: sweeps, overrides, then the settings
+    the scenario file gives."""
+    return sweep_findings(result) + override_findings(result) + given_findings(result)
 
 
 # Sweeps ------------------------------------------------------------------------------------------------------------
@@ -388,4 +393,6 @@ def given_findings(result) -> list:
     return findings
 
 
-__all__ = ["SAMPLING_SETTINGS", "NoEffect", "given_findings", "no_effect", "override_findings", "sweep_findings"]
+__all__ = [
+    "SAMPLING_SETTINGS", "NoEffect", "findings", "given_findings", "no_effect", "override_findings", "sweep_findings",
+]

@@ -26,6 +26,7 @@ from e2esim.errors import UserError
 from e2esim.runner.case_results import BlockResult, CaseResult
 from e2esim.runner.cases import case_generator, default_services, run_block, run_case
 from e2esim.runner.executors import run_blocks
+from e2esim.runner.no_effect import findings
 from e2esim.runner.progress import CaseProgress
 from e2esim.runner.provenance import dependency_versions, source_commit
 from e2esim.runner.result_table import ResultTable
@@ -120,7 +121,8 @@ class ResultCases(Sequence):
 class ScenarioResult:
     """All cases of a run, with provenance (package version, seed, time, resolved scenario).
 
-    blocks : the ``BlockResult``s (columns of every case); ``cases``: the one-case view of them.
+    blocks : the ``BlockResult``s (columns of every case); ``cases``: the one-case view of them. What is derived
+    from a run once (``cases``, ``table``, ``no_effect``, ``map_dataset``) is kept with it, never in another object.
     """
 
     scenario: ResolvedScenario
@@ -131,6 +133,10 @@ class ScenarioResult:
     answer: dict | None = None
     """The answer to the scenario's solve or allocate section (``e2esim.flowdown.answer``), when ``e2esim run``
     computed it, or None."""
+    map_dataset: object = field(default=None, init=False, repr=False, compare=False)
+    """The map of a map sweep (an xarray Dataset), made on first ask by ``e2esim.maps.netcdf.map_dataset_of`` (the
+    writers sit above the runner, which cannot make it) and kept for results.nc, the summary and the report's maps.
+    Not an argument: ``dataclasses.replace`` starts a copy without it; nothing encodes or journals a run's result."""
 
     @cached_property
     def cases(self) -> ResultCases:
@@ -144,6 +150,12 @@ class ScenarioResult:
     def table(self) -> ResultTable:
         """Every case's scalars and verdicts as columns in case order (``e2esim.runner.result_table``)."""
         return ResultTable.of(self.blocks, len(self.scenario.cases))
+
+    @cached_property
+    def no_effect(self) -> list:
+        """The settings that change nothing in this run (``e2esim.runner.no_effect.NoEffect``s), found once: the
+        summary, the report, the command line and ``Results`` all read them."""
+        return findings(self)
 
     @property
     def keeps_products(self) -> bool:
