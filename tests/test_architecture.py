@@ -184,3 +184,27 @@ def test_one_float_or_array_helper():
     copies = [str(p.relative_to(ROOT)) for p in (ROOT / "src").rglob("*.py")
               if re.search(r"return float\(x\) if np\.ndim\(x\) == 0 else np\.asarray\(x", p.read_text())]
     assert copies == ["src/e2esim/case_values.py"]
+
+
+def test_dict_writes_and_direct_process_memo_calls_are_counted(tmp_path):
+    """Issue 27, Build 7 (docs/architecture.md, "Caching"): a value written into an object's ``__dict__`` and a
+    call of ``process_memo()`` outside ``e2esim.case`` and the runner's service set-up are counted, so that the
+    ratchet holds them at their number."""
+    files = {
+        **CLEAN,
+        "e2esim/case.py": "def process_memo():\n    return {}\n\n\nMEMO = process_memo()\n",
+        "e2esim/runner/run.py": (
+            "from e2esim import case\nfrom e2esim.case import process_memo\n\n\ndef keep(result):\n"
+            "    result.__dict__['_kept'] = process_memo()\n    result.__dict__.setdefault('_memo', {})\n"
+            "    vars(result).update(a=1)\n    return case.process_memo(), result.__dict__.get('_kept')\n"
+        ),
+    }
+    figures = arch.measure(_write(tmp_path, files), duplicates=False)
+    assert figures.dict_writes == ["e2esim.runner.run:6", "e2esim.runner.run:7"]  # reads and vars() are not
+    assert sorted(figures.memo_calls) == ["e2esim.runner.run:6", "e2esim.runner.run:9"]  # e2esim.case's own is not
+    counts = figures.counts()
+    assert counts["dict_writes"] == 2 and counts["process_memo_calls"] == 2
+    assert arch.worse_than(counts, {"dict_writes": 1, "process_memo_calls": 1}) == {
+        "dict_writes": (2, 1), "process_memo_calls": (2, 1)}
+    clean = arch.measure(_write(tmp_path / "clean", CLEAN), duplicates=False).counts()
+    assert clean["dict_writes"] == clean["process_memo_calls"] == 0

@@ -325,3 +325,24 @@ def test_shipped_map_scenario_is_the_1_deg_global_map():
     assert (m["step_deg"], m["lat_range_deg"], m["lon_range_deg"]) == (1, [-90, 90], [-180, 180])
     assert m["months"] == list(range(1, 13)) and m["passes"] == ["dawn", "dusk"] and m["solar"] == ["max"]
     assert raw["simulation"]["mode"] == "analytic" and raw["ionosphere"]["grid_step_deg"] == 1
+
+
+def test_a_map_on_worker_processes_gives_the_serial_numbers(quick_run):
+    """Issue 27, Build 7: a map's set-up (its orbit, slant settings and forest) and its month tables reach the
+    kernels the same way in one process and on workers (``--workers 2``): every number of every cell, and the map
+    dataset kept with the run (``ScenarioResult.map_dataset``, made once), are the serial run's, bit for bit."""
+    from e2esim.maps.netcdf import map_dataset_of
+    from e2esim.runner.run import run_scenario
+
+    serial, _ = quick_run("biomass_global_map")
+    parallel = run_scenario(serial.scenario, progress=False, workers=2)
+    assert parallel.provenance["executor"] == "2 local processes" and "executor" not in serial.provenance
+    assert serial.table.n == parallel.table.n == 80  # 20 cells, 2 months, 2 passes
+    for name in serial.table.scalars:
+        np.testing.assert_array_equal(parallel.table.scalar(name), serial.table.scalar(name), err_msg=name)
+    for mine, theirs in zip(serial.table.requirements, parallel.table.requirements, strict=True):
+        np.testing.assert_array_equal(mine.value, theirs.value)
+        np.testing.assert_array_equal(mine.passed, theirs.passed)
+    kept = map_dataset_of(serial)  # the writers of the quick run made it
+    assert map_dataset_of(serial) is kept is serial.map_dataset and parallel.map_dataset is None
+    assert map_dataset_of(parallel).equals(kept)

@@ -178,3 +178,43 @@ def test_the_engines_report_the_same(engine):
     result = run_scenario(Scenario(raw, "test.yaml").resolve(), progress=False, engine=engine)
     assert [f.message() for f in no_effect(result)] == [
         "swept propagation.mc_method changes no result in any case: propagation type 'hv_backscatter_error' ignores it"]
+
+
+def test_the_findings_and_the_results_facade_are_made_once_and_equal_a_fresh_computation(monkeypatch):
+    """Issue 27, Build 7: what is derived once from a run is kept with it (``ScenarioResult.no_effect``, a
+    ``cached_property``), never stashed in its ``__dict__`` by another module: the summary, the report and
+    ``Results`` all read one search, equal to a search made afresh; a copy (``dataclasses.replace``) starts
+    without it; ``e2esim.run`` makes the ``Results`` facade once and it equals one made anew from its run."""
+    import dataclasses
+
+    import e2esim.runner.no_effect as module
+    from e2esim.io.summary import summary_dict
+    from e2esim.results import Results
+
+    searches = []
+    search = module.sweep_findings
+    monkeypatch.setattr(module, "sweep_findings", lambda result: searches.append(1) or search(result))
+    raw = single_pass({"propagation.mc_method": ["fast", "brute_force"]})
+    result = run_scenario(Scenario(raw, "test.yaml").resolve(), progress=False)
+    kept = no_effect(result)
+    summary = summary_dict(result)
+    facade = Results.from_run(result)
+    assert no_effect(result) is kept is result.no_effect and len(searches) == 1
+    assert kept == module.findings(result) and len(kept) == 1 and len(searches) == 2  # the fresh search
+    assert summary["settings_without_effect"] == [f.as_dict() for f in kept]
+    assert facade.settings_without_effect == [f.message() for f in kept]
+    copy = dataclasses.replace(result)
+    assert "no_effect" not in vars(copy) and copy.map_dataset is None and copy.no_effect == kept
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", NoEffectWarning)
+        results = e2esim.run(raw)
+    fresh = Results.from_run(results.run)
+    assert results.run.no_effect is not None and fresh.settings_without_effect == results.settings_without_effect
+    for name in ("labels", "inputs", "units", "requirements", "provenance"):
+        assert getattr(fresh, name) == getattr(results, name), name
+    assert fresh.scalars.keys() == results.scalars.keys()
+    for name in fresh.scalars:
+        np.testing.assert_array_equal(fresh.scalars[name], results.scalars[name])
+    for name in ("passed", "value", "limit", "margin", "status", "reason", "dominant"):
+        np.testing.assert_array_equal(getattr(fresh, name), getattr(results, name))
