@@ -321,8 +321,11 @@ MEMO_OWNERS = ("e2esim.case", "e2esim.runner.cases")
 
 def caching_offences(module: str, path: Path) -> tuple[list[str], list[str]]:
     """("module:line" of each ``__dict__`` write, of each direct ``process_memo()`` call) in one module."""
-    tree = ast.parse(path.read_text(encoding="utf-8"), filename=str(path))
+    text = path.read_text(encoding="utf-8")
     writes, calls = [], []
+    if "__dict__" not in text and "process_memo" not in text:  # most modules: no second parse
+        return writes, calls
+    tree = ast.parse(text, filename=str(path))
 
     def is_dict(node) -> bool:
         return isinstance(node, ast.Attribute) and node.attr == "__dict__"
