@@ -94,3 +94,32 @@ def test_moments_over_a_kept_memo_are_those_node_by_node():
         if mean_deg == 3.0:
             size = len(memo)
     assert len(memo) == size
+
+
+def test_coefficients_kept_between_runs_are_those_computed(rng, tmp_path, monkeypatch):
+    """A memo with a store (the array cache a solve hands it, ``KernelMemo.store``) keeps the coefficients between
+    runs: a fresh memo over the same store finds them there instead of computing them, and the moments are bit for
+    bit those of the first run; another code (the source of the kernel's modules is part of the key) misses."""
+    from e2esim.io.array_cache import ArrayCache
+    from e2esim.stack import residual_fourier
+
+    scene = site_scene("boreal")
+    errors = StackSystemErrors(rich_system(1e-3, 2e-3), 0.5)
+    faraday = StackFaraday(BOREAL_FR, 0.0, GaussianFaraday(np.radians(2.0), np.radians(5.0)))
+    combination = combos.interpolated(scene.acquisitions.kz_rad_m)
+    store = ArrayCache(tmp_path)
+    built = []
+    real = residual_fourier.residual_coefficients
+    monkeypatch.setattr("e2esim.stack.joint_moments.residual_coefficients",
+                        lambda *a: built.append(1) or real(*a))
+
+    def moments():
+        memo = KernelMemo(repeated_geometry=True, store=store)
+        return StackJointErrorModel(scene, errors, faraday, combination, looks=300, kernel_memo=memo).current_joint()
+    first, again = moments(), moments()
+    assert len(built) == 1 and len(list(tmp_path.glob(f"*{residual_fourier.STORE_KIND}*"))) == 1
+    for field in dataclasses.fields(first):
+        assert np.array_equal(getattr(first, field.name), getattr(again, field.name)), field.name
+    monkeypatch.setattr(residual_fourier, "_code_digest", lambda: "another code")
+    moments()
+    assert len(built) == 2

@@ -25,6 +25,7 @@ For HV every part equals ``stack_hv_moments`` (tested to 1e-12).
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
@@ -37,7 +38,7 @@ from e2esim.stack.channel_forms import channel_node_polynomials
 from e2esim.stack.combination import PassCombination
 from e2esim.stack.faraday import StackFaraday
 from e2esim.stack.quadratic_form import monomials
-from e2esim.stack.residual_fourier import PLANS, evaluate_at, residual_coefficients
+from e2esim.stack.residual_fourier import PLANS, evaluate_at, kept_coefficients, residual_coefficients
 from e2esim.stack.scene import StackScene
 from e2esim.stack.system import StackSystemErrors
 
@@ -79,7 +80,8 @@ def joint_node_terms(scene: StackScene, errors: StackSystemErrors, faraday: Stac
     rotation of the co-polarised correction (up to 3 passes) and a memo kept over many rows of one geometry (a
     solve's search, ``KernelMemo.repeated_geometry``) the kernel's values at the residual's nodes come from its
     trigonometric polynomials in the residual (``e2esim.stack.residual_fourier``, eq. 28, built once and found
-    again for any residual), equal to the node-by-node values to rounding; signal : whether the moments read
+    again for any residual, and kept between runs in the memo's ``store`` where it has one), equal to the
+    node-by-node values to rounding; signal : whether the moments read
     ``y0`` (else it may be None)."""
     nodes = pass_nodes(scene, errors, faraday, difference_sd)
     omega, omega_hat = nodes.pop("omega"), None
@@ -88,8 +90,10 @@ def joint_node_terms(scene: StackScene, errors: StackSystemErrors, faraday: Stac
     if correct_copol:  # corrected with Omega_hat = Omega - dW: the nodes of Omega times those of dW
         residual, weights = faraday.residual_nodes(scene.passes)
         if faraday.residual is not None and scene.passes in PLANS and getattr(memo, "repeated_geometry", False):
+            store = getattr(memo, "store", None)  # kept between runs too: the array cache of the front doors
+            keep = None if store is None else functools.partial(kept_coefficients, store)
             out = evaluate_at(memoised(memo, residual_coefficients, inputs[0], inputs[1], omega, *inputs[2:],
-                                       signal), residual)
+                                       signal, keep=keep), residual)
             nodes["weights"] = np.outer(nodes["weights"], weights).ravel()
             out.update(nodes)
             return out
