@@ -144,6 +144,18 @@ def test_continuation_from_one_met_neighbour_keeps_the_full_scans_brackets(monke
     assert fast.rows <= 3 * full.rows // 4  # 85 of 117 here (the continuation between two met points alone: 117)
 
 
+def test_the_margins_on_the_boundary_are_read_from_the_evaluations_that_found_it():
+    """The boundary's margins at its points (every case's) are those the scan and the root search evaluated there:
+    no engine run of their own; a point never evaluated is run (with the others)."""
+    stub = _Margins(lambda v: 10.0 - v)
+    recorded = boundary._Recorded(stub)
+    points = np.array([[1.0, 2.0], [3.0, 4.5]])
+    first = recorded.grid_margins(points)
+    again = recorded.found(points[::-1])
+    assert stub.rows == 2 and np.array_equal(again, first[..., ::-1])
+    assert np.array_equal(recorded.found(np.array([[1.0, 2.0], [5.0, 1.0]])), [[[8.0, 4.0]]]) and stub.rows == 4
+
+
 def test_the_provenance_asks_git_and_the_package_metadata_once_per_process(monkeypatch):
     """The solve runs the engine a dozen times; each run's provenance asked git twice (``git describe --dirty``
     refreshes the index) and parsed eleven packages' metadata: now once per process, the same answer."""

@@ -68,8 +68,9 @@ def boundary(loaded, resolved, keys, bounds, points: int, workers: int = 1) -> B
     ranges = [bounds_of(k, None if bounds is None else bounds[i]) for i, k in enumerate(keys)]
     if not 2 <= points <= 10_000:
         raise UserError(f"--points {points}: expected 2 to 10000 points along the boundary")
-    evaluator = Evaluator(loaded, resolved, tuple(keys), workers)
-    n = evaluator.n
+    engine = Evaluator(loaded, resolved, tuple(keys), workers)
+    evaluator = _Recorded(engine)
+    n = engine.n
     x = np.linspace(*ranges[0], points)
     (lo, hi) = ranges[1]
     ys = np.linspace(lo, hi, SCAN)
@@ -84,15 +85,39 @@ def boundary(loaded, resolved, keys, bounds, points: int, workers: int = 1) -> B
     y = np.full(points, np.nan)
     if todo.size:
         y[todo], _ = brent(f, a[todo], b[todo], f_a[todo], f_b[todo], 1e-6 * (hi - lo))
-    at = np.where(np.isnan(y), best, y)
-    m_at = evaluator.grid_margins(np.stack([x, at], 1))
+    at = np.where(np.isnan(y), best, y)  # every one of them evaluated by the scan or the root search
+    m_at = evaluator.found(np.stack([x, at], 1))
     _, where = _worst_of(m_at)
     case_margins = np.min(np.where(np.isnan(m_at), np.inf, m_at), axis=0)  # (n, P)
     case_margins[np.isinf(case_margins)] = np.nan
-    binding = [(evaluator.names[w // n], evaluator.labels[w % n]) for w in where]
+    binding = [(engine.names[w // n], engine.labels[w % n]) for w in where]
     side = [("at most" if g else "at least") if s == "met at" else "" for s, g in zip(state, side_lo)]
-    return BoundaryResult(tuple(k.name for k in keys), tuple(ranges), evaluator.labels, evaluator.names, x, y,
-                          list(state), side, binding, True, evaluator.calls, evaluator.rows, case_margins)
+    return BoundaryResult(tuple(k.name for k in keys), tuple(ranges), engine.labels, engine.names, x, y,
+                          list(state), side, binding, True, engine.calls, engine.rows, case_margins)
+
+
+class _Recorded:
+    """The ``Evaluator``'s margins, with those of every point evaluated kept (every requirement and case), so that
+    the margins on the boundary are read from the evaluations that found it rather than evaluated again (a point
+    evaluated in another run gives its margins to rounding: a row's residual draws follow its place in the run)."""
+
+    def __init__(self, evaluator: Evaluator):
+        self.evaluator = evaluator
+        self.kept: dict = {}
+
+    def grid_margins(self, values: np.ndarray) -> np.ndarray:
+        values = np.asarray(values, dtype=float).reshape(-1, 2)
+        m = self.evaluator.grid_margins(values)
+        for p, point in enumerate(values):
+            self.kept[tuple(point)] = m[:, :, p]
+        return m
+
+    def found(self, values: np.ndarray) -> np.ndarray:
+        """(R, n, P) margins at the points ``values`` (P, 2): those kept, else (one not kept) a run at all of them."""
+        kept = [self.kept.get(tuple(point)) for point in np.asarray(values, dtype=float)]
+        if any(m is None for m in kept):
+            return self.grid_margins(values)
+        return np.stack(kept, -1)
 
 
 def _scan(evaluator, x: np.ndarray, ys: np.ndarray) -> np.ndarray:
