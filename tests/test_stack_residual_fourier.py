@@ -123,3 +123,22 @@ def test_coefficients_kept_between_runs_are_those_computed(rng, tmp_path, monkey
     monkeypatch.setattr(residual_fourier, "_code_digest", lambda: "another code")
     moments()
     assert len(built) == 2
+
+
+def test_the_outputs_read_as_sums_are_the_weighted_sums_of_the_node_values(rng):
+    """With the nodes' weights, ``evaluate_at`` gives the outputs the moments read only as weighted sums over the
+    nodes (``SUMMED``) as those sums, summed in another order: to 1e-13 of their largest term; the others as before."""
+    from e2esim.stack.residual_fourier import SUMMED
+
+    blocks, q, omega, r, gammas, pair = _kernel_inputs(rng, 0.5)
+    coefficients = residual_coefficients(blocks, q, omega, r, gammas, pair, True, True)
+    residual = rng.uniform(-0.5, 0.5, (4, omega.shape[1]))
+    w_g, w_j = rng.uniform(0.1, 1.0, omega.shape[0]), rng.uniform(0.1, 1.0, len(residual))
+    nodes, sums = evaluate_at(coefficients, residual), evaluate_at(coefficients, residual, (w_g, w_j))
+    w = np.outer(w_g, w_j).ravel()
+    for name in SUMMED:
+        want = np.einsum("kg...,g->k...", nodes[name], w)
+        scale = np.einsum("kg...,g->k...", np.abs(nodes[name]), w).max()
+        np.testing.assert_allclose(sums[name], want, rtol=0, atol=1e-13 * scale, err_msg=name)
+    for name in ("y0", "mean"):
+        assert np.array_equal(sums[name], nodes[name])

@@ -93,9 +93,9 @@ def joint_node_terms(scene: StackScene, errors: StackSystemErrors, faraday: Stac
             store = getattr(memo, "store", None)  # kept between runs too: the array cache of the front doors
             keep = None if store is None else functools.partial(kept_coefficients, store)
             out = evaluate_at(memoised(memo, residual_coefficients, inputs[0], inputs[1], omega, *inputs[2:],
-                                       signal, keep=keep), residual)
+                                       signal, keep=keep), residual, (nodes["weights"], weights))
             nodes["weights"] = np.outer(nodes["weights"], weights).ravel()
-            out.update(nodes)
+            out.update(nodes, summed=True)  # cov, trq2y and csys summed over the nodes with their weights
             return out
         omega = np.repeat(omega, len(weights), axis=0)
         omega_hat = omega - np.tile(residual, (len(nodes["weights"]), 1))
@@ -147,8 +147,12 @@ def stack_joint_moments(scene: StackScene, errors: StackSystemErrors, faraday: S
             expected[sel] = np.einsum("sgpq,g->spq", node_matrix, w)
         mu[sel] = np.einsum("sgp,g->sp", node_mean, w)
         spread_m[sel] = np.einsum("sgp,sgq,g->spq", node_mean, node_mean, w)
-        v[sel] = np.einsum("ks,kgpq,g->spq", mono, t["cov"], w)
-        tr_q2y[sel] = np.einsum("ks,kgp,g->sp", mono, t["trq2y"], w)
+        if t.get("summed"):  # over the nodes already (``residual_fourier.SUMMED``)
+            v[sel] = np.einsum("ks,kpq->spq", mono, t["cov"])
+            tr_q2y[sel] = np.einsum("ks,kp->sp", mono, t["trq2y"])
+        else:
+            v[sel] = np.einsum("ks,kgpq,g->spq", mono, t["cov"], w)
+            tr_q2y[sel] = np.einsum("ks,kgp,g->sp", mono, t["trq2y"], w)
         if _needs_signal(t, need_cross, reference, looks):
             y0 = np.einsum("ks,kgnmpq->sgnmpq", mono, t["y0"])  # passes' signal covariances, no gain factors
             if t["cov4"] is not None:  # Cov over the passes' own gains of the conditional means
@@ -160,7 +164,8 @@ def stack_joint_moments(scene: StackScene, errors: StackSystemErrors, faraday: S
             if need_cross:
                 qy = np.einsum("mn,sgnkp->sgmkp", q, np.diagonal(ybar, axis1=-2, axis2=-1))
                 tr_qyqy[sel] = np.einsum("sgmkp,sgkmp,g->sp", qy, qy, w).real
-                csys[sel] = np.einsum("ks,kgp,g->sp", mono, t["csys"], w)
+                csys[sel] = (np.einsum("ks,kp->sp", mono, t["csys"]) if t.get("summed") else
+                             np.einsum("ks,kgp,g->sp", mono, t["csys"], w))
             if reference == "population" and looks is not None:  # off the diagonal: tr(Q Ybar^pq Q Ybar^qp)
                 ym = np.einsum("sgnmpq,g->snmpq", ybar, w)
                 qy = np.einsum("ab,sbcpq->sacpq", q, ym)

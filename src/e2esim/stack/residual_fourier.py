@@ -136,23 +136,37 @@ def kept_coefficients(store, digest: str, make) -> dict:
     return out
 
 
-def evaluate_at(coefficients: dict, residual: np.ndarray) -> dict:
+SUMMED = ("cov", "trq2y", "csys")
+"""The outputs the joint moments read only as their weighted sums over the nodes (``evaluate_at``'s node_weights)."""
+
+
+def evaluate_at(coefficients: dict, residual: np.ndarray, node_weights: tuple | None = None) -> dict:
     """The outputs of ``channel_node_polynomials`` at the rotation nodes times the residual nodes ``residual`` (J, N)
     rad (node (g, j) at g J + j, as ``joint_moments.joint_node_terms`` orders them), from ``residual_coefficients``;
-    ``y0`` None where its coefficients were left out, ``csys`` zeros where the kernel gives zeros."""
+    ``y0`` None where its coefficients were left out, ``csys`` zeros where the kernel gives zeros. node_weights :
+    (w_g (G,), w_j (J,)), the rotation's and the residual's node weights: the outputs of ``SUMMED`` are then their
+    weighted sums over the nodes, (6, ...) without a node axis, sum_g w_g sum_j w_j sum_f B_jf c_fg =
+    sum_f (sum_j w_j B_jf) (sum_g w_g c_fg) (B the basis of eq. 28 at the residual's nodes): the sum the moments take,
+    in another order (equal to rounding), without the values at the G J nodes."""
     shapes = coefficients["shapes"]
     j = residual.shape[0]
-    out = {"y0": None, "csys": np.zeros((6, coefficients["nodes"] * j, 3))}
+    summed = node_weights is not None
+    out = {"y0": None, "csys": np.zeros((6, 3) if summed else (6, coefficients["nodes"] * j, 3))}
     for name, (shape, complex_) in shapes.items():
         coef = coefficients[name]  # (F', 6, G, P)
         _, k, g, p = coef.shape
         phase = 2.0 * residual @ frequencies(residual.shape[1], DEGREE[name])[1:].T  # (J, F)
         basis = np.concatenate([np.ones((j, 1)), np.cos(phase), np.sin(phase)], 1)
-        values = (basis @ coef.reshape(coef.shape[0], -1)).reshape(j, k, g, p).transpose(1, 2, 0, 3)
-        values = values.reshape((k, g * j) + shape + ((2,) if complex_ else ()))
+        if summed and name in SUMMED:
+            at_nodes = (node_weights[1] @ basis) @ coef.reshape(coef.shape[0], -1)  # sum_j w_j B_jf c_f, (6 G P)
+            values = np.einsum("g,kgp->kp", node_weights[0], at_nodes.reshape(k, g, p))
+            values = values.reshape((k,) + shape + ((2,) if complex_ else ()))
+        else:
+            values = (basis @ coef.reshape(coef.shape[0], -1)).reshape(j, k, g, p).transpose(1, 2, 0, 3)
+            values = values.reshape((k, g * j) + shape + ((2,) if complex_ else ()))
         out[name] = values[..., 0] + 1j * values[..., 1] if complex_ else values
     return out
 
 
-__all__ = ["DEGREE", "PLANS", "STORE_KIND", "evaluate_at", "frequencies", "kept_coefficients",
+__all__ = ["DEGREE", "PLANS", "STORE_KIND", "SUMMED", "evaluate_at", "frequencies", "kept_coefficients",
            "residual_coefficients"]
