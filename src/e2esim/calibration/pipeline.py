@@ -78,21 +78,13 @@ class PipelineContext:
         self._pending.clear()
         return p
 
-    @property
-    def p_receive(self) -> np.ndarray:
-        return self._settled()[0]
+    def _set(self, side: int, value: np.ndarray) -> None:
+        self._settled()[side] = value
 
-    @p_receive.setter
-    def p_receive(self, value: np.ndarray) -> None:
-        self._settled()[0] = value
-
-    @property
-    def p_transmit(self) -> np.ndarray:
-        return self._settled()[1]
-
-    @p_transmit.setter
-    def p_transmit(self, value: np.ndarray) -> None:
-        self._settled()[1] = value
+    p_receive = property(lambda self: self._settled()[0], lambda self, value: self._set(0, value),
+                         doc="P_r (n, 2, 2): the receive-side correction so far")
+    p_transmit = property(lambda self: self._settled()[1], lambda self, value: self._set(1, value),
+                          doc="P_t (n, 2, 2): the transmit-side correction so far")
 
     def window(self, looks: int) -> np.ndarray:
         """Raw sample covariance of a window of ``looks`` samples (one per realisation, shared by steps)."""
