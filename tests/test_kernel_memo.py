@@ -125,11 +125,16 @@ def test_the_arrays_inside_a_tuple_count_towards_the_bound():
     assert memo.get(("nodes", 1)) is None and memo.get(("nodes", 3)) is not None
 
 
-def test_a_memo_sent_to_a_worker_arrives_empty_with_its_settings():
+def test_a_memo_sent_to_a_worker_arrives_empty_with_its_settings(tmp_path):
     # a solve's engine runs take the residual-rotation path (repeated_geometry) in every process, so a solve on
-    # --workers gives the serial numbers; the worker gets the setting, not the values
-    memo = KernelMemo(max_bytes=5000, max_entries=7, repeated_geometry=True)
+    # --workers gives the serial numbers; the worker gets the setting and the store kept between runs (the array
+    # cache's folder), not the values
+    from e2esim.io.array_cache import ArrayCache
+
+    memo = KernelMemo(max_bytes=5000, max_entries=7, repeated_geometry=True, store=ArrayCache(tmp_path))
     memo[("a", 1)] = np.zeros(10)
     there = pickle.loads(pickle.dumps(memo))
     assert (there.max_bytes, there.max_entries, there.repeated_geometry, len(there)) == (5000, 7, True, 0)
+    assert there.store.folder == tmp_path
     assert pickle.loads(pickle.dumps(KernelMemo())).repeated_geometry is False
+    assert pickle.loads(pickle.dumps(KernelMemo())).store is None

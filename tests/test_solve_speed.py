@@ -111,6 +111,51 @@ def test_the_boundary_by_continuation_is_the_fully_scanned_one(monkeypatch):
     assert lines[3].startswith("  binding case: ")
 
 
+class _Margins:
+    """A stand-in evaluator: one requirement, one case, margin root(x) - y (no value of y meets where root < 0)."""
+
+    def __init__(self, root):
+        self.root, self.rows = root, 0
+
+    def grid_margins(self, values):
+        self.rows += len(values)
+        return (self.root(values[:, 0]) - values[:, 1])[None, None, :]
+
+
+def test_continuation_from_one_met_neighbour_keeps_the_full_scans_brackets(monkeypatch):
+    """A point next to a scanned point where no value meets (the ends of biomass_fr_requirement's bias range) is
+    bracketed from its met neighbour's bracket and the scan values next to it, where its root moved to the next
+    scan interval too: the brackets and states of the full scan of every point, in fewer evaluations."""
+    from e2esim.flowdown.scan import SCAN
+
+    x, ys = np.linspace(-15.0, 15.0, 13), np.linspace(0.0, 30.0, SCAN)
+
+    def root(v):
+        return 9.5 * (1 - (v / 11.5) ** 2) + 0.7
+    fast = _Margins(root)
+    got = boundary._brackets(fast, x, ys)
+    monkeypatch.setattr(boundary, "COARSE", 1)
+    full = _Margins(root)
+    want = boundary._brackets(full, x, ys)
+    assert list(got[0]) == list(want[0]) and {"met at", "no value meets it"} == set(want[0])
+    for a, b in zip(got[1:6], want[1:6]):
+        np.testing.assert_array_equal(a, b)
+    assert len({int(k) for k in np.searchsorted(ys, got[1][got[0] == "met at"])}) > 1  # roots in several intervals
+    assert fast.rows <= 3 * full.rows // 4  # 85 of 117 here (the continuation between two met points alone: 117)
+
+
+def test_the_margins_on_the_boundary_are_read_from_the_evaluations_that_found_it():
+    """The boundary's margins at its points (every case's) are those the scan and the root search evaluated there:
+    no engine run of their own; a point never evaluated is run (with the others)."""
+    stub = _Margins(lambda v: 10.0 - v)
+    recorded = boundary._Recorded(stub)
+    points = np.array([[1.0, 2.0], [3.0, 4.5]])
+    first = recorded.grid_margins(points)
+    again = recorded.found(points[::-1])
+    assert stub.rows == 2 and np.array_equal(again, first[..., ::-1])
+    assert np.array_equal(recorded.found(np.array([[1.0, 2.0], [5.0, 1.0]])), [[[7.0, 4.0]]]) and stub.rows == 4
+
+
 def test_the_provenance_asks_git_and_the_package_metadata_once_per_process(monkeypatch):
     """The solve runs the engine a dozen times; each run's provenance asked git twice (``git describe --dirty``
     refreshes the index) and parsed eleven packages' metadata: now once per process, the same answer."""

@@ -94,3 +94,51 @@ def test_moments_over_a_kept_memo_are_those_node_by_node():
         if mean_deg == 3.0:
             size = len(memo)
     assert len(memo) == size
+
+
+def test_coefficients_kept_between_runs_are_those_computed(rng, tmp_path, monkeypatch):
+    """A memo with a store (the array cache a solve hands it, ``KernelMemo.store``) keeps the coefficients between
+    runs: a fresh memo over the same store finds them there instead of computing them, and the moments are bit for
+    bit those of the first run; another code (the source of the kernel's modules is part of the key) misses."""
+    from e2esim.io.array_cache import ArrayCache
+    from e2esim.stack import residual_fourier
+
+    scene = site_scene("boreal")
+    errors = StackSystemErrors(rich_system(1e-3, 2e-3), 0.5)
+    faraday = StackFaraday(BOREAL_FR, 0.0, GaussianFaraday(np.radians(2.0), np.radians(5.0)))
+    combination = combos.interpolated(scene.acquisitions.kz_rad_m)
+    store = ArrayCache(tmp_path)
+    built = []
+    real = residual_fourier.residual_coefficients
+    monkeypatch.setattr("e2esim.stack.joint_moments.residual_coefficients",
+                        lambda *a: built.append(1) or real(*a))
+
+    def moments():
+        memo = KernelMemo(repeated_geometry=True, store=store)
+        return StackJointErrorModel(scene, errors, faraday, combination, looks=300, kernel_memo=memo).current_joint()
+    first, again = moments(), moments()
+    assert len(built) == 1 and len(list(tmp_path.glob(f"*{residual_fourier.STORE_KIND}*"))) == 1
+    for field in dataclasses.fields(first):
+        assert np.array_equal(getattr(first, field.name), getattr(again, field.name)), field.name
+    monkeypatch.setattr(residual_fourier, "_code_digest", lambda: "another code")
+    moments()
+    assert len(built) == 2
+
+
+def test_the_outputs_read_as_sums_are_the_weighted_sums_of_the_node_values(rng):
+    """With the nodes' weights, ``evaluate_at`` gives the outputs the moments read only as weighted sums over the
+    nodes (``SUMMED``) as those sums, summed in another order: to 1e-13 of their largest term; the others as before."""
+    from e2esim.stack.residual_fourier import SUMMED
+
+    blocks, q, omega, r, gammas, pair = _kernel_inputs(rng, 0.5)
+    coefficients = residual_coefficients(blocks, q, omega, r, gammas, pair, True, True)
+    residual = rng.uniform(-0.5, 0.5, (4, omega.shape[1]))
+    w_g, w_j = rng.uniform(0.1, 1.0, omega.shape[0]), rng.uniform(0.1, 1.0, len(residual))
+    nodes, sums = evaluate_at(coefficients, residual), evaluate_at(coefficients, residual, (w_g, w_j))
+    w = np.outer(w_g, w_j).ravel()
+    for name in SUMMED:
+        want = np.einsum("kg...,g->k...", nodes[name], w)
+        scale = np.einsum("kg...,g->k...", np.abs(nodes[name]), w).max()
+        np.testing.assert_allclose(sums[name], want, rtol=0, atol=1e-13 * scale, err_msg=name)
+    for name in ("y0", "mean"):
+        assert np.array_equal(sums[name], nodes[name])

@@ -135,11 +135,15 @@ class KernelMemo:
     path, size and modification time and lives in memory only). Sent to another process, it starts empty there
     (the process's own memory, ``process_memo``, is that process's memory there)."""
 
-    def __init__(self, max_bytes: int = 64 * 2**20, max_entries: int = 512, repeated_geometry: bool = False):
+    def __init__(self, max_bytes: int = 64 * 2**20, max_entries: int = 512, repeated_geometry: bool = False,
+                 store=None):
         self.max_bytes, self.max_entries = max_bytes, max_entries
         self.repeated_geometry = repeated_geometry
         """Set by a caller that runs one geometry at many values of other keys (a solve's engine runs): kernels
         may then build what pays off only over many such rows (``e2esim.stack.residual_fourier``)."""
+        self.store = store
+        """None, or an array cache (``get``/``put``, ``e2esim.io.array_cache.ArrayCache``) where such a kernel keeps
+        what it built between runs (a solve's caller sets it: ``e2esim.flowdown.evaluate``)."""
         self._values: dict = {}  # key -> (value, bytes), least recently used first
         self._bytes = 0
 
@@ -181,7 +185,7 @@ class KernelMemo:
     def __reduce__(self):
         if _PROCESS_MEMO and self is _PROCESS_MEMO[0]:
             return (process_memo, ())
-        return (KernelMemo, (self.max_bytes, self.max_entries, self.repeated_geometry))
+        return (KernelMemo, (self.max_bytes, self.max_entries, self.repeated_geometry, self.store))
 
 
 def _held_bytes(value) -> int:

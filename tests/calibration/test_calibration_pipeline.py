@@ -132,3 +132,30 @@ def test_trihedral_and_gain_steps(rng):
     ctx, res = _run(rng, [FaradayStep(BB), QueganStep(), TrihedralStep(tri, absolute_gain=False)], n=2000)
     eps = np.abs(res.f - 1) ** 2
     assert 10 * np.log10(np.mean(eps)) < 10 * np.log10(SYSTEM.imbalance_level) - 10
+
+
+def test_corrections_applied_when_read_equal_those_applied_at_once(seed):
+    """The context applies the steps' correction products when they are read (none when nothing reads them):
+    the same products in the same order, so the corrections, the residual and every draw after them are bit for
+    bit those of applying each product at once; a sample without the residual system draws the same numbers."""
+    steps = [TransponderStep(TRANSPONDERS), FaradayStep(BB), QueganStep(looks=1_000, iterations=2), GainStep(0.1, 0.2)]
+    ctx, res = _run(np.random.default_rng(seed), steps, n=50)
+    rng = np.random.default_rng(seed)
+    raw = SYSTEM.sample(rng, 50)
+    eager = PipelineContext(rng, SystemState.from_samples(raw, BOREAL_FR.sample(rng, 50)), forest(),
+                            SYSTEM.noise_power, BOREAL_FR)
+    p_r, p_t = eager.p_receive.copy(), eager.p_transmit.copy()
+    for step in steps:  # every product applied and read at once
+        eager.diagnostics.append(step.apply(eager))
+        p_r, p_t = eager.p_receive.copy(), eager.p_transmit.copy()
+    assert np.array_equal(ctx.p_receive, p_r) and np.array_equal(ctx.p_transmit, p_t)
+    assert np.array_equal(res.delta, residual(eager).delta)
+    sampler = ResidualSampler(SYSTEM, BOREAL_FR, forest(), SYSTEM.noise_power, (FaradayStep(BB),))
+    full = sampler.sample(np.random.default_rng(seed), 40)
+    lean_rng = np.random.default_rng(seed)
+    lean = sampler.sample(lean_rng, 40, residuals=False)
+    assert lean.delta is None and lean.noise_factor is None
+    assert np.array_equal(lean.diagnostics[0].omega_error, full.diagnostics[0].omega_error)
+    rest = np.random.default_rng(seed)
+    sampler.sample(rest, 40)
+    assert lean_rng.standard_normal() == rest.standard_normal()  # the stream goes on where it would have

@@ -46,20 +46,45 @@ class PipelineContext:
     """
 
     def __init__(self, rng, truth: SystemState, scene, noise_power: float, faraday):
-        n = truth.shape[0]
         self.rng = rng
         self.truth = truth
         self.scene = scene
         self.noise_power = float(noise_power)
         self.faraday = faraday
-        self.p_receive = np.broadcast_to(np.eye(2, dtype=complex), (n, 2, 2)).copy()
-        self.p_transmit = self.p_receive.copy()
+        self._size = truth.shape[0]
+        self._corrections = None  # (P_r, P_t), made when first read
+        self._pending: list = []  # ("outer" | "inner", () -> (left, right)): products not yet applied, in order
         self._windows: dict = {}
         self.diagnostics: list = []  # the StepResult of every step so far
 
     @property
     def size(self) -> int:
-        return self.p_receive.shape[0]
+        return self._size
+
+    def _settled(self) -> list:
+        """[P_r, P_t] with every pending product applied, in the order the steps asked for them: the same
+        products as applied at once, only later (none at all when nothing reads the corrections: a strategy whose
+        residual system is not derived, ``ResidualSampler.sample`` with ``residuals=False``)."""
+        if self._corrections is None:
+            eye = np.broadcast_to(np.eye(2, dtype=complex), (self._size, 2, 2))
+            self._corrections = [eye.copy(), eye.copy()]
+        p = self._corrections
+        for side, make in self._pending:
+            left, right = make()
+            if side == "outer":
+                p[0], p[1] = left @ p[0], p[1] @ right
+            else:
+                p[0], p[1] = p[0] @ left, right @ p[1]
+        self._pending.clear()
+        return p
+
+    def _set(self, side: int, value: np.ndarray) -> None:
+        self._settled()[side] = value
+
+    p_receive = property(lambda self: self._settled()[0], lambda self, value: self._set(0, value),
+                         doc="P_r (n, 2, 2): the receive-side correction so far")
+    p_transmit = property(lambda self: self._settled()[1], lambda self, value: self._set(1, value),
+                          doc="P_t (n, 2, 2): the transmit-side correction so far")
 
     def window(self, looks: int) -> np.ndarray:
         """Raw sample covariance of a window of ``looks`` samples (one per realisation, shared by steps)."""
@@ -75,12 +100,16 @@ class PipelineContext:
         return transform_covariance(cov, pr, pt)
 
     def apply_outer(self, left: np.ndarray, right: np.ndarray) -> None:
-        self.p_receive = left @ self.p_receive
-        self.p_transmit = self.p_transmit @ right
+        """P_r <- left P_r, P_t <- P_t right (applied when the corrections are next read)."""
+        self._pending.append(("outer", lambda: (left, right)))
+
+    def apply_outer_of(self, make) -> None:
+        """``apply_outer(*make())``, with ``make`` called only when the corrections are read."""
+        self._pending.append(("outer", make))
 
     def apply_inner(self, left: np.ndarray, right: np.ndarray) -> None:
-        self.p_receive = self.p_receive @ left
-        self.p_transmit = right @ self.p_transmit
+        """P_r <- P_r left, P_t <- right P_t (applied when the corrections are next read)."""
+        self._pending.append(("inner", lambda: (left, right)))
 
 
 @dataclass(frozen=True)
@@ -148,7 +177,10 @@ class ResidualSampler:
     noise_power: float
     steps: tuple
 
-    def sample(self, rng: np.random.Generator, n: int) -> ResidualSamples:
+    def sample(self, rng: np.random.Generator, n: int, residuals: bool = True) -> ResidualSamples:
+        """``n`` realisations of the strategy. residuals : also derive the residual system of each (``residual``);
+        False where only the steps' diagnostics are read (no polarimetric step): ``delta``, ``f``, ``gain`` and
+        ``noise_factor`` are then None, and the random draws (every one of them) are the same."""
         parts = []
         for start in range(0, n, _CHUNK):
             k = min(_CHUNK, n - start)
@@ -157,11 +189,13 @@ class ResidualSampler:
             ctx = PipelineContext(rng, SystemState.from_samples(raw, omega), self.scene, self.noise_power, self.faraday)
             for step in self.steps:
                 ctx.diagnostics.append(step.apply(ctx))
-            parts.append(residual(ctx))
+            parts.append(residual(ctx) if residuals else ResidualSamples(None, None, None, None, ctx.diagnostics))
         if len(parts) == 1:
             return parts[0]
         diag = [type(parts[0].diagnostics[i]).concatenate([p.diagnostics[i] for p in parts])
                 for i in range(len(self.steps))]
+        if not residuals:
+            return ResidualSamples(None, None, None, None, diag)
         cat = lambda name: np.concatenate([getattr(p, name) for p in parts])
         return ResidualSamples(cat("delta"), cat("f"), cat("gain"), cat("noise_factor"), diag)
 

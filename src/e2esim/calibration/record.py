@@ -88,11 +88,12 @@ class CalibrationRecord(Batched):
             return self._simulate_stated(rng, realisations)
         n = int(min(max(realisations, _PILOT_MIN), _PILOT_MAX))
         sampler = self.sampler()
-        res = sampler.sample(rng, n)
+        polarimetric = any(step.kind == "polarimetric" for step in self.steps)
+        res = sampler.sample(rng, n, residuals=polarimetric)  # only a polarimetric step's residual system is read
         summaries = tuple(StepSummary(name, step.kind, result.summary())
                           for name, step, result in zip(self.names, self.steps, res.diagnostics))
         done = replace(self, results=tuple(res.diagnostics), summaries=summaries)
-        if any(step.kind == "polarimetric" for step in self.steps):
+        if polarimetric:
             model, unmodelled = fit_residual_model(res, self.raw_system.noise_power, sampler)
             residual = {**unmodelled, "gain_offset_db": model.gain_offset_db}
             return replace(done, residual=residual, representation="residual"), model, ConstantFaraday(0.0)

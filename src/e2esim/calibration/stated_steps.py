@@ -49,8 +49,11 @@ class ResidualFaradayStep(CalibrationStep):
     def apply(self, ctx: PipelineContext) -> FaradayStepResult:
         left = self.bias_rad + self.sd_rad * standard_draws(ctx.rng, ctx.size)
         omega_hat = np.asarray(ctx.truth.omega) - left
-        rot = faraday_matrix(-omega_hat)
-        ctx.apply_outer(rot, rot)
+
+        def rotation():
+            rot = faraday_matrix(-omega_hat)
+            return rot, rot
+        ctx.apply_outer_of(rotation)  # made only where the corrections are read (a polarimetric step's residual)
         return FaradayStepResult(-left, np.zeros(ctx.size, dtype=bool), self.sd_rad, math.nan)
 
 

@@ -47,7 +47,8 @@ class Evaluator:
     kernel whose work does not depend on the solved keys (the stack's coefficients in the residual rotation,
     ``e2esim.stack.residual_fourier``) is computed once for the whole search; a value found there is the kernel's
     own result. They read the array cache of the front doors (``e2esim.io.array_cache.open_cache``), as ``e2esim
-    run`` does: a climatology's table is built once, not in every run.
+    run`` does: a climatology's table is built once, not in every run; the memo keeps such a kernel's work there
+    too (``KernelMemo.store``), so that a later solve of the same geometry finds it.
     """
 
     def __init__(self, scenario: Scenario, resolved, keys: tuple, workers: int = 1):
@@ -79,7 +80,7 @@ class Evaluator:
         self.calls = 0
         self.rows = 0
         self.workers = workers
-        self.memo = KernelMemo(MEMO_BYTES, repeated_geometry=True)
+        self.memo = KernelMemo(MEMO_BYTES, repeated_geometry=True, store=open_cache(None))
 
     def grid_margins(self, values: np.ndarray) -> np.ndarray:
         """(R, n, P) margins of every requirement in every case at each of P points ``values`` ((P, len(keys))):

@@ -111,11 +111,13 @@ def node_terms(scene: StackScene, errors: StackSystemErrors, faraday: StackFarad
     return out
 
 
-def memoised(memo, kernel, *inputs) -> dict:
+def memoised(memo, kernel, *inputs, keep=None) -> dict:
     """``kernel(*inputs)`` (a dict of arrays), found in ``memo`` (the run's ``KernelMemo``, or None) by the content
     of ``inputs`` (arrays by dtype, shape and bytes; dicts, tuples, numbers and None by value): the cases of a
     sweep with one geometry (scene, errors, rotation nodes, combination) share their node terms. A new dict is
-    returned each time; its arrays are the kernel's, never written to."""
+    returned each time; its arrays are the kernel's, never written to. keep : where the memo does not hold it,
+    ``keep(digest, make)`` gives the value instead of ``make()`` (a store kept between runs, found again by the
+    inputs' digest; ``e2esim.stack.residual_fourier.kept_coefficients``)."""
     if memo is None:
         return kernel(*inputs)
     digest = hashlib.sha256(kernel.__qualname__.encode())
@@ -123,7 +125,7 @@ def memoised(memo, kernel, *inputs) -> dict:
     key = (kernel.__module__, digest.hexdigest())
     found = memo.get(key)
     if found is None:
-        found = kernel(*inputs)
+        found = kernel(*inputs) if keep is None else keep(key[1], lambda: kernel(*inputs))
         memo[key] = found
     return dict(found)
 

@@ -25,6 +25,7 @@ For HV every part equals ``stack_hv_moments`` (tested to 1e-12).
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
@@ -37,7 +38,7 @@ from e2esim.stack.channel_forms import channel_node_polynomials
 from e2esim.stack.combination import PassCombination
 from e2esim.stack.faraday import StackFaraday
 from e2esim.stack.quadratic_form import monomials
-from e2esim.stack.residual_fourier import PLANS, evaluate_at, residual_coefficients
+from e2esim.stack.residual_fourier import PLANS, evaluate_at, kept_coefficients, residual_coefficients
 from e2esim.stack.scene import StackScene
 from e2esim.stack.system import StackSystemErrors
 
@@ -79,7 +80,8 @@ def joint_node_terms(scene: StackScene, errors: StackSystemErrors, faraday: Stac
     rotation of the co-polarised correction (up to 3 passes) and a memo kept over many rows of one geometry (a
     solve's search, ``KernelMemo.repeated_geometry``) the kernel's values at the residual's nodes come from its
     trigonometric polynomials in the residual (``e2esim.stack.residual_fourier``, eq. 28, built once and found
-    again for any residual), equal to the node-by-node values to rounding; signal : whether the moments read
+    again for any residual, and kept between runs in the memo's ``store`` where it has one), equal to the
+    node-by-node values to rounding; signal : whether the moments read
     ``y0`` (else it may be None)."""
     nodes = pass_nodes(scene, errors, faraday, difference_sd)
     omega, omega_hat = nodes.pop("omega"), None
@@ -88,10 +90,12 @@ def joint_node_terms(scene: StackScene, errors: StackSystemErrors, faraday: Stac
     if correct_copol:  # corrected with Omega_hat = Omega - dW: the nodes of Omega times those of dW
         residual, weights = faraday.residual_nodes(scene.passes)
         if faraday.residual is not None and scene.passes in PLANS and getattr(memo, "repeated_geometry", False):
+            store = getattr(memo, "store", None)  # kept between runs too: the array cache of the front doors
+            keep = None if store is None else functools.partial(kept_coefficients, store)
             out = evaluate_at(memoised(memo, residual_coefficients, inputs[0], inputs[1], omega, *inputs[2:],
-                                       signal), residual)
+                                       signal, keep=keep), residual, (nodes["weights"], weights))
             nodes["weights"] = np.outer(nodes["weights"], weights).ravel()
-            out.update(nodes)
+            out.update(nodes, summed=True)  # cov, trq2y and csys summed over the nodes with their weights
             return out
         omega = np.repeat(omega, len(weights), axis=0)
         omega_hat = omega - np.tile(residual, (len(nodes["weights"]), 1))
@@ -143,8 +147,12 @@ def stack_joint_moments(scene: StackScene, errors: StackSystemErrors, faraday: S
             expected[sel] = np.einsum("sgpq,g->spq", node_matrix, w)
         mu[sel] = np.einsum("sgp,g->sp", node_mean, w)
         spread_m[sel] = np.einsum("sgp,sgq,g->spq", node_mean, node_mean, w)
-        v[sel] = np.einsum("ks,kgpq,g->spq", mono, t["cov"], w)
-        tr_q2y[sel] = np.einsum("ks,kgp,g->sp", mono, t["trq2y"], w)
+        if t.get("summed"):  # over the nodes already (``residual_fourier.SUMMED``)
+            v[sel] = np.einsum("ks,kpq->spq", mono, t["cov"])
+            tr_q2y[sel] = np.einsum("ks,kp->sp", mono, t["trq2y"])
+        else:
+            v[sel] = np.einsum("ks,kgpq,g->spq", mono, t["cov"], w)
+            tr_q2y[sel] = np.einsum("ks,kgp,g->sp", mono, t["trq2y"], w)
         if _needs_signal(t, need_cross, reference, looks):
             y0 = np.einsum("ks,kgnmpq->sgnmpq", mono, t["y0"])  # passes' signal covariances, no gain factors
             if t["cov4"] is not None:  # Cov over the passes' own gains of the conditional means
@@ -156,7 +164,8 @@ def stack_joint_moments(scene: StackScene, errors: StackSystemErrors, faraday: S
             if need_cross:
                 qy = np.einsum("mn,sgnkp->sgmkp", q, np.diagonal(ybar, axis1=-2, axis2=-1))
                 tr_qyqy[sel] = np.einsum("sgmkp,sgkmp,g->sp", qy, qy, w).real
-                csys[sel] = np.einsum("ks,kgp,g->sp", mono, t["csys"], w)
+                csys[sel] = (np.einsum("ks,kp->sp", mono, t["csys"]) if t.get("summed") else
+                             np.einsum("ks,kgp,g->sp", mono, t["csys"], w))
             if reference == "population" and looks is not None:  # off the diagonal: tr(Q Ybar^pq Q Ybar^qp)
                 ym = np.einsum("sgnmpq,g->snmpq", ybar, w)
                 qy = np.einsum("ab,sbcpq->sacpq", q, ym)

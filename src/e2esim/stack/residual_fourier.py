@@ -23,7 +23,11 @@ unchanged; a row of the solve costs the evaluation of the polynomials instead of
 from __future__ import annotations
 
 import functools
+import hashlib
+import importlib
 import itertools
+import json
+from pathlib import Path
 
 import numpy as np
 
@@ -92,22 +96,77 @@ def residual_coefficients(blocks: np.ndarray, q: np.ndarray, omega: np.ndarray, 
     return coefficients
 
 
-def evaluate_at(coefficients: dict, residual: np.ndarray) -> dict:
+STORE_KIND = "stack_residual_coefficients"
+"""The kind of ``kept_coefficients``'s entries in an array cache."""
+
+_CODE = ("e2esim.stack.residual_fourier", "e2esim.stack.channel_forms", "e2esim.distortion.expansion",
+         "e2esim.polarimetry.system_model")
+"""The modules whose code computes the coefficients: their source is part of a kept entry's key."""
+
+
+@functools.cache  # the source of this process's modules does not change while it runs
+def _code_digest() -> str:
+    digest = hashlib.sha256()
+    for name in _CODE:
+        digest.update(Path(importlib.import_module(name).__file__).read_bytes())
+    return digest.hexdigest()
+
+
+def kept_coefficients(store, digest: str, make) -> dict:
+    """``make()``, the result of ``residual_coefficients`` for inputs of ``digest`` (their content, as the kernel
+    memo keys them, ``e2esim.stack.analytic.memoised``), kept between runs in ``store`` (an array cache with ``get``
+    and ``put``: the front doors' ``e2esim.io.array_cache.ArrayCache``, handed in as ``KernelMemo.store``). The key
+    holds the digest, the source of the code that computes them (``_CODE``) and numpy's version, so an entry is
+    found again only where this code would compute the same numbers; the arrays read back are those computed, bit
+    for bit (HDF5 keeps every float64 exactly, and the cache checks their checksum)."""
+    description = {"inputs": digest, "code": _code_digest(), "numpy": np.__version__}
+    found = store.get(STORE_KIND, description, None, ("shapes",))
+    if found is not None:
+        shapes = json.loads(found["attrs"]["shapes"])
+        out = {name: found[name] for name in shapes}
+        for array in out.values():
+            array.setflags(write=False)
+        out["shapes"] = {name: (tuple(shape), bool(complex_)) for name, (shape, complex_) in shapes.items()}
+        out["nodes"] = int(found["attrs"]["nodes"])
+        return out
+    out = make()
+    arrays = {name: out[name] for name in out["shapes"]}
+    store.put(STORE_KIND, description, None, arrays,
+              {"description": description, "shapes": out["shapes"], "nodes": out["nodes"]})
+    return out
+
+
+SUMMED = ("cov", "trq2y", "csys")
+"""The outputs the joint moments read only as their weighted sums over the nodes (``evaluate_at``'s node_weights)."""
+
+
+def evaluate_at(coefficients: dict, residual: np.ndarray, node_weights: tuple | None = None) -> dict:
     """The outputs of ``channel_node_polynomials`` at the rotation nodes times the residual nodes ``residual`` (J, N)
     rad (node (g, j) at g J + j, as ``joint_moments.joint_node_terms`` orders them), from ``residual_coefficients``;
-    ``y0`` None where its coefficients were left out, ``csys`` zeros where the kernel gives zeros."""
+    ``y0`` None where its coefficients were left out, ``csys`` zeros where the kernel gives zeros. node_weights :
+    (w_g (G,), w_j (J,)), the rotation's and the residual's node weights: the outputs of ``SUMMED`` are then their
+    weighted sums over the nodes, (6, ...) without a node axis, sum_g w_g sum_j w_j sum_f B_jf c_fg =
+    sum_f (sum_j w_j B_jf) (sum_g w_g c_fg) (B the basis of eq. 28 at the residual's nodes): the sum the moments take,
+    in another order (equal to rounding), without the values at the G J nodes."""
     shapes = coefficients["shapes"]
     j = residual.shape[0]
-    out = {"y0": None, "csys": np.zeros((6, coefficients["nodes"] * j, 3))}
+    summed = node_weights is not None
+    out = {"y0": None, "csys": np.zeros((6, 3) if summed else (6, coefficients["nodes"] * j, 3))}
     for name, (shape, complex_) in shapes.items():
         coef = coefficients[name]  # (F', 6, G, P)
         _, k, g, p = coef.shape
         phase = 2.0 * residual @ frequencies(residual.shape[1], DEGREE[name])[1:].T  # (J, F)
         basis = np.concatenate([np.ones((j, 1)), np.cos(phase), np.sin(phase)], 1)
-        values = (basis @ coef.reshape(coef.shape[0], -1)).reshape(j, k, g, p).transpose(1, 2, 0, 3)
-        values = values.reshape((k, g * j) + shape + ((2,) if complex_ else ()))
+        if summed and name in SUMMED:
+            at_nodes = (node_weights[1] @ basis) @ coef.reshape(coef.shape[0], -1)  # sum_j w_j B_jf c_f, (6 G P)
+            values = np.einsum("g,kgp->kp", node_weights[0], at_nodes.reshape(k, g, p))
+            values = values.reshape((k,) + shape + ((2,) if complex_ else ()))
+        else:
+            values = (basis @ coef.reshape(coef.shape[0], -1)).reshape(j, k, g, p).transpose(1, 2, 0, 3)
+            values = values.reshape((k, g * j) + shape + ((2,) if complex_ else ()))
         out[name] = values[..., 0] + 1j * values[..., 1] if complex_ else values
     return out
 
 
-__all__ = ["DEGREE", "PLANS", "evaluate_at", "frequencies", "residual_coefficients"]
+__all__ = ["DEGREE", "PLANS", "STORE_KIND", "SUMMED", "evaluate_at", "frequencies", "kept_coefficients",
+           "residual_coefficients"]
