@@ -23,6 +23,7 @@ for any level an error model has (``first_failing_level``): the margins of the r
 from __future__ import annotations
 
 from dataclasses import dataclass
+from operator import attrgetter
 
 import numpy as np
 
@@ -121,10 +122,8 @@ class AGBBound:
     def model(self):
         return self.agb.error_model
 
-    @property
-    def moments_source(self):
-        """What ``moments_at`` asks: bounds with the same source share its evaluations (``first_failing_levels``)."""
-        return self.agb
+    moments_source = property(attrgetter("agb"))
+    """What ``moments_at`` asks: bounds with the same source share its evaluations (``first_failing_levels``)."""
 
     def moments_at(self, **levels):
         return self.agb.moments_under(**levels)
@@ -144,22 +143,15 @@ class ModelBound:
     requirement: AGBRequirement
     model: object
 
-    @property
-    def side(self) -> str:
-        return self.requirement.side
-
-    @property
-    def moments_source(self):
-        return self.model
+    side = property(lambda self: self.requirement.side)
+    moments_source = property(attrgetter("model"))
+    violation_at = AGBBound.violation_at
 
     def moments_at(self, **levels):
         return self.model.moments(**levels)
 
     def violation_of(self, moments):
         return self.requirement.violation(moments.mean, moments.sd, self.model.value)
-
-    def violation_at(self, **levels):
-        return self.violation_of(self.moments_at(**levels))
 
 
 TRADEOFF_LEVELS = ("crosstalk", "channel_imbalance")
