@@ -9,7 +9,15 @@ import pytest
 
 from e2esim.distortion.error_model import HVErrorModel
 from e2esim.faraday.distribution import GaussianFaraday
-from e2esim.requirements.tradeoff import AGBBound, AGBRequirement, ModelBound, first_failing_level
+from e2esim.requirements.tradeoff import (
+    AGBBound,
+    AGBRequirement,
+    ModelBound,
+    bound_tradeoff_curve,
+    bound_tradeoff_curves,
+    first_failing_level,
+    first_failing_levels,
+)
 from e2esim.retrieval.agb_error import AGBContribution, AGBError
 from helpers import forest, system
 
@@ -70,3 +78,25 @@ def test_without_added_terms_the_agb_error_solves_as_the_error_model_alone():
         ours = AGBBound(agb, 0.2, CONFIDENCE, side).violation_at(crosstalk=levels)
         alone = ModelBound(AGBRequirement(0.2, CONFIDENCE, side, 2.2), model).violation_at(crosstalk=levels)
         assert np.array_equal(ours, alone)
+
+
+def test_the_sides_of_a_bound_share_the_scan_and_find_their_own_limits_bit_for_bit(monkeypatch):
+    """``first_failing_levels``: the sides of a requirement ask the scan's 25 levels in one evaluation of the moments
+    (a curve's sides also refine together), and each side's limit is the one its own search finds, bit for bit."""
+    _, agb = _agb(0.0004)
+    bounds = [AGBBound(agb, 0.2, CONFIDENCE, side) for side in ("over", "under")]
+    calls = []
+    asked = AGBError.moments_under
+    monkeypatch.setattr(AGBError, "moments_under", lambda self, **levels: calls.append(1) or asked(self, **levels))
+    alone = [first_failing_level(lambda v, b=b: b.violation_at(crosstalk=v)) for b in bounds]
+    searched_alone, calls[:] = len(calls), []
+    together = first_failing_levels(bounds, lambda v: {"crosstalk": v})
+    assert np.isfinite(alone[0]) and np.array_equal(alone, together, equal_nan=True)
+    assert len(calls) == searched_alone - 1  # the scan once for both sides
+    x = np.logspace(-6, -2, 7)
+    calls[:] = []
+    alone = [bound_tradeoff_curve(b, x) for b in bounds]
+    searched_alone, calls[:] = len(calls), []
+    curves = bound_tradeoff_curves(bounds, x)
+    assert np.any(np.isfinite(alone[0])) and np.array_equal(alone, curves, equal_nan=True)
+    assert len(calls) < 0.6 * searched_alone  # one scan, and the sides' steps asked together

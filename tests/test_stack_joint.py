@@ -17,8 +17,10 @@ from e2esim.retrieval.combine import intensity_correlation
 from e2esim.retrieval.multichannel import TABLE1_ALPHA
 from e2esim.scene.covariance import ScatteringCovariance
 from e2esim.stack import combination as combos
+from e2esim.stack.analytic import stack_hv_moments
 from e2esim.stack.error_model import StackHVErrorModel
 from e2esim.stack.joint_model import StackJointErrorModel
+from e2esim.stack.joint_moments import stack_joint_moments
 from e2esim.stack.montecarlo import simulate_stack
 from e2esim.stack.multichannel_retrieval import ground_cancelled_alphas
 from e2esim.stack.sites import SITES
@@ -287,3 +289,25 @@ def test_complex_normal_draws_are_those_of_the_complex_expression(seed, unit):
     got = _complex_normal(second, shape, unit)
     assert got.tobytes() == expected.tobytes()
     assert first.standard_normal() == second.standard_normal()  # the generators left in the same state
+
+
+@pytest.mark.parametrize("rho", [0.4, 1.0])
+def test_the_cancellation_reads_means_computed_without_the_kernels_covariance(rho):
+    """The ground an estimator leaves (``cancellation()``) is read from the means of the ground-only scene: its
+    kernels skip their (co)variance (``mean_only``), and the means, hence every ``cancellation.*`` scalar, are those of
+    the full moments, bit for bit (stable errors take the kernel's other path of eq. 22)."""
+    hv, joint = _models("scene", rho=rho)
+    ground = hv.scene.ground_only()
+    quiet = dataclasses.replace(hv.errors, system=hv.errors.system.with_levels(noise_power=0.0))
+    full = stack_hv_moments(ground, quiet, hv.faraday, hv.combination, None, "scene")
+    lean = stack_hv_moments(ground, quiet, hv.faraday, hv.combination, None, "scene", mean_only=True)
+    assert float(lean.value + lean.bias_distortion) == float(full.value + full.bias_distortion)
+    assert float(lean.var_distortion) == 0.0 < float(full.var_distortion)  # the kernel's variance was left out
+    left = stack_joint_moments(ground, quiet, joint.faraday, joint.combination, None, "scene", joint.correct_copol)
+    lean = stack_joint_moments(ground, quiet, joint.faraday, joint.combination, None, "scene", joint.correct_copol,
+                               mean_only=True)
+    assert np.array_equal(lean.values + lean.bias_distortion, left.values + left.bias_distortion)
+    assert not np.any(lean.cov_distortion) and np.any(left.cov_distortion)
+    assert joint.cancellation()["hv.ground_residual_fraction"] == float((left.values + left.bias_distortion)[1]
+                                                                         / joint.values[1])
+    assert hv.cancellation()["ground_residual_fraction"] == float(full.value + full.bias_distortion) / hv.value

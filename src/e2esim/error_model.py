@@ -71,6 +71,10 @@ class ErrorModel(ABC):
     costly_levels : levels whose every value costs the model a computation of its own (new quadrature nodes):
         a margin's search bisects its scan grid over them instead of evaluating all of it
         (``e2esim.requirements.tradeoff.first_failing_level``).
+    levels_lead_sources : the sources that only set a level to zero come first in ``sources``, and a model with one
+        of them removed shares the node terms of the model it was made from: ``subsets_of`` then makes each subset's
+        model from its parent by the subset's first source, so that most share their parent's (the multi-pass
+        models). The same models either way, only made in another order.
     """
 
     channel: str = "hv"
@@ -79,6 +83,7 @@ class ErrorModel(ABC):
     notes: tuple = ()
     validity = None
     costly_levels: tuple = ()
+    levels_lead_sources: bool = False
 
     @property
     @abstractmethod
@@ -299,6 +304,7 @@ class DerivedErrorModel(ErrorModel):
     notes = _of_source("notes")
     validity = _of_source("validity")
     costly_levels = _of_source("costly_levels")
+    levels_lead_sources = _of_source("levels_lead_sources")
 
     def moments(self, **levels) -> Moments:
         self.check_available()
@@ -358,9 +364,10 @@ def subsets_of(model: ErrorModel) -> tuple:
     active = tuple(True if inactive[name] is None else ~np.asarray(inactive[name], dtype=bool) for name in own)
     k = len(own)
     variants = {0: model}  # by the bit mask of the sources taken away
+    first = getattr(model, "levels_lead_sources", False)  # a subset made by its first source, else by its last
     for removed in range(1, 2**k):
-        top = removed.bit_length() - 1
-        variants[removed] = variants[removed & ~(1 << top)].without(own[top])
+        bit = (removed & -removed).bit_length() - 1 if first else removed.bit_length() - 1
+        variants[removed] = variants[removed & ~(1 << bit)].without(own[bit])
     full = 2**k - 1
     means, variances = [], []
     for on in range(2**k):  # ascending: a subset's smaller subsets are done first

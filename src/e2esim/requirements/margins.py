@@ -13,7 +13,8 @@ import numpy as np
 
 from e2esim.case_values import plain
 from e2esim.distortion.validity import describe_level
-from e2esim.requirements.tradeoff import TRADEOFF_LEVELS, bound_axis_limits, bound_tradeoff_curve, first_failing_level
+from e2esim.requirements.level_search import first_failing_levels
+from e2esim.requirements.tradeoff import TRADEOFF_LEVELS, bound_tradeoff_curves, bounds_axis_limits
 from e2esim.units import level_db_from_variance, variance_from_level_db
 
 INSTRUMENT_LEVELS = ("crosstalk", "channel_imbalance")
@@ -86,11 +87,8 @@ def level_margins(bounds, convention: str, stated_db: dict | None = None) -> dic
     out = _edge_db(model, convention)
     for level, current in model.levels.items():
         conv = convention if level in INSTRUMENT_LEVELS else "variance"
-        limits = []
-        for bound in bounds:
-            def violation(levels, bound=bound, level=level):
-                return bound.violation_at(**{level: levels})
-            limits.append(first_failing_level(violation, cases, bisect=level in getattr(model, "costly_levels", ())))
+        limits = first_failing_levels(bounds, lambda v, level=level: {level: v}, cases,
+                                      bisect=level in getattr(model, "costly_levels", ()))
         limit = np.minimum.reduce(limits)
         limit = np.where(np.any(np.isnan(limits), axis=0), np.nan, limit)
         if level in INSTRUMENT_LEVELS:
@@ -122,8 +120,8 @@ def axis_crossings(bounds, convention: str) -> dict:
     model = bounds[0].model
     edge = validity_edge(model)
     out = _edge_db(model, convention)
-    for req in bounds:
-        limits = {k: _capped(np.asarray(v, dtype=float), edge) for k, v in bound_axis_limits(req).items()}
+    for req, found in zip(bounds, bounds_axis_limits(bounds)):
+        limits = {k: _capped(np.asarray(v, dtype=float), edge) for k, v in found.items()}
         with np.errstate(divide="ignore", invalid="ignore"):
             out[f"{req.side}.imbalance_axis_db"] = plain(level_db_from_variance(limits["imbalance_limit"], convention))
             out[f"{req.side}.crosstalk_axis_db"] = plain(level_db_from_variance(limits["crosstalk_limit"], convention))
@@ -137,8 +135,7 @@ def tradeoff_curves(bounds, convention: str, crosstalk_db_range, points: int) ->
     x = variance_from_level_db(x_db, convention)
     edge = validity_edge(bounds[0].model)
     curves = {"crosstalk_db": x_db}
-    for req in bounds:
-        v_eps = bound_tradeoff_curve(req, x)
+    for req, v_eps in zip(bounds, bound_tradeoff_curves(bounds, x)):
         if edge is not None:
             v_eps = np.where((v_eps > edge) | (x > edge), np.nan, v_eps)
         with np.errstate(divide="ignore", invalid="ignore"):

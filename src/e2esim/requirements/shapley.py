@@ -192,8 +192,9 @@ def _values_in_chunks(n: int, cases: int, part_of) -> np.ndarray:
     """``shapley_values`` (n, cases) of a game of n players whose rows (2^n, chunk) for the cases of a slice are
     ``part_of(slice)``: a chunk of cases at a time, its terms in the cache."""
     masks = np.arange(2**n)
-    sizes = np.array([bin(m).count("1") for m in masks])
-    weight = np.array([factorial(s) * factorial(n - s - 1) / factorial(n) if s < n else 0.0 for s in sizes])
+    sizes = sum((masks >> j) & 1 for j in range(n)) if n else np.zeros(1, dtype=int)  # |S| of every subset mask
+    by_size = np.array([factorial(s) * factorial(n - s - 1) / factorial(n) for s in range(n)] + [0.0])
+    weight = by_size[sizes]  # |S|! (n - |S| - 1)! / n!, the same numbers computed once per size
     phi = np.empty((n, cases))
     step = max(2, CHUNK_BYTES // (8 * 2 ** max(n - 1, 0)))
     space = np.empty(2 ** max(n - 1, 0) * min(step, cases))  # one player's terms, reused (no page faults)

@@ -16,27 +16,29 @@ Two ways to trace it, cross-checked in the tests:
 * ``ConicTradeoff``: the closed form of Appendix B for the paper form, where b is linear and
   sigma_e^2 quadratic in (V_eps, V_delta), so the curve is a conic (eqs. B2-B7).
 
-The same root finding gives the level at which a requirement starts to fail for any level an error model
-has (``first_failing_level``): the margins of the requirement modules.
+The same root finding (``e2esim.requirements.level_search``) gives the level at which a requirement starts to fail
+for any level an error model has (``first_failing_level``): the margins of the requirement modules.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from operator import attrgetter
 
 import numpy as np
 
 from e2esim.case_values import plain
 from e2esim.distortion.analytic import hv_error_moments  # the closed form of Appendix B is for this model
 from e2esim.errors import PhysicsInputError
+from e2esim.requirements.level_search import (  # noqa: F401  (re-exported: the search belongs to the interface)
+    LEVEL_SEARCH_RANGE,
+    first_failing_level,
+    first_failing_levels,
+)
 from e2esim.retrieval.agb_error import standard_normal_quantile
 from e2esim.retrieval.power_law import sigma_relative_error
 
 SIDES = ("over", "under")
-LEVEL_SEARCH_RANGE = (1e-12, 1.0)  # variances searched for a limit (-120 dB to 0 dB)
-_SCAN_POINTS = 25  # log-spaced bracketing grid over LEVEL_SEARCH_RANGE (2 per decade)
-_MAX_ITERATIONS = 100  # Illinois steps; typically 8-15 reach the tolerance
-_LOG_TOLERANCE = 4e-10  # bracket width in log10(V): relative precision ~1e-9 in V
 
 
 @dataclass(frozen=True)
@@ -120,8 +122,18 @@ class AGBBound:
     def model(self):
         return self.agb.error_model
 
+    moments_source = property(attrgetter("agb"))
+    """What ``moments_at`` asks: bounds with the same source share its evaluations (``first_failing_levels``)."""
+
+    def moments_at(self, **levels):
+        return self.agb.moments_under(**levels)
+
+    def violation_of(self, moments):
+        """The violation from ``moments_at``'s answer at the levels (the same numbers as ``violation_at``)."""
+        return self.agb.bound_violation_of(moments, self.bound, self.confidence, self.side)
+
     def violation_at(self, **levels):
-        return self.agb.bound_violation(self.bound, self.confidence, self.side, **levels)
+        return self.violation_of(self.moments_at(**levels))
 
 
 @dataclass(frozen=True)
@@ -131,95 +143,15 @@ class ModelBound:
     requirement: AGBRequirement
     model: object
 
-    @property
-    def side(self) -> str:
-        return self.requirement.side
+    side = property(lambda self: self.requirement.side)
+    moments_source = property(attrgetter("model"))
+    violation_at = AGBBound.violation_at
 
-    def violation_at(self, **levels):
-        return requirement_violation(self.requirement, self.model, **levels)
+    def moments_at(self, **levels):
+        return self.model.moments(**levels)
 
-
-def first_failing_level(violation, shape=(), search_range=LEVEL_SEARCH_RANGE, bisect: bool = False) -> np.ndarray:
-    """Smallest level V in ``search_range`` at which ``violation(V) > 0``, element-wise.
-
-    violation : vectorised function of an array of levels of shape ``shape + (k,)`` returning the
-        same shape. Returns shape ``shape``: NaN where the requirement already fails at the lowest level,
-        +inf where it still holds at the highest.
-    bisect : find the scan's bracket by bisecting the grid (``_bisected_scan``: some five evaluations of one
-        level each instead of one of all 25), for a level whose every value costs a computation of its own
-        (``ErrorModel.costly_levels``); the same bracket, and so the same limit, where the violation changes
-        sign once.
-
-    A log-spaced scan brackets the first sign change (two points per decade), then the Illinois variant of
-    regula falsi, on log10 V and vectorised over all elements, refines it to a relative precision of about
-    1e-9 in V in some ten evaluations. A second pass/fail change inside one bracket (half a decade) would
-    be missed; the violation functions here change sign once.
-    """
-    lo, hi = search_range
-    grid = np.linspace(np.log10(lo), np.log10(hi), _SCAN_POINTS)
-    if bisect:
-        first, fa, fb, fails_first, fails_any = _bisected_scan(violation, tuple(shape), grid)
-    else:
-        values = violation(np.broadcast_to(10.0**grid, tuple(shape) + grid.shape))
-        fails = values > 0
-        first = np.argmax(fails, axis=-1)
-        below = np.maximum(first - 1, 0)
-        fa = np.take_along_axis(values, below[..., None], -1)[..., 0]
-        fb = np.take_along_axis(values, first[..., None], -1)[..., 0]
-        fails_first, fails_any = fails[..., 0], fails.any(axis=-1)
-    result = np.full(shape, np.inf)
-    result[fails_first] = np.nan
-    todo = fails_any & ~fails_first
-    if not np.any(todo):
-        return result
-    below = np.maximum(first - 1, 0)
-    a, b = grid[below], grid[first]
-    fa, fb = np.where(todo, fa, -1.0), np.where(todo, fb, 1.0)  # harmless brackets where nothing to do
-    b = np.where(fa == 0, a, b)  # the lower end is the root itself
-    last = np.zeros(shape, dtype=int)  # +1: b moved last step, -1: a moved last step
-    active = todo.copy()
-    for _ in range(_MAX_ITERATIONS):
-        with np.errstate(invalid="ignore", divide="ignore"):
-            c = np.where(b > a, (a * fb - b * fa) / (fb - fa), a)
-        fc = violation((10.0**c)[..., None])[..., 0]
-        fail = fc > 0
-        # an element that has converged keeps its bracket: each element gets the same iterations whether it
-        # is solved alone or with others (a case in a block of sweep cases, a point of a curve)
-        fa = np.where(active & fail & (last == 1), 0.5 * fa, fa)  # Illinois: halve the stale end's value
-        fb = np.where(active & ~fail & (last == -1), 0.5 * fb, fb)
-        a, fa = np.where(active & ~fail, c, a), np.where(active & ~fail, fc, fa)
-        b, fb = np.where(active & fail, c, b), np.where(active & fail, fc, fb)
-        b = np.where(active & (fc == 0), c, b)  # landed on the root
-        last = np.where(active, np.where(fail, 1, -1), last)
-        active &= ~(b - a < _LOG_TOLERANCE)
-        if not np.any(active):
-            break
-    result[todo] = (10.0 ** (0.5 * (a + b)))[todo]
-    return result
-
-
-def _bisected_scan(violation, shape: tuple, grid: np.ndarray) -> tuple:
-    """The scan of ``first_failing_level`` by bisection of its grid: (index of the first failing grid point (0
-    where none is, or the first is), the violation at the point below it and at it, whether the first point fails,
-    whether any does), element-wise. The ends first: NaN's and +inf's cases as the full scan finds them where the
-    violation changes sign once; between a passing and a failing point, the midpoint's sign halves the bracket
-    until its ends are neighbours. Each evaluation is at one level per element, at the grid's own values."""
-    def at(index):
-        return violation((10.0 ** grid[index])[..., None])[..., 0]
-
-    low, high = np.zeros(shape, dtype=int), np.full(shape, grid.size - 1)
-    f_low, f_high = at(low), at(high)
-    fails_first, fails_any = f_low > 0, (f_low > 0) | (f_high > 0)
-    open_ = ~fails_first & fails_any
-    while np.any(open_ & (high - low > 1)):
-        mid = np.where(open_ & (high - low > 1), (low + high) // 2, high)
-        f_mid = at(mid)
-        fail = f_mid > 0
-        moved = open_ & (mid != high)
-        high, f_high = np.where(moved & fail, mid, high), np.where(moved & fail, f_mid, f_high)
-        low, f_low = np.where(moved & ~fail, mid, low), np.where(moved & ~fail, f_mid, f_low)
-    first = np.where(open_, high, 0)
-    return first, f_low, f_high, fails_first, fails_any
+    def violation_of(self, moments):
+        return self.requirement.violation(moments.mean, moments.sd, self.model.value)
 
 
 TRADEOFF_LEVELS = ("crosstalk", "channel_imbalance")
@@ -238,14 +170,17 @@ def bound_tradeoff_curve(bound, crosstalk_levels) -> np.ndarray:
     channel-imbalance variance that still meets the requirement. NaN where the crosstalk level alone
     already breaks it; +inf where no channel-imbalance level up to 1 does.
     """
+    return bound_tradeoff_curves([bound], crosstalk_levels)[0]
+
+
+def bound_tradeoff_curves(bounds, crosstalk_levels) -> list:
+    """``bound_tradeoff_curve`` of each of ``bounds`` (of one error model), the scan shared
+    (``first_failing_levels``)."""
     x = np.atleast_1d(np.asarray(crosstalk_levels, dtype=float))
-    cases = np.shape(bound.model.value)  # () for one case, (B,) for a block
+    cases = np.shape(bounds[0].model.value)  # () for one case, (B,) for a block
     levels = x.reshape((1,) * len(cases) + x.shape + (1,))
-
-    def violation(v_eps):
-        return bound.violation_at(crosstalk=levels, channel_imbalance=v_eps)
-
-    return first_failing_level(violation, cases + x.shape)
+    return first_failing_levels(bounds, lambda v_eps: {"crosstalk": levels, "channel_imbalance": v_eps},
+                                cases + x.shape)
 
 
 def axis_limits(requirement: AGBRequirement, model) -> dict:
@@ -256,18 +191,15 @@ def axis_limits(requirement: AGBRequirement, model) -> dict:
 def bound_axis_limits(bound) -> dict:
     """Where the trade-off curve meets the axes: the largest V_eps with no crosstalk and the largest
     V_delta with no channel imbalance (variances). Men et al. (2021), Section V-B, points 3 and 6."""
+    return bounds_axis_limits([bound])[0]
 
-    def imbalance_alone(v):
-        return bound.violation_at(crosstalk=0.0, channel_imbalance=v)
 
-    def crosstalk_alone(v):
-        return bound.violation_at(crosstalk=v, channel_imbalance=0.0)
-
-    cases = np.shape(bound.model.value)
-    return {
-        "imbalance_limit": plain(first_failing_level(imbalance_alone, cases)),
-        "crosstalk_limit": plain(first_failing_level(crosstalk_alone, cases)),
-    }
+def bounds_axis_limits(bounds) -> list:
+    """``bound_axis_limits`` of each of ``bounds`` (of one error model), the scans shared (``first_failing_levels``)."""
+    cases = np.shape(bounds[0].model.value)
+    imbalance = first_failing_levels(bounds, lambda v: {"crosstalk": 0.0, "channel_imbalance": v}, cases)
+    crosstalk = first_failing_levels(bounds, lambda v: {"crosstalk": v, "channel_imbalance": 0.0}, cases)
+    return [{"imbalance_limit": plain(i), "crosstalk_limit": plain(c)} for i, c in zip(imbalance, crosstalk)]
 
 
 @dataclass(frozen=True)

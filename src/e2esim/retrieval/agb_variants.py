@@ -102,7 +102,12 @@ class ErrorVariants:
         b, sigma_e from ``moments_under``, z = Phi^-1(confidence), f the relative sigma error at the bound
         (``sigma_threshold``: eq. 16, or the retrieval model's map). Equivalent to the bound on the Gaussian
         quantile of q, since q is a non-decreasing function of the sigma error."""
-        mean, sd = self.moments_under(**levels)
+        return self.bound_violation_of(self.moments_under(**levels), bound, confidence, side)
+
+    def bound_violation_of(self, moments: tuple, bound: float, confidence: float, side: str):
+        """``bound_violation`` from the (mean, SD) that ``moments_under`` gave at the levels: the sides of a bound
+        that ask the same levels share one evaluation of the moments (``e2esim.requirements.tradeoff``)."""
+        mean, sd = moments
         z = float(standard_normal_quantile(confidence))
         f = self.sigma_threshold(bound if side == "over" else -bound)
         f_sigma = _aligned(f, mean) * _aligned(self.error_model.value, mean)

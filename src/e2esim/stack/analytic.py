@@ -99,14 +99,15 @@ def evaluation_levels(errors: StackSystemErrors, faraday: StackFaraday, combinat
 
 
 def node_terms(scene: StackScene, errors: StackSystemErrors, faraday: StackFaraday, combination: PassCombination,
-               difference_sd: float, population_cross: bool = False, memo=None) -> dict:
+               difference_sd: float, population_cross: bool = False, memo=None, mean_only: bool = False) -> dict:
     """The kernel's coefficients at the Faraday-rotation nodes of one difference SD (rad), with the nodes'
     weights: what ``stack_hv_moments`` evaluates at any crosstalk, channel-imbalance and noise levels. Cached
-    by the error model per difference SD, and across cases by ``memo`` (``memoised``)."""
+    by the error model per difference SD, and across cases by ``memo`` (``memoised``). mean_only : the variance's
+    coefficients left zero (``node_polynomials``)."""
     nodes = pass_nodes(scene, errors, faraday, difference_sd)
     out = memoised(memo, node_polynomials, scene.blocks(), combination.matrix, nodes.pop("omega"),
                    errors.pass_correlation(scene.passes), errors.kernel_structure, nodes["pair"], population_cross,
-                   nodes["pair"] is not None or population_cross)
+                   nodes["pair"] is not None or population_cross, *((True,) if mean_only else ()))
     out.update(nodes)
     return out
 
@@ -161,24 +162,26 @@ def pass_nodes(scene: StackScene, errors: StackSystemErrors, faraday: StackFarad
 def stack_hv_moments(scene: StackScene, errors: StackSystemErrors, faraday: StackFaraday,
                      combination: PassCombination, looks: int | None = None, reference: str = "scene",
                      crosstalk_level=None, imbalance_level=None, noise_power=None, difference_variance=None,
-                     cache: dict | None = None, memo=None) -> StackHVMoments:
+                     cache: dict | None = None, memo=None, mean_only: bool = False) -> StackHVMoments:
     """Mean and variance of the multi-pass HV error (module docstring), levels replaced where given.
 
     crosstalk_level, imbalance_level : V_delta, V_epsilon. noise_power : sigma_n (m^2/m^2).
     difference_variance : sigma_D^2 (rad^2), the variance of the Faraday-rotation difference of two passes.
     All broadcast together. cache : a dict kept by the caller for the node terms of each sigma_D. memo : the run's
-    ``KernelMemo`` (or None), node terms shared by value across cases.
+    ``KernelMemo`` (or None), node terms shared by value across cases. mean_only : the mean alone is read (the
+    variance's parts are zero, the kernel's variance left out): the mean is the same, bit for bit.
     """
     xs, es, ns, dv, rank_one, need_cross = evaluation_levels(errors, faraday, combination, reference, looks,
                                                              crosstalk_level, imbalance_level, noise_power,
                                                              difference_variance)
     shape, q = xs.shape, combination.matrix
-    cache = {} if cache is None else cache
+    cache = {} if cache is None or mean_only else cache
     parts = {k: np.zeros(shape) for k in ("mu", "mu2", "v", "veta", "tr_q2y", "tr_qyqy", "csys")}
     for value in np.unique(dv):
         key = (float(value), need_cross)
         if key not in cache:
-            cache[key] = node_terms(scene, errors, faraday, combination, float(np.sqrt(value)), need_cross, memo)
+            cache[key] = node_terms(scene, errors, faraday, combination, float(np.sqrt(value)), need_cross, memo,
+                                    mean_only)
         t = cache[key]
         sel = dv == value
         mono = monomials(xs[sel], es[sel])  # (6, S)

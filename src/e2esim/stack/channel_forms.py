@@ -70,14 +70,15 @@ def _symmetric_pairs(x: np.ndarray) -> np.ndarray:
 
 def channel_node_polynomials(blocks: np.ndarray, q: np.ndarray, omega: np.ndarray, omega_hat: np.ndarray | None,
                              r: np.ndarray, gammas: np.ndarray, gain_pair: np.ndarray | None = None,
-                             population_cross: bool = False) -> dict:
+                             population_cross: bool = False, mean_only: bool = False) -> dict:
     """Coefficients of eqs. (21)-(23) at each Faraday-rotation node.
 
     blocks : C_nm (N, N, 3, 3). q : Q (N x N). omega : Faraday rotation of each pass at each node (G, N).
     omega_hat : the rotation each pass's co-polarised channels are corrected with (G, N), or None (no
     correction). r : pass correlation r_mn (N x N). gammas : unit error covariances (2, 6, 6) in the order of
     ``expansion.ERROR_TERMS``. gain_pair : E[eta_n eta_m] (N x N) or None for 1. population_cross : also return
-    ``csys``.
+    ``csys``. mean_only : ``cov`` and ``csys`` left zero, for a caller that reads the means alone (the ground an
+    estimator leaves, ``StackJointErrorModel.cancellation``); the rest is the same, bit for bit.
 
     Returns complex ``y0`` (6, G, N, N, 3, 3) (coefficients of Y_nm, no gain factors) and ``mean`` (6, G, 3, 3)
     (of sum_nm Q_mn E[eta_n eta_m] Y_nm); real ``cov`` (6, G, 3, 3) (Cov(q_p, q_q), constant coefficient 0),
@@ -117,6 +118,9 @@ def channel_node_polynomials(blocks: np.ndarray, q: np.ndarray, omega: np.ndarra
     y0[_QUAD] = (r**2)[None, None, :, :, None, None] * quad
     mean = np.einsum("nm,kgnmpq->kgpq", weight, y0)
     trq2y = np.real(np.einsum("nm,kgnmpp->kgp", (q @ q).T * pair, y0))
+
+    if mean_only:
+        return {"y0": y0, "mean": mean, "cov": np.zeros((6, g, 3, 3)), "trq2y": trq2y, "csys": np.zeros((6, g, 3))}
 
     # eq. (22): Cov(q_p, q_q)
     cov = np.zeros((6, g, 3, 3))

@@ -83,7 +83,8 @@ class StackHVErrorModel(StackModelBase, ErrorModel):
             ground = self.scene.ground_only()
             ideal = self.combination.value(ground.channel_matrix(1))
             quiet = dataclasses.replace(self.errors, system=self.errors.system.with_levels(noise_power=0.0))
-            with_errors = stack_hv_moments(ground, quiet, self.faraday, self.combination, None, "scene")
+            with_errors = stack_hv_moments(ground, quiet, self.faraday, self.combination, None, "scene",
+                                           mean_only=True)  # the mean alone is read: no variance computed
             residual = float(with_errors.value + with_errors.bias_distortion)
             uncancelled = self.combination.noise_gain * float(np.real(self.scene.ground[1, 1]))
             self._memo["cancellation"] = cancellation_scalars(self.value, ideal, residual, uncancelled)

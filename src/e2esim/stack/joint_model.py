@@ -106,7 +106,8 @@ class StackJointErrorModel(StackModelBase, MultiChannelErrorModel):
         if "cancellation" not in self._memo:
             ground = self.scene.ground_only()
             quiet = dataclasses.replace(self.errors, system=self.errors.system.with_levels(noise_power=0.0))
-            left = stack_joint_moments(ground, quiet, self.faraday, self.combination, None, "scene", self.correct_copol)
+            left = stack_joint_moments(ground, quiet, self.faraday, self.combination, None, "scene", self.correct_copol,
+                                       mean_only=True)  # the means alone are read: no covariance computed
             residual = left.values + left.bias_distortion
             out = {}
             for i, ch in enumerate(self.channels):

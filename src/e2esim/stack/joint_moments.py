@@ -73,7 +73,7 @@ class StackJointMoments:
 
 def joint_node_terms(scene: StackScene, errors: StackSystemErrors, faraday: StackFaraday,
                      combination: PassCombination, difference_sd: float, correct_copol: bool,
-                     population_cross: bool = False, memo=None, signal: bool = True) -> dict:
+                     population_cross: bool = False, memo=None, signal: bool = True, mean_only: bool = False) -> dict:
     """The kernel's coefficients at the Faraday-rotation nodes of one difference SD (rad), with the nodes'
     weights and the passes' gain products: what ``stack_joint_moments`` evaluates at any level (cached by the
     error model per difference SD, and across cases by ``memo``, ``stack.analytic.memoised``). With a residual
@@ -81,8 +81,8 @@ def joint_node_terms(scene: StackScene, errors: StackSystemErrors, faraday: Stac
     solve's search, ``KernelMemo.repeated_geometry``) the kernel's values at the residual's nodes come from its
     trigonometric polynomials in the residual (``e2esim.stack.residual_fourier``, eq. 28, built once and found
     again for any residual, and kept between runs in the memo's ``store`` where it has one), equal to the
-    node-by-node values to rounding; signal : whether the moments read
-    ``y0`` (else it may be None)."""
+    node-by-node values to rounding; signal : whether the moments read ``y0`` (else it may be None); mean_only :
+    the covariance's coefficients left zero (``channel_node_polynomials``)."""
     nodes = pass_nodes(scene, errors, faraday, difference_sd)
     omega, omega_hat = nodes.pop("omega"), None
     inputs = (scene.blocks(), combination.matrix, errors.pass_correlation(scene.passes),
@@ -100,7 +100,8 @@ def joint_node_terms(scene: StackScene, errors: StackSystemErrors, faraday: Stac
         omega = np.repeat(omega, len(weights), axis=0)
         omega_hat = omega - np.tile(residual, (len(nodes["weights"]), 1))
         nodes["weights"] = np.outer(nodes["weights"], weights).ravel()
-    out = memoised(memo, channel_node_polynomials, inputs[0], inputs[1], omega, omega_hat, *inputs[2:])
+    out = memoised(memo, channel_node_polynomials, inputs[0], inputs[1], omega, omega_hat, *inputs[2:],
+                   *((True,) if mean_only else ()))
     out.update(nodes)
     return out
 
@@ -110,17 +111,19 @@ def stack_joint_moments(scene: StackScene, errors: StackSystemErrors, faraday: S
                         combination: PassCombination, looks: int | None = None, reference: str = "scene",
                         correct_copol: bool = True, crosstalk_level=None, imbalance_level=None, noise_power=None,
                         difference_variance=None, cache: dict | None = None,
-                        totals_only: bool = False, memo=None) -> StackJointMoments | tuple:
+                        totals_only: bool = False, memo=None, mean_only: bool = False) -> StackJointMoments | tuple:
     """Joint moments of the (hh, hv, vv) errors (module docstring), levels replaced where given (broadcast
     together, as ``stack_hv_moments``). correct_copol : every pass's co-polarised channels rotated back by its
     own Faraday rotation before the passes are combined (the operational order), else not corrected.
     cache : a dict kept by the caller for the node terms of each sigma_D. totals_only : return (mean,
-    covariance) only. memo : the run's ``KernelMemo`` (or None), node terms shared by value across cases."""
+    covariance) only. memo : the run's ``KernelMemo`` (or None), node terms shared by value across cases.
+    mean_only : the means alone are read (the covariance's parts without the kernel's covariance; the means the same,
+    bit for bit)."""
     xs, es, ns, dv, rank_one, need_cross = evaluation_levels(errors, faraday, combination, reference, looks,
                                                              crosstalk_level, imbalance_level, noise_power,
                                                              difference_variance)
     shape, q = xs.shape, combination.matrix
-    cache = {} if cache is None else cache
+    cache = {} if cache is None or mean_only else cache
     vec, mat = shape + (3,), shape + (3, 3)
     mu, spread_m, v, veta, expected = (np.zeros(vec), np.zeros(mat), np.zeros(mat), np.zeros(mat),
                                        np.zeros(mat, complex))
@@ -130,7 +133,7 @@ def stack_joint_moments(scene: StackScene, errors: StackSystemErrors, faraday: S
         if key not in cache or (cache[key]["y0"] is None and _needs_signal(cache[key], need_cross, reference, looks)):
             signal = errors.pass_gain_log_sd > 0 or need_cross or (reference == "population" and looks is not None)
             t = joint_node_terms(scene, errors, faraday, combination, float(np.sqrt(value)), correct_copol,
-                                 need_cross, memo, signal)
+                                 need_cross, memo, signal, mean_only)
             if not _needs_signal(t, need_cross, reference, looks):
                 t["y0"] = None  # the largest of the terms (G N^2 9 complex), not read here: not kept in the cache
             t["mean_diagonal"] = np.real(np.diagonal(t["mean"], axis1=-2, axis2=-1))  # (6, G, 3): E q_p

@@ -61,6 +61,8 @@ class StackModelBase(ModelEvaluation):
     plain_transient = ("_memo", "kernel_memo")  # caches of evaluations (node terms of every level searched)
     costly_levels = ("faraday_difference",)
     """Every Faraday-rotation difference needs the node terms computed anew (``ErrorModel.costly_levels``)."""
+    levels_lead_sources = True
+    """The level sources come first in ``sources`` and their removal shares the node terms (``same_structure``)."""
 
     @property
     def includes_speckle(self) -> bool:

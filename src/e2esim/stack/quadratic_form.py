@@ -104,7 +104,7 @@ def error_structure(sigma_delta: np.ndarray, sigma_eps: np.ndarray) -> dict:
 
 def node_polynomials(blocks: np.ndarray, q: np.ndarray, omega: np.ndarray, r: np.ndarray, structure: tuple,
                      gain_pair: np.ndarray | None = None, population_cross: bool = False,
-                     full_signal: bool = False) -> dict:
+                     full_signal: bool = False, mean_only: bool = False) -> dict:
     """Coefficients of eqs. (12)-(14) at each Faraday-rotation node.
 
     blocks : C_nm, shape (N, N, 3, 3). q : Q (N x N). omega : Faraday rotation of each pass at each node (G, N).
@@ -113,7 +113,9 @@ def node_polynomials(blocks: np.ndarray, q: np.ndarray, omega: np.ndarray, r: np
     population_cross : also return ``csys`` (6, G): the first-order E tr(Q dY Q dY) of the finite-look speckle
         term of a combination of rank > 1 (ground-cancellation.md, eq. 16).
 
-    full_signal : also return ``y0``.
+    full_signal : also return ``y0``. mean_only : ``var`` (and ``csys``) left zero: for a caller that reads the
+        mean alone (the ground an estimator leaves, ``StackHVErrorModel.cancellation``); the rest is the same, bit for
+        bit.
 
     Returns ``mean`` (6, G) and ``var`` (6, G) real coefficients of ``MONOMIALS`` (the mean includes e M e),
     ``trq2y`` (6, G): those of tr(Q^2 Y) with Y_nm = E[eta_n eta_m] E[a_n C_nm a_m^H] (the finite-look noise
@@ -128,7 +130,6 @@ def node_polynomials(blocks: np.ndarray, q: np.ndarray, omega: np.ndarray, r: np
     m2 = ((q @ q).T * pair)[:, :, None, None] * blocks  # the same for Q^2: tr(Q^2 Y)
     mvecs = np.stack([mflat.ravel(), m2.transpose(0, 2, 1, 3).ravel()])  # (2, 9N^2)
     v = mflat[:, _HV::3].sum(axis=1)  # M e^H
-    vc = v.conj()
     t1, t2 = trig_matrices(omega)  # (G, N, 3, 4), (G, N, 3, 3)
     r3 = np.kron(r, np.ones((3, 3)))  # r_mn on every entry of block (m, n)
     psi = structure["psi"]
@@ -155,6 +156,33 @@ def node_polynomials(blocks: np.ndarray, q: np.ndarray, omega: np.ndarray, r: np
     mean[lin], trq2y[lin] = both[0], both[1]
     both = np.real(np.einsum("cgk,tk->tcg", p_quad.reshape(3, g, -1), mvecs))  # the same with P_h
     mean[quad], trq2y[quad] = both[0], both[1]
+    if not mean_only:
+        _add_variance(var, v, mflat, p_lin, p_quad, kmat, r, r3, psi, t1, t2)
+    y0 = None
+    if full_signal:  # the passes' signal covariance y0_nm = C_nm[hv, hv] + sum(C_nm o P_nm) + sum(C_nm o Ph_nm),
+        # from the same tau products: sum_ij C_nm[i, j] P_nm[i, j] = r_mn sum_kl tau_k(m) tau_l(n) <C_nm, F_kl>
+        f = (re + 1j * im).reshape(1, 80, 9)
+        d = (blocks.reshape(n * n, 1, 9) * f).sum(-1).reshape(n * n, 16, 5)  # <C_nm, F_kl> per component
+        pt = np.ascontiguousarray(pairs.transpose(1, 0, 2))  # (N^2, G, 16)
+        sums = (pt @ d.real + 1j * (pt @ d.imag)).transpose(2, 1, 0).reshape(5, g, n, n)
+        y0 = np.zeros((6, g, n, n), complex)
+        y0[0] = blocks[:, :, _HV, _HV][None]
+        y0[lin] = r * sums[:2]
+        y0[quad] = r**2 * sums[2:]
+    csys = np.zeros((6, g))
+    if population_cross and not mean_only:  # sum_abcd Q_ab Q_cd (x_bc^T P_ba y_da + x_da^T P_dc y_bc)
+        cx, cy = blocks[:, :, :, _HV], blocks[:, :, _HV, :]  # C_nm e^H and e C_nm
+        p5 = p_lin.reshape(2, g, n, 3, n, 3)
+        csys[lin] = np.real(np.einsum("ab,cd,bci,kgbiaj,daj->kg", q, q, cx, p5, cy, optimize=True)
+                            + np.einsum("ab,cd,dai,kgdicj,bcj->kg", q, q, cx, p5, cy, optimize=True))
+    return {"mean": mean, "var": var, "trq2y": trq2y, "y0": y0, "csys": csys}
+
+
+def _add_variance(var, v, mflat, p_lin, p_quad, kmat, r, r3, psi, t1, t2) -> None:
+    """The coefficients of the variance of eq. (13) into ``var`` (6, G), from ``node_polynomials``' node products."""
+    n, g = r.shape[0], p_lin.shape[1]
+    vc = v.conj()
+    lin, quad = slice(1, 3), slice(3, 6)  # rows of MONOMIALS
     var[lin] = 2 * np.real((p_lin @ vc) @ v)  # 2 v^T P v*
     var[quad] = 2 * np.real((p_quad @ vc) @ v)  # 2 v^T P_h v*
     # sum((M P_a^T) o (P_b M*)) for the four (a, b)
@@ -169,24 +197,6 @@ def node_polynomials(blocks: np.ndarray, q: np.ndarray, omega: np.ndarray, r: np
     var[3] += cross[0, 0]
     var[4] += cross[0, 1] + cross[1, 0]
     var[5] += cross[1, 1]
-    y0 = None
-    if full_signal:  # the passes' signal covariance y0_nm = C_nm[hv, hv] + sum(C_nm o P_nm) + sum(C_nm o Ph_nm),
-        # from the same tau products: sum_ij C_nm[i, j] P_nm[i, j] = r_mn sum_kl tau_k(m) tau_l(n) <C_nm, F_kl>
-        f = (re + 1j * im).reshape(1, 80, 9)
-        d = (blocks.reshape(n * n, 1, 9) * f).sum(-1).reshape(n * n, 16, 5)  # <C_nm, F_kl> per component
-        pt = np.ascontiguousarray(pairs.transpose(1, 0, 2))  # (N^2, G, 16)
-        sums = (pt @ d.real + 1j * (pt @ d.imag)).transpose(2, 1, 0).reshape(5, g, n, n)
-        y0 = np.zeros((6, g, n, n), complex)
-        y0[0] = blocks[:, :, _HV, _HV][None]
-        y0[lin] = r * sums[:2]
-        y0[quad] = r**2 * sums[2:]
-    csys = np.zeros((6, g))
-    if population_cross:  # sum_abcd Q_ab Q_cd (x_bc^T P_ba y_da + x_da^T P_dc y_bc)
-        cx, cy = blocks[:, :, :, _HV], blocks[:, :, _HV, :]  # C_nm e^H and e C_nm
-        p5 = p_lin.reshape(2, g, n, 3, n, 3)
-        csys[lin] = np.real(np.einsum("ab,cd,bci,kgbiaj,daj->kg", q, q, cx, p5, cy, optimize=True)
-                            + np.einsum("ab,cd,dai,kgdicj,bcj->kg", q, q, cx, p5, cy, optimize=True))
-    return {"mean": mean, "var": var, "trq2y": trq2y, "y0": y0, "csys": csys}
 
 
 _PRODUCT_ENTRIES = tuple(zip(*np.nonzero(_PRODUCTS)))
