@@ -9,6 +9,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import functools
+import gc
 import json
 import os
 import sys
@@ -125,6 +126,16 @@ def _add_scenario_options(sub) -> None:
 
 
 def main(argv=None) -> int:
+    """Run the command ``argv`` (None: the process's own command line, ``sys.argv[1:]``); return its exit status."""
+    status = _command(argv)
+    if argv is None:  # the process's own command line: the process ends next
+        gc.freeze()  # leave the objects it made to the OS (no __del__ or atexit handler is skipped: every object
+        # whose count drops is still freed; only reference cycles are no longer searched while the interpreter tears
+        # itself down, which took 0.3 s of CPU after biomass_default's 100,000 objects and 1,100 modules)
+    return status
+
+
+def _command(argv) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     if args.command is None:
