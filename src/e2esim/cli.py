@@ -35,6 +35,10 @@ EXAMPLES = """examples:
 """
 
 
+COMMAND_GC_THRESHOLD = 10_000
+"""The garbage collector's youngest-generation threshold in the command line's own process (``main``)."""
+
+
 @functools.lru_cache(maxsize=1)
 def build_parser() -> argparse.ArgumentParser:
     """The command-line parser (built once per process: parsing does not change it)."""
@@ -127,6 +131,10 @@ def _add_scenario_options(sub) -> None:
 
 def main(argv=None) -> int:
     """Run the command ``argv`` (None: the process's own command line, ``sys.argv[1:]``); return its exit status."""
+    if argv is None:  # the process's own command line: the collector runs its youngest generation every
+        # COMMAND_GC_THRESHOLD allocations instead of 700 (biomass_default: 22 collections instead of 330 and 0.1 s
+        # of CPU less; the cycles a run leaves are few and freed a little later, nothing else changes)
+        gc.set_threshold(COMMAND_GC_THRESHOLD, *gc.get_threshold()[1:])
     status = _command(argv)
     if argv is None:  # the process's own command line: the process ends next
         gc.freeze()  # leave the objects it made to the OS (no __del__ or atexit handler is skipped: every object
