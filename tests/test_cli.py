@@ -1,5 +1,6 @@
 """The command line and the outputs of a run (issue "Foundation", Build items 5-7 and "Done when")."""
 
+import gc
 import json
 import subprocess
 import sys
@@ -11,7 +12,7 @@ import pytest
 import yaml
 
 import e2esim
-from e2esim.cli import main
+from e2esim.cli import COMMAND_GC_THRESHOLD, main
 from e2esim.io.h5_datasets import read_text
 from quick_runs import quick_overrides
 
@@ -146,6 +147,20 @@ def test_version_and_help(capsys):
             main([verb, "--help"])
         assert exit_.value.code == 0 and "usage: e2esim " + verb in capsys.readouterr().out
     assert main([]) == 2
+
+
+def test_the_command_line_leaves_its_objects_to_the_os_and_a_call_does_not(capsys):
+    """The process's own command line (``main()``) collects its youngest generation less often and freezes the
+    garbage collector before the process ends, so that the interpreter's teardown does not search its objects for
+    cycles; ``main(argv)`` called in a process that goes on (these tests, a notebook) leaves the collector as it
+    was."""
+    code = ("import atexit, gc, sys\nfrom e2esim.cli import main\n"
+            "atexit.register(lambda: print('frozen at exit:', gc.get_freeze_count() > 0, gc.get_threshold()[0]))\n"
+            "sys.argv = ['e2esim', 'modules', 'scene']\nprint('status:', main())\n")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert out.splitlines()[-2:] == ["status: 0", f"frozen at exit: True {COMMAND_GC_THRESHOLD}"]
+    frozen, threshold = gc.get_freeze_count(), gc.get_threshold()
+    assert main(["modules", "scene"]) == 0 and (gc.get_freeze_count(), gc.get_threshold()) == (frozen, threshold)
 
 
 def test_modules_lists_every_kind_with_parameters(capsys):

@@ -74,3 +74,22 @@ def test_without_a_helper_to_be_had_the_plots_are_drawn_here(monkeypatch):
 
     monkeypatch.setattr(multiprocessing.context.BaseContext, "Value", no_semaphores)
     assert draw_all(NAMES, outcome, helper=True) == [outcome(n) for n in NAMES]
+
+
+@pytest.mark.parametrize("helper", [True, False])
+def test_meanwhile_runs_once_here_before_this_process_draws(helper):
+    parent, events = os.getpid(), []
+
+    def draw(name):
+        if os.getpid() == parent:
+            events.append(name)
+        return outcome(name)
+
+    def meanwhile():
+        assert os.getpid() == parent
+        events.append("files")
+
+    assert draw_all(NAMES, draw, helper=helper, meanwhile=meanwhile) == [outcome(n) for n in NAMES]
+    assert events[0] == "files" and events.count("files") == 1
+    if not helper:
+        assert events == ["files", *NAMES]

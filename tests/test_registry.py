@@ -49,3 +49,22 @@ def test_a_run_imports_the_modules_its_chain_names_only():
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
     assert out.strip() == "[]", out
     assert registry.lookup("propagation", "hv_backscatter_error").type_name == "hv_backscatter_error"
+
+
+def test_e2esim_run_reaches_its_first_stage_without_matplotlib_or_asyncio(tmp_path):
+    """What ``e2esim run`` imports before the run (the command, the scenario, the report's text for the verdict
+    lines) leaves matplotlib to the thread that imports it while the run computes, and asyncio (tqdm.auto's) out
+    (issue 28: the start-up every command pays)."""
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    scenario = Path(__file__).resolve().parents[1] / "scenarios" / "biomass_default.yaml"
+    code = ("import sys\nimport e2esim.runner.folder_run as folder_run\n"
+            "def first_stage(*args, **kwargs):\n"
+            "    print(sorted(m for m in ('asyncio', 'dask', 'matplotlib', 'pandas', 'xarray') if m in sys.modules))\n"
+            "    raise SystemExit(0)\n"
+            "folder_run.run_into_folder = first_stage\n"
+            f"from e2esim.cli import main\nmain(['run', {str(scenario)!r}, '-o', {str(tmp_path / 'run')!r}])\n")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert out.strip() == "[]", out

@@ -9,6 +9,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import functools
+import gc
 import json
 import os
 import sys
@@ -32,6 +33,10 @@ EXAMPLES = """examples:
   e2esim solve scenarios/biomass_default.yaml --for instrument.nesz_db --worst-case
   e2esim allocate scenarios/biomass_allocation.yaml --requirement 1 --split equal
 """
+
+
+COMMAND_GC_THRESHOLD = 10_000
+"""The garbage collector's youngest-generation threshold in the command line's own process (``main``)."""
 
 
 @functools.lru_cache(maxsize=1)
@@ -125,6 +130,20 @@ def _add_scenario_options(sub) -> None:
 
 
 def main(argv=None) -> int:
+    """Run the command ``argv`` (None: the process's own command line, ``sys.argv[1:]``); return its exit status."""
+    if argv is None:  # the process's own command line: the collector runs its youngest generation every
+        # COMMAND_GC_THRESHOLD allocations instead of 700 (biomass_default: 22 collections instead of 330 and 0.1 s
+        # of CPU less; the cycles a run leaves are few and freed a little later, nothing else changes)
+        gc.set_threshold(COMMAND_GC_THRESHOLD, *gc.get_threshold()[1:])
+    status = _command(argv)
+    if argv is None:  # the process's own command line: the process ends next
+        gc.freeze()  # leave the objects it made to the OS (no __del__ or atexit handler is skipped: every object
+        # whose count drops is still freed; only reference cycles are no longer searched while the interpreter tears
+        # itself down, which took 0.3 s of CPU after biomass_default's 100,000 objects and 1,100 modules)
+    return status
+
+
+def _command(argv) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     if args.command is None:

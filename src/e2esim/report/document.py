@@ -33,7 +33,7 @@ from e2esim.report.blocks import (
 from e2esim.report.conclusions import conclusions, error_term_sentences
 from e2esim.report.no_effect_section import no_effect_section
 from e2esim.report.outliers import error_meaning
-from e2esim.report.sensitivity_plots import sensitivity_blocks
+from e2esim.report.sensitivity_blocks import sensitivity_blocks
 from e2esim.report.sensitivity_table import SENSITIVITY_NOTE, exponent_sensitivity_table
 from e2esim.report.uncertainty import uncertainty_flags
 

@@ -3,10 +3,14 @@
 Drawing a figure is matplotlib's Python (text layout above all) and holds one core; the plots of a run do not
 depend on one another, so a second process halves the time of a run's plots (biomass_default: 1.8 of its 5 s).
 The helper is forked after the run, so it has the run's results without pickling them; both processes take the
-next plot until none is left, this one from the end of the list and the helper from its start (opposite ends: a
+next plot until none is left, the helper from the end of the list and this one from its start (opposite ends: a
 list whose costliest plot comes last, as biomass_multichannel's twelve-panel trade-off curves after three
 one-panel figures, is not left to one process after the others), and the helper sends back what each of its plots
-gave (the file names and captions, or why it drew nothing). Every figure is drawn by the same code either way, so
+gave (the file names and captions, or why it drew nothing). This process first writes the output files that need
+no plot (``meanwhile``: results.h5 and summary.json) while the helper draws, so it starts on the plots later: the
+helper, which starts at once, takes from the end, where a list's costliest plots tend to be (biomass_default:
+the error histograms and the Faraday-rotation distributions, then the site map, are about as much drawing as
+the files and the plots before them). Every figure is drawn by the same code either way, so
 the files are the same; the list comes back in the order of the plots.
 
 Whatever goes wrong in the helper ends in this process as it would without it: a plot whose drawing raised an
@@ -40,17 +44,19 @@ def can_fork() -> bool:
             and not multiprocessing.current_process().daemon)
 
 
-def draw_all(names: list, draw, done=None, helper: bool | None = None) -> list:
+def draw_all(names: list, draw, done=None, helper: bool | None = None, meanwhile=None) -> list:
     """``[draw(name) for name in names]``, drawn by this process and a forked helper (module docstring).
 
     draw : name -> a picklable outcome; an exception other than ``KeyboardInterrupt`` it raises in the helper makes
     this process draw that plot again (and raise it). done : called with each name once its outcome is known, in
     no particular order (a progress bar), or None. helper : fork one (None: when ``can_fork`` and two or more
-    names)."""
+    names). meanwhile : called once in this process before it takes a plot, once the helper has started (the
+    output files that need no plot: this process writes them while the helper draws, instead of the helper
+    waiting for this process's last plot and the files after it), or None."""
     if helper is None:
         helper = len(names) > 1 and can_fork()
     if not helper:
-        return [_drawn(draw, name, done) for name in names]
+        return _serially(names, draw, done, meanwhile)
     ctx = multiprocessing.get_context("fork")
     try:
         counter = ctx.Array("i", [0, len(names)])  # [next from the start, one past the next from the end]; a
@@ -59,11 +65,13 @@ def draw_all(names: list, draw, done=None, helper: bool | None = None) -> list:
         process = ctx.Process(target=_helper, args=(names, draw, counter, send), name="e2esim-plots", daemon=True)
         process.start()
     except OSError:  # no helper to be had: drawn here
-        return [_drawn(draw, name, done) for name in names]
+        return _serially(names, draw, done, meanwhile)
     send.close()  # this process's copy: the pipe ends when the helper's end closes
     outcomes: dict = {}
     try:
-        while (i := _take(counter, from_end=True)) is not None:
+        if meanwhile is not None:
+            meanwhile()
+        while (i := _take(counter, from_end=False)) is not None:
             outcomes[i] = _drawn(draw, names[i], done)
         for i, outcome in _received(receive):
             if outcome != _FAILED:
@@ -78,6 +86,12 @@ def draw_all(names: list, draw, done=None, helper: bool | None = None) -> list:
             process.kill()
             process.join()
         receive.close()
+
+
+def _serially(names: list, draw, done, meanwhile) -> list:
+    if meanwhile is not None:
+        meanwhile()
+    return [_drawn(draw, name, done) for name in names]
 
 
 def _drawn(draw, name, done):
@@ -116,7 +130,7 @@ def _helper(names, draw, counter, send) -> None:
     """In the forked helper: draw the plots nobody has taken, send each outcome, then ``_DONE``. It ends quietly
     when stopped (Ctrl-C reaches the whole process group: this process's parent handles it)."""
     with contextlib.suppress(BaseException):
-        while (i := _take(counter, from_end=False)) is not None:
+        while (i := _take(counter, from_end=True)) is not None:
             try:
                 outcome = draw(names[i])
             except Exception:  # drawn again by the parent, which raises it

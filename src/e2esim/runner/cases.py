@@ -4,13 +4,13 @@ template (``run_block``, batched or case by case), with the services the runner 
 from __future__ import annotations
 
 import numpy as np
-from tqdm.auto import tqdm
 
 from e2esim.case import Case, Products, Services, process_memo
 from e2esim.requirements.attribution import VERDICTS_ONLY
 from e2esim.runner.blocks import BlockRun
 from e2esim.runner.case_results import BlockResult, CaseResult
 from e2esim.runner.columns import case_notes, requirement_columns, scalar_columns, source_group_column
+from e2esim.runner.progress import tqdm
 from e2esim.runner.records import case_scalars
 from e2esim.runner.scenario import ResolvedScenario
 from e2esim.runner.stage_products import checked_products

@@ -199,14 +199,17 @@ def write_outputs(result, folder: Path, progress: bool = False) -> dict:
     steps = StepProgress(len(requested_plots(result)) + len(files), "outputs", progress)
     try:
         warnings: list = []
-        plots = make_plots(result, folder, warnings, steps)
-        with steps.step("results.h5"):
-            write_results(result, folder / "results.h5")
-        if "results.nc" in files:
-            with steps.step("results.nc"):
-                write_map_netcdf(map_dataset_of(result), folder / "results.nc")
-        with steps.step("summary.json"):
-            write_summary(result, folder / "summary.json")
+
+        def files_without_plots() -> None:  # written here while the plot helper draws (make_plots)
+            with steps.step("results.h5"):
+                write_results(result, folder / "results.h5")
+            if "results.nc" in files:
+                with steps.step("results.nc"):
+                    write_map_netcdf(map_dataset_of(result), folder / "results.nc")
+            with steps.step("summary.json"):
+                write_summary(result, folder / "summary.json")
+
+        plots = make_plots(result, folder, warnings, steps, meanwhile=files_without_plots)
         with steps.step("report"):
             write_report(result, folder, plots, warnings)
         written = sorted({p.name for p in folder.iterdir()} - before - {JOURNAL, LOCK_NAME})

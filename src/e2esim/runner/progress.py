@@ -12,10 +12,15 @@ from __future__ import annotations
 
 import threading
 import time
+import warnings
 from contextlib import contextmanager
 from dataclasses import dataclass
 
-from tqdm.auto import tqdm
+from tqdm import TqdmExperimentalWarning
+
+with warnings.catch_warnings():  # what tqdm.auto does, without its asyncio mixin (asyncio costs every process 20 ms)
+    warnings.simplefilter("ignore", category=TqdmExperimentalWarning)
+    from tqdm.autonotebook import tqdm  # a notebook's widget bar in Jupyter, else the console bar
 
 BAR_FORMAT = "{desc}: {percentage:3.0f}%|{bar}| {n_fmt}/{total_fmt} [{elapsed}{postfix}]"
 """tqdm's bar with the time left of ``RemainingTime`` (its postfix) in place of tqdm's own estimate."""
