@@ -162,3 +162,34 @@ def test_the_combination_matrix_is_computed_once_and_read_only():
     assert q is combination.matrix and not q.flags.writeable
     w = combination.weights
     np.testing.assert_array_equal(q, np.einsum("r,rm,rn->mn", combination.coefficients, w.conj(), w))
+
+
+@pytest.mark.parametrize("estimator", ["single_date", "multi_date", "subtraction", "ground_cancelled"])
+def test_only_the_entries_the_combination_reads_are_computed_bit_for_bit(seed, monkeypatch, estimator):
+    # the noncentral Wishart computes only the entries of W that the combination weighs (read_entries): the same
+    # draws in the same order, so the combined covariances are those of the full W bit for bit, and so is the
+    # generator's state after it
+    import e2esim.stack.montecarlo as mc
+    from e2esim.distortion.covariance_montecarlo import noncentral_wishart
+
+    scene = site_scene("boreal", "tomographic")
+    errors, faraday = stack_errors(rich_system(3e-3, 5e-3, gain_sd_db=0.3), 0.5, 8.0)
+    comb = _combination(estimator, scene)
+    mask = mc.read_entries(comb)
+    assert mask.sum() == 9 * np.count_nonzero(comb.matrix) and np.array_equal(mask, mask.T)
+    runs = []
+    for entries in (mc.read_entries, lambda c: None):
+        monkeypatch.setattr(mc, "read_entries", entries)
+        rng = np.random.default_rng(seed)
+        runs.append((simulate_stack(scene, errors, faraday, comb, rng, 1000, 40, 2, "scene").combined,
+                     rng.standard_normal()))
+    assert runs[0][0].tobytes() == runs[1][0].tobytes() and runs[0][1] == runs[1][1]
+    # the helper itself: the masked entries as the full matrix's, the others 0 (the 3 x 3 dof < p path too)
+    p, m = 9, 30
+    rng = np.random.default_rng(seed)
+    factor = rng.standard_normal((p, p, m)) + 1j * rng.standard_normal((p, p, m))
+    sub = np.kron(np.eye(3, dtype=bool)[[0, 2, 1]], np.ones((3, 3), bool))  # blocks (0, 0), (1, 2), (2, 1)
+    for looks in (12, 40):
+        full, masked = (noncentral_wishart(np.random.default_rng(seed), factor, np.linspace(0.5, 1, p), looks, e)
+                        for e in (None, sub))
+        assert np.array_equal(masked[sub], full[sub]) and not masked[~sub].any()

@@ -119,7 +119,8 @@ def _fast(scene, a, sigma_nu, rng, looks, n_noise, reference, scene_vectors):
     return out, ref, looks
 
 
-def noncentral_wishart(rng: np.random.Generator, factor: np.ndarray, noise_sd: np.ndarray, looks: int) -> np.ndarray:
+def noncentral_wishart(rng: np.random.Generator, factor: np.ndarray, noise_sd: np.ndarray, looks: int,
+                       entries: np.ndarray | None = None) -> np.ndarray:
     """(1/L) sum_k y_k y_k^H over L looks of y_k = x_k + nu_k, nu_k ~ CN(0, diag(noise_sd^2)) independent of the
     signal, given the signal's scatter factor: co-pol eq. (7.1) in any dimension p, exact and at a cost
     independent of L.
@@ -127,6 +128,10 @@ def noncentral_wishart(rng: np.random.Generator, factor: np.ndarray, noise_sd: n
     factor : K (p, p, M) with K K^H = sum_k x_k x_k^H (e.g. A F with F F^H = L C_hat). noise_sd : (p,).
     looks : L >= p. A unitary rotation of the look axis puts the signal into p rows:
     sum_j (k_j + w_j)(k_j + w_j)^H + D^1/2 B B^H D^1/2, w_j ~ CN(0, D), B B^H ~ CW_p(L - p, I). Returns (p, p, M).
+    entries : optional (p, p) symmetric boolean mask of the entries the caller reads (None: all); the others are
+    returned as 0. Every draw is still made, in the same order, so the generator's stream and every computed entry
+    are those of the full matrix bit for bit: only the unread products are skipped (a single-date estimate of a
+    7-pass stack reads 9 of the 441).
     """
     p, m = factor.shape[0], factor.shape[-1]
     sd = np.asarray(noise_sd, dtype=float)
@@ -135,8 +140,8 @@ def noncentral_wishart(rng: np.random.Generator, factor: np.ndarray, noise_sd: n
     v = _complex_normal(rng, (p, p, m))
     v *= sd[:, None, None]
     v += factor  # columns m_j + w_j
-    total = _gram(v)
-    noise = _bartlett_gram(rng, looks - p, m, p)
+    total = _gram(v, entries)
+    noise = _bartlett_gram(rng, looks - p, m, p, entries)
     noise *= np.outer(sd, sd)[:, :, None]
     total += noise
     total /= looks
@@ -195,32 +200,38 @@ def _complex_normal(rng, shape, unit: bool = True) -> np.ndarray:
     return z
 
 
-def _bartlett_gram(rng, dof: int, size: int, p: int = 3) -> np.ndarray:
+def _bartlett_gram(rng, dof: int, size: int, p: int = 3, entries: np.ndarray | None = None) -> np.ndarray:
     """B B^H ~ CW_p(dof, I), shape (p, p, size), by the Bartlett decomposition: B lower triangular,
     |B_ii|^2 ~ Gamma(dof - i), B_ij ~ CN(0, 1) below the diagonal, row by row (as
-    ``ScatteringCovariance.sample_covariance``); for dof < p, the gram of dof CN(0, I) vectors."""
+    ``ScatteringCovariance.sample_covariance``); for dof < p, the gram of dof CN(0, I) vectors. entries: the
+    (p, p) symmetric mask of the entries computed, the others 0 (None: all); every draw is made either way."""
     if dof < p:
         z = _complex_normal(rng, (p, max(dof, 0), size))
-        return _gram(z)
+        return _gram(z, entries)
     d = [np.sqrt(rng.gamma(dof - i, 1.0, size)) for i in range(p)]
     below = iter(_complex_normal(rng, (p * (p - 1) // 2, size)))
     b = [[next(below) for _ in range(i)] + [d[i]] for i in range(p)]  # row i: B_i0 .. B_ii
-    g = np.empty((p, p, size), dtype=complex)
+    g = np.empty((p, p, size), dtype=complex) if entries is None else np.zeros((p, p, size), dtype=complex)
     for i in range(p):
-        g[i, i] = sum(np.abs(b[i][k]) ** 2 for k in range(i)) + d[i] ** 2
+        if entries is None or entries[i, i]:
+            g[i, i] = sum(np.abs(b[i][k]) ** 2 for k in range(i)) + d[i] ** 2
         for j in range(i):
-            g[i, j] = sum(b[i][k] * b[j][k].conj() for k in range(j)) + b[i][j] * d[j]
-            g[j, i] = g[i, j].conj()
+            if entries is None or entries[i, j]:
+                g[i, j] = sum(b[i][k] * b[j][k].conj() for k in range(j)) + b[i][j] * d[j]
+                g[j, i] = g[i, j].conj()
     return g
 
 
-def _gram(x: np.ndarray) -> np.ndarray:
-    """x x^H for x of shape (p, J, size), entry by entry over contiguous vectors: (p, p, size)."""
+def _gram(x: np.ndarray, entries: np.ndarray | None = None) -> np.ndarray:
+    """x x^H for x of shape (p, J, size), entry by entry over contiguous vectors: (p, p, size); only the
+    ``entries`` of a (p, p) symmetric mask, the others 0 (None: all)."""
     xc = x.conj()
     p = x.shape[0]
-    g = np.empty((p, p, x.shape[-1]), dtype=complex)
+    g = np.empty((p, p, x.shape[-1]), dtype=complex) if entries is None else np.zeros((p, p, x.shape[-1]), complex)
     for i in range(p):
         for j in range(i, p):
+            if entries is not None and not entries[i, j]:
+                continue
             g[i, j] = (x[i] * xc[j]).sum(0)
             if j != i:
                 g[j, i] = g[i, j].conj()
