@@ -193,3 +193,14 @@ def test_only_the_entries_the_combination_reads_are_computed_bit_for_bit(seed, m
         full, masked = (noncentral_wishart(np.random.default_rng(seed), factor, np.linspace(0.5, 1, p), looks, e)
                         for e in (None, sub))
         assert np.array_equal(masked[sub], full[sub]) and not masked[~sub].any()
+
+
+def test_the_embedding_and_the_estimates_are_their_matrix_products_bit_for_bit(rng):
+    # pass_operators takes the columns and rows of the 0/1/half weights instead of batches of 4 x 4 products: exact
+    from e2esim.polarimetry.system_model import RECIPROCAL_EMBEDDING
+    from e2esim.stack.montecarlo import ESTIMATES, _embedded, _estimates
+
+    k = (rng.standard_normal((400, 7, 4, 4)) + 1j * rng.standard_normal((400, 7, 4, 4))) * np.exp(
+        rng.uniform(-30, 30, (400, 7, 4, 4)))  # magnitudes over 26 decades
+    assert _embedded(k).tobytes() == (k @ RECIPROCAL_EMBEDDING).tobytes()
+    assert _estimates(k[..., :3]).tobytes() == (ESTIMATES @ k[..., :3]).tobytes()

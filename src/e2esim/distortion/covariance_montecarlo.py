@@ -142,10 +142,27 @@ def noncentral_wishart(rng: np.random.Generator, factor: np.ndarray, noise_sd: n
     v += factor  # columns m_j + w_j
     total = _gram(v, entries)
     noise = _bartlett_gram(rng, looks - p, m, p, entries)
-    noise *= np.outer(sd, sd)[:, :, None]
-    total += noise
-    total /= looks
+    scale = np.outer(sd, sd)[:, :, None]
+    for rows, cols in _spans(entries, p):  # the same operations on every entry computed; the others stay 0
+        part = noise[rows, cols]
+        part *= scale[rows, cols]
+        out = total[rows, cols]
+        out += part
+        out /= looks
     return total
+
+
+def _spans(entries: np.ndarray | None, p: int) -> list:
+    """(row slice, column slice) pairs covering the True entries of a (p, p) mask (None: one pair, everything):
+    per row, from its first to its last True column."""
+    if entries is None:
+        return [(slice(None), slice(None))]
+    spans = []
+    for i in range(p):
+        cols = np.flatnonzero(entries[i])
+        if cols.size:
+            spans.append((slice(i, i + 1), slice(cols[0], cols[-1] + 1)))
+    return spans
 
 
 def _small_window(s, a, sigma_nu, rng, n_noise, reference, scene):
@@ -211,13 +228,14 @@ def _bartlett_gram(rng, dof: int, size: int, p: int = 3, entries: np.ndarray | N
     d = [np.sqrt(rng.gamma(dof - i, 1.0, size)) for i in range(p)]
     below = iter(_complex_normal(rng, (p * (p - 1) // 2, size)))
     b = [[next(below) for _ in range(i)] + [d[i]] for i in range(p)]  # row i: B_i0 .. B_ii
+    bc = [[x.conj() for x in row[:-1]] for row in b]  # their conjugates, once each
     g = np.empty((p, p, size), dtype=complex) if entries is None else np.zeros((p, p, size), dtype=complex)
     for i in range(p):
         if entries is None or entries[i, i]:
             g[i, i] = sum(np.abs(b[i][k]) ** 2 for k in range(i)) + d[i] ** 2
         for j in range(i):
             if entries is None or entries[i, j]:
-                g[i, j] = sum(b[i][k] * b[j][k].conj() for k in range(j)) + b[i][j] * d[j]
+                g[i, j] = sum(b[i][k] * bc[j][k] for k in range(j)) + b[i][j] * d[j]
                 g[j, i] = g[i, j].conj()
     return g
 
@@ -225,8 +243,9 @@ def _bartlett_gram(rng, dof: int, size: int, p: int = 3, entries: np.ndarray | N
 def _gram(x: np.ndarray, entries: np.ndarray | None = None) -> np.ndarray:
     """x x^H for x of shape (p, J, size), entry by entry over contiguous vectors: (p, p, size); only the
     ``entries`` of a (p, p) symmetric mask, the others 0 (None: all)."""
-    xc = x.conj()
     p = x.shape[0]
+    # the conjugates of the rows read (all, or those of a column of ``entries``)
+    xc = x.conj() if entries is None else {j: x[j].conj() for j in np.flatnonzero(entries.any(0))}
     g = np.empty((p, p, x.shape[-1]), dtype=complex) if entries is None else np.zeros((p, p, x.shape[-1]), complex)
     for i in range(p):
         for j in range(i, p):

@@ -36,7 +36,6 @@ from e2esim.polarimetry.simulate import SystemState, complex_wishart, matrix_roo
 from e2esim.polarimetry.system_model import (
     ESTIMATOR_WEIGHTS,
     RECIPROCAL_CHANNELS,
-    RECIPROCAL_EMBEDDING,
     batched_kron,
     faraday_matrix,
 )
@@ -70,10 +69,23 @@ def faraday_correction(omega: np.ndarray) -> np.ndarray:
 def pass_operators(delta, f, omega, gain, correct_copol: bool, omega_hat=None) -> np.ndarray:
     """A_n: the 3 x 3 maps from (S_hh, S_hv, S_vv) of each pass to its estimates (..., 3, 3); the co-polarised
     channels corrected with ``omega_hat`` (None: the true ``omega``) when ``correct_copol``."""
-    k = SystemState(delta, f, omega, gain.astype(complex)).operator() @ RECIPROCAL_EMBEDDING
+    k = _embedded(SystemState(delta, f, omega, gain.astype(complex)).operator())
     if correct_copol:  # the symmetrised HV row is unchanged by the correction, whatever omega_hat (tested)
         k = faraday_correction(omega if omega_hat is None else omega_hat) @ k
-    return ESTIMATES @ k
+    return _estimates(k)
+
+
+def _embedded(k: np.ndarray) -> np.ndarray:
+    """k @ RECIPROCAL_EMBEDDING (..., 4, 3) by its columns k_hh, k_hv + k_vh, k_vv: the product's weights are exact
+    0s and 1s, so each column of the product is one of these bit for bit (tested), without a batch of matrix
+    products."""
+    return np.stack([k[..., 0], k[..., 1] + k[..., 2], k[..., 3]], -1)
+
+
+def _estimates(k: np.ndarray) -> np.ndarray:
+    """ESTIMATES @ k (..., 3, 3) by its rows k_hh, k_hv / 2 + k_vh / 2, k_vv: the weights are exact 0s, 1s and
+    halves (a halving is exact), so bit for bit the product (tested)."""
+    return np.stack([k[..., 0, :], 0.5 * k[..., 1, :] + 0.5 * k[..., 2, :], k[..., 3, :]], -2)
 
 
 def _block_diagonal(a: np.ndarray) -> np.ndarray:
@@ -119,7 +131,8 @@ def simulate_stack(scene: StackScene, errors: StackSystemErrors, faraday: StackF
             x = np.asarray(scene_vectors).reshape(looks, 3 * n)
             c_ref = x.T @ x.conj() / looks
         factor = np.moveaxis(big @ matrix_root(looks * c_ref), 0, -1)  # K = A F, F F^H = L C_hat: (3N, 3N, M)
-        w = np.moveaxis(noncentral_wishart(rng, factor, np.sqrt(d), looks, read_entries(combination)), -1, 0)
+        w = noncentral_wishart(rng, factor, np.sqrt(d), looks, read_entries(combination))  # (3N, 3N, M)
+        w = w.reshape(n, 3, n, 3, -1).transpose(4, 0, 1, 2, 3)  # (M, N, 3, N, 3): a view, _combine copies once
     combined = _combine(combination, w.reshape(-1, n, 3, n, 3))
     ideal = _combine(combination, c_ref.reshape(n, 3, n, 3)[None])[0]
     combined = combined.reshape(realisations, noise_realisations, 3, 3)
