@@ -19,7 +19,9 @@ Fast path, exact in distribution (cost independent of the looks L), as ``e2esim.
 Every estimate is then sum_r c_r sum_nm w_rn w_rm^* W_nm: the combined (for ground cancellation the
 ground-cancelled) 3 x 3 covariance of (hh, hv, vv), kept for a multi-channel estimator; its diagonal are the
 channel estimates, whose errors are taken against the estimator's value for the sample scene ("scene") or for
-the covariance ("population").
+the covariance ("population"). The noncentral Wishart computes only the entries of W with a non-zero weight
+Q_mn (``read_entries``): the others would enter the sum multiplied by an exact 0. Every draw is still made, in
+the same order, so the numbers are those of the full W bit for bit.
 """
 
 from __future__ import annotations
