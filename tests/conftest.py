@@ -7,6 +7,7 @@ scikit-learn's ``global_random_seed``); the seed in use is printed in the test r
 
 from __future__ import annotations
 
+import functools
 import inspect
 import os
 import re
@@ -53,12 +54,19 @@ def _scenarios_used(item) -> list:
     used = [v for v in params.values() if isinstance(v, str) and v in names]
     fixtures = getattr(getattr(item, "_fixtureinfo", None), "name2fixturedefs", {})
     for function in [item.function] + [d[-1].func for d in fixtures.values() if d]:
-        try:
-            source = inspect.getsource(function)
-        except (OSError, TypeError):
-            continue
-        used += [n for n in re.findall(r"""quick_run\(["'](\w+)["']\)""", source) if n in names]
+        used += [n for n in _quick_runs_named_in(function) if n in names]
     return used
+
+
+@functools.cache
+def _quick_runs_named_in(function) -> tuple:
+    """The names ``function``'s source passes to ``quick_run`` as literals (read once per function: the items of a
+    parametrised test and the tests sharing a fixture ask again)."""
+    try:
+        source = inspect.getsource(function)
+    except (OSError, TypeError):
+        return ()
+    return tuple(re.findall(r"""quick_run\(["'](\w+)["']\)""", source))
 
 
 def pytest_report_header(config):
