@@ -11,6 +11,7 @@ import functools
 import inspect
 import os
 import re
+import shutil
 import signal
 import tempfile
 import zlib
@@ -27,13 +28,24 @@ def pytest_configure(config):
     # Keep climatology caches out of the user's home during the tests (subprocesses and the pytest-xdist
     # workers inherit it, and the workers share the seed the controller drew).
     if "E2ESIM_CACHE" not in os.environ:
-        os.environ["E2ESIM_CACHE"] = tempfile.mkdtemp(prefix="e2esim-test-cache-")
+        os.environ["E2ESIM_CACHE"] = _MADE_CACHE[config] = tempfile.mkdtemp(prefix="e2esim-test-cache-")
     os.environ["E2ESIM_TEST_SEED"] = str(TEST_SEED)
     # A suite started as a background job of a non-interactive shell inherits SIGINT ignored, and so would every
     # e2esim the tests start (an ignored signal stays ignored across exec): the Ctrl-C tests would then see a run
     # that cannot be interrupted. Python's own handler here makes the children start with the default one.
     if signal.getsignal(signal.SIGINT) == signal.SIG_IGN:
         signal.signal(signal.SIGINT, signal.default_int_handler)
+
+
+_MADE_CACHE: dict = {}
+"""The climatology cache folder this process made for the session (the workers of pytest-xdist inherit it)."""
+
+
+def pytest_unconfigure(config):
+    # the session's cache folder goes with it (every session left one of its own in the temporary folder)
+    folder = _MADE_CACHE.pop(config, None)
+    if folder is not None:
+        shutil.rmtree(folder, ignore_errors=True)
 
 
 @pytest.hookimpl(tryfirst=True)  # before pytest-xdist reads the groups
