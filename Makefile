@@ -36,12 +36,15 @@ $(STAMP): pyproject.toml
 demo: $(CORE)  ## install (the core only) and run the default BIOMASS scenario
 	env -u PYTHONDONTWRITEBYTECODE $(BIN)/e2esim run scenarios/biomass_default.yaml --force
 
+# pytest rewrites the asserts of every test module it imports (about 5 s of CPU in each process of the suite) and
+# keeps the result as bytecode for the next run only where bytecode may be written: PYTHONDONTWRITEBYTECODE is
+# lifted for the tests, as for `make demo`.
 test: $(STAMP)  ## install and run the linter and the test suite (slow tests excluded)
 	$(BIN)/ruff check src tests benchmarks examples docs
-	$(BIN)/python -m pytest -n 2 --dist loadgroup
+	env -u PYTHONDONTWRITEBYTECODE $(BIN)/python -m pytest -n 2 --dist loadgroup
 
 test-slow: $(STAMP)  ## the slow statistical and end-to-end tests only
-	$(BIN)/python -m pytest -m slow
+	env -u PYTHONDONTWRITEBYTECODE $(BIN)/python -m pytest -m slow
 
 reference: $(STAMP)  ## regenerate the generated documentation
 	$(BIN)/python -m e2esim.docs_reference docs/scenario-reference.md

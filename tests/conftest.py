@@ -7,9 +7,11 @@ scikit-learn's ``global_random_seed``); the seed in use is printed in the test r
 
 from __future__ import annotations
 
+import functools
 import inspect
 import os
 import re
+import shutil
 import signal
 import tempfile
 import zlib
@@ -26,13 +28,24 @@ def pytest_configure(config):
     # Keep climatology caches out of the user's home during the tests (subprocesses and the pytest-xdist
     # workers inherit it, and the workers share the seed the controller drew).
     if "E2ESIM_CACHE" not in os.environ:
-        os.environ["E2ESIM_CACHE"] = tempfile.mkdtemp(prefix="e2esim-test-cache-")
+        os.environ["E2ESIM_CACHE"] = _MADE_CACHE[config] = tempfile.mkdtemp(prefix="e2esim-test-cache-")
     os.environ["E2ESIM_TEST_SEED"] = str(TEST_SEED)
     # A suite started as a background job of a non-interactive shell inherits SIGINT ignored, and so would every
     # e2esim the tests start (an ignored signal stays ignored across exec): the Ctrl-C tests would then see a run
     # that cannot be interrupted. Python's own handler here makes the children start with the default one.
     if signal.getsignal(signal.SIGINT) == signal.SIG_IGN:
         signal.signal(signal.SIGINT, signal.default_int_handler)
+
+
+_MADE_CACHE: dict = {}
+"""The climatology cache folder this process made for the session (the workers of pytest-xdist inherit it)."""
+
+
+def pytest_unconfigure(config):
+    # the session's cache folder goes with it (every session left one of its own in the temporary folder)
+    folder = _MADE_CACHE.pop(config, None)
+    if folder is not None:
+        shutil.rmtree(folder, ignore_errors=True)
 
 
 @pytest.hookimpl(tryfirst=True)  # before pytest-xdist reads the groups
@@ -53,12 +66,19 @@ def _scenarios_used(item) -> list:
     used = [v for v in params.values() if isinstance(v, str) and v in names]
     fixtures = getattr(getattr(item, "_fixtureinfo", None), "name2fixturedefs", {})
     for function in [item.function] + [d[-1].func for d in fixtures.values() if d]:
-        try:
-            source = inspect.getsource(function)
-        except (OSError, TypeError):
-            continue
-        used += [n for n in re.findall(r"""quick_run\(["'](\w+)["']\)""", source) if n in names]
+        used += [n for n in _quick_runs_named_in(function) if n in names]
     return used
+
+
+@functools.cache
+def _quick_runs_named_in(function) -> tuple:
+    """The names ``function``'s source passes to ``quick_run`` as literals (read once per function: the items of a
+    parametrised test and the tests sharing a fixture ask again)."""
+    try:
+        source = inspect.getsource(function)
+    except (OSError, TypeError):
+        return ()
+    return tuple(re.findall(r"""quick_run\(["'](\w+)["']\)""", source))
 
 
 def pytest_report_header(config):

@@ -4,7 +4,9 @@ tests/test_fuzz_journals.py)."""
 
 from __future__ import annotations
 
+import atexit
 import contextlib
+import shutil
 import signal
 import tempfile
 from pathlib import Path
@@ -19,6 +21,7 @@ from e2esim.errors import UserError, one_line
 SECRET = "SECRET-e2esim-7Q4Z"
 """Text of a file outside the crafted ones: it must never appear in anything e2esim prints or writes."""
 FUZZ_FOLDER = Path(tempfile.mkdtemp(prefix="e2esim-fuzz-files-"))
+atexit.register(shutil.rmtree, FUZZ_FOLDER, True)  # (ignore_errors) each process that imports this left one
 SECRET_FILE = FUZZ_FOLDER / "outside.txt"
 SECRET_FILE.write_text((SECRET + "\n") * 50)
 COMMON = dict(deadline=None, database=None, suppress_health_check=[HealthCheck.too_slow])

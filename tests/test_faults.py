@@ -230,7 +230,7 @@ def test_a_worker_killed_by_sigkill_is_one_message_and_the_run_resumes(tmp_path)
     scenario = _sweep(tmp_path, method="brute_force", looks=1000, realisations=600)
     out = tmp_path / "out"
     proc = _cli("run", scenario, "-o", out, "--no-progress", "--workers", "2")
-    _wait_for(lambda: len(_children(proc.pid)) >= 2 and _saved(out / JOURNAL) >= 1, proc)
+    _wait_for(lambda: _saved(out / JOURNAL) >= 1 and len(_children(proc.pid)) >= 2, proc)  # /proc read last
     os.kill(max(_children(proc.pid)), signal.SIGKILL)
     err = proc.communicate(timeout=120)[1]
     assert proc.returncode == 2 and err.count("\n") == 1 and "Traceback" not in err, (proc.returncode, err)
@@ -255,7 +255,7 @@ def test_a_signal_under_workers_keeps_the_journal_and_stops_the_workers(tmp_path
     scenario = _sweep(tmp_path, method="brute_force", looks=1000, realisations=600)
     out = tmp_path / "out"
     proc = _cli("run", scenario, "-o", out, "--no-progress", "--workers", "2", start_new_session=True)
-    _wait_for(lambda: len(_children(proc.pid)) >= 2 and _saved(out / JOURNAL) >= 1, proc)
+    _wait_for(lambda: _saved(out / JOURNAL) >= 1 and len(_children(proc.pid)) >= 2, proc)  # /proc read last
     workers = _children(proc.pid)
     if signum == signal.SIGINT:
         os.killpg(proc.pid, signum)
@@ -297,6 +297,14 @@ def test_ctrl_c_keeps_the_blocks_that_finished_meanwhile_and_drops_those_in_flig
         pytest.skip("the stand-in block function reaches the workers only when they are forked")
     monkeypatch.setenv("E2ESIM_TEST_MARKS", str(tmp_path))
     monkeypatch.setattr(executors, "run_block_remote", _block_or_wait)
+    sources = []
+
+    class Watched(executors._ProcessBlocks):  # the pool's futures, to see the results arrive in this process
+        def __init__(self, *args):
+            super().__init__(*args)
+            sources.append(self)
+
+    monkeypatch.setattr(executors, "_ProcessBlocks", Watched)
     previous = signal.signal(signal.SIGINT, signal.default_int_handler)
     resolved = Scenario.load(_sweep(tmp_path)).resolve()
     taken = []
@@ -305,10 +313,12 @@ def test_ctrl_c_keeps_the_blocks_that_finished_meanwhile_and_drops_those_in_flig
         taken.append(int(block.indices[0]))
         if len(taken) == 1:
             os.kill(os.getpid(), signal.SIGINT)  # held back until this block is kept
+            # blocks 1 and 2 finish meanwhile: wait until their results are back in this process (their futures
+            # done), not for a fixed time
+            meanwhile = [f for f, number in sources[0].number.items() if number in (1, 2)]
             deadline = time.monotonic() + 120
-            while not all((tmp_path / f"done{i}").exists() for i in range(3)) and time.monotonic() < deadline:
-                time.sleep(0.05)
-            time.sleep(2)  # the two results travel back to this process
+            while not all(f.done() for f in meanwhile) and time.monotonic() < deadline:
+                time.sleep(0.02)
 
     try:
         with pytest.raises(KeyboardInterrupt):

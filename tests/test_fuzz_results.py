@@ -15,6 +15,7 @@ by E2ESIM_TEST_SEED.
 from __future__ import annotations
 
 import contextlib
+import hashlib
 import json
 import random
 import zlib
@@ -236,12 +237,27 @@ def check_results(path: Path) -> None:
 
 
 
+_CHECKED_CLEAN: set = set()
+"""Digests of the crafted files this process has already seen end cleanly: about one example in thirteen crafts,
+byte for byte, a file an earlier example made (its changes were not made or changed nothing), and the same bytes
+take the same path. A file that failed is never added, so Hypothesis's replay of a failing example checks it
+again."""
+
+
+def check_results_once(path: Path) -> None:
+    """``check_results(path)``, unless this process has checked the same bytes clean before."""
+    digest = hashlib.sha256(path.read_bytes()).digest()
+    if digest not in _CHECKED_CLEAN:
+        check_results(path)
+        _CHECKED_CLEAN.add(digest)
+
+
 @settings(max_examples=250, derandomize=True, **COMMON)
 @given(case_seed=SEEDS)
 def test_crafted_results_files_end_cleanly(case_seed):
     path, changes = make_results_case(case_seed)
     note(f"changes: {changes}")
-    check_results(path)
+    check_results_once(path)
 
 
 @pytest.mark.slow
@@ -251,4 +267,4 @@ def test_crafted_results_files_end_cleanly(case_seed):
 def test_crafted_results_files_end_cleanly_large_budget(case_seed):
     path, changes = make_results_case(case_seed)
     note(f"changes: {changes}")
-    check_results(path)
+    check_results_once(path)

@@ -9,6 +9,7 @@ from pathlib import Path
 import pytest
 from cli_processes import e2esim_process as _cli
 
+from e2esim.cli import main
 from e2esim.runner.run import run_scenario
 from e2esim.runner.scenario import Scenario
 
@@ -77,7 +78,7 @@ def _wait_for_cases(journal: Path, n: int, proc, timeout=120):
 
 
 @pytest.mark.parametrize("how", ["kill", "interrupt"])
-def test_interrupted_sweep_resumes_without_recomputing(tmp_path, how):
+def test_interrupted_sweep_resumes_without_recomputing(tmp_path, capsys, how):
     scenario = _scenario(tmp_path, method="brute_force", looks=1000, realisations=150)
     out = tmp_path / "out"
     journal = out / ".e2esim-partial"
@@ -92,9 +93,9 @@ def test_interrupted_sweep_resumes_without_recomputing(tmp_path, how):
     saved = _saved(journal)
     assert 3 <= saved < 12
 
-    # without --resume the folder is protected
-    again = _cli("run", str(scenario), "-o", str(out), "--no-progress")
-    assert again.wait(60) == 2 and "use --resume" in again.stderr.read()
+    # without --resume the folder is protected (asked in this process: the exit status is main's return value)
+    assert main(["run", str(scenario), "-o", str(out), "--no-progress"]) == 2
+    assert "use --resume" in capsys.readouterr().err
 
     resumed = _cli("run", str(scenario), "-o", str(out), "--no-progress", "--resume")
     assert resumed.wait(300) == 0, resumed.stderr.read()
