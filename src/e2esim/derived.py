@@ -48,15 +48,19 @@ class JointEvaluatedOnce:
 
 
 class RemovedOnce:
-    """``without(source)`` of an error model, made once for every source (``removals``: the attribution and the
-    Shapley split of every requirement ask each of them); the model says how in ``_without``."""
+    """``without(source)`` of an error model, made once per source (the attribution and the Shapley split of every
+    requirement ask the same variants); the model says how in ``_without``."""
 
     def without(self, source: str):
         if source not in self.sources:
             raise KeyError(f"unknown error source {source!r}; sources: {', '.join(self.sources)}")
-        return self.removals[source]
+        made = self.removals
+        if source not in made:
+            made[source] = self._without(source)
+        return made[source]
 
     @cached_property
     def removals(self) -> dict:
-        """{source: the model without it}."""
-        return {source: self._without(source) for source in self.sources}
+        """{source: the model without it}, each made when first asked: a Shapley split asks each variant for one
+        source only, and a variant of an HV model without a level source costs an evaluation."""
+        return {}
