@@ -166,6 +166,40 @@ def test_private_names_and_long_files_are_counted(tmp_path):
     assert counts["private_imports"] == 1 and counts["files_over_400_lines"] == 1
 
 
+def test_memo_dicts_and_unlisted_module_caches_are_counted(tmp_path):
+    # docs/architecture.md, "Caching": a value derived once is a cached_property, a value by argument goes into the
+    # kernel memo, a module-level cache holds a constant (CONSTANT_CACHES) only
+    files = {
+        **CLEAN,
+        "e2esim/orbit/timeline.py": (
+            "import functools\nfrom dataclasses import dataclass, field\n\n\n@dataclass(frozen=True)\nclass M:\n"
+            "    _memo: dict = field(default_factory=dict)\n\n    def q(self):\n"
+            "        return self.__dict__.setdefault('_quadrature_memo', {})\n\n\nclass W:\n"
+            "    def __init__(self):\n        self._memo = {}\n        self._memory = {}\n\n\n"
+            "@functools.lru_cache(maxsize=16)\ndef expansion_at(nodes: bytes):\n    return nodes\n\n\n"
+            "@functools.cache\ndef build_parser():\n    return 1\n"
+        ),
+        "e2esim/cli.py": "import functools\n\n\n@functools.lru_cache(maxsize=1)\ndef build_parser():\n    return 1\n",
+    }
+    figures = arch.measure(_write(tmp_path, files), duplicates=False)
+    assert sorted(m.split(" ")[1] for m in figures.memo_dicts) == ["_memo", "_memo", "_quadrature_memo"]
+    # the parser of e2esim.cli is a listed constant; the same name elsewhere is not
+    assert sorted(m.split(" ")[1] for m in figures.module_caches) == ["build_parser", "expansion_at"]
+    assert arch.worse_than(figures.counts(), RATCHET) == {"memo_dicts": (3, 0), "unlisted_module_caches": (2, 0)}
+    assert RATCHET["memo_dicts"] == RATCHET["unlisted_module_caches"] == 0
+
+
+def test_every_listed_module_cache_exists_and_the_docs_name_it():
+    # a constant that went away leaves the list; each one is named in docs/architecture.md ("Caching")
+    found = set()
+    for module, path in arch.module_files(ROOT / "src").items():
+        tree = __import__("ast").parse(path.read_text())
+        found |= {f"{module}:{node.name}" for node in tree.body if getattr(node, "decorator_list", None)}
+    assert arch.CONSTANT_CACHES <= found
+    caching = (ROOT / "docs" / "architecture.md").read_text().split("\n## Caching\n", 1)[1].split("\n## ", 1)[0]
+    assert [c for c in sorted(arch.CONSTANT_CACHES) if f"`{c.split(':')[1]}`" not in caching] == []
+
+
 def test_a_module_placed_twice_is_an_error():
     layers = (("low", ("e2esim.a",)), ("high", ("e2esim.a",)))
     with pytest.raises(ValueError, match="placed twice"):

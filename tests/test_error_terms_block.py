@@ -132,7 +132,7 @@ def _unshared(model):
     """``model`` rebuilt with nothing evaluated or shared between its wrappers (each stacks its own effects)."""
     if not isinstance(model, BlockWrappedModel):
         return model
-    return dataclasses.replace(model, base=_unshared(model.base), _memo={}, _shared={})
+    return dataclasses.replace(model, base=_unshared(model.base), _shared={})
 
 
 def test_the_variants_of_a_block_model_share_their_removed_effects_and_keep_their_own_numbers():

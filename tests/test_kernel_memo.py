@@ -39,7 +39,8 @@ def test_node_terms_shared_between_cases_equal_those_computed_alone_bit_for_bit(
         memo = KernelMemo()
         first = values(_models(kind, memo))
         filled = len(memo)
-        assert filled == len(SEARCHED)  # one entry per searched difference
+        tables = [k for k in memo.keys() if k[0] == "stack node terms"]
+        assert len(tables) == 1 and len(memo.get(tables[0])) == len(SEARCHED)  # one table: an entry per difference
         # a second case of the same geometry (another Faraday-rotation difference of its own) finds them all
         second = values(_models(kind, memo, difference_deg=30.0))
         assert len(memo) == filled
@@ -50,7 +51,7 @@ def test_node_terms_shared_between_cases_equal_those_computed_alone_bit_for_bit(
             np.testing.assert_array_equal(a, b)
         # another geometry (stable errors: other pass correlations) is a new key, never a stale hit
         values(_models(kind, memo, correlation=1.0))
-        assert len(memo) == 2 * filled
+        assert len([k for k in memo.keys() if k[0] == "stack node terms"]) == 2 and len(memo) > filled
 
 
 def test_the_key_is_the_content_of_the_inputs():

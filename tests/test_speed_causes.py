@@ -27,12 +27,12 @@ def _joint(reference="scene", correlation=1.0):
 def test_the_journal_leaves_the_evaluation_cache_out_and_the_decoded_model_gives_the_same_numbers():
     model = _joint()
     before = model.joint_moments(faraday_difference=np.array([1e-4, 1e-3, 1e-2]))  # three levels searched
-    assert len(model._memo["node terms"]) == 3
+    assert len(model.node_terms) == 3
     header, payload = plaindata.encode(model, PACKAGES)
     # before the fix the node terms of every level searched were stored: megabytes per case
     assert len(payload) < 200_000, len(payload)
     back = plaindata.decode(header, payload, PACKAGES)
-    assert back._memo == {}
+    assert "node_terms" not in vars(back)
     again = back.joint_moments(faraday_difference=np.array([1e-4, 1e-3, 1e-2]))
     np.testing.assert_array_equal(again.mean, before.mean)
     np.testing.assert_array_equal(again.covariance, before.covariance)
@@ -59,7 +59,7 @@ def test_unstable_errors_keep_the_signal_covariances_for_the_passes_gains():
     model = _joint("scene", correlation=0.5)  # the passes' own gains: Cov over them reads y0
     assert model.errors.pass_gain_log_sd > 0
     model.joint_moments()
-    assert all(t["y0"] is not None for t in model._memo["node terms"].values())
+    assert all(t["y0"] is not None for t in model.node_terms.values())
 
 
 @pytest.mark.parametrize("batched", [False, True])

@@ -117,7 +117,7 @@ def test_unstable_errors_leak_the_ground_into_the_cancelled_channel():
     assert stable.cancellation()["ground_residual_fraction"] == pytest.approx(0.0, abs=1e-18)
     def residual(rho):
         errors = stack_errors(rich_system(1e-3, 1e-3), correlation=rho)[0]
-        return dataclasses.replace(stable, errors=errors, _memo={}).cancellation()
+        return dataclasses.replace(stable, errors=errors).cancellation()
 
     independent, half = residual(0.0), residual(0.5)
     assert independent["ground_residual_ideal_fraction"] == pytest.approx(0.0, abs=1e-18)

@@ -176,7 +176,7 @@ def test_noncentral_wishart_in_any_dimension(rng):
 
 def test_speckle_correlation_of_one_combination_is_the_intensity_correlation():
     _, joint = _models("scene")
-    pair = dataclasses.replace(joint, combination=combos.subtraction(3, 0, 1), _memo={})
+    pair = dataclasses.replace(joint, combination=combos.subtraction(3, 0, 1))
     combined = pair.combination.combined_covariance(pair.scene.blocks())
     np.testing.assert_allclose(pair.speckle_correlation(), intensity_correlation(combined), atol=1e-14)
     multi = joint.speckle_correlation()  # two references: less correlated than one combination's intensities

@@ -74,7 +74,8 @@ def test_moments_over_a_kept_memo_are_those_node_by_node():
     """The joint moments of a stack corrected with a residual rotation (mean 3 deg, SD 6 deg) through a memo kept over
     many rows (``KernelMemo.repeated_geometry``, as a solve's engine runs) equal those evaluated node by node to
     1e-12 of each part (a covariance also to the rounding of its spread over the nodes, 32 eps sigma^2, as
-    test_stack_joint); a second residual on the same memo reuses the coefficients (the memo grows by nothing).
+    test_stack_joint); a second residual on the same memo reuses the coefficients (the memo grows by nothing but
+    the table of the new model's node terms, ``StackModelBase.node_terms``).
     No Faraday-rotation difference: the rotation's own nodes alone, so that the coefficients are quick."""
     scene = site_scene("boreal")
     errors = StackSystemErrors(rich_system(1e-3, 2e-3), 0.5)
@@ -93,7 +94,7 @@ def test_moments_over_a_kept_memo_are_those_node_by_node():
             np.testing.assert_allclose(b, a, rtol=0, atol=atol, err_msg=field.name)
         if mean_deg == 3.0:
             size = len(memo)
-    assert len(memo) == size
+    assert len(memo) == size + 1 and sum(k[0] == "stack node terms" for k in memo.keys()) == 2
 
 
 def test_coefficients_kept_between_runs_are_those_computed(rng, tmp_path, monkeypatch):

@@ -13,7 +13,12 @@ function-level imports alike:
 * **private names across modules**: ``from e2esim.x import _name`` (dunder names excepted), each importer and
   name once;
 * **duplicated blocks**: the pairs of places sharing 6 or more lines, as the ``duplicates`` command on this
-  machine counts them (``duplicates --repo src --most 200``); "unavailable" where there is no such command.
+  machine counts them (``duplicates --repo src --most 200``); "unavailable" where there is no such command;
+* **memo dicts**: a field or attribute named ``_memo`` or ``_<something>_memo`` (a class field, ``self._memo = ...``
+  or ``__dict__.setdefault("_memo", ...)``): what a ``functools.cached_property`` or the kernel memo does
+  (docs/architecture.md, "Caching");
+* **module caches not listed**: a module-level function under ``functools.lru_cache`` or ``functools.cache`` that
+  ``CONSTANT_CACHES`` does not name: a module-level cache is allowed for a constant computed late only;
 * **``__dict__`` writes** and **direct ``process_memo()`` calls** (docs/architecture.md, "Caching"): a value
   written into an object's ``__dict__`` (``x.__dict__[k] = v``, ``x.__dict__.setdefault/update(...)``), and a call
   of ``process_memo()`` outside ``e2esim.case`` and the runner's service set-up (``MEMO_OWNERS``): what is kept
@@ -72,6 +77,7 @@ LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
             "e2esim.case",
             "e2esim.block",
             "e2esim.error_model",
+            "e2esim.derived",
             "e2esim.extras",
             "e2esim.kinds",
         ),
@@ -182,6 +188,8 @@ class Figures:
     duplicates: int | None = None
     dict_writes: list[str] = field(default_factory=list)  # "module:line" of each __dict__ write
     memo_calls: list[str] = field(default_factory=list)  # "module:line" of each direct process_memo() call
+    memo_dicts: list[str] = field(default_factory=list)
+    module_caches: list[str] = field(default_factory=list)
     modules: int = 0
     lines: int = 0
 
@@ -197,6 +205,8 @@ class Figures:
             "duplicated_blocks": self.duplicates,
             "dict_writes": len(self.dict_writes),
             "process_memo_calls": len(self.memo_calls),
+            "memo_dicts": len(self.memo_dicts),
+            "unlisted_module_caches": len(self.module_caches),
         }
 
 
@@ -268,6 +278,57 @@ def imports_of(module: str, path: Path, modules: dict[str, Path], package: str =
                     )
                 )
     return found
+
+
+# The module-level caches allowed: constants computed late ("module:function", docs/architecture.md, "Caching").
+CONSTANT_CACHES = frozenset({
+    "e2esim.cli:build_parser",  # the command-line parser
+    "e2esim.products:_resolve",  # a product class by its dotted name
+    "e2esim.blas_threads:_library_setters", "e2esim.blas_threads:_threads_at_first_use",  # the BLAS libraries loaded
+    "e2esim.runner.provenance:_versions", "e2esim.runner.provenance:source_commit",  # the installed versions
+    "e2esim.runner.journal_check:_hints",  # the type hints of a result class
+    "e2esim.scene.forest_cover:land_cover_grid", "e2esim.scene.land_mask:_mask",  # shipped grids
+    "e2esim.ionosphere.iri:_coefficients", "e2esim.ionosphere.iri:_expansion_orders",  # the IRI coefficients
+    "e2esim.geomag.igrf:_coefficient_table",  # the IGRF coefficients
+    "e2esim.scintillation.defocus:width_table", "e2esim.scintillation.faraday_window:_nodes",
+    "e2esim.error_terms.notch:_full_band",  # the unnotched band
+    "e2esim.distortion.analytic:_trig_at_even_nodes", "e2esim.distortion.higher_order:pairing_terms",
+    "e2esim.stack.residual_fourier:frequencies",  # the residual polynomials' frequencies of (passes, degree)
+    "e2esim.stack.residual_fourier:_code_digest",  # the source of the modules that compute the kept coefficients
+    "e2esim.verification.men2021:table2_case",  # the published tables' cases
+    "e2esim.verification.quegan2018:_zone", "e2esim.verification.quegan2018:_alternative_zones",
+    "e2esim.verification.quegan2018:_grid_zones",
+})
+_MEMO_NAME = re.compile(r"^_(\w+_)?memo$")
+_CACHES = ("lru_cache", "cache")
+
+
+def _targets(node) -> list:
+    return node.targets if isinstance(node, ast.Assign) else [node.target]
+
+
+def caching_of(module: str, path: Path) -> tuple[list[str], list[str]]:
+    """(memo dicts, module-level caches not in ``CONSTANT_CACHES``) of one module, as "module:line name"."""
+    tree = ast.parse(path.read_text(encoding="utf-8"), filename=str(path))
+    memos, caches = [], []
+    for node in ast.walk(tree):
+        names = []
+        if isinstance(node, ast.ClassDef):  # a class field
+            names = [t.id for s in node.body if isinstance(s, (ast.Assign, ast.AnnAssign)) for t in _targets(s)
+                     if isinstance(t, ast.Name)]
+        elif isinstance(node, (ast.Assign, ast.AnnAssign)):  # an attribute set
+            names = [t.attr for t in _targets(node) if isinstance(t, ast.Attribute)]
+        elif isinstance(node, ast.Call) and isinstance(node.func, ast.Attribute) and node.args:
+            if node.func.attr == "setdefault" and "__dict__" in ast.unparse(node.func.value):
+                names = [node.args[0].value] if isinstance(node.args[0], ast.Constant) else []
+        memos += [f"{module}:{node.lineno} {n}" for n in names if isinstance(n, str) and _MEMO_NAME.match(n)]
+    for node in tree.body:
+        if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)) and f"{module}:{node.name}" not in CONSTANT_CACHES:
+            for d in node.decorator_list:
+                d = d.func if isinstance(d, ast.Call) else d
+                if (d.attr if isinstance(d, ast.Attribute) else getattr(d, "id", "")) in _CACHES:
+                    caches.append(f"{module}:{node.lineno} {node.name}")
+    return memos, caches
 
 
 def strongly_connected(graph: dict[str, set[str]]) -> list[list[str]]:
@@ -380,6 +441,9 @@ def measure(src: Path = ROOT / "src", package: str = PACKAGE, layers=LAYERS, dup
         writes, calls = caching_offences(module, path)
         figures.dict_writes += writes
         figures.memo_calls += calls
+        memos, caches = caching_of(module, path)
+        figures.memo_dicts += memos
+        figures.module_caches += caches
         own_layer = layer_of(module, layers)
         if own_layer is None:
             figures.unplaced.append(module)
@@ -414,6 +478,8 @@ TARGETS = {
     "duplicated_blocks": 15,
     "dict_writes": None,
     "process_memo_calls": 0,
+    "memo_dicts": 0,
+    "unlisted_module_caches": 0,
 }
 
 
@@ -454,6 +520,8 @@ def report(figures: Figures, listing: bool = False) -> str:
         rows += ["unplaced modules:"] + [f"  {m}" for m in figures.unplaced]
         rows += ["__dict__ writes:"] + [f"  {w}" for w in figures.dict_writes]
         rows += ["direct process_memo() calls:"] + [f"  {c}" for c in figures.memo_calls]
+        rows += ["memo dicts:"] + [f"  {m}" for m in figures.memo_dicts]
+        rows += ["module caches not listed:"] + [f"  {m}" for m in figures.module_caches]
     return "\n".join(rows)
 
 

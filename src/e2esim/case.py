@@ -182,6 +182,10 @@ class KernelMemo:
     def __len__(self) -> int:
         return len(self._values)
 
+    def keys(self) -> list:
+        """The keys kept, the least recently used first."""
+        return list(self._values)
+
     def __reduce__(self):
         if _PROCESS_MEMO and self is _PROCESS_MEMO[0]:
             return (process_memo, ())

@@ -21,10 +21,12 @@ into single-channel models (docs/architecture.md, "Several channels").
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
-from dataclasses import dataclass, field
+from dataclasses import dataclass, replace
 from functools import cached_property
 
 import numpy as np
+
+from e2esim.derived import derived_values, knowing
 
 
 class ErrorModelUnavailable(Exception):
@@ -176,7 +178,8 @@ class ModelEvaluation:
     looks : L, or None for L -> infinity. reference : "scene" (the error of the estimate against the scene's own
     covariance) or "population" (speckle over the looks counted). montecarlo : the simulated errors of the
     model's kind, or None. gaussianity : statistics of the simulated HV errors (Men et al. 2021, Fig. 2), or
-    None. notes, unavailable : as ``ErrorModel``. ``_memo`` keeps what the model evaluated, once per object.
+    None. notes, unavailable : as ``ErrorModel``. What a model evaluates is derived once per object, as its
+    ``functools.cached_property``s (docs/architecture.md, "Caching"); ``knowing`` sets those its maker has.
     """
 
     looks: int | None = None
@@ -185,7 +188,10 @@ class ModelEvaluation:
     gaussianity: dict | None = None
     notes: tuple = ()
     unavailable: str | None = None
-    _memo: dict = field(default_factory=dict, repr=False, compare=False)
+
+    def with_montecarlo(self, montecarlo, gaussianity):
+        """The same model with its simulated errors, knowing what this one derived (none of it reads the samples)."""
+        return knowing(replace(self, montecarlo=montecarlo, gaussianity=gaussianity), **derived_values(self))
 
 
 class MultiChannelErrorModel(ErrorModel):

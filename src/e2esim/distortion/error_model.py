@@ -12,11 +12,13 @@ from __future__ import annotations
 import dataclasses
 import math
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
 from e2esim.block import Batched, Values, join
 from e2esim.case_values import plain
+from e2esim.derived import EvaluatedOnce, RemovedOnce, knowing
 from e2esim.distortion.analytic import HVErrorMoments, MomentInputs, check_settings, moments_of
 from e2esim.distortion.validation import compare_with_analytic, sample_moments
 from e2esim.distortion.validity import VALIDITY, ValidityRange
@@ -41,10 +43,10 @@ _LEVEL_SOURCES = {"crosstalk": 0, "channel_imbalance": 1, "noise": 2}  # rows of
 _NO_ROTATION = ConstantFaraday(0.0)
 
 
-class SystemLevels:
+class SystemLevels(RemovedOnce):
     """What the distortion error models share: the levels are the system's (V_delta, V_eps, sigma_n), the
-    sources ``SOURCES``, speckle counts for the population reference, and ``without`` is evaluated once per
-    source (``_without`` makes the variant). Needs ``system``, ``reference`` and ``_memo`` fields."""
+    sources ``SOURCES``, speckle counts for the population reference, and ``without`` is made once for every
+    source (``RemovedOnce``; ``_without`` makes the variant). Needs ``system`` and ``reference`` fields."""
 
     @property
     def includes_speckle(self) -> bool:
@@ -59,17 +61,9 @@ class SystemLevels:
     def sources(self) -> tuple:
         return SOURCES
 
-    def without(self, source: str):
-        if source not in SOURCES:
-            raise KeyError(f"unknown error source {source!r}; sources: {', '.join(SOURCES)}")
-        key = f"without {source}"
-        if key not in self._memo:
-            self._memo[key] = self._without(source)
-        return self._memo[key]
-
 
 @dataclass(frozen=True, eq=False)
-class HVErrorModel(Batched, SystemLevels, ModelEvaluation, ErrorModel):
+class HVErrorModel(Batched, SystemLevels, EvaluatedOnce, ModelEvaluation, ErrorModel):
     """Error of sigma_hv_hat for one case, or for a block of cases with a leading case axis.
 
     scene, system, faraday : what the error is computed for (the residual system and Faraday rotation
@@ -97,11 +91,12 @@ class HVErrorModel(Batched, SystemLevels, ModelEvaluation, ErrorModel):
 
     @property
     def moment_inputs(self) -> MomentInputs:
-        if self.inputs is not None:
-            return self.inputs
-        if "inputs" not in self._memo:
-            self._memo["inputs"] = MomentInputs.of(self.scene, self.system, self.faraday, self.form)
-        return self._memo["inputs"]
+        return self.own_inputs if self.inputs is None else self.inputs
+
+    @cached_property
+    def own_inputs(self) -> MomentInputs:
+        """The ``MomentInputs`` of scene, system and faraday (one case), derived once."""
+        return MomentInputs.of(self.scene, self.system, self.faraday, self.form)
 
     @property
     def value(self):
@@ -122,19 +117,17 @@ class HVErrorModel(Batched, SystemLevels, ModelEvaluation, ErrorModel):
             raise TypeError(f"unknown levels {', '.join(unknown)}; this model has {', '.join(LEVELS)}")
         self.check_available()
         check_settings(self.form, self.reference)
-        own = crosstalk is None and channel_imbalance is None and nesz is None
-        if own and "moments" in self._memo:  # at its own levels: once per model (the error terms' variants of a
-            return self._memo["moments"]       # Shapley split, its bound and its attribution ask the same model)
-        m = moments_of(self.moment_inputs, self.form, self.looks, self.reference, crosstalk_level=crosstalk,
-                       imbalance_level=channel_imbalance, noise_power=nesz)
-        if own:
-            self._memo["moments"] = m
-        return m
+        if crosstalk is None and channel_imbalance is None and nesz is None:
+            return self.own_moments
+        return moments_of(self.moment_inputs, self.form, self.looks, self.reference, crosstalk_level=crosstalk,
+                          imbalance_level=channel_imbalance, noise_power=nesz)
 
-    def current(self) -> HVErrorMoments:
-        if "current" not in self._memo:
-            self._memo["current"] = self.moments()
-        return self._memo["current"]
+    @cached_property
+    def own_moments(self) -> HVErrorMoments:
+        """``moments()`` at its own levels, derived once (the error terms' variants of a Shapley split, its bound
+        and its attribution ask the same model)."""
+        return moments_of(self.moment_inputs, self.form, self.looks, self.reference, crosstalk_level=None,
+                          imbalance_level=None, noise_power=None)
 
     # Sources removed (``SystemLevels.without``) ----------------------------------------------------
     def _without(self, source: str) -> HVErrorModel:
@@ -150,37 +143,43 @@ class HVErrorModel(Batched, SystemLevels, ModelEvaluation, ErrorModel):
             return self._variant(dataclasses.replace(inp, gain=(np.ones(shape), np.ones(shape))), inp.no_gain_error)
         # the three level sources in one vectorised evaluation: [no crosstalk, no imbalance, no noise]
         xs, es, ns = inp.levels
-        if "level variants" not in self._memo:
-            z = np.zeros(shape)
-            self._memo["level variants"] = self.moments(crosstalk=np.stack([z, xs, xs], -1),
-                                                        channel_imbalance=np.stack([es, z, es], -1),
-                                                        nesz=np.stack([ns, ns, z], -1))
         row = _LEVEL_SOURCES[source]
         levels = [xs, es, ns]
         levels[row] = np.zeros(shape)[()]  # a float for a case alone (shape ()), an array over a block's cases
         variant = self._variant(dataclasses.replace(inp, levels=tuple(levels)), np.zeros(shape, dtype=bool))
-        variant._memo["current"] = _row(self._memo["level variants"], row, len(shape))
-        return variant
+        return knowing(variant, evaluated=_row(self.level_variants, row, len(shape)))
+
+    @cached_property
+    def level_variants(self) -> HVErrorMoments:
+        """The moments without each level source, [no crosstalk, no imbalance, no noise] on a last axis: the three
+        in one vectorised evaluation, once."""
+        xs, es, ns = self.moment_inputs.levels
+        z = np.zeros(np.shape(xs))
+        return self.moments(crosstalk=np.stack([z, xs, xs], -1), channel_imbalance=np.stack([es, z, es], -1),
+                            nesz=np.stack([ns, ns, z], -1))
 
     def _no_faraday(self) -> HVErrorModel:
         """The model without Faraday rotation (also where there is none: the contributions' reference)."""
-        if "no faraday" not in self._memo:
-            inp = self.moment_inputs
-            shape = np.shape(inp.levels[0])
-            if self.form == "paper":
-                averaging = {k: np.full(shape, v) for k, v in _NO_ROTATION.trig_moments().items()}
-            else:
-                weights = _NO_ROTATION.even_quadrature()[1]
-                averaging = np.broadcast_to(weights, shape + weights.shape)
-            self._memo["no faraday"] = self._variant(dataclasses.replace(inp, averaging=averaging), inp.no_rotation)
-        return self._memo["no faraday"]
+        return self.no_faraday
+
+    @cached_property
+    def no_faraday(self) -> HVErrorModel:
+        """``_no_faraday()``, made once."""
+        inp = self.moment_inputs
+        shape = np.shape(inp.levels[0])
+        if self.form == "paper":
+            averaging = {k: np.full(shape, v) for k, v in _NO_ROTATION.trig_moments().items()}
+        else:
+            weights = _NO_ROTATION.even_quadrature()[1]
+            averaging = np.broadcast_to(weights, shape + weights.shape)
+        return self._variant(dataclasses.replace(inp, averaging=averaging), inp.no_rotation)
 
     def _variant(self, inputs: MomentInputs, inactive) -> HVErrorModel:
         """The model with ``inputs``, the same for a case alone and a block: its moments are those of ``inputs``
         (the products it keeps are the model's, read only by ``item``); no Monte Carlo samples, which belong to
         the full model. ``inactive`` (case shape) marks the cases without the source; None where every case has
         it."""
-        return dataclasses.replace(self, montecarlo=None, gaussianity=None, notes=(), _memo={}, inputs=inputs,
+        return dataclasses.replace(self, montecarlo=None, gaussianity=None, notes=(), inputs=inputs,
                                    inactive=inactive if np.any(inactive) else None)
 
     # Contributions ---------------------------------------------------------------------------------
@@ -233,14 +232,14 @@ class HVErrorModel(Batched, SystemLevels, ModelEvaluation, ErrorModel):
         """Case i's one-case model, with the moments the block computed for it."""
         model = HVErrorModel(self.scene.item(i), self.system.item(i), self.faraday.item(i), self.form,
                              looks=self.looks, reference=self.reference)
-        if "current" in self._memo:
-            model._memo["current"] = _row(self._memo["current"], i, 0)
+        if "evaluated" in vars(self):
+            knowing(model, evaluated=_row(self.evaluated, i, 0))
         return model
 
     def take(self, positions) -> HVErrorModel:
         return dataclasses.replace(self, scene=self.scene.take(positions), system=self.system.take(positions),
                                    faraday=self.faraday.take(positions), inputs=self.inputs.take(positions),
-                                   inactive=None if self.inactive is None else self.inactive[positions], _memo={})
+                                   inactive=None if self.inactive is None else self.inactive[positions])
 
     @classmethod
     def concatenate(cls, parts: list) -> HVErrorModel:
@@ -250,7 +249,7 @@ class HVErrorModel(Batched, SystemLevels, ModelEvaluation, ErrorModel):
         return dataclasses.replace(first, scene=join([p.scene for p in parts]), system=join([p.system for p in parts]),
                                    faraday=join([p.faraday for p in parts]),
                                    inputs=MomentInputs.concatenate([p.inputs for p in parts]),
-                                   inactive=_joined_inactive(parts), _memo={})
+                                   inactive=_joined_inactive(parts))
 
     def scalar_columns(self) -> dict:
         return dict(analytic_scalars(self.current()))

@@ -14,12 +14,11 @@ so every estimate is ``A s`` with (co-pol eq. 2.3)
 
 exactly: the operator is at most bilinear in the errors (one receive times one transmit term). The
 coefficient matrices depend only on the angles, not on the scene or the error statistics, so they are
-computed once per set of quadrature nodes (``expansion_at``, cached).
+computed once per set of quadrature nodes (``expansion_at``, kept in the kernel memo handed in).
 """
 
 from __future__ import annotations
 
-import functools
 from dataclasses import dataclass
 
 import numpy as np
@@ -87,13 +86,24 @@ def expansion(omega, omega_hat=None) -> Expansion:
     return Expansion(a0, u, w)
 
 
-@functools.lru_cache(maxsize=16)
-def expansion_at(omega: bytes, omega_hat: bytes | None, shape: tuple) -> Expansion:
-    """``expansion`` of quadrature nodes given as bytes (hashable: the nodes are the same for every
-    distribution, so the expansion is computed once). Arrays are read-only."""
-    om = np.frombuffer(omega, dtype=float).reshape(shape)
-    oh = None if omega_hat is None else np.frombuffer(omega_hat, dtype=float).reshape(shape)
-    e = expansion(om, oh)
+EXPANSIONS_KEPT = 16
+"""Expansions kept in a ``KernelMemo`` (``expansion_at``): a case's variants share their nodes."""
+
+
+def expansion_at(omega, omega_hat=None, memo=None) -> Expansion:
+    """``expansion`` at quadrature nodes ``omega`` (and ``omega_hat``), with read-only arrays. ``memo``: the
+    process's ``KernelMemo`` (``case.services.memo``) or None. It keeps the last ``EXPANSIONS_KEPT`` by the nodes'
+    shape and bytes (the nodes are the same for many distributions and for the variants of a case, so an expansion
+    is computed once); a kept expansion is the one computed, so a number never depends on whether it was found."""
+    om = np.ascontiguousarray(omega, dtype=float)
+    oh = None if omega_hat is None else np.ascontiguousarray(omega_hat, dtype=float)
+    if not hasattr(memo, "recall"):  # None, or a decoded model's memo (an empty dict)
+        return _read_only(expansion(om, oh))
+    key = ("expansion", om.shape, om.tobytes(), None if oh is None else oh.tobytes())
+    return memo.recall(key, lambda: _read_only(expansion(om, oh)), keep=EXPANSIONS_KEPT)
+
+
+def _read_only(e: Expansion) -> Expansion:
     for arr in (e.a0, e.u, e.w):
         arr.setflags(write=False)
     return e

@@ -23,7 +23,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from e2esim.errors import PhysicsInputError
-from e2esim.faraday.distribution import QUADRATURE_DEGREE, ConstantFaraday, FaradayDistribution
+from e2esim.faraday.distribution import FINE_QUADRATURE_DEGREE, QUADRATURE_DEGREE, ConstantFaraday, FaradayDistribution
 
 MODES = ("none", "perfect", "estimated")
 HV_UNCHANGED_BY_ROTATION = (
@@ -31,7 +31,7 @@ HV_UNCHANGED_BY_ROTATION = (
     "data changes (Men et al. 2021, eq. 2; docs/theory/ground-cancellation.md, Section 3.3): a Faraday-rotation "
     "correction, and the error of its estimate, cannot change it")
 """Why an HV estimate ignores the settings of a Faraday-rotation correction (``Stage.insensitivity``)."""
-CORRECTED_DEGREE = 16
+CORRECTED_DEGREE = FINE_QUADRATURE_DEGREE  # 16: its rule is kept with the distribution
 """Highest harmonic in Omega of the exact covariance of corrected co-polarised channels (module docstring)."""
 
 

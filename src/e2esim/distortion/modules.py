@@ -144,9 +144,7 @@ class HVBackscatterErrorPropagation(Stage):
                           noise_realisations=s.noise_realisations, reference=c["reference"], method=c["mc_method"])
             if c["gaussianity"] and np.ravel(mc.hv).size >= 20:
                 gauss = gaussianity(mc.hv)
-            model = HVErrorModel(scene, system, faraday, c["variance_form"], looks=looks, reference=c["reference"],
-                                 montecarlo=mc, gaussianity=gauss, notes=notes, unavailable=unavailable,
-                                 _memo=model._memo)
+            model = model.with_montecarlo(mc, gauss)
         return {"backscatter.error": model}
 
 

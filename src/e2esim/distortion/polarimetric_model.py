@@ -13,10 +13,12 @@ from __future__ import annotations
 import dataclasses
 import math
 from dataclasses import dataclass, field
+from functools import cached_property
 from typing import Any
 
 import numpy as np
 
+from e2esim.derived import JointEvaluatedOnce, knowing
 from e2esim.distortion.error_model import LEVELS, SystemLevels
 from e2esim.distortion.faraday_correction import FaradayCorrection
 from e2esim.distortion.polarimetric_moments import ChannelErrorMoments, error_polynomial, evaluate, evaluate_totals
@@ -39,7 +41,7 @@ _LEVEL_ZERO = {"crosstalk": {"crosstalk": 0.0}, "channel_imbalance": {"imbalance
 
 
 @dataclass(frozen=True, eq=False)
-class PolarimetricErrorModel(SystemLevels, ModelEvaluation, MultiChannelErrorModel):
+class PolarimetricErrorModel(SystemLevels, JointEvaluatedOnce, ModelEvaluation, MultiChannelErrorModel):
     """Errors of (sigma_hh, sigma_hv, sigma_vv) for one scene, system-error model and Faraday rotation.
 
     scene, system, faraday : what the error is computed for (the residual system; the Faraday rotation in the
@@ -66,11 +68,14 @@ class PolarimetricErrorModel(SystemLevels, ModelEvaluation, MultiChannelErrorMod
 
     # Moments ---------------------------------------------------------------------------------------
     def polynomial(self):
-        """The level polynomial of the moments (``ErrorPolynomial``), computed once."""
-        if "polynomial" not in self._memo:
-            memo = self.kernel_memo if hasattr(self.kernel_memo, "recall") else None  # decoded: an empty dict
-            self._memo["polynomial"] = error_polynomial(self.scene, self.system, self.faraday, self.correction, memo)
-        return self._memo["polynomial"]
+        """The level polynomial of the moments (``ErrorPolynomial``), computed once (``level_polynomial``)."""
+        return self.level_polynomial
+
+    @cached_property
+    def level_polynomial(self):
+        """``polynomial()``, derived once; the variants that change a level only know it from their maker."""
+        memo = self.kernel_memo if hasattr(self.kernel_memo, "recall") else None  # decoded: an empty dict
+        return error_polynomial(self.scene, self.system, self.faraday, self.correction, memo)
 
     def joint_moments(self, crosstalk=None, channel_imbalance=None, nesz=None, **unknown) -> JointMoments:
         """Mean vector and covariance matrix, co-pol eqs. (5.1)-(5.4), with V_delta, V_eps and sigma_n replaced
@@ -79,12 +84,11 @@ class PolarimetricErrorModel(SystemLevels, ModelEvaluation, MultiChannelErrorMod
                                     self.system.gain_power_moments, self.looks, self.reference)
         return JointMoments(self.channels, mean, cov)
 
-    def current_joint(self) -> ChannelErrorMoments:
-        """The moments at the model's own levels with their parts by source (computed once)."""
-        if "current" not in self._memo:
-            self._memo["current"] = evaluate(self.polynomial(), *self._levels(None, None, None, {}),
-                                             self.system.gain_power_moments, self.looks, self.reference)
-        return self._memo["current"]
+    @cached_property
+    def evaluated(self) -> ChannelErrorMoments:
+        """``current_joint()``: the moments at the model's own levels with their parts by source, derived once."""
+        return evaluate(self.polynomial(), *self._levels(None, None, None, {}), self.system.gain_power_moments,
+                        self.looks, self.reference)
 
     def _levels(self, crosstalk, channel_imbalance, nesz, unknown) -> tuple:
         if unknown:
@@ -104,8 +108,8 @@ class PolarimetricErrorModel(SystemLevels, ModelEvaluation, MultiChannelErrorMod
             return self if not sysm.has_gain_error else self._variant(
                 system=dataclasses.replace(sysm, gain_offset_db=0.0, gain_sd_db=0.0))
         variant = self._variant(system=sysm.with_levels(**_LEVEL_ZERO[source]))
-        if "polynomial" in self._memo:  # the polynomial does not depend on the levels
-            variant._memo["polynomial"] = self._memo["polynomial"]
+        if "level_polynomial" in vars(self):  # the polynomial does not depend on the levels
+            knowing(variant, level_polynomial=self.level_polynomial)
         return variant
 
     def _rotation_free(self) -> bool:
@@ -115,12 +119,15 @@ class PolarimetricErrorModel(SystemLevels, ModelEvaluation, MultiChannelErrorMod
         return no_rotation and (residual is None or (residual.mean_rad == 0.0 and residual.sd_rad == 0.0))
 
     def _no_faraday(self) -> PolarimetricErrorModel:
-        if "no faraday" not in self._memo:
-            self._memo["no faraday"] = self._variant(faraday=ConstantFaraday(0.0), correction=FaradayCorrection())
-        return self._memo["no faraday"]
+        return self.no_faraday
+
+    @cached_property
+    def no_faraday(self) -> PolarimetricErrorModel:
+        """The model without Faraday rotation (the contributions' reference), made once."""
+        return self._variant(faraday=ConstantFaraday(0.0), correction=FaradayCorrection())
 
     def _variant(self, **changes) -> PolarimetricErrorModel:
-        return dataclasses.replace(self, montecarlo=None, gaussianity=None, notes=(), _memo={}, **changes)
+        return dataclasses.replace(self, montecarlo=None, gaussianity=None, notes=(), **changes)
 
     # Contributions ---------------------------------------------------------------------------------
     def joint_contributions(self) -> dict:
@@ -193,7 +200,7 @@ class PolarimetricErrorModel(SystemLevels, ModelEvaluation, MultiChannelErrorMod
         if self.reference != "scene":
             return self.current_joint()
         scene = ScatteringCovariance(self.montecarlo.reference)
-        return dataclasses.replace(self, scene=scene, montecarlo=None, _memo={}).current_joint()
+        return dataclasses.replace(self, scene=scene, montecarlo=None).current_joint()
 
 
 def _z(difference, se) -> float:

@@ -80,8 +80,5 @@ class PolarimetricErrorPropagation(Stage):
             hv = mc.errors[..., 1]
             if self.si["gaussianity"] and np.ravel(hv).size >= 20:
                 gauss = gaussianity(hv)
-            model = PolarimetricErrorModel(scene, system, faraday, correction, looks=s.looks,
-                                           reference=self.si["reference"], montecarlo=mc, gaussianity=gauss,
-                                           notes=notes, unavailable=unavailable, _memo=model._memo,
-                                           kernel_memo=getattr(case.services, "memo", None))
+            model = model.with_montecarlo(mc, gauss)
         return {"backscatter.error": model}

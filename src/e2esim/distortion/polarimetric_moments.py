@@ -82,13 +82,12 @@ class ErrorPolynomial:
         return cls(sigma, mean, cov, spread, higher)
 
 
-def node_polynomials(scene_matrix, gammas, omega, omega_hat) -> tuple:
+def node_polynomials(scene_matrix, gammas, omega, omega_hat, memo=None) -> tuple:
     """The conditional moments at each node, before they are averaged with the weights: (mean (..., G, 6, 3, 3)
     complex and cov (..., G, 6, 3, 3) of co-pol eqs. 3.2-3.3, the O(V^3) and O(V^4) covariance (..., G, 9, 3, 3)
-    of eq. 3.6). Almost all the cost of ``ErrorPolynomial.build``; they do not depend on the weights."""
-    omega = np.ascontiguousarray(omega, dtype=float)
-    oh = None if omega_hat is None else np.ascontiguousarray(omega_hat, dtype=float).tobytes()
-    exp = expansion_at(omega.tobytes(), oh, omega.shape)
+    of eq. 3.6). Almost all the cost of ``ErrorPolynomial.build``; they do not depend on the weights. memo : the
+    ``KernelMemo`` that keeps the expansion at the nodes (``expansion_at``), or None."""
+    exp = expansion_at(omega, omega_hat, memo)
     cond = conditional_polynomials(exp, scene_matrix, gammas)
     return cond.mean, cond.cov, covariance_coefficients(exp, scene_matrix, gammas)
 
@@ -251,7 +250,7 @@ def error_polynomial(scene, system, faraday, correction: FaradayCorrection | Non
         # rotation per calibration) share their nodes and differ in their weights only (biomass_multichannel: 8
         # builds over 2 scenes)
         nodes = memo.recall(("error polynomial nodes", *inputs[:4]),
-                            lambda: node_polynomials(scene.matrix, gammas, omega, omega_hat), keep=NODE_SETS_KEPT)
+                            lambda: node_polynomials(scene.matrix, gammas, omega, omega_hat, memo), keep=NODE_SETS_KEPT)
         return ErrorPolynomial.build(scene.matrix, gammas, omega, omega_hat, weights, nodes)
 
     return memo.recall(("error polynomial", *inputs), build, keep=POLYNOMIALS_KEPT)

@@ -62,8 +62,7 @@ class PolarimetricPixelModel:
     @classmethod
     def build(cls, system, higher_order: bool = True) -> PolarimetricPixelModel:
         """For a ``SystemErrorModel`` at its own levels (``higher_order`` as ``polarimetric_error_moments``)."""
-        omega = np.ascontiguousarray(quadrature_nodes(QUADRATURE_DEGREE), dtype=float)
-        exp = expansion_at(omega.tobytes(), None, omega.shape)
+        exp = expansion_at(quadrature_nodes(QUADRATURE_DEGREE))
         gammas = unit_covariances(system)
         scenes = np.concatenate([BASIS, [BASIS[a] + BASIS[b] for a, b in PAIRS]])  # (15, 3, 3)
         cond = conditional_polynomials(exp, scenes, gammas)

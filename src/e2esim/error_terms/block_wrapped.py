@@ -17,6 +17,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from e2esim.block import Batched, Values
+from e2esim.derived import EvaluatedOnce, RemovedOnce, knowing
 from e2esim.error_model import Contribution, ErrorModel, Moments
 from e2esim.error_terms.effect_stack import stack_groups, stacked, stacked_columns
 from e2esim.error_terms.wrapped import wrapped
@@ -33,7 +34,7 @@ def _leading(x: np.ndarray, rows, ndim: int) -> np.ndarray:
 
 
 @dataclass(frozen=True, eq=False)
-class BlockWrappedModel(Batched, ErrorModel):
+class BlockWrappedModel(Batched, RemovedOnce, EvaluatedOnce, ErrorModel):
     """A batched single-channel model with one more source per case (module docstring). inactive : for a model with
     a source removed (``without``), the cases where it was not active (their model is their own variant).
     _shared: what depends on ``effects`` alone (the levels, the stacks, the effects with the source removed), shared
@@ -43,7 +44,6 @@ class BlockWrappedModel(Batched, ErrorModel):
     base: object
     effects: Values
     inactive: object = None
-    _memo: dict = field(default_factory=dict, repr=False, compare=False)
     _shared: dict = field(default_factory=dict, repr=False, compare=False)
 
     def __post_init__(self):
@@ -132,18 +132,7 @@ class BlockWrappedModel(Batched, ErrorModel):
             self._shared["stacks"] = out
         return self._shared["stacks"]
 
-    def current(self) -> Moments:
-        if "current" not in self._memo:
-            self._memo["current"] = self.moments()
-        return self._memo["current"]
-
-    # Sources -------------------------------------------------------------------------------------------------------
-    def without(self, source: str) -> ErrorModel:
-        key = ("without", source)  # asked by every requirement's attribution: made once
-        if key not in self._memo:
-            self._memo[key] = self._without(source)
-        return self._memo[key]
-
+    # Sources (``RemovedOnce.without``) ---------------------------------------------------------------------------
     def _without(self, source: str) -> ErrorModel:
         if source == self.source:
             if "removed" not in self._shared:  # the effects with the source removed, and their own shared memo
@@ -176,9 +165,8 @@ class BlockWrappedModel(Batched, ErrorModel):
     def item(self, i: int) -> ErrorModel:
         """Case i's ``WrappedErrorModel``, with the moments the block computed for it."""
         model = wrapped(self.base.item(i), self.effects[i])
-        if "current" in self._memo:
-            m = self._memo["current"]
-            model._memo["current"] = Moments(m.mean[i], m.variance[i])
+        if "evaluated" in vars(self):
+            knowing(model, evaluated=Moments(self.evaluated.mean[i], self.evaluated.variance[i]))
         return model
 
     def take(self, positions) -> BlockWrappedModel:

@@ -11,8 +11,11 @@ wrappers (a stage that reads its physics, e.g. the stack budget).
 
 from __future__ import annotations
 
+from functools import cached_property
+
 import numpy as np
 
+from e2esim.derived import EvaluatedOnce, JointEvaluatedOnce
 from e2esim.distortion.validation import sample_moments
 from e2esim.error_model import (
     Contribution,
@@ -38,19 +41,12 @@ class _Wrapped:
         self.base = base
         self.effect = effect
         self.channel = base.channel
-        self._memo: dict = {}
 
     unavailable = property(lambda self: self.base.unavailable)
     includes_speckle = property(lambda self: self.base.includes_speckle)
     added_notes: tuple = ()  # remarks of the error-term stage (``with_notes``)
     notes = property(lambda self: (*self.base.notes, *self.added_notes))
     validity = property(lambda self: self.base.validity)  # the effects are exact: the base model's range holds
-
-    def _once(self, key: str, make):
-        """``make()``, evaluated once per wrapped model (the retrieval and every requirement ask for it)."""
-        if key not in self._memo:
-            self._memo[key] = make()
-        return self._memo[key]
 
     @property
     def levels(self) -> dict:
@@ -87,7 +83,7 @@ class _Wrapped:
         return out
 
 
-class WrappedErrorModel(_Wrapped, ErrorModel):
+class WrappedErrorModel(_Wrapped, EvaluatedOnce, ErrorModel):
     """A single-channel model with one more source (module docstring)."""
 
     @property
@@ -103,9 +99,6 @@ class WrappedErrorModel(_Wrapped, ErrorModel):
                                       np.array([self.value], dtype=float), level)
         return Moments(mean[..., 0], cov[..., 0, 0])
 
-    def current(self) -> Moments:
-        return self._once("current", self.moments)
-
     def contributions(self) -> dict:
         parts = dict(self.base.contributions())
         m, m0 = self.current(), self.base.current()
@@ -120,7 +113,7 @@ class WrappedErrorModel(_Wrapped, ErrorModel):
         return self.effect.sampled(x[..., None], np.array([self.value], dtype=float))[..., 0]
 
 
-class WrappedMultiChannelErrorModel(_Wrapped, MultiChannelErrorModel):
+class WrappedMultiChannelErrorModel(_Wrapped, JointEvaluatedOnce, MultiChannelErrorModel):
     """A multi-channel model with one more source, for every channel at once (module docstring)."""
 
     def __init__(self, base: MultiChannelErrorModel, effect):
@@ -138,8 +131,10 @@ class WrappedMultiChannelErrorModel(_Wrapped, MultiChannelErrorModel):
                                       np.asarray(self.values, dtype=float), level)
         return JointMoments(tuple(self.channels), mean, cov)
 
-    def current_joint(self) -> JointMoments:
-        return self._once("current", self.joint_moments)
+    @cached_property
+    def evaluated(self) -> JointMoments:
+        """``current_joint()``, evaluated once per wrapped model (the retrieval and every requirement ask for it)."""
+        return self.joint_moments()
 
     def joint_contributions(self) -> dict:
         parts = dict(self.base.joint_contributions())

@@ -15,6 +15,7 @@ from __future__ import annotations
 import math
 from abc import ABC, abstractmethod
 from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 
@@ -23,6 +24,15 @@ from e2esim.errors import PhysicsInputError
 QUADRATURE_DEGREE = 8
 """Highest harmonic in Omega of any quantity averaged over Faraday rotation (the second-order variance
 contains products of four of cos^2, sin^2, cos sin, i.e. harmonics up to 8 Omega)."""
+FINE_QUADRATURE_DEGREE = 16
+"""The other degree e2esim averages at: the exact covariance of Faraday-corrected co-polarised channels
+(``e2esim.distortion.faraday_correction.CORRECTED_DEGREE``)."""
+
+
+def _read_only(nodes: np.ndarray, weights: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    nodes.setflags(write=False)
+    weights.setflags(write=False)
+    return nodes, weights
 
 
 def quadrature_nodes(degree: int = QUADRATURE_DEGREE) -> np.ndarray:
@@ -98,17 +108,26 @@ class FaradayDistribution(ABC):
         For ``h(Omega) = sum_{|m| <= degree} h_m exp(i m Omega)``, ``sum_g w_g h(Omega_g) = E[h(Omega)]``
         with equally spaced nodes ``Omega_g = 2 pi g / G``, ``G = 2 degree + 1``, and weights
         ``w_g = (1/G) sum_{|k| <= degree} phi_k exp(-i k Omega_g)``: the discrete Fourier transform of h
-        is exact for G > 2 degree, and ``E[exp(i m Omega)] = phi_m``. Weights can be negative.
-        Kept with the distribution (the arrays are read-only): every evaluation of the error model of a case
-        averages over the same distribution.
+        is exact for G > 2 degree, and ``E[exp(i m Omega)] = phi_m``. Weights can be negative; the arrays are
+        read-only. At the two degrees e2esim asks (``QUADRATURE_DEGREE``, ``FINE_QUADRATURE_DEGREE``) the rule is
+        kept with the distribution (``quadrature_rule``, ``fine_quadrature_rule``): every evaluation of the error
+        model of a case averages over the same distribution. Another degree is computed at each call.
         """
-        memo = self.__dict__.setdefault("_quadrature_memo", {})
-        if degree not in memo:
-            nodes, weights = self._quadrature(degree)
-            nodes.setflags(write=False)
-            weights.setflags(write=False)
-            memo[degree] = (nodes, weights)
-        return memo[degree]
+        if degree == QUADRATURE_DEGREE:
+            return self.quadrature_rule
+        if degree == FINE_QUADRATURE_DEGREE:
+            return self.fine_quadrature_rule
+        return _read_only(*self._quadrature(degree))
+
+    @cached_property
+    def quadrature_rule(self) -> tuple[np.ndarray, np.ndarray]:
+        """``quadrature(QUADRATURE_DEGREE)``, derived once."""
+        return _read_only(*self._quadrature(QUADRATURE_DEGREE))
+
+    @cached_property
+    def fine_quadrature_rule(self) -> tuple[np.ndarray, np.ndarray]:
+        """``quadrature(FINE_QUADRATURE_DEGREE)``, derived once."""
+        return _read_only(*self._quadrature(FINE_QUADRATURE_DEGREE))
 
     def even_quadrature(self) -> tuple[np.ndarray, np.ndarray]:
         """Nodes (rad) and weights that average any polynomial of degree <= 4 in ``u = cos 2 Omega`` exactly: the
@@ -118,17 +137,19 @@ class FaradayDistribution(ABC):
         Five fixed nodes ``u_j`` (the Chebyshev points of [-1, 1]; ``Omega_j = arccos(u_j) / 2``) with weights
         solving ``sum_j w_j u_j^k = E[u^k]``, k = 0..4, where ``E[u^k]`` follows from the circular moments
         phi_2, phi_4, phi_6, phi_8 (``u^2 = (1 + cos 4 Omega)/2``, ``u^3 = (3 cos 2 Omega + cos 6 Omega)/4``,
-        ``u^4 = (3 + 4 cos 4 Omega + cos 8 Omega)/8``). Weights can be negative; kept with the distribution.
+        ``u^4 = (3 + 4 cos 4 Omega + cos 8 Omega)/8``). Weights can be negative; kept with the distribution
+        (``even_quadrature_rule``).
         """
-        memo = self.__dict__.setdefault("_quadrature_memo", {})
-        if "even" not in memo:
-            phi = np.real(self.circular_moment(np.array([2.0, 4.0, 6.0, 8.0])))
-            moments = np.array([1.0, phi[0], (1 + phi[1]) / 2, (3 * phi[0] + phi[2]) / 4,
-                                (3 + 4 * phi[1] + phi[3]) / 8])
-            weights = EVEN_WEIGHTS @ moments
-            weights.setflags(write=False)
-            memo["even"] = (EVEN_NODES, weights)
-        return memo["even"]
+        return self.even_quadrature_rule
+
+    @cached_property
+    def even_quadrature_rule(self) -> tuple[np.ndarray, np.ndarray]:
+        """``even_quadrature()``, derived once."""
+        phi = np.real(self.circular_moment(np.array([2.0, 4.0, 6.0, 8.0])))
+        moments = np.array([1.0, phi[0], (1 + phi[1]) / 2, (3 * phi[0] + phi[2]) / 4, (3 + 4 * phi[1] + phi[3]) / 8])
+        weights = EVEN_WEIGHTS @ moments
+        weights.setflags(write=False)
+        return EVEN_NODES, weights
 
     def _quadrature(self, degree: int) -> tuple[np.ndarray, np.ndarray]:
         """Uncached ``quadrature``."""

@@ -7,7 +7,7 @@ wrong numbers at worst; it cannot run code. The encoding is generic (any datacla
 or of a registered plug-in), so it follows changes to the result types without a schema to maintain,
 and round-trips exactly: floats through ``repr``, arrays byte for byte, shared references kept. Fields a class
 names in ``plain_transient`` are caches of what its other fields determine: they are not stored and come back
-as empty dicts.
+as empty dicts; the values of its ``functools.cached_property``s are not stored either (derived again when asked).
 
 Layout of one encoded value: ``(header, payload)``; ``header`` is a JSON text ``{"tree": ..., "arrays":
 [[dtype, shape] or [dtype, shape, "read-only"], ...]}``, ``payload`` the arrays' bytes back to back, in C order.
@@ -16,6 +16,7 @@ Layout of one encoded value: ``(header, payload)``; ``header`` is a JSON text ``
 from __future__ import annotations
 
 import datetime as dt
+import functools
 import json
 import re
 import sys
@@ -124,6 +125,8 @@ class _Encoder:
         fields.update((name, getattr(v, name)) for name in slot_names(cls) if hasattr(v, name))
         for name in getattr(cls, "plain_transient", ()):  # caches: not stored, decoded empty
             fields.pop(name, None)
+        for name in [n for n in fields if isinstance(getattr(cls, n, None), functools.cached_property)]:
+            del fields[name]  # a value derived once from the others: not data, derived again when asked
         if not fields and not hasattr(v, "__dict__"):
             raise NotPlainData(f"an object without fields, {module}.{cls.__qualname__}")
         node = self._remember(v, {"$": "o", "c": f"{module}:{cls.__qualname__}", "f": []})

@@ -21,7 +21,7 @@ then, as in the complete single-pass form (``e2esim.distortion.analytic``):
 from __future__ import annotations
 
 import hashlib
-from dataclasses import dataclass, fields
+from dataclasses import dataclass, fields, is_dataclass
 
 import numpy as np
 
@@ -112,26 +112,66 @@ def node_terms(scene: StackScene, errors: StackSystemErrors, faraday: StackFarad
     return out
 
 
-def memoised(memo, kernel, *inputs, keep=None) -> dict:
-    """``kernel(*inputs)`` (a dict of arrays), found in ``memo`` (the run's ``KernelMemo``, or None) by the content
-    of ``inputs`` (arrays by dtype, shape and bytes; dicts, tuples, numbers and None by value): the cases of a
-    sweep with one geometry (scene, errors, rotation nodes, combination) share their node terms. A new dict is
+def memoised(memo, kernel, *inputs, keep=None, **helpers) -> dict:
+    """``kernel(*inputs, **helpers)`` (a dict of arrays), found in ``memo`` (the run's ``KernelMemo``, or None) by the
+    content of ``inputs`` (arrays by dtype, shape and bytes; dicts, tuples, numbers and None by value): the cases of
+    a sweep with one geometry (scene, errors, rotation nodes, combination) share their node terms. ``helpers`` are
+    not part of the key: what cannot change the result (the memo the kernel keeps its own parts in). A new dict is
     returned each time; its arrays are the kernel's, never written to. keep : where the memo does not hold it,
     ``keep(digest, make)`` gives the value instead of ``make()`` (a store kept between runs, found again by the
     inputs' digest; ``e2esim.stack.residual_fourier.kept_coefficients``)."""
     if memo is None:
-        return kernel(*inputs)
+        return kernel(*inputs, **helpers)
     digest = hashlib.sha256(kernel.__qualname__.encode())
     _digest_update(digest, inputs)
     key = (kernel.__module__, digest.hexdigest())
     found = memo.get(key)
     if found is None:
-        found = kernel(*inputs) if keep is None else keep(key[1], lambda: kernel(*inputs))
+        make = functools.partial(kernel, *inputs, **helpers)
+        found = make() if keep is None else keep(key[1], make)
         memo[key] = found
     return dict(found)
 
 
+def value_key(*inputs) -> str:
+    """A key of ``inputs`` by their content (as ``memoised``'s; also dataclasses, by their type and compared
+    fields): equal for equal values, whatever the objects."""
+    digest = hashlib.sha256()
+    _digest_update(digest, inputs)
+    return digest.hexdigest()
+
+
+class NodeTermTable(dict):
+    """The ``cache`` of ``stack_hv_moments`` and ``stack_joint_moments`` for the models of one structure: their node
+    terms by difference SD, kept in the run's ``KernelMemo`` under ``key`` (``("stack node terms", structure)``,
+    ``structure`` a ``value_key`` of everything the node terms read apart from the difference SD and the flags of
+    each entry's own key), so every model of that structure (a case's variants that change a level or the
+    difference SD, the cases of one geometry) finds what any of them computed, bit for bit the same. Each entry
+    added counts the table's bytes again in the memo's bound."""
+
+    def __init__(self, memo, key: tuple):
+        super().__init__()
+        self.memo, self.key = memo, key
+
+    def __setitem__(self, key, value) -> None:
+        super().__setitem__(key, value)
+        self.memo[self.key] = self  # its bytes counted again (the least recently used leave when over the bound)
+
+    def __reduce__(self):  # the memo's, not the model's: sent to another process it is an empty dict there
+        return (dict, ())
+
+    @classmethod
+    def of(cls, memo, structure: str, keep: int) -> NodeTermTable:
+        """The table of ``structure`` in ``memo``, a new one when not kept (at most ``keep`` tables stay)."""
+        key = ("stack node terms", structure)
+        return memo.recall(key, lambda: cls(memo, key), keep=keep)
+
+
 def _digest_update(digest, value) -> None:
+    if is_dataclass(value) and not isinstance(value, type):
+        digest.update(f"{type(value).__module__}.{type(value).__qualname__}{{".encode())
+        _digest_update(digest, [(f.name, getattr(value, f.name)) for f in fields(value) if f.compare])
+        return
     if isinstance(value, dict):
         _digest_update(digest, [(str(k), value[k]) for k in sorted(value)])
     elif isinstance(value, (tuple, list)):

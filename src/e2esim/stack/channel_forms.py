@@ -56,13 +56,6 @@ def pair_structures(gammas: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return xi, xi_c
 
 
-def _expansion(omega: np.ndarray, omega_hat: np.ndarray | None):
-    """Issue 12's expansion at the nodes, cached (the variants of a case share their Faraday-rotation nodes)."""
-    om = np.ascontiguousarray(omega, dtype=float)
-    oh = None if omega_hat is None else np.ascontiguousarray(omega_hat, dtype=float).tobytes()
-    return expansion_at(om.tobytes(), oh, om.shape)
-
-
 def _symmetric_pairs(x: np.ndarray) -> np.ndarray:
     """(2, 2, ...) coefficients of V_a V_b -> (3, ...) of V_d^2, V_d V_e, V_e^2."""
     return np.stack([x[0, 0], x[0, 1] + x[1, 0], x[1, 1]])
@@ -70,7 +63,7 @@ def _symmetric_pairs(x: np.ndarray) -> np.ndarray:
 
 def channel_node_polynomials(blocks: np.ndarray, q: np.ndarray, omega: np.ndarray, omega_hat: np.ndarray | None,
                              r: np.ndarray, gammas: np.ndarray, gain_pair: np.ndarray | None = None,
-                             population_cross: bool = False, mean_only: bool = False) -> dict:
+                             population_cross: bool = False, mean_only: bool = False, expansions=None) -> dict:
     """Coefficients of eqs. (21)-(23) at each Faraday-rotation node.
 
     blocks : C_nm (N, N, 3, 3). q : Q (N x N). omega : Faraday rotation of each pass at each node (G, N).
@@ -78,7 +71,9 @@ def channel_node_polynomials(blocks: np.ndarray, q: np.ndarray, omega: np.ndarra
     correction). r : pass correlation r_mn (N x N). gammas : unit error covariances (2, 6, 6) in the order of
     ``expansion.ERROR_TERMS``. gain_pair : E[eta_n eta_m] (N x N) or None for 1. population_cross : also return
     ``csys``. mean_only : ``cov`` and ``csys`` left zero, for a caller that reads the means alone (the ground an
-    estimator leaves, ``StackJointErrorModel.cancellation``); the rest is the same, bit for bit.
+    estimator leaves, ``StackJointErrorModel.cancellation``); the rest is the same, bit for bit. expansions : the
+    ``KernelMemo`` that keeps issue 12's expansion at the nodes (``expansion_at``: the variants of a case share
+    their Faraday-rotation nodes), or None.
 
     Returns complex ``y0`` (6, G, N, N, 3, 3) (coefficients of Y_nm, no gain factors) and ``mean`` (6, G, 3, 3)
     (of sum_nm Q_mn E[eta_n eta_m] Y_nm); real ``cov`` (6, G, 3, 3) (Cov(q_p, q_q), constant coefficient 0),
@@ -91,7 +86,7 @@ def channel_node_polynomials(blocks: np.ndarray, q: np.ndarray, omega: np.ndarra
     g = omega.shape[0]
     pair = np.ones((n, n)) if gain_pair is None else np.asarray(gain_pair, float)
     c = np.asarray(blocks, complex)
-    exp = _expansion(omega, omega_hat)
+    exp = expansion_at(omega, omega_hat, expansions)
     a0, u = exp.a0, exp.u  # (G, N, p, c), (G, N, 6, p, c)
     w = exp.w.reshape(g, n, 9, 3, 3)  # (G, N, (ij), p, c)
     gm = np.asarray(gammas, complex)

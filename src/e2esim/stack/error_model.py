@@ -12,9 +12,11 @@ from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
+from e2esim.derived import EvaluatedOnce
 from e2esim.distortion.validity import VALIDITY
 from e2esim.error_model import Contribution, ErrorModel
 from e2esim.stack.analytic import StackHVMoments, stack_hv_moments
@@ -28,7 +30,7 @@ from e2esim.stack.model_base import (
 
 
 @dataclass(frozen=True, eq=False)
-class StackHVErrorModel(StackModelBase, ErrorModel):
+class StackHVErrorModel(StackModelBase, EvaluatedOnce, ErrorModel):
     """Error of a multi-pass HV estimate (module docstring); fields as ``StackModelBase``."""
 
     channel = "hv"
@@ -43,14 +45,9 @@ class StackHVErrorModel(StackModelBase, ErrorModel):
                 **unknown) -> StackHVMoments:
         self.check_levels(unknown)
         self.check_available()
-        cache = self._memo.setdefault("node terms", {})
         return stack_hv_moments(self.scene, self.errors, self.faraday, self.combination, self.looks, self.reference,
-                                crosstalk, channel_imbalance, nesz, faraday_difference, cache, self.kernel_memo)
-
-    def current(self) -> StackHVMoments:
-        if "current" not in self._memo:
-            self._memo["current"] = self.moments()
-        return self._memo["current"]
+                                crosstalk, channel_imbalance, nesz, faraday_difference, self.node_terms,
+                                self.kernel_memo)
 
     # Contributions ---------------------------------------------------------------------------------
     def contributions(self) -> dict:
@@ -79,16 +76,19 @@ class StackHVErrorModel(StackModelBase, ErrorModel):
         """How much ground the estimator leaves: ideal and with the case's errors (system errors and Faraday
         rotation of every pass), as fractions of the estimator's value and against the ground it would see
         without cancellation (tr Q sigma_g,hv) in dB."""
-        if "cancellation" not in self._memo:
-            ground = self.scene.ground_only()
-            ideal = self.combination.value(ground.channel_matrix(1))
-            quiet = dataclasses.replace(self.errors, system=self.errors.system.with_levels(noise_power=0.0))
-            with_errors = stack_hv_moments(ground, quiet, self.faraday, self.combination, None, "scene",
-                                           mean_only=True)  # the mean alone is read: no variance computed
-            residual = float(with_errors.value + with_errors.bias_distortion)
-            uncancelled = self.combination.noise_gain * float(np.real(self.scene.ground[1, 1]))
-            self._memo["cancellation"] = cancellation_scalars(self.value, ideal, residual, uncancelled)
-        return self._memo["cancellation"]
+        return self.ground_left
+
+    @cached_property
+    def ground_left(self) -> dict:
+        """``cancellation()``, derived once."""
+        ground = self.scene.ground_only()
+        ideal = self.combination.value(ground.channel_matrix(1))
+        quiet = dataclasses.replace(self.errors, system=self.errors.system.with_levels(noise_power=0.0))
+        with_errors = stack_hv_moments(ground, quiet, self.faraday, self.combination, None, "scene",
+                                       mean_only=True)  # the mean alone is read: no variance computed
+        residual = float(with_errors.value + with_errors.bias_distortion)
+        uncancelled = self.combination.noise_gain * float(np.real(self.scene.ground[1, 1]))
+        return cancellation_scalars(self.value, ideal, residual, uncancelled)
 
     # Output ----------------------------------------------------------------------------------------
     def scalars(self) -> dict:

@@ -33,7 +33,7 @@ moments average them with a cubature for a Gaussian of the residual's mean and S
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -131,7 +131,6 @@ class StackFaraday:
     residual: FaradayDistribution | None = None
     """dW_n = Omega_n - Omega_hat_n of each pass's co-polarised correction (module docstring); None: corrected
     with the true rotation."""
-    _nodes: dict = field(default_factory=dict, repr=False, compare=False)
 
     def __post_init__(self):
         if not (np.isfinite(self.difference_sd) and self.difference_sd >= 0):
@@ -140,12 +139,13 @@ class StackFaraday:
     def nodes(self, passes: int, difference_sd: float | None = None) -> tuple[np.ndarray, np.ndarray]:
         """(Omega (K, N) rad, weights (K,)) averaging smooth functions of (Omega_1..Omega_N) over eq. (6)."""
         sd = self.difference_sd if difference_sd is None else float(difference_sd)
-        if (passes, sd) not in self._nodes:
-            omega, weights = self._make_nodes(passes, sd)
-            omega.setflags(write=False)
-            weights.setflags(write=False)
-            self._nodes[(passes, sd)] = (omega, weights)
-        return self._nodes[(passes, sd)]
+        # computed at each call (the node terms that read them are kept: ``StackModelBase.node_terms``); a dict of
+        # them kept here went with every ``dataclasses.replace`` copy, so a copy with another common rotation read
+        # the nodes of this one
+        omega, weights = self._make_nodes(passes, sd)
+        omega.setflags(write=False)
+        weights.setflags(write=False)
+        return omega, weights
 
     def _make_nodes(self, passes: int, sd: float) -> tuple[np.ndarray, np.ndarray]:
         if sd == 0.0:

@@ -13,9 +13,11 @@ from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
+from e2esim.derived import JointEvaluatedOnce
 from e2esim.distortion.polarimetric_model import correlation_scalars
 from e2esim.distortion.validation import sample_covariance_moments
 from e2esim.distortion.validity import VALIDITY
@@ -31,7 +33,7 @@ _HV_PARTS = {"bias_distortion": "bias_distortion", "bias_noise": "bias_noise", "
 
 
 @dataclass(frozen=True, eq=False)
-class StackJointErrorModel(StackModelBase, MultiChannelErrorModel):
+class StackJointErrorModel(StackModelBase, JointEvaluatedOnce, MultiChannelErrorModel):
     """Errors of (sigma_hh, sigma_hv, sigma_vv) of a multi-pass estimate (module docstring); fields as
     ``StackModelBase`` and ``correct_copol``: every pass's co-polarised channels are rotated back by its own
     Faraday rotation before the passes are combined (the processor's order), else not corrected."""
@@ -50,10 +52,9 @@ class StackJointErrorModel(StackModelBase, MultiChannelErrorModel):
     def _moments(self, crosstalk, channel_imbalance, nesz, faraday_difference, unknown, totals_only):
         self.check_levels(unknown)
         self.check_available()
-        cache = self._memo.setdefault("node terms", {})
         return stack_joint_moments(self.scene, self.errors, self.faraday, self.combination, self.looks,
                                    self.reference, self.correct_copol, crosstalk, channel_imbalance, nesz,
-                                   faraday_difference, cache, totals_only, self.kernel_memo)
+                                   faraday_difference, self.node_terms, totals_only, self.kernel_memo)
 
     def joint_moments(self, crosstalk=None, channel_imbalance=None, nesz=None, faraday_difference=None,
                       **unknown) -> JointMoments:
@@ -62,10 +63,10 @@ class StackJointErrorModel(StackModelBase, MultiChannelErrorModel):
         mean, cov = self._moments(crosstalk, channel_imbalance, nesz, faraday_difference, unknown, True)
         return JointMoments(self.channels, mean, cov)
 
-    def current_joint(self) -> StackJointMoments:
-        if "current" not in self._memo:
-            self._memo["current"] = self._moments(None, None, None, None, {}, False)
-        return self._memo["current"]
+    @cached_property
+    def evaluated(self) -> StackJointMoments:
+        """``current_joint()``, derived once."""
+        return self._moments(None, None, None, None, {}, False)
 
     def joint_contributions(self) -> dict:
         """The errors built up source by source (``StackModelBase.contribution_steps``); they add up to the joint
@@ -103,22 +104,24 @@ class StackJointErrorModel(StackModelBase, MultiChannelErrorModel):
         """Per channel, how much ground the estimator leaves: ideal and with the case's errors, as fractions of
         the estimator's value and against the ground it would see without cancellation (tr Q sigma_g,pp) in dB
         (``<ch>.<name>``; HV also without the prefix, as ``StackHVErrorModel``)."""
-        if "cancellation" not in self._memo:
-            ground = self.scene.ground_only()
-            quiet = dataclasses.replace(self.errors, system=self.errors.system.with_levels(noise_power=0.0))
-            left = stack_joint_moments(ground, quiet, self.faraday, self.combination, None, "scene", self.correct_copol,
-                                       mean_only=True)  # the means alone are read: no covariance computed
-            residual = left.values + left.bias_distortion
-            out = {}
-            for i, ch in enumerate(self.channels):
-                uncancelled = self.combination.noise_gain * float(np.real(self.scene.ground[i, i]))
-                part = cancellation_scalars(float(self.values[i]), float(left.values[i]), float(residual[i]),
-                                            uncancelled)
-                out.update({f"{ch}.{k}": v for k, v in part.items()})
-                if ch == self.channel:  # the HV names of StackHVErrorModel
-                    out.update(part)
-            self._memo["cancellation"] = out
-        return self._memo["cancellation"]
+        return self.ground_left
+
+    @cached_property
+    def ground_left(self) -> dict:
+        """``cancellation()``, derived once."""
+        ground = self.scene.ground_only()
+        quiet = dataclasses.replace(self.errors, system=self.errors.system.with_levels(noise_power=0.0))
+        left = stack_joint_moments(ground, quiet, self.faraday, self.combination, None, "scene", self.correct_copol,
+                                   mean_only=True)  # the means alone are read: no covariance computed
+        residual = left.values + left.bias_distortion
+        out = {}
+        for i, ch in enumerate(self.channels):
+            uncancelled = self.combination.noise_gain * float(np.real(self.scene.ground[i, i]))
+            part = cancellation_scalars(float(self.values[i]), float(left.values[i]), float(residual[i]), uncancelled)
+            out.update({f"{ch}.{k}": v for k, v in part.items()})
+            if ch == self.channel:  # the HV names of StackHVErrorModel
+                out.update(part)
+        return out
 
     # Output ----------------------------------------------------------------------------------------
     def scalars(self) -> dict:

@@ -101,7 +101,7 @@ def joint_node_terms(scene: StackScene, errors: StackSystemErrors, faraday: Stac
         omega_hat = omega - np.tile(residual, (len(nodes["weights"]), 1))
         nodes["weights"] = np.outer(nodes["weights"], weights).ravel()
     out = memoised(memo, channel_node_polynomials, inputs[0], inputs[1], omega, omega_hat, *inputs[2:],
-                   *((True,) if mean_only else ()))
+                   *((True,) if mean_only else ()), expansions=memo)
     out.update(nodes)
     return out
 

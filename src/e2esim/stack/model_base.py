@@ -7,7 +7,8 @@ Levels: ``crosstalk`` and ``channel_imbalance`` (V_delta, V_epsilon), ``nesz`` (
 Sources ``without`` removes: the three level sources, ``faraday_rotation`` (the stack's common rotation),
 ``faraday_difference``, ``system_instability`` (the errors made identical on every pass), ``gain``,
 ``temporal_decorrelation`` (the scene without it: its value changes too) and, for the population reference,
-``speckle``. Every evaluation is kept with the model object.
+``speckle``. Every evaluation at the model's own levels is kept with the model object (``functools.cached_property``);
+the node terms of the levels searched are kept in the run's kernel memo (``node_terms``), found by value.
 """
 
 from __future__ import annotations
@@ -15,13 +16,16 @@ from __future__ import annotations
 import dataclasses
 import math
 from dataclasses import dataclass, field
+from functools import cached_property
 from typing import Any
 
 import numpy as np
 
+from e2esim.derived import RemovedOnce
 from e2esim.distortion.validation import compare_with_analytic, sample_moments
 from e2esim.error_model import ModelEvaluation
 from e2esim.faraday.distribution import ConstantFaraday
+from e2esim.stack.analytic import NodeTermTable, value_key
 from e2esim.stack.combination import PassCombination
 from e2esim.stack.faraday import StackFaraday
 from e2esim.stack.scene import StackScene
@@ -29,6 +33,8 @@ from e2esim.stack.system import StackSystemErrors
 from e2esim.stack.temporal import TemporalDecorrelation
 
 LEVELS = ("crosstalk", "channel_imbalance", "nesz", "faraday_difference")
+NODE_TERM_TABLES_KEPT = 8
+"""Structures whose node terms the kernel memo keeps (``StackModelBase.node_terms``): a case's variants have a few."""
 BASE_SOURCES = ("crosstalk", "channel_imbalance", "noise", "faraday_rotation", "faraday_difference",
                 "system_instability", "gain", "temporal_decorrelation")
 
@@ -44,7 +50,7 @@ CONTRIBUTION_DESCRIPTIONS = {
 
 
 @dataclass(frozen=True, eq=False)
-class StackModelBase(ModelEvaluation):
+class StackModelBase(RemovedOnce, ModelEvaluation):
     """The case of a multi-pass error model.
 
     scene : the ``StackScene``. errors : per-pass system errors. faraday : per-pass Faraday rotation.
@@ -58,7 +64,7 @@ class StackModelBase(ModelEvaluation):
     combination: PassCombination
     kernel_memo: Any = field(default=None, repr=False, compare=False, kw_only=True)
     """The run's ``KernelMemo`` (``case.services.memo``) or None: node terms found again by value across cases."""
-    plain_transient = ("_memo", "kernel_memo")  # caches of evaluations (node terms of every level searched)
+    plain_transient = ("kernel_memo",)  # a cache: not stored with the model
     costly_levels = ("faraday_difference",)
     """Every Faraday-rotation difference needs the node terms computed anew (``ErrorModel.costly_levels``)."""
     levels_lead_sources = True
@@ -83,15 +89,25 @@ class StackModelBase(ModelEvaluation):
         if unknown:
             raise TypeError(f"unknown levels {', '.join(unknown)}; this model has {', '.join(LEVELS)}")
 
-    # Sources removed -------------------------------------------------------------------------------
-    def without(self, source: str):
-        if source not in self.sources:
-            raise KeyError(f"unknown error source {source!r}; sources: {', '.join(self.sources)}")
-        key = f"without {source}"
-        if key not in self._memo:
-            self._memo[key] = self._without(source)
-        return self._memo[key]
+    @cached_property
+    def node_terms(self):
+        """The kernel's node terms by difference SD (the moments' ``cache``): level-free, so kept in the run's kernel
+        memo (``NodeTermTable``) under a key of this model's structure (the scene's blocks, the combination, the
+        passes' correlation, error structure and gain spread, the common and residual rotations), which its variants
+        that change a level or the difference SD share with it; a dict of its own without a memo."""
+        memo = self.kernel_memo if hasattr(self.kernel_memo, "recall") else None  # decoded: an empty dict
+        if memo is None:
+            return {}
+        e, f, n = self.errors, self.faraday, self.scene.passes
+        try:
+            structure = value_key(type(self).__name__, self.scene.blocks(), self.combination.matrix,
+                                  e.pass_correlation(n), e.system.unit_structure, float(e.pass_gain_log_sd), f.common,
+                                  f.residual, bool(getattr(memo, "repeated_geometry", False)))
+        except TypeError:  # a part that has no value key (a plug-in's rotation): the model's own dict
+            return {}
+        return NodeTermTable.of(memo, structure, NODE_TERM_TABLES_KEPT)
 
+    # Sources removed (``RemovedOnce.without``) -----------------------------------------------------
     def _without(self, source: str):
         sysm = self.errors.system
         if source in ("crosstalk", "channel_imbalance", "noise"):
@@ -99,8 +115,7 @@ class StackModelBase(ModelEvaluation):
             if getattr(sysm, {"crosstalk": "crosstalk_level", "channel_imbalance": "imbalance_level",
                                "noise": "noise_power"}[source]) == 0.0:
                 return self
-            return self._variant(errors=dataclasses.replace(self.errors, system=sysm.with_levels(**{level: 0.0})),
-                                 same_structure=True)
+            return self._variant(errors=dataclasses.replace(self.errors, system=sysm.with_levels(**{level: 0.0})))
         if source == "faraday_rotation":
             common = self.faraday.common
             if common.mean_rad == 0.0 and common.sd_rad == 0.0:
@@ -108,7 +123,7 @@ class StackModelBase(ModelEvaluation):
             return self._variant(faraday=dataclasses.replace(self.faraday, common=ConstantFaraday(0.0)))
         if source == "faraday_difference":
             return self if self.faraday.difference_sd == 0.0 else self._variant(
-                faraday=dataclasses.replace(self.faraday, difference_sd=0.0), same_structure=True)
+                faraday=dataclasses.replace(self.faraday, difference_sd=0.0))
         if source == "system_instability":
             return self if self.errors.correlation == 1.0 else self._variant(
                 errors=dataclasses.replace(self.errors, correlation=1.0))
@@ -120,11 +135,9 @@ class StackModelBase(ModelEvaluation):
                 scene=self.scene.replaced(temporal=TemporalDecorrelation.none()))
         return self._variant(reference="scene")  # speckle
 
-    def _variant(self, same_structure: bool = False, **changes):
-        """The model with fields replaced. same_structure: only error levels or the Faraday-difference SD change,
-        so the kernel's node terms (level-free, keyed by that SD) are shared."""
-        memo = {"node terms": self._memo.setdefault("node terms", {})} if same_structure else {}
-        return dataclasses.replace(self, montecarlo=None, gaussianity=None, notes=(), _memo=memo, **changes)
+    def _variant(self, **changes):
+        """The model with fields replaced (the node terms of its structure found again: ``node_terms``)."""
+        return dataclasses.replace(self, montecarlo=None, gaussianity=None, notes=(), **changes)
 
     def contribution_steps(self) -> list:
         """(name, model) in the order the contributions build the error up, each step adding one source: stable
@@ -133,16 +146,14 @@ class StackModelBase(ModelEvaluation):
         sysm = self.errors.system
         quiet = dataclasses.replace(self.errors, system=sysm.with_levels(noise_power=0.0))
         stable = dataclasses.replace(quiet, correlation=1.0)
-        is_stable = self.errors.correlation == 1.0
         steps = [
             ("system_distortions", self._variant(errors=stable, faraday=StackFaraday(ConstantFaraday(0.0)),
                                                  reference="scene")),
-            ("faraday_rotation", self._variant(errors=stable, reference="scene", same_structure=is_stable,
+            ("faraday_rotation", self._variant(errors=stable, reference="scene",
                                                faraday=dataclasses.replace(self.faraday, difference_sd=0.0))),
-            ("faraday_difference", self._variant(errors=stable, reference="scene", same_structure=is_stable)),
-            ("system_instability", self._variant(errors=quiet, reference="scene", same_structure=True)),
-            ("noise", self._variant(reference="scene", same_structure=True) if self.reference == "population"
-             else self),
+            ("faraday_difference", self._variant(errors=stable, reference="scene")),
+            ("system_instability", self._variant(errors=quiet, reference="scene")),
+            ("noise", self._variant(reference="scene") if self.reference == "population" else self),
         ]
         if self.reference == "population":
             steps.append(("speckle", self))

@@ -32,7 +32,7 @@ from e2esim.stack.acquisitions import (
     radar_wavelength,
     vertical_wavenumber,
 )
-from e2esim.stack.analytic import REFERENCES
+from e2esim.stack.analytic import REFERENCES, value_key
 from e2esim.stack.error_model import StackHVErrorModel
 from e2esim.stack.faraday import StackFaraday, residual_moments, tec_difference_sd
 from e2esim.stack.joint_model import StackJointErrorModel
@@ -115,7 +115,6 @@ class RVoGStackScene(Stage):
             label=f"{biome} {agb:g} t/ha (Men et al. 2021, Table I)")
         t = c["temporal"]
         self.temporal = TemporalDecorrelation(t["floor"], t["time_constant_days"] * DAY_S, t["ground_ratio"])
-        self._memo: dict = {}
         for key in ("kz_rad_m", "perpendicular_baselines_m"):
             if c[key] is not None and len(c[key]) != PHASES[c["phase"]][0]:
                 raise PhysicsInputError(f"{key} has {len(c[key])} values but the {c['phase']} phase has "
@@ -150,13 +149,17 @@ class RVoGStackScene(Stage):
 
     def forward(self, case):
         stack = self.stack(case)
-        key = (stack.kz_rad_m.tobytes(), float(stack.incidence_rad[0]))
-        if key not in self._memo:
+        parts = (stack, self.covariance, self.forest, self.temporal)
+
+        def scene() -> StackScene:
             try:
-                self._memo[key] = StackScene(stack, self.covariance, self.forest, self.temporal)
+                return StackScene(*parts)
             except PhysicsInputError as exc:
                 raise fail(self, str(exc)) from exc
-        return {"scene.covariance": self.covariance, "scene.stack": self._memo[key]}
+
+        # the cases of one geometry share their scene: kept in the kernel memo, by the values it is made of
+        key = ("stack scene", value_key(*parts))
+        return {"scene.covariance": self.covariance, "scene.stack": case.services.memo.recall(key, scene, keep=16)}
 
 
 CHANNELS = ("hv", "all")
@@ -293,9 +296,7 @@ class StackBackscatterError(Stage):
             mc = simulate_stack(scene, errors, stack_faraday, combination, case.rng, s.looks, s.realisations,
                                 s.noise_realisations, c["reference"], c["correct_copol_faraday"])
             gauss = gaussianity(mc.hv) if c["gaussianity"] and np.ravel(mc.hv).size >= 20 else None
-            model = kind(scene, errors, stack_faraday, combination, looks=s.looks, reference=c["reference"],
-                         montecarlo=mc, gaussianity=gauss, notes=notes, unavailable=unavailable, _memo=model._memo,
-                         kernel_memo=case.services.memo, **extra)
+            model = model.with_montecarlo(mc, gauss)
         return {"backscatter.error": model}
 
 
