@@ -136,9 +136,11 @@ def test_averaging_independent_errors_over_passes_reduces_the_variance():
 
 def test_the_shapley_subsets_share_their_parents_node_terms_with_the_same_numbers(monkeypatch):
     """``subsets_of`` makes a multi-pass model's subset models from their parents by their first source (the levels
-    lead the sources: ``levels_lead_sources``), so most share their parent's node terms: fewer kernel evaluations,
-    and the means and variances of every subset those of the models made in the other order, bit for bit."""
+    lead the sources: ``levels_lead_sources``); with the run's kernel memo, the subsets that read the same node
+    terms (by value: ``NodeTermTable``) share them: far fewer kernel evaluations than without a memo, and the means
+    and variances of every subset those of the models made in the other order and without a memo, bit for bit."""
     import e2esim.stack.analytic as analytic
+    from e2esim.case import KernelMemo
     from e2esim.error_model import subsets_of
 
     kernel_calls = []
@@ -146,15 +148,17 @@ def test_the_shapley_subsets_share_their_parents_node_terms_with_the_same_number
     monkeypatch.setattr(analytic, "node_polynomials", lambda *a: kernel_calls.append(1) or kernel(*a))
     errors, faraday = stack_errors(correlation=1.0, difference_deg=6.0)  # stable errors: a smaller game
 
-    def model():
-        return _model(scene=site_scene("boreal", temporal=TemporalDecorrelation.none()), errors=errors,
-                      faraday=faraday)
+    def subsets(memo):
+        kernel_calls[:] = []
+        out = subsets_of(_model(scene=site_scene("boreal", temporal=TemporalDecorrelation.none()), errors=errors,
+                                faraday=faraday, kernel_memo=memo))
+        return out, len(kernel_calls)
 
-    names, means, variances, _ = subsets_of(model())
-    by_first = len(kernel_calls)
+    (names, means, variances, _), shared = subsets(KernelMemo())
+    alone, unshared = subsets(None)
     monkeypatch.setattr(StackHVErrorModel, "levels_lead_sources", False)
-    kernel_calls[:] = []
-    other = subsets_of(model())
-    assert names == other[0] and len(names) >= 5
-    assert np.array_equal(means, other[1]) and np.array_equal(variances, other[2])
-    assert by_first < len(kernel_calls) / 2
+    other, _ = subsets(KernelMemo())
+    for made in (alone, other):
+        assert names == made[0] and len(names) >= 5
+        assert np.array_equal(means, made[1]) and np.array_equal(variances, made[2])
+    assert shared < unshared / 4

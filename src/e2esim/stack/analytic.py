@@ -20,6 +20,7 @@ then, as in the complete single-pass form (``e2esim.distortion.analytic``):
 
 from __future__ import annotations
 
+import functools
 import hashlib
 from dataclasses import dataclass, fields, is_dataclass
 
