@@ -5,6 +5,7 @@ without it."""
 from __future__ import annotations
 
 import os
+import time
 
 import pytest
 
@@ -74,3 +75,37 @@ def test_without_a_helper_to_be_had_the_plots_are_drawn_here(monkeypatch):
 
     monkeypatch.setattr(multiprocessing.context.BaseContext, "Value", no_semaphores)
     assert draw_all(NAMES, outcome, helper=True) == [outcome(n) for n in NAMES]
+
+
+def test_this_process_does_its_own_work_first_while_the_helper_draws(tmp_path):
+    """The run's data files (``first``) are written here while the helper draws: a map's figures are one plot, as
+    long as the files, and the two overlap instead of following one another."""
+    parent, events = os.getpid(), []
+    marker = tmp_path / "the helper drew"
+
+    def draw(name):
+        if os.getpid() != parent:
+            marker.touch()
+        else:
+            events.append(name)
+        return outcome(name)
+
+    def first():
+        deadline = time.monotonic() + 60
+        while not marker.exists() and time.monotonic() < deadline:
+            time.sleep(0.01)
+        events.append(("first", marker.exists()))
+
+    assert draw_all(NAMES, draw, helper=True, first=first) == [outcome(n) for n in NAMES]
+    assert events[0] == ("first", True)  # before any plot of this process's, while the helper drew
+    events.clear()
+    assert draw_all(NAMES, draw, helper=False, first=lambda: events.append("first")) == [outcome(n) for n in NAMES]
+    assert events == ["first", *NAMES]
+
+
+def test_an_error_of_this_process_own_work_is_raised():
+    def first():
+        raise OSError(28, "No space left on device")
+
+    with pytest.raises(OSError, match="No space left"):
+        draw_all(NAMES, outcome, helper=True, first=first)

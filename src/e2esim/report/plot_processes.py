@@ -40,16 +40,19 @@ def can_fork() -> bool:
             and not multiprocessing.current_process().daemon)
 
 
-def draw_all(names: list, draw, done=None, helper: bool | None = None) -> list:
+def draw_all(names: list, draw, done=None, helper: bool | None = None, first=None) -> list:
     """``[draw(name) for name in names]``, drawn by this process and a forked helper (module docstring).
 
     draw : name -> a picklable outcome; an exception other than ``KeyboardInterrupt`` it raises in the helper makes
     this process draw that plot again (and raise it). done : called with each name once its outcome is known, in
     no particular order (a progress bar), or None. helper : fork one (None: when ``can_fork`` and two or more
-    names)."""
+    names). first : work of this process's own (the run's data files), done before it takes a plot: while the
+    helper draws, when there is one (a map's figures are one plot, as long as the files: the two overlap), else
+    before the plots; what it raises ends the plots (the helper is stopped) and is raised."""
     if helper is None:
         helper = len(names) > 1 and can_fork()
     if not helper:
+        _call(first)
         return [_drawn(draw, name, done) for name in names]
     ctx = multiprocessing.get_context("fork")
     try:
@@ -59,10 +62,12 @@ def draw_all(names: list, draw, done=None, helper: bool | None = None) -> list:
         process = ctx.Process(target=_helper, args=(names, draw, counter, send), name="e2esim-plots", daemon=True)
         process.start()
     except OSError:  # no helper to be had: drawn here
+        _call(first)
         return [_drawn(draw, name, done) for name in names]
     send.close()  # this process's copy: the pipe ends when the helper's end closes
     outcomes: dict = {}
     try:
+        _call(first)
         while (i := _take(counter, from_end=True)) is not None:
             outcomes[i] = _drawn(draw, names[i], done)
         for i, outcome in _received(receive):
@@ -78,6 +83,11 @@ def draw_all(names: list, draw, done=None, helper: bool | None = None) -> list:
             process.kill()
             process.join()
         receive.close()
+
+
+def _call(work) -> None:
+    if work is not None:
+        work()
 
 
 def _drawn(draw, name, done):

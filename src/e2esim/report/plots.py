@@ -210,11 +210,13 @@ def requested_plots(result) -> list:
     return list(dict.fromkeys(wanted))
 
 
-def make_plots(result, folder: Path, warnings: list | None = None, steps=None, helper: bool | None = None) -> list:
+def make_plots(result, folder: Path, warnings: list | None = None, steps=None, helper: bool | None = None,
+               first=None) -> list:
     """Write the plots of ``result``; return [(file name, caption)]. A requested plot that cannot be drawn is
     reported on standard error and added to ``warnings`` as "<plot>: <why>". ``steps``: a
     ``e2esim.runner.progress.StepProgress`` that counts each plot, or None. The plots are drawn by this process
-    and a forked helper at once (``e2esim.report.plot_processes``; ``helper`` False: here only)."""
+    and a forked helper at once (``e2esim.report.plot_processes``; ``helper`` False: here only); ``first``: work
+    of this process's own, done while the helper begins (``draw_all``: the run's data files), or None."""
     options = result.scenario.output
     requested = set(options["plots"]) - {"auto"}
     large = len(result.scenario.cases) > LARGE_RUN_CASES
@@ -239,7 +241,7 @@ def make_plots(result, folder: Path, warnings: list | None = None, steps=None, h
 
     names = requested_plots(result)
     out = []
-    for name, (made, reason) in zip(names, draw_all(names, draw, done, helper)):
+    for name, (made, reason) in zip(names, draw_all(names, draw, done, helper, first)):
         if made:
             out.extend(made)
         elif name in requested or name in ALWAYS_PLOTS:  # plots of "auto" that do not apply are left out quietly

@@ -197,9 +197,7 @@ def write_outputs(result, folder: Path, progress: bool = False) -> dict:
     make_plots, requested_plots, write_report = _report_functions()
     files = ["results.h5"] + (["results.nc"] if is_map_sweep(result.scenario) else []) + ["summary.json", "report"]
     steps = StepProgress(len(requested_plots(result)) + len(files), "outputs", progress)
-    try:
-        warnings: list = []
-        plots = make_plots(result, folder, warnings, steps)
+    def data_files():  # written by this process while the plot helper draws (make_plots)
         with steps.step("results.h5"):
             write_results(result, folder / "results.h5")
         if "results.nc" in files:
@@ -207,6 +205,10 @@ def write_outputs(result, folder: Path, progress: bool = False) -> dict:
                 write_map_netcdf(map_dataset_of(result), folder / "results.nc")
         with steps.step("summary.json"):
             write_summary(result, folder / "summary.json")
+
+    try:
+        warnings: list = []
+        plots = make_plots(result, folder, warnings, steps, first=data_files)
         with steps.step("report"):
             write_report(result, folder, plots, warnings)
         written = sorted({p.name for p in folder.iterdir()} - before - {JOURNAL, LOCK_NAME})

@@ -16,13 +16,14 @@ Layout of one encoded value: ``(header, payload)``; ``header`` is a JSON text ``
 from __future__ import annotations
 
 import datetime as dt
-import gc
 import json
 import re
 import sys
 from types import MappingProxyType
 
 import numpy as np
+
+from e2esim.allocator import collector_paused
 
 ARRAY_KINDS = frozenset("biufcUSMm")
 """numpy dtype kinds stored: booleans, integers, floats, complex, text, bytes, datetimes, time deltas."""
@@ -51,16 +52,11 @@ def encode(value, packages: frozenset) -> tuple[bytes, bytes]:
     """(header, payload) of ``value``; raises NotPlainData for what cannot be stored. The cyclic garbage collector
     is paused meanwhile: the tree holds no cycles, and its passes over the new nodes (a million for a block that
     keeps its cases' products: the 10 deg scintillation/RFI map) cost more than the encoding itself."""
-    enabled = gc.isenabled()
-    gc.disable()
-    try:
+    with collector_paused():
         enc = _Encoder(packages)
         tree = enc.encode(value)
         header = json.dumps({"tree": tree, "arrays": enc.specs}, separators=(",", ":"), allow_nan=True)
-        return header.encode("utf-8"), b"".join(enc.chunks)
-    finally:
-        if enabled:
-            gc.enable()
+    return header.encode("utf-8"), b"".join(enc.chunks)
 
 
 class _Encoder:
