@@ -166,7 +166,8 @@ def test_plain_data_round_trip_keeps_values_types_and_sharing():
         assert b.flags.writeable == a.flags.writeable
 
 
-@pytest.mark.parametrize("bad", [lambda: None, np.array([object()]), open])
+@pytest.mark.parametrize("bad", [lambda: None, np.array([object()]), open, np.ma.masked_array([1.0]),
+                                 __import__("collections").OrderedDict(a=1.0), np.array([(1, 2.0)], "i4,f8")])
 def test_what_is_not_plain_data_is_refused_when_writing(bad):
     with pytest.raises(plaindata.NotPlainData):
         plaindata.encode({"x": bad}, frozenset({"e2esim"}))
