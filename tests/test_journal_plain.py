@@ -3,6 +3,7 @@ either never runs, a corrupt or foreign journal is exit status 2, and what the j
 exactly."""
 
 import datetime as dt
+import gc
 import json
 import pickle
 import struct
@@ -165,10 +166,40 @@ def test_plain_data_round_trip_keeps_values_types_and_sharing():
         assert b.flags.writeable == a.flags.writeable
 
 
-@pytest.mark.parametrize("bad", [lambda: None, np.array([object()]), open])
+@pytest.mark.parametrize("bad", [lambda: None, np.array([object()]), open, np.ma.masked_array([1.0]),
+                                 __import__("collections").OrderedDict(a=1.0), np.array([(1, 2.0)], "i4,f8")])
 def test_what_is_not_plain_data_is_refused_when_writing(bad):
     with pytest.raises(plaindata.NotPlainData):
         plaindata.encode({"x": bad}, frozenset({"e2esim"}))
+
+
+def test_encoding_pauses_the_garbage_collector_and_gives_it_back_as_it_was():
+    """The tree of a block that keeps its cases' products has a million nodes and no cycles: the collector's passes
+    over them cost more than the encoding (issue 28, the 10 deg scintillation/RFI map). It is paused meanwhile and
+    left as it was found, also when the value cannot be stored."""
+    seen = []
+
+    class Noting(dict):  # a module's noting values: read through items(), which tells us the collector's state
+        plain_as_dict = True
+
+        def items(self):
+            seen.append(gc.isenabled())
+            return super().items()
+
+    packages = frozenset({"e2esim"})
+    try:
+        assert gc.isenabled()
+        header, payload = plaindata.encode([Noting(a=1.0)], packages)
+        assert seen == [False] and gc.isenabled()
+        assert plaindata.decode(header, payload, packages) == [{"a": 1.0}]
+        with pytest.raises(plaindata.NotPlainData):
+            plaindata.encode([Noting(a=open)], packages)
+        assert seen == [False, False] and gc.isenabled()
+        gc.disable()  # a caller's own pause stays
+        plaindata.encode([Noting(a=1.0)], packages)
+        assert not gc.isenabled()
+    finally:
+        gc.enable()
 
 
 def test_decoding_never_calls_the_class():

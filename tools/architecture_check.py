@@ -295,6 +295,7 @@ CONSTANT_CACHES = frozenset({
     "e2esim.distortion.analytic:_trig_at_even_nodes", "e2esim.distortion.higher_order:pairing_terms",
     "e2esim.stack.residual_fourier:frequencies",  # the residual polynomials' frequencies of (passes, degree)
     "e2esim.stack.residual_fourier:_code_digest",  # the source of the modules that compute the kept coefficients
+    "e2esim.runner.plaindata:_plain_dtype",  # the stored form of a numpy dtype
     "e2esim.verification.men2021:table2_case",  # the published tables' cases
     "e2esim.verification.quegan2018:_zone", "e2esim.verification.quegan2018:_alternative_zones",
     "e2esim.verification.quegan2018:_grid_zones",

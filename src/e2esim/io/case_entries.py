@@ -9,12 +9,12 @@ tests/test_summary_entries.py pins the bytes against that per-case construction.
 
 from __future__ import annotations
 
-import gc
 import math
 from typing import NamedTuple
 
 import numpy as np
 
+from e2esim.allocator import collector_paused
 from e2esim.io.error_budget import agb_budget, source_groups, verdict_budget, verdict_budgets
 
 
@@ -31,13 +31,8 @@ def case_entries(result) -> list:
     the columns' floats cleaned once as lists, the small values (inputs, notes, budget rows) one by one. The
     cyclic garbage collector is paused meanwhile: the entries hold no cycles, and its passes over the hundreds
     of thousands of new dicts and lists would otherwise cost a third of the time."""
-    enabled = gc.isenabled()
-    gc.disable()
-    try:
+    with collector_paused():
         return _entries(result)
-    finally:
-        if enabled:
-            gc.enable()
 
 
 def _entries(result) -> list:

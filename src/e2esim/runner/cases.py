@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from e2esim.allocator import collector_paused
 from e2esim.case import Case, Products, Services, process_memo
 from e2esim.requirements.attribution import VERDICTS_ONLY
 from e2esim.runner.blocks import BlockRun
@@ -61,7 +62,8 @@ def run_block(resolved: ResolvedScenario, indices, engine: str = "batched", keep
                 for p in resolved.plan.stage(step, run.objects[0]).provides}
     kept = None
     if keep_products:
-        kept = [Products({name: value.item(k) for name, value in products.items()}) for k in range(n)]
+        with collector_paused():  # tens of thousands of objects (the 10 deg scintillation/RFI map: 77,000)
+            kept = [Products({name: value.item(k) for name, value in products.items()}) for k in range(n)]
     # the inverse solve reads the margins alone (verdicts_only): no output scalars, some of which (the stack's
     # cancellation residual) cost as much as the case's moments
     columns = {} if VERDICTS_ONLY.get() else scalar_columns(products, n, declared)

@@ -24,6 +24,8 @@ from types import MappingProxyType
 
 import numpy as np
 
+from e2esim.allocator import collector_paused
+
 ARRAY_KINDS = frozenset("biufcUSMm")
 """numpy dtype kinds stored: booleans, integers, floats, complex, text, bytes, datetimes, time deltas."""
 
@@ -48,60 +50,59 @@ def allowed_packages() -> frozenset:
 
 # ---------------------------------------------------------------------------------------------- encoding
 def encode(value, packages: frozenset) -> tuple[bytes, bytes]:
-    """(header, payload) of ``value``; raises NotPlainData for what cannot be stored."""
-    enc = _Encoder(packages)
-    tree = enc.encode(value)
-    header = json.dumps({"tree": tree, "arrays": enc.specs}, separators=(",", ":"), allow_nan=True)
+    """(header, payload) of ``value``; raises NotPlainData for what cannot be stored. The garbage collector is
+    paused meanwhile: the tree has no cycles, and a block keeping its cases' products has a million nodes."""
+    with collector_paused():
+        enc = _Encoder(packages)
+        tree = enc.encode(value)
+        header = json.dumps({"tree": tree, "arrays": enc.specs}, separators=(",", ":"), allow_nan=True)
     return header.encode("utf-8"), b"".join(enc.chunks)
 
 
 class _Encoder:
+    """One ``encode`` call: a value's node by its exact type (``_BY_TYPE``); a class or dtype checked once."""
+
     def __init__(self, packages: frozenset):
         self.packages = packages
         self.specs: list = []
         self.chunks: list = []
         self.memo: dict = {}  # id -> reference number, for objects met twice (shared or cyclic)
         self.keep: list = []  # keeps encoded objects alive, so that their ids stay unique
+        self.classes: dict = {}  # class -> (stored name, slots, cache fields), or the NotPlainData to raise
 
     def encode(self, v):
         t = type(v)
-        if v is None or t is bool or t is str or t is int:
+        if t in _AS_IS:
             return v
-        if t is float:
-            return {"$": "f", "v": repr(v)} if v != v or v in (float("inf"), float("-inf")) else v
-        if t is complex:
-            return {"$": "c", "v": [repr(v.real), repr(v.imag)]}
-        if isinstance(v, np.generic):
-            return {"$": "n", "a": self._array(np.asarray(v))}
-        if t is tuple:
-            return {"$": "t", "i": [self.encode(x) for x in v]}
-        if t in (set, frozenset):
-            return {"$": "s" if t is set else "fs", "i": [self.encode(x) for x in v]}
-        if t is dt.datetime:
-            return {"$": "dt", "v": v.isoformat()}
-        if t is dt.date:
-            return {"$": "date", "v": v.isoformat()}
-        if t is dt.timedelta:
-            return {"$": "td", "v": [v.days, v.seconds, v.microseconds]}
-        ref = self.memo.get(id(v))
-        if ref is not None:
-            return {"$": "r", "r": ref}
-        if t is np.ndarray and v.dtype.kind == "O":  # an array of Python values: its items, one by one
+        if (handler := _BY_TYPE.get(t)) is None:
+            return self._other(v)
+        if t in _SHARED:  # an array, list or dict met before: a reference to it
+            ref = self.memo.get(id(v))
+            if ref is not None:
+                return {"$": "r", "r": ref}
+        return handler(self, v)
+
+    def _ndarray(self, v):
+        if v.dtype.kind == "O":  # an array of Python values: its items, one by one
             node = self._remember(v, {"$": "oa", "s": list(v.shape), "i": []})
             node["i"] = [self.encode(x) for x in v.ravel()]
             return node
-        if t is np.ndarray:
-            return self._remember(v, {"$": "a", "a": self._array(v)})
-        if t is list:
-            node = self._remember(v, {"$": "l", "i": []})
-            node["i"] = [self.encode(x) for x in v]
-            return node
-        if t is dict or (getattr(t, "plain_as_dict", False) and isinstance(v, dict)):  # a module's noting values
-            node = self._remember(v, {"$": "d", "i": []})
-            node["i"] = [[self.encode(k), self.encode(x)] for k, x in v.items()]
-            return node
-        if t is MappingProxyType:
-            return {"$": "mp", "i": [[self.encode(k), self.encode(x)] for k, x in v.items()]}
+        return self._remember(v, {"$": "a", "a": self._array(v)})
+
+    def _filled(self, v, tag: str, items) -> dict:  # remembered before its items: they may refer back to it
+        node = self._remember(v, {"$": tag, "i": []})
+        node["i"] = items()
+        return node
+
+    def _other(self, v):
+        """A numpy scalar, an object met before, a module's noting values (a dict subclass) or an object."""
+        if isinstance(v, np.generic):
+            return {"$": "n", "a": self._array(np.asarray(v))}
+        ref = self.memo.get(id(v))
+        if ref is not None:
+            return {"$": "r", "r": ref}
+        if getattr(type(v), "plain_as_dict", False) and isinstance(v, dict):  # a module's noting values
+            return _BY_TYPE[dict](self, v)
         return self._object(v)
 
     def _remember(self, v, node: dict) -> dict:
@@ -110,28 +111,59 @@ class _Encoder:
         return node
 
     def _array(self, a: np.ndarray) -> int:
-        if a.dtype.kind not in ARRAY_KINDS or a.dtype.fields is not None or a.dtype.subdtype is not None:
-            raise NotPlainData(f"an array of dtype {a.dtype}")
-        self.specs.append([a.dtype.str, list(a.shape)] + ([] if a.flags.writeable else ["read-only"]))
-        self.chunks.append(np.ascontiguousarray(a).tobytes())
+        dtype = _plain_dtype(a.dtype)
+        self.specs.append([dtype, list(a.shape)] + ([] if a.flags.writeable else ["read-only"]))
+        self.chunks.append(a.tobytes())  # C order, whatever the array's own layout
         return len(self.specs) - 1
 
     def _object(self, v):
         cls = type(v)
-        module = getattr(cls, "__module__", "") or ""
-        if module.split(".")[0] not in self.packages or isinstance(v, (type, BaseException)):
-            raise NotPlainData(f"an object of type {module}.{cls.__qualname__}")
+        known = self.classes.get(cls) or self.classes.setdefault(cls, self._class(cls))
+        if isinstance(known, NotPlainData):
+            raise known
+        name, slots, transient = known  # transient: caches, not stored, decoded empty
         fields = dict(vars(v)) if hasattr(v, "__dict__") else {}
-        fields.update((name, getattr(v, name)) for name in slot_names(cls) if hasattr(v, name))
-        for name in getattr(cls, "plain_transient", ()):  # caches: not stored, decoded empty
-            fields.pop(name, None)
-        for name in [n for n in fields if isinstance(getattr(cls, n, None), functools.cached_property)]:
-            del fields[name]  # a value derived once from the others: not data, derived again when asked
+        fields.update((slot, getattr(v, slot)) for slot in slots if hasattr(v, slot))
+        fields = {k: x for k, x in fields.items() if k not in transient}  # caches, cached_property values: not data
         if not fields and not hasattr(v, "__dict__"):
-            raise NotPlainData(f"an object without fields, {module}.{cls.__qualname__}")
-        node = self._remember(v, {"$": "o", "c": f"{module}:{cls.__qualname__}", "f": []})
-        node["f"] = [[name, self.encode(x)] for name, x in fields.items()]
+            raise NotPlainData(f"an object without fields, {name.replace(':', '.')}")
+        node = self._remember(v, {"$": "o", "c": name, "f": []})
+        node["f"] = [[field, self.encode(x)] for field, x in fields.items()]
         return node
+
+    def _class(self, cls: type):
+        """(stored name, slot names, cache fields) of instances of ``cls``, or the NotPlainData they raise."""
+        module = getattr(cls, "__module__", "") or ""
+        if module.split(".")[0] not in self.packages or issubclass(cls, (type, BaseException)):
+            return NotPlainData(f"an object of type {module}.{cls.__qualname__}")
+        derived = {n for k in cls.__mro__ for n, a in vars(k).items() if isinstance(a, functools.cached_property)}
+        return f"{module}:{cls.__qualname__}", slot_names(cls), derived.union(getattr(cls, "plain_transient", ()))
+
+
+_AS_IS, _INF = frozenset({type(None), bool, str, int}), float("inf")
+_SHARED = frozenset({np.ndarray, list, dict})
+_BY_TYPE = {
+    float: lambda enc, v: {"$": "f", "v": repr(v)} if v != v or v in (_INF, -_INF) else v,
+    complex: lambda enc, v: {"$": "c", "v": [repr(v.real), repr(v.imag)]},
+    tuple: lambda enc, v: {"$": "t", "i": [enc.encode(x) for x in v]},
+    set: lambda enc, v: {"$": "s", "i": [enc.encode(x) for x in v]},
+    frozenset: lambda enc, v: {"$": "fs", "i": [enc.encode(x) for x in v]},
+    dt.datetime: lambda enc, v: {"$": "dt", "v": v.isoformat()},
+    dt.date: lambda enc, v: {"$": "date", "v": v.isoformat()},
+    dt.timedelta: lambda enc, v: {"$": "td", "v": [v.days, v.seconds, v.microseconds]},
+    MappingProxyType: lambda enc, v: {"$": "mp", "i": [[enc.encode(k), enc.encode(x)] for k, x in v.items()]},
+    np.ndarray: _Encoder._ndarray,
+    list: lambda enc, v: enc._filled(v, "l", lambda: [enc.encode(x) for x in v]),
+    dict: lambda enc, v: enc._filled(v, "d", lambda: [[enc.encode(k), enc.encode(x)] for k, x in v.items()]),
+}  # the node of a value of exactly this type; any other type (a subclass included): _Encoder._other
+
+
+@functools.lru_cache(maxsize=64)
+def _plain_dtype(dtype: np.dtype) -> str:
+    """``dtype.str`` of a stored dtype (``ARRAY_KINDS``, not structured, not a sub-array); else NotPlainData."""
+    if dtype.kind not in ARRAY_KINDS or dtype.fields is not None or dtype.subdtype is not None:
+        raise NotPlainData(f"an array of dtype {dtype}")
+    return dtype.str
 
 
 def slot_names(cls: type) -> tuple:
