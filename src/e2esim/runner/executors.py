@@ -19,7 +19,7 @@ import signal
 import sys
 import threading
 import time
-from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+from concurrent.futures import FIRST_COMPLETED, InvalidStateError, ProcessPoolExecutor, wait
 from concurrent.futures.process import BrokenProcessPool
 
 from e2esim.errors import UserError
@@ -164,6 +164,7 @@ class _ProcessBlocks:
         processes = self.processes + [p for p in (getattr(self.pool, "_processes", None) or {}).values()
                                       if p not in self.processes]
         results = getattr(self.pool, "_result_queue", None)  # the pool forgets it on shutdown
+        quiet_cancelled_future_race()
         self.pool.shutdown(wait=False, cancel_futures=True)
         for process in processes:  # the blocks in flight are dropped, not waited for (a worker writes no file)
             with contextlib.suppress(OSError, ValueError, AttributeError):
@@ -177,6 +178,25 @@ class _ProcessBlocks:
         # that end ends the read; the pool then ends as for a lost worker.
         with contextlib.suppress(OSError, AttributeError):
             results._writer.close()
+
+
+def quiet_cancelled_future_race() -> None:
+    """Keep the pool's own thread quiet where Python's pool races with a cancel: a worker that dies of the Ctrl-C
+    its process group got makes that thread mark the blocks in flight as broken, and Python 3.11 then sets an
+    exception on a future this process has just cancelled, which raises ``InvalidStateError`` in that thread
+    (``concurrent.futures.process``, ``terminate_broken``): a traceback after the run's one message. Only that
+    error of that thread is left unsaid; the blocks are dropped either way."""
+    previous = threading.excepthook
+    if getattr(previous, "quiets_cancelled_futures", False):
+        return
+
+    def hook(args) -> None:
+        if not (isinstance(args.exc_value, InvalidStateError)
+                and type(args.thread).__name__ == "_ExecutorManagerThread"):
+            previous(args)
+
+    hook.quiets_cancelled_futures = True
+    threading.excepthook = hook
 
 
 def _how_it_ended(processes: list) -> str:
