@@ -313,11 +313,13 @@ def test_ctrl_c_keeps_the_blocks_that_finished_meanwhile_and_drops_those_in_flig
         taken.append(int(block.indices[0]))
         if len(taken) == 1:
             os.kill(os.getpid(), signal.SIGINT)  # held back until this block is kept
-            # blocks 1 and 2 finish meanwhile: wait until their results are back in this process (their futures
-            # done), not for a fixed time
+            # blocks 1 and 2 finish meanwhile and both workers take blocks 3 and 4 (which wait): wait until the
+            # results are back in this process (their futures done) and both workers have noted their PID, not for a
+            # fixed time (before the PIDs were awaited too, a loaded machine could send Ctrl-C first)
             meanwhile = [f for f, number in sources[0].number.items() if number in (1, 2)]
             deadline = time.monotonic() + 120
-            while not all(f.done() for f in meanwhile) and time.monotonic() < deadline:
+            while (not all(f.done() for f in meanwhile) or len(list(tmp_path.glob("waiting*"))) < 2) \
+                    and time.monotonic() < deadline:
                 time.sleep(0.02)
 
     try:
@@ -396,17 +398,18 @@ def test_the_pools_race_with_a_cancelled_future_is_not_a_traceback_and_nothing_e
     from e2esim.runner.executors import quiet_cancelled_future_race
 
     monkeypatch.setattr(threading, "excepthook", threading.__excepthook__)
-    quiet_cancelled_future_race()
-    quiet_cancelled_future_race()  # once is enough: not wrapped twice
 
-    class _ExecutorManagerThread(threading.Thread):  # the name of Python's pool thread
+    class _ExecutorManagerThread(threading.Thread):  # Python's pool thread
         pass
 
     def raised(error, thread):
         threading.excepthook(threading.ExceptHookArgs([type(error), error, None, thread]))
         return capsys.readouterr().err
 
-    pool_thread, other = _ExecutorManagerThread(), threading.Thread()
-    assert raised(InvalidStateError("CANCELLED"), pool_thread) == ""
-    assert "RuntimeError" in raised(RuntimeError("lost"), pool_thread)
+    closed, open_pool, other = _ExecutorManagerThread(), _ExecutorManagerThread(), threading.Thread()
+    quiet_cancelled_future_race(closed)
+    quiet_cancelled_future_race(closed)  # the hook is set once: not wrapped twice
+    assert raised(InvalidStateError("CANCELLED"), closed) == ""
+    assert "RuntimeError" in raised(RuntimeError("lost"), closed)
+    assert "InvalidStateError" in raised(InvalidStateError("CANCELLED"), open_pool)  # a pool not being closed
     assert "InvalidStateError" in raised(InvalidStateError("CANCELLED"), other)

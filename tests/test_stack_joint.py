@@ -311,3 +311,22 @@ def test_the_cancellation_reads_means_computed_without_the_kernels_covariance(rh
     assert joint.cancellation()["hv.ground_residual_fraction"] == float((left.values + left.bias_distortion)[1]
                                                                          / joint.values[1])
     assert hv.cancellation()["ground_residual_fraction"] == float(full.value + full.bias_distortion) / hv.value
+
+
+def test_a_shared_memo_gives_each_copolarised_correction_its_own_node_terms():
+    """The kernel memo's node-term tables are keyed by what the node terms read: with and without the co-polarised
+    Faraday-rotation correction (no calibration residual, so the rotations are the same) they differ, and one memo
+    serving both (a sweep over ``correct_copol_faraday`` in one process) gives each its own moments, bit for bit
+    those of a model with no memo (the table's entries are keyed by the correction too)."""
+    from e2esim.case import KernelMemo
+
+    scene = site_scene("boreal", "interferometric")
+    errors, faraday = stack_errors(rich_system(1e-3, 2e-3), 0.4, 6.0)
+    comb = combos.interpolated(scene.acquisitions.kz_rad_m)
+    memo = KernelMemo()
+    for correct in (True, False):
+        shared, alone = (StackJointErrorModel(scene, errors, faraday, comb, looks=200, reference="population",
+                                              correct_copol=correct, kernel_memo=m) for m in (memo, None))
+        a, b = shared.current_joint(), alone.current_joint()
+        for f in dataclasses.fields(a):
+            assert np.array_equal(getattr(a, f.name), getattr(b, f.name)), (correct, f.name)

@@ -72,7 +72,7 @@ class ErrorModel(ABC):
         margins and trade-off curves search the levels up to its edge), or None when not known.
     costly_levels : levels whose every value costs the model a computation of its own (new quadrature nodes):
         a margin's search bisects its scan grid over them instead of evaluating all of it
-        (``e2esim.requirements.tradeoff.first_failing_level``).
+        (``e2esim.requirements.level_search.first_failing_level``).
     levels_lead_sources : the sources that only set a level to zero come first in ``sources``, and a model with one
         of them removed shares the node terms of the model it was made from: ``subsets_of`` then makes each subset's
         model from its parent by the subset's first source, so that most share their parent's (the multi-pass

@@ -299,5 +299,5 @@ class ArrayCache:
             write(path, arrays, attrs)
         except Exception as exc:  # a read-only folder, a file in the way, a full disk: the run needs no cache
             _warn_once((self.folder, _why(exc, False)), f"cannot write in the cache folder {self.folder} "
-                       f"({_why(exc, False)}); the run goes on without caching the climatology there (give the "
+                       f"({_why(exc, False)}); the run goes on without caching there (give the "
                        "module's cache_dir, or E2ESIM_CACHE, a writable folder, or 'off')")

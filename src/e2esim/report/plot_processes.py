@@ -1,7 +1,7 @@
 """The plots of a run drawn by two processes at once: this one and one forked helper.
 
 Drawing a figure is matplotlib's Python (text layout above all) and holds one core; the plots of a run do not
-depend on one another, so a second process halves the time of a run's plots (biomass_default: 1.8 of its 5 s).
+depend on one another, so a second process about halves the time of a run's plots.
 The helper is forked after the run, so it has the run's results without pickling them; both processes take the
 next plot until none is left, the helper from the end of the list and this one from its start (opposite ends: a
 list whose costliest plot comes last, as biomass_multichannel's twelve-panel trade-off curves after three

@@ -101,12 +101,6 @@ def _aligned(x, like):
 
 
 
-def requirement_violation(requirement: AGBRequirement, model, **levels):
-    """``AGBRequirement.violation`` of the error model's moments at the given levels (broadcast)."""
-    m = model.moments(**levels)
-    return requirement.violation(m.mean, m.sd, model.value)
-
-
 @dataclass(frozen=True)
 class AGBBound:
     """A requirement module's one-sided bound, asked of the AGB error it checks: ``AGBError.bound_violation`` at

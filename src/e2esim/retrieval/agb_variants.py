@@ -106,7 +106,7 @@ class ErrorVariants:
 
     def bound_violation_of(self, moments: tuple, bound: float, confidence: float, side: str):
         """``bound_violation`` from the (mean, SD) that ``moments_under`` gave at the levels: the sides of a bound
-        that ask the same levels share one evaluation of the moments (``e2esim.requirements.tradeoff``)."""
+        that ask the same levels share one evaluation of the moments (``e2esim.requirements.level_search``)."""
         mean, sd = moments
         z = float(standard_normal_quantile(confidence))
         f = self.sigma_threshold(bound if side == "over" else -bound)

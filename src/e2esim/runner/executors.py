@@ -19,6 +19,7 @@ import signal
 import sys
 import threading
 import time
+import weakref
 from concurrent.futures import FIRST_COMPLETED, InvalidStateError, ProcessPoolExecutor, wait
 from concurrent.futures.process import BrokenProcessPool
 
@@ -164,7 +165,7 @@ class _ProcessBlocks:
         processes = self.processes + [p for p in (getattr(self.pool, "_processes", None) or {}).values()
                                       if p not in self.processes]
         results = getattr(self.pool, "_result_queue", None)  # the pool forgets it on shutdown
-        quiet_cancelled_future_race()
+        quiet_cancelled_future_race(getattr(self.pool, "_executor_manager_thread", None))
         self.pool.shutdown(wait=False, cancel_futures=True)
         for process in processes:  # the blocks in flight are dropped, not waited for (a worker writes no file)
             with contextlib.suppress(OSError, ValueError, AttributeError):
@@ -180,23 +181,30 @@ class _ProcessBlocks:
             results._writer.close()
 
 
-def quiet_cancelled_future_race() -> None:
-    """Keep the pool's own thread quiet where Python's pool races with a cancel: a worker that dies of the Ctrl-C
+def quiet_cancelled_future_race(thread) -> None:
+    """Keep the pool's own ``thread`` quiet where Python's pool races with a cancel: a worker that dies of the Ctrl-C
     its process group got makes that thread mark the blocks in flight as broken, and Python 3.11 then sets an
     exception on a future this process has just cancelled, which raises ``InvalidStateError`` in that thread
     (``concurrent.futures.process``, ``terminate_broken``): a traceback after the run's one message. Only that
-    error of that thread is left unsaid; the blocks are dropped either way."""
+    error of the pools this process closes is left unsaid (any other pool's, a program's own, is printed); the
+    blocks are dropped either way."""
+    if thread is None:
+        return
+    _CLOSED_POOL_THREADS.add(thread)
     previous = threading.excepthook
     if getattr(previous, "quiets_cancelled_futures", False):
         return
 
     def hook(args) -> None:
-        if not (isinstance(args.exc_value, InvalidStateError)
-                and type(args.thread).__name__ == "_ExecutorManagerThread"):
+        if not (isinstance(args.exc_value, InvalidStateError) and args.thread in _CLOSED_POOL_THREADS):
             previous(args)
 
     hook.quiets_cancelled_futures = True
     threading.excepthook = hook
+
+
+_CLOSED_POOL_THREADS: weakref.WeakSet = weakref.WeakSet()
+"""The manager threads of the pools being closed (``quiet_cancelled_future_race``), held weakly."""
 
 
 def _how_it_ended(processes: list) -> str:

@@ -68,7 +68,7 @@ class StackModelBase(RemovedOnce, ModelEvaluation):
     costly_levels = ("faraday_difference",)
     """Every Faraday-rotation difference needs the node terms computed anew (``ErrorModel.costly_levels``)."""
     levels_lead_sources = True
-    """The level sources come first in ``sources`` and their removal shares the node terms (``same_structure``)."""
+    """The level sources come first in ``sources`` and their removal shares the node terms (``node_terms``)."""
 
     @property
     def includes_speckle(self) -> bool:

@@ -107,8 +107,9 @@ _CODE = ("e2esim.stack.residual_fourier", "e2esim.stack.channel_forms", "e2esim.
 @functools.cache  # the source of this process's modules does not change while it runs
 def _code_digest() -> str:
     digest = hashlib.sha256()
-    for name in _CODE:
-        digest.update(Path(importlib.import_module(name).__file__).read_bytes())
+    for name in _CODE:  # a module without a file (a frozen install) by its name: its code changes with the install
+        file = getattr(importlib.import_module(name), "__file__", None)
+        digest.update(name.encode() if file is None else Path(file).read_bytes())
     return digest.hexdigest()
 
 
