@@ -8,8 +8,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from e2esim.distortion.polarimetric_moments import polarimetric_error_moments
 from e2esim.case import KernelMemo
+from e2esim.distortion.polarimetric_moments import polarimetric_error_moments
 from e2esim.distortion.polarimetric_pixels import (
     PIXEL_MODELS_KEPT,
     PolarimetricPixelModel,
