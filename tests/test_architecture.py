@@ -189,6 +189,25 @@ def test_memo_dicts_and_unlisted_module_caches_are_counted(tmp_path):
     assert RATCHET["memo_dicts"] == RATCHET["unlisted_module_caches"] == 0
 
 
+def test_module_level_dicts_that_a_function_writes_are_counted(tmp_path):
+    # docs/architecture.md, "Caching": a value kept beyond one call goes through the services' memo, not a
+    # module-level dict (issue 27, Build 7); a constant table, a read-only dict or a local dict is not counted
+    files = {
+        **CLEAN,
+        "e2esim/orbit/timeline.py": (
+            "_BUILT: dict = {}\n_STATE = {}\n_GONE = {}\n_TABLE = {'a': 1}\n_READ = {}\n_LIST: list = []\n\n\n"
+            "def keep(key, make):\n    if key not in _BUILT:\n        _BUILT[key] = make()\n"
+            "    _STATE.update(a=1)\n    _TABLE['b'] = 2\n    _LIST.append(1)\n    local = {}\n    local[key] = 1\n"
+            "    return _BUILT[key], _READ.get(key)\n\n\ndef drop(key):\n    del _GONE[key]\n"
+        ),
+    }
+    figures = arch.measure(_write(tmp_path, files), duplicates=False)
+    assert figures.module_dicts == ["e2esim.orbit.timeline:1 _BUILT", "e2esim.orbit.timeline:2 _STATE",
+                                    "e2esim.orbit.timeline:3 _GONE"]
+    assert arch.worse_than(figures.counts(), {"module_dicts": 2}) == {"module_dicts": (3, 2)}
+    assert arch.measure(_write(tmp_path / "clean", CLEAN), duplicates=False).counts()["module_dicts"] == 0
+
+
 def test_every_listed_module_cache_exists_and_the_docs_name_it():
     # a constant that went away leaves the list; each one is named in docs/architecture.md ("Caching")
     found = set()

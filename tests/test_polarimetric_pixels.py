@@ -8,8 +8,14 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from e2esim.case import KernelMemo
 from e2esim.distortion.polarimetric_moments import polarimetric_error_moments
-from e2esim.distortion.polarimetric_pixels import PolarimetricPixelModel, gaussian_weights
+from e2esim.distortion.polarimetric_pixels import (
+    PIXEL_MODELS_KEPT,
+    PolarimetricPixelModel,
+    gaussian_weights,
+    pixel_model_for,
+)
 from e2esim.faraday.distribution import GaussianFaraday
 from e2esim.instrument.system_errors import SystemErrorModel
 from e2esim.scene.covariance import ScatteringCovariance
@@ -47,6 +53,24 @@ def test_pixels_give_the_numbers_of_polarimetric_error_moments(rng, higher_order
                                        looks=looks, noise_power=noise[i], higher_order=higher_order)
         np.testing.assert_allclose(mean[i], m.mean, rtol=RTOL)
         np.testing.assert_allclose(var[i], m.variance, rtol=RTOL)
+
+
+def test_pixel_models_are_kept_in_the_callers_memo_by_the_systems_values():
+    """``pixel_model_for`` keeps what ``build`` gives in the memo it is handed, found again by the system's values
+    (an equal system made anew), a model per level, at most ``PIXEL_MODELS_KEPT`` of them."""
+    memo = KernelMemo()
+    model = pixel_model_for(UNEQUAL, memo)
+    built = PolarimetricPixelModel.build(UNEQUAL)
+    np.testing.assert_array_equal(model.mean, built.mean)
+    np.testing.assert_array_equal(model.cov, built.cov)
+    assert model.gain_moments == built.gain_moments
+    assert pixel_model_for(UNEQUAL.with_levels(), memo) is model  # equal values, another object
+    assert pixel_model_for(UNEQUAL, KernelMemo()) is not model  # another process's memo: built anew
+    assert pixel_model_for(UNEQUAL, memo, higher_order=False) is not model
+    for k in range(1, PIXEL_MODELS_KEPT + 1):
+        assert pixel_model_for(UNEQUAL.with_levels(crosstalk=(1 + k) * 1e-3), memo) is not model
+    assert [key[0] for key in memo.keys()].count("pixel model") == PIXEL_MODELS_KEPT
+    assert pixel_model_for(UNEQUAL, memo) is not model  # the least recently used left first
 
 
 def test_gaussian_weights_are_the_distributions_quadrature_weights():

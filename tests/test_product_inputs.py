@@ -79,11 +79,11 @@ def test_a_failure_while_writing_leaves_no_partial_output(tmp_path, capsys, monk
     calls = []
     original = pixel_model.pixel_moments
 
-    def failing(block, pixels, assumptions):
+    def failing(block, pixels, assumptions, memo):
         calls.append(block.rows)
         if len(calls) == 2:
             raise OSError("disk full")
-        return original(block, pixels, assumptions)
+        return original(block, pixels, assumptions, memo)
 
     monkeypatch.setattr("e2esim.products_io.block_pool.pixel_moments", failing)
     from e2esim.products_io.uncertainty import write_uncertainty

@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 import rasterio
 
+from e2esim.case import KernelMemo
 from e2esim.cli import main
 from e2esim.distortion.analytic import hv_error_moments
 from e2esim.distortion.polarimetric_moments import polarimetric_error_moments
@@ -231,7 +232,7 @@ def test_the_band_read_at_once_does_not_change_the_numbers(tmp_path):
     a = load_assumptions(None, "biomass")
     alone = {}
     for start in range(0, 12, 2):
-        for name, values in pixel_moments(pixels.read(slice(start, start + 2)), pixels, a).items():
+        for name, values in pixel_moments(pixels.read(slice(start, start + 2)), pixels, a, KernelMemo()).items():
             alone.setdefault(name, []).append(values)
     for bands in ([slice(0, 12)], [slice(0, 4), slice(4, 10), slice(10, 12)]):
         got = list(block_layers(open_product, product, None, pixels, a, bands, 2))

@@ -19,6 +19,9 @@ function-level imports alike:
   (docs/architecture.md, "Caching");
 * **module caches not listed**: a module-level function under ``functools.lru_cache`` or ``functools.cache`` that
   ``CONSTANT_CACHES`` does not name: a module-level cache is allowed for a constant computed late only;
+* **module-level dicts**: a module-level ``_NAME = {}`` or ``_NAME: dict = {}`` that a function of the module
+  writes into (``_NAME[k] = v``, ``del _NAME[k]``, ``_NAME.update/setdefault/pop/popitem/clear(...)``): a cache kept
+  outside the services' memo, or a process's state;
 * **``__dict__`` writes** and **direct ``process_memo()`` calls** (docs/architecture.md, "Caching"): a value
   written into an object's ``__dict__`` (``x.__dict__[k] = v``, ``x.__dict__.setdefault/update(...)``), and a call
   of ``process_memo()`` outside ``e2esim.case`` and the runner's service set-up (``MEMO_OWNERS``): what is kept
@@ -189,6 +192,7 @@ class Figures:
     dict_writes: list[str] = field(default_factory=list)  # "module:line" of each __dict__ write
     memo_calls: list[str] = field(default_factory=list)  # "module:line" of each direct process_memo() call
     memo_dicts: list[str] = field(default_factory=list)
+    module_dicts: list[str] = field(default_factory=list)  # "module:line name" of each module-level dict written
     module_caches: list[str] = field(default_factory=list)
     modules: int = 0
     lines: int = 0
@@ -206,6 +210,7 @@ class Figures:
             "dict_writes": len(self.dict_writes),
             "process_memo_calls": len(self.memo_calls),
             "memo_dicts": len(self.memo_dicts),
+            "module_dicts": len(self.module_dicts),
             "unlisted_module_caches": len(self.module_caches),
         }
 
@@ -332,6 +337,35 @@ def caching_of(module: str, path: Path) -> tuple[list[str], list[str]]:
     return memos, caches
 
 
+_DICT_WRITES = ("update", "setdefault", "pop", "popitem", "clear", "__setitem__")
+
+
+def module_dicts(module: str, path: Path) -> list[str]:
+    """"module:line name" of each module-level empty dict (``_NAME = {}``, ``_NAME: dict = {}``) that a function of
+    the module writes into (an item set or deleted, ``update``, ``setdefault``, ``pop``, ``popitem``, ``clear``)."""
+    text = path.read_text(encoding="utf-8")
+    if "= {}" not in text:  # most modules: no second parse
+        return []
+    tree = ast.parse(text, filename=str(path))
+    empty = {t.id: node.lineno for node in tree.body if isinstance(node, (ast.Assign, ast.AnnAssign))
+             and isinstance(node.value, ast.Dict) and not node.value.keys
+             for t in _targets(node) if isinstance(t, ast.Name)}
+    written = set()
+    for function in ast.walk(tree):
+        if not isinstance(function, (ast.FunctionDef, ast.AsyncFunctionDef)):
+            continue
+        for node in ast.walk(function):
+            if isinstance(node, ast.Subscript) and isinstance(node.ctx, (ast.Store, ast.Del)):
+                target = node.value
+            elif isinstance(node, ast.Call) and isinstance(node.func, ast.Attribute) and node.func.attr in _DICT_WRITES:
+                target = node.func.value
+            else:
+                continue
+            if isinstance(target, ast.Name) and target.id in empty:
+                written.add(target.id)
+    return [f"{module}:{empty[name]} {name}" for name in sorted(written, key=empty.get)]
+
+
 def strongly_connected(graph: dict[str, set[str]]) -> list[list[str]]:
     """Tarjan's strongly connected components of more than one node (iterative), each sorted."""
     index: dict[str, int] = {}
@@ -445,6 +479,7 @@ def measure(src: Path = ROOT / "src", package: str = PACKAGE, layers=LAYERS, dup
         memos, caches = caching_of(module, path)
         figures.memo_dicts += memos
         figures.module_caches += caches
+        figures.module_dicts += module_dicts(module, path)
         own_layer = layer_of(module, layers)
         if own_layer is None:
             figures.unplaced.append(module)
@@ -480,6 +515,7 @@ TARGETS = {
     "dict_writes": None,
     "process_memo_calls": 0,
     "memo_dicts": 0,
+    "module_dicts": None,
     "unlisted_module_caches": 0,
 }
 
@@ -522,6 +558,7 @@ def report(figures: Figures, listing: bool = False) -> str:
         rows += ["__dict__ writes:"] + [f"  {w}" for w in figures.dict_writes]
         rows += ["direct process_memo() calls:"] + [f"  {c}" for c in figures.memo_calls]
         rows += ["memo dicts:"] + [f"  {m}" for m in figures.memo_dicts]
+        rows += ["module-level dicts written:"] + [f"  {m}" for m in figures.module_dicts]
         rows += ["module caches not listed:"] + [f"  {m}" for m in figures.module_caches]
     return "\n".join(rows)
 

@@ -148,15 +148,13 @@ def gaussian_weights(mean, sd, degree: int = QUADRATURE_DEGREE) -> np.ndarray:
     return (1 + 2 * np.real(phi @ np.exp(-1j * np.outer(k, nodes)))) / nodes.size
 
 
-_BUILT: dict = {}
+PIXEL_MODELS_KEPT = 4
+"""Pixel models a memo keeps (``pixel_model_for``): every block of a product has the same one or two systems."""
 
 
-def pixel_model_for(system, higher_order: bool = True) -> PolarimetricPixelModel:
-    """``PolarimetricPixelModel.build``, kept for the last few systems (every block of a product has the same)."""
-    key = (unit_covariances(system).tobytes(), float(system.crosstalk_level), float(system.imbalance_level),
-           tuple(system.gain_power_moments), higher_order)
-    if key not in _BUILT:
-        if len(_BUILT) >= 4:
-            _BUILT.pop(next(iter(_BUILT)))
-        _BUILT[key] = PolarimetricPixelModel.build(system, higher_order)
-    return _BUILT[key]
+def pixel_model_for(system, memo, higher_order: bool = True) -> PolarimetricPixelModel:
+    """``PolarimetricPixelModel.build``, found again in ``memo`` (an ``e2esim.case.KernelMemo``, the caller's) by
+    the values it reads: the system's unit covariances, levels and gain moments, and ``higher_order``."""
+    key = ("pixel model", unit_covariances(system).tobytes(), float(system.crosstalk_level),
+           float(system.imbalance_level), tuple(system.gain_power_moments), higher_order)
+    return memo.recall(key, lambda: PolarimetricPixelModel.build(system, higher_order), keep=PIXEL_MODELS_KEPT)

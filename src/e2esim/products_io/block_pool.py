@@ -18,6 +18,7 @@ from concurrent.futures import ProcessPoolExecutor
 import numpy as np
 
 from e2esim.blas_threads import blas_threads, one_blas_thread
+from e2esim.case import KernelMemo
 from e2esim.products_io.assumptions import load_assumptions
 from e2esim.products_io.pixel_model import pixel_moments
 
@@ -30,9 +31,10 @@ def block_layers(open_product, product, scenario, pixels, assumptions, bands, bl
     layers, e.g. their compressed NetCDF chunks) and workers, (rows, layers, encode(layers)), encoded in the
     worker."""
     if workers <= 1:
+        memo = KernelMemo()  # this product's pixel models (each worker makes its own: ``_start``)
         for rows in bands:
             with one_blas_thread():
-                layers = band_layers(pixels, assumptions, rows, block_rows)
+                layers = band_layers(pixels, assumptions, rows, block_rows, memo)
             yield rows, layers
         return
     with ProcessPoolExecutor(max_workers=workers, initializer=_start, initargs=(open_product, product, scenario,
@@ -48,14 +50,15 @@ def block_layers(open_product, product, scenario, pixels, assumptions, bands, bl
             yield done_rows, *future.result()
 
 
-def band_layers(pixels, assumptions, rows: slice, block_rows: int) -> dict:
-    """The layers of the band ``rows``: read once, evaluated in blocks of ``block_rows`` rows from its start."""
+def band_layers(pixels, assumptions, rows: slice, block_rows: int, memo) -> dict:
+    """The layers of the band ``rows``: read once, evaluated in blocks of ``block_rows`` rows from its start, with
+    the evaluating process's ``KernelMemo`` ``memo``."""
     band = pixels.read(rows)
     n = rows.stop - rows.start
     out: dict = {}
     for start in range(0, n, block_rows):
         part = slice(start, min(start + block_rows, n))
-        layers = pixel_moments(_part(band, part), pixels, assumptions)
+        layers = pixel_moments(_part(band, part), pixels, assumptions, memo)
         for name, values in layers.items():
             if name not in out:
                 out[name] = np.empty((n, *values.shape[1:]), dtype=values.dtype)
@@ -77,13 +80,13 @@ def _part(band, part: slice):
 
 def _start(open_product, product, scenario, mission) -> None:
     pixels = open_product(product)
-    _WORKER.update(pixels=pixels, assumptions=load_assumptions(scenario, mission))
+    _WORKER.update(pixels=pixels, assumptions=load_assumptions(scenario, mission), memo=KernelMemo())
     for set_threads, _ in blas_threads():  # for the worker's life
         set_threads(1)
 
 
 def _layers(rows: slice, block_rows: int, encode=None) -> tuple:
-    layers = band_layers(_WORKER["pixels"], _WORKER["assumptions"], rows, block_rows)
+    layers = band_layers(_WORKER["pixels"], _WORKER["assumptions"], rows, block_rows, _WORKER["memo"])
     # float32 as written (the verdict stays uint8): half the bytes back to the writer
     layers = {k: v if v.dtype == np.uint8 else v.astype(np.float32) for k, v in layers.items()}
     return (layers,) if encode is None else (layers, encode(layers))

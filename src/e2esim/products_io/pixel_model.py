@@ -58,8 +58,9 @@ LAYERS = {
 }
 
 
-def pixel_moments(block, pixels, assumptions) -> dict:
-    """The layers (``LAYERS``) of one ``PixelBlock``, arrays of the block's shape (NaN, or 255, where invalid)."""
+def pixel_moments(block, pixels, assumptions, memo) -> dict:
+    """The layers (``LAYERS``) of one ``PixelBlock``, arrays of the block's shape (NaN, or 255, where invalid).
+    memo : the evaluating process's ``KernelMemo`` (its pixel models, ``pixel_model_for``)."""
     shape = block.valid.shape
     ok = block.valid.ravel()
     n = int(ok.sum())
@@ -95,7 +96,7 @@ def pixel_moments(block, pixels, assumptions) -> dict:
         inputs = (hh, hv, vv, hhvv, noise, fr_mean, fr_spread, looks)
         if not whole:
             inputs = tuple(None if x is None else x[part] for x in inputs)
-        budget = system_layers(*inputs, system, gain, assumptions)
+        budget = system_layers(*inputs, system, gain, assumptions, memo)
         for name, value in budget.items():
             if whole:
                 values[name] = value
@@ -106,7 +107,7 @@ def pixel_moments(block, pixels, assumptions) -> dict:
     return out
 
 
-def system_layers(hh, hv, vv, hhvv, noise, fr_mean, fr_spread, looks, system, gain, assumptions) -> dict:
+def system_layers(hh, hv, vv, hhvv, noise, fr_mean, fr_spread, looks, system, gain, assumptions, memo) -> dict:
     """The layers that depend on the system errors, for pixels that share ``system``."""
     m = moments_of(pixel_inputs(hh, hv, vv, hhvv, noise, fr_mean, fr_spread, system), "complete", looks=looks)
     mean, sd = with_gain(m.mean, np.sqrt(m.variance), hv, gain)
@@ -116,7 +117,7 @@ def system_layers(hh, hv, vv, hhvv, noise, fr_mean, fr_spread, looks, system, ga
     return {
         "sigma_hv_error_mean": mean, "sigma_hv_error_sd": sd, "sigma_hv_relative_error_mean": mean / hv,
         "sigma_hv_relative_error_sd": sd / hv,
-        **copol_layers(hh, hv, vv, hhvv, noise, fr_mean, fr_spread, system, looks, gain),
+        **copol_layers(hh, hv, vv, hhvv, noise, fr_mean, fr_spread, system, looks, memo, gain),
         "agb_relative_error": agb_error, "verdict": (agb_error <= assumptions.bound).astype(np.uint8),
     }
 
@@ -130,12 +131,12 @@ def with_gain(mean, sd, sigma, gain):
     return gain * mean - (1.0 - gain) * sigma, gain * sd
 
 
-def copol_layers(hh, hv, vv, hhvv, noise, fr_mean, fr_sd, system, looks, gain=1.0) -> dict:
+def copol_layers(hh, hv, vv, hhvv, noise, fr_mean, fr_sd, system, looks, memo, gain=1.0) -> dict:
     """The sigma_hh and sigma_vv layers: ``polarimetric_error_moments`` (co-pol eqs. 3.2-3.6, 4.2, 5.1-5.4) with the
     rotation left in the data as a Gaussian ``GaussianFaraday(fr_mean, fr_sd)`` and no correction, vectorised over
-    pixels (``e2esim.distortion.polarimetric_pixels``)."""
+    pixels (``e2esim.distortion.polarimetric_pixels``), its model found again in ``memo``."""
     scene = np.stack([hh, hv, vv, hhvv.real, hhvv.imag], axis=-1)
-    mean, var = pixel_model_for(system).moments(scene, fr_mean, fr_sd, noise, looks)
+    mean, var = pixel_model_for(system, memo).moments(scene, fr_mean, fr_sd, noise, looks)
     sd = np.sqrt(np.clip(var, 0.0, None))
     out = {}
     for ch, p, sigma in (("hh", 0, hh), ("vv", 2, vv)):
