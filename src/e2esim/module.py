@@ -12,6 +12,7 @@ estimators) subclass ``Module`` directly. docs/writing-a-module.md walks through
 
 from __future__ import annotations
 
+import inspect
 from abc import ABC, abstractmethod
 from collections.abc import Mapping
 from types import MappingProxyType
@@ -80,13 +81,15 @@ class Module:
         self._configure(values, Location(source=f"{type(self).__name__}(...)"))
 
     @classmethod
-    def from_config(cls, section: Mapping | None, where: Location) -> Module:
-        """Build from a scenario section (its ``type`` and ``name`` keys are ignored here)."""
+    def from_config(cls, section: Mapping | None, where: Location, services=None) -> Module:
+        """Build from a scenario section (its ``type`` and ``name`` keys are ignored here). ``services`` (the
+        resolve's ``e2esim.case.Services``, or None) go to ``setup`` where it takes them (``setup(self,
+        services=None)``): what a set-up that reads a user's file keeps in ``services.memo``."""
         obj = cls.__new__(cls)
-        obj._configure(section or {}, where, ignore=("type", "name"))
+        obj._configure(section or {}, where, ignore=("type", "name"), services=services)
         return obj
 
-    def _configure(self, values: Mapping, where: Location, ignore=()) -> None:
+    def _configure(self, values: Mapping, where: Location, ignore=(), services=None) -> None:
         config = validate_section(self.params, values, where, ignore=ignore)
         self.location = where
         self._reads: set = set()  # names read from ``config`` and ``si`` once built (``params_read``)
@@ -94,7 +97,10 @@ class Module:
             si = self.derive(to_si(self.params, config))
             self.config = _noting(config, self._reads)
             self.si = _frozen(si, self._reads)
-            self.setup()
+            if services is not None and takes_services(self.setup):
+                self.setup(services=services)
+            else:
+                self.setup()
         except PhysicsInputError as exc:
             raise ConfigError(exc.location(where), str(exc)) from exc
 
@@ -146,6 +152,12 @@ class Module:
             loc = state["location"]
             state["location"] = Location(loc.source, loc.key_path)
         return (_restore, (type(self), state))
+
+
+def takes_services(method) -> bool:
+    """Whether ``method`` (a module's ``setup`` or a stage's ``map_cells``) has a ``services`` parameter: only
+    those are handed the resolve's ``Services``, so hooks written without it keep working."""
+    return "services" in inspect.signature(method).parameters
 
 
 def _thawed(values: Mapping) -> dict:
@@ -212,7 +224,9 @@ class Stage(Module, ABC):
         """For a map sweep (``e2esim.maps.grid``), before any case runs: the cells (n_lat, n_lon) of the grid,
         cell centres ``lat_deg`` (n_lat,) and ``lon_deg`` (n_lon,) in deg, that this stage, configured by its raw
         ``section``, has something for (the forest of a scene), as a bool array; None (the default): every cell.
-        Bad settings raise ``ConfigError`` at ``where``, the section's location."""
+        Bad settings raise ``ConfigError`` at ``where``, the section's location. A hook that reads a file may add a
+        parameter ``services=None``: it is then handed the resolve's ``e2esim.case.Services`` (``services.memo``
+        keeps what it reads for the scene's ``setup``; ``takes_services``)."""
         return None
 
     @classmethod

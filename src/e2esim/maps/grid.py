@@ -33,6 +33,7 @@ from e2esim.extras import require_extra
 from e2esim.faraday.global_climatology import grid_axes
 from e2esim.limits import MAX_MAP_CASES, check_count
 from e2esim.maps.acquisition import PRESETS, not_acquired_cells
+from e2esim.module import takes_services
 from e2esim.params import Ordered, Param, find_param, validate_section
 from e2esim.scene.forest_cover import DEFAULT_FOREST_GROUPS, FOREST_GROUPS, PRODUCTS
 
@@ -115,8 +116,9 @@ def is_map_sweep(scenario) -> bool:
     return isinstance(raw, dict) and map_section(raw.get("sweep")) is not None
 
 
-def map_grid(section, where: Location, scenario: dict | None = None) -> MapGrid:
-    """Validate ``sweep.map`` and build its grid; ``scenario`` (the raw scenario) gives the scene's forest."""
+def map_grid(section, where: Location, scenario: dict | None = None, services=None) -> MapGrid:
+    """Validate ``sweep.map`` and build its grid; ``scenario`` (the raw scenario) gives the scene's forest, its
+    stage's ``map_cells`` handed ``services`` (or None) where it takes them."""
     if not isinstance(section, dict):
         raise ConfigError(where, f"{section!r} is not a mapping", "expected step_deg, lat_range_deg, months, ...")
     m = validate_section(MAP_PARAMS, section, where)
@@ -142,7 +144,7 @@ def map_grid(section, where: Location, scenario: dict | None = None) -> MapGrid:
     if scenario is not None:
         _check_sections(scenario, m, where)
         if m["forest_only"]:
-            swept &= _forest_cells(scenario, lat, lon, where)
+            swept &= _forest_cells(scenario, lat, lon, where, services)
         seen = _seen_latitudes(scenario, lat, passes, where) or seen
     not_acquired = swept & not_acquired_cells(m, lat, lon, where)
     swept &= ~not_acquired
@@ -172,12 +174,12 @@ def cell_forest_fraction(m: dict, lat, lon) -> np.ndarray:
     return forest_fraction(lat, lon, m["step_deg"], tuple(dict.fromkeys(m["forest_classes"])))
 
 
-def map_table(section, where: Location, scenario: dict | None = None) -> tuple:
+def map_table(section, where: Location, scenario: dict | None = None, services=None) -> tuple:
     """``sweep.map`` -> its cases (module docstring) as (groups, positions): four groups of keys (the cell, the
     month, the pass, the solar level), each (keys, values) with one tuple of values per position, and per case the
     position of each group ((n, 4) int array); nothing else is stored per case. ``e2esim.runner.sweep`` makes them
     the sweep's ``SweepTable`` (layout "map")."""
-    grid = map_grid(section, where, scenario)
+    grid = map_grid(section, where, scenario, services)
     i, j = np.nonzero(grid.swept)
     n = i.size * len(grid.months) * len(grid.passes) * len(grid.solar)
     if n == 0:
@@ -286,9 +288,14 @@ def _seen_latitudes(scenario: dict, lat, passes, where: Location) -> dict | None
     return cls.map_latitudes_seen(raw, lat, passes, Location(where.source, ("ionosphere",), where.lines))
 
 
-def _forest_cells(scenario: dict, lat, lon, where: Location) -> np.ndarray:
-    """Cells (n_lat, n_lon) the scenario's scene gives a forest (its stage's ``map_cells``; all where it says
-    nothing)."""
+def _forest_cells(scenario: dict, lat, lon, where: Location, services=None) -> np.ndarray:
+    """Cells (n_lat, n_lon) the scenario's scene gives a forest (its stage's ``map_cells``, handed ``services``
+    where its signature takes them: a plug-in's hook of the older four-argument form keeps working; all where it
+    says nothing)."""
     cls, raw = _section_class(scenario, "scene", where)
-    cells = None if cls is None else cls.map_cells(raw, lat, lon, Location(where.source, ("scene",), where.lines))
+    if cls is None:
+        return np.ones((lat.size, lon.size), bool)
+    here = Location(where.source, ("scene",), where.lines)
+    extra = {"services": services} if takes_services(cls.map_cells) else {}
+    cells = cls.map_cells(raw, lat, lon, here, **extra)
     return np.ones((lat.size, lon.size), bool) if cells is None else cells

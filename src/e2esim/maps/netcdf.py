@@ -22,6 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from e2esim.atomic import atomic_path
+from e2esim.case import Services
 from e2esim.errors import ConfigError, Location, PhysicsInputError, one_line
 from e2esim.extras import optional_import
 from e2esim.io.scalar_units import scalar_description, scalar_unit
@@ -243,10 +244,11 @@ def _states_of(passed: SweptCells, not_acquired) -> SweptCells:
 
 def _not_acquired(section, scenario, settings, lat, lon) -> np.ndarray:
     """The cells the map sweep left out as not acquired (``MapGrid.not_acquired``): from the run's scenario, or, if
-    its sections cannot be read here again (a moved AGB map), the mask over the land and forest cells."""
+    its sections cannot be read here again (a moved AGB map), the mask over the land and forest cells. The scene's
+    AGB map is asked through a ``Services()`` of this process (its kernel memo: the run's read is found again)."""
     where = Location(key_path=("sweep", "map"))
     try:
-        return map_grid(section, where, scenario).not_acquired
+        return map_grid(section, where, scenario, Services()).not_acquired
     except (ConfigError, PhysicsInputError, OSError):
         _, _, _, land, forest, _ = grid_of_section(section)
         eligible = (np.nan_to_num(land, nan=1.0) >= settings["min_land_percent"] / 100.0) & (forest > 0)

@@ -30,10 +30,11 @@ from e2esim.settings import SIMULATION_PARAMS, SimulationSettings
 
 class PlanBuilder:
     """Builds the ``SweepPlan`` of a scenario's raw data ``raw`` (read from ``source``; ``lines``: the line of
-    every key path, for messages)."""
+    every key path, for messages; ``services``: the resolve's ``Services``, handed to the modules' ``setup``
+    where it takes them)."""
 
-    def __init__(self, raw: dict, source: str, lines: dict):
-        self.raw, self.source, self.lines = raw, source, lines
+    def __init__(self, raw: dict, source: str, lines: dict, services=None):
+        self.raw, self.source, self.lines, self.services = raw, source, lines, services
 
     def plan(self, table, root: Location) -> SweepPlan:
         """Build every distinct module and settings of the sweep, check every sweep key, and find the chain of
@@ -145,8 +146,9 @@ class PlanBuilder:
             raise ConfigError(case_root.child(section), "is not a list",
                               f"expected a list of {kind.name} sections, each with a type")
         if len(slot.path) == 2:
-            return build_module(slot.kind, raw[slot.path[1]], case_root.child(section).child(slot.path[1]), cache)
-        return build_module(slot.kind, raw, case_root.child(section), cache)
+            return build_module(slot.kind, raw[slot.path[1]], case_root.child(section).child(slot.path[1]), cache,
+                                self.services)
+        return build_module(slot.kind, raw, case_root.child(section), cache, self.services)
 
     def _check_key(self, key: str, path: tuple, slot: Slot, plan: SweepPlan) -> None:
         """Every module a sweep key sets a value in has that parameter (each class once)."""

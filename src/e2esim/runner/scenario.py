@@ -16,6 +16,7 @@ from pathlib import Path
 from typing import Any
 
 from e2esim import registry
+from e2esim.case import Services
 from e2esim.errors import ConfigError, Location, ScenarioFileError
 from e2esim.limits import check_plain, shorten
 from e2esim.params import unknown_key_error, validate_section
@@ -116,8 +117,13 @@ class Scenario:
         self.lines[path] = f"--replace-sweep {shorten(key)}"
 
     # ------------------------------------------------------------------------------------------
-    def resolve(self) -> ResolvedScenario:
+    def resolve(self, services: Services | None = None) -> ResolvedScenario:
         """Validate every section and every sweep case; build the modules. Raises ConfigError.
+
+        ``services`` (an ``e2esim.case.Services``; None: ``Services()``, which holds the process's kernel memo) is
+        handed to the configuration code that reads a user's file before any case runs: a map sweep's forest
+        hook (``Stage.map_cells``) and the ``setup`` of modules that take it (the AGB map, read once per file
+        version through ``services.memo``).
 
         ``type: package.module:Class`` may import the packages of the scenario's ``plugins:`` list and of
         ``allow_imports`` besides installed distributions (e2esim.registry, docs/security.md)."""
@@ -125,9 +131,9 @@ class Scenario:
         check_plain(self.raw, root)
         with registry.allowed_imports(plugin_list(self.raw.get("plugins"), root.child("plugins"))
                                       + tuple(getattr(self, "allow_imports", ()))):
-            return self._resolve(root)
+            return self._resolve(root, Services() if services is None else services)
 
-    def _resolve(self, root: Location) -> ResolvedScenario:
+    def _resolve(self, root: Location, services: Services) -> ResolvedScenario:
         top_level = top_level_keys()
         for key in self.raw:
             if key not in top_level:
@@ -142,13 +148,13 @@ class Scenario:
             if key in self.raw and not isinstance(self.raw[key], str):
                 raise ConfigError(root.child(key), f"{self.raw[key]!r} is not text", "expected a string")
         output = validate_section(output_params(), self.raw.get("output"), root.child("output"))
-        table = sweep_table(self.raw.get("sweep"), root.child("sweep"), self.raw)
+        table = sweep_table(self.raw.get("sweep"), root.child("sweep"), self.raw, services)
         sweep_keys = table.keys
         for key in ("plot_x", "plot_group_by"):
             if output[key] is not None and output[key] not in sweep_keys:
                 raise ConfigError(root.child("output").child(key), f"{output[key]!r} is not a sweep key",
                                   "sweep keys: " + (", ".join(sweep_keys) or "none (no sweep)"))
-        plan = PlanBuilder(self.raw, self.source, self.lines).plan(table, root)
+        plan = PlanBuilder(self.raw, self.source, self.lines, services).plan(table, root)
         cases = CaseSpecs(plan, CaseLabels(table))
         return ResolvedScenario(
             name=str(name),

@@ -78,9 +78,9 @@ def object_ids(value) -> set:
     return out
 
 
-def build_module(kind: str, raw: Any, where: Location, cache: dict) -> Module:
+def build_module(kind: str, raw: Any, where: Location, cache: dict, services=None) -> Module:
     """The module of kind ``kind`` that the section (or list item) ``raw`` at ``where`` names, built once per
-    distinct section (``cache``)."""
+    distinct section (``cache``); ``services`` (or None) go to its ``setup`` where it takes them."""
     if not isinstance(raw, dict):
         raise ConfigError(where, f"{raw!r} is not a mapping", f"expected a '{kind}' section with a 'type' key")
     type_name = raw.get("type")
@@ -101,7 +101,7 @@ def build_module(kind: str, raw: Any, where: Location, cache: dict) -> Module:
     pristine = cache.get(PRISTINE, ())
     key = (kind, cls, id(raw)) if id(raw) in pristine else (kind, cls, json.dumps(raw, sort_keys=True, default=str))
     if key not in cache:
-        cache[key] = cls.from_config(raw, where)
+        cache[key] = cls.from_config(raw, where, services)
     return cache[key]
 
 

@@ -143,9 +143,10 @@ def expand_sweep(sweep: Any, where: Location, scenario: dict | None = None) -> t
     return table.all_inputs(), table.keys
 
 
-def sweep_table(sweep: Any, where: Location, scenario: dict | None = None) -> SweepTable:
+def sweep_table(sweep: Any, where: Location, scenario: dict | None = None, services=None) -> SweepTable:
     """The ``SweepTable`` of a sweep section (validated; ``ConfigError`` names the bad key). ``scenario`` (the raw
-    scenario) lets a map sweep check its sections and leave out cells without forest."""
+    scenario) lets a map sweep check its sections and leave out cells without forest; ``services`` (the
+    resolve's ``Services``, or None) reach its stages' map hooks."""
     if sweep is None:
         return SweepTable("none", ())
     if not isinstance(sweep, dict):
@@ -158,7 +159,7 @@ def sweep_table(sweep: Any, where: Location, scenario: dict | None = None) -> Sw
         if len(sweep) > 1:
             raise ConfigError(where, "has 'map' beside " + ", ".join(repr(k) for k in sweep if k != "map"),
                               "a map sweep stands alone")
-        groups, table = map_table(sweep["map"], where.child("map"), scenario)
+        groups, table = map_table(sweep["map"], where.child("map"), scenario, services)
         return SweepTable("map", tuple(KeyGroup(keys, values) for keys, values in groups), table)
     mode = validate_section(SWEEP_PARAMS, {k: v for k, v in sweep.items() if k == "mode"}, where)["mode"]
     params, cases = sweep.get("parameters"), sweep.get("cases")

@@ -17,7 +17,6 @@ import numpy as np
 
 from e2esim import products as P
 from e2esim.block import Catalog, Factor, Values
-from e2esim.case import process_memo
 from e2esim.errors import ConfigError, PhysicsInputError
 from e2esim.module import Stage, fail
 from e2esim.params import Param, to_si, validate_section
@@ -47,19 +46,22 @@ class AGBMapScene(Stage):
     case_params = ("lat_deg", "lon_deg")  # a map sweep's cells
 
     @classmethod
-    def map_cells(cls, section, lat_deg, lon_deg, where):
-        """The cells (n_lat, n_lon) this section's latitude bands and AGB map give a forest class."""
+    def map_cells(cls, section, lat_deg, lon_deg, where, services=None):
+        """The cells (n_lat, n_lon) this section's latitude bands and AGB map give a forest class (the map read
+        through ``services.memo``, the resolve's, which ``setup`` asks again)."""
         config = validate_section(FOREST_PARAMS, section, where, ignore=("type", "lat_deg", "lon_deg"))
         try:
-            source = ForestSource.from_si(to_si(FOREST_PARAMS, config), where.source, process_memo())
+            source = ForestSource.from_si(to_si(FOREST_PARAMS, config), where.source, _memo_of(services))
         except PhysicsInputError as exc:
             raise ConfigError(exc.location(where), str(exc)) from exc
         biome, _ = source.forest(np.asarray(lat_deg)[:, None], np.asarray(lon_deg)[None, :])
         return biome != ""
 
-    def setup(self):
+    def setup(self, services=None):
+        """The forest source (the AGB map read through ``services.memo``, the resolve's; a plain read without
+        services) and the scene of the configured cell."""
         c = self.si
-        self.source = ForestSource.from_si(c, self.location.source, process_memo())  # no services yet
+        self.source = ForestSource.from_si(c, self.location.source, _memo_of(services))
         self._scenes, self._codes = Catalog(), {}  # the scene of every forest met so far, and its number there
         self.covariance = self.scene_at(c["lat_deg"], c["lon_deg"])
 
@@ -102,3 +104,8 @@ class AGBMapScene(Stage):
         forests = Values.of(list(zip(biome.tolist(), agb.tolist())))
         codes = np.array([self._code(b, a) for b, a in forests.values], dtype=np.int64)
         return {"scene.covariance": case.product_of(Factor(self._scenes, codes[forests.index]))}
+
+
+def _memo_of(services):
+    """The kernel memo of ``services`` (an ``e2esim.case.Services``), or None (a plain read) without them."""
+    return None if services is None else services.memo
