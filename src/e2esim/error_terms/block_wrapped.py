@@ -44,19 +44,19 @@ class BlockEffects:
 
     cases: Values
 
-    distinct = property(lambda self: self.cases.values)
+    values = property(lambda self: self.cases.values)  # the distinct effects, as in ``Values``
     index = property(lambda self: self.cases.index)
 
     @cached_property
     def level(self) -> np.ndarray:
         """The effect's level in every case, (B,)."""
-        return np.array([e.level for e in self.distinct], dtype=float)[self.index]
+        return np.array([e.level for e in self.values], dtype=float)[self.index]
 
     @cached_property
     def stacks(self) -> list:
         """[(effect, columns, rows)]: the cases ``rows`` whose effects are evaluated together, as ``effect`` alone
         (columns None: one distinct effect) or stacked with ``columns`` (``e2esim.error_terms.effect_stack``)."""
-        values, index = self.distinct, self.index
+        values, index = self.values, self.index
         groups = stack_groups(values)
         out = []
         for group in groups:
@@ -76,10 +76,10 @@ class BlockEffects:
     def removed(self) -> tuple | None:
         """(the effects with their source removed, the cases where it was not active), or None where no case has
         it active."""
-        active = np.array([e.active for e in self.distinct], dtype=bool)
+        active = np.array([e.active for e in self.values], dtype=bool)
         if not active.any():
             return None
-        cases = Values([e.removed() if a else e for e, a in zip(self.distinct, active)], self.index)
+        cases = Values([e.removed() if a else e for e, a in zip(self.values, active)], self.index)
         return BlockEffects(cases), ~active[self.index]
 
 
@@ -95,7 +95,7 @@ class BlockWrappedModel(Batched, RemovedOnce, EvaluatedOnce, ErrorModel):
     inactive: object = None
 
     def __post_init__(self):
-        first = self.effects.distinct[0]
+        first = self.effects.values[0]
         if first.source in self.base.levels or first.source in self.base.sources:
             raise ValueError(f"the error term {first.source!r} has the name of a level or source the model already "
                              f"has ({', '.join(dict.fromkeys((*self.base.levels, *self.base.sources)))})")
@@ -110,7 +110,7 @@ class BlockWrappedModel(Batched, RemovedOnce, EvaluatedOnce, ErrorModel):
 
     @property
     def source(self) -> str:
-        return self.effects.distinct[0].source
+        return self.effects.values[0].source
 
     @property
     def level(self) -> np.ndarray:
@@ -171,7 +171,7 @@ class BlockWrappedModel(Batched, RemovedOnce, EvaluatedOnce, ErrorModel):
         m, m0 = self.current(), self.base.current()
         parts[self.source] = Contribution(np.asarray(m.mean) - np.asarray(m0.mean, dtype=float),
                                           np.asarray(m.variance) - np.asarray(m0.variance, dtype=float),
-                                          self.effects.distinct[0].description)
+                                          self.effects.values[0].description)
         return parts
 
     # A block of cases (``e2esim.block.Batched``) -------------------------------------------------------------------
@@ -200,8 +200,8 @@ class BlockWrappedModel(Batched, RemovedOnce, EvaluatedOnce, ErrorModel):
         """``WrappedErrorModel.scalars`` of every case: the base model's, the effect's outputs, the error with every
         error term (analytic: a block has no Monte Carlo)."""
         out = dict(self.base.scalar_columns())
-        for k, (name, _) in enumerate(self.effects.distinct[0].outputs):
-            out[name] = np.array([float(e.outputs[k][1]) for e in self.effects.distinct])[self.effects.index]
+        for k, (name, _) in enumerate(self.effects.values[0].outputs):
+            out[name] = np.array([float(e.outputs[k][1]) for e in self.effects.values])[self.effects.index]
         m = self.current()
         out["analytic.with_error_terms_mean"] = np.asarray(m.mean, dtype=float)
         out["analytic.with_error_terms_sd"] = np.asarray(m.sd, dtype=float)
