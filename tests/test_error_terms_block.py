@@ -17,7 +17,7 @@ import yaml
 
 from e2esim import api
 from e2esim.distortion.modules import HVBackscatterErrorPropagation
-from e2esim.error_terms.block_wrapped import BlockWrappedModel
+from e2esim.error_terms.block_wrapped import BlockEffects, BlockWrappedModel
 from e2esim.error_terms.modules import AddedNoise, ExtraRelativeVariance, GainError
 from e2esim.error_terms.rfi_modules import RFITerm
 from e2esim.error_terms.stage import ErrorTermStack
@@ -132,7 +132,7 @@ def _unshared(model):
     """``model`` rebuilt with nothing evaluated or shared between its wrappers (each stacks its own effects)."""
     if not isinstance(model, BlockWrappedModel):
         return model
-    return dataclasses.replace(model, base=_unshared(model.base), _shared={})
+    return dataclasses.replace(model, base=_unshared(model.base), effects=BlockEffects(model.effects.cases))
 
 
 def test_the_variants_of_a_block_model_share_their_removed_effects_and_keep_their_own_numbers():

@@ -314,14 +314,16 @@ def _targets(node) -> list:
 
 
 def caching_of(module: str, path: Path) -> tuple[list[str], list[str]]:
-    """(memo dicts, module-level caches not in ``CONSTANT_CACHES``) of one module, as "module:line name"."""
+    """(memo dicts: fields or attributes named ``_memo``/``_..._memo`` and class fields named ``_shared``; module-level
+    caches not in ``CONSTANT_CACHES``) of one module, as "module:line name"."""
     tree = ast.parse(path.read_text(encoding="utf-8"), filename=str(path))
     memos, caches = [], []
     for node in ast.walk(tree):
         names = []
-        if isinstance(node, ast.ClassDef):  # a class field
+        if isinstance(node, ast.ClassDef):  # a class field (a ``_shared`` dict field too: a memo handed to others)
             names = [t.id for s in node.body if isinstance(s, (ast.Assign, ast.AnnAssign)) for t in _targets(s)
                      if isinstance(t, ast.Name)]
+            memos += [f"{module}:{node.lineno} {n}" for n in names if n == "_shared"]
         elif isinstance(node, (ast.Assign, ast.AnnAssign)):  # an attribute set
             names = [t.attr for t in _targets(node) if isinstance(t, ast.Attribute)]
         elif isinstance(node, ast.Call) and isinstance(node.func, ast.Attribute) and node.args:

@@ -2,7 +2,8 @@
 alone, over the leading case axis of a batched error model (``e2esim.block.Batched``).
 
 ``BlockWrappedModel(base, effects)``: ``base`` is the batched model of the block (the propagation's, or the previous
-term's), ``effects`` the ``Effect`` of every case (``Values``: each distinct effect stored once). Every question
+term's), ``effects`` the ``Effect`` of every case (``BlockEffects``: each distinct effect stored once, with what
+derives from the effects alone). Every question
 (moments at changed levels, ``without`` a source, contributions, output scalars) is answered with the one-case
 equations of ``WrappedErrorModel`` (``e2esim.error_terms.effects``), evaluated once per distinct effect over the
 cases that have it, with those cases' arrays in the shapes the one-case model gives them (the case axis in front,
@@ -12,7 +13,8 @@ then any axes of the levels asked, then the channel axis): each number is, bit f
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -34,17 +36,63 @@ def _leading(x: np.ndarray, rows, ndim: int) -> np.ndarray:
 
 
 @dataclass(frozen=True, eq=False)
+class BlockEffects:
+    """The ``Effect`` of every case of a block (``cases``: each distinct effect stored once) and what derives from
+    them alone, once (``cached_property``s): their levels, their stacks, the effects with their source removed. Every
+    variant of a block model that keeps these effects (``BlockWrappedModel.without`` another source) holds this same
+    object, so a Shapley split's 2^k variants stack and remove the effects once, not once each."""
+
+    cases: Values
+
+    values = property(lambda self: self.cases.values)  # the distinct effects, as in ``Values``
+    index = property(lambda self: self.cases.index)
+
+    @cached_property
+    def level(self) -> np.ndarray:
+        """The effect's level in every case, (B,)."""
+        return np.array([e.level for e in self.values], dtype=float)[self.index]
+
+    @cached_property
+    def stacks(self) -> list:
+        """[(effect, columns, rows)]: the cases ``rows`` whose effects are evaluated together, as ``effect`` alone
+        (columns None: one distinct effect) or stacked with ``columns`` (``e2esim.error_terms.effect_stack``)."""
+        values, index = self.values, self.index
+        groups = stack_groups(values)
+        out = []
+        for group in groups:
+            rows = slice(None) if len(groups) == 1 else np.flatnonzero(np.isin(index, group))
+            if isinstance(rows, np.ndarray) and not len(rows):  # effects no case of this block has (``take``)
+                continue
+            if len(group) == 1:
+                out.append((values[group[0]], None, rows))
+                continue
+            position = np.zeros(len(values), dtype=np.int64)
+            position[group] = np.arange(len(group))
+            table = stacked_columns([values[k] for k in group])
+            out.append((values[group[0]], {name: c[position[index[rows]]] for name, c in table.items()}, rows))
+        return out
+
+    @cached_property
+    def removed(self) -> tuple | None:
+        """(the effects with their source removed, the cases where it was not active), or None where no case has
+        it active."""
+        active = np.array([e.active for e in self.values], dtype=bool)
+        if not active.any():
+            return None
+        cases = Values([e.removed() if a else e for e, a in zip(self.values, active)], self.index)
+        return BlockEffects(cases), ~active[self.index]
+
+
+@dataclass(frozen=True, eq=False)
 class BlockWrappedModel(Batched, RemovedOnce, EvaluatedOnce, ErrorModel):
-    """A batched single-channel model with one more source per case (module docstring). inactive : for a model with
-    a source removed (``without``), the cases where it was not active (their model is their own variant).
-    _shared: what depends on ``effects`` alone (the levels, the stacks, the effects with the source removed), shared
-    by every variant made from this model with another source removed (they hold the same ``effects``): a Shapley
-    split asks 2^k variants, which then stack and remove the effects once, not once each."""
+    """A batched single-channel model with one more source per case (module docstring). effects : the cases'
+    effects and what derives from them alone (``BlockEffects``, shared by the variants that keep them). inactive :
+    for a model with a source removed (``without``), the cases where it was not active (their model is their own
+    variant)."""
 
     base: object
-    effects: Values
+    effects: BlockEffects
     inactive: object = None
-    _shared: dict = field(default_factory=dict, repr=False, compare=False)
 
     def __post_init__(self):
         first = self.effects.values[0]
@@ -67,9 +115,7 @@ class BlockWrappedModel(Batched, RemovedOnce, EvaluatedOnce, ErrorModel):
     @property
     def level(self) -> np.ndarray:
         """The effect's level in every case, (B,)."""
-        if "level" not in self._shared:
-            self._shared["level"] = np.array([e.level for e in self.effects.values], dtype=float)[self.effects.index]
-        return self._shared["level"]
+        return self.effects.level
 
     @property
     def levels(self) -> dict:
@@ -82,16 +128,25 @@ class BlockWrappedModel(Batched, RemovedOnce, EvaluatedOnce, ErrorModel):
     # Moments -------------------------------------------------------------------------------------------------------
     def moments(self, **levels) -> Moments:
         """``WrappedErrorModel.moments`` of every case (levels broadcast against the case axis)."""
+        return self._moments(levels) if levels else self.own_moments
+
+    @cached_property
+    def own_moments(self) -> Moments:
+        """``moments()`` at its own levels, derived once: the variants of a Shapley split
+        (``ErrorModel.source_subsets``) that hold this model as their base ask it once, not once each."""
+        return self._moments({})
+
+    def _moments(self, levels: dict) -> Moments:
         own = levels.pop(self.source, None)
         level = self.level if own is None else np.asarray(own, dtype=float)
-        m = self.base.moments(**levels) if levels else self._base_moments()
+        m = self.base.moments(**levels)
         mean, variance = np.asarray(m.mean, dtype=float), np.asarray(m.variance, dtype=float)
         values = np.asarray(self.value, dtype=float)
         ndim = max(mean.ndim, variance.ndim, level.ndim, 1)
         shape = np.broadcast_shapes(*(x.shape + (1,) * (ndim - x.ndim) for x in (mean, variance, level) if x.ndim),
                                     (len(self),) + (1,) * (ndim - 1))
         out_mean, out_var = np.empty(shape), np.empty(shape)
-        for first, columns, rows in self._stacks():
+        for first, columns, rows in self.effects.stacks:
             effect = first if columns is None else stacked(first, columns, ndim)
             new_mean, cov = effect.joint(_leading(mean, rows, ndim)[..., None], _leading(variance, rows, ndim)[
                 ..., None, None], _leading(values, rows, ndim)[..., None], _leading(level, rows, ndim))
@@ -99,56 +154,17 @@ class BlockWrappedModel(Batched, RemovedOnce, EvaluatedOnce, ErrorModel):
             out_var[rows] = cov[..., 0, 0]
         return Moments(out_mean, out_var)
 
-    def _base_moments(self) -> Moments:
-        """``base.moments()``, evaluated once per base model among the variants that share ``_shared``: a Shapley
-        split's 2^k variants (``ErrorModel.source_subsets``) have far fewer distinct bases (the base's own 2^j), each
-        asked once instead of once per variant. Found by the base object itself (``is``, never its id()), which the
-        list holds."""
-        known = self._shared.setdefault("base moments", [])
-        for base, moments in known:
-            if base is self.base:
-                return moments
-        known.append((self.base, self.base.moments()))
-        return known[-1][1]
-
-    def _stacks(self) -> list:
-        """[(effect, columns, rows)]: the cases ``rows`` whose effects are evaluated together, as ``effect`` alone
-        (columns None: one distinct effect) or stacked with ``columns`` (``e2esim.error_terms.effect_stack``)."""
-        if "stacks" not in self._shared:
-            values, index = self.effects.values, self.effects.index
-            groups = stack_groups(values)
-            out = []
-            for group in groups:
-                rows = slice(None) if len(groups) == 1 else np.flatnonzero(np.isin(index, group))
-                if isinstance(rows, np.ndarray) and not len(rows):  # effects no case of this block has (``take``)
-                    continue
-                if len(group) == 1:
-                    out.append((values[group[0]], None, rows))
-                    continue
-                position = np.zeros(len(values), dtype=np.int64)
-                position[group] = np.arange(len(group))
-                table = stacked_columns([values[k] for k in group])
-                out.append((values[group[0]], {name: c[position[index[rows]]] for name, c in table.items()}, rows))
-            self._shared["stacks"] = out
-        return self._shared["stacks"]
-
     # Sources (``RemovedOnce.without``) ---------------------------------------------------------------------------
     def _without(self, source: str) -> ErrorModel:
         if source == self.source:
-            if "removed" not in self._shared:  # the effects with the source removed, and their own shared memo
-                active = np.array([e.active for e in self.effects.values], dtype=bool)
-                self._shared["removed"] = None if not active.any() else (
-                    Values([e.removed() if a else e for e, a in zip(self.effects.values, active)], self.effects.index),
-                    ~active[self.effects.index], {})
-            if self._shared["removed"] is None:
+            if self.effects.removed is None:
                 return self
-            removed, inactive, shared = self._shared["removed"]
-            return BlockWrappedModel(self.base, removed, inactive, _shared=shared)
+            return BlockWrappedModel(self.base, *self.effects.removed)
         variant = self.base.without(source)
         if variant is self.base:
             return self
-        # the same effects: stacked and removed as here, once
-        return BlockWrappedModel(variant, self.effects, getattr(variant, "inactive", None), _shared=self._shared)
+        # the same effects (one object): stacked and removed as here, once
+        return BlockWrappedModel(variant, self.effects, getattr(variant, "inactive", None))
 
     def contributions(self) -> dict:
         parts = dict(self.base.contributions())
@@ -160,17 +176,17 @@ class BlockWrappedModel(Batched, RemovedOnce, EvaluatedOnce, ErrorModel):
 
     # A block of cases (``e2esim.block.Batched``) -------------------------------------------------------------------
     def __len__(self) -> int:
-        return len(self.effects)
+        return len(self.effects.cases)
 
     def item(self, i: int) -> ErrorModel:
         """Case i's ``WrappedErrorModel``, with the moments the block computed for it."""
-        model = wrapped(self.base.item(i), self.effects[i])
+        model = wrapped(self.base.item(i), self.effects.cases[i])
         if "evaluated" in vars(self):
             knowing(model, evaluated=Moments(self.evaluated.mean[i], self.evaluated.variance[i]))
         return model
 
     def take(self, positions) -> BlockWrappedModel:
-        return BlockWrappedModel(self.base.take(positions), self.effects.take(positions),
+        return BlockWrappedModel(self.base.take(positions), BlockEffects(self.effects.cases.take(positions)),
                                  None if self.inactive is None else self.inactive[positions])
 
     @classmethod
@@ -178,7 +194,7 @@ class BlockWrappedModel(Batched, RemovedOnce, EvaluatedOnce, ErrorModel):
         first = parts[0]
         inactive = None if first.inactive is None else np.concatenate([p.inactive for p in parts])
         return cls(type(first.base).concatenate([p.base for p in parts]),
-                   Values.concatenate([p.effects for p in parts]), inactive)
+                   BlockEffects(Values.concatenate([p.effects.cases for p in parts])), inactive)
 
     def scalar_columns(self) -> dict:
         """``WrappedErrorModel.scalars`` of every case: the base model's, the effect's outputs, the error with every
@@ -203,7 +219,7 @@ def same_outputs(effects: list) -> bool:
 
 def block_wrapped(base, effects: list) -> BlockWrappedModel:
     """``base`` (a batched single-channel model) with case i's effect ``effects[i]``."""
-    return BlockWrappedModel(base, Values.of(effects))
+    return BlockWrappedModel(base, BlockEffects(Values.of(effects)))
 
 
-__all__ = ["BlockWrappedModel", "block_wrapped", "same_outputs"]
+__all__ = ["BlockEffects", "BlockWrappedModel", "block_wrapped", "same_outputs"]
