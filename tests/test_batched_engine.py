@@ -345,7 +345,7 @@ def _with_regression(monkeypatch, draws: bool):
 
     def regression(self, case, model, agb, covariates=None):
         seed = int(case.rng.integers(2**31)) if draws else case.settings.seed  # a seed of the case's own, or the run's
-        return regression_contribution(model, agb, self.campaign, seed, covariates)
+        return regression_contribution(model, agb, self.campaign, seed, covariates, case.services.memo)
 
     monkeypatch.setattr(modules._Retrieval, "regression", regression)
     data = yaml.safe_load(BUDGET_SWEEP)

@@ -54,11 +54,17 @@ def test_the_regression_term_scatters_over_seeds_as_its_standard_error_says(mode
 
 
 def test_campaigns_are_drawn_once_per_run_and_shared_by_its_cases(seed):
+    from e2esim.case import KernelMemo
+
     campaign = CalibrationCampaign("confidence", "delta", 40, campaigns=20)
     model = PowerLaw.through(200.0, 0.0726, 2.2)
-    first = ensemble(model, campaign, seed)
-    assert ensemble(model, campaign, seed) is first  # the cases at other AGB reuse them
-    other = ensemble(model, campaign, seed + 1)
+    memo = KernelMemo()
+    first = ensemble(model, campaign, seed, memo=memo)
+    assert ensemble(model, campaign, seed, memo=memo) is first  # the cases at other AGB reuse them (the run's memo)
+    anew = ensemble(model, campaign, seed)  # without a memo: drawn again, the same campaigns
+    assert anew is not first and np.array_equal(anew.uncertainty(150.0).relative_variance,
+                                                 first.uncertainty(150.0).relative_variance)
+    other = ensemble(model, campaign, seed + 1, memo=memo)
     assert other.uncertainty(100.0).relative_variance != first.uncertainty(100.0).relative_variance
     # the expectation over campaigns is a smooth function of AGB (the same campaigns at every AGB)
     v = [first.uncertainty(a).relative_variance for a in np.linspace(40, 380, 18)]

@@ -301,6 +301,7 @@ CONSTANT_CACHES = frozenset({
     "e2esim.stack.residual_fourier:frequencies",  # the residual polynomials' frequencies of (passes, degree)
     "e2esim.stack.residual_fourier:_code_digest",  # the source of the modules that compute the kept coefficients
     "e2esim.runner.plaindata:_plain_dtype",  # the stored form of a numpy dtype
+    "e2esim.error_terms.effect_stack:_shared_fields",  # the fields an effect class's stacked effects share
     "e2esim.verification.men2021:table2_case",  # the published tables' cases
     "e2esim.verification.quegan2018:_zone", "e2esim.verification.quegan2018:_alternative_zones",
     "e2esim.verification.quegan2018:_grid_zones",

@@ -15,6 +15,7 @@ length. A class that does not list its fields itself (a plug-in's, a subclass's)
 
 from __future__ import annotations
 
+import functools
 from dataclasses import fields, replace
 
 import numpy as np
@@ -23,15 +24,10 @@ NOT_NUMBERS = ("source", "level", "description", "draws", "outputs")
 """Fields of ``Effect`` that ``joint`` does not read (the level comes as its argument)."""
 
 
-_SHARED: dict = {}
-
-
+@functools.cache  # a constant of the class: its fields do not change
 def _shared_fields(cls) -> tuple:
     """The fields that effects of ``cls`` stacked together must have equal (module docstring)."""
-    if cls not in _SHARED:
-        _SHARED[cls] = tuple(f.name for f in fields(cls) if f.name not in cls.stacked_fields
-                             and f.name not in NOT_NUMBERS)
-    return _SHARED[cls]
+    return tuple(f.name for f in fields(cls) if f.name not in cls.stacked_fields and f.name not in NOT_NUMBERS)
 
 
 def stack_key(effect):

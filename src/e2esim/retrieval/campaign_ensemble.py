@@ -163,20 +163,20 @@ def campaign_generator(seed: int) -> np.random.Generator:
     return np.random.Generator(np.random.PCG64(np.random.SeedSequence(seed, spawn_key=(_STREAM, 0))))
 
 
-_KEPT: dict = {}
-_KEEP = 16  # ensembles kept per process (a sweep over retrieval models draws one per model)
+ENSEMBLES_KEPT = 16
+"""Ensembles a kernel memo keeps (a sweep over retrieval models draws one per model)."""
 
 
-def ensemble(model, campaign, seed: int, covariates: dict | None = None) -> CampaignEnsemble:
-    """The K campaigns of ``campaign`` (a ``CalibrationCampaign``) from ``model``, drawn once per run and model
-    (kept for the other cases of the run)."""
+def ensemble(model, campaign, seed: int, covariates: dict | None = None, memo=None) -> CampaignEnsemble:
+    """The K campaigns of ``campaign`` (a ``CalibrationCampaign``) from ``model``, drawn from ``seed``: the same
+    campaigns for every case of a run. memo : the run's ``KernelMemo`` (``case.services.memo``), which keeps them
+    for the other cases, found by the values they are drawn from; None: drawn anew."""
     covariates = dict(covariates or {})
-    key = (type(model).__name__, repr(model), repr(campaign), int(seed), repr(sorted(covariates.items())))
-    if key not in _KEPT:
-        if len(_KEPT) >= _KEEP:
-            _KEPT.pop(next(iter(_KEPT)))
-        _KEPT[key] = _draw(model, campaign, int(seed), covariates)
-    return _KEPT[key]
+    if memo is None:
+        return _draw(model, campaign, int(seed), covariates)
+    key = ("campaign ensemble", type(model).__name__, repr(model), repr(campaign), int(seed),
+           repr(sorted(covariates.items())))
+    return memo.recall(key, lambda: _draw(model, campaign, int(seed), covariates), keep=ENSEMBLES_KEPT)
 
 
 def _draw(model, campaign, seed, covariates):

@@ -81,7 +81,8 @@ class _Retrieval(Stage):
 
     def regression(self, case, model, agb, covariates=None):
         try:
-            return regression_contribution(model, agb, self.campaign, case.settings.seed, covariates)
+            return regression_contribution(model, agb, self.campaign, case.settings.seed, covariates,
+                                           getattr(case.services, "memo", None))
         except PhysicsInputError as exc:
             raise fail(self, f"case {case.index}: {exc}", key="regression") from exc
 

@@ -59,13 +59,14 @@ class CalibrationCampaign:
 
 
 def regression_contribution(model, agb: float, campaign: CalibrationCampaign, seed: int,
-                            covariates: dict | None = None) -> AGBContribution | None:
+                            covariates: dict | None = None, memo=None) -> AGBContribution | None:
     """The regression uncertainty at ``agb`` (t/ha) as an ``AGBContribution`` (None for mode "none"): the
     expectation over the campaigns drawn from the run's ``seed``, with its standard error and spread
-    (``AGBContribution.uncertainty``)."""
+    (``AGBContribution.uncertainty``). memo : the run's ``KernelMemo``, which keeps the campaigns for the other
+    cases (``campaign_ensemble.ensemble``)."""
     if campaign.mode == "none":
         return None
-    drawn = ensemble(model, campaign, seed, covariates)
+    drawn = ensemble(model, campaign, seed, covariates, memo)
     u = drawn.uncertainty(agb)
     what = "coefficients" + (" and error in equation" if campaign.mode == "prediction" else "")
     return AGBContribution("regression", "regression", 0.0, u.relative_variance,
