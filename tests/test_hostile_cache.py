@@ -100,7 +100,7 @@ def test_a_run_with_an_unusable_cache_finishes_with_a_one_line_warning(tmp_path)
                            "--no-progress"], capture_output=True, text=True, env=env, cwd=tmp_path, timeout=300)
     assert proc.returncode == 0, proc.stderr
     assert ("e2esim: warning: climatology cache: cannot write in the cache folder /dev/null (File exists); the run "
-            "goes on without caching the climatology there") in proc.stderr
+            "goes on without caching there") in proc.stderr
     assert "Traceback" not in proc.stderr and (tmp_path / "run" / "results.h5").exists()
 
 
