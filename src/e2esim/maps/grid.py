@@ -293,9 +293,8 @@ def _forest_cells(scenario: dict, lat, lon, where: Location, services=None) -> n
     where its signature takes them: a plug-in's hook of the older four-argument form keeps working; all where it
     says nothing)."""
     cls, raw = _section_class(scenario, "scene", where)
-    if cls is None:
-        return np.ones((lat.size, lon.size), bool)
-    here = Location(where.source, ("scene",), where.lines)
-    extra = {"services": services} if takes_services(cls.map_cells) else {}
-    cells = cls.map_cells(raw, lat, lon, here, **extra)
+    cells = None
+    if cls is not None:
+        extra = {"services": services} if takes_services(cls.map_cells) else {}
+        cells = cls.map_cells(raw, lat, lon, Location(where.source, ("scene",), where.lines), **extra)
     return np.ones((lat.size, lon.size), bool) if cells is None else cells

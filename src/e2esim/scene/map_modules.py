@@ -51,7 +51,7 @@ class AGBMapScene(Stage):
         through ``services.memo``, the resolve's, which ``setup`` asks again)."""
         config = validate_section(FOREST_PARAMS, section, where, ignore=("type", "lat_deg", "lon_deg"))
         try:
-            source = ForestSource.from_si(to_si(FOREST_PARAMS, config), where.source, _memo_of(services))
+            source = ForestSource.from_si(to_si(FOREST_PARAMS, config), where.source, getattr(services, "memo", None))
         except PhysicsInputError as exc:
             raise ConfigError(exc.location(where), str(exc)) from exc
         biome, _ = source.forest(np.asarray(lat_deg)[:, None], np.asarray(lon_deg)[None, :])
@@ -61,7 +61,7 @@ class AGBMapScene(Stage):
         """The forest source (the AGB map read through ``services.memo``, the resolve's; a plain read without
         services) and the scene of the configured cell."""
         c = self.si
-        self.source = ForestSource.from_si(c, self.location.source, _memo_of(services))
+        self.source = ForestSource.from_si(c, self.location.source, getattr(services, "memo", None))
         self._scenes, self._codes = Catalog(), {}  # the scene of every forest met so far, and its number there
         self.covariance = self.scene_at(c["lat_deg"], c["lon_deg"])
 
@@ -104,8 +104,3 @@ class AGBMapScene(Stage):
         forests = Values.of(list(zip(biome.tolist(), agb.tolist())))
         codes = np.array([self._code(b, a) for b, a in forests.values], dtype=np.int64)
         return {"scene.covariance": case.product_of(Factor(self._scenes, codes[forests.index]))}
-
-
-def _memo_of(services):
-    """The kernel memo of ``services`` (an ``e2esim.case.Services``), or None (a plain read) without them."""
-    return None if services is None else services.memo
