@@ -90,18 +90,23 @@ class AGBErrorBound(Requirement):
         bound = self.si["bound_fraction"]
         values, details, notes = [], {}, []
         side_values, side_errors, sampling = {}, {}, []
-        for side in self.sides():
+        bounds = [AGBBound(agb, bound, conf, side, case.services.memo) for side in self.sides()]
+        for side, side_bound in zip(self.sides(), bounds):
             prob = conf if side == "over" else 1 - conf
             sign = 1.0 if side == "over" else -1.0
+            # the side's threshold, derived once (only where an analytic answer asks it): the exceedance, its
+            # standard error and the margins and curves below share it
+            f = {"relative_threshold": side_bound.relative_threshold} if agb.has("analytic") else {}
             for b in ("analytic", "montecarlo"):
                 if agb.has(b):
                     details[f"{side}.{b}.quantile_percent"] = plain(agb.quantile(prob, b)) * PERCENT
-                    details[f"{side}.{b}.exceedance_probability"] = agb.exceedance(bound, side, b)
+                    details[f"{side}.{b}.exceedance_probability"] = agb.exceedance(
+                        bound, side, b, **(f if b == "analytic" else {}))
                     side_values.setdefault(b, []).append(sign * details[f"{side}.{b}.quantile_percent"])
                     side_errors.setdefault(b, []).append(plain(agb.standard_error("quantile", b, prob)) * PERCENT)
             if agb.has("montecarlo"):
                 details[f"{side}.montecarlo.exceedance_probability_standard_error"] = agb.standard_error(
-                    "exceedance", "montecarlo", bound, side)
+                    "exceedance", "montecarlo", bound, side, **f)
                 sampling.append(agb.sampling_standard_error("quantile", prob) * PERCENT)
             q = plain(agb.quantile(prob, basis)) * PERCENT
             values.append(q if side == "over" else -q)
@@ -118,7 +123,6 @@ class AGBErrorBound(Requirement):
         if (c["level_margins"] or c["tradeoff_curve"]) and model.unavailable is not None:
             notes.append(f"no level margins or trade-off curve: {model.unavailable}")
         elif c["level_margins"] or c["tradeoff_curve"]:
-            bounds = [AGBBound(agb, bound, conf, side) for side in self.sides()]
             convention = level_convention(case)
             if validity_note(model) is not None:
                 notes.append(validity_note(model))

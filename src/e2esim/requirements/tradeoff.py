@@ -22,7 +22,8 @@ for any level an error model has (``first_failing_level``): the margins of the r
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from functools import cached_property
 from operator import attrgetter
 
 import numpy as np
@@ -105,16 +106,25 @@ def _aligned(x, like):
 class AGBBound:
     """A requirement module's one-sided bound, asked of the AGB error it checks: ``AGBError.bound_violation`` at
     the error model's changed levels (eq. 19 with every source the AGB error holds). What the margins and
-    trade-off curves of the requirement modules solve."""
+    trade-off curves of the requirement modules solve, and what the verdict's exceedance probabilities ask.
+    memo : the run's ``KernelMemo`` (``case.services.memo``), which keeps a retrieval map's threshold for the other
+    requirements and cases with the same map and level; None: the threshold is derived here."""
 
     agb: object
     bound: float
     confidence: float
     side: str
+    memo: object = field(default=None, compare=False, repr=False)
 
     @property
     def model(self):
         return self.agb.error_model
+
+    @cached_property
+    def relative_threshold(self):
+        """f of eq. (19), the relative sigma_hv error at the side's level (``AGBError.sigma_threshold``: eq. 16, or
+        a bisection of the retrieval model's map), derived once for every level the margins and curves ask."""
+        return self.agb.sigma_threshold(self.bound if self.side == "over" else -self.bound, self.memo)
 
     moments_source = property(attrgetter("agb"))
     """What ``moments_at`` asks: bounds with the same source share its evaluations (``first_failing_levels``)."""
@@ -124,7 +134,7 @@ class AGBBound:
 
     def violation_of(self, moments):
         """The violation from ``moments_at``'s answer at the levels (the same numbers as ``violation_at``)."""
-        return self.agb.bound_violation_of(moments, self.bound, self.confidence, self.side)
+        return self.agb.bound_violation_of(moments, self.bound, self.confidence, self.side, self.relative_threshold)
 
     def violation_at(self, **levels):
         return self.violation_of(self.moments_at(**levels))

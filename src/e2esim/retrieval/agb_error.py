@@ -125,11 +125,12 @@ class AGBError(ErrorVariants, SampledAnswers, Batched):
             return agb_relative_error(x, along(self.exponent, x.ndim - np.ndim(self.exponent)))
         return self.mapping(np.asarray(sigma_relative, dtype=float))
 
-    def sigma_threshold(self, level):
-        """Relative sigma_hv error x at which the relative AGB error reaches ``level`` (eq. 16 or the map)."""
+    def sigma_threshold(self, level, memo=None):
+        """Relative sigma_hv error x at which the relative AGB error reaches ``level`` (eq. 16 or the map; memo: the
+        run's ``KernelMemo``, which keeps a map's bisection, ``RelativeErrorMap.threshold``)."""
         if self.mapping is None:
             return plain(sigma_relative_error(level, self.exponent))
-        return self.mapping.threshold(level)
+        return self.mapping.threshold(level, memo)
 
     # Quantiles, exceedance, RMSE ----------------------------------------------------------
     # The analytic answers are element-wise in the fields, which may carry a leading case axis (a block of
@@ -143,11 +144,14 @@ class AGBError(ErrorVariants, SampledAnswers, Batched):
             return self.relative_agb(e / along(self.sigma_hv, k))
         return np.quantile(self.samples, probability)
 
-    def exceedance(self, bound, side: str = "over", basis: str = "analytic"):
-        """P(q > bound) for side "over" (bound > 0), P(q < -bound) for side "under" (bound > 0)."""
+    def exceedance(self, bound, side: str = "over", basis: str = "analytic", relative_threshold=None):
+        """P(q > bound) for side "over" (bound > 0), P(q < -bound) for side "under" (bound > 0). relative_threshold:
+        ``sigma_threshold`` at the side's level where the caller holds it already (``AGBBound.relative_threshold``,
+        for this error or a variant with its map and exponent), None: derived here."""
         level = bound if side == "over" else -bound
         if basis == "analytic":
-            threshold = self.sigma_threshold(level) * np.asarray(self.sigma_hv)  # f sigma_hv, eq. (19)
+            f = self.sigma_threshold(level) if relative_threshold is None else relative_threshold
+            threshold = f * np.asarray(self.sigma_hv)  # f sigma_hv, eq. (19)
             below = threshold - np.asarray(self.error_mean)
             sd = np.asarray(self.error_sd)
             with np.errstate(divide="ignore", invalid="ignore"):

@@ -30,12 +30,13 @@ class SampledAnswers:
         expectation over simulated campaigns)."""
         return any(c.uncertainty is not None for c in self.contributions)
 
-    def standard_error(self, statistic: str, basis: str = "analytic", *args):
+    def standard_error(self, statistic: str, basis: str = "analytic", *args, **options):
         """Standard error of ``statistic`` ("mean", "rmse", "quantile", "exceedance"; ``args`` as the method
         takes them, e.g. the probability) on ``basis``: the analytic answer's from the standard errors of the
         sampled variance terms (``terms_standard_error``); the Monte Carlo's from its sampling error and those
-        terms, in quadrature (the Monte Carlo draws the terms with their estimated variance)."""
-        terms = self.terms_standard_error(lambda a: getattr(a, statistic)(*args, basis="analytic"))
+        terms, in quadrature (the Monte Carlo draws the terms with their estimated variance). ``options``: keyword
+        arguments of the analytic answer (the exceedance's ``relative_threshold``)."""
+        terms = self.terms_standard_error(lambda a: getattr(a, statistic)(*args, basis="analytic", **options))
         if basis == "analytic":
             return terms
         sampling = self.sampling_standard_error(statistic, *args)

@@ -104,12 +104,14 @@ class ErrorVariants:
         quantile of q, since q is a non-decreasing function of the sigma error."""
         return self.bound_violation_of(self.moments_under(**levels), bound, confidence, side)
 
-    def bound_violation_of(self, moments: tuple, bound: float, confidence: float, side: str):
+    def bound_violation_of(self, moments: tuple, bound: float, confidence: float, side: str, relative_threshold=None):
         """``bound_violation`` from the (mean, SD) that ``moments_under`` gave at the levels: the sides of a bound
-        that ask the same levels share one evaluation of the moments (``e2esim.requirements.level_search``)."""
+        that ask the same levels share one evaluation of the moments (``e2esim.requirements.level_search``).
+        relative_threshold : f where the caller holds it (``AGBBound.relative_threshold``), None: derived here."""
         mean, sd = moments
         z = float(standard_normal_quantile(confidence))
-        f = self.sigma_threshold(bound if side == "over" else -bound)
+        level = bound if side == "over" else -bound
+        f = self.sigma_threshold(level) if relative_threshold is None else relative_threshold
         f_sigma = _aligned(f, mean) * _aligned(self.error_model.value, mean)
         if side == "over":
             return mean + z * sd - f_sigma

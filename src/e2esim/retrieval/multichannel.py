@@ -68,8 +68,8 @@ class LogErrorMap:
     def __call__(self, y):
         return np.expm1(np.asarray(y, dtype=float))
 
-    def threshold(self, level: float) -> float:
-        """y at which q reaches ``level`` (> -1)."""
+    def threshold(self, level: float, memo=None) -> float:
+        """y at which q reaches ``level`` (> -1); in closed form (``memo`` is not needed)."""
         return float(np.log1p(level))
 
     def saturation_threshold(self) -> float:

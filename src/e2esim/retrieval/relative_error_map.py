@@ -7,11 +7,14 @@ quantiles of q are the images of those of x (Men et al. 2021, Section V-B, for t
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, fields, is_dataclass
 
 import numpy as np
 
 _X_SEARCH = (-1.0 + 1e-12, 1e6)  # relative sigma errors searched when inverting a map numerically
+
+THRESHOLDS_KEPT = 64
+"""Thresholds a kernel memo keeps (a requirement asks one or two levels of each distinct map of a run)."""
 
 
 @dataclass(frozen=True)
@@ -44,11 +47,20 @@ class RelativeErrorMap:
         truth = np.atleast_1d(self.model.sigma(self.agb_t_ha, **dict(self.covariates)))
         return float(s_max / truth[1 if truth.size == 3 else 0] - 1.0)
 
-    def threshold(self, level: float) -> float:
-        """x at which q reaches ``level`` (> -1): +inf if q never exceeds it (cap), -1 if q never falls to it."""
-        kept = self.__dict__.setdefault("_thresholds", {})  # a bisection once per level, kept with the frozen map
-        return kept[float(level)] if float(level) in kept else kept.setdefault(float(level),
-                                                                                self._threshold_numeric(level))
+    def threshold(self, level: float, memo=None) -> float:
+        """x at which q reaches ``level`` (> -1): +inf if q never exceeds it (cap), -1 if q never falls to it.
+
+        memo : the run's ``KernelMemo`` (``case.services.memo``, handed in by the requirement that asks), which
+        keeps the bisection for every map of the same values asked at the same level (the cases of a sweep that
+        share an AGB and a model); None: bisected anew. The same bisection either way."""
+        if memo is None:
+            return self._threshold_numeric(level)
+        key = ("relative error threshold", _by_value(self), float(level).hex())
+        try:
+            hash(key)
+        except TypeError:  # a plug-in model with an unhashable field that is not an array: not kept
+            return self._threshold_numeric(level)
+        return memo.recall(key, lambda: self._threshold_numeric(level), keep=THRESHOLDS_KEPT)
 
     def _threshold_numeric(self, level):
         if not np.isfinite(level):
@@ -74,3 +86,18 @@ class RelativeErrorMap:
         if hasattr(self.model, "channel_weights"):
             return float(self.model.channel_weights()[1])
         return float(1.0 / self.model.sensitivity(self.agb_t_ha, **dict(self.covariates)))
+
+
+def _by_value(x):
+    """``x`` as a hashable key of its value: a dataclass by its type and compared fields, an array by its dtype, shape
+    and bytes, a float by its bits (``float.hex``: -0.0 is not 0.0)."""
+    if is_dataclass(x) and not isinstance(x, type):
+        return (type(x).__module__, type(x).__qualname__,
+                tuple((f.name, _by_value(getattr(x, f.name))) for f in fields(x) if f.compare))
+    if isinstance(x, np.ndarray):
+        return ("array", x.dtype.str, x.shape, np.ascontiguousarray(x).tobytes())
+    if isinstance(x, (tuple, list)):
+        return (type(x).__name__, tuple(_by_value(v) for v in x))
+    if isinstance(x, float):
+        return ("float", float(x).hex())
+    return (type(x).__name__, x)
