@@ -4,9 +4,12 @@ error model, without a source, its systematic part, and with added terms, all fr
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
+from e2esim.case import KernelMemo
 from e2esim.distortion.error_model import HVErrorModel
 from e2esim.faraday.distribution import GaussianFaraday
 from e2esim.requirements.tradeoff import (
@@ -19,6 +22,9 @@ from e2esim.requirements.tradeoff import (
     first_failing_levels,
 )
 from e2esim.retrieval.agb_error import AGBContribution, AGBError
+from e2esim.retrieval.loglinear import LogLinearModel
+from e2esim.retrieval.power_law import PowerLaw
+from e2esim.retrieval.relative_error_map import RelativeErrorMap
 from helpers import forest, system
 
 CONFIDENCE = 0.99865  # z = 3 (Men et al. 2021, Table III)
@@ -100,3 +106,57 @@ def test_the_sides_of_a_bound_share_the_scan_and_find_their_own_limits_bit_for_b
     curves = bound_tradeoff_curves(bounds, x)
     assert np.any(np.isfinite(alone[0])) and np.array_equal(alone, curves, equal_nan=True)
     assert len(calls) < 0.6 * searched_alone  # one scan, and the sides' steps asked together
+
+
+def _counted_bisections(monkeypatch) -> list:
+    """The levels ``RelativeErrorMap``'s bisection is run at, from now on."""
+    levels = []
+    bisect = RelativeErrorMap._threshold_numeric
+    monkeypatch.setattr(RelativeErrorMap, "_threshold_numeric", lambda m, level: levels.append(level) or bisect(m, level))
+    return levels
+
+
+def _same_bits(a, b) -> bool:
+    return np.float64(a).tobytes() == np.float64(b).tobytes()
+
+
+def test_the_kernel_memo_keeps_a_maps_threshold_by_the_maps_values_and_the_level(monkeypatch):
+    """Issue 27, Build 7: ``RelativeErrorMap.threshold`` handed the run's kernel memo bisects once per map value and
+    level (equal maps made apart share it; an array of the model is keyed by its bytes), the bits of a fresh
+    bisection; without a memo it bisects anew (nothing is kept in the frozen map)."""
+    power_law = RelativeErrorMap(PowerLaw(0.1, 0.5), 150.0)
+    fresh = {level: power_law._threshold_numeric(level) for level in (0.2, -0.2)}
+    bisected = _counted_bisections(monkeypatch)
+    memo = KernelMemo()
+    first = power_law.threshold(0.2, memo)
+    again = RelativeErrorMap(PowerLaw(0.1, 0.5), 150.0).threshold(0.2, memo)
+    assert bisected == [0.2] and _same_bits(first, fresh[0.2]) and _same_bits(again, fresh[0.2])
+    assert _same_bits(power_law.threshold(-0.2, memo), fresh[-0.2]) and bisected == [0.2, -0.2]
+    RelativeErrorMap(PowerLaw(0.1, 0.5), 151.0).threshold(0.2, memo)
+    assert len(bisected) == 3  # another AGB: another map
+    assert _same_bits(power_law.threshold(0.2), fresh[0.2]) and len(bisected) == 4  # no memo: bisected anew
+    log_linear = [LogLinearModel((-4.7, -4.9, -1.6), (0.8039, 0.4224, 0.0612), (0.0, 0.0, 0.0), c * np.eye(3))
+                  for c in (1.0, 1.0, 2.0)]
+    for model in log_linear:
+        RelativeErrorMap(model, 100.0, None, (("incidence_rad", 0.5),)).threshold(0.2, memo)
+    assert len(bisected) == 6  # the residual covariance, an array, is keyed by its bytes: equal ones share
+
+
+def test_a_bound_derives_its_threshold_once_for_its_margins_curves_and_exceedance(monkeypatch):
+    """Issue 27, Build 7: a requirement's ``AGBBound`` derives the relative sigma error at its side's level once
+    (``relative_threshold``) for every level its margins and trade-off curves ask and for the verdict's exceedance
+    probability; the violations and probabilities are those of a threshold derived in place, bit for bit."""
+    _, agb = _agb(0.0004)
+    agb = replace(agb, mapping=RelativeErrorMap(PowerLaw(0.1, 1 / 2.2), 150.0))
+    bisected = _counted_bisections(monkeypatch)
+    bounds = [AGBBound(agb, 0.2, CONFIDENCE, side, KernelMemo()) for side in ("over", "under")]
+    limits = first_failing_levels(bounds, lambda v: {"crosstalk": v})
+    curves = bound_tradeoff_curves(bounds, np.logspace(-6, -2, 7))
+    exceedance = [agb.exceedance(0.2, b.side, relative_threshold=b.relative_threshold) for b in bounds]
+    assert sorted(bisected) == [-0.2, 0.2]  # one per side, not one per level asked
+    assert np.all(np.isfinite(limits)) and np.any(np.isfinite(curves[0]))
+    levels = np.logspace(-8, -1, 15)
+    for b, p in zip(bounds, exceedance):
+        moments = agb.moments_under(crosstalk=levels)
+        assert np.array_equal(b.violation_of(moments), agb.bound_violation_of(moments, 0.2, CONFIDENCE, b.side))
+        assert _same_bits(p, agb.exceedance(0.2, b.side))

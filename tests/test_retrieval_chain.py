@@ -128,6 +128,33 @@ def test_log_linear_retrieval_runs_and_uses_the_hv_weight():
     assert np.all(np.isfinite(agb.samples))
 
 
+def test_a_retrieval_maps_threshold_is_bisected_once_per_map_and_level(monkeypatch):
+    """Issue 27, Build 7: a requirement asks the relative sigma error at its bound of a retrieval model's map
+    (``RelativeErrorMap.threshold``, a bisection) once per side: the verdict's exceedance, its standard error and
+    the level margins share the bound's ``AGBBound.relative_threshold``, and the run's kernel memo keeps it for the
+    cases whose maps have the same values (here two cases at one AGB). The numbers are a fresh bisection's."""
+    from e2esim import case as case_module
+    from e2esim.retrieval.relative_error_map import RelativeErrorMap
+
+    monkeypatch.setattr(case_module, "_PROCESS_MEMO", [])  # a fresh process memo: nothing kept from other tests
+    levels = []
+    bisect = RelativeErrorMap._threshold_numeric
+    monkeypatch.setattr(RelativeErrorMap, "_threshold_numeric", lambda m, level: levels.append(level) or bisect(m, level))
+    data = dict(BASE, retrieval={"type": "log_linear"},
+                simulation={**BASE["simulation"], "mode": "analytic"},
+                requirements=[{"type": "agb_error_bound", "side": "both", "bound_percent": 20,
+                               "sources": "systematic", "level_margins": True}],
+                sweep={"mode": "grid", "parameters": {"ionosphere.mean_deg": [60.0, 62.0]}})
+    cases = _run(data)
+    assert sorted(levels) == [-0.2, 0.2]  # not one per case, side and question
+    for case in cases:
+        agb, details = case.get("agb.error").systematic(), case.verdicts[0].details
+        assert np.isfinite(details["nesz.margin_db"])  # the level margins asked the bounds too
+        for side in ("over", "under"):
+            assert details[f"{side}.analytic.exceedance_probability"] == agb.exceedance(0.2, side)  # bit for bit
+    assert len(levels) == 2 + 4  # the checks above bisected anew, without a memo
+
+
 def test_population_reference_with_speckle_is_refused():
     data = dict(BASE, propagation=[{"type": "hv_backscatter_error", "reference": "population"},
                                    {"type": "backscatter_error_budget"}])
