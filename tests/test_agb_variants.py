@@ -112,7 +112,8 @@ def _counted_bisections(monkeypatch) -> list:
     """The levels ``RelativeErrorMap``'s bisection is run at, from now on."""
     levels = []
     bisect = RelativeErrorMap._threshold_numeric
-    monkeypatch.setattr(RelativeErrorMap, "_threshold_numeric", lambda m, level: levels.append(level) or bisect(m, level))
+    monkeypatch.setattr(RelativeErrorMap, "_threshold_numeric",
+                        lambda m, level: levels.append(level) or bisect(m, level))
     return levels
 
 

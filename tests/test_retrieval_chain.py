@@ -139,7 +139,8 @@ def test_a_retrieval_maps_threshold_is_bisected_once_per_map_and_level(monkeypat
     monkeypatch.setattr(case_module, "_PROCESS_MEMO", [])  # a fresh process memo: nothing kept from other tests
     levels = []
     bisect = RelativeErrorMap._threshold_numeric
-    monkeypatch.setattr(RelativeErrorMap, "_threshold_numeric", lambda m, level: levels.append(level) or bisect(m, level))
+    monkeypatch.setattr(RelativeErrorMap, "_threshold_numeric",
+                        lambda m, level: levels.append(level) or bisect(m, level))
     data = dict(BASE, retrieval={"type": "log_linear"},
                 simulation={**BASE["simulation"], "mode": "analytic"},
                 requirements=[{"type": "agb_error_bound", "side": "both", "bound_percent": 20,
