@@ -115,17 +115,21 @@ def _simulate_fast(scene, system, errs, omega, rng, looks, n_noise, reference, c
         parts = effective_weight_parts(errs.delta, errs.f, omega, ch)  # (3, 2, M): a's elements' parts
         if system.has_gain_error:
             parts *= errs.gain  # a real gain times a complex is its two parts times the gain (bit for bit)
-        q = hermitian_form(parts, c_hat)
-        q = np.clip(q, 0.0, None)  # a C a^H >= 0; clip rounding noise only
+        q = hermitian_form(parts, c_hat)  # a new array: the steps below work in place
+        np.clip(q, 0.0, None, out=q)  # a C a^H >= 0; clip rounding noise only
         nu2 = system.noise_power * estimator_noise_factor(ch)
         if nu2 > 0:
-            nonc = 2 * looks * np.repeat(q[:, None], n_noise, axis=1) / nu2
-            sigma_hat = nu2 / (2 * looks) * rng.noncentral_chisquare(2 * looks, nonc)
+            q *= 2 * looks  # the noncentrality 2 L q / nu2, the same for each noise realisation
+            q /= nu2
+            nonc = q[:, None] if n_noise == 1 else np.repeat(q[:, None], n_noise, axis=1)
+            sigma_hat = rng.noncentral_chisquare(2 * looks, nonc)
+            sigma_hat *= nu2 / (2 * looks)
         else:
             sigma_hat = np.repeat(q[:, None], n_noise, axis=1)
         idx = RECIPROCAL_CHANNELS.index(ch)
         ref[ch] = np.real(c_hat[..., idx, idx]) if reference == "scene" else _population_sigma(scene, ch)
-        errors[ch] = sigma_hat - (ref[ch][:, None] if np.ndim(ref[ch]) else ref[ch])
+        sigma_hat -= ref[ch][:, None] if np.ndim(ref[ch]) else ref[ch]
+        errors[ch] = sigma_hat
     return errors, ref
 
 
