@@ -137,23 +137,24 @@ def hermitian_form(parts: np.ndarray, c: np.ndarray) -> np.ndarray:
     """Re(a C a^H) per realisation, from the parts (3, 2, M) of rows ``a`` (``effective_weight_parts``), for a
     Hermitian C (3, 3) or (M, 3, 3): ``sum_i C_ii |a_i|^2 + sum_{i<j} 2 Re(a_i C_ij a_j^*)``, added in the order
     (0,0), (0,1), (0,2), (1,1), (1,2), (2,2), in real arithmetic (several times faster than a three-operand
-    einsum, the same value to rounding). Intermediate products are formed in place, in few buffers."""
+    einsum, the same value to rounding). The products are formed in place in one reused buffer: a smaller working
+    set, fewer cache misses."""
     cr, ci = _by_element(c.real), _by_element(c.imag)
-    pairs = np.empty((2, 3) + parts.shape[1:])  # [same, swapped] x pairs (0,1), (0,2), (1,2) x two products
-    np.multiply(parts[0], parts[1:3], out=pairs[0, :2])  # ar_i ar_j, ai_i ai_j
-    np.multiply(parts[1], parts[2], out=pairs[0, 2])
-    np.multiply(parts[0, ::-1], parts[1:3], out=pairs[1, :2])  # ai_i ar_j, ar_i ai_j
-    np.multiply(parts[1, ::-1], parts[2], out=pairs[1, 2])
-    cross, im = pairs[0, :, 0], pairs[1, :, 0]
-    cross += pairs[0, :, 1]  # Re(a_i a_j^*) = ar_i ar_j + ai_i ai_j
-    im -= pairs[1, :, 1]  # Im(a_i a_j^*) = ai_i ar_j - ar_i ai_j
+    work = np.empty((3,) + parts.shape[1:])  # a pair's two products for the pairs (0,1), (0,2), (1,2); then squares
+    np.multiply(parts[0], parts[1:3], out=work[:2])  # ar_i ar_j, ai_i ai_j
+    np.multiply(parts[1], parts[2], out=work[2])
+    cross = np.add(work[:, 0], work[:, 1])  # Re(a_i a_j^*)
+    np.multiply(parts[0, ::-1], parts[1:3], out=work[:2])  # ai_i ar_j, ar_i ai_j
+    np.multiply(parts[1, ::-1], parts[2], out=work[2])
+    im = work[:, 0]
+    im -= work[:, 1]  # Im(a_i a_j^*)
     cross *= cr[_UPPER]
     im *= ci[_UPPER]
     cross -= im
     cross *= 2  # 2 Re(a_i C_ij a_j^*) = 2 (Re C_ij Re(a_i a_j^*) - Im C_ij Im(a_i a_j^*))
-    squares = np.square(parts)
-    power = squares[:, 0]
-    power += squares[:, 1]  # |a_i|^2
+    np.square(parts, out=work)
+    power = work[:, 0]
+    power += work[:, 1]  # |a_i|^2
     power *= cr[_DIAGONAL]
     q = power[0] + cross[0]
     for term in (cross[1], power[1], cross[2], power[2]):

@@ -231,39 +231,44 @@ def effective_weight_parts(delta: np.ndarray, f: np.ndarray, omega: np.ndarray, 
 def _weighted_distortion_parts(w: np.ndarray, delta, f, shape: tuple) -> np.ndarray:
     """``d = w^T D`` (the distortion matrix's rows weighted by the estimator) as parts, shape (4, 2, *shape).
 
-    Each d_k sums its rows' entries in row order. One power-of-two weight for every row (all of
-    ``ESTIMATOR_WEIGHTS``) scales the sum once: scaling by a power of two is exact, so ``w x + w y`` and
-    ``w (x + y)`` are the same bits."""
+    Each d_k sums the entries of the rows with non-zero weight. Every estimator weights at most two rows by one
+    power of two: a sum of two terms is the same bits in either order (so a product is written in place first)
+    and scaling by a power of two is exact, so ``w x + w y`` and ``w (x + y)`` are the same bits."""
     rows = np.flatnonzero(w)
-    weight = w[rows[0]]
-    scale_sum = all(w[r] == weight for r in rows) and math.frexp(weight)[0] == 0.5
-    terms = [[], [], [], []]
-    for r in rows:
-        for col, entry in enumerate(_distortion_row(delta, f, r)):
-            terms[col].append(entry if scale_sum else w[r] * entry)
+    weight = float(w[rows[0]])
+    if len(rows) > 2 or any(w[r] != weight for r in rows) or math.frexp(weight)[0] != 0.5:
+        raise ValueError(f"estimator weights {w}: expected one power-of-two weight on at most two rows")
+    factors = _distortion_factors(delta, f)
+    d = np.empty((4,) + shape, complex)
+    for col in range(4):
+        _sum_into(d[col, ...], [factors[r][col] for r in rows])
     parts = np.empty((4, 2) + shape)
-    for col, column_terms in enumerate(terms):
-        for part, take in enumerate((np.real, np.imag)):  # a complex sum is the sums of its parts
-            plane = parts[col, part, ...]  # a view even for one realisation
-            first, *rest = (take(term) for term in column_terms)
-            if rest:
-                np.add(first, rest[0], out=plane)
-                for term in rest[1:]:
-                    plane += term
-            else:
-                plane[...] = first
-    if scale_sum and weight != 1.0:
-        parts *= weight
+    np.multiply(d.real, weight, out=parts[:, 0])
+    np.multiply(d.imag, weight, out=parts[:, 1])
     return parts
 
 
-def _distortion_row(delta, f, r):
+def _sum_into(out: np.ndarray, terms: list) -> None:
+    """``out`` = the sum of one or two terms, each the product of its tuple of factors (an empty tuple is 1);
+    a product is written straight into ``out`` (no temporary array)."""
+    products = [term for term in terms if len(term) == 2]
+    singles = [term[0] if term else 1.0 for term in terms if len(term) < 2]
+    if products:
+        np.multiply(*products[0], out=out)
+        rest = [np.multiply(*term) for term in products[1:]] + singles
+    elif len(singles) == 2:
+        np.add(*singles, out=out)
+        rest = []
+    else:
+        out[...] = singles[0]
+        rest = []
+    for term in rest:
+        out += term
+
+
+def _distortion_factors(delta, f) -> tuple:
+    """The rows of ``distortion_rows`` as factors: each entry is the product of its tuple (an empty one is 1)."""
     d1, d2, d3, d4 = delta[..., 0], delta[..., 1], delta[..., 2], delta[..., 3]
     f1, f2 = f[..., 0], f[..., 1]
-    if r == 0:
-        return 1.0, d2, d4, d2 * d4
-    if r == 1:
-        return d1, f1, d1 * d4, f1 * d4
-    if r == 2:
-        return d3, d2 * d3, f2, f2 * d2
-    return d1 * d3, f1 * d3, f2 * d1, f1 * f2
+    return (((), (d2,), (d4,), (d2, d4)), ((d1,), (f1,), (d1, d4), (f1, d4)),
+            ((d3,), (d2, d3), (f2,), (f2, d2)), ((d1, d3), (f1, d3), (f2, d1), (f1, f2)))
