@@ -4,8 +4,9 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from e2esim.distortion.montecarlo import gaussianity, simulate
+from e2esim.distortion.montecarlo import gaussianity, hermitian_form, simulate
 from e2esim.faraday.distribution import GaussianFaraday
+from e2esim.polarimetry.system_model import effective_weight_parts
 from helpers import Z_ACCEPT, forest, system
 
 FR = GaussianFaraday(np.pi / 3, np.pi / 36)
@@ -84,3 +85,25 @@ def test_bad_arguments():
         simulate(forest(), system(), FR, rng, 10, 10, channels=("vh",))
     with pytest.raises(ValueError, match="scene_vectors can only be given"):
         simulate(forest(), system(), FR, rng, 10, 10, reference="population", scene_vectors=np.zeros((10, 3)))
+
+
+@pytest.mark.parametrize("per_realisation", [False, True])
+def test_hermitian_form_is_a_c_a_h_bit_for_bit_in_its_order(rng, per_realisation):
+    # Re(a C a^H): C_ii |a_i|^2 and 2 Re(a_i C_ij a_j^*) added in the order (0,0), (0,1), (0,2), (1,1), (1,2), (2,2).
+    m = 30
+    delta = 0.1 * (rng.standard_normal((m, 4)) + 1j * rng.standard_normal((m, 4)))
+    parts = effective_weight_parts(delta, 1 + delta[:, :2], rng.uniform(-np.pi, np.pi, m))
+    a = parts[:, 0].T + 1j * parts[:, 1].T
+    x = rng.standard_normal((m, 3, 3)) + 1j * rng.standard_normal((m, 3, 3))
+    c = x @ np.swapaxes(x.conj(), -1, -2) if per_realisation else x[0] @ x[0].conj().T
+    cm = np.broadcast_to(c, (m, 3, 3))
+    expected = 0.0
+    for i in range(3):
+        expected = expected + cm[:, i, i].real * (a[:, i].real ** 2 + a[:, i].imag ** 2)
+        for j in range(i + 1, 3):
+            re = a[:, i].real * a[:, j].real + a[:, i].imag * a[:, j].imag
+            im = a[:, i].imag * a[:, j].real - a[:, i].real * a[:, j].imag
+            expected = expected + 2 * (cm[:, i, j].real * re - cm[:, i, j].imag * im)
+    q = hermitian_form(parts, c)
+    assert np.array_equal(q, expected)
+    np.testing.assert_allclose(q, np.einsum("mi,mij,mj->m", a, cm, a.conj()).real, rtol=1e-12)

@@ -77,3 +77,29 @@ def test_unit_structure_is_the_unit_level_model_bit_for_bit():
     for got, want in zip(model.unit_structure, expected, strict=True):
         assert type(got) is type(want) and np.array_equal(got, want)
     assert model.unit_structure[1] != 0 and model.unit_structure[4] != 0  # the correlations are in it
+
+
+@pytest.mark.parametrize("levels", [(2e-3, 1e-3), (0.0, 1e-3)])
+def test_draws_are_the_complex_formula_bit_for_bit(levels):
+    # The sampler scales the normal draws as reals, in place: the same bits as the complex products
+    # a = sqrt(V_a) xi_a, b = (C*/V_a) a + sqrt(V_b - |C|^2/V_a) xi_b with xi = (x + j y)/sqrt(2), the real parts
+    # of (a, b) drawn first, then the imaginary parts (one stream for every release's draws).
+    model = SystemErrorModel(crosstalk_level=levels[0], crosstalk_relative=(1.0, 0.5, 2.0, 0.8),
+                             crosstalk_rho13=0.7 * np.exp(1j), crosstalk_rho24=-0.4j, imbalance_level=levels[1],
+                             imbalance_rho=0.6 * np.exp(-2j))
+    n, seed = 1000, 11
+    rng = np.random.default_rng(seed)
+    columns = []
+    for var_a, var_b, cov in [(*model.crosstalk_variance[0::2], model.crosstalk_cov13),
+                              (*model.crosstalk_variance[1::2], model.crosstalk_cov24),
+                              (*model.imbalance_variance, model.imbalance_cov12)]:
+        x, y = rng.standard_normal((2, n)), rng.standard_normal((2, n))
+        xi = (x + 1j * y) * (1 / np.sqrt(2))
+        a = np.sqrt(var_a) * xi[0]
+        b = (np.conj(cov) / var_a * a + np.sqrt(max(var_b - abs(cov) ** 2 / var_a, 0.0)) * xi[1] if var_a > 0
+             else np.sqrt(var_b) * xi[1])
+        columns.append((a, b))
+    s = model.sample(np.random.default_rng(seed), n)
+    (d1, d3), (d2, d4), (e1, e2) = columns
+    assert np.array_equal(s.delta, np.stack([d1, d2, d3, d4], -1))
+    assert np.array_equal(s.f, 1 + np.stack([e1, e2], -1))

@@ -80,3 +80,31 @@ def test_broadcasting_of_vectorised_kernels(rng):
     a = effective_weights(delta.reshape(2, 3, 4), f.reshape(2, 3, 2), om.reshape(2, 3), "hv")
     assert a.shape == (2, 3, 3)
     np.testing.assert_allclose(a.reshape(6, 3), effective_weights(delta, f, om, "hv"))
+
+
+def _complex_effective_weights(delta, f, om, channel, gain):
+    """The element-wise formula in complex arithmetic, term by term: w_r times each row entry of
+    ``distortion_rows``, summed in row order, then the Faraday columns as complex-times-real products."""
+    w, rows = ESTIMATOR_WEIGHTS[channel], np.moveaxis(distortion_rows(delta, f), (-2, -1), (0, 1))
+    first, *rest = np.flatnonzero(w)
+    d = [sum((w[r] * rows[r, col] for r in rest), w[first] * rows[first, col]) for col in range(4)]
+    c, s = np.cos(om), np.sin(om)
+    cross = (d[2] - d[1]) * (c * s)
+    a = np.stack([d[0] * c * c + cross - d[3] * s * s, d[1] + d[2], -d[0] * s * s + cross + d[3] * c * c], -1)
+    return gain[..., None] * a
+
+
+@pytest.mark.parametrize("channel", ["hh", "hv", "vv"])
+@pytest.mark.parametrize("shape", [(40,), (), (2, 3)])
+def test_effective_weights_are_the_complex_formula_bit_for_bit(rng, channel, shape):
+    # The parts are computed in real arithmetic (a complex times a real is its two parts times the real) and a
+    # power-of-two estimator weight scales the sum of the rows once: the same bits as the complex products.
+    n = int(np.prod(shape))
+    delta, f, om = _random_errors(rng, n)
+    delta, f, om = delta.reshape(shape + (4,)), f.reshape(shape + (2,)), om.reshape(shape)
+    gain = rng.uniform(0.5, 2, shape)
+    expected = _complex_effective_weights(delta, f, om, channel, gain)
+    assert np.array_equal(effective_weights(delta, f, om, channel, gain), expected)
+    assert np.array_equal(effective_weights(delta, f, om[..., :1] if shape == (2, 3) else om, channel),
+                          _complex_effective_weights(delta, f, om[..., :1] if shape == (2, 3) else om, channel,
+                                                     np.ones(shape)))

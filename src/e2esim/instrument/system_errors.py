@@ -142,7 +142,7 @@ class SystemErrorModel:
         _correlated_pair(rng, n, v[0], v[2], self.crosstalk_cov13, out=(delta[0], delta[2]))
         _correlated_pair(rng, n, v[1], v[3], self.crosstalk_cov24, out=(delta[1], delta[3]))
         _correlated_pair(rng, n, *self.imbalance_variance, self.imbalance_cov12, out=imbalance)
-        imbalance += 1.0
+        imbalance.real += 1.0  # f = 1 + epsilon: the imaginary parts + 0, unchanged
         if self.has_gain_error:
             gain = np.sqrt(db_to_linear(self.gain_offset_db + self.gain_sd_db * rng.standard_normal(n)))
         else:
@@ -158,20 +158,30 @@ def _covariance(rho: complex, variances: tuple, i: int, j: int) -> complex:
 def _correlated_pair(rng, n, var_a, var_b, cov_ab, out=None):
     """n draws of (a, b) zero-mean circular complex Gaussian, E|a|^2=var_a, E|b|^2=var_b, E[a b*]=cov_ab.
 
-    ``out``: two complex arrays of length n to fill (rows of the caller's sample arrays), else new ones."""
-    xi = np.empty((2, n), complex)  # filled in place: the values of (x + 1j y) / sqrt(2), fewer temporaries
-    xi.real = rng.standard_normal((2, n))
-    xi.imag = rng.standard_normal((2, n))
-    xi *= 1 / np.sqrt(2)
+    ``out``: two contiguous complex arrays of length n to fill (rows of the caller's sample arrays), else new
+    ones. ``a = sqrt(V_a) xi_a`` and ``b = (C*/V_a) a + sqrt(V_b - |C|^2/V_a) xi_b`` with ``xi = (x + j y)/sqrt(2)``
+    for standard normal x, y: the real parts (x_a, x_b) drawn first, then the imaginary parts."""
+    xy = rng.standard_normal((2, 2, n))  # [real, imaginary] x [a, b]
+    # A complex times a real is its two parts times the real: the draws are scaled in place as reals (the same
+    # values, bit for bit, as the complex products) and written straight into a's and b's parts.
+    xy *= 1 / np.sqrt(2)
     a, b = np.empty((2, n), complex) if out is None else out
-    np.multiply(np.sqrt(var_a), xi[0], out=a)
+    np.multiply(xy[:, 0], np.sqrt(var_a), out=_parts(a))
     if var_a > 0:
         rho = np.conj(cov_ab) / var_a  # b = (C*/V_a) a + residual gives E[a b*] = C
         np.multiply(rho, a, out=b)
-        b += np.sqrt(max(var_b - abs(cov_ab) ** 2 / var_a, 0.0)) * xi[1]
+        residual = xy[:, 1]
+        residual *= np.sqrt(max(var_b - abs(cov_ab) ** 2 / var_a, 0.0))
+        b_parts = _parts(b)
+        b_parts += residual
     else:
-        np.multiply(np.sqrt(var_b), xi[1], out=b)
+        np.multiply(xy[:, 1], np.sqrt(var_b), out=_parts(b))
     return a, b
+
+
+def _parts(z: np.ndarray) -> np.ndarray:
+    """The real and imaginary parts of a contiguous complex (n,) array, as one writable (2, n) view."""
+    return z.view(np.float64).reshape(-1, 2).T
 
 
 def _floats(values, count: int) -> tuple | None:

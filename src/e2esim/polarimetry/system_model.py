@@ -20,6 +20,8 @@ Every function is vectorised over leading axes: ``delta`` has shape ``(..., 4)``
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 CHANNELS = ("hh", "hv", "vh", "vv")
@@ -184,35 +186,89 @@ def effective_weights(
 
     ``a = gain * w^T D(delta, f) (F^T kron F)(Omega) P``: the estimator weights ``w`` applied to the
     operator of Men et al. (2021) eq. (1) (``distortion_operator``), restricted to reciprocal scenes.
-    Computed element-wise from the rows of ``distortion_rows`` and the columns of
-    ``faraday_reciprocal_columns``, several times faster than forming the 4x4 operator.
+    Computed element-wise (``effective_weight_parts``), several times faster than forming the 4x4 operator.
     Shape ``(..., 3)``, complex.
     """
-    w = ESTIMATOR_WEIGHTS[channel]
-    delta, f = np.asarray(delta), np.asarray(f)
-    d = [0.0, 0.0, 0.0, 0.0]  # w^T D, element by element (only rows with non-zero weight)
-    for r in np.flatnonzero(w):
-        for col, entry in enumerate(_distortion_row(delta, f, r)):
-            term = w[r] * entry
-            d[col] = term if np.isscalar(d[col]) and d[col] == 0.0 else d[col] + term
-    omega = np.asarray(omega, dtype=float)
-    c, s = np.cos(omega), np.sin(omega)
-    cs = c * s
-    cross = (d[2] - d[1]) * cs
-    first, last = d[0] * c * c + cross - d[3] * s * s, -d[0] * s * s + cross + d[3] * c * c
-    a = np.empty(np.broadcast_shapes(np.shape(first), np.shape(last)) + (3,), complex)  # filled, not stacked
-    a[..., 0], a[..., 1], a[..., 2] = first, d[1] + d[2], last
+    parts = effective_weight_parts(delta, f, omega, channel)
+    a = np.empty(parts.shape[2:] + (3,), complex)  # filled, not stacked
+    a.real, a.imag = np.moveaxis(parts[:, 0], 0, -1), np.moveaxis(parts[:, 1], 0, -1)
     gain = np.asarray(gain)
     return a if gain.ndim == 0 and gain == 1.0 else gain[..., None] * a
 
 
-def _distortion_row(delta, f, r):
+def effective_weight_parts(delta: np.ndarray, f: np.ndarray, omega: np.ndarray, channel: str = "hv") -> np.ndarray:
+    """The real and imaginary parts of ``effective_weights`` at unit gain, shape ``(3, 2, ...)``: element
+    (hh, hv, vv) of ``a``, then (real, imaginary), then the broadcast leading axes of delta, f and omega.
+
+    ``a = w^T D (F^T kron F) P`` element by element: with ``d = w^T D`` (the rows of ``_distortion_row``
+    with non-zero weight), ``a_hh = d_1 c^2 + (d_3 - d_2) c s - d_4 s^2``, ``a_hv = d_2 + d_3``,
+    ``a_vv = -d_1 s^2 + (d_3 - d_2) c s + d_4 c^2`` (c, s: cos and sin of Omega; the columns of
+    ``faraday_reciprocal_columns``). Planes of contiguous reals: a complex times a real is its two parts
+    times the real, the same values bit for bit as the complex product, without casting the real to complex.
+    """
+    delta, f = np.asarray(delta), np.asarray(f)
+    omega = np.asarray(omega, dtype=float)
+    shape = np.broadcast_shapes(delta.shape[:-1], f.shape[:-1], omega.shape)
+    d = _weighted_distortion_parts(ESTIMATOR_WEIGHTS[channel], delta, f, shape)
+    c, s = np.cos(omega), np.sin(omega)
+    a = np.empty((3, 2) + shape)
+    np.add(d[1], d[2], out=a[1])
+    cross = d[2]  # (d_3 - d_2) c s, in d_3's place once a_hv has it
+    cross -= d[1]
+    cross *= c * s
+    corners = d[0::3]  # d_1 and d_4: (d s) s beside, then (d c) c in place
+    ss = corners * s
+    ss *= s
+    corners *= c
+    corners *= c
+    np.add(corners[0], cross, out=a[0])
+    a[0] -= ss[1]
+    np.subtract(cross, ss[0], out=a[2])  # -d_1 s^2 + cross, exactly
+    a[2] += corners[1]
+    return a
+
+
+def _weighted_distortion_parts(w: np.ndarray, delta, f, shape: tuple) -> np.ndarray:
+    """``d = w^T D`` (the distortion matrix's rows weighted by the estimator) as parts, shape (4, 2, *shape).
+
+    Each d_k sums the entries of the rows with non-zero weight. Every estimator weights at most two rows by one
+    power of two: a sum of two terms is the same bits in either order (so a product is written in place first)
+    and scaling by a power of two is exact, so ``w x + w y`` and ``w (x + y)`` are the same bits."""
+    rows = np.flatnonzero(w)
+    weight = float(w[rows[0]])
+    if len(rows) > 2 or any(w[r] != weight for r in rows) or math.frexp(weight)[0] != 0.5:
+        raise ValueError(f"estimator weights {w}: expected one power-of-two weight on at most two rows")
+    factors = _distortion_factors(delta, f)
+    d = np.empty((4,) + shape, complex)
+    for col in range(4):
+        _sum_into(d[col, ...], [factors[r][col] for r in rows])
+    parts = np.empty((4, 2) + shape)
+    np.multiply(d.real, weight, out=parts[:, 0])
+    np.multiply(d.imag, weight, out=parts[:, 1])
+    return parts
+
+
+def _sum_into(out: np.ndarray, terms: list) -> None:
+    """``out`` = the sum of one or two terms, each the product of its tuple of factors (an empty tuple is 1);
+    a product is written straight into ``out`` (no temporary array)."""
+    products = [term for term in terms if len(term) == 2]
+    singles = [term[0] if term else 1.0 for term in terms if len(term) < 2]
+    if products:
+        np.multiply(*products[0], out=out)
+        rest = [np.multiply(*term) for term in products[1:]] + singles
+    elif len(singles) == 2:
+        np.add(*singles, out=out)
+        rest = []
+    else:
+        out[...] = singles[0]
+        rest = []
+    for term in rest:
+        out += term
+
+
+def _distortion_factors(delta, f) -> tuple:
+    """The rows of ``distortion_rows`` as factors: each entry is the product of its tuple (an empty one is 1)."""
     d1, d2, d3, d4 = delta[..., 0], delta[..., 1], delta[..., 2], delta[..., 3]
     f1, f2 = f[..., 0], f[..., 1]
-    if r == 0:
-        return 1.0, d2, d4, d2 * d4
-    if r == 1:
-        return d1, f1, d1 * d4, f1 * d4
-    if r == 2:
-        return d3, d2 * d3, f2, f2 * d2
-    return d1 * d3, f1 * d3, f2 * d1, f1 * f2
+    return (((), (d2,), (d4,), (d2, d4)), ((d1,), (f1,), (d1, d4), (f1, d4)),
+            ((d3,), (d2, d3), (f2,), (f2, d2)), ((d1, d3), (f1, d3), (f2, d1), (f1, f2)))
