@@ -33,7 +33,7 @@ import numpy as np
 from e2esim.blas_threads import single_blas_thread
 from e2esim.distortion.channel_moments import unit_covariances
 from e2esim.distortion.polarimetric_moments import NOISE_FACTORS
-from e2esim.stack.analytic import evaluation_levels, memoised, pass_nodes
+from e2esim.stack.analytic import difference_levels, evaluation_levels, memoised, pass_nodes
 from e2esim.stack.channel_forms import channel_node_polynomials
 from e2esim.stack.combination import PassCombination
 from e2esim.stack.faraday import StackFaraday
@@ -111,14 +111,16 @@ def stack_joint_moments(scene: StackScene, errors: StackSystemErrors, faraday: S
                         combination: PassCombination, looks: int | None = None, reference: str = "scene",
                         correct_copol: bool = True, crosstalk_level=None, imbalance_level=None, noise_power=None,
                         difference_variance=None, cache: dict | None = None,
-                        totals_only: bool = False, memo=None, mean_only: bool = False) -> StackJointMoments | tuple:
+                        totals_only: bool = False, memo=None, mean_only: bool = False,
+                        values=None) -> StackJointMoments | tuple:
     """Joint moments of the (hh, hv, vv) errors (module docstring), levels replaced where given (broadcast
     together, as ``stack_hv_moments``). correct_copol : every pass's co-polarised channels rotated back by its
     own Faraday rotation before the passes are combined (the operational order), else not corrected.
     cache : a dict kept by the caller for the node terms of each sigma_D. totals_only : return (mean,
     covariance) only. memo : the run's ``KernelMemo`` (or None), node terms shared by value across cases.
     mean_only : the means alone are read (the covariance's parts without the kernel's covariance; the means the same,
-    bit for bit)."""
+    bit for bit). values : the estimator's values tr(Q Y_p) of the three channels where the caller has them
+    (``StackModelBase.channel_values``), else computed."""
     xs, es, ns, dv, rank_one, need_cross = evaluation_levels(errors, faraday, combination, reference, looks,
                                                              crosstalk_level, imbalance_level, noise_power,
                                                              difference_variance)
@@ -128,7 +130,7 @@ def stack_joint_moments(scene: StackScene, errors: StackSystemErrors, faraday: S
     mu, spread_m, v, veta, expected = (np.zeros(vec), np.zeros(mat), np.zeros(mat), np.zeros(mat),
                                        np.zeros(mat, complex))
     tr_q2y, tr_qyqy, csys, off = np.zeros(vec), np.zeros(vec), np.zeros(vec), np.zeros(mat)
-    for value in np.unique(dv):
+    for value in difference_levels(dv):
         key = (float(value), bool(correct_copol), need_cross)
         if key not in cache or (cache[key]["y0"] is None and _needs_signal(cache[key], need_cross, reference, looks)):
             signal = errors.pass_gain_log_sd > 0 or need_cross or (reference == "population" and looks is not None)
@@ -173,7 +175,7 @@ def stack_joint_moments(scene: StackScene, errors: StackSystemErrors, faraday: S
                 ym = np.einsum("sgnmpq,g->snmpq", ybar, w)
                 qy = np.einsum("ab,sbcpq->sacpq", q, ym)
                 off[sel] = np.einsum("sacpq,scaqp->spq", qy, qy).real
-    values = np.array([combination.value(scene.channel_matrix(i)) for i in range(3)])
+    values = np.array([combination.value(scene.channel_matrix(i)) for i in range(3)] if values is None else values)
     spread = spread_m - mu[..., :, None] * mu[..., None, :]
     idx = np.arange(3)
     spread[..., idx, idx] = np.clip(spread[..., idx, idx], 0.0, None)
@@ -183,7 +185,7 @@ def stack_joint_moments(scene: StackScene, errors: StackSystemErrors, faraday: S
     mumu = mu[..., :, None] * mu[..., None, :]
     cov_gain = (g2 - 1.0) * signal_cov + (g2 - g1**2) * mumu
     nu2 = ns[..., None] * NOISE_FACTORS  # sigma_nu,p^2 in each pass's estimate
-    tr_q, tr_q2 = float(np.real(np.trace(q))), float(np.real(np.trace(q @ q)))
+    tr_q, tr_q2 = combination.traces
     finite = np.zeros(mat)
     if looks is not None:
         finite[..., idx, idx] = (2 * nu2 * g1 * tr_q2y + nu2**2 * tr_q2) / looks

@@ -90,6 +90,12 @@ class StackModelBase(RemovedOnce, ModelEvaluation):
             raise TypeError(f"unknown levels {', '.join(unknown)}; this model has {', '.join(LEVELS)}")
 
     @cached_property
+    def channel_values(self) -> tuple:
+        """(tr Q Y_hh, tr Q Y_hv, tr Q Y_vv): the estimator's values, which the moments read at every evaluation of a
+        root finding's step, derived once."""
+        return tuple(self.combination.value(self.scene.channel_matrix(i)) for i in range(3))
+
+    @cached_property
     def node_terms(self):
         """The kernel's node terms by difference SD (the moments' ``cache``): level-free, so kept in the run's kernel
         memo (``NodeTermTable``) under a key of this model's structure (the scene's blocks, the combination, the
