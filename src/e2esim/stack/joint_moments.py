@@ -100,9 +100,22 @@ def joint_node_terms(scene: StackScene, errors: StackSystemErrors, faraday: Stac
         omega = np.repeat(omega, len(weights), axis=0)
         omega_hat = omega - np.tile(residual, (len(nodes["weights"]), 1))
         nodes["weights"] = np.outer(nodes["weights"], weights).ravel()
-    out = memoised(memo, channel_node_polynomials, inputs[0], inputs[1], omega, omega_hat, *inputs[2:],
+    out = memoised(memo, channel_terms, inputs[0], inputs[1], omega, omega_hat, *inputs[2:], signal,
                    *((True,) if mean_only else ()), expansions=memo)
     out.update(nodes)
+    return out
+
+
+def channel_terms(blocks, q, omega, omega_hat, r, gammas, gain_pair, population_cross, signal: bool,
+                  mean_only: bool = False, expansions=None) -> dict:
+    """``channel_node_polynomials``, its ``y0`` left out (None) where ``signal`` is False: the moments then do not
+    read it, and it is the largest of the terms (G N^2 9 complex, 8.6 MB at 7 passes), so the kernel memo keeps
+    the rest without it (it held it, and a tomographic run's memo, full, evicted node terms it then computed
+    again). The same numbers either way; a caller that reads ``y0`` asks with ``signal`` and gets its own entry."""
+    out = channel_node_polynomials(blocks, q, omega, omega_hat, r, gammas, gain_pair, population_cross, mean_only,
+                                   expansions)
+    if not signal:
+        out["y0"] = None
     return out
 
 
@@ -212,4 +225,4 @@ def _needs_signal(terms: dict, need_cross: bool, reference: str, looks: int | No
     return terms["cov4"] is not None or need_cross or (reference == "population" and looks is not None)
 
 
-__all__ = ["StackJointMoments", "joint_node_terms", "stack_joint_moments"]
+__all__ = ["StackJointMoments", "channel_terms", "joint_node_terms", "stack_joint_moments"]
