@@ -47,6 +47,30 @@ def test_expansion_is_exact_with_and_without_correction(rng):
     assert np.allclose(estimator_matrix(delta, f, omega, omega_hat)[:, 1], uncorrected[:, 1], atol=1e-15)
 
 
+def test_expansion_takes_the_one_term_sums_bit_for_bit(rng):
+    """``expansion`` takes the sums over the one entry of each receive and transmit basis matrix alone: the same
+    numbers, bit for bit and with einsum's +0 for a zero, as the generic sums over every index (kept in the kernel
+    memo and read by every node kernel, so a last-bit change would move locked numbers)."""
+    from e2esim.distortion import expansion as ex
+    from e2esim.polarimetry.system_model import faraday_matrix
+
+    omega = np.concatenate([rng.uniform(-4, 4, 300), np.arange(-8, 8) * np.pi / 8])  # with exact zeros of cos, sin
+    for omega_hat in (None, omega, omega - rng.normal(0, 0.1, omega.size), np.zeros(omega.size)):
+        e = ex.expansion(omega.reshape(-1, 2), None if omega_hat is None else omega_hat.reshape(-1, 2))
+        q = faraday_matrix(omega.reshape(-1, 2))
+        p = np.broadcast_to(np.eye(2), q.shape) if omega_hat is None else faraday_matrix(-omega_hat.reshape(-1, 2))
+        qsq = np.einsum("...ab,cbd,...de->...cae", q, ex._SCENE_BASIS, q)
+        left, right = np.einsum("...ab,...cbd->...cad", p, qsq), np.einsum("...cab,...bd->...cad", qsq, p)
+        pr = np.einsum("...ab,ibd->...iad", p, ex._RECEIVE_BASIS)
+        tp = np.einsum("jab,...bd->...jad", ex._TRANSMIT_BASIS, p)
+        u = np.concatenate([np.einsum("...iab,...cbd->...icad", pr, right),
+                            np.einsum("...cab,...jbd->...jcad", left, tp)], axis=-4)
+        w = np.einsum("...iab,...cbd,...jde->...ijcae", pr, qsq, tp)
+        for got, generic in ((e.u, u), (e.w, w)):
+            generic = np.swapaxes(ex.estimate_channels(generic), -1, -2)
+            assert np.array_equal(got, generic) and np.array_equal(np.signbit(got), np.signbit(generic))
+
+
 def test_pure_rotation_mixes_hh_and_vv_and_correction_undoes_it():
     omega = 0.7
     c, s = np.cos(omega), np.sin(omega)

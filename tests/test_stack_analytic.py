@@ -162,3 +162,27 @@ def test_the_shapley_subsets_share_their_parents_node_terms_with_the_same_number
         assert names == made[0] and len(names) >= 5
         assert np.array_equal(means, made[1]) and np.array_equal(variances, made[2])
     assert shared < unshared / 4
+
+
+def test_variants_that_keep_the_structure_are_handed_the_node_term_table(monkeypatch):
+    """A variant that removes a level, the Faraday-rotation difference or speckle reads node terms of the same
+    structure: it is handed its parent's table (``StackModelBase._variant``) instead of keying it anew, and its moments
+    are those of the same model built afresh, bit for bit; a variant of another structure (stable errors) keys its
+    own."""
+    import e2esim.stack.model_base as model_base
+    from e2esim.case import KernelMemo
+
+    model = _model(reference="population", kernel_memo=KernelMemo())
+    model.current()
+    keyed = []
+    key = model_base.value_key
+    monkeypatch.setattr(model_base, "value_key", lambda *a: keyed.append(1) or key(*a))
+    for source in ("crosstalk", "channel_imbalance", "noise", "faraday_difference", "speckle"):
+        variant = model.without(source)
+        assert variant.node_terms is model.node_terms and variant.channel_values == model.channel_values
+        afresh = dataclasses.replace(variant, kernel_memo=None).current()  # its own node terms, no memo
+        assert np.array_equal(variant.current().mean, afresh.mean)
+        assert np.array_equal(variant.current().variance, afresh.variance)
+    assert not keyed
+    stable = model.without("system_instability")
+    assert stable.node_terms is not model.node_terms and keyed

@@ -330,3 +330,24 @@ def test_a_shared_memo_gives_each_copolarised_correction_its_own_node_terms():
         a, b = shared.current_joint(), alone.current_joint()
         for f in dataclasses.fields(a):
             assert np.array_equal(getattr(a, f.name), getattr(b, f.name)), (correct, f.name)
+
+
+def test_the_memo_keeps_the_signal_terms_only_for_moments_that_read_them():
+    """The passes' signal covariances ``y0`` (the largest node terms) are kept in the kernel memo only where the moments
+    read them (the passes' own gains, the population reference's finite looks): a tomographic run's full memo evicted
+    node terms it then computed again. One memo serving both kinds gives each the moments of a model with no memo,
+    bit for bit."""
+    from e2esim.case import KernelMemo
+
+    def kept_signal(memo):
+        kernels = ("e2esim.stack.joint_moments", "e2esim.stack.channel_forms")  # by the kernel's module
+        terms = [memo.get(k) for k in memo.keys() if k[0] in kernels]
+        return [t["y0"] is not None for t in terms if isinstance(t, dict) and "y0" in t]
+
+    memo = KernelMemo()
+    for reference, expect in (("scene", False), ("population", True)):
+        shared, alone = (_models(reference, rho=1.0, kernel_memo=m)[1] for m in (memo, None))
+        a, b = shared.current_joint(), alone.current_joint()
+        for f in dataclasses.fields(a):
+            assert np.array_equal(getattr(a, f.name), getattr(b, f.name)), (reference, f.name)
+        assert expect in kept_signal(memo) and (expect or not any(kept_signal(memo)))

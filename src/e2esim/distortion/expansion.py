@@ -35,6 +35,8 @@ _RECEIVE_BASIS = np.zeros((3, 2, 2))
 _RECEIVE_BASIS[0, 1, 0] = _RECEIVE_BASIS[1, 0, 1] = _RECEIVE_BASIS[2, 1, 1] = 1.0  # delta1, delta2, eps1
 _TRANSMIT_BASIS = np.zeros((3, 2, 2))
 _TRANSMIT_BASIS[0, 0, 1] = _TRANSMIT_BASIS[1, 1, 0] = _TRANSMIT_BASIS[2, 1, 1] = 1.0  # delta3, delta4, eps2
+_RECEIVE_COLUMN = [int(np.nonzero(m)[1][0]) for m in _RECEIVE_BASIS]  # the column of each R_i's one entry
+_TRANSMIT_ROW = [int(np.nonzero(m)[0][0]) for m in _TRANSMIT_BASIS]  # the row of each T_j's one entry
 
 # Reciprocal scattering matrices of the basis vectors (hh, hv, vv), layout [[hh, vh], [hv, vv]].
 _SCENE_BASIS = np.array([[[1, 0], [0, 0]], [[0, 1], [1, 0]], [[0, 0], [0, 1]]], dtype=float)
@@ -76,12 +78,21 @@ def expansion(omega, omega_hat=None) -> Expansion:
     a0 = np.swapaxes(estimate_channels(full), -1, -2)  # (..., p, c)
     # one receive error: P R_i (Q E_c Q P); one transmit error: (P Q E_c Q) T_j P
     pr = np.einsum("...ab,ibd->...iad", p, _RECEIVE_BASIS)
-    u_r = np.einsum("...iab,...cbd->...icad", pr, right)
     tp = np.einsum("jab,...bd->...jad", _TRANSMIT_BASIS, p)
-    u_t = np.einsum("...cab,...jbd->...jcad", left, tp)
+    # R_i has one entry, in column b_i, so (P R_i)[a, b] is zero for b != b_i; T_j has one, in row d_j: the sums
+    # over b (and d) have one term that is not zero, taken alone (the sums' value exactly; "+ 0.0" turns a -0 into
+    # the +0 the sums give), instead of einsum's generic loop over every (b, d), which cost most of the expansion
+    pr_b = np.stack([pr[..., i, :, b] for i, b in enumerate(_RECEIVE_COLUMN)], -2)  # (P R_i)[a, b_i], (..., i, a)
+    tp_d = np.stack([tp[..., j, d, :] for j, d in enumerate(_TRANSMIT_ROW)], -2)  # (T_j P)[d_j, e], (..., j, e)
+    right_b = np.moveaxis(right[..., :, _RECEIVE_COLUMN, :], -2, -3)  # (Q E_c Q P)[b_i, d], (..., i, c, d)
+    u_r = pr_b[..., :, None, :, None] * right_b[..., :, :, None, :] + 0.0  # (..., i, c, a, d)
+    left_d = np.moveaxis(left[..., :, :, _TRANSMIT_ROW], -1, -3)  # (P Q E_c Q)[a, d_j], (..., j, c, a)
+    u_t = left_d[..., None] * tp_d[..., :, None, None, :] + 0.0  # (..., j, c, a, d)
     u = np.swapaxes(estimate_channels(np.concatenate([u_r, u_t], axis=-4)), -1, -2)  # (..., 6, p, c)
-    # one of each: P R_i Q E_c Q T_j P
-    w = np.einsum("...iab,...cbd,...jde->...ijcae", pr, qsq, tp)
+    # one of each: P R_i Q E_c Q T_j P, the one term (P R_i)[a, b_i] (Q E_c Q)[b_i, d_j] (T_j P)[d_j, e]
+    q_bd = qsq[..., :, _RECEIVE_COLUMN, :][..., _TRANSMIT_ROW]  # (Q E_c Q)[b_i, d_j], (..., c, i, j)
+    w = (pr_b[..., :, None, None, :, None] * np.moveaxis(q_bd, -3, -1)[..., None, None]) * tp_d[
+        ..., None, :, None, None, :] + 0.0  # (..., i, j, c, a, e)
     w = np.swapaxes(estimate_channels(w), -1, -2)  # (..., i, j, p, c)
     return Expansion(a0, u, w)
 

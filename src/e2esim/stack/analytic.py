@@ -35,6 +35,7 @@ from e2esim.stack.scene import StackScene
 from e2esim.stack.system import StackSystemErrors
 
 REFERENCES = ("scene", "population")
+_HV_NOISE_FACTOR = estimator_noise_factor("hv")  # sigma_n / 2 in each pass's HV estimate
 
 
 @dataclass(frozen=True)
@@ -97,6 +98,12 @@ def evaluation_levels(errors: StackSystemErrors, faraday: StackFaraday, combinat
         np.asarray(faraday.difference_sd**2 if difference_variance is None else difference_variance, float))
     rank_one = combination.weights.shape[0] == 1
     return (*levels, rank_one, reference == "population" and looks is not None and not rank_one)
+
+
+def difference_levels(dv: np.ndarray) -> np.ndarray:
+    """The distinct difference variances of ``dv`` (``np.unique``), the one value itself where ``dv`` holds one (a
+    root finding's step asks one level at a time: the sort is most of the moments' own time there)."""
+    return dv.reshape(-1)[:1] if dv.size == 1 else np.unique(dv)
 
 
 def node_terms(scene: StackScene, errors: StackSystemErrors, faraday: StackFaraday, combination: PassCombination,
@@ -169,22 +176,44 @@ class NodeTermTable(dict):
 
 
 def _digest_update(digest, value) -> None:
-    if is_dataclass(value) and not isinstance(value, type):
-        digest.update(f"{type(value).__module__}.{type(value).__qualname__}{{".encode())
-        _digest_update(digest, [(f.name, getattr(value, f.name)) for f in fields(value) if f.compare])
-        return
-    if isinstance(value, dict):
-        _digest_update(digest, [(str(k), value[k]) for k in sorted(value)])
-    elif isinstance(value, (tuple, list)):
-        digest.update(f"({len(value)}".encode())
+    """Feed ``value``'s key bytes to ``digest`` (in one piece: the same digest as fed part by part)."""
+    parts: list = []
+    _key_bytes(parts, value)
+    digest.update(b"".join(parts))
+
+
+_PLAIN_SCALARS = (bool, int, float, complex, str, type(None))
+
+
+def _key_bytes(out: list, value) -> None:
+    """The key bytes of ``value`` appended to ``out``: arrays by dtype, shape and bytes; dicts, tuples, lists,
+    numbers, strings and None by value; dataclasses by their type and compared fields."""
+    kind = type(value)
+    if kind is np.ndarray:  # the common kinds first, by their exact type (none of them a dataclass)
+        a = np.ascontiguousarray(value)
+        out.append(f"a{a.dtype.str}{a.shape}".encode())
+        out.append(a.tobytes())
+    elif kind is tuple or kind is list:
+        out.append(f"({len(value)}".encode())
         for item in value:
-            _digest_update(digest, item)
+            _key_bytes(out, item)
+    elif kind in _PLAIN_SCALARS:
+        out.append(f"{kind.__name__}:{value!r};".encode())
+    elif is_dataclass(value) and not isinstance(value, type):
+        out.append(f"{kind.__module__}.{kind.__qualname__}{{".encode())
+        _key_bytes(out, [(f.name, getattr(value, f.name)) for f in fields(value) if f.compare])
+    elif isinstance(value, dict):
+        _key_bytes(out, [(str(k), value[k]) for k in sorted(value)])
+    elif isinstance(value, (tuple, list)):
+        out.append(f"({len(value)}".encode())
+        for item in value:
+            _key_bytes(out, item)
     elif isinstance(value, np.ndarray):
         a = np.ascontiguousarray(value)
-        digest.update(f"a{a.dtype.str}{a.shape}".encode())
-        digest.update(a.tobytes())
+        out.append(f"a{a.dtype.str}{a.shape}".encode())
+        out.append(a.tobytes())
     elif value is None or isinstance(value, (bool, int, float, complex, str)):
-        digest.update(f"{type(value).__name__}:{value!r};".encode())
+        out.append(f"{type(value).__name__}:{value!r};".encode())
     else:
         raise TypeError(f"cannot key a kernel memo by a {type(value).__name__}")
 
@@ -203,14 +232,16 @@ def pass_nodes(scene: StackScene, errors: StackSystemErrors, faraday: StackFarad
 def stack_hv_moments(scene: StackScene, errors: StackSystemErrors, faraday: StackFaraday,
                      combination: PassCombination, looks: int | None = None, reference: str = "scene",
                      crosstalk_level=None, imbalance_level=None, noise_power=None, difference_variance=None,
-                     cache: dict | None = None, memo=None, mean_only: bool = False) -> StackHVMoments:
+                     cache: dict | None = None, memo=None, mean_only: bool = False,
+                     value: float | None = None) -> StackHVMoments:
     """Mean and variance of the multi-pass HV error (module docstring), levels replaced where given.
 
     crosstalk_level, imbalance_level : V_delta, V_epsilon. noise_power : sigma_n (m^2/m^2).
     difference_variance : sigma_D^2 (rad^2), the variance of the Faraday-rotation difference of two passes.
     All broadcast together. cache : a dict kept by the caller for the node terms of each sigma_D. memo : the run's
     ``KernelMemo`` (or None), node terms shared by value across cases. mean_only : the mean alone is read (the
-    variance's parts are zero, the kernel's variance left out): the mean is the same, bit for bit.
+    variance's parts are zero, the kernel's variance left out): the mean is the same, bit for bit. value : the
+    estimator's value tr(Q Y_hv) where the caller has it (``StackModelBase.channel_values``), else computed.
     """
     xs, es, ns, dv, rank_one, need_cross = evaluation_levels(errors, faraday, combination, reference, looks,
                                                              crosstalk_level, imbalance_level, noise_power,
@@ -218,13 +249,13 @@ def stack_hv_moments(scene: StackScene, errors: StackSystemErrors, faraday: Stac
     shape, q = xs.shape, combination.matrix
     cache = {} if cache is None or mean_only else cache
     parts = {k: np.zeros(shape) for k in ("mu", "mu2", "v", "veta", "tr_q2y", "tr_qyqy", "csys")}
-    for value in np.unique(dv):
-        key = (float(value), need_cross)
+    for level in difference_levels(dv):
+        key = (float(level), need_cross)
         if key not in cache:
-            cache[key] = node_terms(scene, errors, faraday, combination, float(np.sqrt(value)), need_cross, memo,
+            cache[key] = node_terms(scene, errors, faraday, combination, float(np.sqrt(level)), need_cross, memo,
                                     mean_only)
         t = cache[key]
-        sel = dv == value
+        sel = dv == level
         mono = monomials(xs[sel], es[sel])  # (6, S)
         w = t["weights"]
         mu = np.einsum("ks,kg->sg", mono, t["mean"])
@@ -244,7 +275,7 @@ def stack_hv_moments(scene: StackScene, errors: StackSystemErrors, faraday: Stac
                 qy = np.einsum("mn,sgnk->sgmk", q, ybar)
                 parts["tr_qyqy"][sel] = np.einsum("sg,g->s", np.real(np.einsum("sgmk,sgkm->sg", qy, qy)), w)
                 parts["csys"][sel] = np.einsum("ks,kg,g->s", mono, t["csys"], w)
-    value = combination.value(scene.channel_matrix(1))
+    value = combination.value(scene.channel_matrix(1)) if value is None else value
     signal_mean = parts["mu"]
     spread = np.clip(parts["mu2"] - signal_mean**2, 0.0, None)
     var_dist = parts["v"]
@@ -252,8 +283,8 @@ def stack_hv_moments(scene: StackScene, errors: StackSystemErrors, faraday: Stac
     g1, g2 = errors.common_gain_moments
     bias_gain = (g1 - 1.0) * signal_mean
     var_gain = (g2 - 1.0) * signal_var + (g2 - g1**2) * signal_mean**2
-    nu2 = ns * estimator_noise_factor("hv")  # sigma_n / 2 in each pass's HV estimate
-    tr_q, tr_q2 = float(np.real(np.trace(q))), float(np.real(np.trace(q @ q)))
+    nu2 = ns * _HV_NOISE_FACTOR
+    tr_q, tr_q2 = combination.traces
     finite = np.zeros(shape)
     if looks is not None:
         finite = (2 * nu2 * g1 * parts["tr_q2y"] + nu2**2 * tr_q2) / looks
@@ -270,5 +301,5 @@ def stack_hv_moments(scene: StackScene, errors: StackSystemErrors, faraday: Stac
         var_finite_looks=finite + z)
 
 
-__all__ = ["MONOMIALS", "REFERENCES", "StackHVMoments", "evaluation_levels", "memoised", "node_terms", "pass_nodes",
-           "stack_hv_moments"]
+__all__ = ["MONOMIALS", "REFERENCES", "StackHVMoments", "difference_levels", "evaluation_levels", "memoised",
+           "node_terms", "pass_nodes", "stack_hv_moments"]

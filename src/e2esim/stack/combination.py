@@ -84,6 +84,13 @@ class PassCombination:
         q = self.matrix
         return float(np.real(np.trace(q)) ** 2 / np.real(np.trace(q @ q)))
 
+    @functools.cached_property
+    def traces(self) -> tuple[float, float]:
+        """(tr Q, tr Q^2), real parts: the noise terms of the analytic moments read them at every evaluation of a
+        root finding's step, so they are derived once."""
+        q = self.matrix
+        return float(np.real(np.trace(q))), float(np.real(np.trace(q @ q)))
+
     def value(self, channel_matrix: np.ndarray) -> float:
         """tr(Q Y) for the N x N covariance Y of one channel across the passes (Y_nm = <I_n I_m*>)."""
         return float(np.real(np.trace(self.matrix @ np.asarray(channel_matrix))))

@@ -38,7 +38,7 @@ class StackHVErrorModel(StackModelBase, EvaluatedOnce, ErrorModel):
 
     @property
     def value(self) -> float:
-        return self.combination.value(self.scene.channel_matrix(1))
+        return self.channel_values[1]
 
     # Moments ---------------------------------------------------------------------------------------
     def moments(self, crosstalk=None, channel_imbalance=None, nesz=None, faraday_difference=None,
@@ -47,7 +47,7 @@ class StackHVErrorModel(StackModelBase, EvaluatedOnce, ErrorModel):
         self.check_available()
         return stack_hv_moments(self.scene, self.errors, self.faraday, self.combination, self.looks, self.reference,
                                 crosstalk, channel_imbalance, nesz, faraday_difference, self.node_terms,
-                                self.kernel_memo)
+                                self.kernel_memo, value=self.channel_values[1])
 
     # Contributions ---------------------------------------------------------------------------------
     def contributions(self) -> dict:

@@ -54,7 +54,8 @@ class StackJointErrorModel(StackModelBase, JointEvaluatedOnce, MultiChannelError
         self.check_available()
         return stack_joint_moments(self.scene, self.errors, self.faraday, self.combination, self.looks,
                                    self.reference, self.correct_copol, crosstalk, channel_imbalance, nesz,
-                                   faraday_difference, self.node_terms, totals_only, self.kernel_memo)
+                                   faraday_difference, self.node_terms, totals_only, self.kernel_memo,
+                                   values=self.channel_values)
 
     def joint_moments(self, crosstalk=None, channel_imbalance=None, nesz=None, faraday_difference=None,
                       **unknown) -> JointMoments:

@@ -33,7 +33,7 @@ import numpy as np
 from e2esim.blas_threads import single_blas_thread
 from e2esim.distortion.channel_moments import unit_covariances
 from e2esim.distortion.polarimetric_moments import NOISE_FACTORS
-from e2esim.stack.analytic import evaluation_levels, memoised, pass_nodes
+from e2esim.stack.analytic import difference_levels, evaluation_levels, memoised, pass_nodes
 from e2esim.stack.channel_forms import channel_node_polynomials
 from e2esim.stack.combination import PassCombination
 from e2esim.stack.faraday import StackFaraday
@@ -100,9 +100,22 @@ def joint_node_terms(scene: StackScene, errors: StackSystemErrors, faraday: Stac
         omega = np.repeat(omega, len(weights), axis=0)
         omega_hat = omega - np.tile(residual, (len(nodes["weights"]), 1))
         nodes["weights"] = np.outer(nodes["weights"], weights).ravel()
-    out = memoised(memo, channel_node_polynomials, inputs[0], inputs[1], omega, omega_hat, *inputs[2:],
+    out = memoised(memo, channel_terms, inputs[0], inputs[1], omega, omega_hat, *inputs[2:], signal,
                    *((True,) if mean_only else ()), expansions=memo)
     out.update(nodes)
+    return out
+
+
+def channel_terms(blocks, q, omega, omega_hat, r, gammas, gain_pair, population_cross, signal: bool,
+                  mean_only: bool = False, expansions=None) -> dict:
+    """``channel_node_polynomials``, its ``y0`` left out (None) where ``signal`` is False: the moments then do not
+    read it, and it is the largest of the terms (G N^2 9 complex, 8.6 MB at 7 passes), so the kernel memo keeps
+    the rest without it (it held it, and a tomographic run's memo, full, evicted node terms it then computed
+    again). The same numbers either way; a caller that reads ``y0`` asks with ``signal`` and gets its own entry."""
+    out = channel_node_polynomials(blocks, q, omega, omega_hat, r, gammas, gain_pair, population_cross, mean_only,
+                                   expansions)
+    if not signal:
+        out["y0"] = None
     return out
 
 
@@ -111,14 +124,16 @@ def stack_joint_moments(scene: StackScene, errors: StackSystemErrors, faraday: S
                         combination: PassCombination, looks: int | None = None, reference: str = "scene",
                         correct_copol: bool = True, crosstalk_level=None, imbalance_level=None, noise_power=None,
                         difference_variance=None, cache: dict | None = None,
-                        totals_only: bool = False, memo=None, mean_only: bool = False) -> StackJointMoments | tuple:
+                        totals_only: bool = False, memo=None, mean_only: bool = False,
+                        values=None) -> StackJointMoments | tuple:
     """Joint moments of the (hh, hv, vv) errors (module docstring), levels replaced where given (broadcast
     together, as ``stack_hv_moments``). correct_copol : every pass's co-polarised channels rotated back by its
     own Faraday rotation before the passes are combined (the operational order), else not corrected.
     cache : a dict kept by the caller for the node terms of each sigma_D. totals_only : return (mean,
     covariance) only. memo : the run's ``KernelMemo`` (or None), node terms shared by value across cases.
     mean_only : the means alone are read (the covariance's parts without the kernel's covariance; the means the same,
-    bit for bit)."""
+    bit for bit). values : the estimator's values tr(Q Y_p) of the three channels where the caller has them
+    (``StackModelBase.channel_values``), else computed."""
     xs, es, ns, dv, rank_one, need_cross = evaluation_levels(errors, faraday, combination, reference, looks,
                                                              crosstalk_level, imbalance_level, noise_power,
                                                              difference_variance)
@@ -128,7 +143,7 @@ def stack_joint_moments(scene: StackScene, errors: StackSystemErrors, faraday: S
     mu, spread_m, v, veta, expected = (np.zeros(vec), np.zeros(mat), np.zeros(mat), np.zeros(mat),
                                        np.zeros(mat, complex))
     tr_q2y, tr_qyqy, csys, off = np.zeros(vec), np.zeros(vec), np.zeros(vec), np.zeros(mat)
-    for value in np.unique(dv):
+    for value in difference_levels(dv):
         key = (float(value), bool(correct_copol), need_cross)
         if key not in cache or (cache[key]["y0"] is None and _needs_signal(cache[key], need_cross, reference, looks)):
             signal = errors.pass_gain_log_sd > 0 or need_cross or (reference == "population" and looks is not None)
@@ -173,7 +188,7 @@ def stack_joint_moments(scene: StackScene, errors: StackSystemErrors, faraday: S
                 ym = np.einsum("sgnmpq,g->snmpq", ybar, w)
                 qy = np.einsum("ab,sbcpq->sacpq", q, ym)
                 off[sel] = np.einsum("sacpq,scaqp->spq", qy, qy).real
-    values = np.array([combination.value(scene.channel_matrix(i)) for i in range(3)])
+    values = np.array([combination.value(scene.channel_matrix(i)) for i in range(3)] if values is None else values)
     spread = spread_m - mu[..., :, None] * mu[..., None, :]
     idx = np.arange(3)
     spread[..., idx, idx] = np.clip(spread[..., idx, idx], 0.0, None)
@@ -183,7 +198,7 @@ def stack_joint_moments(scene: StackScene, errors: StackSystemErrors, faraday: S
     mumu = mu[..., :, None] * mu[..., None, :]
     cov_gain = (g2 - 1.0) * signal_cov + (g2 - g1**2) * mumu
     nu2 = ns[..., None] * NOISE_FACTORS  # sigma_nu,p^2 in each pass's estimate
-    tr_q, tr_q2 = float(np.real(np.trace(q))), float(np.real(np.trace(q @ q)))
+    tr_q, tr_q2 = combination.traces
     finite = np.zeros(mat)
     if looks is not None:
         finite[..., idx, idx] = (2 * nu2 * g1 * tr_q2y + nu2**2 * tr_q2) / looks
@@ -210,4 +225,4 @@ def _needs_signal(terms: dict, need_cross: bool, reference: str, looks: int | No
     return terms["cov4"] is not None or need_cross or (reference == "population" and looks is not None)
 
 
-__all__ = ["StackJointMoments", "joint_node_terms", "stack_joint_moments"]
+__all__ = ["StackJointMoments", "channel_terms", "joint_node_terms", "stack_joint_moments"]

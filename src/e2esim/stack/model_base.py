@@ -21,7 +21,7 @@ from typing import Any
 
 import numpy as np
 
-from e2esim.derived import RemovedOnce
+from e2esim.derived import RemovedOnce, derived_values, knowing
 from e2esim.distortion.validation import compare_with_analytic, sample_moments
 from e2esim.error_model import ModelEvaluation
 from e2esim.faraday.distribution import ConstantFaraday
@@ -90,6 +90,12 @@ class StackModelBase(RemovedOnce, ModelEvaluation):
             raise TypeError(f"unknown levels {', '.join(unknown)}; this model has {', '.join(LEVELS)}")
 
     @cached_property
+    def channel_values(self) -> tuple:
+        """(tr Q Y_hh, tr Q Y_hv, tr Q Y_vv): the estimator's values, which the moments read at every evaluation of a
+        root finding's step, derived once."""
+        return tuple(self.combination.value(self.scene.channel_matrix(i)) for i in range(3))
+
+    @cached_property
     def node_terms(self):
         """The kernel's node terms by difference SD (the moments' ``cache``): level-free, so kept in the run's kernel
         memo (``NodeTermTable``) under a key of this model's structure (the scene's blocks, the combination, the
@@ -115,7 +121,8 @@ class StackModelBase(RemovedOnce, ModelEvaluation):
             if getattr(sysm, {"crosstalk": "crosstalk_level", "channel_imbalance": "imbalance_level",
                                "noise": "noise_power"}[source]) == 0.0:
                 return self
-            return self._variant(errors=dataclasses.replace(self.errors, system=sysm.with_levels(**{level: 0.0})))
+            return self._variant(errors=dataclasses.replace(self.errors, system=sysm.with_levels(**{level: 0.0})),
+                                 same_structure=True)
         if source == "faraday_rotation":
             common = self.faraday.common
             if common.mean_rad == 0.0 and common.sd_rad == 0.0:
@@ -123,7 +130,7 @@ class StackModelBase(RemovedOnce, ModelEvaluation):
             return self._variant(faraday=dataclasses.replace(self.faraday, common=ConstantFaraday(0.0)))
         if source == "faraday_difference":
             return self if self.faraday.difference_sd == 0.0 else self._variant(
-                faraday=dataclasses.replace(self.faraday, difference_sd=0.0))
+                faraday=dataclasses.replace(self.faraday, difference_sd=0.0), same_structure=True)
         if source == "system_instability":
             return self if self.errors.correlation == 1.0 else self._variant(
                 errors=dataclasses.replace(self.errors, correlation=1.0))
@@ -133,11 +140,22 @@ class StackModelBase(RemovedOnce, ModelEvaluation):
         if source == "temporal_decorrelation":
             return self if self.scene.temporal.is_none else self._variant(
                 scene=self.scene.replaced(temporal=TemporalDecorrelation.none()))
-        return self._variant(reference="scene")  # speckle
+        return self._variant(reference="scene", same_structure=True)  # speckle
 
-    def _variant(self, **changes):
-        """The model with fields replaced (the node terms of its structure found again: ``node_terms``)."""
-        return dataclasses.replace(self, montecarlo=None, gaussianity=None, notes=(), **changes)
+    def _variant(self, same_structure: bool = False, **changes):
+        """The model with fields replaced (the node terms of its structure found again: ``node_terms``). It is handed
+        what this model derived and it would derive the same: the estimator's values where the scene and combination
+        stay, and where ``same_structure`` (a level, the difference SD or the reference changed: nothing the node
+        terms' structure key reads) the table of node terms itself, the one ``node_terms`` would find by that key
+        (a Shapley split's variants no longer key it anew, each)."""
+        variant = dataclasses.replace(self, montecarlo=None, gaussianity=None, notes=(), **changes)
+        derived = derived_values(self)
+        kept = {}
+        if "scene" not in changes and "combination" not in changes and "channel_values" in derived:
+            kept["channel_values"] = derived["channel_values"]
+        if same_structure and isinstance(derived.get("node_terms"), NodeTermTable):
+            kept["node_terms"] = derived["node_terms"]
+        return knowing(variant, **kept) if kept else variant
 
     def contribution_steps(self) -> list:
         """(name, model) in the order the contributions build the error up, each step adding one source: stable
@@ -153,7 +171,8 @@ class StackModelBase(RemovedOnce, ModelEvaluation):
                                                faraday=dataclasses.replace(self.faraday, difference_sd=0.0))),
             ("faraday_difference", self._variant(errors=stable, reference="scene")),
             ("system_instability", self._variant(errors=quiet, reference="scene")),
-            ("noise", self._variant(reference="scene") if self.reference == "population" else self),
+            ("noise", self._variant(reference="scene", same_structure=True) if self.reference == "population"
+             else self),
         ]
         if self.reference == "population":
             steps.append(("speckle", self))

@@ -213,4 +213,6 @@ def _times_products(beta: np.ndarray) -> np.ndarray:
 def monomials(v_delta, v_eps) -> np.ndarray:
     """Values of ``MONOMIALS`` at levels (any broadcast shape S): shape (6,) + S."""
     d, e = np.broadcast_arrays(np.asarray(v_delta, float), np.asarray(v_eps, float))
-    return np.stack([np.ones_like(d), d, e, d * d, d * e, e * e])
+    out = np.empty((6,) + d.shape)  # filled row by row (a root finding's step asks it for a few levels)
+    out[0], out[1], out[2], out[3], out[4], out[5] = 1.0, d, e, d * d, d * e, e * e
+    return out
