@@ -71,6 +71,20 @@ def test_campaigns_are_drawn_once_per_run_and_shared_by_its_cases(seed):
     assert np.all(np.abs(np.diff(v, 2)) < 0.2 * max(v))
 
 
+
+def test_models_a_little_apart_are_not_given_one_ensemble(seed):
+    """The memo finds an ensemble by the model's values, not by its repr: numpy prints the log-linear model's
+    covariance to 8 significant digits, so a repr key gave a model 1e-10 apart the other's campaigns."""
+    from e2esim.case import KernelMemo
+
+    campaign = CalibrationCampaign("confidence", "delta", 40, campaigns=3)
+    near = LogLinearModel(LOGLINEAR.ln_l, LOGLINEAR.a, LOGLINEAR.n, LOGLINEAR.residual_covariance * (1 + 1e-10))
+    assert repr(near) == repr(LOGLINEAR)  # what the key must not rely on
+    memo = KernelMemo()
+    first = ensemble(LOGLINEAR, campaign, seed, memo=memo)
+    assert ensemble(LOGLINEAR, campaign, seed, memo=memo) is first
+    assert ensemble(near, campaign, seed, memo=memo) is not first
+
 def test_an_extrapolation_the_data_do_not_support_is_rejected(rng):
     """SIMEX's corrected coefficients must give a curve the data support: positive at every plot and inside the
     naive fit's 99.99 % confidence region. The run-away extrapolations of the seed-2014 campaigns (a saturation

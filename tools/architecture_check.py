@@ -83,6 +83,7 @@ LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
             "e2esim.derived",
             "e2esim.extras",
             "e2esim.kinds",
+            "e2esim.memo_keys",
         ),
     ),
     (

@@ -36,6 +36,7 @@ import numpy as np
 
 from e2esim.case_values import plain
 from e2esim.errors import PhysicsInputError
+from e2esim.memo_keys import value_key
 from e2esim.retrieval.simex import simex_batch
 from e2esim.retrieval.synthetic import synthetic_field_plots
 
@@ -174,8 +175,10 @@ def ensemble(model, campaign, seed: int, covariates: dict | None = None, memo=No
     covariates = dict(covariates or {})
     if memo is None:
         return _draw(model, campaign, int(seed), covariates)
-    key = ("campaign ensemble", type(model).__name__, repr(model), repr(campaign), int(seed),
-           repr(sorted(covariates.items())))
+    try:  # by value: a repr rounds an array's numbers (two models a little apart would share one ensemble)
+        key = ("campaign ensemble", value_key(type(model).__qualname__, model, campaign, int(seed), covariates))
+    except TypeError:  # a plug-in model with a field that cannot key a memo: drawn anew
+        return _draw(model, campaign, int(seed), covariates)
     return memo.recall(key, lambda: _draw(model, campaign, int(seed), covariates), keep=ENSEMBLES_KEPT)
 
 

@@ -7,9 +7,11 @@ quantiles of q are the images of those of x (Men et al. 2021, Section V-B, for t
 
 from __future__ import annotations
 
-from dataclasses import dataclass, fields, is_dataclass
+from dataclasses import dataclass
 
 import numpy as np
+
+from e2esim.memo_keys import value_key
 
 _X_SEARCH = (-1.0 + 1e-12, 1e6)  # relative sigma errors searched when inverting a map numerically
 
@@ -55,10 +57,9 @@ class RelativeErrorMap:
         share an AGB and a model); None: bisected anew. The same bisection either way."""
         if memo is None:
             return self._threshold_numeric(level)
-        key = ("relative error threshold", _by_value(self), float(level).hex())
         try:
-            hash(key)
-        except TypeError:  # a plug-in model with an unhashable field that is not an array: not kept
+            key = ("relative error threshold", value_key(self, float(level)))
+        except TypeError:  # a plug-in model with a field that cannot key a memo: not kept
             return self._threshold_numeric(level)
         return memo.recall(key, lambda: self._threshold_numeric(level), keep=THRESHOLDS_KEPT)
 
@@ -87,17 +88,3 @@ class RelativeErrorMap:
             return float(self.model.channel_weights()[1])
         return float(1.0 / self.model.sensitivity(self.agb_t_ha, **dict(self.covariates)))
 
-
-def _by_value(x):
-    """``x`` as a hashable key of its value: a dataclass by its type and compared fields, an array by its dtype, shape
-    and bytes, a float by its bits (``float.hex``: -0.0 is not 0.0)."""
-    if is_dataclass(x) and not isinstance(x, type):
-        return (type(x).__module__, type(x).__qualname__,
-                tuple((f.name, _by_value(getattr(x, f.name))) for f in fields(x) if f.compare))
-    if isinstance(x, np.ndarray):
-        return ("array", x.dtype.str, x.shape, np.ascontiguousarray(x).tobytes())
-    if isinstance(x, (tuple, list)):
-        return (type(x).__name__, tuple(_by_value(v) for v in x))
-    if isinstance(x, float):
-        return ("float", float(x).hex())
-    return (type(x).__name__, x)

@@ -22,11 +22,12 @@ from __future__ import annotations
 
 import functools
 import hashlib
-from dataclasses import dataclass, fields, is_dataclass
+from dataclasses import dataclass, fields
 
 import numpy as np
 
 from e2esim.blas_threads import single_blas_thread
+from e2esim.memo_keys import digest_update
 from e2esim.polarimetry.system_model import estimator_noise_factor
 from e2esim.stack.combination import PassCombination
 from e2esim.stack.faraday import StackFaraday
@@ -131,7 +132,7 @@ def memoised(memo, kernel, *inputs, keep=None, **helpers) -> dict:
     if memo is None:
         return kernel(*inputs, **helpers)
     digest = hashlib.sha256(kernel.__qualname__.encode())
-    _digest_update(digest, inputs)
+    digest_update(digest, inputs)
     key = (kernel.__module__, digest.hexdigest())
     found = memo.get(key)
     if found is None:
@@ -139,14 +140,6 @@ def memoised(memo, kernel, *inputs, keep=None, **helpers) -> dict:
         found = make() if keep is None else keep(key[1], make)
         memo[key] = found
     return dict(found)
-
-
-def value_key(*inputs) -> str:
-    """A key of ``inputs`` by their content (as ``memoised``'s; also dataclasses, by their type and compared
-    fields): equal for equal values, whatever the objects."""
-    digest = hashlib.sha256()
-    _digest_update(digest, inputs)
-    return digest.hexdigest()
 
 
 class NodeTermTable(dict):
@@ -173,49 +166,6 @@ class NodeTermTable(dict):
         """The table of ``structure`` in ``memo``, a new one when not kept (at most ``keep`` tables stay)."""
         key = ("stack node terms", structure)
         return memo.recall(key, lambda: cls(memo, key), keep=keep)
-
-
-def _digest_update(digest, value) -> None:
-    """Feed ``value``'s key bytes to ``digest`` (in one piece: the same digest as fed part by part)."""
-    parts: list = []
-    _key_bytes(parts, value)
-    digest.update(b"".join(parts))
-
-
-_PLAIN_SCALARS = (bool, int, float, complex, str, type(None))
-
-
-def _key_bytes(out: list, value) -> None:
-    """The key bytes of ``value`` appended to ``out``: arrays by dtype, shape and bytes; dicts, tuples, lists,
-    numbers, strings and None by value; dataclasses by their type and compared fields."""
-    kind = type(value)
-    if kind is np.ndarray:  # the common kinds first, by their exact type (none of them a dataclass)
-        a = np.ascontiguousarray(value)
-        out.append(f"a{a.dtype.str}{a.shape}".encode())
-        out.append(a.tobytes())
-    elif kind is tuple or kind is list:
-        out.append(f"({len(value)}".encode())
-        for item in value:
-            _key_bytes(out, item)
-    elif kind in _PLAIN_SCALARS:
-        out.append(f"{kind.__name__}:{value!r};".encode())
-    elif is_dataclass(value) and not isinstance(value, type):
-        out.append(f"{kind.__module__}.{kind.__qualname__}{{".encode())
-        _key_bytes(out, [(f.name, getattr(value, f.name)) for f in fields(value) if f.compare])
-    elif isinstance(value, dict):
-        _key_bytes(out, [(str(k), value[k]) for k in sorted(value)])
-    elif isinstance(value, (tuple, list)):
-        out.append(f"({len(value)}".encode())
-        for item in value:
-            _key_bytes(out, item)
-    elif isinstance(value, np.ndarray):
-        a = np.ascontiguousarray(value)
-        out.append(f"a{a.dtype.str}{a.shape}".encode())
-        out.append(a.tobytes())
-    elif value is None or isinstance(value, (bool, int, float, complex, str)):
-        out.append(f"{type(value).__name__}:{value!r};".encode())
-    else:
-        raise TypeError(f"cannot key a kernel memo by a {type(value).__name__}")
 
 
 def pass_nodes(scene: StackScene, errors: StackSystemErrors, faraday: StackFaraday, difference_sd: float) -> dict:

@@ -25,7 +25,8 @@ from e2esim.derived import RemovedOnce, derived_values, knowing
 from e2esim.distortion.validation import compare_with_analytic, sample_moments
 from e2esim.error_model import ModelEvaluation
 from e2esim.faraday.distribution import ConstantFaraday
-from e2esim.stack.analytic import NodeTermTable, value_key
+from e2esim.memo_keys import value_key
+from e2esim.stack.analytic import NodeTermTable
 from e2esim.stack.combination import PassCombination
 from e2esim.stack.faraday import StackFaraday
 from e2esim.stack.scene import StackScene

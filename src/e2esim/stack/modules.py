@@ -19,6 +19,7 @@ from e2esim.distortion.validity import VALIDITY
 from e2esim.error_terms.wrapped import innermost
 from e2esim.errors import PhysicsInputError
 from e2esim.ionosphere.variability import DEFAULT_TEC_VARIABILITY
+from e2esim.memo_keys import value_key
 from e2esim.module import Stage, fail
 from e2esim.params import AtMostOneOf, Param, ParamGroup
 from e2esim.scene.covariance import ScatteringCovariance
@@ -32,7 +33,7 @@ from e2esim.stack.acquisitions import (
     radar_wavelength,
     vertical_wavenumber,
 )
-from e2esim.stack.analytic import REFERENCES, value_key
+from e2esim.stack.analytic import REFERENCES
 from e2esim.stack.error_model import StackHVErrorModel
 from e2esim.stack.faraday import StackFaraday, residual_moments, tec_difference_sd
 from e2esim.stack.joint_model import StackJointErrorModel
