@@ -235,8 +235,8 @@ def _parsed(path: Path) -> tuple[str, ast.Module]:
 
 def _imports_in_context(tree: ast.AST) -> list[tuple[ast.AST, bool, bool]]:
     """(node, in a function, under ``if TYPE_CHECKING:``) of each import statement of ``tree``, in ``ast.walk``'s
-    order, in one pass: in a function is below a ``def`` or a ``lambda``; under ``TYPE_CHECKING`` is in the body
-    (not the ``else``) of an ``if`` whose test names it."""
+    order, in one pass: in a function is below a ``def`` (a ``lambda`` holds no statement); under ``TYPE_CHECKING`` is
+    in the body (not the ``else``) of an ``if`` whose test names it."""
     found = []
     todo = deque([(tree, False, False)])  # breadth first, as ast.walk
     while todo:
@@ -247,7 +247,8 @@ def _imports_in_context(tree: ast.AST) -> list[tuple[ast.AST, bool, bool]]:
         guarded = ()
         if isinstance(node, ast.If) and "TYPE_CHECKING" in ast.unparse(node.test):
             guarded = {id(statement) for statement in node.body}
-        todo.extend((child, below_function, type_only or id(child) in guarded) for child in ast.iter_child_nodes(node))
+        todo.extend((child, below_function, type_only or id(child) in guarded) for child in ast.iter_child_nodes(node)
+                    if not isinstance(child, ast.expr))  # an expression holds no statement, so no import
     return found
 
 
