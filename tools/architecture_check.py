@@ -322,9 +322,10 @@ def _targets(node) -> list:
 def caching_of(module: str, path: Path, source: tuple | None = None) -> tuple[list[str], list[str]]:
     """(memo dicts: fields or attributes named ``_memo``/``_..._memo`` and class fields named ``_shared``; module-level
     caches not in ``CONSTANT_CACHES``) of one module, as "module:line name". source: (text, tree), or None: read."""
-    tree = (source or _parsed(path))[1]
+    text, tree = source or _parsed(path)
     memos, caches = [], []
-    for node in ast.walk(tree):
+    # a memo's name holds "memo" and a shared field is "_shared": most modules hold neither, nothing to walk
+    for node in ast.walk(tree) if "memo" in text or "_shared" in text else ():
         names = []
         if isinstance(node, ast.ClassDef):  # a class field (a ``_shared`` dict field too: a memo handed to others)
             names = [t.id for s in node.body if isinstance(s, (ast.Assign, ast.AnnAssign)) for t in _targets(s)
