@@ -31,25 +31,18 @@ from e2esim.runner.spill import SpilledBlock
 ROOT = Path(__file__).resolve().parents[1]
 BLOCK = 256  # cases per block in these tests
 HELD_PER_CASE = 180
-"""Bytes a spilled run in blocks of ``BLOCK`` (the resumed run's test) may hold per case here: its case indices (8
-bytes) and a block's bookkeeping over 256 cases (where each of its columns lies in the spill file; it grows with the
-number of columns: the budget shares of issue 23, one verdict detail per error source, took it from below 160 to
-about 162). These runs held about 0.8 kB per case when the trade-off curves stayed in memory, and resumed 3.5 kB,
-when each journal record was kept whole by its case indices."""
+"""Bytes a spilled run may hold per case here: its case indices (8 bytes) and a block's bookkeeping over 256 cases
+(where each of its columns lies in the spill file; it grows with the number of columns: the budget shares of issue
+23, one verdict detail per error source, took it from below 160 to about 162). These runs held about 0.8 kB per
+case when the trade-off curves stayed in memory, and resumed 3.5 kB, when each journal record was kept whole by its
+case indices."""
 
-LARGE_RUN_BLOCK = 128
-"""Cases per block in the large-run test: half the others', so that its two runs (traced by ``tracemalloc``, which
-makes them about five times slower) cost half as much."""
-SPREADS = (9, 17)
-"""The two runs compared there, in Faraday-rotation spreads of 16 cases each: 144 cases (blocks of 128 and 16) and
-272 (128, 128 and 16). They differ by exactly one whole block, ``EXTRA_CASES``, so a block's bookkeeping counts as
-in a real run: about 18 kB, 140 bytes per case at this block size (70 at 256). A run holds about 165 bytes per case
-here. Planted, keeping its trade-off curves in memory (``SpilledRequirement`` given the curves themselves) gives
-680 to 710, keeping a block's scalar columns 2,500. (The resumed run keeps 320 and 640 cases in blocks of ``BLOCK``: at
-these sizes its journal's bookkeeping comes to about 200 bytes per case.)"""
-LARGE_RUN_HELD_PER_CASE = 250
-"""Bytes the large run may hold per case: ``HELD_PER_CASE``'s allowance over what a run holds (about 85 bytes) on
-top of the 165 it holds at ``LARGE_RUN_BLOCK``; the planted curves exceed it 2.7 times, a block's columns 10."""
+SPREADS = (17, 33)
+"""The two runs compared, in Faraday-rotation spreads of 16 cases each: 272 cases (blocks of 256 and 16) and 528
+(256, 256 and 16). They differ by exactly one whole block, ``EXTRA_CASES``, so a block's bookkeeping counts as in
+a real run. A run holds about 110 bytes per case here; one that keeps its trade-off curves in memory (planted:
+``SpilledRequirement`` given the curves themselves) 620, over three times ``HELD_PER_CASE``. (The resumed run keeps
+320 and 640 cases: at these sizes its journal's bookkeeping comes to about 200 bytes per case.)"""
 EXTRA_CASES = 16 * (SPREADS[1] - SPREADS[0])
 
 SWEEP = """
@@ -109,9 +102,7 @@ def _held(run) -> tuple:
     return result, held, peak
 
 
-def test_a_large_run_holds_no_per_case_objects_beyond_its_case_indices(small_blocks, monkeypatch, tmp_path):
-    for name in ("BLOCK_CASES", "SPILL_ABOVE_CASES", "KEEP_PRODUCTS_UP_TO"):
-        monkeypatch.setattr(run_module, name, LARGE_RUN_BLOCK)
+def test_a_large_run_holds_no_per_case_objects_beyond_its_case_indices(small_blocks, tmp_path):
     held = {}
     for spreads in SPREADS:  # the same scenes, instruments and budgets
         resolved = _resolved(spreads)
@@ -119,7 +110,7 @@ def test_a_large_run_holds_no_per_case_objects_beyond_its_case_indices(small_blo
         assert all(isinstance(b, SpilledBlock) for b in result.blocks) and len(result.blocks) > 1
         assert result.table.requirements[0].curves is not None  # the curves are there, read back from disk
     per_case = (held[SPREADS[1]] - held[SPREADS[0]]) / EXTRA_CASES
-    assert per_case < LARGE_RUN_HELD_PER_CASE, f"{per_case:.0f} bytes held per case"
+    assert per_case < HELD_PER_CASE, f"{per_case:.0f} bytes held per case"
 
 
 @pytest.mark.slow
