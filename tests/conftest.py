@@ -106,6 +106,17 @@ def rng(seed) -> np.random.Generator:
 
 
 @pytest.fixture(scope="session")
+def published_records() -> dict:
+    """{id: ``check(p)``} of every published value (``e2esim.verification``), computed once per session for the
+    tests that read them (tests/test_reproduce.py, test_verification_can_fail.py, test_verification_doc.py): a
+    record is a frozen dataclass, and a check gives the same record every time."""
+    from e2esim.verification.published import all_published
+    from e2esim.verification.reproduce import check
+
+    return {p.id: check(p) for p in all_published()}
+
+
+@pytest.fixture(scope="session")
 def quick_run(tmp_path_factory):
     """``quick_run(name)`` -> (ScenarioResult, output folder) of the shipped scenario ``name`` at reduced sizes
     (tests/quick_runs.py), run once per session and shared by the tests that need it."""

@@ -32,8 +32,14 @@ RATCHET = json.loads((ROOT / "tools" / "architecture_ratchet.json").read_text())
 
 
 @pytest.fixture(scope="module")
-def figures():
-    return arch.measure(ROOT / "src", duplicates=False)
+def sources():
+    """{module: (text, syntax tree)} of every module of src/, read and parsed once for the module's tests."""
+    return {module: arch._parsed(path) for module, path in arch.module_files(ROOT / "src").items()}
+
+
+@pytest.fixture(scope="module")
+def figures(sources):
+    return arch.measure(ROOT / "src", duplicates=False, sources=sources)
 
 
 def test_src_is_no_worse_than_the_ratchet(figures):
@@ -219,11 +225,10 @@ def test_module_level_dicts_that_a_function_writes_are_counted(tmp_path):
     assert arch.measure(_write(tmp_path / "clean", CLEAN), duplicates=False).counts()["module_dicts"] == 0
 
 
-def test_every_listed_module_cache_exists_and_the_docs_name_it():
+def test_every_listed_module_cache_exists_and_the_docs_name_it(sources):
     # a constant that went away leaves the list; each one is named in docs/architecture.md ("Caching")
     found = set()
-    for module, path in arch.module_files(ROOT / "src").items():
-        tree = __import__("ast").parse(path.read_text())
+    for module, (_, tree) in sources.items():
         found |= {f"{module}:{node.name}" for node in tree.body if getattr(node, "decorator_list", None)}
     assert arch.CONSTANT_CACHES <= found
     caching = (ROOT / "docs" / "architecture.md").read_text().split("\n## Caching\n", 1)[1].split("\n## ", 1)[0]

@@ -39,6 +39,7 @@ class _Made:
     """The real journal, made once per process when the first example needs it."""
 
     journal: tuple | None = None
+    files: tuple | None = None
 
     @classmethod
     def journal_run(cls) -> tuple:
@@ -46,6 +47,14 @@ class _Made:
             scenario, resolved, out = make_journal(_FOLDER / "journal")
             cls.journal = (scenario, resolved, out / ".e2esim-partial")
         return cls.journal
+
+    @classmethod
+    def journal_files(cls) -> tuple:
+        """(manifest.json, cases.journal) of the real journal, as bytes, read once (each example starts from them)."""
+        if cls.files is None:
+            source = cls.journal_run()[2]
+            cls.files = ((source / "manifest.json").read_bytes(), (source / "cases.journal").read_bytes())
+        return cls.files
 
 FRAME = struct.Struct("<4sQQQI")
 DTYPES = ["<f8", "<f4", "<i8", "<i4", "|u1", "|b1", "<c16", "<U3", "|S2", "<M8[s]", "|S0", "|O", "<V8", "x"]
@@ -159,12 +168,12 @@ def _frame(count, doc, payload) -> bytes:
 def make_journal_case(seed: int) -> tuple:
     """(output folder holding a crafted journal, changes) from ``seed``."""
     rnd = random.Random(seed)
-    _, _, source = _Made.journal_run()
+    manifest_bytes, journal_bytes = _Made.journal_files()
     out = _FOLDER / "resume"
     (out / ".e2esim-partial").mkdir(parents=True, exist_ok=True)
     records, manifest = out / ".e2esim-partial" / "cases.journal", out / ".e2esim-partial" / "manifest.json"
-    manifest.write_bytes((source / "manifest.json").read_bytes())
-    frames = _frames((source / "cases.journal").read_bytes())
+    manifest.write_bytes(manifest_bytes)
+    frames = _frames(journal_bytes)
     changes = []
     for _ in range(rnd.randint(1, 3)):
         if not frames:

@@ -40,12 +40,20 @@ class _Made:
 
     results: Path | None = None
     read = None
+    data: bytes | None = None
 
     @classmethod
     def results_file(cls) -> Path:
         if cls.results is None:
             cls.results = make_results(_FOLDER / "good")
         return cls.results
+
+    @classmethod
+    def results_bytes(cls) -> bytes:
+        """The real file's bytes, read once (each example starts from them)."""
+        if cls.data is None:
+            cls.data = cls.results_file().read_bytes()
+        return cls.data
 
     @classmethod
     def good_results(cls):
@@ -200,7 +208,7 @@ def make_results_case(seed: int) -> tuple:
     """(path of a crafted results.h5, the changes made) from ``seed``."""
     rnd = random.Random(seed)
     path = _FOLDER / "crafted.h5"
-    path.write_bytes(_Made.results_file().read_bytes())
+    path.write_bytes(_Made.results_bytes())
     changes = []
     with h5py.File(path, "r+") as f:
         for _ in range(rnd.randint(1, 3)):

@@ -2,6 +2,7 @@
 no import cycle (function-level imports counted) and import no private name of another module."""
 
 import ast
+import functools
 from pathlib import Path
 
 SRC = Path(__file__).resolve().parents[1] / "src"
@@ -12,6 +13,7 @@ def _module(path: Path) -> str:
     return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
 
 
+@functools.cache  # parsed once for the module's tests (neither changes what it returns)
 def _imports() -> dict:
     """{module: {(imported module, name or None)}} of every import in src/e2esim, at any level of the file."""
     modules = {_module(p): p for p in SRC.rglob("*.py")}

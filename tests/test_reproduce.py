@@ -6,7 +6,7 @@ import pytest
 
 from e2esim.cli import main
 from e2esim.verification.published import all_published
-from e2esim.verification.reproduce import STATUSES, check
+from e2esim.verification.reproduce import STATUSES
 
 MEN2021_IDS = (
     [f"men2021.eq16.f_{s}_{b}pct_{f}" for b in (20, 10) for f in ("boreal", "tropical") for s in ("over", "under")]
@@ -24,8 +24,9 @@ LOW_POWER = TABLE2_IDS | {  # consistent, but the tolerance is not smaller than 
 
 
 @pytest.fixture(scope="module")
-def records(tmp_path_factory):
-    return {p.id: check(p) for p in all_published()}
+def records(published_records):
+    assert set(published_records) == {p.id for p in all_published()}
+    return published_records
 
 
 def test_every_required_id_is_present(records):

@@ -41,6 +41,7 @@ import re
 import shutil
 import subprocess
 import sys
+from collections import deque
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -227,34 +228,40 @@ def module_files(src: Path, package: str = PACKAGE) -> dict[str, Path]:
     return files
 
 
-def _type_checking_nodes(tree: ast.AST) -> set[int]:
-    ids = set()
-    for node in ast.walk(tree):
-        if isinstance(node, ast.If) and "TYPE_CHECKING" in ast.unparse(node.test):
-            ids |= {id(n) for stmt in node.body for n in ast.walk(stmt)}
-    return ids
-
-
-def _function_nodes(tree: ast.AST) -> set[int]:
-    return {
-        id(n)
-        for f in ast.walk(tree)
-        if isinstance(f, (ast.FunctionDef, ast.AsyncFunctionDef, ast.Lambda))
-        for n in ast.walk(f)
-        if n is not f
-    }
-
-
-def imports_of(module: str, path: Path, modules: dict[str, Path], package: str = PACKAGE) -> list[Import]:
-    """The imports of one module of ``package``, each resolved to the module it loads (a submodule where the
-    imported name is one, else the module or package named)."""
+def _parsed(path: Path) -> tuple[str, ast.Module]:
+    """(text, syntax tree) of one file: ``measure`` reads and parses each file once and hands both to the counts."""
     text = path.read_text(encoding="utf-8")
+    return text, ast.parse(text, filename=str(path))
+
+
+def _imports_in_context(tree: ast.AST) -> list[tuple[ast.AST, bool, bool]]:
+    """(node, in a function, under ``if TYPE_CHECKING:``) of each import statement of ``tree``, in ``ast.walk``'s
+    order, in one pass: in a function is below a ``def`` (a ``lambda`` holds no statement); under ``TYPE_CHECKING`` is
+    in the body (not the ``else``) of an ``if`` whose test names it."""
+    found = []
+    todo = deque([(tree, False, False)])  # breadth first, as ast.walk
+    while todo:
+        node, in_function, type_only = todo.popleft()
+        if isinstance(node, (ast.Import, ast.ImportFrom)):
+            found.append((node, in_function, type_only))
+        below_function = in_function or isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef, ast.Lambda))
+        guarded = ()
+        if isinstance(node, ast.If) and "TYPE_CHECKING" in ast.unparse(node.test):
+            guarded = {id(statement) for statement in node.body}
+        todo.extend((child, below_function, type_only or id(child) in guarded) for child in ast.iter_child_nodes(node)
+                    if not isinstance(child, ast.expr))  # an expression holds no statement, so no import
+    return found
+
+
+def imports_of(module: str, path: Path, modules: dict[str, Path], package: str = PACKAGE,
+               source: tuple | None = None) -> list[Import]:
+    """The imports of one module of ``package``, each resolved to the module it loads (a submodule where the
+    imported name is one, else the module or package named). source: the file's (text, tree), or None: read."""
+    text, tree = source or _parsed(path)
     lines = text.splitlines()
-    tree = ast.parse(text, filename=str(path))
-    in_function, type_only = _function_nodes(tree), _type_checking_nodes(tree)
     is_package = path.name == "__init__.py"
     found = []
-    for node in ast.walk(tree):
+    for node, in_function, type_only in _imports_in_context(tree):
         if isinstance(node, ast.ImportFrom):
             if node.level:
                 base = module.split(".") if is_package else module.split(".")[:-1]
@@ -265,10 +272,8 @@ def imports_of(module: str, path: Path, modules: dict[str, Path], package: str =
             targets = [
                 (f"{source}.{a.name}" if f"{source}.{a.name}" in modules else source, a.name) for a in node.names
             ]
-        elif isinstance(node, ast.Import):
-            targets = [(a.name, "") for a in node.names]
         else:
-            continue
+            targets = [(a.name, "") for a in node.names]
         statement = "\n".join(lines[node.lineno - 1 : (node.end_lineno or node.lineno)])
         for target, name in targets:
             if target == package or target.startswith(package + "."):
@@ -278,8 +283,8 @@ def imports_of(module: str, path: Path, modules: dict[str, Path], package: str =
                         target,
                         name,
                         node.lineno,
-                        id(node) in in_function,
-                        id(node) in type_only,
+                        in_function,
+                        type_only,
                         LAZY_MARKER in statement,
                     )
                 )
@@ -315,12 +320,13 @@ def _targets(node) -> list:
     return node.targets if isinstance(node, ast.Assign) else [node.target]
 
 
-def caching_of(module: str, path: Path) -> tuple[list[str], list[str]]:
+def caching_of(module: str, path: Path, source: tuple | None = None) -> tuple[list[str], list[str]]:
     """(memo dicts: fields or attributes named ``_memo``/``_..._memo`` and class fields named ``_shared``; module-level
-    caches not in ``CONSTANT_CACHES``) of one module, as "module:line name"."""
-    tree = ast.parse(path.read_text(encoding="utf-8"), filename=str(path))
+    caches not in ``CONSTANT_CACHES``) of one module, as "module:line name". source: (text, tree), or None: read."""
+    text, tree = source or _parsed(path)
     memos, caches = [], []
-    for node in ast.walk(tree):
+    # a memo's name holds "memo" and a shared field is "_shared": most modules hold neither, nothing to walk
+    for node in ast.walk(tree) if "memo" in text or "_shared" in text else ():
         names = []
         if isinstance(node, ast.ClassDef):  # a class field (a ``_shared`` dict field too: a memo handed to others)
             names = [t.id for s in node.body if isinstance(s, (ast.Assign, ast.AnnAssign)) for t in _targets(s)
@@ -344,13 +350,14 @@ def caching_of(module: str, path: Path) -> tuple[list[str], list[str]]:
 _DICT_WRITES = ("update", "setdefault", "pop", "popitem", "clear", "__setitem__")
 
 
-def module_dicts(module: str, path: Path) -> list[str]:
+def module_dicts(module: str, path: Path, source: tuple | None = None) -> list[str]:
     """"module:line name" of each module-level empty dict (``_NAME = {}``, ``_NAME: dict = {}``) that a function of
-    the module writes into (an item set or deleted, ``update``, ``setdefault``, ``pop``, ``popitem``, ``clear``)."""
-    text = path.read_text(encoding="utf-8")
-    if "= {}" not in text:  # most modules: no second parse
+    the module writes into (an item set or deleted, ``update``, ``setdefault``, ``pop``, ``popitem``, ``clear``).
+    source: (text, tree), or None: read."""
+    text = source[0] if source else path.read_text(encoding="utf-8")
+    if "= {}" not in text:  # most modules: nothing to look for
         return []
-    tree = ast.parse(text, filename=str(path))
+    tree = source[1] if source else ast.parse(text, filename=str(path))
     empty = {t.id: node.lineno for node in tree.body if isinstance(node, (ast.Assign, ast.AnnAssign))
              and isinstance(node.value, ast.Dict) and not node.value.keys
              for t in _targets(node) if isinstance(t, ast.Name)}
@@ -419,13 +426,14 @@ MEMO_OWNERS = ("e2esim.case", "e2esim.runner.cases")
 """The modules that may call ``process_memo()``: its own, and the runner's service set-up (``default_services``)."""
 
 
-def caching_offences(module: str, path: Path) -> tuple[list[str], list[str]]:
-    """("module:line" of each ``__dict__`` write, of each direct ``process_memo()`` call) in one module."""
-    text = path.read_text(encoding="utf-8")
+def caching_offences(module: str, path: Path, source: tuple | None = None) -> tuple[list[str], list[str]]:
+    """("module:line" of each ``__dict__`` write, of each direct ``process_memo()`` call) in one module. source:
+    (text, tree), or None: read."""
+    text = source[0] if source else path.read_text(encoding="utf-8")
     writes, calls = [], []
-    if "__dict__" not in text and "process_memo" not in text:  # most modules: no second parse
+    if "__dict__" not in text and "process_memo" not in text:  # most modules: nothing to look for
         return writes, calls
-    tree = ast.parse(text, filename=str(path))
+    tree = source[1] if source else ast.parse(text, filename=str(path))
 
     def is_dict(node) -> bool:
         return isinstance(node, ast.Attribute) and node.attr == "__dict__"
@@ -466,28 +474,31 @@ def count_duplicates(src: Path) -> int | None:
     return int(match.group(1))
 
 
-def measure(src: Path = ROOT / "src", package: str = PACKAGE, layers=LAYERS, duplicates: bool = True) -> Figures:
-    """The figures of ``package`` under ``src``."""
+def measure(src: Path = ROOT / "src", package: str = PACKAGE, layers=LAYERS, duplicates: bool = True,
+            sources: dict | None = None) -> Figures:
+    """The figures of ``package`` under ``src``. sources: {module: (text, tree)} of its files already read (a caller
+    that reads them too), or None: each file is read and parsed here."""
     modules = module_files(src, package)
     figures = Figures(modules=len(modules))
     graph: dict[str, set[str]] = {m: set() for m in modules}
     up: dict[tuple[str, str], Import] = {}
     for module, path in modules.items():
-        n_lines = len(path.read_text(encoding="utf-8").splitlines())
+        source = sources[module] if sources else _parsed(path)  # read and parsed once for every count
+        n_lines = len(source[0].splitlines())
         figures.lines += n_lines
         if n_lines > MAX_LINES:
             figures.long_files[str(path.relative_to(src))] = n_lines
-        writes, calls = caching_offences(module, path)
+        writes, calls = caching_offences(module, path, source)
         figures.dict_writes += writes
         figures.memo_calls += calls
-        memos, caches = caching_of(module, path)
+        memos, caches = caching_of(module, path, source)
         figures.memo_dicts += memos
         figures.module_caches += caches
-        figures.module_dicts += module_dicts(module, path)
+        figures.module_dicts += module_dicts(module, path, source)
         own_layer = layer_of(module, layers)
         if own_layer is None:
             figures.unplaced.append(module)
-        for imp in imports_of(module, path, modules, package):
+        for imp in imports_of(module, path, modules, package, source):
             if imp.in_function:
                 figures.function_imports.append(imp)
             if imp.name.startswith("_") and not imp.name.startswith("__") and imp.imported != module:
