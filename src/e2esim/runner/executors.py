@@ -40,7 +40,8 @@ _WORKER: dict = {}  # in a worker process: the scenario it runs blocks of, and i
 
 def run_blocks(resolved, tasks: list, take, workers: int = 1, scheduler: str | None = None,
                engine: str = "batched", keep_products: bool = False, packages: frozenset | None = None,
-               frames: bool = True, progress: bool = False, cache=None, memo=None) -> None:
+               frames: bool = True, progress: bool = False, cache=None, memo=None,
+               stage_memo: StageMemo | None = None) -> None:
     """Run the blocks ``tasks`` and hand each to ``take(BlockResult, journal frame or None)`` as it finishes (not
     necessarily in case order); frames come from other processes, made with ``packages``
     (e2esim.runner.plaindata.allowed_packages), and only when ``frames`` (a run with a journal).
@@ -53,7 +54,8 @@ def run_blocks(resolved, tasks: list, take, workers: int = 1, scheduler: str | N
     stages a progress bar for long kernels (a global climatology's months); other processes cannot draw one.
     ``cache``: the array cache opener every process hands its stages (``e2esim.runner.cases.default_services``).
     ``memo``: the ``KernelMemo`` of the run's blocks (None: each process's own, ``e2esim.case.process_memo``); another
-    process gets an empty one with the same settings.
+    process gets an empty one with the same settings. ``stage_memo``: the ``StageMemo`` of the run's blocks in this
+    process (None: a new one), which forked workers start from (``--workers auto``: the blocks run here before).
     """
     if not tasks:
         return
@@ -66,9 +68,9 @@ def run_blocks(resolved, tasks: list, take, workers: int = 1, scheduler: str | N
     if scheduler:
         source = _DaskBlocks(resolved, tasks, scheduler, options)
     elif workers > 1:
-        source = _ProcessBlocks(resolved, tasks, workers, options)
+        source = _ProcessBlocks(resolved, tasks, workers, options, stage_memo)
     else:
-        source = _SerialBlocks(resolved, tasks, options, progress)
+        source = _SerialBlocks(resolved, tasks, options, progress, stage_memo)
     taken: set = set()
 
     def hand_over(number, block, frame):
@@ -95,12 +97,12 @@ class WorkerLost(UserError):
 class _SerialBlocks:
     """The blocks run one after the other in this process (Ctrl-C drops the one in flight)."""
 
-    def __init__(self, resolved, tasks: list, options: tuple, progress: bool = False):
-        self.resolved, self.tasks, self.options, self.progress = resolved, tasks, options, progress
+    def __init__(self, resolved, tasks: list, options: tuple, progress: bool = False, memo: StageMemo | None = None):
+        self.resolved, self.tasks, self.options, self.progress, self.memo = resolved, tasks, options, progress, memo
 
     def __iter__(self):
         engine, keep_products, _, cache, kernel_memo = self.options
-        services, memo = default_services(self.progress, cache, kernel_memo), StageMemo()
+        services, memo = default_services(self.progress, cache, kernel_memo), self.memo or StageMemo()
         for number, indices in enumerate(self.tasks):
             yield number, run_block(self.resolved, indices, engine, keep_products, services, memo), None
 
@@ -115,14 +117,15 @@ class _ProcessBlocks:
     """The blocks run on local worker processes; results as they finish. ``close`` stops the workers at once when
     blocks are still running (Ctrl-C, an error): they ignore SIGINT, which the main process handles."""
 
-    def __init__(self, resolved, tasks: list, workers: int, options: tuple):
+    def __init__(self, resolved, tasks: list, workers: int, options: tuple, memo: StageMemo | None = None):
         context = multiprocessing.get_context()  # the pool's default
-        # A forked worker inherits the scenario as it is in memory; other start methods get it pickled once here
-        # (not once per worker). Pickling and unpickling a million-case sweep's 10,000 modules costs about a second.
-        scenario = resolved if context.get_start_method() == "fork" else \
-            pickle.dumps(resolved, protocol=pickle.HIGHEST_PROTOCOL)
+        # A forked worker inherits the scenario (and the stage memo of the blocks run here before) as they are in
+        # memory; other start methods get the scenario pickled once here (not once per worker), and a new memo.
+        # Pickling and unpickling a million-case sweep's 10,000 modules costs about a second.
+        forked = context.get_start_method() == "fork"
+        scenario = resolved if forked else pickle.dumps(resolved, protocol=pickle.HIGHEST_PROTOCOL)
         self.pool = ProcessPoolExecutor(max_workers=workers, mp_context=context, initializer=_start_worker,
-                                        initargs=(scenario,))
+                                        initargs=(scenario, memo if forked else None))
         self.number = {self.pool.submit(run_block_remote, indices, options): k for k, indices in enumerate(tasks)}
         # the worker processes, started by the submits (the pool forgets them once it is broken)
         self.processes = list((getattr(self.pool, "_processes", None) or {}).values())
@@ -239,18 +242,20 @@ def run_block_remote(indices, options: tuple, resolved=None) -> tuple:
     if resolved is None:
         resolved = _WORKER["resolved"]
     if _WORKER.get("for") is not resolved:  # the first block of a run here: its memo serves the run's other blocks
-        _WORKER.update({"for": resolved, "memo": StageMemo(), "services": default_services(cache=cache,
-                                                                                          memo=kernel_memo)})
+        _WORKER.update({"for": resolved, "memo": _WORKER.pop("inherited", None) or StageMemo(),
+                        "services": default_services(cache=cache, memo=kernel_memo)})
     result = run_block(resolved, indices, engine, keep_products, _WORKER["services"], _WORKER["memo"])
     frame = None if packages is None else encode_block(result, packages)
     return pickle.dumps(result, protocol=pickle.HIGHEST_PROTOCOL), frame
 
 
-def _start_worker(scenario) -> None:
-    """Worker initializer: ``scenario`` is the resolved scenario (inherited by a forked worker) or its pickle."""
+def _start_worker(scenario, memo: StageMemo | None = None) -> None:
+    """Worker initializer: ``scenario`` is the resolved scenario (inherited by a forked worker) or its pickle;
+    ``memo`` the main process's ``StageMemo`` (inherited by a forked worker) or None."""
     exit_with_parent()
     worker_signals()
     _WORKER["resolved"] = pickle.loads(scenario) if isinstance(scenario, bytes) else scenario
+    _WORKER["inherited"] = memo
 
 
 def exit_with_parent() -> None:
