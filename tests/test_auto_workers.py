@@ -72,7 +72,7 @@ def test_one_block_or_one_core_runs_everything_here_without_timing(monkeypatch, 
 
 
 def test_the_threshold_comes_from_the_environment(monkeypatch):
-    calls, choice, _ = _auto(monkeypatch, cases=12, first_block_s=0.01, threshold=0)
+    _, choice, _ = _auto(monkeypatch, cases=12, first_block_s=0.01, threshold=0)
     assert choice.workers == 2 and "above 0 s" in choice.describe()
     monkeypatch.setenv(THRESHOLD_VARIABLE, "")
     assert parallel_threshold_s() == AUTO_PARALLEL_ABOVE_S

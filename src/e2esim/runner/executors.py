@@ -23,6 +23,8 @@ import weakref
 from concurrent.futures import FIRST_COMPLETED, InvalidStateError, ProcessPoolExecutor, wait
 from concurrent.futures.process import BrokenProcessPool
 
+import numpy as np
+
 from e2esim.errors import UserError
 from e2esim.extras import optional_import
 from e2esim.runner.blocks import StageMemo
@@ -124,6 +126,7 @@ class _ProcessBlocks:
         # Pickling and unpickling a million-case sweep's 10,000 modules costs about a second.
         forked = context.get_start_method() == "fork"
         scenario = resolved if forked else pickle.dumps(resolved, protocol=pickle.HIGHEST_PROTOCOL)
+        self.resolved = resolved
         self.pool = ProcessPoolExecutor(max_workers=workers, mp_context=context, initializer=_start_worker,
                                         initargs=(scenario, memo if forked else None))
         self.number = {self.pool.submit(run_block_remote, indices, options): k for k, indices in enumerate(tasks)}
@@ -145,9 +148,10 @@ class _ProcessBlocks:
 
     def _result(self, future) -> tuple:
         try:
-            data, frame = future.result()
+            data, frame, reads = future.result()
         except BrokenProcessPool as exc:
             raise self._lost() from exc
+        note_worker_reads(self.resolved, reads)
         return self.number[future], pickle.loads(data), frame
 
     def _lost(self) -> WorkerLost:
@@ -242,11 +246,37 @@ def run_block_remote(indices, options: tuple, resolved=None) -> tuple:
     if resolved is None:
         resolved = _WORKER["resolved"]
     if _WORKER.get("for") is not resolved:  # the first block of a run here: its memo serves the run's other blocks
-        _WORKER.update({"for": resolved, "memo": _WORKER.pop("inherited", None) or StageMemo(),
+        _WORKER.update({"for": resolved, "reads_sent": {}, "memo": _WORKER.pop("inherited", None) or StageMemo(),
                         "services": default_services(cache=cache, memo=kernel_memo)})
     result = run_block(resolved, indices, engine, keep_products, _WORKER["services"], _WORKER["memo"])
     frame = None if packages is None else encode_block(result, packages)
-    return pickle.dumps(result, protocol=pickle.HIGHEST_PROTOCOL), frame
+    return pickle.dumps(result, protocol=pickle.HIGHEST_PROTOCOL), frame, _reads_grown(resolved, indices)
+
+
+def _reads_grown(resolved, indices) -> dict:
+    """{(slot, object): names} of the modules of the block ``indices`` whose record of the parameters they read
+    (``Module.params_read``) grew in this process since the last block sent. The main process adds them to its own
+    modules (``note_worker_reads``), so that the settings a run never read (``e2esim.runner.no_effect``) are found
+    whichever processes ran its cases."""
+    plan = resolved.plan
+    sent, grown = _WORKER.setdefault("reads_sent", {}), {}
+    codes = plan.object_codes(indices)
+    for i, slot in enumerate(plan.module_slots):
+        for j in np.unique(codes[:, i]).tolist():
+            noted = getattr(slot.objects[j], "reads_noted", None)
+            names = noted() if noted is not None else frozenset()
+            if names and sent.get((i, j)) != names:
+                grown[(i, j)] = sent[(i, j)] = names
+    return grown
+
+
+def note_worker_reads(resolved, grown: dict) -> None:
+    """Add what a worker's modules read (``_reads_grown``) to this process's modules of ``resolved``."""
+    slots = resolved.plan.module_slots
+    for (i, j), names in grown.items():
+        note = getattr(slots[i].objects[j], "note_reads", None)
+        if note is not None:
+            note(names)
 
 
 def _start_worker(scenario, memo: StageMemo | None = None) -> None:
@@ -311,6 +341,7 @@ class _DaskBlocks:
 
     def __init__(self, resolved, tasks: list, address: str, options: tuple):
         Client = optional_import("distributed", "cluster", CLUSTER_PURPOSE).Client
+        self.resolved = resolved
         try:
             self.client = Client(address, timeout="20s")
         except (OSError, TimeoutError, ValueError, TypeError) as exc:
@@ -332,12 +363,13 @@ class _DaskBlocks:
 
     def _result(self, future) -> tuple:
         try:
-            data, frame = future.result()
+            data, frame, reads = future.result()
         except Exception as exc:
             if type(exc).__name__ != "KilledWorker":
                 raise
             raise WorkerLost("dask workers died while running a block (killed, or out of memory); the blocks they "
                              "were running are lost") from exc
+        note_worker_reads(self.resolved, reads)
         return self.number[future], pickle.loads(data), frame
 
     def finished(self) -> list:
