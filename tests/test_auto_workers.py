@@ -64,10 +64,11 @@ def test_a_short_run_stays_in_this_process(monkeypatch):
     assert choice.describe() == "auto: this process (the rest estimated at 1.8 s, not above 2 s)"
 
 
-@pytest.mark.parametrize("cases, cores, said", [(4, 2, "one block"), (12, 1, "one core usable")])
+@pytest.mark.parametrize("cases, cores, said", [(4, 2, "one block"), (12, 1, "one core usable"),
+                                               (0, 2, "nothing left to run")])
 def test_one_block_or_one_core_runs_everything_here_without_timing(monkeypatch, cases, cores, said):
     calls, choice, events = _auto(monkeypatch, cases=cases, first_block_s=100.0, cores=cores)
-    assert len(calls) == 1 and calls[0][1] == 1 and "fork" not in events
+    assert len(calls) == 1 and calls[0][1] == 1 and "fork" not in events  # every block here, none timed
     assert choice.describe() == f"auto: this process ({said})"
 
 

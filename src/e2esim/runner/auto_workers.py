@@ -58,8 +58,9 @@ def parallel_threshold_s() -> float:
 
 @dataclass(frozen=True)
 class AutoChoice:
-    """What ``--workers auto`` chose: ``workers`` processes for the blocks after the first ``first_blocks`` (1: all
-    in this process), from the rest's estimate ``estimate_s`` (None: not estimated), the threshold and the cores."""
+    """What ``--workers auto`` chose: ``workers`` processes for the blocks after the first ``first_blocks`` run here
+    (1: all in this process), from the rest's estimate ``estimate_s`` (None: not estimated, every block run here), the
+    threshold and the cores."""
 
     workers: int
     threshold_s: float
@@ -75,7 +76,8 @@ class AutoChoice:
                     f"left estimated at {self.estimate_s:.1f} s, above {self.threshold_s:g} s; "
                     f"{self.cores} cores usable)")
         if self.estimate_s is None:
-            why = "one block" if self.cores > 1 else "one core usable"
+            why = "nothing left to run" if not self.first_blocks else "one block" if self.first_blocks == 1 else \
+                "one core usable"
         elif self.estimate_s > self.threshold_s:
             why = "one case left after the first block"
         else:
@@ -94,7 +96,7 @@ def run_auto(resolved, todo: np.ndarray, split, take, options: dict, before_work
     memo = StageMemo()  # shared by this process's blocks and inherited by forked workers
     if len(tasks) < 2 or cores < 2:
         run_blocks(resolved, tasks, take, 1, stage_memo=memo, **options)
-        return AutoChoice(1, threshold, cores)
+        return AutoChoice(1, threshold, cores, len(tasks))
     start = clock()
     run_blocks(resolved, tasks[:1], take, 1, stage_memo=memo, **options)
     rest = np.sort(np.concatenate(tasks[1:]))
