@@ -67,12 +67,6 @@ def run_blocks(resolved, tasks: list, take, workers: int = 1, scheduler: str | N
         packages = allowed_packages()
     options = (engine, keep_products, packages, cache, memo)  # a memo sent to a worker arrives empty, with its
     # settings (a solve's ``repeated_geometry``: every process takes the same kernel path, so the same numbers)
-    if scheduler:
-        source = _DaskBlocks(resolved, tasks, scheduler, options)
-    elif workers > 1:
-        source = _ProcessBlocks(resolved, tasks, workers, options, stage_memo)
-    else:
-        source = _SerialBlocks(resolved, tasks, options, progress, stage_memo)
     taken: set = set()
 
     def hand_over(number, block, frame):
@@ -80,16 +74,28 @@ def run_blocks(resolved, tasks: list, take, workers: int = 1, scheduler: str | N
             take(block, frame)
             taken.add(number)
 
+    source = None
     try:
+        if scheduler:
+            source = _DaskBlocks(resolved, tasks, scheduler, options)
+        elif workers > 1:
+            # Ctrl-C while the pool forks its workers is raised once it is made, so that ``close`` stops them (cut
+            # short in there, the pool would be left with workers waiting for blocks, which the interpreter's exit
+            # waits for)
+            with interrupts_deferred():
+                source = _ProcessBlocks(resolved, tasks, workers, options, stage_memo)
+        else:
+            source = _SerialBlocks(resolved, tasks, options, progress, stage_memo)
         for number, block, frame in source:
             hand_over(number, block, frame)
     except (KeyboardInterrupt, WorkerLost):
-        for number, block, frame in source.finished():
+        for number, block, frame in source.finished() if source is not None else ():
             if number not in taken:
                 hand_over(number, block, frame)
         raise
     finally:
-        source.close()
+        if source is not None:
+            source.close()
 
 
 class WorkerLost(UserError):
