@@ -72,6 +72,14 @@ def test_one_block_or_one_core_runs_everything_here_without_timing(monkeypatch, 
     assert choice.describe() == f"auto: this process ({said})"
 
 
+def test_a_daemonic_process_runs_everything_here(monkeypatch):
+    """e2esim.run in a worker of someone's multiprocessing pool: Python forbids it children."""
+    monkeypatch.setattr(auto_workers, "may_start_processes", lambda: False)
+    calls, choice, events = _auto(monkeypatch, cases=12, first_block_s=100.0, cores=2)
+    assert len(calls) == 1 and "fork" not in events and choice.workers == 1
+    assert choice.describe() == "auto: this process (a daemonic process, which may have no workers)"
+
+
 def test_the_threshold_comes_from_the_environment(monkeypatch):
     _, choice, _ = _auto(monkeypatch, cases=12, first_block_s=0.01, threshold=0)
     assert choice.workers == 2 and "above 0 s" in choice.describe()

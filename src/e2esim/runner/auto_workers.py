@@ -6,15 +6,17 @@ run's one-time work (tables built, caches filled), so the estimate errs long. Wh
 threshold (``AUTO_PARALLEL_ABOVE_S``, or the environment variable ``E2ESIM_AUTO_WORKERS_ABOVE_S`` in seconds)
 and this process may use more than one core (``os.sched_getaffinity``, else ``os.cpu_count``), the rest runs on
 min(cores, blocks left) worker processes (``e2esim.runner.executors.run_blocks``: the journal, Ctrl-C and a lost
-worker behave as with ``--workers N``), split into blocks small enough that each worker gets several. Forked
-workers start with this process's warm caches and its stage memo. Below the threshold a pool's start (forking,
-each worker's first block) would cost about what it saves, so short runs stay in this process. The numbers are
-the same either way: each case draws from its own generator, and a block gives each case's numbers bit for bit.
+worker behave as with ``--workers N``; none from a daemonic process, which may have no children), split into
+blocks small enough that each worker gets several. Forked workers start with this process's warm caches and its
+stage memo. Below the threshold a pool's start (forking, each worker's first block) would cost about what it
+saves, so short runs stay in this process. The numbers are the same either way: each case draws from its own
+generator, and a block gives each case's numbers bit for bit.
 """
 
 from __future__ import annotations
 
 import math
+import multiprocessing
 import os
 import time
 from dataclasses import dataclass
@@ -38,6 +40,12 @@ def usable_cores() -> int:
         return len(os.sched_getaffinity(0))
     except (AttributeError, OSError):
         return os.cpu_count() or 1
+
+
+def may_start_processes() -> bool:
+    """Whether this process may have worker processes: not a daemonic one (a worker of someone's
+    ``multiprocessing`` pool running ``e2esim.run``), which Python forbids children."""
+    return not multiprocessing.current_process().daemon
 
 
 def parallel_threshold_s() -> float:
@@ -68,6 +76,7 @@ class AutoChoice:
     first_blocks: int = 0
     rest_blocks: int = 0
     estimate_s: float | None = None
+    daemonic: bool = False
 
     def describe(self) -> str:
         """The run's provenance entry ``workers``."""
@@ -77,7 +86,7 @@ class AutoChoice:
                     f"{self.cores} cores usable)")
         if self.estimate_s is None:
             why = "nothing left to run" if not self.first_blocks else "one block" if self.first_blocks == 1 else \
-                "one core usable"
+                "a daemonic process, which may have no workers" if self.daemonic else "one core usable"
         elif self.estimate_s > self.threshold_s:
             why = "one case left after the first block"
         else:
@@ -91,12 +100,12 @@ def run_auto(resolved, todo: np.ndarray, split, take, options: dict, before_work
     ``run_blocks``). ``split(cases, workers)`` -> the blocks of ``cases`` for that many workers
     (``e2esim.runner.run.block_tasks``); ``options``: ``run_blocks``'s keywords; ``before_workers()``: called once
     before any worker process starts (what must not be running when this process forks)."""
-    threshold, cores = parallel_threshold_s(), usable_cores()
+    threshold, cores, daemonic = parallel_threshold_s(), usable_cores(), not may_start_processes()
     tasks = split(todo, 1)
     memo = StageMemo()  # shared by this process's blocks and inherited by forked workers
-    if len(tasks) < 2 or cores < 2:
+    if len(tasks) < 2 or cores < 2 or daemonic:
         run_blocks(resolved, tasks, take, 1, stage_memo=memo, **options)
-        return AutoChoice(1, threshold, cores, len(tasks))
+        return AutoChoice(1, threshold, cores, len(tasks), daemonic=daemonic)
     start = clock()
     run_blocks(resolved, tasks[:1], take, 1, stage_memo=memo, **options)
     rest = np.sort(np.concatenate(tasks[1:]))
