@@ -7,10 +7,12 @@ Prints, in one run:
    the outputs and plots included), at full size, each twice in a fresh process: first with the benchmark's own
    empty array cache (cold: climatology tables computed and stored), then with the cache it left (warm: the
    issue's targets are for a warm cache), with the warm run's peak memory (``ru_maxrss`` of the ``e2esim``
-   process, from ``os.wait4``; worker processes not included). biomass_latitude_sweep runs with
-   ``--workers 2``, as the issue's table states it; the others serially. Targets: the issue's table where it has
-   the scenario (``TARGETS``), else the one stated here (``DEFAULT_TARGET_S``; the global map: bench_sweeps.py's);
-   beside them, the figure the issue recorded when it was filed (not measured here);
+   process, from ``os.wait4``: the largest single process, worker processes counted on their own).
+   biomass_latitude_sweep runs with ``--workers 2``, as the issue's table states it; the others at the command's
+   default, ``--workers auto`` (the rest of a run estimated above 2 s after its first block goes to as many
+   processes as there are usable cores; the provenance's ``workers`` says what ran). Targets: the issue's table
+   where it has the scenario (``TARGETS``), else the one stated here (``DEFAULT_TARGET_S``; the global map:
+   bench_sweeps.py's); beside them, the figure the issue recorded when it was filed (not measured here);
 2. the realistic analytic sweep of ``benchmarks/realistic_sweep.yaml`` (200,000 cases, ``--workers 2``; target
    <= 40 s);
 3. the rows of the issue's table measured by other scripts, with the command that measures them: the Monte Carlo

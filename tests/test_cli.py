@@ -53,6 +53,11 @@ def default_runs(tmp_path_factory, quick_run):
     return runs
 
 
+def test_the_command_line_runs_with_workers_auto_and_says_what_it_chose(default_runs):
+    summary = json.loads((default_runs["b"] / "summary.json").read_text())  # two cases: one block, run here
+    assert summary["workers"] == "auto: this process (one block)" and "executor" not in summary
+
+
 def test_default_scenario_writes_every_output(default_runs):
     out = default_runs["a"]
     for name in ("results.h5", "summary.json", "report.md", "report.html"):

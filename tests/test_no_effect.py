@@ -2,6 +2,7 @@
 no result of its cases is reported with the stage that ignores it; a key that acts is not; Monte Carlo noise is
 not mistaken for an effect."""
 
+import copy
 import json
 import warnings
 
@@ -218,3 +219,20 @@ def test_the_findings_and_the_results_facade_are_made_once_and_equal_a_fresh_com
         np.testing.assert_array_equal(fresh.scalars[name], results.scalars[name])
     for name in ("passed", "value", "limit", "margin", "status", "reason", "dominant"):
         np.testing.assert_array_equal(getattr(fresh, name), getattr(results, name))
+
+
+def test_worker_processes_report_what_their_modules_read(monkeypatch):
+    """The settings a run never read are found from what every process read: worker processes send their modules'
+    reads back (e2esim.runner.executors.note_worker_reads). Before, a run on workers (the default --workers auto
+    moves long runs to workers) reported no such setting at all."""
+    raw = ground_cancelled_with_faraday_correction(channels="hv", looks=(1000,))
+    raw["sweep"] = {"mode": "grid", "parameters": {"instrument.nesz_db": [-30, -27, -24, -21]}}
+    reports = []
+    for workers in (1, 2):
+        scenario = Scenario(copy.deepcopy(raw), "test.yaml")
+        for item in ("propagation.0.date=2", "instrument.crosstalk.level_db=-29"):
+            scenario.override(item)
+        result = run_scenario(scenario.resolve(), progress=False, workers=workers)
+        reports.append([f.message() for f in no_effect(result)])
+    assert reports[1] == reports[0]
+    assert len(reports[0]) == 1 and "never reads date" in reports[0][0]

@@ -12,6 +12,8 @@ import yaml
 from cli_processes import e2esim_process as _cli
 
 from e2esim.cli import main
+from e2esim.runner import auto_workers
+from e2esim.runner.auto_workers import THRESHOLD_VARIABLE
 from e2esim.runner.run import run_scenario
 from e2esim.runner.scenario import Scenario
 
@@ -42,12 +44,21 @@ def _numbers(result):
     return [(c.index, c.inputs, c.scalars) for c in result.cases]
 
 
-def test_local_processes_give_the_serial_numbers(tmp_path):
+def test_local_processes_give_the_serial_numbers(tmp_path, monkeypatch):
     resolved = Scenario.load(_scenario(tmp_path)).resolve()
     serial = run_scenario(resolved, progress=False)
     parallel = run_scenario(resolved, progress=False, workers=2)
     assert _numbers(parallel) == _numbers(serial)
     assert parallel.provenance["executor"] == "2 local processes"
+    # --workers auto forced onto its pool (threshold 0 s, two cores): the first block here, the rest in blocks of
+    # one case on two forked workers that start from this process's stage memo; the same bits
+    monkeypatch.setenv(THRESHOLD_VARIABLE, "0")
+    monkeypatch.setattr(auto_workers, "usable_cores", lambda: 2)
+    auto = run_scenario(resolved, progress=False, workers="auto")
+    assert _numbers(auto) == _numbers(serial)
+    assert auto.provenance["executor"] == "2 local processes"
+    assert auto.provenance["workers"].startswith("auto: 2 local processes after the first block (the 8 blocks left")
+    assert sorted(len(b) for b in auto.blocks) == [1] * 8 + [4]
 
 
 def test_dask_local_cluster_gives_the_serial_numbers(tmp_path):

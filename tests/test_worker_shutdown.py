@@ -113,3 +113,42 @@ def test_a_worker_that_dies_while_it_sends_its_result_ends_the_run_with_a_messag
     assert not waited_for_ever, "the run waits for ever for the result of a worker that died sending it"
     assert len(outcome) == 1 and isinstance(outcome[0], executors.WorkerLost), outcome
     assert str(outcome[0]).startswith("a worker process ended abruptly (exit status 1, "), str(outcome[0])
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="workers forked from this process")
+def test_ctrl_c_while_the_pool_forks_its_workers_stops_them(tmp_path, monkeypatch):
+    """Ctrl-C that lands while the pool starts its workers (where --workers auto forks, right after its first block
+    is saved) ends the run with the pool closed: its workers stopped. Before, the interrupt cut the pool's making
+    short, nobody closed it, and the interpreter's exit waited for its workers for ever."""
+    import multiprocessing
+    import signal
+
+    from e2esim.runner import executors
+    from e2esim.runner.scenario import Scenario
+
+    if multiprocessing.get_start_method() != "fork":
+        pytest.skip("the pool's workers are forked")
+    made = []
+
+    class InterruptedWhileMade(executors._ProcessBlocks):
+        def __init__(self, *args):
+            super().__init__(*args)
+            made.append(self)
+            os.kill(os.getpid(), signal.SIGINT)  # as a terminal's Ctrl-C, with the workers started
+            time.sleep(0.5)  # where a KeyboardInterrupt, if not held back, is raised
+
+    monkeypatch.setattr(executors, "_ProcessBlocks", InterruptedWhileMade)
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    resolved = Scenario.load(_sweep(tmp_path)).resolve()
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            executors.run_blocks(resolved, [[0], [1], [2]], lambda block, frame: None, workers=2)
+    finally:
+        signal.signal(signal.SIGINT, previous)
+        processes = made[0].processes if made else []
+        alive = [p for p in processes if p.is_alive()]
+        for process in alive:  # before the fix: end them here, so that this test process can end
+            process.kill()
+        if made:
+            made[0].pool.shutdown(wait=False, cancel_futures=True)
+    assert made and processes and not alive, "the pool's workers were left running"

@@ -27,7 +27,7 @@ class NoEffectWarning(UserWarning):
 
 
 def run(scenario, set: dict | None = None, output=None, force: bool = False, progress: bool = False,
-        workers: int = 1, engine: str = "batched", resume: bool = False, scheduler: str | None = None,
+        workers: int | str = "auto", engine: str = "batched", resume: bool = False, scheduler: str | None = None,
         **overrides) -> Results:
     """Run every case of ``scenario`` and return its ``Results``; write no file unless ``output`` names a
     folder. With a folder the run takes the path of ``e2esim run -o`` (``e2esim.runner.folder_run``): the folder
@@ -42,8 +42,9 @@ def run(scenario, set: dict | None = None, output=None, force: bool = False, pro
         ``**{"simulation.realisations": 500}``; both may be given.
     engine : "batched" (blocks of cases at once) or "per_case" (one case at a time, the reference); the
         same numbers either way.
-    workers, scheduler : run the cases on that many local processes, or on the dask.distributed cluster at
-        that address (as ``--workers`` and ``--scheduler``); the same numbers either way.
+    workers, scheduler : run the cases on that many local processes ("auto": on as many as the machine gives this
+        process, when the rest of the run is estimated above 2 s; ``e2esim.runner.auto_workers``), or on the
+        dask.distributed cluster at that address (as ``--workers`` and ``--scheduler``); the same numbers either way.
     """
     keep_freed_memory()  # as e2esim run: the kernels keep the memory they free (e2esim.allocator)
     assignments = {**(set or {}), **overrides}

@@ -68,8 +68,10 @@ def _build_parser() -> argparse.ArgumentParser:
     _add_scenario_options(run)
     run.add_argument("--json", action="store_true", help="also print summary.json to stdout")
     run.add_argument("--no-progress", action="store_true", help="no progress bar")
-    run.add_argument("--workers", type=int, default=1, metavar="N",
-                     help="run sweep cases on N local processes (same numbers as a serial run)")
+    run.add_argument("--workers", type=_workers, default="auto", metavar="N",
+                     help="run sweep cases on N local processes, or 'auto' (the default): the first block in this "
+                          "process, the rest on as many processes as there are usable cores when it is estimated "
+                          "above 2 s (E2ESIM_AUTO_WORKERS_ABOVE_S); the same numbers either way")
     run.add_argument("--scheduler", metavar="ADDRESS",
                      help="run sweep cases on the dask.distributed cluster at ADDRESS (e.g. tcp://host:8786)")
     run.add_argument("--resume", action="store_true",
@@ -197,6 +199,16 @@ def _broken_pipe() -> int:
     return 0
 
 
+def _workers(text: str):
+    """``--workers``: a whole number (checked by ``check_executor``) or auto."""
+    if text.strip().lower() == "auto":
+        return "auto"
+    try:
+        return int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r}: expected a number of processes >= 1, or auto") from None
+
+
 def _scenario(args):
     from e2esim.runner.scenario import Scenario
 
@@ -235,13 +247,14 @@ def cmd_run(args) -> int:
     from e2esim.runner.no_effect import no_effect
     from e2esim.runner.outputs import output_folder
 
-    check_executor(args.workers, args.scheduler)
+    check_executor(args.workers, args.scheduler, auto=True)
     resolved = _scenario(args).resolve()
     folder = output_folder(resolved, args.output)
     result = run_into_folder(resolved, folder, args.force, args.resume, progress=not args.no_progress,
                              command=" ".join(["e2esim"] + sys.argv[1:]), workers=args.workers,
                              scheduler=args.scheduler, engine="per_case" if args.per_case else "batched",
-                             answer=lambda r: flowdown.scenario_answer(r, args.workers))
+                             answer=lambda r: flowdown.scenario_answer(r, 1 if args.workers == "auto" else
+                                                                       args.workers))
     for finding in no_effect(result):
         print(f"e2esim: warning: {finding.message()}", file=sys.stderr)
     out = sys.stderr if args.json else sys.stdout

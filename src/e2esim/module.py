@@ -118,6 +118,17 @@ class Module:
             return None
         return {names[key] for key in reads}
 
+    def reads_noted(self) -> frozenset:
+        """The names ``params_read`` works from, as read so far in this process (a worker sends them to the main
+        process, which adds them to its own copy of the module with ``note_reads``)."""
+        return frozenset(getattr(self, "_reads", ()))
+
+    def note_reads(self, names) -> None:
+        """Add ``names`` another process read (``reads_noted``) to this module's record (``params_read``)."""
+        reads = getattr(self, "_reads", None)
+        if reads is not None:
+            reads.update(names)  # in place: ``config`` and ``si`` note into this very set
+
     def derive(self, si: dict) -> dict:
         """The SI values the module works with, from those of its parameters (override to adjust or add:
         call ``super().derive(si)`` first). ``config`` is left as the user gave it, so a module built from

@@ -23,6 +23,8 @@ import weakref
 from concurrent.futures import FIRST_COMPLETED, InvalidStateError, ProcessPoolExecutor, wait
 from concurrent.futures.process import BrokenProcessPool
 
+import numpy as np
+
 from e2esim.errors import UserError
 from e2esim.extras import optional_import
 from e2esim.runner.blocks import StageMemo
@@ -40,7 +42,8 @@ _WORKER: dict = {}  # in a worker process: the scenario it runs blocks of, and i
 
 def run_blocks(resolved, tasks: list, take, workers: int = 1, scheduler: str | None = None,
                engine: str = "batched", keep_products: bool = False, packages: frozenset | None = None,
-               frames: bool = True, progress: bool = False, cache=None, memo=None) -> None:
+               frames: bool = True, progress: bool = False, cache=None, memo=None,
+               stage_memo: StageMemo | None = None) -> None:
     """Run the blocks ``tasks`` and hand each to ``take(BlockResult, journal frame or None)`` as it finishes (not
     necessarily in case order); frames come from other processes, made with ``packages``
     (e2esim.runner.plaindata.allowed_packages), and only when ``frames`` (a run with a journal).
@@ -53,7 +56,8 @@ def run_blocks(resolved, tasks: list, take, workers: int = 1, scheduler: str | N
     stages a progress bar for long kernels (a global climatology's months); other processes cannot draw one.
     ``cache``: the array cache opener every process hands its stages (``e2esim.runner.cases.default_services``).
     ``memo``: the ``KernelMemo`` of the run's blocks (None: each process's own, ``e2esim.case.process_memo``); another
-    process gets an empty one with the same settings.
+    process gets an empty one with the same settings. ``stage_memo``: the ``StageMemo`` of the run's blocks in this
+    process (None: a new one), which forked workers start from (``--workers auto``: the blocks run here before).
     """
     if not tasks:
         return
@@ -63,12 +67,6 @@ def run_blocks(resolved, tasks: list, take, workers: int = 1, scheduler: str | N
         packages = allowed_packages()
     options = (engine, keep_products, packages, cache, memo)  # a memo sent to a worker arrives empty, with its
     # settings (a solve's ``repeated_geometry``: every process takes the same kernel path, so the same numbers)
-    if scheduler:
-        source = _DaskBlocks(resolved, tasks, scheduler, options)
-    elif workers > 1:
-        source = _ProcessBlocks(resolved, tasks, workers, options)
-    else:
-        source = _SerialBlocks(resolved, tasks, options, progress)
     taken: set = set()
 
     def hand_over(number, block, frame):
@@ -76,16 +74,28 @@ def run_blocks(resolved, tasks: list, take, workers: int = 1, scheduler: str | N
             take(block, frame)
             taken.add(number)
 
+    source = None
     try:
+        if scheduler:
+            source = _DaskBlocks(resolved, tasks, scheduler, options)
+        elif workers > 1:
+            # Ctrl-C while the pool forks its workers is raised once it is made, so that ``close`` stops them (cut
+            # short in there, the pool would be left with workers waiting for blocks, which the interpreter's exit
+            # waits for)
+            with interrupts_deferred():
+                source = _ProcessBlocks(resolved, tasks, workers, options, stage_memo)
+        else:
+            source = _SerialBlocks(resolved, tasks, options, progress, stage_memo)
         for number, block, frame in source:
             hand_over(number, block, frame)
     except (KeyboardInterrupt, WorkerLost):
-        for number, block, frame in source.finished():
+        for number, block, frame in source.finished() if source is not None else ():
             if number not in taken:
                 hand_over(number, block, frame)
         raise
     finally:
-        source.close()
+        if source is not None:
+            source.close()
 
 
 class WorkerLost(UserError):
@@ -95,12 +105,12 @@ class WorkerLost(UserError):
 class _SerialBlocks:
     """The blocks run one after the other in this process (Ctrl-C drops the one in flight)."""
 
-    def __init__(self, resolved, tasks: list, options: tuple, progress: bool = False):
-        self.resolved, self.tasks, self.options, self.progress = resolved, tasks, options, progress
+    def __init__(self, resolved, tasks: list, options: tuple, progress: bool = False, memo: StageMemo | None = None):
+        self.resolved, self.tasks, self.options, self.progress, self.memo = resolved, tasks, options, progress, memo
 
     def __iter__(self):
         engine, keep_products, _, cache, kernel_memo = self.options
-        services, memo = default_services(self.progress, cache, kernel_memo), StageMemo()
+        services, memo = default_services(self.progress, cache, kernel_memo), self.memo or StageMemo()
         for number, indices in enumerate(self.tasks):
             yield number, run_block(self.resolved, indices, engine, keep_products, services, memo), None
 
@@ -115,14 +125,16 @@ class _ProcessBlocks:
     """The blocks run on local worker processes; results as they finish. ``close`` stops the workers at once when
     blocks are still running (Ctrl-C, an error): they ignore SIGINT, which the main process handles."""
 
-    def __init__(self, resolved, tasks: list, workers: int, options: tuple):
+    def __init__(self, resolved, tasks: list, workers: int, options: tuple, memo: StageMemo | None = None):
         context = multiprocessing.get_context()  # the pool's default
-        # A forked worker inherits the scenario as it is in memory; other start methods get it pickled once here
-        # (not once per worker). Pickling and unpickling a million-case sweep's 10,000 modules costs about a second.
-        scenario = resolved if context.get_start_method() == "fork" else \
-            pickle.dumps(resolved, protocol=pickle.HIGHEST_PROTOCOL)
+        # A forked worker inherits the scenario (and the stage memo of the blocks run here before) as they are in
+        # memory; other start methods get the scenario pickled once here (not once per worker), and a new memo.
+        # Pickling and unpickling a million-case sweep's 10,000 modules costs about a second.
+        forked = context.get_start_method() == "fork"
+        scenario = resolved if forked else pickle.dumps(resolved, protocol=pickle.HIGHEST_PROTOCOL)
+        self.resolved = resolved
         self.pool = ProcessPoolExecutor(max_workers=workers, mp_context=context, initializer=_start_worker,
-                                        initargs=(scenario,))
+                                        initargs=(scenario, memo if forked else None))
         self.number = {self.pool.submit(run_block_remote, indices, options): k for k, indices in enumerate(tasks)}
         # the worker processes, started by the submits (the pool forgets them once it is broken)
         self.processes = list((getattr(self.pool, "_processes", None) or {}).values())
@@ -142,9 +154,10 @@ class _ProcessBlocks:
 
     def _result(self, future) -> tuple:
         try:
-            data, frame = future.result()
+            data, frame, reads = future.result()
         except BrokenProcessPool as exc:
             raise self._lost() from exc
+        note_worker_reads(self.resolved, reads)
         return self.number[future], pickle.loads(data), frame
 
     def _lost(self) -> WorkerLost:
@@ -239,18 +252,46 @@ def run_block_remote(indices, options: tuple, resolved=None) -> tuple:
     if resolved is None:
         resolved = _WORKER["resolved"]
     if _WORKER.get("for") is not resolved:  # the first block of a run here: its memo serves the run's other blocks
-        _WORKER.update({"for": resolved, "memo": StageMemo(), "services": default_services(cache=cache,
-                                                                                          memo=kernel_memo)})
+        _WORKER.update({"for": resolved, "reads_sent": {}, "memo": _WORKER.pop("inherited", None) or StageMemo(),
+                        "services": default_services(cache=cache, memo=kernel_memo)})
     result = run_block(resolved, indices, engine, keep_products, _WORKER["services"], _WORKER["memo"])
     frame = None if packages is None else encode_block(result, packages)
-    return pickle.dumps(result, protocol=pickle.HIGHEST_PROTOCOL), frame
+    return pickle.dumps(result, protocol=pickle.HIGHEST_PROTOCOL), frame, _reads_grown(resolved, indices)
 
 
-def _start_worker(scenario) -> None:
-    """Worker initializer: ``scenario`` is the resolved scenario (inherited by a forked worker) or its pickle."""
+def _reads_grown(resolved, indices) -> dict:
+    """{(slot, object): names} of the modules of the block ``indices`` whose record of the parameters they read
+    (``Module.params_read``) grew in this process since the last block sent. The main process adds them to its own
+    modules (``note_worker_reads``), so that the settings a run never read (``e2esim.runner.no_effect``) are found
+    whichever processes ran its cases."""
+    plan = resolved.plan
+    sent, grown = _WORKER.setdefault("reads_sent", {}), {}
+    codes = plan.object_codes(indices)
+    for i, slot in enumerate(plan.module_slots):
+        for j in np.unique(codes[:, i]).tolist():
+            noted = getattr(slot.objects[j], "reads_noted", None)
+            names = noted() if noted is not None else frozenset()
+            if names and sent.get((i, j)) != names:
+                grown[(i, j)] = sent[(i, j)] = names
+    return grown
+
+
+def note_worker_reads(resolved, grown: dict) -> None:
+    """Add what a worker's modules read (``_reads_grown``) to this process's modules of ``resolved``."""
+    slots = resolved.plan.module_slots
+    for (i, j), names in grown.items():
+        note = getattr(slots[i].objects[j], "note_reads", None)
+        if note is not None:
+            note(names)
+
+
+def _start_worker(scenario, memo: StageMemo | None = None) -> None:
+    """Worker initializer: ``scenario`` is the resolved scenario (inherited by a forked worker) or its pickle;
+    ``memo`` the main process's ``StageMemo`` (inherited by a forked worker) or None."""
     exit_with_parent()
     worker_signals()
     _WORKER["resolved"] = pickle.loads(scenario) if isinstance(scenario, bytes) else scenario
+    _WORKER["inherited"] = memo
 
 
 def exit_with_parent() -> None:
@@ -306,6 +347,7 @@ class _DaskBlocks:
 
     def __init__(self, resolved, tasks: list, address: str, options: tuple):
         Client = optional_import("distributed", "cluster", CLUSTER_PURPOSE).Client
+        self.resolved = resolved
         try:
             self.client = Client(address, timeout="20s")
         except (OSError, TimeoutError, ValueError, TypeError) as exc:
@@ -327,12 +369,13 @@ class _DaskBlocks:
 
     def _result(self, future) -> tuple:
         try:
-            data, frame = future.result()
+            data, frame, reads = future.result()
         except Exception as exc:
             if type(exc).__name__ != "KilledWorker":
                 raise
             raise WorkerLost("dask workers died while running a block (killed, or out of memory); the blocks they "
                              "were running are lost") from exc
+        note_worker_reads(self.resolved, reads)
         return self.number[future], pickle.loads(data), frame
 
     def finished(self) -> list:

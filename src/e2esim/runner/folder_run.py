@@ -17,6 +17,7 @@ from pathlib import Path
 
 from e2esim.errors import OutputFolderError, UserError
 from e2esim.io.array_cache import open_cache
+from e2esim.runner.auto_workers import AUTO
 from e2esim.runner.executors import WorkerLost, check_scheduler_address
 from e2esim.runner.interrupts import RunInterrupted, stop_signals_as_interrupts
 from e2esim.runner.journal import Journal
@@ -25,16 +26,19 @@ from e2esim.runner.outputs import aside_note, prepare_folder, report_imported_me
 from e2esim.runner.run import ScenarioResult, run_scenario
 
 
-def check_executor(workers: int, scheduler: str | None) -> None:
-    """``workers`` a number of processes >= 1, and ``scheduler`` (if given) a dask scheduler address."""
-    if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
-        raise UserError(f"--workers {workers}: expected a number of processes >= 1")
+def check_executor(workers: int | str, scheduler: str | None, auto: bool = False) -> None:
+    """``workers`` a number of processes >= 1 (or "auto" where ``auto``: ``e2esim.runner.auto_workers``), and
+    ``scheduler`` (if given) a dask scheduler address."""
+    if auto and workers == AUTO:
+        pass
+    elif isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
+        raise UserError(f"--workers {workers}: expected a number of processes >= 1{', or auto' if auto else ''}")
     if scheduler:
         check_scheduler_address(scheduler)
 
 
 def run_into_folder(resolved, folder, force: bool = False, resume: bool = False, *, progress: bool = True,
-                    command: str | None = None, workers: int = 1, scheduler: str | None = None,
+                    command: str | None = None, workers: int | str = AUTO, scheduler: str | None = None,
                     engine: str = "batched", answer=None) -> ScenarioResult:
     """Run ``resolved`` and write its outputs into ``folder`` (module docstring); return the run's results.
 
@@ -44,7 +48,7 @@ def run_into_folder(resolved, folder, force: bool = False, resume: bool = False,
     answer to the scenario's own question (``e2esim.flowdown.answer.scenario_answer``) or None, computed after the
     run and kept as ``result.answer`` for the outputs.
     """
-    check_executor(workers, scheduler)
+    check_executor(workers, scheduler, auto=True)
     options = {"progress": progress, "command": command, "workers": workers, "scheduler": scheduler,
                "engine": engine, "cache": open_cache}  # the array cache, handed to the stages through their services
     if folder is None:
@@ -59,9 +63,9 @@ def run_into_folder(resolved, folder, force: bool = False, resume: bool = False,
         lock = prepare_folder(folder, force, resume)
         try:
             journal = Journal(folder, resolved)
-            # a run in this process: the report's modules are imported meanwhile (none when workers may fork)
-            with report_imported_meanwhile(workers == 1 and not scheduler):
-                result = _run_journalled(resolved, folder, journal, resume, options)
+            # a run in this process: the report's modules are imported meanwhile (joined before auto forks workers)
+            with report_imported_meanwhile(workers in (1, AUTO) and not scheduler) as imported:
+                result = _run_journalled(resolved, folder, journal, resume, {**options, "before_workers": imported})
             result.answer = None if answer is None else answer(resolved)
             try:
                 write_outputs(result, folder, progress=progress)

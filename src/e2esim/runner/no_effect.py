@@ -18,10 +18,10 @@ the physics it gives (``Stage.insensitivity``).
 
 **Overrides** (``override_findings``; ``--set``, ``e2esim.run(..., **overrides)``), for one run there is no case
 to compare with, so they are reported when it is certain: the value is the one the scenario (or the parameter's
-default) already had; the module never read the parameter in this run (``Module.params_read``, where every case
-ran in this process); or every later stage that reads the products of the key's stage says it cannot depend on it
-(``Stage.insensitivity``). An override that is read but whose effect vanishes further down is not found: sweep
-it to check (``--set sweep.parameters.KEY=[old, new]``).
+default) already had; the module never read the parameter in this run (``Module.params_read``, where no case was
+run before a resume: worker processes report what they read); or every later stage that reads the products of the
+key's stage says it cannot depend on it (``Stage.insensitivity``). An override that is read but whose effect
+vanishes further down is not found: sweep it to check (``--set sweep.parameters.KEY=[old, new]``).
 """
 
 from __future__ import annotations
@@ -264,7 +264,7 @@ def override_findings(result) -> list:
     if plan is None or not getattr(resolved, "overrides", ()):
         return []
     chain = plan.chain(0)
-    in_process = "executor" not in result.provenance and "resumed_cases" not in result.provenance
+    in_process = "resumed_cases" not in result.provenance  # workers report their reads (executors.note_worker_reads)
     findings, cache = [], {}
     for key, path, given, previous in resolved.overrides:
         if path[0] in ("sweep", "output", "name", "description", "plugins"):
@@ -313,7 +313,7 @@ def _slot(plan, path: tuple) -> tuple:
 
 
 def _unread(key, path, plan, chain, in_process: bool) -> NoEffect | None:
-    """The module of the key never read the parameter (every case ran here)."""
+    """The module of the key never read the parameter (every case ran in this run)."""
     slot, rest = _slot(plan, path)
     if not in_process or slot is None or not rest or rest[0] == "type":
         return None
@@ -367,11 +367,12 @@ def _ignored(key, path, plan, cache: dict) -> NoEffect | None:
 # Settings the scenario file gives ------------------------------------------------------------------------------------
 def given_findings(result) -> list:
     """A module setting the scenario file gives (neither swept nor overridden: those are checked above) that its
-    module never read in this run, every case having run in this process (``Module.params_read``): e.g. the
-    ``sd_deg`` of ``biomass_product_faraday`` where the product's own SD layer holds values at every pixel read."""
+    module never read in this run (``Module.params_read``; worker processes report theirs), no case taken from a
+    journal: e.g. the ``sd_deg`` of ``biomass_product_faraday`` where the product's own SD layer holds values at
+    every pixel read."""
     resolved = result.scenario
     plan = resolved.plan
-    if plan is None or "executor" in result.provenance or "resumed_cases" in result.provenance:
+    if plan is None or "resumed_cases" in result.provenance:
         return []
     overridden = {tuple(path) for _, path, _, _ in getattr(resolved, "overrides", ())}
     findings = []

@@ -167,13 +167,14 @@ def _report_functions() -> tuple:
 def report_imported_meanwhile(enabled: bool = True):
     """Import the report's modules (matplotlib above all: half a second) in a thread while the body (a run that
     computes in this process) goes on, so that its outputs need not wait for them. The thread is joined when the
-    body ends: nothing forks while it may hold an import lock. An import that fails is left for
-    ``write_outputs``, which raises it as usual."""
+    body ends, or earlier by the function the body gets (``--workers auto`` calls it before it forks workers):
+    nothing forks while it may hold an import lock. An import that fails is left for ``write_outputs``, which
+    raises it as usual."""
     thread = threading.Thread(target=_import_report, name="e2esim-report-import", daemon=True) if enabled else None
     if thread is not None:
         thread.start()
     try:
-        yield
+        yield thread.join if thread is not None else (lambda: None)
     finally:
         if thread is not None:
             thread.join()

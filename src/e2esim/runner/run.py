@@ -23,6 +23,7 @@ import numpy as np
 
 import e2esim
 from e2esim.errors import UserError
+from e2esim.runner.auto_workers import AUTO, run_auto
 from e2esim.runner.case_results import BlockResult, CaseResult
 from e2esim.runner.cases import case_generator, default_services, run_block, run_case
 from e2esim.runner.executors import run_blocks
@@ -197,7 +198,7 @@ def run_scenario(
     resolved: ResolvedScenario,
     progress: bool = True,
     command: str | None = None,
-    workers: int = 1,
+    workers: int | str = 1,
     scheduler: str | None = None,
     journal=None,
     finished=None,
@@ -207,9 +208,11 @@ def run_scenario(
     spill_folder=None,
     cache=None,
     memo=None,
+    before_workers=None,
 ) -> ScenarioResult:
-    """Run every case (serially, on ``workers`` local processes or on the dask cluster at ``scheduler``)
-    with a progress bar; return the results with their provenance.
+    """Run every case (serially, on ``workers`` local processes, on as many as are worth it with ``workers="auto"``
+    (``e2esim.runner.auto_workers``) or on the dask cluster at ``scheduler``) with a progress bar; return the
+    results with their provenance.
 
     journal : a ``Journal`` that records each block as it finishes; finished : blocks already done (an iterable of
         ``BlockResult``, from an interrupted run: each is spilled before the next is taken), whose cases are not run
@@ -222,6 +225,7 @@ def run_scenario(
         front doors give ``e2esim.io.array_cache.open_cache``); None: every table is computed afresh. memo : the
         ``KernelMemo`` of the run's blocks, kept by a caller that runs the same geometry again (a solve's engine
         runs; other processes get an empty one with its settings); None: the process's own (``process_memo``).
+        before_workers : called once before worker processes start (``workers="auto"``).
     """
     if engine not in ENGINES:
         raise UserError(f"engine {engine!r}: expected one of {', '.join(ENGINES)}")
@@ -240,17 +244,26 @@ def run_scenario(
     for block in blocks:
         done[block.indices] = True
     todo = np.flatnonzero(~done)
-    bar = CaseProgress(n, int(done.sum()), resolved.name, progress, workers if not scheduler else 1)
+    auto = workers == AUTO and not scheduler
+    if scheduler or auto:
+        workers = 1  # a cluster's blocks are sized for 8 workers; auto starts in this process
+    bar = CaseProgress(n, int(done.sum()), resolved.name, progress, workers)
     def take(block, frame):  # a finished block: saved, kept, counted (Ctrl-C waits for it: run_blocks)
         if journal is not None:
             journal.record(block, frame)
         blocks.append(kept(block))
         bar.update(len(block))
 
+    options = {"engine": engine, "keep_products": keep, "frames": journal is not None, "progress": progress,
+               "cache": cache, "memo": memo}
     try:
-        run_blocks(resolved, block_tasks(resolved, todo, workers if not scheduler else 8), take, workers, scheduler,
-                   engine=engine, keep_products=keep, frames=journal is not None, progress=progress, cache=cache,
-                   memo=memo)
+        if auto:
+            choice = run_auto(resolved, todo, lambda cases, w: block_tasks(resolved, cases, w), take, options,
+                              before_workers)
+            workers = choice.workers
+        else:
+            run_blocks(resolved, block_tasks(resolved, todo, workers if not scheduler else 8), take, workers,
+                       scheduler, **options)
     finally:
         bar.close()
     blocks.sort(key=lambda b: int(b.indices[0]))
@@ -268,6 +281,8 @@ def run_scenario(
     }
     if engine != "batched":
         provenance["engine"] = engine
+    if auto:
+        provenance["workers"] = choice.describe()
     if workers > 1 or scheduler:
         provenance["executor"] = f"dask {scheduler}" if scheduler else f"{workers} local processes"
     if resumed:
