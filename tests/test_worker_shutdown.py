@@ -152,3 +152,55 @@ def test_ctrl_c_while_the_pool_forks_its_workers_stops_them(tmp_path, monkeypatc
         if made:
             made[0].pool.shutdown(wait=False, cancel_futures=True)
     assert made and processes and not alive, "the pool's workers were left running"
+
+
+def _pool_then_die(folder: str, sweep: str) -> None:
+    """In a forked process: start the run's worker pool with the workers' start held back 0.3 s (as a loaded machine
+    delays it), note their PIDs, and die at once, as a main process killed by SIGKILL just as its pool starts."""
+    from e2esim.runner import executors
+    from e2esim.runner.scenario import Scenario
+
+    real = executors.exit_with_parent
+
+    def late(*args):
+        time.sleep(0.3)
+        real(*args)
+
+    executors.exit_with_parent = late  # the workers, forked from here, see it
+    source = executors._ProcessBlocks(Scenario.load(sweep).resolve(), [[0], [1]], 2, ("batched", False, None, None))
+    (Path(folder) / "workers").write_text(" ".join(str(p.pid) for p in source.processes))
+    os._exit(0)
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    with open(f"/proc/{pid}/stat") as stat:  # a zombie is dead (not yet reaped by its new parent)
+        return stat.read().rsplit(")", 1)[1].split()[0] != "Z"
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="/proc and workers forked from this process")
+def test_workers_whose_parent_died_before_they_started_end(tmp_path):
+    """A main process killed just as its pool forks (a SIGKILL right after the first block of --workers auto, which
+    test_parallel_and_resume's kill test hit under load): its workers find another parent when they start, which the
+    parent-death signal and the watch took for theirs, and they waited for blocks for ever, holding the pipes of
+    whoever ran the command. They must end."""
+    import multiprocessing
+
+    if multiprocessing.get_start_method() != "fork":
+        pytest.skip("the held-back start reaches the workers only when they are forked")
+    main = multiprocessing.get_context("fork").Process(target=_pool_then_die, args=(str(tmp_path),
+                                                                                  str(_sweep(tmp_path))))
+    main.start()
+    main.join(30)  # its sentinel closes when it and the workers that inherited it are gone
+    pids = [int(p) for p in (tmp_path / "workers").read_text().split()]
+    assert pids
+    deadline = time.monotonic() + 10
+    while any(_alive(p) for p in pids) and time.monotonic() < deadline:
+        time.sleep(0.05)
+    left = [p for p in pids if _alive(p)]
+    for p in left:
+        os.kill(p, 9)
+    assert not left, "workers left running after their parent died"

@@ -133,8 +133,10 @@ class _ProcessBlocks:
         forked = context.get_start_method() == "fork"
         scenario = resolved if forked else pickle.dumps(resolved, protocol=pickle.HIGHEST_PROTOCOL)
         self.resolved = resolved
+        # The parent a worker must have: this process, unless a forkserver starts the workers (it ends with this one).
+        parent = os.getpid() if context.get_start_method() in ("fork", "spawn") else None
         self.pool = ProcessPoolExecutor(max_workers=workers, mp_context=context, initializer=_start_worker,
-                                        initargs=(scenario, memo if forked else None))
+                                        initargs=(scenario, memo if forked else None, parent))
         self.number = {self.pool.submit(run_block_remote, indices, options): k for k, indices in enumerate(tasks)}
         # the worker processes, started by the submits (the pool forgets them once it is broken)
         self.processes = list((getattr(self.pool, "_processes", None) or {}).values())
@@ -285,21 +287,25 @@ def note_worker_reads(resolved, grown: dict) -> None:
             note(names)
 
 
-def _start_worker(scenario, memo: StageMemo | None = None) -> None:
+def _start_worker(scenario, memo: StageMemo | None = None, parent: int | None = None) -> None:
     """Worker initializer: ``scenario`` is the resolved scenario (inherited by a forked worker) or its pickle;
-    ``memo`` the main process's ``StageMemo`` (inherited by a forked worker) or None."""
-    exit_with_parent()
+    ``memo`` the main process's ``StageMemo`` (inherited by a forked worker) or None; ``parent`` the PID of the
+    process that started the pool (None: a forkserver's worker)."""
+    exit_with_parent(parent)
     worker_signals()
     _WORKER["resolved"] = pickle.loads(scenario) if isinstance(scenario, bytes) else scenario
     _WORKER["inherited"] = memo
 
 
-def exit_with_parent() -> None:
+def exit_with_parent(expected: int | None = None) -> None:
     """Worker initializer: end this worker when its parent dies, even by SIGKILL (which gives the main process
     no chance to stop its workers). The parent is the main process (fork, spawn) or the forkserver, which
     itself ends with the main process. Linux: the kernel sends SIGKILL on the parent's death
-    (PR_SET_PDEATHSIG); everywhere: a daemon thread polls the parent's PID every half second."""
-    parent = os.getppid()
+    (PR_SET_PDEATHSIG); everywhere: a daemon thread polls the parent's PID every half second. ``expected``: the
+    PID the parent had when it started the pool. A parent killed between the fork and this call (a SIGKILL just
+    as a pool starts) has left this worker to another process already, which the signal and the watch would
+    take for the parent: such a worker ends here (it would otherwise wait for blocks for ever)."""
+    parent = os.getppid() if expected is None else expected
     _set_parent_death_signal()
     if os.getppid() != parent:  # the parent died before the signal was armed
         os._exit(1)
