@@ -35,7 +35,7 @@ def _auto(monkeypatch, cases=12, first_block_s=1.0, cores=2, threshold=None):
 
     monkeypatch.setattr(auto_workers, "run_blocks", fake_run_blocks)
     choice = run_auto(None, np.arange(cases), _split, None, {}, before_workers=lambda: events.append("fork"),
-                      clock=lambda: now[0])
+                      clock=lambda: now[0], on_pool=lambda workers: events.append(f"pool of {workers}"))
     return calls, choice, events
 
 
@@ -44,7 +44,8 @@ def test_a_run_whose_rest_is_estimated_above_the_threshold_goes_to_a_pool_after_
     assert [c[1] for c in calls] == [1, 2] and calls[0][0] == [[0, 1, 2, 3]]
     assert calls[1][0] == [[k] for k in range(4, 12)]  # split again for two workers
     assert calls[0][2] is calls[1][2]  # the workers start from this process's stage memo
-    assert events == ["run", "fork", "run"]  # the report's import thread is joined before the fork
+    # the report's import thread is joined before the fork; the progress bar measures the pool's rate afresh
+    assert events == ["run", "fork", "pool of 2", "run"]
     assert choice.workers == 2 and choice.estimate_s == pytest.approx(2.2)
     assert choice.describe() == ("auto: 2 local processes after the first block (the 8 blocks left estimated at "
                                  "2.2 s, above 2 s; 2 cores usable)")

@@ -90,6 +90,26 @@ def test_the_bar_shows_the_estimate_in_place_of_tqdms():
     assert line.startswith("sweep:  50%|") and line.endswith("20/40 [00:11, ~00:02 left]")
 
 
+def test_when_auto_hands_the_rest_to_a_pool_the_time_left_is_the_pools():
+    """--workers auto: 2 serial blocks of 4 cases a second, then 2 workers with blocks of 2 cases every 0.5 s
+    (8 cases a second). After the pool's second round the serial rate would say 8 s for the 32 cases left; the
+    pool's own rate says 4 s, and nothing is said before its second round (its first is each worker's start)."""
+    times = iter([1.0, 2.0, 2.6, 2.6, 3.1, 3.1])
+    bar = CaseProgress(48, 0, "sweep", enabled=False, workers=1, clock=lambda: next(times))
+    bar.update(4)
+    bar.update(4)
+    assert bar.remaining.seconds() == pytest.approx(10.0)  # 40 cases at the serial 4 a second
+    bar.pool_started(2)
+    assert bar.remaining.seconds() is None and bar.bar.postfix == "time left: after the first blocks"
+    bar.update(2)
+    bar.update(2)  # the pool's first round
+    assert bar.remaining.seconds() is None
+    bar.update(2)
+    bar.update(2)
+    assert bar.remaining.seconds() == pytest.approx(4.0) and bar.bar.postfix == "~00:04 left"
+    bar.close()
+
+
 def test_the_outputs_bar_names_each_step_and_leaves_the_first_out_of_its_rate():
     """Issue 28, Build 4: the plots and files of a run's outputs get a bar; its time left comes from the steps done
     after the first (matplotlib's one-time set-up comes with the first plot), on a fake clock."""

@@ -95,11 +95,12 @@ class AutoChoice:
 
 
 def run_auto(resolved, todo: np.ndarray, split, take, options: dict, before_workers=None,
-             clock=time.monotonic) -> AutoChoice:
+             clock=time.monotonic, on_pool=None) -> AutoChoice:
     """Run the cases ``todo`` as the module docstring says; hand each finished block to ``take`` (as
     ``run_blocks``). ``split(cases, workers)`` -> the blocks of ``cases`` for that many workers
     (``e2esim.runner.run.block_tasks``); ``options``: ``run_blocks``'s keywords; ``before_workers()``: called once
-    before any worker process starts (what must not be running when this process forks)."""
+    before any worker process starts (what must not be running when this process forks); ``on_pool(workers)``:
+    called once when the rest goes to that many workers (the progress bar measures their rate afresh)."""
     threshold, cores, daemonic = parallel_threshold_s(), usable_cores(), not may_start_processes()
     tasks = split(todo, 1)
     memo = StageMemo()  # shared by this process's blocks and inherited by forked workers
@@ -117,6 +118,8 @@ def run_auto(resolved, todo: np.ndarray, split, take, options: dict, before_work
     workers = min(cores, len(rest_tasks))
     if before_workers is not None:
         before_workers()
+    if on_pool is not None:
+        on_pool(workers)
     run_blocks(resolved, rest_tasks, take, workers, stage_memo=memo, **options)
     return AutoChoice(workers, threshold, cores, 1, len(rest_tasks), estimate)
 

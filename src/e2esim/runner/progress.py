@@ -101,6 +101,12 @@ class CaseProgress:
         self.bar.set_postfix_str(self.remaining.text(), refresh=False)
         self.bar.update(cases)
 
+    def pool_started(self, workers: int) -> None:
+        """The rest of the run goes to ``workers`` worker processes (``--workers auto``): the time left is measured
+        afresh, from their rounds of blocks (the first left out: each worker's start), not at this process's rate."""
+        self.remaining = RemainingTime(self.remaining.total, self.remaining.done, workers=max(1, workers))
+        self.bar.set_postfix_str(self.remaining.text(), refresh=False)
+
     def close(self) -> None:
         self.stop.set()
         if self.ticker is not None:

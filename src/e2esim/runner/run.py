@@ -259,7 +259,7 @@ def run_scenario(
     try:
         if auto:
             choice = run_auto(resolved, todo, lambda cases, w: block_tasks(resolved, cases, w), take, options,
-                              before_workers)
+                              before_workers, on_pool=bar.pool_started)
             workers = choice.workers
         else:
             run_blocks(resolved, block_tasks(resolved, todo, workers if not scheduler else 8), take, workers,
