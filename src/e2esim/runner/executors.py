@@ -130,11 +130,12 @@ class _ProcessBlocks:
         # A forked worker inherits the scenario (and the stage memo of the blocks run here before) as they are in
         # memory; other start methods get the scenario pickled once here (not once per worker), and a new memo.
         # Pickling and unpickling a million-case sweep's 10,000 modules costs about a second.
-        forked = context.get_start_method() == "fork"
+        method = context.get_start_method()
+        forked = method == "fork"
         scenario = resolved if forked else pickle.dumps(resolved, protocol=pickle.HIGHEST_PROTOCOL)
         self.resolved = resolved
         # The parent a worker must have: this process, unless a forkserver starts the workers (it ends with this one).
-        parent = os.getpid() if context.get_start_method() in ("fork", "spawn") else None
+        parent = os.getpid() if method in ("fork", "spawn") else None
         self.pool = ProcessPoolExecutor(max_workers=workers, mp_context=context, initializer=_start_worker,
                                         initargs=(scenario, memo if forked else None, parent))
         self.number = {self.pool.submit(run_block_remote, indices, options): k for k, indices in enumerate(tasks)}

@@ -29,9 +29,8 @@ from e2esim.runner.run import ScenarioResult, run_scenario
 def check_executor(workers: int | str, scheduler: str | None, auto: bool = False) -> None:
     """``workers`` a number of processes >= 1 (or "auto" where ``auto``: ``e2esim.runner.auto_workers``), and
     ``scheduler`` (if given) a dask scheduler address."""
-    if auto and workers == AUTO:
-        pass
-    elif isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
+    counted = not isinstance(workers, bool) and isinstance(workers, int) and workers >= 1
+    if not counted and not (auto and workers == AUTO):
         raise UserError(f"--workers {workers}: expected a number of processes >= 1{', or auto' if auto else ''}")
     if scheduler:
         check_scheduler_address(scheduler)
