@@ -200,7 +200,8 @@ def effective_weight_parts(delta: np.ndarray, f: np.ndarray, omega: np.ndarray, 
     """The real and imaginary parts of ``effective_weights`` at unit gain, shape ``(3, 2, ...)``: element
     (hh, hv, vv) of ``a``, then (real, imaginary), then the broadcast leading axes of delta, f and omega.
 
-    ``a = w^T D (F^T kron F) P`` element by element: with ``d = w^T D`` (the rows of ``_distortion_row``
+    ``a = w^T D (F^T kron F) P`` (Men et al. 2021, eq. (1), restricted to reciprocal scenes) element by
+    element: with ``d = w^T D`` (the rows of ``_distortion_row``
     with non-zero weight), ``a_hh = d_1 c^2 + (d_3 - d_2) c s - d_4 s^2``, ``a_hv = d_2 + d_3``,
     ``a_vv = -d_1 s^2 + (d_3 - d_2) c s + d_4 c^2`` (c, s: cos and sin of Omega; the columns of
     ``faraday_reciprocal_columns``). Planes of contiguous reals: a complex times a real is its two parts
