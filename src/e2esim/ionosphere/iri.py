@@ -7,7 +7,8 @@ point (an outer product). A satellite sees each point at its own UT, so this mod
 sequence of PyIRI functions as ``PyIRI.main_library.IRI_monthly_mean_par`` and ``IRI_density_1day``
 with one UT per point:
 
-1. magnetic inclination and modip from PyIRI's IGRF at 300 km (``igrf_library.inclination``);
+1. magnetic inclination and modip from PyIRI's IGRF at 300 km (``igrf_library.inclination``, here with
+   its coefficient file read once and one synthesis for all months of a call: iri_inclination.py);
 2. foF2 and M(3000)F2 from the Jones-Gallet diurnal x geographic expansion (the product D U G, here
    evaluated per point; the coefficient files are read once per month and cast to float, which also makes
    PyIRI's object-array matrix product about 10 times faster);
@@ -30,6 +31,7 @@ import functools
 
 import numpy as np
 
+from e2esim.ionosphere.iri_inclination import inclination
 from e2esim.ionosphere.pyiri_import import import_pyiri
 
 _F1_MULTIPLIER_MAX = 10.0  # clip value of the F1 weight in PyIRI's Probability_F1
@@ -91,18 +93,25 @@ def _map(diurnal, coeffs, geographic):
     return np.stack([np.sum(diurnal * (coeffs[:, :, s] @ geographic), 0) for s in range(2)], -1)[None]
 
 
-def monthly_parameters(year: int, month: int, ut_h, lon_deg, lat_deg, fof2_model: str = "ursi") -> tuple:
+def _inclination_date(year: int, month: int) -> float:
+    """The decimal year of the IGRF field of a month's median, its 15th (PyIRI's ``IRI_monthly_mean_par``)."""
+    _, ml, _ = _pyiri()
+    return ml.decimal_year(dt.datetime(year, month, 15))
+
+
+def monthly_parameters(year: int, month: int, ut_h, lon_deg, lat_deg, fof2_model: str = "ursi",
+                       inc_deg=None) -> tuple:
     """Monthly median layer parameters at one UT per point, both solar levels (IG12 0 and 100).
 
-    ut_h, lon_deg, lat_deg : 1-D arrays of the same length N. Returns (F2, F1, E) dicts of arrays of
+    ut_h, lon_deg, lat_deg : 1-D arrays of the same length N. inc_deg : the points' magnetic inclination
+    (deg) at 300 km for this month if already computed, else None. Returns (F2, F1, E) dicts of arrays of
     shape (1, N, 2), keys as PyIRI's ``IRI_monthly_mean_par``.
     """
-    PyIRI, ml, igrf = _pyiri()
+    _, ml, igrf = _pyiri()
     ut = np.asarray(ut_h, float).ravel()
     lon = np.asarray(lon_deg, float).ravel()
     lat = np.asarray(lat_deg, float).ravel()
-    date_decimal = ml.decimal_year(dt.datetime(year, month, 15))
-    inc = igrf.inclination(PyIRI.coeff_dir, date_decimal, lon, lat, 300.0, only_inc=True)
+    inc = inclination(_inclination_date(year, month), lon, lat, 300.0) if inc_deg is None else inc_deg
     modip = igrf.inc2modip(inc, lat)
     mag_dip_lat = igrf.inc2magnetic_dip_latitude(inc)
 
@@ -209,9 +218,15 @@ def daily_parameters(dates, ut_h, lon_deg, lat_deg, f107_levels, fof2_model: str
         table = {k: (np.array(v), np.ones(len(v))) for k, v in groups.items()}
     else:
         table = month_weights(dates)
+    months = sorted(table)
+    all_idx = np.concatenate([table[m][0] for m in months])  # every month's points, one synthesis for all
+    years = np.concatenate([np.full(table[m][0].size, _inclination_date(*m)) for m in months])
+    ends = np.cumsum([table[m][0].size for m in months])[:-1]
+    inc = np.split(inclination(years, lon[all_idx], lat[all_idx], 300.0), ends)
     acc = None
-    for (year, month), (idx, w) in sorted(table.items()):
-        part = monthly_parameters(year, month, ut[idx], lon[idx], lat[idx], fof2_model)
+    for month_inc, (year, month) in zip(inc, months):
+        idx, w = table[(year, month)]
+        part = monthly_parameters(year, month, ut[idx], lon[idx], lat[idx], fof2_model, month_inc)
         if acc is None:
             acc = tuple({k: np.zeros((1, n, 2)) for k in d} for d in part)
         for a, p in zip(acc, part):
