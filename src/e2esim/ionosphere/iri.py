@@ -21,13 +21,14 @@ with one UT per point:
 One deliberate difference: PyIRI's ``Probability_F1`` normalises the F1 weight by its maximum over all
 points of the call, which is the clip value 10 whenever any point is sunlit with cos(chi) >= 2/3 (every
 global grid); here it is always 10, so a point's density does not depend on the other points.
-tests/test_iri.py checks this module against ``IRI_density_1day`` on a global grid at one UT.
+tests/test_ionosphere_tec.py checks this module against ``IRI_density_1day`` on a global grid at one UT.
 """
 
 from __future__ import annotations
 
 import datetime as dt
 import functools
+import os
 
 import numpy as np
 
@@ -49,10 +50,40 @@ def _pyiri():
 
 @functools.lru_cache(maxsize=24)
 def _coefficients(month: int):
-    """CCIR and URSI foF2 and M(3000)F2 coefficients of a month as float arrays."""
+    """CCIR and URSI foF2 and M(3000)F2 coefficients of a month as float arrays, shaped as PyIRI's
+    ``read_ccir_ursi_coeff`` returns them (without its sporadic-E maps, which e2esim does not use)."""
     PyIRI, ml, _ = _pyiri()
-    ccir, ursi, m3000, _es = ml.read_ccir_ursi_coeff(month, PyIRI.coeff_dir)
-    return np.asarray(ccir, float), np.asarray(ursi, float), np.asarray(m3000, float)
+    number = month + 10  # the files are numbered 11 to 22
+    ccir_all = _read_map_file(os.path.join(PyIRI.coeff_dir, "CCIR", f"ccir{number}.asc"))
+    ursi_all = _read_map_file(os.path.join(PyIRI.coeff_dir, "URSI", f"ursi{number}.asc"))
+    if ccir_all is None or ursi_all is None:  # not the format of the files PyIRI ships: PyIRI's own reader
+        ccir, ursi, m3000, _es = ml.read_ccir_ursi_coeff(month, PyIRI.coeff_dir)
+        return np.asarray(ccir, float), np.asarray(ursi, float), np.asarray(m3000, float)
+    orders = _expansion_orders()
+    fof2_shape = (orders["nj"]["F0F2"], orders["nk"]["F0F2"], 2)
+    m3000_shape = (orders["nj"]["M3000"], orders["nk"]["M3000"], 2)
+    n = int(np.prod(fof2_shape))  # CCIR: foF2 then M(3000)F2; URSI: foF2 only
+    return (ccir_all[:n].reshape(fof2_shape, order="F"), ursi_all[:n].reshape(fof2_shape, order="F"),
+            ccir_all[n:].reshape(m3000_shape, order="F"))
+
+
+_MAP_FIELD = 15  # characters per number of the CCIR/URSI files' records (1X,4E15.8)
+
+
+def _read_map_file(path: str):
+    """The numbers of a CCIR or URSI coefficient file in order, or None if a field is not of the form
+    [-]d.dddE[+-]dd. PyIRI reads the (1X,4E15.8) records with fortranformat, which takes such a field as
+    Python's ``float`` of it; so does this, without fortranformat's parsing of each record (8 times faster)."""
+    values = []
+    with open(path) as f:
+        for line in f:
+            record = line.rstrip("\n")
+            for a in range(1, len(record), _MAP_FIELD):
+                field = record[a:a + _MAP_FIELD]
+                if "." not in field or "E" not in field:
+                    return None
+                values.append(float(field))
+    return np.array(values)
 
 
 @functools.lru_cache(maxsize=1)
@@ -63,7 +94,7 @@ def _expansion_orders():
 
 def _global_functions(orders, nk, lon, lat, modip):
     """Jones-Gallet geographic functions G_k (nk, N): PyIRI's ``set_global_functions`` with the powers
-    computed once (sin(modip)^i cos(lat)^j {cos, sin}(j lon), in PyIRI's order). tests/test_iri.py
+    computed once (sin(modip)^i cos(lat)^j {cos, sin}(j lon), in PyIRI's order). tests/test_ionosphere_tec.py
     checks it equals PyIRI's."""
     sm = np.sin(np.radians(modip))
     cl = np.cos(np.radians(lat))

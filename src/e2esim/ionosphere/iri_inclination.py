@@ -7,7 +7,7 @@ hundred points of a site climatology. ``inclination`` here runs PyIRI's own step
 ``synth_values``, the rotation to geodetic X and Z, ``xyz2dhif``) on a table read once and kept as a
 read-only float array. It also takes one decimal year per point, so the months of one IRI call share one
 synthesis: every step is elementwise per point, so each point's inclination is the same bits as PyIRI's call
-for its date alone (tests/test_iri_inclination.py checks ``np.array_equal``).
+for its date alone (tests/test_iri_pyiri_bits.py checks ``np.array_equal``).
 """
 
 from __future__ import annotations

@@ -1,4 +1,5 @@
-"""The IRI's magnetic inclination with IGRF-13 read once per process equals PyIRI's own, bit for bit."""
+"""What e2esim computes faster than PyIRI for the IRI equals PyIRI's own, bit for bit: the magnetic inclination
+(IGRF-13 read once per process, the months of a call in one synthesis) and the CCIR/URSI coefficient maps."""
 
 import datetime as dt
 
@@ -51,3 +52,24 @@ def test_monthly_parameters_with_and_without_given_inclination_are_equal():
     for da, db in zip(a, b):
         for k in da:
             assert np.array_equal(da[k], db[k], equal_nan=True), k
+
+
+@pytest.mark.parametrize("month", range(1, 13))
+def test_coefficient_maps_equal_pyiri_reader_bit_for_bit(month):
+    import PyIRI
+    import PyIRI.main_library as ml
+
+    ref = ml.read_ccir_ursi_coeff(month, PyIRI.coeff_dir)[:3]
+    mine = iri._coefficients(month)
+    for a, b in zip(mine, ref):
+        assert a.dtype == float and a.shape == b.shape
+        assert np.array_equal(a, np.asarray(b, float))
+    assert mine[0][0, 0, 0] != mine[1][0, 0, 0]  # CCIR and URSI maps differ
+
+
+def test_a_coefficient_file_of_another_format_is_left_to_pyiri(tmp_path):
+    path = tmp_path / "ccir11.asc"
+    path.write_text("  0.52396593E+01-0.56523629E-01\n   523.96593     \n")
+    assert iri._read_map_file(str(path)) is None
+    path.write_text("  0.52396593E+01-0.56523629E-01\n")
+    assert iri._read_map_file(str(path)).tolist() == [5.2396593, -0.056523629]
