@@ -73,3 +73,13 @@ def test_a_coefficient_file_of_another_format_is_left_to_pyiri(tmp_path):
     assert iri._read_map_file(str(path)) is None
     path.write_text("  0.52396593E+01-0.56523629E-01\n")
     assert iri._read_map_file(str(path)).tolist() == [5.2396593, -0.056523629]
+
+
+def test_profiles_do_not_depend_on_the_chunk_size(monkeypatch):
+    ut = np.linspace(0.0, 23.0, _LON.size)
+    params = iri.daily_parameters(dt.date(2026, 3, 3), ut, _LON, _LAT, [120.0])[0]
+    alt_km = np.arange(60.0, 667.0, 10.0)
+    one_chunk = iri.density_profiles(params, alt_km)
+    monkeypatch.setattr(iri, "_PROFILE_CHUNK", 7)
+    assert np.array_equal(iri.density_profiles(params, alt_km), one_chunk)
+    assert np.nanmax(one_chunk) > 1e11  # a real ionosphere (electrons/m^3)
