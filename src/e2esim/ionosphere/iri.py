@@ -10,8 +10,9 @@ with one UT per point:
 1. magnetic inclination and modip from PyIRI's IGRF at 300 km (``igrf_library.inclination``, here with
    its coefficient file read once and one synthesis for all months of a call: iri_inclination.py);
 2. foF2 and M(3000)F2 from the Jones-Gallet diurnal x geographic expansion (the product D U G, here
-   evaluated per point; the coefficient files are read once per month and cast to float, which also makes
-   PyIRI's object-array matrix product about 10 times faster);
+   evaluated per point; the coefficient files are read once per month, as PyIRI reads them but without
+   fortranformat (``_read_map_file``), and held as floats, which also makes PyIRI's object-array matrix
+   product about 10 times faster);
 3. foE from the effective solar zenith angle, F1 probability and foF1, layer heights and thicknesses
    (``foE``, ``hm_IRI``, ``thickness``, ``hmF1_from_F2``, ``find_B_F1_bot``);
 4. linear interpolation between the monthly medians around the day (``day_of_the_month_corr``) and in
@@ -278,8 +279,8 @@ def daily_parameters(dates, ut_h, lon_deg, lat_deg, f107_levels, fof2_model: str
 
 _PROFILE_CHUNK = 2048
 """Points per call of PyIRI's profile builder, which fills some 20 (heights x points) arrays: at 2048 points and
-61 heights they stay in the processor's cache (about 20 MB), and the profiles cost half of what 8192 points do.
-Each point's profile is its own (elementwise), so the chunk size does not change a bit."""
+61 heights (about 20 MB) they stay close to the processor's caches, and the profiles cost half of what they
+cost at 8192 points. Each point's profile is its own (elementwise), so the chunk size does not change a bit."""
 
 
 def density_profiles(params: tuple, alt_km) -> np.ndarray:
