@@ -300,7 +300,7 @@ CONSTANT_CACHES = frozenset({
     "e2esim.runner.journal_check:_hints",  # the type hints of a result class
     "e2esim.scene.forest_cover:land_cover_grid", "e2esim.scene.land_mask:_mask",  # shipped grids
     "e2esim.ionosphere.iri:_coefficients", "e2esim.ionosphere.iri:_expansion_orders",  # the IRI coefficients
-    "e2esim.geomag.igrf:_coefficient_table",  # the IGRF coefficients
+    "e2esim.geomag.igrf:_coefficient_table", "e2esim.ionosphere.iri_inclination:_igrf_coefficient_slots",  # IGRF
     "e2esim.scintillation.defocus:width_table", "e2esim.scintillation.faraday_window:_nodes",
     "e2esim.error_terms.notch:_full_band",  # the unnotched band
     "e2esim.distortion.analytic:_trig_at_even_nodes", "e2esim.distortion.higher_order:pairing_terms",

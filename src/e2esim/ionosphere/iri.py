@@ -7,10 +7,12 @@ point (an outer product). A satellite sees each point at its own UT, so this mod
 sequence of PyIRI functions as ``PyIRI.main_library.IRI_monthly_mean_par`` and ``IRI_density_1day``
 with one UT per point:
 
-1. magnetic inclination and modip from PyIRI's IGRF at 300 km (``igrf_library.inclination``);
+1. magnetic inclination and modip from PyIRI's IGRF at 300 km (``igrf_library.inclination``, here with
+   its coefficient file read once and one synthesis for all months of a call: iri_inclination.py);
 2. foF2 and M(3000)F2 from the Jones-Gallet diurnal x geographic expansion (the product D U G, here
-   evaluated per point; the coefficient files are read once per month and cast to float, which also makes
-   PyIRI's object-array matrix product about 10 times faster);
+   evaluated per point; the coefficient files are read once per month, as PyIRI reads them but without
+   fortranformat (``_read_map_file``), and held as floats, which also makes PyIRI's object-array matrix
+   product about 10 times faster);
 3. foE from the effective solar zenith angle, F1 probability and foF1, layer heights and thicknesses
    (``foE``, ``hm_IRI``, ``thickness``, ``hmF1_from_F2``, ``find_B_F1_bot``);
 4. linear interpolation between the monthly medians around the day (``day_of_the_month_corr``) and in
@@ -20,16 +22,18 @@ with one UT per point:
 One deliberate difference: PyIRI's ``Probability_F1`` normalises the F1 weight by its maximum over all
 points of the call, which is the clip value 10 whenever any point is sunlit with cos(chi) >= 2/3 (every
 global grid); here it is always 10, so a point's density does not depend on the other points.
-tests/test_iri.py checks this module against ``IRI_density_1day`` on a global grid at one UT.
+tests/test_ionosphere_tec.py checks this module against ``IRI_density_1day`` on a global grid at one UT.
 """
 
 from __future__ import annotations
 
 import datetime as dt
 import functools
+import os
 
 import numpy as np
 
+from e2esim.ionosphere.iri_inclination import inclination
 from e2esim.ionosphere.pyiri_import import import_pyiri
 
 _F1_MULTIPLIER_MAX = 10.0  # clip value of the F1 weight in PyIRI's Probability_F1
@@ -47,10 +51,40 @@ def _pyiri():
 
 @functools.lru_cache(maxsize=24)
 def _coefficients(month: int):
-    """CCIR and URSI foF2 and M(3000)F2 coefficients of a month as float arrays."""
+    """CCIR and URSI foF2 and M(3000)F2 coefficients of a month as float arrays, shaped as PyIRI's
+    ``read_ccir_ursi_coeff`` returns them (without its sporadic-E maps, which e2esim does not use)."""
     PyIRI, ml, _ = _pyiri()
-    ccir, ursi, m3000, _es = ml.read_ccir_ursi_coeff(month, PyIRI.coeff_dir)
-    return np.asarray(ccir, float), np.asarray(ursi, float), np.asarray(m3000, float)
+    number = month + 10  # the files are numbered 11 to 22
+    ccir_all = _read_map_file(os.path.join(PyIRI.coeff_dir, "CCIR", f"ccir{number}.asc"))
+    ursi_all = _read_map_file(os.path.join(PyIRI.coeff_dir, "URSI", f"ursi{number}.asc"))
+    if ccir_all is None or ursi_all is None:  # not the format of the files PyIRI ships: PyIRI's own reader
+        ccir, ursi, m3000, _es = ml.read_ccir_ursi_coeff(month, PyIRI.coeff_dir)
+        return np.asarray(ccir, float), np.asarray(ursi, float), np.asarray(m3000, float)
+    orders = _expansion_orders()
+    fof2_shape = (orders["nj"]["F0F2"], orders["nk"]["F0F2"], 2)
+    m3000_shape = (orders["nj"]["M3000"], orders["nk"]["M3000"], 2)
+    n = int(np.prod(fof2_shape))  # CCIR: foF2 then M(3000)F2; URSI: foF2 only
+    return (ccir_all[:n].reshape(fof2_shape, order="F"), ursi_all[:n].reshape(fof2_shape, order="F"),
+            ccir_all[n:].reshape(m3000_shape, order="F"))
+
+
+_MAP_FIELD = 15  # characters per number of the CCIR/URSI files' records (1X,4E15.8)
+
+
+def _read_map_file(path: str):
+    """The numbers of a CCIR or URSI coefficient file in order, or None if a field is not of the form
+    [-]d.dddE[+-]dd. PyIRI reads the (1X,4E15.8) records with fortranformat, which takes such a field as
+    Python's ``float`` of it; so does this, without fortranformat's parsing of each record (8 times faster)."""
+    values = []
+    with open(path) as f:
+        for line in f:
+            record = line.rstrip("\n")
+            for a in range(1, len(record), _MAP_FIELD):
+                field = record[a:a + _MAP_FIELD]
+                if "." not in field or "E" not in field:
+                    return None
+                values.append(float(field))
+    return np.array(values)
 
 
 @functools.lru_cache(maxsize=1)
@@ -61,7 +95,7 @@ def _expansion_orders():
 
 def _global_functions(orders, nk, lon, lat, modip):
     """Jones-Gallet geographic functions G_k (nk, N): PyIRI's ``set_global_functions`` with the powers
-    computed once (sin(modip)^i cos(lat)^j {cos, sin}(j lon), in PyIRI's order). tests/test_iri.py
+    computed once (sin(modip)^i cos(lat)^j {cos, sin}(j lon), in PyIRI's order). tests/test_ionosphere_tec.py
     checks it equals PyIRI's."""
     sm = np.sin(np.radians(modip))
     cl = np.cos(np.radians(lat))
@@ -91,18 +125,25 @@ def _map(diurnal, coeffs, geographic):
     return np.stack([np.sum(diurnal * (coeffs[:, :, s] @ geographic), 0) for s in range(2)], -1)[None]
 
 
-def monthly_parameters(year: int, month: int, ut_h, lon_deg, lat_deg, fof2_model: str = "ursi") -> tuple:
+def _inclination_date(year: int, month: int) -> float:
+    """The decimal year of the IGRF field of a month's median, its 15th (PyIRI's ``IRI_monthly_mean_par``)."""
+    _, ml, _ = _pyiri()
+    return ml.decimal_year(dt.datetime(year, month, 15))
+
+
+def monthly_parameters(year: int, month: int, ut_h, lon_deg, lat_deg, fof2_model: str = "ursi",
+                       inc_deg=None) -> tuple:
     """Monthly median layer parameters at one UT per point, both solar levels (IG12 0 and 100).
 
-    ut_h, lon_deg, lat_deg : 1-D arrays of the same length N. Returns (F2, F1, E) dicts of arrays of
+    ut_h, lon_deg, lat_deg : 1-D arrays of the same length N. inc_deg : the points' magnetic inclination
+    (deg) at 300 km for this month if already computed, else None. Returns (F2, F1, E) dicts of arrays of
     shape (1, N, 2), keys as PyIRI's ``IRI_monthly_mean_par``.
     """
-    PyIRI, ml, igrf = _pyiri()
+    _, ml, igrf = _pyiri()
     ut = np.asarray(ut_h, float).ravel()
     lon = np.asarray(lon_deg, float).ravel()
     lat = np.asarray(lat_deg, float).ravel()
-    date_decimal = ml.decimal_year(dt.datetime(year, month, 15))
-    inc = igrf.inclination(PyIRI.coeff_dir, date_decimal, lon, lat, 300.0, only_inc=True)
+    inc = inclination(_inclination_date(year, month), lon, lat, 300.0) if inc_deg is None else inc_deg
     modip = igrf.inc2modip(inc, lat)
     mag_dip_lat = igrf.inc2magnetic_dip_latitude(inc)
 
@@ -209,9 +250,15 @@ def daily_parameters(dates, ut_h, lon_deg, lat_deg, f107_levels, fof2_model: str
         table = {k: (np.array(v), np.ones(len(v))) for k, v in groups.items()}
     else:
         table = month_weights(dates)
+    months = sorted(table)
+    all_idx = np.concatenate([table[m][0] for m in months])  # every month's points, one synthesis for all
+    years = np.concatenate([np.full(table[m][0].size, _inclination_date(*m)) for m in months])
+    ends = np.cumsum([table[m][0].size for m in months])[:-1]
+    inc = np.split(inclination(years, lon[all_idx], lat[all_idx], 300.0), ends)
     acc = None
-    for (year, month), (idx, w) in sorted(table.items()):
-        part = monthly_parameters(year, month, ut[idx], lon[idx], lat[idx], fof2_model)
+    for month_inc, (year, month) in zip(inc, months):
+        idx, w = table[(year, month)]
+        part = monthly_parameters(year, month, ut[idx], lon[idx], lat[idx], fof2_model, month_inc)
         if acc is None:
             acc = tuple({k: np.zeros((1, n, 2)) for k in d} for d in part)
         for a, p in zip(acc, part):
@@ -230,7 +277,10 @@ def daily_parameters(dates, ut_h, lon_deg, lat_deg, f107_levels, fof2_model: str
     return out
 
 
-_PROFILE_CHUNK = 8192  # points per call of PyIRI's profile builder (memory ~ 15 x chunk x heights doubles)
+_PROFILE_CHUNK = 2048
+"""Points per call of PyIRI's profile builder, which fills some 20 (heights x points) arrays: at 2048 points and
+61 heights (about 20 MB) they stay close to the processor's caches, and the profiles cost half of what they
+cost at 8192 points. Each point's profile is its own (elementwise), so the chunk size does not change a bit."""
 
 
 def density_profiles(params: tuple, alt_km) -> np.ndarray:
