@@ -208,7 +208,7 @@ def run_scenario(
     spill_folder=None,
     cache=None,
     memo=None,
-    before_workers=None,
+    after_forks=None,
 ) -> ScenarioResult:
     """Run every case (serially, on ``workers`` local processes, on as many as are worth it with ``workers="auto"``
     (``e2esim.runner.auto_workers``) or on the dask cluster at ``scheduler``) with a progress bar; return the
@@ -225,7 +225,8 @@ def run_scenario(
         front doors give ``e2esim.io.array_cache.open_cache``); None: every table is computed afresh. memo : the
         ``KernelMemo`` of the run's blocks, kept by a caller that runs the same geometry again (a solve's engine
         runs; other processes get an empty one with its settings); None: the process's own (``process_memo``).
-        before_workers : called once before worker processes start (``workers="auto"``).
+        after_forks : called once no worker process will be forked any more (``workers="auto"``: once the pool's
+        workers have started, or once the run stays in this process), for a thread that must not run at a fork.
     """
     if engine not in ENGINES:
         raise UserError(f"engine {engine!r}: expected one of {', '.join(ENGINES)}")
@@ -259,7 +260,7 @@ def run_scenario(
     try:
         if auto:
             choice = run_auto(resolved, todo, lambda cases, w: block_tasks(resolved, cases, w), take, options,
-                              before_workers, on_pool=bar.pool_started)
+                              after_forks, on_pool=bar.pool_started)
             workers = choice.workers
         else:
             run_blocks(resolved, block_tasks(resolved, todo, workers if not scheduler else 8), take, workers,
