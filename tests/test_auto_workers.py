@@ -3,12 +3,14 @@ only when it is estimated above the threshold and the process may use more than 
 here without running a block (a clock and ``run_blocks`` stood in); that both paths give the serial numbers bit for
 bit is checked in test_parallel_and_resume.py."""
 
+import threading
+
 import numpy as np
 import pytest
 
 from e2esim.cli import main
 from e2esim.errors import UserError
-from e2esim.runner import auto_workers
+from e2esim.runner import auto_workers, outputs
 from e2esim.runner.auto_workers import AUTO_PARALLEL_ABOVE_S, THRESHOLD_VARIABLE, parallel_threshold_s, run_auto
 
 
@@ -124,3 +126,20 @@ class _returns:
     def __exit__(self, kind, value, tb):
         assert kind is SystemExit and value.code == self.status
         return True
+
+
+def test_a_deferred_report_import_starts_only_when_asked_and_once(monkeypatch):
+    """--workers auto: the report's import thread starts once the workers are forked (``run_blocks``' ``started``),
+    never before; a run that never asks leaves the import to ``write_outputs``."""
+    imported = []
+    monkeypatch.setattr(outputs, "_import_report", lambda: imported.append(threading.current_thread().name))
+    with outputs.report_imported_meanwhile(True, deferred=True) as start:
+        assert imported == [] and "e2esim-report-import" not in {t.name for t in threading.enumerate()}
+        start()
+        start()
+    assert imported == ["e2esim-report-import"]
+    with outputs.report_imported_meanwhile(True, deferred=True):
+        pass
+    with outputs.report_imported_meanwhile(True) as start:  # a serial run: at once
+        pass
+    assert imported == ["e2esim-report-import"] * 2
