@@ -3,12 +3,14 @@ only when it is estimated above the threshold and the process may use more than 
 here without running a block (a clock and ``run_blocks`` stood in); that both paths give the serial numbers bit for
 bit is checked in test_parallel_and_resume.py."""
 
+import threading
+
 import numpy as np
 import pytest
 
 from e2esim.cli import main
 from e2esim.errors import UserError
-from e2esim.runner import auto_workers
+from e2esim.runner import auto_workers, outputs
 from e2esim.runner.auto_workers import AUTO_PARALLEL_ABOVE_S, THRESHOLD_VARIABLE, parallel_threshold_s, run_auto
 
 
@@ -30,11 +32,15 @@ def _auto(monkeypatch, cases=12, first_block_s=1.0, cores=2, threshold=None):
 
     def fake_run_blocks(resolved, tasks, take, workers, **options):
         calls.append(([list(t) for t in tasks], workers, options["stage_memo"]))
+        if workers > 1:
+            events.append("fork")
+        if options.get("started") is not None:  # run_blocks calls it once its workers have started
+            options["started"]()
         events.append("run")
         now[0] += first_block_s * sum(len(t) for t in tasks) / 4
 
     monkeypatch.setattr(auto_workers, "run_blocks", fake_run_blocks)
-    choice = run_auto(None, np.arange(cases), _split, None, {}, before_workers=lambda: events.append("fork"),
+    choice = run_auto(None, np.arange(cases), _split, None, {}, after_forks=lambda: events.append("after forks"),
                       clock=lambda: now[0], on_pool=lambda workers: events.append(f"pool of {workers}"))
     return calls, choice, events
 
@@ -44,8 +50,8 @@ def test_a_run_whose_rest_is_estimated_above_the_threshold_goes_to_a_pool_after_
     assert [c[1] for c in calls] == [1, 2] and calls[0][0] == [[0, 1, 2, 3]]
     assert calls[1][0] == [[k] for k in range(4, 12)]  # split again for two workers
     assert calls[0][2] is calls[1][2]  # the workers start from this process's stage memo
-    # the report's import thread is joined before the fork; the progress bar measures the pool's rate afresh
-    assert events == ["run", "fork", "pool of 2", "run"]
+    # the report's import thread starts once the workers are forked; the progress bar measures the pool's rate afresh
+    assert events == ["run", "pool of 2", "fork", "after forks", "run"]
     assert choice.workers == 2 and choice.estimate_s == pytest.approx(2.2)
     assert choice.describe() == ("auto: 2 local processes after the first block (the 8 blocks left estimated at "
                                  "2.2 s, above 2 s; 2 cores usable)")
@@ -61,7 +67,7 @@ def test_a_short_run_stays_in_this_process(monkeypatch):
     calls, choice, events = _auto(monkeypatch, cases=12, first_block_s=0.9)  # the rest: 1.8 s
     assert AUTO_PARALLEL_ABOVE_S == 2.0
     assert [c[1] for c in calls] == [1, 1] and calls[1][0] == [[4, 5, 6, 7], [8, 9, 10, 11]]
-    assert "fork" not in events and choice.workers == 1
+    assert events == ["run", "after forks", "run"] and choice.workers == 1  # the import thread meanwhile
     assert choice.describe() == "auto: this process (the rest estimated at 1.8 s, not above 2 s)"
 
 
@@ -69,7 +75,7 @@ def test_a_short_run_stays_in_this_process(monkeypatch):
                                                (0, 2, "nothing left to run")])
 def test_one_block_or_one_core_runs_everything_here_without_timing(monkeypatch, cases, cores, said):
     calls, choice, events = _auto(monkeypatch, cases=cases, first_block_s=100.0, cores=cores)
-    assert len(calls) == 1 and calls[0][1] == 1 and "fork" not in events  # every block here, none timed
+    assert len(calls) == 1 and calls[0][1] == 1 and events == ["after forks", "run"]  # every block here, none timed
     assert choice.describe() == f"auto: this process ({said})"
 
 
@@ -77,7 +83,7 @@ def test_a_daemonic_process_runs_everything_here(monkeypatch):
     """e2esim.run in a worker of someone's multiprocessing pool: Python forbids it children."""
     monkeypatch.setattr(auto_workers, "may_start_processes", lambda: False)
     calls, choice, events = _auto(monkeypatch, cases=12, first_block_s=100.0, cores=2)
-    assert len(calls) == 1 and "fork" not in events and choice.workers == 1
+    assert len(calls) == 1 and events == ["after forks", "run"] and choice.workers == 1
     assert choice.describe() == "auto: this process (a daemonic process, which may have no workers)"
 
 
@@ -120,3 +126,20 @@ class _returns:
     def __exit__(self, kind, value, tb):
         assert kind is SystemExit and value.code == self.status
         return True
+
+
+def test_a_deferred_report_import_starts_only_when_asked_and_once(monkeypatch):
+    """--workers auto: the report's import thread starts once the workers are forked (``run_blocks``' ``started``),
+    never before; a run that never asks leaves the import to ``write_outputs``."""
+    imported = []
+    monkeypatch.setattr(outputs, "_import_report", lambda: imported.append(threading.current_thread().name))
+    with outputs.report_imported_meanwhile(True, deferred=True) as start:
+        assert imported == [] and "e2esim-report-import" not in {t.name for t in threading.enumerate()}
+        start()
+        start()
+    assert imported == ["e2esim-report-import"]
+    with outputs.report_imported_meanwhile(True, deferred=True):
+        pass
+    with outputs.report_imported_meanwhile(True) as start:  # a serial run: at once
+        pass
+    assert imported == ["e2esim-report-import"] * 2

@@ -51,14 +51,15 @@ def test_local_processes_give_the_serial_numbers(tmp_path, monkeypatch):
     assert _numbers(parallel) == _numbers(serial)
     assert parallel.provenance["executor"] == "2 local processes"
     # --workers auto forced onto its pool (threshold 0 s, two cores): the first block here, the rest in blocks of
-    # one case on two forked workers that start from this process's stage memo; the same bits
+    # two cases (POOL_BLOCK_MIN_CASES: 8 cases for 2 workers would be 1-case blocks) on two forked workers that start
+    # from this process's stage memo; the same bits
     monkeypatch.setenv(THRESHOLD_VARIABLE, "0")
     monkeypatch.setattr(auto_workers, "usable_cores", lambda: 2)
     auto = run_scenario(resolved, progress=False, workers="auto")
     assert _numbers(auto) == _numbers(serial)
     assert auto.provenance["executor"] == "2 local processes"
-    assert auto.provenance["workers"].startswith("auto: 2 local processes after the first block (the 8 blocks left")
-    assert sorted(len(b) for b in auto.blocks) == [1] * 8 + [4]
+    assert auto.provenance["workers"].startswith("auto: 2 local processes after the first block (the 4 blocks left")
+    assert sorted(len(b) for b in auto.blocks) == [2] * 4 + [4]
 
 
 def test_dask_local_cluster_gives_the_serial_numbers(tmp_path):

@@ -94,17 +94,20 @@ class AutoChoice:
         return f"auto: this process ({why})"
 
 
-def run_auto(resolved, todo: np.ndarray, split, take, options: dict, before_workers=None,
+def run_auto(resolved, todo: np.ndarray, split, take, options: dict, after_forks=None,
              clock=time.monotonic, on_pool=None) -> AutoChoice:
     """Run the cases ``todo`` as the module docstring says; hand each finished block to ``take`` (as
     ``run_blocks``). ``split(cases, workers)`` -> the blocks of ``cases`` for that many workers
-    (``e2esim.runner.run.block_tasks``); ``options``: ``run_blocks``'s keywords; ``before_workers()``: called once
-    before any worker process starts (what must not be running when this process forks); ``on_pool(workers)``:
-    called once when the rest goes to that many workers (the progress bar measures their rate afresh)."""
+    (``e2esim.runner.run.block_tasks``); ``options``: ``run_blocks``'s keywords; ``after_forks()``: called once no
+    worker process will be forked any more (the pool's workers started, or the rest staying here), for what must
+    not run while this process forks (a thread importing modules); ``on_pool(workers)``: called once when the rest
+    goes to that many workers (the progress bar measures their rate afresh)."""
     threshold, cores, daemonic = parallel_threshold_s(), usable_cores(), not may_start_processes()
+    after_forks = after_forks or (lambda: None)
     tasks = split(todo, 1)
     memo = StageMemo()  # shared by this process's blocks and inherited by forked workers
     if len(tasks) < 2 or cores < 2 or daemonic:
+        after_forks()
         run_blocks(resolved, tasks, take, 1, stage_memo=memo, **options)
         return AutoChoice(1, threshold, cores, len(tasks), daemonic=daemonic)
     start = clock()
@@ -112,15 +115,14 @@ def run_auto(resolved, todo: np.ndarray, split, take, options: dict, before_work
     rest = np.sort(np.concatenate(tasks[1:]))
     estimate = (clock() - start) * len(rest) / len(tasks[0])
     if estimate <= threshold or len(rest) < 2:
+        after_forks()
         run_blocks(resolved, tasks[1:], take, 1, stage_memo=memo, **options)
         return AutoChoice(1, threshold, cores, 1, len(tasks) - 1, estimate)
     rest_tasks = split(rest, cores)
     workers = min(cores, len(rest_tasks))
-    if before_workers is not None:
-        before_workers()
     if on_pool is not None:
         on_pool(workers)
-    run_blocks(resolved, rest_tasks, take, workers, stage_memo=memo, **options)
+    run_blocks(resolved, rest_tasks, take, workers, stage_memo=memo, started=after_forks, **options)
     return AutoChoice(workers, threshold, cores, 1, len(rest_tasks), estimate)
 
 

@@ -43,7 +43,7 @@ _WORKER: dict = {}  # in a worker process: the scenario it runs blocks of, and i
 def run_blocks(resolved, tasks: list, take, workers: int = 1, scheduler: str | None = None,
                engine: str = "batched", keep_products: bool = False, packages: frozenset | None = None,
                frames: bool = True, progress: bool = False, cache=None, memo=None,
-               stage_memo: StageMemo | None = None) -> None:
+               stage_memo: StageMemo | None = None, started=None) -> None:
     """Run the blocks ``tasks`` and hand each to ``take(BlockResult, journal frame or None)`` as it finishes (not
     necessarily in case order); frames come from other processes, made with ``packages``
     (e2esim.runner.plaindata.allowed_packages), and only when ``frames`` (a run with a journal).
@@ -58,6 +58,8 @@ def run_blocks(resolved, tasks: list, take, workers: int = 1, scheduler: str | N
     ``memo``: the ``KernelMemo`` of the run's blocks (None: each process's own, ``e2esim.case.process_memo``); another
     process gets an empty one with the same settings. ``stage_memo``: the ``StageMemo`` of the run's blocks in this
     process (None: a new one), which forked workers start from (``--workers auto``: the blocks run here before).
+    ``started()``: called once the workers have started (at once where the blocks run here), before any block is
+    handed over: from then on this process forks no worker.
     """
     if not tasks:
         return
@@ -86,6 +88,8 @@ def run_blocks(resolved, tasks: list, take, workers: int = 1, scheduler: str | N
                 source = _ProcessBlocks(resolved, tasks, workers, options, stage_memo)
         else:
             source = _SerialBlocks(resolved, tasks, options, progress, stage_memo)
+        if started is not None:
+            started()
         for number, block, frame in source:
             hand_over(number, block, frame)
     except (KeyboardInterrupt, WorkerLost):

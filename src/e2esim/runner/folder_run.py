@@ -62,9 +62,10 @@ def run_into_folder(resolved, folder, force: bool = False, resume: bool = False,
         lock = prepare_folder(folder, force, resume)
         try:
             journal = Journal(folder, resolved)
-            # a run in this process: the report's modules are imported meanwhile (joined before auto forks workers)
-            with report_imported_meanwhile(workers in (1, AUTO) and not scheduler) as imported:
-                result = _run_journalled(resolved, folder, journal, resume, {**options, "before_workers": imported})
+            # a run in this process: the report's modules are imported meanwhile (with auto, from when no worker
+            # is forked any more: while the pool computes)
+            with report_imported_meanwhile(workers in (1, AUTO) and not scheduler, deferred=workers == AUTO) as start:
+                result = _run_journalled(resolved, folder, journal, resume, {**options, "after_forks": start})
             result.answer = None if answer is None else answer(resolved)
             try:
                 write_outputs(result, folder, progress=progress)

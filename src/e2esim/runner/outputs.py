@@ -164,19 +164,26 @@ def _report_functions() -> tuple:
 
 
 @contextlib.contextmanager
-def report_imported_meanwhile(enabled: bool = True):
+def report_imported_meanwhile(enabled: bool = True, deferred: bool = False):
     """Import the report's modules (matplotlib above all: half a second) in a thread while the body (a run that
-    computes in this process) goes on, so that its outputs need not wait for them. The thread is joined when the
-    body ends, or earlier by the function the body gets (``--workers auto`` calls it before it forks workers):
-    nothing forks while it may hold an import lock. An import that fails is left for ``write_outputs``, which
-    raises it as usual."""
+    computes in this process) goes on, so that its outputs need not wait for them. Nothing forks while the thread
+    may hold an import lock: ``deferred`` (``--workers auto``) starts it only when the body calls the function it
+    gets (once the run's worker processes are forked, or once it is known that none will be), not at once; so a
+    run that goes to a pool imports the report while its workers compute, rather than while its first block does,
+    alone on one core. The thread is joined when the body ends. An import that fails is left for
+    ``write_outputs``, which raises it as usual."""
     thread = threading.Thread(target=_import_report, name="e2esim-report-import", daemon=True) if enabled else None
-    if thread is not None:
-        thread.start()
+
+    def start() -> None:
+        if thread is not None and thread.ident is None:
+            thread.start()
+
+    if not deferred:
+        start()
     try:
-        yield thread.join if thread is not None else (lambda: None)
+        yield start
     finally:
-        if thread is not None:
+        if thread is not None and thread.ident is not None:
             thread.join()
 
 

@@ -49,6 +49,13 @@ BLOCK_CASES = 4096
 that a block's arrays stay in the CPU caches' neighbourhood (a few MB) and the progress bar moves."""
 MONTE_CARLO_BLOCK_CASES = 4
 """Cases per block when cases run a Monte Carlo: each takes long on its own, and their samples are large."""
+POOL_BLOCKS_PER_WORKER = 8
+"""Blocks per worker, at least, when several share a run's cases (``block_tasks``): each gets several, so that they
+finish near one another."""
+POOL_BLOCK_MIN_CASES = 2
+"""Cases per block, at least, when several workers share a run's cases: a block's stages ask their levels for all
+its cases at once (``e2esim.requirements.level_search``), and a pool of one-case blocks costs a tenth more CPU than
+one of two-case blocks (biomass_ground_cancelled_tomographic's 12 cases after the first block: about 0.5 s)."""
 KEEP_PRODUCTS_UP_TO = 2000
 """Runs of at most this many cases keep every case's products (for the report's per-case plots and for
 ``CaseResult.get``); larger runs keep their columns only."""
@@ -179,12 +186,13 @@ class ScenarioResult:
 
 def block_tasks(resolved: ResolvedScenario, todo: np.ndarray, workers: int = 1) -> list:
     """The blocks to run: the cases ``todo`` (sorted) split by chain template, in runs of at most the block
-    size, small enough that every worker gets several."""
+    size, small enough that every worker gets several (``POOL_BLOCKS_PER_WORKER``), but not below
+    ``POOL_BLOCK_MIN_CASES``."""
     plan = resolved.plan
     montecarlo = any(getattr(s, "montecarlo", False) for s in plan.settings_slot.objects)
     size = MONTE_CARLO_BLOCK_CASES if montecarlo else BLOCK_CASES
     if workers > 1:
-        size = max(1, min(size, math.ceil(len(todo) / (workers * 8))))
+        size = min(size, max(POOL_BLOCK_MIN_CASES, math.ceil(len(todo) / (workers * POOL_BLOCKS_PER_WORKER))))
     tasks = []
     templates = plan.template[todo]
     for t in np.unique(templates):
@@ -208,7 +216,7 @@ def run_scenario(
     spill_folder=None,
     cache=None,
     memo=None,
-    before_workers=None,
+    after_forks=None,
 ) -> ScenarioResult:
     """Run every case (serially, on ``workers`` local processes, on as many as are worth it with ``workers="auto"``
     (``e2esim.runner.auto_workers``) or on the dask cluster at ``scheduler``) with a progress bar; return the
@@ -225,7 +233,8 @@ def run_scenario(
         front doors give ``e2esim.io.array_cache.open_cache``); None: every table is computed afresh. memo : the
         ``KernelMemo`` of the run's blocks, kept by a caller that runs the same geometry again (a solve's engine
         runs; other processes get an empty one with its settings); None: the process's own (``process_memo``).
-        before_workers : called once before worker processes start (``workers="auto"``).
+        after_forks : called once no worker process will be forked any more (``workers="auto"``: once the pool's
+        workers have started, or once the run stays in this process), for a thread that must not run at a fork.
     """
     if engine not in ENGINES:
         raise UserError(f"engine {engine!r}: expected one of {', '.join(ENGINES)}")
@@ -259,7 +268,7 @@ def run_scenario(
     try:
         if auto:
             choice = run_auto(resolved, todo, lambda cases, w: block_tasks(resolved, cases, w), take, options,
-                              before_workers, on_pool=bar.pool_started)
+                              after_forks, on_pool=bar.pool_started)
             workers = choice.workers
         else:
             run_blocks(resolved, block_tasks(resolved, todo, workers if not scheduler else 8), take, workers,
