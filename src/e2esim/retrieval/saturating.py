@@ -17,6 +17,7 @@ AGB range the model is trusted over) decides where saturation starts.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -136,6 +137,11 @@ class SaturatingModel(RetrievalModel):
     # branch and inversion --------------------------------------------------------------------------------
     def peak_agb(self) -> float:
         """M* where sigma peaks (t/ha): the root of h(M) (module docstring); +inf if sigma never peaks."""
+        return self._peak
+
+    @cached_property
+    def _peak(self) -> float:
+        """``peak_agb``, searched once per model (every inversion's ``branch`` asks it)."""
         b0, b1, b2, a = self.beta0, self.beta1, self.beta2, self.alpha
         if b2 == 0:
             return np.inf
@@ -149,8 +155,21 @@ class SaturatingModel(RetrievalModel):
         return self._branch_numeric().agb_high
 
     def branch(self, agb_max: float | None = None) -> Branch:
-        """The increasing branch used for inversion, limited to AGB <= agb_max."""
+        """The increasing branch used for inversion, limited to AGB <= agb_max; made once per cap (a threshold's
+        bisection inverts some hundred times with the same cap: ``RelativeErrorMap.threshold``)."""
         cap = np.inf if agb_max is None else float(agb_max)
+        made = self._branches
+        if cap not in made:
+            made[cap] = self._branch(cap)
+        return made[cap]
+
+    @cached_property
+    def _branches(self) -> dict:
+        """{cap (t/ha): its ``Branch``}, each made when first asked."""
+        return {}
+
+    def _branch(self, cap: float) -> Branch:
+        """``branch`` of the cap ``cap`` (t/ha, +inf for none)."""
         if self.beta2 >= 0 and self.alpha < 1:
             low = 0.0
             peak = self.peak_agb()
