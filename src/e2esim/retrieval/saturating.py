@@ -86,10 +86,15 @@ class SaturatingModel(RetrievalModel):
     # forward model --------------------------------------------------------------------------------------
     def evaluate(self, agb, params=None, **covariates):
         """Eq. (1): beta0 (1 - e^{-beta1 M}) + beta2 M^alpha e^{-beta1 M}."""
-        b0, b1, b2 = _split(self._params(params))
-        m = np.clip(np.asarray(agb, dtype=float), 0.0, None)
+        b0, b1, b2 = self._own_split if params is None else _split(params)
+        m = np.maximum(np.asarray(agb, dtype=float), 0.0)  # np.clip(x, 0.0, None) is this maximum, a call less
         e = np.exp(-b1 * m)
         return b0 * (1.0 - e) + b2 * m**self.alpha * e
+
+    @cached_property
+    def _own_split(self) -> tuple:
+        """``_split`` of the model's own coefficients, made once (an inversion evaluates eq. 1 some fifty times)."""
+        return _split(self.params)
 
     def param_jacobian(self, agb, params=None, **covariates):
         """Eq. (5) for eq. (1): (1 - e, M e (beta0 - beta2 M^alpha), M^alpha e), shape (..., n, 3)."""
