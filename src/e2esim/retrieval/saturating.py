@@ -43,6 +43,7 @@ BETA1_MAX = 1.0  # 1/(t/ha): saturation within ~1 t/ha is not a forest either
 run out of it (the degenerate solutions of flat-looking data, beta1 -> inf) count as failed."""
 _BETA1_GRID = np.logspace(-5, 0, 61)  # 1/(t/ha): candidate beta1 for the variable-projection start
 _PEAK_SEARCH = (1e-9, 1e9)  # t/ha: bracket of the root of h(M) (h > 0 at the left end, < 0 at the right)
+_SIGMAS_KEPT = 4096  # sigma values a model keeps for the bisections of one-value inversions (a few hundred kB)
 _GRID_AGB = np.concatenate([[0.0], np.logspace(-6, 6, 2401)])  # t/ha: fallback branch search
 
 
@@ -222,9 +223,26 @@ class SaturatingModel(RetrievalModel):
             if np.isinf(br.agb_high):  # beta2 = 0: closed form
                 agb[inside] = -np.log1p(-target / self.beta0) / self.beta1
             else:
-                agb[inside] = bisect_increasing(self.sigma, target, br.agb_low, br.agb_high)
+                func = self._sigma_kept if target.size == 1 else self.sigma
+                agb[inside] = bisect_increasing(func, target, br.agb_low, br.agb_high)
         status = np.select([~finite, below, sat], [INVALID, BELOW_RANGE, SATURATED], INVERTED).astype(np.int8)
         return Inversion(agb, status, br.sigma_high, cap)
+
+    def _sigma_kept(self, agb: np.ndarray) -> np.ndarray:
+        """``sigma`` at an array of one AGB, each value computed once per model (the last ``_SIGMAS_KEPT`` kept): a
+        threshold's bisection (``RelativeErrorMap.threshold``) inverts some hundred nearby values, and one value's
+        bisection steps through the midpoints of the others' up to where their targets part."""
+        kept, key = self._sigmas, agb.tobytes()
+        if key not in kept:
+            if len(kept) >= _SIGMAS_KEPT:
+                kept.clear()
+            kept[key] = self.sigma(agb)
+        return kept[key]
+
+    @cached_property
+    def _sigmas(self) -> dict:
+        """{the bytes of an array of one AGB: its ``sigma``} (``_sigma_kept``)."""
+        return {}
 
     # fitting ---------------------------------------------------------------------------------------------
     def initial_guess(self, agb, sigma, **covariates):
