@@ -9,6 +9,7 @@ import pytest
 from scipy import optimize, stats
 
 from e2esim.errors import PhysicsInputError
+from e2esim.retrieval.fitting import bisect_increasing
 from e2esim.retrieval.loglinear import LogLinearModel
 from e2esim.retrieval.models import (
     BAD_DATA,
@@ -295,3 +296,30 @@ def test_loglinear_bad_input():
         LogLinearModel((0.0,) * 3, (0.5, -0.1, 0.5), (0.0,) * 3).check_hv_weight()
     with pytest.raises(PhysicsInputError, match="incidence angles must be within"):
         LL.sigma(100.0, incidence_rad=2.0)
+
+
+def _bisect_with_arrays(func, target, lo, hi, iterations=80, rtol=1e-13):
+    """``bisect_increasing``'s loop on arrays, as it was written for every shape: the reference of one element."""
+    target, lo, hi = (np.array([float(v)]) for v in (target, lo, hi))
+    for _ in range(iterations):
+        mid = 0.5 * (lo + hi)
+        above = func(mid) >= target
+        hi, lo = np.where(above, mid, hi), np.where(above, lo, mid)
+        if np.all(hi - lo <= rtol * np.maximum(np.abs(hi), 1.0)):
+            break
+    flo, fhi = func(lo), func(hi)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        x = np.where(fhi > flo, lo + (target - flo) * (hi - lo) / (fhi - flo), 0.5 * (lo + hi))
+    return np.clip(x, lo, hi)
+
+
+def test_one_value_inversion_is_the_array_loop_bit_for_bit():
+    # one value is bisected on Python floats, sigma kept at its midpoints: the array loop's numbers exactly
+    branch = SAT.branch(1000.0)
+    for t in SAT.sigma(np.array([0.3, 7.0, 123.456, 400.0, 999.0])):
+        expected = _bisect_with_arrays(SAT.sigma, t, branch.agb_low, branch.agb_high)
+        assert bisect_increasing(SAT.sigma, np.array([t]), branch.agb_low, branch.agb_high).tobytes() == \
+            expected.tobytes()
+        # the model's own inversion, twice (the second from the kept sigma values), and by a fresh model
+        for model in (SAT, SAT, SaturatingModel(SAT.beta0, SAT.beta1, SAT.beta2)):
+            assert model.invert(np.array([t]), agb_max=1000.0).agb.tobytes() == expected.tobytes()

@@ -220,15 +220,35 @@ def bisect_increasing(func, target, lo, hi, iterations: int = 80, rtol: float = 
     Vectorised bisection followed by safeguarded secant polishing; lo, hi, target broadcast together.
     """
     target, lo, hi = np.broadcast_arrays(np.asarray(target, float), np.asarray(lo, float), np.asarray(hi, float))
-    lo, hi = lo.copy(), hi.copy()
-    for _ in range(iterations):
-        mid = 0.5 * (lo + hi)
-        above = func(mid) >= target
-        hi = np.where(above, mid, hi)
-        lo = np.where(above, lo, mid)
-        if np.all(hi - lo <= rtol * np.maximum(np.abs(hi), 1.0)):
-            break
+    if target.shape == (1,):
+        lo, hi = _bisected_one(func, float(target[0]), float(lo[0]), float(hi[0]), iterations, rtol)
+    else:
+        lo, hi = lo.copy(), hi.copy()
+        for _ in range(iterations):
+            mid = 0.5 * (lo + hi)
+            above = func(mid) >= target
+            hi = np.where(above, mid, hi)
+            lo = np.where(above, lo, mid)
+            if np.all(hi - lo <= rtol * np.maximum(np.abs(hi), 1.0)):
+                break
     flo, fhi = func(lo), func(hi)
     with np.errstate(divide="ignore", invalid="ignore"):
         x = np.where(fhi > flo, lo + (target - flo) * (hi - lo) / (fhi - flo), 0.5 * (lo + hi))
     return np.clip(x, lo, hi)
+
+
+def _bisected_one(func, target: float, lo: float, hi: float, iterations: int, rtol: float) -> tuple:
+    """The bracket (lo, hi) of one element's bisection in ``bisect_increasing``, as arrays of shape (1,): its steps
+    on Python floats, which add, halve and compare as numpy's float64 do (IEEE 754), so the same bracket bit for bit
+    without a dozen array operations per step (a retrieval map's threshold inverts one value a few hundred times:
+    ``e2esim.retrieval.relative_error_map``). ``func`` is still asked with an array of one element, as the arrays'
+    loop asks it (numpy's power and exp may round otherwise on a scalar)."""
+    for _ in range(iterations):
+        mid = 0.5 * (lo + hi)
+        if func(np.array([mid]))[0] >= target:
+            hi = mid
+        else:
+            lo = mid
+        if hi - lo <= rtol * max(abs(hi), 1.0):
+            break
+    return np.array([lo]), np.array([hi])

@@ -17,6 +17,7 @@ AGB range the model is trusted over) decides where saturation starts.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -42,6 +43,7 @@ BETA1_MAX = 1.0  # 1/(t/ha): saturation within ~1 t/ha is not a forest either
 run out of it (the degenerate solutions of flat-looking data, beta1 -> inf) count as failed."""
 _BETA1_GRID = np.logspace(-5, 0, 61)  # 1/(t/ha): candidate beta1 for the variable-projection start
 _PEAK_SEARCH = (1e-9, 1e9)  # t/ha: bracket of the root of h(M) (h > 0 at the left end, < 0 at the right)
+_SIGMAS_KEPT = 4096  # sigma values a model keeps for the bisections of one-value inversions (a few hundred kB)
 _GRID_AGB = np.concatenate([[0.0], np.logspace(-6, 6, 2401)])  # t/ha: fallback branch search
 
 
@@ -85,10 +87,15 @@ class SaturatingModel(RetrievalModel):
     # forward model --------------------------------------------------------------------------------------
     def evaluate(self, agb, params=None, **covariates):
         """Eq. (1): beta0 (1 - e^{-beta1 M}) + beta2 M^alpha e^{-beta1 M}."""
-        b0, b1, b2 = _split(self._params(params))
-        m = np.clip(np.asarray(agb, dtype=float), 0.0, None)
+        b0, b1, b2 = self._own_split if params is None else _split(params)
+        m = np.maximum(np.asarray(agb, dtype=float), 0.0)  # np.clip(x, 0.0, None) is this maximum, a call less
         e = np.exp(-b1 * m)
         return b0 * (1.0 - e) + b2 * m**self.alpha * e
+
+    @cached_property
+    def _own_split(self) -> tuple:
+        """``_split`` of the model's own coefficients, made once (an inversion evaluates eq. 1 some fifty times)."""
+        return _split(self.params)
 
     def param_jacobian(self, agb, params=None, **covariates):
         """Eq. (5) for eq. (1): (1 - e, M e (beta0 - beta2 M^alpha), M^alpha e), shape (..., n, 3)."""
@@ -136,6 +143,11 @@ class SaturatingModel(RetrievalModel):
     # branch and inversion --------------------------------------------------------------------------------
     def peak_agb(self) -> float:
         """M* where sigma peaks (t/ha): the root of h(M) (module docstring); +inf if sigma never peaks."""
+        return self._peak
+
+    @cached_property
+    def _peak(self) -> float:
+        """``peak_agb``, searched once per model (every inversion's ``branch`` asks it)."""
         b0, b1, b2, a = self.beta0, self.beta1, self.beta2, self.alpha
         if b2 == 0:
             return np.inf
@@ -149,8 +161,21 @@ class SaturatingModel(RetrievalModel):
         return self._branch_numeric().agb_high
 
     def branch(self, agb_max: float | None = None) -> Branch:
-        """The increasing branch used for inversion, limited to AGB <= agb_max."""
+        """The increasing branch used for inversion, limited to AGB <= agb_max; made once per cap (a threshold's
+        bisection inverts some hundred times with the same cap: ``RelativeErrorMap.threshold``)."""
         cap = np.inf if agb_max is None else float(agb_max)
+        made = self._branches
+        if cap not in made:
+            made[cap] = self._branch(cap)
+        return made[cap]
+
+    @cached_property
+    def _branches(self) -> dict:
+        """{cap (t/ha): its ``Branch``}, each made when first asked."""
+        return {}
+
+    def _branch(self, cap: float) -> Branch:
+        """``branch`` of the cap ``cap`` (t/ha, +inf for none)."""
         if self.beta2 >= 0 and self.alpha < 1:
             low = 0.0
             peak = self.peak_agb()
@@ -198,9 +223,26 @@ class SaturatingModel(RetrievalModel):
             if np.isinf(br.agb_high):  # beta2 = 0: closed form
                 agb[inside] = -np.log1p(-target / self.beta0) / self.beta1
             else:
-                agb[inside] = bisect_increasing(self.sigma, target, br.agb_low, br.agb_high)
+                func = self._sigma_kept if target.size == 1 else self.sigma
+                agb[inside] = bisect_increasing(func, target, br.agb_low, br.agb_high)
         status = np.select([~finite, below, sat], [INVALID, BELOW_RANGE, SATURATED], INVERTED).astype(np.int8)
         return Inversion(agb, status, br.sigma_high, cap)
+
+    def _sigma_kept(self, agb: np.ndarray) -> np.ndarray:
+        """``sigma`` at an array of one AGB, each value computed once per model (the last ``_SIGMAS_KEPT`` kept): a
+        threshold's bisection (``RelativeErrorMap.threshold``) inverts some hundred nearby values, and one value's
+        bisection steps through the midpoints of the others' up to where their targets part."""
+        kept, key = self._sigmas, agb.tobytes()
+        if key not in kept:
+            if len(kept) >= _SIGMAS_KEPT:
+                kept.clear()
+            kept[key] = self.sigma(agb)
+        return kept[key]
+
+    @cached_property
+    def _sigmas(self) -> dict:
+        """{the bytes of an array of one AGB: its ``sigma``} (``_sigma_kept``)."""
+        return {}
 
     # fitting ---------------------------------------------------------------------------------------------
     def initial_guess(self, agb, sigma, **covariates):
