@@ -15,6 +15,7 @@ once (a shared legend, shared axis and case labels).
 
 from __future__ import annotations
 
+import functools
 import math
 from pathlib import Path
 
@@ -64,6 +65,30 @@ def panel_grid(n: int, max_columns: int, panel_size: tuple) -> tuple:
     for ax in axes.ravel()[n:]:
         ax.axis("off")
     return fig, axes.ravel()[:n]
+
+
+def tight_layout_in(fig, rect: tuple) -> None:
+    """``fig.tight_layout(rect=rect)`` (the panels and their labels fitted into ``rect``, figure fractions: room
+    left for a legend below them), each panel measured once instead of twice.
+
+    Matplotlib fits panels into a ``rect`` in two passes (``matplotlib._tight_layout.get_tight_layout_figure``),
+    each measuring every panel with its tick labels (most of a layout's time) at the same, unmoved positions; the
+    second pass here reads the first's measurements, so the layout is the same at half the cost."""
+    measured: dict = {}
+
+    def measured_once(ax, *args, **kwargs):
+        key = (id(ax), args, tuple(sorted(kwargs.items())))
+        if key not in measured:
+            measured[key] = type(ax).get_tightbbox(ax, *args, **kwargs)
+        return measured[key]
+
+    for ax in fig.axes:
+        ax.get_tightbbox = functools.partial(measured_once, ax)
+    try:
+        fig.tight_layout(rect=rect)
+    finally:
+        for ax in fig.axes:
+            del ax.get_tightbbox
 
 
 def save(fig, folder: Path, name: str, tight: bool | None = None) -> str:
