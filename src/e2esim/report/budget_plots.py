@@ -19,7 +19,7 @@ from e2esim.io.error_budget import (
     verdict_budget,
 )
 from e2esim.report.outliers import axis_cut, mark_cut
-from e2esim.report.plot_base import PlotSkipped, save
+from e2esim.report.plot_base import PlotSkipped, save, tight_layout_in
 from e2esim.report.sweep_layout import case_row_height, case_ticks
 from e2esim.requirements.source_names import coupling_words
 
@@ -115,7 +115,7 @@ def plot_error_budget(result, folder: Path, options: dict) -> list:
     legend_h = LEGEND_ROW * -(-len(drawn) // 3) + 0.15  # inches below the panels: three columns of entries
     fig.set_figheight(sum(heights) + legend_h)
     fig.legend(list(drawn.values()), list(drawn.keys()), loc="lower center", ncol=3, fontsize=7)
-    fig.tight_layout(rect=(0, legend_h / fig.get_figheight(), 1, 1))
+    tight_layout_in(fig, (0, legend_h / fig.get_figheight(), 1, 1))
     why = (f" Where the sources couple: {coupling_words(sorted(coupled))}." if coupled else "")
     if shapley:
         why += (" There (the Euler split would leave more than 1 % of the checked value to no source: case"

@@ -23,7 +23,15 @@ from e2esim.io.summary import LARGE_RUN_CASES
 from e2esim.maps.grid import is_map_sweep
 from e2esim.report.labels import wrapped
 from e2esim.report.map_plots import SITE_KEYS
-from e2esim.report.plot_base import PlotSkipped, colors, figure_settings, panel_grid, save
+from e2esim.report.plot_base import (
+    PlotSkipped,
+    colors,
+    figure_settings,
+    older_objects_left_to_rest,
+    panel_grid,
+    save,
+    tight_layout_in,
+)
 from e2esim.report.plot_processes import draw_all
 from e2esim.report.sweep_layout import legend, sweep_layout
 from e2esim.units import level_db_from_variance
@@ -96,7 +104,7 @@ def plot_tradeoff(result, folder: Path, options: dict) -> list:
         ax.grid(alpha=0.3)
         labels.append((f"crosstalk (dB, {conv})", f"channel imbalance (dB, {conv})", _legend_entries(ax)))
     _label_panels(fig, axes, labels, columns=2)
-    fig.tight_layout(rect=(0, _legend_room(fig, labels), 1, 1))
+    tight_layout_in(fig, (0, _legend_room(fig, labels), 1, 1))
     more = f" The first {len(cases)} of {len(every)} cases are shown." if len(every) > len(cases) else ""
     return [(save(fig, folder, "tradeoff", tight=False),
              "Trade-off curves between crosstalk and channel imbalance (Men et al. 2021, eq. 19, Figs. 3-8): "
@@ -241,7 +249,9 @@ def make_plots(result, folder: Path, warnings: list | None = None, steps=None, h
 
     names = requested_plots(result)
     out = []
-    for name, (made, reason) in zip(names, draw_all(names, draw, done, helper, meanwhile)):
+    with older_objects_left_to_rest():
+        drawn = draw_all(names, draw, done, helper, meanwhile)
+    for name, (made, reason) in zip(names, drawn):
         if made:
             out.extend(made)
         elif name in requested or name in ALWAYS_PLOTS:  # plots of "auto" that do not apply are left out quietly

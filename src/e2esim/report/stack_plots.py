@@ -15,7 +15,7 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 
-from e2esim.report.plot_base import save_png
+from e2esim.report.plot_base import save_png, tight_layout_in
 
 X_SCALAR = "estimator.faraday_difference_sd_deg"
 
@@ -50,7 +50,7 @@ def plot_agb_error_vs_faraday_difference(result, folder: Path, options: dict) ->
         ax.set_ylabel(f"checked AGB error ({limit.unit})")
         ax.grid(alpha=0.3)
     fig.legend(loc="lower center", ncol=2, fontsize=6, frameon=False)
-    fig.tight_layout(rect=(0, legend_h / (4.0 + legend_h), 1, 1))
+    tight_layout_in(fig, (0, legend_h / (4.0 + legend_h), 1, 1))
     return [(save_png(fig, Path(folder) / "agb_error_vs_faraday_difference.png", tight=False),
              "The AGB error each requirement checks against the SD of the Faraday-rotation difference between two "
              "passes (the case's, from the TEC variability or as swept); the dashed line is the requirement's limit.")]
