@@ -20,29 +20,64 @@ TABLE_ATTR = "text"
 """Attribute of a dataset of codes: the name of the sibling dataset holding its distinct texts."""
 
 
-def put(group, name: str, data, units: str, description: str, dtype=None):
-    """Create dataset ``name`` with its ``units`` and ``description`` attributes (first stopping the writer if a
-    write failed or Ctrl-C came: ``e2esim.io.guarded_h5``)."""
+def put(group, name: str, data, units: str, description: str, dtype=None, table: str | None = None) -> None:
+    """Create dataset ``name`` with its ``units`` and ``description`` attributes (and ``text``: ``table``, for
+    codes), first stopping the writer if a write failed or Ctrl-C came (``e2esim.io.guarded_h5``).
+
+    Made through h5py's low-level API in the very calls ``group.create_dataset(name, data=data, dtype=dtype)`` and
+    ``ds.attrs[key] = text`` make (the same file, byte for byte: tests/test_results_h5_content.py), without their
+    Python overhead: a results.h5 holds hundreds of small datasets."""
     check_writing()
-    ds = group.create_dataset(name, data=data, dtype=dtype)
-    ds.attrs["units"] = units
-    ds.attrs["description"] = description
-    return ds
+    parent, _, leaf = name.rpartition("/")
+    if parent:
+        group = group.require_group(parent)  # as create_dataset makes the groups of a path
+    array = np.asarray(data, order="C", dtype=dtype)
+    if dtype is not None:
+        array = array.view(dtype)  # keeps h5py's tag of a string dtype
+    dtype = array.dtype if dtype is None else dtype
+    dataset = h5py.h5d.create(group.id, leaf.encode("utf-8"), h5py.h5t.py_create(dtype, logical=True),
+                              h5py.h5s.create_simple(array.shape), dcpl=_DATASET_CREATE)
+    dataset.write(h5py.h5s.ALL, h5py.h5s.ALL, array)
+    _text_attribute(dataset, b"units", units)
+    _text_attribute(dataset, b"description", description)
+    if table is not None:
+        _text_attribute(dataset, TABLE_ATTR.encode(), table)
 
 
-def put_text(group, name: str, values, description: str):
+def _dataset_create_plist():
+    """What h5py's ``create_dataset`` sets for a dataset without chunks or filters: no times, no attribute order."""
+    plist = h5py.h5p.create(h5py.h5p.DATASET_CREATE)
+    plist.set_obj_track_times(False)
+    plist.set_attr_creation_order(0)
+    return plist
+
+
+_DATASET_CREATE = _dataset_create_plist()
+_SCALAR = h5py.h5s.create_simple(())
+_STRING_FILE_TYPE = h5py.h5t.py_create(STRING, logical=True)
+_STRING_MEMORY_TYPE = h5py.h5t.py_create(STRING)
+
+
+def _text_attribute(obj_id, name: bytes, text: str) -> None:
+    """``attrs[name] = text`` on a new object: a scalar variable-length UTF-8 string, as h5py stores a ``str``."""
+    attribute = h5py.h5a.create(obj_id, name, _STRING_FILE_TYPE, _SCALAR)
+    try:
+        attribute.write(np.array(text, dtype=STRING), mtype=_STRING_MEMORY_TYPE)
+    finally:
+        attribute.close()
+
+
+def put_text(group, name: str, values, description: str) -> None:
     """A string, or a short list of strings, as variable-length UTF-8 text."""
-    return put(group, name, values if isinstance(values, str) else list(values), TEXT, description, STRING)
+    put(group, name, values if isinstance(values, str) else list(values), TEXT, description, STRING)
 
 
-def put_coded(group, name: str, texts, codes, description: str):
+def put_coded(group, name: str, texts, codes, description: str) -> None:
     """Text per case as ``codes`` (integers, any shape) into ``texts`` (the distinct texts), ``<name>_text``."""
     table = f"{name}_text"
     put_text(group, table, texts, f"the distinct texts of {name}")
     codes = np.asarray(codes).astype(code_dtype(len(texts)))
-    ds = put(group, name, codes, TEXT, f"{description} (codes into {table})")
-    ds.attrs[TABLE_ATTR] = table
-    return ds
+    put(group, name, codes, TEXT, f"{description} (codes into {table})", table=table)
 
 
 def code_dtype(count: int) -> np.dtype:

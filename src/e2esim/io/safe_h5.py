@@ -51,6 +51,7 @@ class H5Reader:
         self.what = what
         check_regular(self.path, what, ResultsFileError)
         self.decompressed = 0
+        self._groups: dict = {}  # {path: group} reached by ``get``
         with self.guard():
             try:
                 self.file = h5py.File(self.path, "r")
@@ -89,11 +90,13 @@ class H5Reader:
         parts = [p for p in path.split("/") if p]
         for depth, part in enumerate(parts):
             where = "/" + "/".join(parts[:depth + 1])
-            child = self._child(node, part, where)
+            child = self._groups.get(where) or self._child(node, part, where)
             if child is None:
                 if required:
                     self.fail(where, "is missing", f"a {self.what} of e2esim has it (docs/output-format.md)")
                 return None
+            if isinstance(child, h5py.Group):
+                self._groups[where] = child  # its links checked once: the file is open for reading only
             node = child
         if not isinstance(node, kind):
             self.fail("/" + "/".join(parts), f"is a {_kind_name(type(node))}, not a {_kind_name(kind)}")
@@ -102,6 +105,11 @@ class H5Reader:
     def _child(self, group, name: str, where: str):
         if not isinstance(group, h5py.Group):
             self.fail(where, "lies below something that is not a group")
+        if name not in (".", ".."):  # a hard link (what e2esim writes): checked and opened in two HDF5 calls
+            encoded = _encoded(name)
+            links = group.id.links
+            if links.exists(encoded) and links.get_info(encoded).type == h5py.h5l.TYPE_HARD:
+                return _open(group, encoded)
         link = group.get(name, getlink=True)
         if link is None:
             return None
@@ -126,10 +134,14 @@ class H5Reader:
     def read(self, ds, kinds: str, shape: tuple):
         """The data of ``ds`` (numeric kinds ``kinds``, e.g. "fiub"), checked to have ``shape`` (None: any length
         on that axis) before it is read."""
-        if ds.dtype.kind not in kinds or ds.dtype.fields is not None or ds.dtype.subdtype is not None:
-            self.fail(ds.name, f"holds {_type_name(ds.dtype)}", f"expected {_KINDS.get(kinds, kinds)}")
+        dtype = ds.dtype
+        if dtype.kind not in kinds or dtype.fields is not None or dtype.subdtype is not None:
+            self.fail(ds.name, f"holds {_type_name(dtype)}", f"expected {_KINDS.get(kinds, kinds)}")
         self._check(ds, shape)
-        return ds[()]
+        out = np.zeros(ds.shape, dtype=dtype)  # what ds[()] reads, without h5py's selection machinery
+        if out.size:
+            ds.id.read(h5py.h5s.ALL, h5py.h5s.ALL, out)
+        return out[()] if out.ndim == 0 else out
 
     def read_text(self, ds, shape: tuple) -> np.ndarray:
         """Text data of ``ds`` as an object array of ``str`` (bytes decoded as UTF-8, bad bytes replaced)."""
@@ -221,15 +233,16 @@ class H5Reader:
 
     def attribute(self, obj, name: str):
         """The attribute ``name`` of ``obj`` when it is short numbers or text, else None."""
-        if name not in obj.attrs:
+        encoded = _encoded(name)
+        if not h5py.h5a.exists(obj.id, encoded):
             return None
-        aid = h5py.h5a.open(obj.id, name.encode("utf-8"))
+        aid = h5py.h5a.open(obj.id, encoded)
         dtype, shape = aid.dtype, aid.shape
         text = h5py.check_string_dtype(dtype) is not None
         if not (text or (dtype.kind in "biuf" and dtype.fields is None and dtype.subdtype is None)) or \
                 math.prod(shape) > MAX_ATTRIBUTE_VALUES or aid.get_storage_size() > MAX_ATTRIBUTE_BYTES:
             return None
-        value = obj.attrs[name]
+        value = _attribute_value(aid, dtype, shape)
         if text and isinstance(value, np.ndarray):
             return [as_text(x) for x in value.flat]
         return as_text(value) if text else value
@@ -237,9 +250,39 @@ class H5Reader:
     def text_attribute(self, obj, name: str) -> str | None:
         """A text attribute (None: missing); anything else there is refused."""
         value = self.attribute(obj, name)
-        if (value is None and name in obj.attrs) or (value is not None and not isinstance(value, str)):
+        if (value is None and h5py.h5a.exists(obj.id, _encoded(name))) or \
+                (value is not None and not isinstance(value, str)):
             self.fail(f"{obj.name} (attribute {name})", "is not a short text")
         return value
+
+
+def _encoded(name) -> bytes:
+    """A member's or attribute's name as HDF5 stores it (h5py lists a name that is not UTF-8 as bytes)."""
+    return name.encode("utf-8") if isinstance(name, str) else name
+
+
+def _open(group, name: bytes):
+    """The object a hard link of ``group`` names, as ``group[name]`` gives it (the file is open for reading)."""
+    oid = h5py.h5o.open(group.id, name)
+    kind = h5py.h5i.get_type(oid)
+    if kind == h5py.h5i.GROUP:
+        return h5py.Group(oid)
+    if kind == h5py.h5i.DATASET:
+        return h5py.Dataset(oid, readonly=True)
+    if kind == h5py.h5i.DATATYPE:
+        return h5py.Datatype(oid)
+    raise TypeError("Unknown object type")
+
+
+def _attribute_value(aid, dtype, shape):
+    """The value of a numeric or text attribute (no array type: ``H5Reader.attribute`` checked it), as
+    ``obj.attrs[name]`` reads it: a scalar for one value, variable-length text as ``str``."""
+    out = np.zeros(shape, dtype=dtype)
+    aid.read(out, mtype=h5py.h5t.py_create(dtype))
+    info = h5py.check_string_dtype(dtype)
+    if info is not None and info.length is None:
+        out = np.array([b.decode("utf-8", "surrogateescape") for b in out.flat], dtype=dtype).reshape(out.shape)
+    return out[()] if out.ndim == 0 else out
 
 
 def as_text(x) -> str:
