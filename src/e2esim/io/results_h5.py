@@ -16,7 +16,7 @@ from e2esim.block import Values
 from e2esim.io.campaign_h5 import write_campaign
 from e2esim.io.guarded_h5 import guarded_h5_file
 from e2esim.io.h5_datasets import code_dtype, coded_values, put, put_coded, put_text
-from e2esim.io.scalar_units import detail_unit, run_products, scalar_description, scalar_unit
+from e2esim.io.scalar_units import detail_unit, run_products, scalar_description, scalar_unit, scalar_units
 from e2esim.io.sensitivity_h5 import write_sensitivity
 from e2esim.io.summary import requirement_sources
 from e2esim.maps.grid import is_map_sweep
@@ -72,9 +72,9 @@ def write_results(result, path) -> None:
         res = g.create_group("results")
         req_units = tuple(r.unit[0] for r in table.requirements) if n else ()
         products = run_products(result.scenario)
-        for name in sorted(table.scalars):
-            put(res, name, table.scalar(name), scalar_unit(name, req_units, products),
-                scalar_description(name) + "; NaN where a case lacks it")
+        names = sorted(table.scalars)
+        for name, unit in zip(names, scalar_units(names, req_units, products)):
+            put(res, name, table.scalar(name), unit, scalar_description(name) + "; NaN where a case lacks it")
         _write_requirements(f.create_group("requirements"), result, list(req_units))
         arrays, acquisitions = f.create_group("arrays"), f.create_group("acquisitions")
         _write_curves(arrays, table)

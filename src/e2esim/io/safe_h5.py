@@ -137,17 +137,18 @@ class H5Reader:
         dtype = ds.dtype
         if dtype.kind not in kinds or dtype.fields is not None or dtype.subdtype is not None:
             self.fail(ds.name, f"holds {_type_name(dtype)}", f"expected {_KINDS.get(kinds, kinds)}")
-        self._check(ds, shape)
-        out = np.zeros(ds.shape, dtype=dtype)  # what ds[()] reads, without h5py's selection machinery
+        dims = self._check(ds, shape, dtype)
+        out = np.zeros(dims, dtype=dtype)  # what ds[()] reads, without h5py's selection machinery
         if out.size:
             ds.id.read(h5py.h5s.ALL, h5py.h5s.ALL, out)
         return out[()] if out.ndim == 0 else out
 
     def read_text(self, ds, shape: tuple) -> np.ndarray:
         """Text data of ``ds`` as an object array of ``str`` (bytes decoded as UTF-8, bad bytes replaced)."""
-        if h5py.check_string_dtype(ds.dtype) is None:
-            self.fail(ds.name, f"holds {_type_name(ds.dtype)}", "expected text")
-        self._check(ds, shape)
+        dtype = ds.dtype
+        if h5py.check_string_dtype(dtype) is None:
+            self.fail(ds.name, f"holds {_type_name(dtype)}", "expected text")
+        self._check(ds, shape, dtype)
         data = np.asarray(ds[()], dtype=object)
         out = np.empty(data.shape, dtype=object)
         out.flat[:] = [as_text(x) for x in data.flat]
@@ -159,28 +160,28 @@ class H5Reader:
             self.fail(ds.name, "holds no data (an empty HDF5 dataspace)")
         return ds.shape
 
-    def _check(self, ds, shape: tuple) -> None:
-        """Refuse ``ds`` unless it lies in this file, has ``shape``, stores what it declares and, compressed,
-        decompresses within the limits."""
+    def _check(self, ds, shape: tuple, dtype) -> tuple:
+        """Refuse ``ds`` (of ``dtype``) unless it lies in this file, has ``shape``, stores what it declares and,
+        compressed, decompresses within the limits; its shape."""
         plist = ds.id.get_create_plist()
-        self.shape(ds)
+        dims = self.shape(ds)
         if plist.get_layout() == h5py.h5d.VIRTUAL:
             self.fail(ds.name, "is a virtual dataset (its data lies in other files); e2esim reads only data stored "
                       "in the file itself")
         if plist.get_external_count():
             self.fail(ds.name, "keeps its data in another file (HDF5 external storage); e2esim reads only data "
                       "stored in the file itself")
-        if len(ds.shape) != len(shape) or any(s is not None and s != n for s, n in zip(shape, ds.shape)):
+        if len(dims) != len(shape) or any(s is not None and s != n for s, n in zip(shape, dims)):
             expected = "(" + ", ".join("any" if s is None else str(s) for s in shape) + ("," if len(shape) == 1 else "")
-            self.fail(ds.name, f"has shape {ds.shape}", f"expected {expected})")
-        element = self._vlen_bytes if ds.dtype.kind == "O" else ds.id.get_type().get_size()
-        declared = math.prod(ds.shape) * element
+            self.fail(ds.name, f"has shape {dims}", f"expected {expected})")
+        element = self._vlen_bytes if dtype.kind == "O" else ds.id.get_type().get_size()
+        declared = math.prod(dims) * element
         filters = [plist.get_filter(i)[0] for i in range(plist.get_nfilters())]
         if not filters:
             if ds.id.get_storage_size() < declared:
                 self.fail(ds.name, f"declares {declared:,} bytes but stores {ds.id.get_storage_size():,} (the rest "
                           "would be made up of fill values)", "e2esim reads only data stored in the file")
-            return
+            return dims
         unknown = [FILTERS.get(f, f"number {f}") for f in filters if f not in FILTERS]
         if unknown:
             self.fail(ds.name, f"is compressed with the HDF5 filter {', '.join(map(str, unknown))}",
@@ -190,6 +191,7 @@ class H5Reader:
             self.fail(ds.name, f"compressed data of more than {MAX_H5_DECOMPRESSED_BYTES:,} bytes decompressed "
                       "(the limit of a file)", "decompress the file first (h5repack -f NONE)")
         self._check_chunks(ds, plist, filters, element)
+        return dims
 
     def _check_chunks(self, ds, plist, filters: list, element: int) -> None:
         """Decompress every stored chunk of ``ds`` here, never beyond its declared size, before HDF5 does."""
