@@ -34,10 +34,9 @@ def put(group, name: str, data, units: str, description: str, dtype=None, table:
     array = np.asarray(data, order="C", dtype=dtype)
     if dtype is not None:
         array = array.view(dtype)  # keeps h5py's tag of a string dtype
-    dtype = array.dtype if dtype is None else dtype
-    dataset = h5py.h5d.create(group.id, leaf.encode("utf-8"), h5py.h5t.py_create(dtype, logical=True),
-                              h5py.h5s.create_simple(array.shape), dcpl=_DATASET_CREATE)
-    dataset.write(h5py.h5s.ALL, h5py.h5s.ALL, array)
+    file_type, memory_type = _types(STRING if dtype is STRING else array.dtype)
+    dataset = h5py.h5d.create(group.id, leaf.encode("utf-8"), file_type, _space(array.shape), dcpl=_DATASET_CREATE)
+    dataset.write(h5py.h5s.ALL, h5py.h5s.ALL, array, mtype=memory_type or h5py.h5t.py_create(array.dtype))
     _text_attribute(dataset, b"units", units)
     _text_attribute(dataset, b"description", description)
     if table is not None:
@@ -56,6 +55,32 @@ _DATASET_CREATE = _dataset_create_plist()
 _SCALAR = h5py.h5s.create_simple(())
 _STRING_FILE_TYPE = h5py.h5t.py_create(STRING, logical=True)
 _STRING_MEMORY_TYPE = h5py.h5t.py_create(STRING)
+
+
+_TYPES: dict = {}
+_SPACES: dict = {}
+
+
+def _types(dtype) -> tuple:
+    """(HDF5 type in the file, in memory) of ``dtype`` as h5py makes them (``py_create``, logical for the file),
+    made once for numbers and text (memory type None: made for the array at hand)."""
+    if dtype is STRING:
+        return _STRING_FILE_TYPE, _STRING_MEMORY_TYPE
+    if dtype.kind not in "biuf" or dtype.metadata is not None:
+        return h5py.h5t.py_create(dtype, logical=True), None
+    if dtype not in _TYPES:
+        _TYPES[dtype] = (h5py.h5t.py_create(dtype, logical=True), h5py.h5t.py_create(dtype))
+    return _TYPES[dtype]
+
+
+def _space(shape: tuple):
+    """The simple dataspace of ``shape`` (HDF5 copies it into each dataset), made once for the shapes in use."""
+    space = _SPACES.get(shape)
+    if space is None:
+        if len(_SPACES) >= 256:
+            _SPACES.clear()
+        space = _SPACES[shape] = h5py.h5s.create_simple(shape)
+    return space
 
 
 def _text_attribute(obj_id, name: bytes, text: str) -> None:

@@ -140,7 +140,7 @@ class H5Reader:
         dims = self._check(ds, shape, dtype)
         out = np.zeros(dims, dtype=dtype)  # what ds[()] reads, without h5py's selection machinery
         if out.size:
-            ds.id.read(h5py.h5s.ALL, h5py.h5s.ALL, out)
+            ds.id.read(h5py.h5s.ALL, h5py.h5s.ALL, out, mtype=_memory_type(dtype))
         return out[()] if out.ndim == 0 else out
 
     def read_text(self, ds, shape: tuple) -> np.ndarray:
@@ -280,11 +280,27 @@ def _attribute_value(aid, dtype, shape):
     """The value of a numeric or text attribute (no array type: ``H5Reader.attribute`` checked it), as
     ``obj.attrs[name]`` reads it: a scalar for one value, variable-length text as ``str``."""
     out = np.zeros(shape, dtype=dtype)
-    aid.read(out, mtype=h5py.h5t.py_create(dtype))
+    aid.read(out, mtype=_memory_type(dtype))
     info = h5py.check_string_dtype(dtype)
     if info is not None and info.length is None:
         out = np.array([b.decode("utf-8", "surrogateescape") for b in out.flat], dtype=dtype).reshape(out.shape)
     return out[()] if out.ndim == 0 else out
+
+
+_MEMORY_TYPES: dict = {}
+
+
+def _memory_type(dtype):
+    """``h5py.h5t.py_create(dtype)``, the HDF5 type of ``dtype`` in memory, made once for each kind of plain
+    numbers or text (a string dtype is its encoding and length; a dtype with other metadata, e.g. an enum's, is
+    made each time)."""
+    text = h5py.check_string_dtype(dtype)
+    key = ("text", text.encoding, text.length) if text is not None else dtype if dtype.metadata is None else None
+    if key is None:
+        return h5py.h5t.py_create(dtype)
+    if key not in _MEMORY_TYPES:
+        _MEMORY_TYPES[key] = h5py.h5t.py_create(dtype)
+    return _MEMORY_TYPES[key]
 
 
 def as_text(x) -> str:
