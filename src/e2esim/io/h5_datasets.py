@@ -35,7 +35,8 @@ def put(group, name: str, data, units: str, description: str, dtype=None, table:
     if dtype is not None:
         array = array.view(dtype)  # keeps h5py's tag of a string dtype
     file_type, memory_type = _types(STRING if dtype is STRING else array.dtype)
-    dataset = h5py.h5d.create(group.id, leaf.encode("utf-8"), file_type, _space(array.shape), dcpl=_DATASET_CREATE)
+    dataset = h5py.h5d.create(group.id, leaf.encode("utf-8"), file_type, h5py.h5s.create_simple(array.shape),
+                              dcpl=_DATASET_CREATE)
     dataset.write(h5py.h5s.ALL, h5py.h5s.ALL, array, mtype=memory_type or h5py.h5t.py_create(array.dtype))
     _text_attribute(dataset, b"units", units)
     _text_attribute(dataset, b"description", description)
@@ -57,30 +58,18 @@ _STRING_FILE_TYPE = h5py.h5t.py_create(STRING, logical=True)
 _STRING_MEMORY_TYPE = h5py.h5t.py_create(STRING)
 
 
-_TYPES: dict = {}
-_SPACES: dict = {}
+_TYPES = {dtype: (h5py.h5t.py_create(dtype, logical=True), h5py.h5t.py_create(dtype))
+          for dtype in map(np.dtype, ("f8", "i8", "i4", "i1", "u1", "u2", "u4", "?"))}
+"""(HDF5 type in the file, in memory) of the numbers results.h5 holds, as h5py makes them: made once."""
 
 
 def _types(dtype) -> tuple:
-    """(HDF5 type in the file, in memory) of ``dtype`` as h5py makes them (``py_create``, logical for the file),
-    made once for numbers and text (memory type None: made for the array at hand)."""
+    """(HDF5 type in the file, in memory) of ``dtype`` as h5py makes them (``py_create``, logical for the file);
+    memory type None: made for the array at hand."""
     if dtype is STRING:
         return _STRING_FILE_TYPE, _STRING_MEMORY_TYPE
-    if dtype.kind not in "biuf" or dtype.metadata is not None:
-        return h5py.h5t.py_create(dtype, logical=True), None
-    if dtype not in _TYPES:
-        _TYPES[dtype] = (h5py.h5t.py_create(dtype, logical=True), h5py.h5t.py_create(dtype))
-    return _TYPES[dtype]
-
-
-def _space(shape: tuple):
-    """The simple dataspace of ``shape`` (HDF5 copies it into each dataset), made once for the shapes in use."""
-    space = _SPACES.get(shape)
-    if space is None:
-        if len(_SPACES) >= 256:
-            _SPACES.clear()
-        space = _SPACES[shape] = h5py.h5s.create_simple(shape)
-    return space
+    known = _TYPES.get(dtype) if dtype.metadata is None else None
+    return known if known is not None else (h5py.h5t.py_create(dtype, logical=True), None)
 
 
 def _text_attribute(obj_id, name: bytes, text: str) -> None:

@@ -287,20 +287,19 @@ def _attribute_value(aid, dtype, shape):
     return out[()] if out.ndim == 0 else out
 
 
-_MEMORY_TYPES: dict = {}
+_MEMORY_TYPES = {**{dtype: h5py.h5t.py_create(dtype) for dtype in map(np.dtype, ("f8", "i8", "i4", "i1", "u1", "u2",
+                                                                                   "u4", "?"))},
+                 **{("text", code, None): h5py.h5t.py_create(h5py.string_dtype(code)) for code in ("utf-8", "ascii")}}
+"""HDF5 memory types of the numbers and text results.h5 holds, as ``h5py.h5t.py_create`` makes them: made once."""
 
 
 def _memory_type(dtype):
-    """``h5py.h5t.py_create(dtype)``, the HDF5 type of ``dtype`` in memory, made once for each kind of plain
-    numbers or text (a string dtype is its encoding and length; a dtype with other metadata, e.g. an enum's, is
-    made each time)."""
+    """``h5py.h5t.py_create(dtype)``, the HDF5 type of ``dtype`` in memory (a string dtype is its encoding and
+    length; a dtype with other metadata, e.g. an enum's, is made each time)."""
     text = h5py.check_string_dtype(dtype)
     key = ("text", text.encoding, text.length) if text is not None else dtype if dtype.metadata is None else None
-    if key is None:
-        return h5py.h5t.py_create(dtype)
-    if key not in _MEMORY_TYPES:
-        _MEMORY_TYPES[key] = h5py.h5t.py_create(dtype)
-    return _MEMORY_TYPES[key]
+    known = _MEMORY_TYPES.get(key)
+    return known if known is not None else h5py.h5t.py_create(dtype)
 
 
 def as_text(x) -> str:
