@@ -107,8 +107,11 @@ class H5Reader:
             self.fail(where, "lies below something that is not a group")
         if name not in (".", ".."):  # a hard link (what e2esim writes): checked and opened in two HDF5 calls
             encoded = _encoded(name)
-            links = group.id.links
-            if links.exists(encoded) and links.get_info(encoded).type == h5py.h5l.TYPE_HARD:
+            try:
+                hard = group.id.links.get_info(encoded).type == h5py.h5l.TYPE_HARD
+            except RuntimeError:  # no such link (or a damaged one): h5py's lookup below says which
+                hard = False
+            if hard:
                 return _open(group, encoded)
         link = group.get(name, getlink=True)
         if link is None:
@@ -140,7 +143,7 @@ class H5Reader:
         dims = self._check(ds, shape, dtype)
         out = np.zeros(dims, dtype=dtype)  # what ds[()] reads, without h5py's selection machinery
         if out.size:
-            ds.id.read(h5py.h5s.ALL, h5py.h5s.ALL, out, mtype=_memory_type(dtype))
+            ds.id.read(h5py.h5s.ALL, h5py.h5s.ALL, out, mtype=_memory_type(dtype, None))
         return out[()] if out.ndim == 0 else out
 
     def read_text(self, ds, shape: tuple) -> np.ndarray:
@@ -240,11 +243,12 @@ class H5Reader:
             return None
         aid = h5py.h5a.open(obj.id, encoded)
         dtype, shape = aid.dtype, aid.shape
-        text = h5py.check_string_dtype(dtype) is not None
+        info = h5py.check_string_dtype(dtype)
+        text = info is not None
         if not (text or (dtype.kind in "biuf" and dtype.fields is None and dtype.subdtype is None)) or \
                 math.prod(shape) > MAX_ATTRIBUTE_VALUES or aid.get_storage_size() > MAX_ATTRIBUTE_BYTES:
             return None
-        value = _attribute_value(aid, dtype, shape)
+        value = _attribute_value(aid, dtype, shape, info)
         if text and isinstance(value, np.ndarray):
             return [as_text(x) for x in value.flat]
         return as_text(value) if text else value
@@ -276,12 +280,12 @@ def _open(group, name: bytes):
     raise TypeError("Unknown object type")
 
 
-def _attribute_value(aid, dtype, shape):
+def _attribute_value(aid, dtype, shape, info):
     """The value of a numeric or text attribute (no array type: ``H5Reader.attribute`` checked it), as
-    ``obj.attrs[name]`` reads it: a scalar for one value, variable-length text as ``str``."""
+    ``obj.attrs[name]`` reads it: a scalar for one value, variable-length text as ``str`` (``info``: its
+    ``h5py.check_string_dtype``)."""
     out = np.zeros(shape, dtype=dtype)
-    aid.read(out, mtype=_memory_type(dtype))
-    info = h5py.check_string_dtype(dtype)
+    aid.read(out, mtype=_memory_type(dtype, info))
     if info is not None and info.length is None:
         out = np.array([b.decode("utf-8", "surrogateescape") for b in out.flat], dtype=dtype).reshape(out.shape)
     return out[()] if out.ndim == 0 else out
@@ -293,10 +297,10 @@ _MEMORY_TYPES = {**{dtype: h5py.h5t.py_create(dtype) for dtype in map(np.dtype, 
 """HDF5 memory types of the numbers and text results.h5 holds, as ``h5py.h5t.py_create`` makes them: made once."""
 
 
-def _memory_type(dtype):
-    """``h5py.h5t.py_create(dtype)``, the HDF5 type of ``dtype`` in memory (a string dtype is its encoding and
-    length; a dtype with other metadata, e.g. an enum's, is made each time)."""
-    text = h5py.check_string_dtype(dtype)
+def _memory_type(dtype, text):
+    """``h5py.h5t.py_create(dtype)``, the HDF5 type of ``dtype`` in memory (``text``: its
+    ``h5py.check_string_dtype``; a string dtype is its encoding and length; a dtype with other metadata, e.g. an
+    enum's, is made each time)."""
     key = ("text", text.encoding, text.length) if text is not None else dtype if dtype.metadata is None else None
     known = _MEMORY_TYPES.get(key)
     return known if known is not None else h5py.h5t.py_create(dtype)
