@@ -137,10 +137,11 @@ class H5Reader:
     def read(self, ds, kinds: str, shape: tuple):
         """The data of ``ds`` (numeric kinds ``kinds``, e.g. "fiub"), checked to have ``shape`` (None: any length
         on that axis) before it is read."""
-        dtype = ds.dtype
+        type_id = ds.id.get_type()
+        dtype = type_id.dtype  # ds.dtype, from the one HDF5 type
         if dtype.kind not in kinds or dtype.fields is not None or dtype.subdtype is not None:
             self.fail(ds.name, f"holds {_type_name(dtype)}", f"expected {_KINDS.get(kinds, kinds)}")
-        dims = self._check(ds, shape, dtype)
+        dims = self._check(ds, shape, type_id, dtype)
         out = np.zeros(dims, dtype=dtype)  # what ds[()] reads, without h5py's selection machinery
         if out.size:
             ds.id.read(h5py.h5s.ALL, h5py.h5s.ALL, out, mtype=_memory_type(dtype, None))
@@ -148,10 +149,11 @@ class H5Reader:
 
     def read_text(self, ds, shape: tuple) -> np.ndarray:
         """Text data of ``ds`` as an object array of ``str`` (bytes decoded as UTF-8, bad bytes replaced)."""
-        dtype = ds.dtype
+        type_id = ds.id.get_type()
+        dtype = type_id.dtype
         if h5py.check_string_dtype(dtype) is None:
             self.fail(ds.name, f"holds {_type_name(dtype)}", "expected text")
-        self._check(ds, shape, dtype)
+        self._check(ds, shape, type_id, dtype)
         data = np.asarray(ds[()], dtype=object)
         out = np.empty(data.shape, dtype=object)
         out.flat[:] = [as_text(x) for x in data.flat]
@@ -163,9 +165,9 @@ class H5Reader:
             self.fail(ds.name, "holds no data (an empty HDF5 dataspace)")
         return ds.shape
 
-    def _check(self, ds, shape: tuple, dtype) -> tuple:
-        """Refuse ``ds`` (of ``dtype``) unless it lies in this file, has ``shape``, stores what it declares and,
-        compressed, decompresses within the limits; its shape."""
+    def _check(self, ds, shape: tuple, type_id, dtype) -> tuple:
+        """Refuse ``ds`` (of HDF5 type ``type_id``, ``dtype``) unless it lies in this file, has ``shape``, stores
+        what it declares and, compressed, decompresses within the limits; its shape."""
         plist = ds.id.get_create_plist()
         dims = self.shape(ds)
         if plist.get_layout() == h5py.h5d.VIRTUAL:
@@ -177,7 +179,7 @@ class H5Reader:
         if len(dims) != len(shape) or any(s is not None and s != n for s, n in zip(shape, dims)):
             expected = "(" + ", ".join("any" if s is None else str(s) for s in shape) + ("," if len(shape) == 1 else "")
             self.fail(ds.name, f"has shape {dims}", f"expected {expected})")
-        element = self._vlen_bytes if dtype.kind == "O" else ds.id.get_type().get_size()
+        element = self._vlen_bytes if dtype.kind == "O" else type_id.get_size()
         declared = math.prod(dims) * element
         filters = [plist.get_filter(i)[0] for i in range(plist.get_nfilters())]
         if not filters:
