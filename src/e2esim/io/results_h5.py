@@ -16,7 +16,7 @@ from e2esim.block import Values
 from e2esim.io.campaign_h5 import write_campaign
 from e2esim.io.guarded_h5 import guarded_h5_file
 from e2esim.io.h5_datasets import code_dtype, coded_values, put, put_coded, put_text
-from e2esim.io.scalar_units import detail_unit, run_products, scalar_description, scalar_unit
+from e2esim.io.scalar_units import detail_unit, run_products, scalar_description, scalar_unit, scalar_units
 from e2esim.io.sensitivity_h5 import write_sensitivity
 from e2esim.io.summary import requirement_sources
 from e2esim.maps.grid import is_map_sweep
@@ -44,9 +44,9 @@ def write_results(result, path) -> None:
         f.attrs["n_cases"] = n
         f.attrs["format_version"] = FORMAT_VERSION
         prov = f.create_group("provenance")
-        put_text(prov, "resolved_scenario", yaml.safe_dump(result.scenario.resolved, sort_keys=False),
+        put_text(prov, "resolved_scenario", scenario_yaml(result.scenario.resolved),
                  "the scenario with every module's defaults filled in (first case) and the sweep, YAML")
-        put_text(prov, "scenario_as_given", yaml.safe_dump(result.scenario.raw, sort_keys=False),
+        put_text(prov, "scenario_as_given", scenario_yaml(result.scenario.raw),
                  "the scenario as read, after --set overrides, YAML")
 
         answer = getattr(result, "answer", None)
@@ -72,9 +72,9 @@ def write_results(result, path) -> None:
         res = g.create_group("results")
         req_units = tuple(r.unit[0] for r in table.requirements) if n else ()
         products = run_products(result.scenario)
-        for name in sorted(table.scalars):
-            put(res, name, table.scalar(name), scalar_unit(name, req_units, products),
-                scalar_description(name) + "; NaN where a case lacks it")
+        names = sorted(table.scalars)
+        for name, unit in zip(names, scalar_units(names, req_units, products)):
+            put(res, name, table.scalar(name), unit, scalar_description(name) + "; NaN where a case lacks it")
         _write_requirements(f.create_group("requirements"), result, list(req_units))
         arrays, acquisitions = f.create_group("arrays"), f.create_group("acquisitions")
         _write_curves(arrays, table)
@@ -83,6 +83,16 @@ def write_results(result, path) -> None:
             if not is_map_sweep(result.scenario):  # a map's cells: their swath samples would be 200 000 groups
                 _write_acquisitions(acquisitions, result.cases)
             write_campaign(f, result.cases)  # issue 25: the campaign's daily residuals, visits and schedules
+
+
+_DUMPER = getattr(yaml, "CSafeDumper", yaml.SafeDumper)
+"""libyaml's emitter where PyYAML has it: the text of ``yaml.safe_dump`` (the same for every shipped scenario:
+tests/test_results_h5_content.py) in a quarter of the time."""
+
+
+def scenario_yaml(scenario: dict) -> str:
+    """A scenario as YAML text, its keys in their order: ``yaml.safe_dump(scenario, sort_keys=False)``."""
+    return yaml.dump(scenario, Dumper=_DUMPER, sort_keys=False)
 
 
 def _write_labels(group, labels) -> None:

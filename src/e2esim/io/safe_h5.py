@@ -51,6 +51,7 @@ class H5Reader:
         self.what = what
         check_regular(self.path, what, ResultsFileError)
         self.decompressed = 0
+        self._groups: dict = {}  # {path: group} reached by ``get``
         with self.guard():
             try:
                 self.file = h5py.File(self.path, "r")
@@ -89,11 +90,13 @@ class H5Reader:
         parts = [p for p in path.split("/") if p]
         for depth, part in enumerate(parts):
             where = "/" + "/".join(parts[:depth + 1])
-            child = self._child(node, part, where)
+            child = self._groups.get(where) or self._child(node, part, where)
             if child is None:
                 if required:
                     self.fail(where, "is missing", f"a {self.what} of e2esim has it (docs/output-format.md)")
                 return None
+            if isinstance(child, h5py.Group):
+                self._groups[where] = child  # its links checked once: the file is open for reading only
             node = child
         if not isinstance(node, kind):
             self.fail("/" + "/".join(parts), f"is a {_kind_name(type(node))}, not a {_kind_name(kind)}")
@@ -102,6 +105,14 @@ class H5Reader:
     def _child(self, group, name: str, where: str):
         if not isinstance(group, h5py.Group):
             self.fail(where, "lies below something that is not a group")
+        if name not in (".", ".."):  # a hard link (what e2esim writes): checked and opened in two HDF5 calls
+            encoded = _encoded(name)
+            try:
+                hard = group.id.links.get_info(encoded).type == h5py.h5l.TYPE_HARD
+            except RuntimeError:  # no such link (or a damaged one): h5py's lookup below says which
+                hard = False
+            if hard:
+                return _open(group, encoded)
         link = group.get(name, getlink=True)
         if link is None:
             return None
@@ -126,16 +137,23 @@ class H5Reader:
     def read(self, ds, kinds: str, shape: tuple):
         """The data of ``ds`` (numeric kinds ``kinds``, e.g. "fiub"), checked to have ``shape`` (None: any length
         on that axis) before it is read."""
-        if ds.dtype.kind not in kinds or ds.dtype.fields is not None or ds.dtype.subdtype is not None:
-            self.fail(ds.name, f"holds {_type_name(ds.dtype)}", f"expected {_KINDS.get(kinds, kinds)}")
-        self._check(ds, shape)
-        return ds[()]
+        type_id = ds.id.get_type()
+        dtype = type_id.dtype  # ds.dtype, from the one HDF5 type
+        if dtype.kind not in kinds or dtype.fields is not None or dtype.subdtype is not None:
+            self.fail(ds.name, f"holds {_type_name(dtype)}", f"expected {_KINDS.get(kinds, kinds)}")
+        dims = self._check(ds, shape, type_id, dtype)
+        out = np.zeros(dims, dtype=dtype)  # what ds[()] reads, without h5py's selection machinery
+        if out.size:
+            ds.id.read(h5py.h5s.ALL, h5py.h5s.ALL, out, mtype=_memory_type(dtype, None))
+        return out[()] if out.ndim == 0 else out
 
     def read_text(self, ds, shape: tuple) -> np.ndarray:
         """Text data of ``ds`` as an object array of ``str`` (bytes decoded as UTF-8, bad bytes replaced)."""
-        if h5py.check_string_dtype(ds.dtype) is None:
-            self.fail(ds.name, f"holds {_type_name(ds.dtype)}", "expected text")
-        self._check(ds, shape)
+        type_id = ds.id.get_type()
+        dtype = type_id.dtype
+        if h5py.check_string_dtype(dtype) is None:
+            self.fail(ds.name, f"holds {_type_name(dtype)}", "expected text")
+        self._check(ds, shape, type_id, dtype)
         data = np.asarray(ds[()], dtype=object)
         out = np.empty(data.shape, dtype=object)
         out.flat[:] = [as_text(x) for x in data.flat]
@@ -147,28 +165,28 @@ class H5Reader:
             self.fail(ds.name, "holds no data (an empty HDF5 dataspace)")
         return ds.shape
 
-    def _check(self, ds, shape: tuple) -> None:
-        """Refuse ``ds`` unless it lies in this file, has ``shape``, stores what it declares and, compressed,
-        decompresses within the limits."""
+    def _check(self, ds, shape: tuple, type_id, dtype) -> tuple:
+        """Refuse ``ds`` (of HDF5 type ``type_id``, ``dtype``) unless it lies in this file, has ``shape``, stores
+        what it declares and, compressed, decompresses within the limits; its shape."""
         plist = ds.id.get_create_plist()
-        self.shape(ds)
+        dims = self.shape(ds)
         if plist.get_layout() == h5py.h5d.VIRTUAL:
             self.fail(ds.name, "is a virtual dataset (its data lies in other files); e2esim reads only data stored "
                       "in the file itself")
         if plist.get_external_count():
             self.fail(ds.name, "keeps its data in another file (HDF5 external storage); e2esim reads only data "
                       "stored in the file itself")
-        if len(ds.shape) != len(shape) or any(s is not None and s != n for s, n in zip(shape, ds.shape)):
+        if len(dims) != len(shape) or any(s is not None and s != n for s, n in zip(shape, dims)):
             expected = "(" + ", ".join("any" if s is None else str(s) for s in shape) + ("," if len(shape) == 1 else "")
-            self.fail(ds.name, f"has shape {ds.shape}", f"expected {expected})")
-        element = self._vlen_bytes if ds.dtype.kind == "O" else ds.id.get_type().get_size()
-        declared = math.prod(ds.shape) * element
+            self.fail(ds.name, f"has shape {dims}", f"expected {expected})")
+        element = self._vlen_bytes if dtype.kind == "O" else type_id.get_size()
+        declared = math.prod(dims) * element
         filters = [plist.get_filter(i)[0] for i in range(plist.get_nfilters())]
         if not filters:
             if ds.id.get_storage_size() < declared:
                 self.fail(ds.name, f"declares {declared:,} bytes but stores {ds.id.get_storage_size():,} (the rest "
                           "would be made up of fill values)", "e2esim reads only data stored in the file")
-            return
+            return dims
         unknown = [FILTERS.get(f, f"number {f}") for f in filters if f not in FILTERS]
         if unknown:
             self.fail(ds.name, f"is compressed with the HDF5 filter {', '.join(map(str, unknown))}",
@@ -178,6 +196,7 @@ class H5Reader:
             self.fail(ds.name, f"compressed data of more than {MAX_H5_DECOMPRESSED_BYTES:,} bytes decompressed "
                       "(the limit of a file)", "decompress the file first (h5repack -f NONE)")
         self._check_chunks(ds, plist, filters, element)
+        return dims
 
     def _check_chunks(self, ds, plist, filters: list, element: int) -> None:
         """Decompress every stored chunk of ``ds`` here, never beyond its declared size, before HDF5 does."""
@@ -221,15 +240,17 @@ class H5Reader:
 
     def attribute(self, obj, name: str):
         """The attribute ``name`` of ``obj`` when it is short numbers or text, else None."""
-        if name not in obj.attrs:
+        encoded = _encoded(name)
+        if not h5py.h5a.exists(obj.id, encoded):
             return None
-        aid = h5py.h5a.open(obj.id, name.encode("utf-8"))
+        aid = h5py.h5a.open(obj.id, encoded)
         dtype, shape = aid.dtype, aid.shape
-        text = h5py.check_string_dtype(dtype) is not None
+        info = h5py.check_string_dtype(dtype)
+        text = info is not None
         if not (text or (dtype.kind in "biuf" and dtype.fields is None and dtype.subdtype is None)) or \
                 math.prod(shape) > MAX_ATTRIBUTE_VALUES or aid.get_storage_size() > MAX_ATTRIBUTE_BYTES:
             return None
-        value = obj.attrs[name]
+        value = _attribute_value(aid, dtype, shape, info)
         if text and isinstance(value, np.ndarray):
             return [as_text(x) for x in value.flat]
         return as_text(value) if text else value
@@ -237,9 +258,54 @@ class H5Reader:
     def text_attribute(self, obj, name: str) -> str | None:
         """A text attribute (None: missing); anything else there is refused."""
         value = self.attribute(obj, name)
-        if (value is None and name in obj.attrs) or (value is not None and not isinstance(value, str)):
+        if (value is None and h5py.h5a.exists(obj.id, _encoded(name))) or \
+                (value is not None and not isinstance(value, str)):
             self.fail(f"{obj.name} (attribute {name})", "is not a short text")
         return value
+
+
+def _encoded(name) -> bytes:
+    """A member's or attribute's name as HDF5 stores it (h5py lists a name that is not UTF-8 as bytes)."""
+    return name.encode("utf-8") if isinstance(name, str) else name
+
+
+def _open(group, name: bytes):
+    """The object a hard link of ``group`` names, as ``group[name]`` gives it (the file is open for reading)."""
+    oid = h5py.h5o.open(group.id, name)
+    kind = h5py.h5i.get_type(oid)
+    if kind == h5py.h5i.GROUP:
+        return h5py.Group(oid)
+    if kind == h5py.h5i.DATASET:
+        return h5py.Dataset(oid, readonly=True)
+    if kind == h5py.h5i.DATATYPE:
+        return h5py.Datatype(oid)
+    raise TypeError("Unknown object type")
+
+
+def _attribute_value(aid, dtype, shape, info):
+    """The value of a numeric or text attribute (no array type: ``H5Reader.attribute`` checked it), as
+    ``obj.attrs[name]`` reads it: a scalar for one value, variable-length text as ``str`` (``info``: its
+    ``h5py.check_string_dtype``)."""
+    out = np.zeros(shape, dtype=dtype)
+    aid.read(out, mtype=_memory_type(dtype, info))
+    if info is not None and info.length is None:
+        out = np.array([b.decode("utf-8", "surrogateescape") for b in out.flat], dtype=dtype).reshape(out.shape)
+    return out[()] if out.ndim == 0 else out
+
+
+_MEMORY_TYPES = {**{dtype: h5py.h5t.py_create(dtype) for dtype in map(np.dtype, ("f8", "i8", "i4", "i1", "u1", "u2",
+                                                                                   "u4", "?"))},
+                 **{("text", code, None): h5py.h5t.py_create(h5py.string_dtype(code)) for code in ("utf-8", "ascii")}}
+"""HDF5 memory types of the numbers and text results.h5 holds, as ``h5py.h5t.py_create`` makes them: made once."""
+
+
+def _memory_type(dtype, text):
+    """``h5py.h5t.py_create(dtype)``, the HDF5 type of ``dtype`` in memory (``text``: its
+    ``h5py.check_string_dtype``; a string dtype is its encoding and length; a dtype with other metadata, e.g. an
+    enum's, is made each time)."""
+    key = ("text", text.encoding, text.length) if text is not None else dtype if dtype.metadata is None else None
+    known = _MEMORY_TYPES.get(key)
+    return known if known is not None else h5py.h5t.py_create(dtype)
 
 
 def as_text(x) -> str:

@@ -41,12 +41,32 @@ def scalar_unit(name: str, requirement_units: tuple = (), products=P.BUILT_IN) -
     """The unit of output scalar ``name``: the one its product declares (``products``: the declarations of the
     run's products, e2esim's own by default; ``e2esim.runner.records.run_products``), else the unit at the end
     of its name; ``requirement_units`` give ``requirement<j>.value``/``margin``."""
-    match = re.fullmatch(r"requirement(\d+)\.(value|margin)", name)
+    return _unit(name, requirement_units, _longest_prefix_first(products))
+
+
+def scalar_units(names, requirement_units: tuple = (), products=P.BUILT_IN) -> list:
+    """``scalar_unit`` of each of ``names``, the products ordered once (results.h5 has hundreds of scalars)."""
+    ordered = _longest_prefix_first(products)
+    return [_unit(name, requirement_units, ordered) for name in names]
+
+
+_REQUIREMENT_SCALAR = re.compile(r"requirement(\d+)\.(value|margin)")
+
+
+def _longest_prefix_first(products) -> list:
+    """[(prefix of its scalars' names, product)] of the products that write scalars, a longer prefix (more
+    specific) first."""
+    ordered = sorted(products, key=lambda p: -len(p.scalars or ""))
+    return [(f"{p.scalars}." if p.scalars else "", p) for p in ordered if p.scalars is not None]
+
+
+def _unit(name: str, requirement_units: tuple, ordered: list) -> str:
+    match = _REQUIREMENT_SCALAR.fullmatch(name)
     if match:
         j = int(match.group(1))
         return requirement_units[j] if j < len(requirement_units) else "unknown"
-    for product in sorted(products, key=lambda p: -len(p.scalars or "")):  # a longer prefix is more specific
-        unit = product.unit_of(name)
+    for prefix, product in ordered:
+        unit = product.unit_of(name) if name.startswith(prefix) else None
         if unit is not None:
             return unit
     for suffix, unit in _SUFFIX_UNITS:
