@@ -29,8 +29,8 @@ def pytest_configure(config):
     # Each test process holds the results of its quick runs for the session (a few hundred MB of objects), and every
     # full collection of the cyclic garbage collector scans them all: 40 or so per process at the default
     # thresholds, 13 s of CPU in the suite. A full collection waits for 100 collections of the middle generation
-    # here instead of 10: 7 s of CPU less, 7 to 10 full collections per process. Tests that count memory collect
-    # explicitly (test_memory_of_large_runs, test_freed_memory).
+    # here instead of 10: 7 s of CPU less, 7 to 10 full collections per process. The tests that count memory
+    # collect explicitly (test_memory_of_large_runs).
     young, middle, _ = gc.get_threshold()
     gc.set_threshold(young, middle, 100)
     # Keep climatology caches out of the user's home during the tests (subprocesses and the pytest-xdist
